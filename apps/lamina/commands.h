@@ -1,0 +1,44 @@
+#pragma once
+/// \file
+/// The CLI's subcommands, as plain functions of parsed options (main.cpp does the parsing).
+
+#include <array>
+#include <string>
+
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/model/build_model.h"
+
+namespace lamina::cli {
+
+/// Input name that selects the built-in phantom instead of a file.
+inline constexpr const char* kPhantomInput = "phantom";
+
+struct PhantomArgs {
+  std::string output;
+  geometry::PhantomOptions options;
+};
+int run_phantom(const PhantomArgs& args);
+
+struct BuildArgs {
+  std::string input = kPhantomInput;
+  std::string output;
+  bool json = false;
+  bool quiet = false;
+  model::BuildOptions options;
+};
+int run_build(const BuildArgs& args);
+
+struct InfoArgs {
+  std::string model;
+  bool json = false;
+};
+int run_info(const InfoArgs& args);
+
+struct ExportArgs {
+  std::string model;
+  std::string output;
+  int layer = 0;
+};
+int run_export(const ExportArgs& args);
+
+}  // namespace lamina::cli

@@ -1,0 +1,104 @@
+// `lamina`: one command-line tool with subcommands (phantom, build, info, export).
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <string>
+
+#include "commands.h"
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+
+namespace {
+
+// "1.5" -> {1.5, 1.5, 1.5}; "0.6,0.6,1.6" -> per axis.
+std::array<double, 3> parse_spacing(const std::string& s) {
+  std::array<double, 3> v{};
+  double a, b, c;
+  char tail;
+  if (std::sscanf(s.c_str(), "%lf,%lf,%lf%c", &a, &b, &c, &tail) == 3) return {a, b, c};
+  if (std::sscanf(s.c_str(), "%lf%c", &a, &tail) == 1) return {a, a, a};
+  throw lamina::invalid_input("--spacing", "expected MM or X,Y,Z in mm, got '" + s + "'");
+  return v;
+}
+
+std::array<int64_t, 3> parse_size(const std::string& s) {
+  long long a, b, c;
+  char tail;
+  if (std::sscanf(s.c_str(), "%lld,%lld,%lld%c", &a, &b, &c, &tail) == 3 && a > 1 && b > 1 && c > 1)
+    return {a, b, c};
+  throw lamina::invalid_input("--size", "expected NX,NY,NZ voxels (each > 1), got '" + s + "'");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace lamina;
+  CLI::App app{"Lamina: multi-layer volumetric mass-spring models of organs from segmentations"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "lamina 0.1.0");
+  int verbosity = 1;
+  app.add_flag_function("-q,--quiet", [&](int64_t) { verbosity = 0; }, "only warnings and errors");
+  app.add_flag_function("-v,--verbose", [&](int64_t) { verbosity = 2; }, "debug messages");
+
+  cli::PhantomArgs phantom;
+  std::string spacing = "1.5", size;
+  auto* ph = app.add_subcommand("phantom", "write the built-in liver-like phantom mask (NIfTI)");
+  ph->add_option("-o,--output", phantom.output, "output image (.nii.gz, .nii, .nrrd, .mha)")->required();
+  ph->add_option("--spacing", spacing, "voxel size in mm: MM or X,Y,Z (default 1.5)");
+  ph->add_option("--size", size, "grid size in voxels NX,NY,NZ (default: fits the organ)");
+
+  cli::BuildArgs build;
+  auto& bo = build.options;
+  double density_g_cm3 = 1.06;
+  auto* bu = app.add_subcommand("build", "build a multi-layer mass-spring model from a segmentation");
+  bu->add_option("input", build.input,
+                 "NIfTI/NRRD/MetaImage file or DICOM folder; 'phantom' (default) = built-in phantom");
+  bu->add_option("-o,--output", build.output, "model file to write (.vtu, opens in ParaView)")->required();
+  bu->add_option("--layers", bo.layers, "number of layers S, skin included (default 2)");
+  bu->add_option("--skin-vertices", bo.skin_vertices, "target skin vertex count (default 1284)");
+  bu->add_option("--layer-depth", bo.layer_depth_mm, "depth between layers in mm (default: auto)");
+  bu->add_option("--label", bo.label, "label to model (default: any non-zero voxel)");
+  bu->add_option("--locality", bo.locality, "BFS rings precomputed per node (default 4)");
+  bu->add_option("--links", bo.inter_layer_links, "nearest nodes linked on each neighbour layer (default 3)");
+  bu->add_option("--density", density_g_cm3, "tissue density in g/cm^3 (default 1.06, liver)");
+  bu->add_option("--stiffness", bo.stiffness_n_per_m, "spring stiffness in N/m (default 3)");
+  bu->add_flag("--json", build.json, "print the summary as one JSON object on stdout");
+
+  cli::InfoArgs info;
+  auto* in = app.add_subcommand("info", "summarise a saved model");
+  in->add_option("model", info.model, "model file (.vtu)")->required();
+  in->add_flag("--json", info.json, "print the summary as one JSON object on stdout");
+
+  cli::ExportArgs exp;
+  auto* ex = app.add_subcommand("export", "write one layer of a model as a mesh");
+  ex->add_option("model", exp.model, "model file (.vtu)")->required();
+  ex->add_option("-o,--output", exp.output, "mesh file (.obj, .ply, .vtp, .stl)")->required();
+  ex->add_option("--layer", exp.layer, "layer index, 0 = skin (default 0)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : static_cast<int>(ErrorKind::kInvalidInput);
+  }
+  log::set_verbosity(verbosity);
+  try {
+    if (*ph) {
+      phantom.options.spacing_mm = parse_spacing(spacing);
+      if (!size.empty()) phantom.options.size = parse_size(size);
+      return cli::run_phantom(phantom);
+    }
+    if (*bu) {
+      bo.density_kg_per_mm3 = density_g_cm3 * 1e-6;  // g/cm^3 -> kg/mm^3
+      build.quiet = verbosity == 0;
+      return cli::run_build(build);
+    }
+    if (*in) return cli::run_info(info);
+    if (*ex) return cli::run_export(exp);
+  } catch (const Error& e) {
+    std::fprintf(stderr, "lamina: error: %s\n", e.what());
+    return e.exit_code();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lamina: internal error: %s\n", e.what());
+    return static_cast<int>(ErrorKind::kInternal);
+  }
+  return 0;
+}

@@ -1,0 +1,32 @@
+# Every third-party dependency, found once. Names and gotchas: ../shared/STACK.md.
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(OpenMP REQUIRED COMPONENTS CXX)
+find_package(CLI11 REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(fmt REQUIRED)
+find_package(spdlog REQUIRED)
+find_package(nanoflann REQUIRED)
+
+# ITK: only the modules we use. We register the IO factories ourselves (src/io/itk_image_io.cpp)
+# instead of include(${ITK_USE_FILE}), so ITK's include paths and its bundled Eigen 3.3 stay
+# confined to the few translation units that need them.
+find_package(ITK 5.2 REQUIRED COMPONENTS
+  ITKCommon ITKIOImageBase ITKIONIFTI ITKIONRRD ITKIOMeta ITKIOGDCM ITKGDCM
+  ITKDistanceMap ITKConnectedComponents ITKLabelMap ITKBinaryMathematicalMorphology
+  ITKImageGrid ITKThresholding ITKRegionGrowing)
+
+# OpenVDB 10: Debian's FindOpenVDB wants Boost.Iostreams; the plain library is enough.
+find_library(OPENVDB_LIBRARY openvdb REQUIRED)
+find_package(TBB REQUIRED)
+find_package(Imath REQUIRED)
+
+# CGAL is header-only.
+find_package(CGAL 5.5 REQUIRED)
+
+if(LAMINA_BUILD_TESTS)
+  find_package(GTest 1.12 REQUIRED CONFIG)
+  include(GoogleTest)
+endif()
+if(LAMINA_BUILD_BENCHMARKS)
+  find_package(benchmark 1.7 REQUIRED)
+endif()

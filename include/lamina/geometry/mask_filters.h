@@ -1,0 +1,44 @@
+#pragma once
+/// \file
+/// Binary-mask operations backed by ITK (kept behind plain types: see core/grid.h).
+
+#include <array>
+#include <cstdint>
+
+#include "lamina/core/grid.h"
+
+namespace lamina::geometry {
+
+/// What keep_largest_component() removed.
+struct ComponentStats {
+  int32_t components = 0;        ///< face-connected foreground components found
+  int64_t kept_voxels = 0;       ///< voxels of the largest one
+  int64_t dropped_voxels = 0;    ///< voxels of all the others
+};
+
+/// Keeps only the largest face-connected (6-neighbour) foreground component.
+/// @param[in,out] mask  binary mask
+/// @return the component count and what was dropped
+ComponentStats keep_largest_component(Mask& mask);
+
+/// Fills internal cavities: every background voxel not connected (6-neighbour) to the grid's
+/// border becomes foreground.
+/// @param[in,out] mask  binary mask; its border voxels should be background (pad it first)
+/// @return the number of voxels filled
+int64_t fill_cavities(Mask& mask);
+
+/// Downsamples by integer factors per axis: a coarse voxel is inside when at least half of the
+/// fine voxels it covers are (box-filter occupancy >= 0.5). The physical extent is kept; a
+/// trailing partial block is dropped (callers pad beforehand).
+/// @param[in] mask     binary mask
+/// @param[in] factors  >= 1 per axis; all ones returns a copy
+Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors);
+
+/// Signed distance (mm) to the mask boundary, negative inside, from ITK's exact Maurer
+/// Euclidean distance transform.
+/// \note ITK measures to the centres of the boundary voxels; we shift by half a voxel (the
+///   geometric mean of the spacing) so that the zero level lies on the voxel faces and the zero
+///   isosurface encloses the mask's voxel volume.
+DistanceField signed_distance(const Mask& mask);
+
+}  // namespace lamina::geometry

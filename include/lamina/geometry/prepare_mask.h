@@ -1,0 +1,49 @@
+#pragma once
+/// \file
+/// From a label volume to one clean organ mask: pick the label, crop, keep the largest
+/// component, fill cavities, pad.
+
+#include <cstdint>
+
+#include "lamina/core/grid.h"
+
+namespace lamina::geometry {
+
+/// Options for prepare_mask().
+struct MaskOptions {
+  int32_t label = 0;       ///< label to select; 0 = any non-zero label
+  int pad_voxels = 1;      ///< background margin kept around the organ's bounding box, voxels
+  int64_t min_voxels = 27; ///< fewer voxels than this cannot make a meaningful surface
+};
+
+/// What prepare_mask() did, for the build report.
+struct MaskReport {
+  int32_t label = 0;                 ///< the label selected (0 = any non-zero)
+  int64_t selected_voxels = 0;       ///< voxels carrying the label
+  int32_t components = 0;            ///< face-connected components among them
+  int64_t dropped_voxels = 0;        ///< voxels of the smaller components, removed
+  int64_t cavity_voxels_filled = 0;  ///< internal background voxels made foreground
+  bool touches_scan_border = false;  ///< the organ reached the image edge (padding closed it)
+  int64_t kept_voxels = 0;           ///< voxels in the final mask
+  double kept_volume_ml = 0.0;       ///< their volume, mL
+};
+
+/// A cleaned mask and the report of the cleaning.
+struct PreparedMask {
+  Mask mask;
+  MaskReport report;
+};
+
+/// Selects the organ and cleans it. The result is cropped to the organ's bounding box plus
+/// `pad_voxels` of background on every side, so even an organ that touches the scan edge gets a
+/// closed surface.
+/// @param[in] volume   the segmentation; volume.source names it in errors
+/// @param[in] options  label and padding
+/// \note Throws lamina::Error (kInvalidInput) when the label is absent, the mask is empty, or
+///   the organ has fewer than options.min_voxels voxels.
+PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options = {});
+
+/// Returns `mask` with `pad` background voxels added on every side (origin moved accordingly).
+Mask pad_mask(const Mask& mask, int pad);
+
+}  // namespace lamina::geometry

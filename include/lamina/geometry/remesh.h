@@ -1,0 +1,38 @@
+#pragma once
+/// \file
+/// Near-uniform remeshing and mesh repair, through CGAL's Polygon Mesh Processing.
+
+#include <vector>
+
+#include "lamina/geometry/surface_mesh.h"
+
+namespace lamina::geometry {
+
+/// Options for remesh().
+struct RemeshOptions {
+  double target_edge_mm = 5.0;  ///< desired edge length, mm, > 0
+  int iterations = 5;           ///< split/collapse/flip/relax rounds
+};
+
+/// Isotropic remeshing (Botsch-Kobbelt, CGAL PMP::isotropic_remeshing): near-equilateral
+/// triangles of about `target_edge_mm`, vertices projected back onto the input surface.
+/// @param[in] input    closed triangle mesh (a polygon soup is repaired and oriented first)
+/// @param[in] options  target edge length and rounds
+/// @return closed, consistently oriented mesh, same orientation as the input
+SurfaceMesh remesh(const SurfaceMesh& input, const RemeshOptions& options);
+
+/// True when two triangles of the mesh intersect other than at a shared edge or vertex.
+bool self_intersects(const SurfaceMesh& mesh);
+
+/// How `inner` sits relative to `outer`.
+struct Nesting {
+  bool all_vertices_inside = false;  ///< every vertex of inner is strictly inside outer
+  bool surfaces_intersect = true;    ///< some triangle of inner crosses a triangle of outer
+  double min_gap_mm = 0.0;           ///< smallest distance from an inner vertex to outer
+  bool nested() const { return all_vertices_inside && !surfaces_intersect; }
+};
+
+/// Checks that `inner` lies strictly inside the closed surface `outer` (AABB tree queries).
+Nesting check_nesting(const SurfaceMesh& outer, const SurfaceMesh& inner);
+
+}  // namespace lamina::geometry

@@ -1,0 +1,33 @@
+#pragma once
+/// \file
+/// Writing triangle meshes for other tools (MeshLab, ParaView, slicers) and reading OBJ files.
+
+#include <string>
+
+#include "lamina/geometry/surface_mesh.h"
+
+namespace lamina::io {
+
+/// Writes `mesh` in the format its extension names (case-insensitive), atomically (temporary
+/// file, then rename):
+///   - .obj  text, `v x y z` and 1-based `f a b c` lines, doubles in shortest round-trip form
+///   - .ply  binary little-endian, float64 x y z, faces as `list uchar int`
+///   - .vtp  VTK XML PolyData, ASCII, triangles as Polys
+///   - .stl  binary STL, float32, one normal per face computed from its corners
+/// @param[in] mesh  #V by 3 vertices (mm) and #F by 3 triangles
+/// @param[in] path  destination file
+/// \note Throws lamina::Error (kInvalidInput) for an unknown extension or a face index outside
+///   [0, #V), before anything is written; (kOutput) if the file cannot be written.
+void write_mesh(const SurfaceMesh& mesh, const std::string& path);
+
+/// Reads the vertices and faces of a Wavefront OBJ file.
+/// @param[in] path  .obj file
+/// @return V (#V by 3) and F (#F by 3, 0-based); polygons with more than three corners are
+///   fan-triangulated from their first corner
+/// \note Face corners may be written `i`, `i/t`, `i/t/n` or `i//n`; negative indices count back
+///   from the last vertex read so far. Lines other than `v` and `f` are ignored. Throws
+///   lamina::Error (kInvalidInput) naming `path` (and the line) for a missing file, a malformed
+///   `v` or `f` line, an index outside the vertex list, or a file without faces.
+SurfaceMesh read_obj(const std::string& path);
+
+}  // namespace lamina::io

@@ -1,0 +1,33 @@
+#pragma once
+/// \file
+/// Saving and loading a built Model as a VTK XML UnstructuredGrid (.vtu) that ParaView opens
+/// directly. The layout is documented in docs/model_format.md.
+
+#include <string>
+
+#include "lamina/model/model.h"
+
+namespace lamina::io {
+
+/// Writes `model` to `path` as an ASCII VTK XML UnstructuredGrid, atomically (temporary file,
+/// then rename).
+/// @param[in] model  the model to save; its rings are not stored (load_model() leaves them for
+///   the caller to recompute)
+/// @param[in] path   destination, normally ending in .vtu
+/// \note Doubles are printed in their shortest round-trip form, so load_model() gives back every
+///   value bit for bit. Throws lamina::Error (kOutput) if the file cannot be written, and
+///   (kInternal) if the model's arrays disagree in size.
+void save_model(const Model& model, const std::string& path);
+
+/// Reads a model written by save_model().
+/// @param[in] path  a .vtu file written by save_model()
+/// @return the model with every node, layer and spring exactly as saved; `rings` holds only
+///   `locality`, the rings themselves must be recomputed by the caller
+/// \note Throws lamina::Error (kInvalidInput) with a one-line message "PATH: problem" for a
+///   missing or truncated file, a file that is not a Lamina model or has an unsupported
+///   format version, an array with the wrong type or number of values, an out-of-range index,
+///   a spring whose kind disagrees with its cell type or its nodes' layers, a non-finite or
+///   non-positive mass, rest length or stiffness, or layer ranges that do not tile the points.
+Model load_model(const std::string& path);
+
+}  // namespace lamina::io

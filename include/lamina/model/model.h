@@ -1,0 +1,71 @@
+#pragma once
+/// \file
+/// The multi-layer volumetric mass-spring model: immutable after model::build_model().
+/// Units: mm, kg, s (so stiffness is in mN/mm = N/m).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace lamina {
+
+/// What a spring joins.
+enum class SpringKind : uint8_t {
+  kIntraLayer = 0,  ///< an edge of one layer's triangle mesh
+  kInterLayer = 1,  ///< a link between a vertex and a near vertex on the neighbouring layer
+};
+
+/// All springs, structure-of-arrays (the simulation streams through these).
+struct Springs {
+  std::vector<int32_t> i, j;                ///< node indices, i < j
+  std::vector<double> rest_length_mm;       ///< > 0
+  std::vector<double> stiffness_n_per_m;    ///< Hooke constant, N/m (= mN/mm), > 0
+  std::vector<SpringKind> kind;
+
+  size_t size() const { return i.size(); }
+};
+
+/// One nested surface. Its nodes are the contiguous range [first_node, first_node + node_count).
+struct ModelLayer {
+  int32_t first_node = 0;
+  int32_t node_count = 0;
+  Eigen::MatrixX3i F;  ///< #F by 3 triangles in GLOBAL node indices, outward winding
+};
+
+/// The paper's hierarchical neighbourhood matrix, stored as CSR: for node v and ring r in
+/// [0, locality), ring r of v is members[offsets[v * locality + r], offsets[v * locality + r + 1]).
+/// Ring 0 is {v}; ring r holds the nodes of v's own layer at breadth-first (edge-hop) distance r.
+struct Rings {
+  int32_t locality = 0;           ///< N: rings 0..N-1 are stored
+  std::vector<int64_t> offsets;   ///< #nodes * locality + 1 entries
+  std::vector<int32_t> members;   ///< node indices, each ring sorted ascending
+
+  /// Number of nodes in ring r of node v.
+  int64_t ring_size(int32_t v, int32_t r) const {
+    const size_t at = static_cast<size_t>(v) * locality + r;
+    return offsets[at + 1] - offsets[at];
+  }
+  /// Pointer to the first node of ring r of node v (ring_size(v, r) entries).
+  const int32_t* ring(int32_t v, int32_t r) const {
+    return members.data() + offsets[static_cast<size_t>(v) * locality + r];
+  }
+};
+
+/// The model. Nodes are ordered by layer: layer 0 (the skin) first.
+struct Model {
+  Eigen::MatrixX3d X;             ///< #nodes by 3 rest positions, mm (column-major = SoA)
+  std::vector<double> mass_kg;    ///< #nodes lumped masses, kg, > 0
+  std::vector<int32_t> layer_of;  ///< #nodes layer index of each node
+  std::vector<uint8_t> fixed;     ///< #nodes, 1 = held in place (boundary condition)
+  std::vector<ModelLayer> layers; ///< layer 0 = skin, then inward
+  Springs springs;
+  Rings rings;
+  double density_kg_per_mm3 = 1.06e-6;  ///< used to lump the masses (liver: 1.06 g/cm^3)
+  std::string source;                   ///< what it was built from (path or "built-in phantom")
+
+  int32_t node_count() const { return static_cast<int32_t>(X.rows()); }
+  int32_t layer_count() const { return static_cast<int32_t>(layers.size()); }
+};
+
+}  // namespace lamina

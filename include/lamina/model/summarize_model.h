@@ -1,0 +1,41 @@
+#pragma once
+/// \file
+/// A model's vital statistics: what `lamina build` and `lamina info` print.
+
+#include <cstdint>
+#include <vector>
+
+#include "lamina/geometry/mesh_measures.h"
+#include "lamina/model/model.h"
+
+namespace lamina::model {
+
+/// One layer's statistics.
+struct LayerSummary {
+  int32_t index = 0;
+  geometry::MeshQuality quality;   ///< closed, manifold, components, volume, edges, angles
+  bool self_intersecting = false;  ///< any two triangles cross
+  bool nested = true;              ///< strictly inside the layer outside it (true for the skin)
+  double min_gap_mm = 0.0;         ///< closest approach to the layer outside it
+};
+
+/// The whole model's statistics.
+struct ModelSummary {
+  int64_t nodes = 0;
+  int64_t springs = 0, intra_layer_springs = 0, inter_layer_springs = 0;
+  int32_t spring_components = 0;  ///< connected components of the spring network (1 = one body)
+  double total_mass_kg = 0.0;
+  int32_t locality = 0;
+  int64_t ring_entries = 0;       ///< total stored ring members (CSR size)
+  double min_rest_length_mm = 0.0, max_rest_length_mm = 0.0;
+  std::vector<LayerSummary> layers;
+};
+
+/// One layer as a standalone mesh (vertex indices local to the layer).
+SurfaceMesh layer_mesh(const Model& model, int32_t layer);
+
+/// Measures a model: per-layer mesh quality (with CGAL self-intersection and nesting checks),
+/// spring counts and connectivity, mass.
+ModelSummary summarize_model(const Model& model);
+
+}  // namespace lamina::model

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package Lamina needs to build, test and run (see ../shared/STACK.md).
+# Idempotent: re-running it on a machine that already has everything is fast.
+set -euo pipefail
+
+pkgs=(
+  cmake g++ make pkg-config ninja-build
+  libeigen3-dev libinsighttoolkit5-dev libcgal-dev libopenvdb-dev
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
+  libnanoflann-dev libgtest-dev libgmock-dev libbenchmark-dev
+  zlib1g-dev
+)
+
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if ((${#missing[@]})); then
+  echo "lamina setup: installing ${#missing[@]} Debian packages: ${missing[*]}" >&2
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+else
+  echo "lamina setup: all Debian packages present" >&2
+fi

@@ -1,0 +1,118 @@
+// The only translation unit that sees CGAL (it compiles slowly and needs ~1.3 GB of RAM).
+#include <CGAL/AABB_face_graph_triangle_primitive.h>
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
+#include <CGAL/Polygon_mesh_processing/intersection.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/remesh.h>
+#include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Side_of_triangle_mesh.h>
+#include <CGAL/Surface_mesh.h>
+
+#include <array>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/mesh_measures.h"
+#include "lamina/geometry/remesh.h"
+
+namespace lamina::geometry {
+namespace {
+
+namespace PMP = CGAL::Polygon_mesh_processing;
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = K::Point_3;
+using Mesh = CGAL::Surface_mesh<Point>;
+
+// Builds a CGAL mesh from our arrays via a repaired, oriented polygon soup, so that inputs
+// with duplicate points or non-manifold vertices (possible in isosurfaces) still convert.
+Mesh to_cgal(const SurfaceMesh& in, bool repair) {
+  std::vector<Point> points(static_cast<size_t>(in.V.rows()));
+  for (Eigen::Index v = 0; v < in.V.rows(); ++v) points[v] = Point(in.V(v, 0), in.V(v, 1), in.V(v, 2));
+  std::vector<std::array<size_t, 3>> faces(static_cast<size_t>(in.F.rows()));
+  for (Eigen::Index f = 0; f < in.F.rows(); ++f)
+    faces[f] = {static_cast<size_t>(in.F(f, 0)), static_cast<size_t>(in.F(f, 1)),
+                static_cast<size_t>(in.F(f, 2))};
+  if (repair) {
+    PMP::repair_polygon_soup(points, faces);
+    PMP::orient_polygon_soup(points, faces);
+  }
+  Mesh mesh;
+  PMP::polygon_soup_to_polygon_mesh(points, faces, mesh);
+  return mesh;
+}
+
+SurfaceMesh from_cgal(const Mesh& mesh) {
+  SurfaceMesh out;
+  std::vector<int> id(mesh.num_vertices() + mesh.number_of_removed_vertices(), -1);
+  out.V.resize(static_cast<Eigen::Index>(mesh.number_of_vertices()), 3);
+  int n = 0;
+  for (auto v : mesh.vertices()) {
+    const Point& p = mesh.point(v);
+    out.V.row(n) << p.x(), p.y(), p.z();
+    id[v.idx()] = n++;
+  }
+  out.F.resize(static_cast<Eigen::Index>(mesh.number_of_faces()), 3);
+  int f = 0;
+  for (auto face : mesh.faces()) {
+    int c = 0;
+    for (auto v : CGAL::vertices_around_face(mesh.halfedge(face), mesh)) out.F(f, c++) = id[v.idx()];
+    ++f;
+  }
+  return out;
+}
+
+}  // namespace
+
+SurfaceMesh remesh(const SurfaceMesh& input, const RemeshOptions& options) {
+  if (!(options.target_edge_mm > 0.0))
+    throw Error(ErrorKind::kInternal, "remesh: target edge length must be positive");
+  if (input.F.rows() == 0) return input;
+  const bool outward = enclosed_volume(input) >= 0.0;
+  Mesh mesh = to_cgal(input, /*repair=*/true);
+  PMP::isotropic_remeshing(faces(mesh), options.target_edge_mm, mesh,
+                           PMP::parameters::number_of_iterations(options.iterations)
+                               .protect_constraints(false)
+                               .number_of_relaxation_steps(3));
+  mesh.collect_garbage();
+  SurfaceMesh out = from_cgal(mesh);
+  // orient_polygon_soup fixes consistency, not the global sign: restore the input's.
+  if ((enclosed_volume(out) >= 0.0) != outward) out.F.col(1).swap(out.F.col(2));
+  return out;
+}
+
+bool self_intersects(const SurfaceMesh& mesh) {
+  if (mesh.F.rows() == 0) return false;
+  const Mesh m = to_cgal(mesh, /*repair=*/false);
+  if (m.number_of_faces() != static_cast<size_t>(mesh.F.rows())) return true;  // not a valid surface
+  return PMP::does_self_intersect(m);
+}
+
+Nesting check_nesting(const SurfaceMesh& outer, const SurfaceMesh& inner) {
+  Nesting result;
+  if (outer.F.rows() == 0 || inner.F.rows() == 0) return result;
+  const Mesh out_mesh = to_cgal(outer, /*repair=*/false);
+  const Mesh in_mesh = to_cgal(inner, /*repair=*/false);
+  using Primitive = CGAL::AABB_face_graph_triangle_primitive<Mesh>;
+  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, Primitive>>;
+  Tree tree(faces(out_mesh).first, faces(out_mesh).second, out_mesh);
+  tree.accelerate_distance_queries();
+  CGAL::Side_of_triangle_mesh<Mesh, K> side(tree);
+  result.all_vertices_inside = true;
+  result.min_gap_mm = std::numeric_limits<double>::infinity();
+  for (Eigen::Index v = 0; v < inner.V.rows(); ++v) {
+    const Point p(inner.V(v, 0), inner.V(v, 1), inner.V(v, 2));
+    if (side(p) != CGAL::ON_BOUNDED_SIDE) result.all_vertices_inside = false;
+    result.min_gap_mm = std::min(result.min_gap_mm, std::sqrt(tree.squared_distance(p)));
+  }
+  result.surfaces_intersect = PMP::do_intersect(out_mesh, in_mesh,
+                                                PMP::parameters::do_overlap_test_of_bounded_sides(false),
+                                                PMP::parameters::do_overlap_test_of_bounded_sides(false));
+  return result;
+}
+
+}  // namespace lamina::geometry

@@ -1,0 +1,159 @@
+// The only geometry translation unit that sees ITK (see core/grid.h for why it is isolated).
+#include <itkBinShrinkImageFilter.h>
+#include <itkConnectedComponentImageFilter.h>
+#include <itkConnectedThresholdImageFilter.h>
+#include <itkImportImageFilter.h>
+#include <itkSignedMaurerDistanceMapImageFilter.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/mask_filters.h"
+
+namespace lamina::geometry {
+namespace {
+
+using MaskImage = itk::Image<uint8_t, 3>;
+
+// Wraps our buffer as an ITK image without copying (ITK does not own the memory).
+template <class Pixel>
+typename itk::Image<Pixel, 3>::Pointer wrap(const GridFrame& f, const Pixel* data) {
+  using Import = itk::ImportImageFilter<Pixel, 3>;
+  auto import = Import::New();
+  typename Import::RegionType region;
+  typename Import::SpacingType spacing;
+  typename Import::OriginType origin;
+  typename Import::DirectionType dir;
+  for (int a = 0; a < 3; ++a) {
+    region.SetSize(a, static_cast<itk::SizeValueType>(f.size[a]));
+    spacing[a] = f.spacing_mm[a];
+    origin[a] = f.origin_mm[a];
+    for (int c = 0; c < 3; ++c) dir(a, c) = f.direction[3 * a + c];
+  }
+  import->SetRegion(region);
+  import->SetSpacing(spacing);
+  import->SetOrigin(origin);
+  import->SetDirection(dir);
+  import->SetImportPointer(const_cast<Pixel*>(data), static_cast<itk::SizeValueType>(f.voxel_count()),
+                           false);
+  import->Update();
+  typename itk::Image<Pixel, 3>::Pointer image = import->GetOutput();
+  image->DisconnectPipeline();
+  return image;
+}
+
+template <class Image>
+GridFrame frame_of(const Image* image) {
+  GridFrame f;
+  for (int a = 0; a < 3; ++a) {
+    f.size[a] = static_cast<int64_t>(image->GetLargestPossibleRegion().GetSize()[a]);
+    f.spacing_mm[a] = image->GetSpacing()[a];
+    f.origin_mm[a] = image->GetOrigin()[a];
+    for (int c = 0; c < 3; ++c) f.direction[3 * a + c] = image->GetDirection()(a, c);
+  }
+  return f;
+}
+
+template <class Filter>
+void update(Filter* filter, const char* what) {
+  try {
+    filter->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw Error(ErrorKind::kInternal, std::string(what) + " failed: " + e.GetDescription());
+  }
+}
+
+}  // namespace
+
+ComponentStats keep_largest_component(Mask& mask) {
+  using LabelImage = itk::Image<uint32_t, 3>;
+  auto input = wrap<uint8_t>(mask.frame, mask.inside.data());
+  auto cc = itk::ConnectedComponentImageFilter<MaskImage, LabelImage>::New();
+  cc->SetInput(input);
+  cc->SetFullyConnected(false);  // face neighbours: a diagonal touch does not join two organs
+  cc->SetBackgroundValue(0);
+  update(cc.GetPointer(), "connected components");
+
+  ComponentStats stats;
+  stats.components = static_cast<int32_t>(cc->GetObjectCount());
+  const uint32_t* labels = cc->GetOutput()->GetBufferPointer();
+  const size_t n = mask.inside.size();
+  std::vector<int64_t> sizes(static_cast<size_t>(stats.components) + 1, 0);
+  for (size_t v = 0; v < n; ++v) ++sizes[labels[v]];
+  uint32_t best = 0;
+  for (uint32_t l = 1; l < sizes.size(); ++l)
+    if (best == 0 || sizes[l] > sizes[best]) best = l;
+  for (size_t v = 0; v < n; ++v) mask.inside[v] = (best != 0 && labels[v] == best) ? 1 : 0;
+  stats.kept_voxels = best ? sizes[best] : 0;
+  for (uint32_t l = 1; l < sizes.size(); ++l)
+    if (l != best) stats.dropped_voxels += sizes[l];
+  return stats;
+}
+
+int64_t fill_cavities(Mask& mask) {
+  // Flood the background from a corner; whatever background it cannot reach is a cavity.
+  auto input = wrap<uint8_t>(mask.frame, mask.inside.data());
+  auto flood = itk::ConnectedThresholdImageFilter<MaskImage, MaskImage>::New();
+  flood->SetInput(input);
+  flood->SetLower(0);
+  flood->SetUpper(0);
+  flood->SetReplaceValue(1);
+  flood->SetConnectivity(decltype(flood)::ObjectType::FaceConnectivity);
+  MaskImage::IndexType corner;
+  corner.Fill(0);
+  if (mask.inside[0] != 0) return 0;  // unpadded mask touching the corner: nothing to flood from
+  flood->AddSeed(corner);
+  update(flood.GetPointer(), "cavity filling");
+  const uint8_t* outside = flood->GetOutput()->GetBufferPointer();
+  int64_t filled = 0;
+  for (size_t v = 0; v < mask.inside.size(); ++v) {
+    if (!mask.inside[v] && !outside[v]) {
+      mask.inside[v] = 1;
+      ++filled;
+    }
+  }
+  return filled;
+}
+
+Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors) {
+  if (factors[0] == 1 && factors[1] == 1 && factors[2] == 1) return mask;
+  using RealImage = itk::Image<float, 3>;
+  auto input = wrap<uint8_t>(mask.frame, mask.inside.data());
+  auto shrink = itk::BinShrinkImageFilter<MaskImage, RealImage>::New();
+  shrink->SetInput(input);
+  for (int a = 0; a < 3; ++a) shrink->SetShrinkFactor(a, static_cast<unsigned>(std::max(1, factors[a])));
+  update(shrink.GetPointer(), "downsampling");
+  Mask out;
+  out.frame = frame_of(shrink->GetOutput());
+  // BinShrink may keep a non-zero start index; our frames always start at index 0.
+  const auto start = shrink->GetOutput()->GetLargestPossibleRegion().GetIndex();
+  const auto p0 = out.frame.to_physical(start[0], start[1], start[2]);
+  out.frame.origin_mm = p0;
+  const float* occ = shrink->GetOutput()->GetBufferPointer();
+  out.inside.resize(static_cast<size_t>(out.frame.voxel_count()));
+  for (size_t v = 0; v < out.inside.size(); ++v) out.inside[v] = occ[v] >= 0.5f ? 1 : 0;
+  return out;
+}
+
+DistanceField signed_distance(const Mask& mask) {
+  using RealImage = itk::Image<float, 3>;
+  auto input = wrap<uint8_t>(mask.frame, mask.inside.data());
+  auto maurer = itk::SignedMaurerDistanceMapImageFilter<MaskImage, RealImage>::New();
+  maurer->SetInput(input);
+  maurer->SetInsideIsPositive(false);
+  maurer->SetUseImageSpacing(true);
+  maurer->SetSquaredDistance(false);
+  maurer->SetBackgroundValue(0);
+  update(maurer.GetPointer(), "signed distance map");
+  DistanceField field;
+  field.frame = mask.frame;
+  const auto& s = mask.frame.spacing_mm;
+  const float half = static_cast<float>(0.5 * std::cbrt(s[0] * s[1] * s[2]));
+  const float* d = maurer->GetOutput()->GetBufferPointer();
+  field.phi.resize(mask.inside.size());
+  for (size_t v = 0; v < field.phi.size(); ++v) field.phi[v] = d[v] - half;
+  return field;
+}
+
+}  // namespace lamina::geometry

@@ -1,0 +1,265 @@
+// ITK lives only here (and in src/geometry/itk_mask_filters.cpp): ITK bundles Eigen 3.3, which
+// must not meet the system Eigen 3.4 in one translation unit, and ITK headers compile slowly.
+#include <itkGDCMImageIO.h>
+#include <itkGDCMImageIOFactory.h>
+#include <itkGDCMSeriesFileNames.h>
+#include <itkImageFileReader.h>
+#include <itkImageFileWriter.h>
+#include <itkImageIOFactory.h>
+#include <itkImageSeriesReader.h>
+#include <itkMetaImageIOFactory.h>
+#include <itkNiftiImageIOFactory.h>
+#include <itkNrrdImageIOFactory.h>
+
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <sstream>
+
+#include "lamina/core/atomic_file.h"
+#include "lamina/core/error.h"
+#include "lamina/io/label_volume_io.h"
+
+namespace lamina::io {
+namespace {
+
+namespace fs = std::filesystem;
+using LabelImage = itk::Image<int32_t, 3>;
+using RealImage = itk::Image<double, 3>;
+
+// Explicit registration (rather than CMake's ITK_USE_FILE magic): the formats we read are
+// exactly these, and nothing else in the project sees ITK's include paths.
+void register_image_formats() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    itk::NiftiImageIOFactory::RegisterOneFactory();
+    itk::NrrdImageIOFactory::RegisterOneFactory();
+    itk::MetaImageIOFactory::RegisterOneFactory();
+    itk::GDCMImageIOFactory::RegisterOneFactory();
+    itk::Object::SetGlobalWarningDisplay(false);  // warnings would bypass our log channel
+  });
+}
+
+// ITK exception texts span several lines with source locations; keep the description only.
+std::string one_line(const itk::ExceptionObject& e) {
+  std::string d = e.GetDescription();
+  for (char& c : d)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!d.empty() && d.back() == ' ') d.pop_back();
+  return d.empty() ? std::string("ITK error") : d;
+}
+
+template <class Image>
+GridFrame frame_of(const Image* image) {
+  GridFrame f;
+  const auto size = image->GetLargestPossibleRegion().GetSize();
+  for (int a = 0; a < 3; ++a) {
+    f.size[a] = static_cast<int64_t>(size[a]);
+    f.spacing_mm[a] = image->GetSpacing()[a];
+    f.origin_mm[a] = image->GetOrigin()[a];
+    for (int c = 0; c < 3; ++c) f.direction[3 * a + c] = image->GetDirection()(a, c);
+  }
+  return f;
+}
+
+void check_frame(const std::string& path, const GridFrame& f) {
+  for (int a = 0; a < 3; ++a) {
+    if (!(f.spacing_mm[a] > 0.0) || !std::isfinite(f.spacing_mm[a])) {
+      std::ostringstream m;
+      m << "voxel spacing must be positive, got " << f.spacing_mm[0] << " x " << f.spacing_mm[1]
+        << " x " << f.spacing_mm[2] << " mm (fix the header's spacing/pixdim)";
+      throw invalid_input(path, m.str());
+    }
+    if (!std::isfinite(f.origin_mm[a])) throw invalid_input(path, "origin is not finite");
+  }
+  for (double d : f.direction)
+    if (!std::isfinite(d)) throw invalid_input(path, "direction matrix is not finite");
+}
+
+// Reads header information and rejects what we cannot use before any voxel is allocated.
+void check_header(const std::string& path, itk::ImageIOBase* io, const ReadVolumeOptions& opt) {
+  const unsigned dims = io->GetNumberOfDimensions();
+  int64_t voxels = 1;
+  std::ostringstream shape;
+  for (unsigned d = 0; d < dims; ++d) {
+    shape << (d ? " x " : "") << io->GetDimensions(d);
+    voxels *= static_cast<int64_t>(io->GetDimensions(d));
+  }
+  bool extra_dims_trivial = true;
+  for (unsigned d = 3; d < dims; ++d) extra_dims_trivial &= io->GetDimensions(d) == 1;
+  if (dims < 3)
+    throw invalid_input(path, "is a " + std::to_string(dims) + "-D image (" + shape.str() +
+                                  "); Lamina needs a 3-D segmentation");
+  if (!extra_dims_trivial)
+    throw invalid_input(path, "is a " + std::to_string(dims) + "-D image (" + shape.str() +
+                                  "); Lamina needs a single 3-D segmentation");
+  if (io->GetNumberOfComponents() != 1)
+    throw invalid_input(path, "has " + std::to_string(io->GetNumberOfComponents()) +
+                                  " components per voxel; a label image has one");
+  for (unsigned d = 0; d < 3; ++d)
+    if (io->GetDimensions(d) == 0) throw invalid_input(path, "has a zero dimension (" + shape.str() + ")");
+  if (voxels > opt.max_voxels)
+    throw invalid_input(path, "has " + std::to_string(voxels) + " voxels, more than the limit of " +
+                                  std::to_string(opt.max_voxels));
+}
+
+template <class Reader>
+void run_reader(const std::string& path, Reader* reader) {
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw invalid_input(path, "cannot read image data (truncated or corrupt?): " + one_line(e));
+  }
+}
+
+LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
+  itk::ImageIOBase::Pointer io =
+      itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
+  if (!io)
+    throw invalid_input(path, "not a readable NIfTI (.nii/.nii.gz), NRRD (.nrrd), MetaImage "
+                              "(.mha/.mhd) file or DICOM folder");
+  try {
+    io->SetFileName(path);
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    throw invalid_input(path, "cannot read the image header: " + one_line(e));
+  }
+  check_header(path, io, opt);
+
+  LabelVolume out;
+  out.source = path;
+  const auto ctype = io->GetComponentType();
+  const bool is_real = ctype == itk::IOComponentEnum::FLOAT || ctype == itk::IOComponentEnum::DOUBLE;
+  if (!is_real) {
+    auto reader = itk::ImageFileReader<LabelImage>::New();
+    reader->SetImageIO(io);
+    reader->SetFileName(path);
+    run_reader(path, reader.GetPointer());
+    LabelImage* image = reader->GetOutput();
+    out.frame = frame_of(image);
+    const int32_t* p = image->GetBufferPointer();
+    out.labels.assign(p, p + out.frame.voxel_count());
+  } else {
+    // Floating-point masks (common from Python pipelines) hold 0.0/1.0: round to labels.
+    auto reader = itk::ImageFileReader<RealImage>::New();
+    reader->SetImageIO(io);
+    reader->SetFileName(path);
+    run_reader(path, reader.GetPointer());
+    RealImage* image = reader->GetOutput();
+    out.frame = frame_of(image);
+    const double* p = image->GetBufferPointer();
+    out.labels.resize(static_cast<size_t>(out.frame.voxel_count()));
+    for (size_t n = 0; n < out.labels.size(); ++n) {
+      if (!std::isfinite(p[n]))
+        throw invalid_input(path, "holds a non-finite voxel value (NaN or infinity) at voxel " +
+                                      std::to_string(n));
+      if (std::abs(p[n]) > 2.0e9) throw invalid_input(path, "holds a voxel value too large for a label");
+      out.labels[n] = static_cast<int32_t>(std::lround(p[n]));
+    }
+  }
+  return out;
+}
+
+LabelVolume read_dicom_folder(const std::string& path, const ReadVolumeOptions& opt) {
+  auto names = itk::GDCMSeriesFileNames::New();
+  std::vector<std::string> files;
+  try {
+    names->SetUseSeriesDetails(true);
+    names->SetDirectory(path);
+    const auto& uids = names->GetSeriesUIDs();
+    if (uids.empty())
+      throw invalid_input(path, "is a folder but holds no DICOM series (give a .nii.gz, .nrrd, "
+                                ".mha file, or a folder of DICOM slices)");
+    // Several series in one folder: take the one with the most slices.
+    for (const auto& uid : uids) {
+      auto f = names->GetFileNames(uid);
+      if (f.size() > files.size()) files = f;
+    }
+  } catch (const itk::ExceptionObject& e) {
+    throw invalid_input(path, "cannot scan the DICOM folder: " + one_line(e));
+  }
+  auto dicom = itk::GDCMImageIO::New();
+  auto reader = itk::ImageSeriesReader<LabelImage>::New();
+  reader->SetImageIO(dicom);
+  reader->SetFileNames(files);
+  try {
+    reader->UpdateOutputInformation();
+  } catch (const itk::ExceptionObject& e) {
+    throw invalid_input(path, "cannot read the DICOM series: " + one_line(e));
+  }
+  const auto size = reader->GetOutput()->GetLargestPossibleRegion().GetSize();
+  if (size[2] < 2)
+    throw invalid_input(path, "holds a single DICOM slice (a 2-D image); Lamina needs a 3-D series");
+  if (static_cast<int64_t>(size[0]) * size[1] * size[2] > opt.max_voxels)
+    throw invalid_input(path, "DICOM series is larger than the voxel limit");
+  run_reader(path, reader.GetPointer());
+  LabelVolume out;
+  out.source = path;
+  out.frame = frame_of(reader->GetOutput());
+  const int32_t* p = reader->GetOutput()->GetBufferPointer();
+  out.labels.assign(p, p + out.frame.voxel_count());
+  return out;
+}
+
+template <class Pixel>
+void write_as(const LabelVolume& v, const std::string& tmp) {
+  using Image = itk::Image<Pixel, 3>;
+  auto image = Image::New();
+  typename Image::RegionType region;
+  typename Image::SpacingType spacing;
+  typename Image::PointType origin;
+  typename Image::DirectionType dir;
+  for (int a = 0; a < 3; ++a) {
+    region.SetSize(a, static_cast<itk::SizeValueType>(v.frame.size[a]));
+    spacing[a] = v.frame.spacing_mm[a];
+    origin[a] = v.frame.origin_mm[a];
+    for (int c = 0; c < 3; ++c) dir(a, c) = v.frame.direction[3 * a + c];
+  }
+  image->SetRegions(region);
+  image->SetSpacing(spacing);
+  image->SetOrigin(origin);
+  image->SetDirection(dir);
+  image->Allocate();
+  Pixel* p = image->GetBufferPointer();
+  for (size_t n = 0; n < v.labels.size(); ++n) p[n] = static_cast<Pixel>(v.labels[n]);
+  auto writer = itk::ImageFileWriter<Image>::New();
+  writer->SetFileName(tmp);
+  writer->SetInput(image);
+  writer->SetUseCompression(true);
+  writer->Update();
+}
+
+}  // namespace
+
+LabelVolume read_label_volume(const std::string& path, const ReadVolumeOptions& options) {
+  register_image_formats();
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    throw invalid_input(path, "no such file or folder");
+  LabelVolume v = fs::is_directory(path, ec) ? read_dicom_folder(path, options)
+                                             : read_file(path, options);
+  check_frame(path, v.frame);
+  return v;
+}
+
+void write_label_volume(const LabelVolume& volume, const std::string& path) {
+  register_image_formats();
+  if (static_cast<int64_t>(volume.labels.size()) != volume.frame.voxel_count())
+    throw Error(ErrorKind::kInternal, path + ": label count does not match the grid size");
+  const std::string tmp = temporary_path_beside(path);
+  int32_t lo = 0, hi = 0;
+  for (int32_t l : volume.labels) lo = std::min(lo, l), hi = std::max(hi, l);
+  try {
+    if (lo >= 0 && hi <= 255)
+      write_as<uint8_t>(volume, tmp);
+    else
+      write_as<int32_t>(volume, tmp);
+  } catch (const itk::ExceptionObject& e) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw Error(ErrorKind::kOutput, path + ": cannot write image: " + one_line(e));
+  }
+  commit_temporary(tmp, path);
+}
+
+}  // namespace lamina::io

@@ -1,0 +1,499 @@
+#include "lamina/io/model_file.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <map>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "lamina/core/atomic_file.h"
+#include "lamina/core/error.h"
+
+namespace lamina::io {
+namespace {
+
+constexpr int32_t kFormatVersion = 1;
+constexpr uint8_t kVtkLine = 3;
+constexpr uint8_t kVtkTriangle = 5;
+constexpr uint8_t kCellKindTriangle = 0;  // springs are 1 + SpringKind
+constexpr size_t kValuesPerLine = 12;     // a multiple of 3, so point rows stay whole
+
+template <class T>
+constexpr const char* vtk_type() {
+  if constexpr (std::is_same_v<T, double>) return "Float64";
+  if constexpr (std::is_same_v<T, int64_t>) return "Int64";
+  if constexpr (std::is_same_v<T, int32_t>) return "Int32";
+  if constexpr (std::is_same_v<T, uint8_t>) return "UInt8";
+}
+
+// std::to_chars without a format gives the shortest text that parses back to the same double,
+// which is what makes the round trip bit-exact without a binary encoding.
+template <class T>
+void append_number(std::string& s, T value) {
+  char buf[32];
+  s.append(buf, std::to_chars(buf, buf + sizeof buf, value).ptr);
+}
+
+std::string str(double value) {
+  std::string s;
+  append_number(s, value);
+  return s;
+}
+
+// Field data has no points or cells to count its tuples by, so VTK wants NumberOfTuples there.
+template <class T>
+void write_array(std::ostream& out, const char* indent, const std::string& name,
+                 const std::vector<T>& values, size_t components = 1, bool field_data = false) {
+  std::string s =
+      std::string(indent) + "<DataArray type=\"" + vtk_type<T>() + "\" Name=\"" + name + "\"";
+  if (components > 1) s += " NumberOfComponents=\"" + std::to_string(components) + "\"";
+  if (field_data) s += " NumberOfTuples=\"" + std::to_string(values.size() / components) + "\"";
+  s += " format=\"ascii\">\n";
+  for (size_t k = 0; k < values.size(); ++k) {
+    if (k % kValuesPerLine == 0) {
+      if (s.size() > (size_t{1} << 20)) out << std::exchange(s, {});  // bound the buffer
+      s.append(indent).append("  ");
+    } else {
+      s += ' ';
+    }
+    append_number(s, values[k]);
+    if (k % kValuesPerLine == kValuesPerLine - 1 || k + 1 == values.size()) s += '\n';
+  }
+  out << s << indent << "</DataArray>\n";
+}
+
+// Only what would make save_model() itself read out of bounds; load_model() checks the rest.
+void check_savable(const Model& m, const std::string& path) {
+  const size_t n = static_cast<size_t>(m.node_count());
+  const Springs& s = m.springs;
+  bool ok = m.mass_kg.size() == n && m.layer_of.size() == n && m.fixed.size() == n &&
+            s.j.size() == s.size() && s.rest_length_mm.size() == s.size() &&
+            s.stiffness_n_per_m.size() == s.size() && s.kind.size() == s.size();
+  for (size_t k = 0; ok && k < s.size(); ++k) ok = s.i[k] >= 0 && static_cast<size_t>(s.i[k]) < n;
+  if (!ok)
+    throw Error(ErrorKind::kInternal,
+                path + ": cannot save: the model's arrays disagree in size or index range");
+}
+
+// --- Reading: a scanner for the XML that save_model() writes, not a general XML parser. ---
+
+using Attributes = std::map<std::string, std::string, std::less<>>;
+
+struct XmlArray {
+  Attributes attributes;
+  std::string_view text;  // the values, pointing into the file's text
+};
+
+struct VtuFile {
+  std::string type;  // VTKFile's type attribute
+  Attributes piece;  // attributes of the (only) Piece
+  int pieces = 0;
+  std::map<std::string, XmlArray> arrays;  // keyed "Section/Name", e.g. "PointData/mass_kg"
+};
+
+// Untrusted text quoted in a message: short, and on one line.
+std::string in_quotes(std::string_view text) {
+  std::string q(text.substr(0, 40));
+  for (char& c : q)
+    if (static_cast<unsigned char>(c) < 0x20) c = '?';
+  return "'" + q + (text.size() > 40 ? "...'" : "'");
+}
+
+bool is_space(char c) {
+  return c == ' ' || c == '\n' || c == '\r' || c == '\t';
+}
+
+// name="value" pairs of one start tag (our files need no XML escapes in attributes).
+Attributes parse_attributes(std::string_view tag) {
+  Attributes attributes;
+  size_t at = 0;
+  while ((at = tag.find('=', at)) != std::string_view::npos) {
+    size_t key_begin = tag.rfind(' ', at);
+    key_begin = key_begin == std::string_view::npos ? 0 : key_begin + 1;
+    const size_t open = tag.find('"', at), close = tag.find('"', open + 1);
+    if (open == std::string_view::npos || close == std::string_view::npos) break;
+    attributes[std::string(tag.substr(key_begin, at - key_begin))] =
+        std::string(tag.substr(open + 1, close - open - 1));
+    at = close + 1;
+  }
+  return attributes;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw invalid_input(path, std::filesystem::exists(path) ? "cannot open the file for reading"
+                                                            : "file not found");
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Finds the DataArrays of `s` (the text of `path`); the result points into `s`.
+VtuFile scan_vtu(const std::string& path, std::string_view s) {
+  VtuFile f;
+  std::string section;
+  bool opened = false, closed = false;
+  size_t pos = 0;
+  while ((pos = s.find('<', pos)) != std::string_view::npos) {
+    const bool comment = s.substr(pos, 4) == "<!--";
+    const size_t end = comment ? s.find("-->", pos) : s.find('>', pos);
+    if (end == std::string_view::npos)
+      throw invalid_input(path, "truncated file (a tag is cut off)");
+    std::string_view tag = s.substr(pos + 1, end - pos - 1);
+    pos = end + 1;
+    if (comment || tag.starts_with('?')) continue;
+    if (tag.starts_with('/')) {
+      tag.remove_prefix(1);
+      if (tag == section) section.clear();
+      closed = closed || tag == "VTKFile";
+      continue;
+    }
+    const bool empty_element = tag.ends_with('/');
+    if (empty_element) tag.remove_suffix(1);
+    const std::string name(tag.substr(0, std::min(tag.size(), tag.find_first_of(" \t\r\n"))));
+    auto attributes = parse_attributes(tag.substr(name.size()));
+    if (name == "VTKFile") {
+      opened = true;
+      f.type = attributes["type"];
+    } else if (name == "Piece") {
+      ++f.pieces;
+      f.piece = std::move(attributes);
+    } else if (name == "FieldData" || name == "PointData" || name == "CellData" ||
+               name == "Points" || name == "Cells") {
+      if (!empty_element) section = name;
+    } else if (name == "DataArray") {
+      XmlArray a{std::move(attributes), {}};
+      const std::string key = section + "/" + a.attributes["Name"];
+      if (!empty_element) {
+        const size_t close = s.find("</DataArray>", pos);
+        if (close == std::string_view::npos)
+          throw invalid_input(
+              path, "truncated file (array " + in_quotes(a.attributes["Name"]) + " is cut off)");
+        a.text = s.substr(pos, close - pos);
+        pos = close;
+      }
+      if (!f.arrays.emplace(key, std::move(a)).second)
+        throw invalid_input(path, "array " + in_quotes(key) + " appears twice");
+    }
+  }
+  if (!opened) throw invalid_input(path, "not a VTK XML file (no <VTKFile> element)");
+  if (!closed) throw invalid_input(path, "truncated file (no closing </VTKFile>)");
+  return f;
+}
+
+int64_t parse_integer(const std::string& path, std::string_view text, const std::string& what) {
+  int64_t value = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || end != text.data() + text.size() || text.empty())
+    throw invalid_input(path, what + " is " + in_quotes(text) + ", expected an integer");
+  return value;
+}
+
+const XmlArray& find_array(const std::string& path, const VtuFile& f, const std::string& key) {
+  const auto it = f.arrays.find(key);
+  if (it == f.arrays.end()) throw invalid_input(path, "missing array " + in_quotes(key));
+  return it->second;
+}
+
+// Field data arrays say how many tuples they hold.
+int64_t tuple_count(const std::string& path, const VtuFile& f, const std::string& key) {
+  const XmlArray& a = find_array(path, f, key);
+  const auto it = a.attributes.find("NumberOfTuples");
+  const int64_t count = parse_integer(path, it == a.attributes.end() ? "" : it->second,
+                                      "NumberOfTuples of array " + in_quotes(key));
+  if (count < 0 || count > std::numeric_limits<int32_t>::max())
+    throw invalid_input(path,
+                        "array " + in_quotes(key) + " claims " + std::to_string(count) + " tuples");
+  return count;
+}
+
+// The values of array `key`, which must have type T, ASCII format and exactly `count` values.
+template <class T>
+std::vector<T> read_values(const std::string& path, const VtuFile& f, const std::string& key,
+                           int64_t count, int components = 1) {
+  const XmlArray& a = find_array(path, f, key);
+  const auto attribute = [&](const char* name, const char* fallback) {
+    const auto it = a.attributes.find(name);
+    return it == a.attributes.end() ? std::string(fallback) : it->second;
+  };
+  if (attribute("type", "") != vtk_type<T>())
+    throw invalid_input(path, "array " + in_quotes(key) + " has type " +
+                                  in_quotes(attribute("type", "")) + ", expected " + vtk_type<T>());
+  if (attribute("format", "") != "ascii")
+    throw invalid_input(path, "array " + in_quotes(key) + " has format " +
+                                  in_quotes(attribute("format", "")) + ", only ascii is supported");
+  if (attribute("NumberOfComponents", "1") != std::to_string(components))
+    throw invalid_input(path, "array " + in_quotes(key) + " must have " +
+                                  std::to_string(components) + " component(s)");
+  std::vector<T> values;
+  const char* p = a.text.data();
+  const char* const end = p + a.text.size();
+  while (true) {
+    while (p < end && is_space(*p)) ++p;
+    if (p == end) break;
+    T value{};
+    const auto [next, ec] = std::from_chars(p, end, value);
+    if (ec != std::errc() || (next < end && !is_space(*next))) {
+      const char* token_end = p;
+      while (token_end < end && !is_space(*token_end)) ++token_end;
+      throw invalid_input(path, "array " + in_quotes(key) + " value " +
+                                    std::to_string(values.size()) + " is " +
+                                    in_quotes({p, token_end}) + ", not a " + vtk_type<T>());
+    }
+    values.push_back(value);
+    p = next;
+  }
+  if (static_cast<int64_t>(values.size()) != count)
+    throw invalid_input(path, "array " + in_quotes(key) + " has " + std::to_string(values.size()) +
+                                  " values, expected " + std::to_string(count) +
+                                  " (truncated or corrupt file?)");
+  return values;
+}
+
+bool positive_finite(double x) {
+  return std::isfinite(x) && x > 0.0;
+}
+
+}  // namespace
+
+void save_model(const Model& m, const std::string& path) {
+  check_savable(m, path);
+  const int32_t n = m.node_count();
+  std::vector<double> points(3 * static_cast<size_t>(n));
+  for (int32_t v = 0; v < n; ++v)
+    for (int c = 0; c < 3; ++c) points[3 * static_cast<size_t>(v) + c] = m.X(v, c);
+
+  std::vector<int32_t> first_node, node_count, face_count;
+  for (const ModelLayer& layer : m.layers) {
+    first_node.push_back(layer.first_node);
+    node_count.push_back(layer.node_count);
+    face_count.push_back(static_cast<int32_t>(layer.F.rows()));
+  }
+
+  // Cells: every layer's triangles, then every spring as a line; the CellData arrays run
+  // alongside. VTK's offsets say where each cell's nodes end in `connectivity`.
+  std::vector<int64_t> connectivity, offsets;
+  std::vector<uint8_t> types, cell_kind;
+  std::vector<int32_t> cell_layer;
+  std::vector<double> rest_length, stiffness;
+  const auto end_cell = [&](uint8_t type, uint8_t kind, int32_t layer, double rest, double k) {
+    offsets.push_back(static_cast<int64_t>(connectivity.size()));
+    types.push_back(type);
+    cell_kind.push_back(kind);
+    cell_layer.push_back(layer);
+    rest_length.push_back(rest);
+    stiffness.push_back(k);
+  };
+  for (int32_t l = 0; l < m.layer_count(); ++l) {
+    const Eigen::MatrixX3i& F = m.layers[l].F;
+    for (Eigen::Index t = 0; t < F.rows(); ++t) {
+      connectivity.insert(connectivity.end(), {F(t, 0), F(t, 1), F(t, 2)});
+      end_cell(kVtkTriangle, kCellKindTriangle, l, 0.0, 0.0);
+    }
+  }
+  const Springs& s = m.springs;
+  for (size_t k = 0; k < s.size(); ++k) {
+    connectivity.insert(connectivity.end(), {s.i[k], s.j[k]});
+    end_cell(kVtkLine, static_cast<uint8_t>(1 + static_cast<int>(s.kind[k])), m.layer_of[s.i[k]],
+             s.rest_length_mm[k], s.stiffness_n_per_m[k]);
+  }
+  const std::vector<uint8_t> source(m.source.begin(), m.source.end());
+
+  write_file_atomically(path, [&](std::ostream& out) {
+    const char* const field = "      ";
+    const char* const piece = "        ";
+    out << "<?xml version=\"1.0\"?>\n"
+           "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+           "header_type=\"UInt64\">\n"
+           "  <UnstructuredGrid>\n"
+           "    <FieldData>\n";
+    write_array(out, field, "lamina_format_version", std::vector<int32_t>{kFormatVersion}, 1, true);
+    write_array(out, field, "ring_locality", std::vector<int32_t>{m.rings.locality}, 1, true);
+    write_array(out, field, "density_kg_per_mm3", std::vector<double>{m.density_kg_per_mm3}, 1,
+                true);
+    write_array(out, field, "layer_first_node", first_node, 1, true);
+    write_array(out, field, "layer_node_count", node_count, 1, true);
+    write_array(out, field, "layer_face_count", face_count, 1, true);
+    write_array(out, field, "source", source, 1, true);
+    out << "    </FieldData>\n"
+        << "    <Piece NumberOfPoints=\"" << n << "\" NumberOfCells=\"" << types.size() << "\">\n"
+        << "      <PointData>\n";
+    write_array(out, piece, "layer", m.layer_of);
+    write_array(out, piece, "mass_kg", m.mass_kg);
+    write_array(out, piece, "fixed", m.fixed);
+    out << "      </PointData>\n      <CellData>\n";
+    write_array(out, piece, "cell_kind", cell_kind);
+    write_array(out, piece, "layer", cell_layer);
+    write_array(out, piece, "rest_length_mm", rest_length);
+    write_array(out, piece, "stiffness_n_per_m", stiffness);
+    out << "      </CellData>\n      <Points>\n";
+    write_array(out, piece, "Points", points, 3);
+    out << "      </Points>\n      <Cells>\n";
+    write_array(out, piece, "connectivity", connectivity);
+    write_array(out, piece, "offsets", offsets);
+    write_array(out, piece, "types", types);
+    out << "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
+  });
+}
+
+Model load_model(const std::string& path) {
+  const std::string text = read_text(path);
+  const VtuFile f = scan_vtu(path, text);
+  const auto bad = [&](const std::string& problem) { return invalid_input(path, problem); };
+
+  // The version decides how to read everything else, so it is checked first.
+  if (!f.arrays.contains("FieldData/lamina_format_version"))
+    throw bad("not a Lamina model (no lamina_format_version field)");
+  const int32_t version = read_values<int32_t>(path, f, "FieldData/lamina_format_version", 1)[0];
+  if (version != kFormatVersion)
+    throw bad("unsupported Lamina model format version " + std::to_string(version) +
+              " (this build reads version " + std::to_string(kFormatVersion) + ")");
+  if (f.type != "UnstructuredGrid" || f.pieces != 1)
+    throw bad("expected a VTK UnstructuredGrid with exactly one Piece");
+  const auto piece_count = [&](const char* name, int64_t max) {
+    const auto it = f.piece.find(name);
+    const int64_t count = parse_integer(path, it == f.piece.end() ? "" : it->second,
+                                        std::string("Piece attribute ") + name);
+    if (count < 0 || count > max) throw bad(std::string(name) + " is out of range");
+    return count;
+  };
+  const int64_t n = piece_count("NumberOfPoints", std::numeric_limits<int32_t>::max());
+  const int64_t cells = piece_count("NumberOfCells", int64_t{1} << 60);
+
+  Model m;
+  m.rings.locality = read_values<int32_t>(path, f, "FieldData/ring_locality", 1)[0];
+  if (m.rings.locality < 0) throw bad("ring_locality must be >= 0");
+  m.density_kg_per_mm3 = read_values<double>(path, f, "FieldData/density_kg_per_mm3", 1)[0];
+  if (!positive_finite(m.density_kg_per_mm3))
+    throw bad("density_kg_per_mm3 is " + str(m.density_kg_per_mm3) + ", must be finite and > 0");
+  const auto source =
+      read_values<uint8_t>(path, f, "FieldData/source", tuple_count(path, f, "FieldData/source"));
+  m.source.assign(source.begin(), source.end());
+
+  // Layer k owns the nodes [first_node[k], first_node[k] + node_count[k]); together the layers
+  // must tile [0, n) in order.
+  const int64_t layer_count = tuple_count(path, f, "FieldData/layer_first_node");
+  const auto first = read_values<int32_t>(path, f, "FieldData/layer_first_node", layer_count);
+  const auto count = read_values<int32_t>(path, f, "FieldData/layer_node_count", layer_count);
+  const auto faces = read_values<int32_t>(path, f, "FieldData/layer_face_count", layer_count);
+  int64_t next_node = 0, triangles = 0;
+  m.layers.resize(layer_count);
+  for (int64_t l = 0; l < layer_count; ++l) {
+    if (first[l] != next_node || count[l] < 0 || faces[l] < 0)
+      throw bad("layer " + std::to_string(l) + " starts at node " + std::to_string(first[l]) +
+                " with " + std::to_string(count[l]) + " nodes and " + std::to_string(faces[l]) +
+                " faces; expected it to start at node " + std::to_string(next_node));
+    m.layers[l].first_node = first[l];
+    m.layers[l].node_count = count[l];
+    next_node += count[l];
+    triangles += faces[l];
+  }
+  if (next_node != n)
+    throw bad("the layers hold " + std::to_string(next_node) + " nodes but the file has " +
+              std::to_string(n) + " points");
+  if (triangles > cells)
+    throw bad("layer_face_count adds up to " + std::to_string(triangles) +
+              " triangles but the file has only " + std::to_string(cells) + " cells");
+
+  const auto points = read_values<double>(path, f, "Points/Points", 3 * n, 3);
+  m.layer_of = read_values<int32_t>(path, f, "PointData/layer", n);
+  m.mass_kg = read_values<double>(path, f, "PointData/mass_kg", n);
+  m.fixed = read_values<uint8_t>(path, f, "PointData/fixed", n);
+  m.X.resize(n, 3);
+  for (int32_t v = 0, l = 0; v < n; ++v) {
+    while (v >= first[l] + count[l]) ++l;
+    const std::string node = "node " + std::to_string(v) + ": ";
+    for (int c = 0; c < 3; ++c) m.X(v, c) = points[3 * static_cast<size_t>(v) + c];
+    if (!m.X.row(v).allFinite()) throw bad(node + "position is not finite");
+    if (m.layer_of[v] != l)
+      throw bad(node + "layer is " + std::to_string(m.layer_of[v]) +
+                " but the layer ranges put it in layer " + std::to_string(l));
+    if (!positive_finite(m.mass_kg[v]))
+      throw bad(node + "mass_kg is " + str(m.mass_kg[v]) + ", must be finite and > 0");
+    if (m.fixed[v] > 1) throw bad(node + "fixed must be 0 or 1");
+  }
+
+  const int64_t spring_count = cells - triangles;
+  const auto connectivity =
+      read_values<int64_t>(path, f, "Cells/connectivity", 3 * triangles + 2 * spring_count);
+  const auto offsets = read_values<int64_t>(path, f, "Cells/offsets", cells);
+  const auto types = read_values<uint8_t>(path, f, "Cells/types", cells);
+  const auto kinds = read_values<uint8_t>(path, f, "CellData/cell_kind", cells);
+  const auto cell_layer = read_values<int32_t>(path, f, "CellData/layer", cells);
+  const auto rest = read_values<double>(path, f, "CellData/rest_length_mm", cells);
+  const auto stiffness = read_values<double>(path, f, "CellData/stiffness_n_per_m", cells);
+
+  // Walks the cells in order, checking each one's type, kind and offset; returns its first node.
+  int64_t cell = 0, at = 0;
+  const auto next_cell = [&](bool spring, int64_t size, const std::string& expected) {
+    const int type = types[cell], kind = kinds[cell];
+    if (spring ? (type != kVtkLine || kind < 1 || kind > 2)
+               : (type != kVtkTriangle || kind != kCellKindTriangle))
+      throw bad("cell " + std::to_string(cell) + ": VTK cell type " + std::to_string(type) +
+                " with cell_kind " + std::to_string(kind) + " does not agree with the expected " +
+                expected);
+    if (offsets[cell] != at + size)
+      throw bad("cell " + std::to_string(cell) + ": offset " + std::to_string(offsets[cell]) +
+                ", expected " + std::to_string(at + size));
+    at += size;
+    return connectivity.data() + (at - size);
+  };
+  for (int32_t l = 0; l < layer_count; ++l) {
+    ModelLayer& layer = m.layers[l];
+    layer.F.resize(faces[l], 3);
+    const std::string expected = "triangle of layer " + std::to_string(l) + " (type 5, kind 0)";
+    for (int32_t t = 0; t < faces[l]; ++t, ++cell) {
+      const int64_t* corner = next_cell(false, 3, expected);
+      for (int c = 0; c < 3; ++c) {
+        if (corner[c] < layer.first_node || corner[c] >= layer.first_node + layer.node_count)
+          throw bad("triangle " + std::to_string(t) + " of layer " + std::to_string(l) +
+                    " uses node " + std::to_string(corner[c]) + ", outside the layer's nodes [" +
+                    std::to_string(layer.first_node) + ", " +
+                    std::to_string(layer.first_node + layer.node_count) + ")");
+        layer.F(t, c) = static_cast<int>(corner[c]);
+      }
+      if (cell_layer[cell] != l)
+        throw bad("cell " + std::to_string(cell) + ": layer is " +
+                  std::to_string(cell_layer[cell]) + ", expected " + std::to_string(l));
+    }
+  }
+
+  Springs& s = m.springs;
+  for (int64_t k = 0; k < spring_count; ++k, ++cell) {
+    const int64_t* node = next_cell(true, 2, "spring (type 3, kind 1 or 2)");
+    const std::string spring = "spring " + std::to_string(k) + ": ";
+    if (node[0] < 0 || node[0] >= node[1] || node[1] >= n)
+      throw bad(spring + "joins nodes " + std::to_string(node[0]) + " and " +
+                std::to_string(node[1]) + "; expected 0 <= i < j < " + std::to_string(n));
+    const auto i = static_cast<int32_t>(node[0]), j = static_cast<int32_t>(node[1]);
+    const auto kind = static_cast<SpringKind>(kinds[cell] - 1);
+    if ((kind == SpringKind::kIntraLayer) != (m.layer_of[i] == m.layer_of[j]))
+      throw bad(spring + (kind == SpringKind::kIntraLayer ? "intra" : "inter") +
+                "-layer spring joins nodes of layers " + std::to_string(m.layer_of[i]) + " and " +
+                std::to_string(m.layer_of[j]));
+    if (cell_layer[cell] != m.layer_of[i])
+      throw bad(spring + "layer is " + std::to_string(cell_layer[cell]) + ", but node " +
+                std::to_string(i) + " is in layer " + std::to_string(m.layer_of[i]));
+    if (!positive_finite(rest[cell]))
+      throw bad(spring + "rest_length_mm is " + str(rest[cell]) + ", must be finite and > 0");
+    if (!positive_finite(stiffness[cell]))
+      throw bad(spring + "stiffness_n_per_m is " + str(stiffness[cell]) +
+                ", must be finite and > 0");
+    s.i.push_back(i);
+    s.j.push_back(j);
+    s.rest_length_mm.push_back(rest[cell]);
+    s.stiffness_n_per_m.push_back(stiffness[cell]);
+    s.kind.push_back(kind);
+  }
+  return m;
+}
+
+}  // namespace lamina::io

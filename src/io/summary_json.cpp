@@ -1,0 +1,103 @@
+#include "lamina/io/summary_json.h"
+
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+
+namespace lamina::io {
+
+std::string summary_json(const model::ModelSummary& s, const model::BuildReport* b,
+                         const std::string& input) {
+  using nlohmann::json;
+  json j;
+  j["input"] = input;
+  if (b) j["build_seconds"] = b->build_seconds;
+  j["nodes"] = s.nodes;
+  j["springs"] = {{"total", s.springs},
+                  {"intra_layer", s.intra_layer_springs},
+                  {"inter_layer", s.inter_layer_springs},
+                  {"connected_components", s.spring_components},
+                  {"min_rest_length_mm", s.min_rest_length_mm},
+                  {"max_rest_length_mm", s.max_rest_length_mm}};
+  j["total_mass_kg"] = s.total_mass_kg;
+  j["rings"] = {{"locality", s.locality}, {"entries", s.ring_entries}};
+  json layers = json::array();
+  for (const auto& l : s.layers) {
+    const auto& q = l.quality;
+    json o = {{"index", l.index},
+              {"vertices", q.vertices},
+              {"faces", q.faces},
+              {"closed", q.closed},
+              {"manifold", q.manifold},
+              {"outward", q.outward},
+              {"components", q.components},
+              {"volume_ml", q.volume_mm3 / 1000.0},
+              {"area_mm2", q.area_mm2},
+              {"mean_edge_mm", q.mean_edge_mm},
+              {"min_edge_mm", q.min_edge_mm},
+              {"max_edge_mm", q.max_edge_mm},
+              {"min_angle_deg", q.min_angle_deg},
+              {"degenerate_faces", q.degenerate_faces},
+              {"self_intersecting", l.self_intersecting},
+              {"nested", l.nested},
+              {"min_gap_to_outer_mm", l.min_gap_mm}};
+    if (b && static_cast<size_t>(l.index) < b->layers.size()) {
+      o["depth_mm"] = b->layers[l.index].depth_mm;
+      o["dropped_components"] = b->layers[l.index].dropped_components;
+    }
+    layers.push_back(o);
+  }
+  j["layers"] = layers;
+  if (b) {
+    const auto& m = b->mask;
+    j["mask"] = {{"label", m.label},
+                 {"selected_voxels", m.selected_voxels},
+                 {"components", m.components},
+                 {"dropped_voxels", m.dropped_voxels},
+                 {"cavity_voxels_filled", m.cavity_voxels_filled},
+                 {"touches_scan_border", m.touches_scan_border},
+                 {"volume_ml", b->mask_volume_ml}};
+    j["skin_volume_error_pct"] = b->skin_volume_error_pct;
+    j["layers_requested"] = b->layers_requested;
+    j["working_spacing_mm"] = b->working_spacing_mm;
+    j["target_edge_mm"] = b->target_edge_mm;
+    j["max_depth_mm"] = b->max_depth_mm;
+    json stages = json::object();
+    for (const auto& [name, sec] : b->stage_seconds) stages[name] = sec;
+    j["stage_seconds"] = stages;
+    j["warnings"] = b->warnings;
+  }
+  return j.dump(2);
+}
+
+std::string summary_table(const model::ModelSummary& s, const model::BuildReport* b,
+                          const std::string& input) {
+  std::string out = fmt::format("Lamina model of {}\n", input);
+  if (b)
+    out += fmt::format("  built in {:.2f} s; mask {:.1f} mL ({} voxels{}{}); skin volume error {:+.2f}%\n",
+                       b->build_seconds, b->mask_volume_ml, b->mask.kept_voxels,
+                       b->mask.components > 1 ? fmt::format(", dropped {} voxels in {} other components",
+                                                            b->mask.dropped_voxels, b->mask.components - 1)
+                                              : "",
+                       b->mask.touches_scan_border ? ", touches the scan edge" : "",
+                       b->skin_volume_error_pct);
+  out += fmt::format("  {} nodes, {} springs ({} in layers, {} between layers), {} connected body, mass {:.3f} kg\n",
+                     s.nodes, s.springs, s.intra_layer_springs, s.inter_layer_springs,
+                     s.spring_components == 1 ? "one" : fmt::format("{}-part", s.spring_components),
+                     s.total_mass_kg);
+  out += fmt::format("  rings 0..{} per node: {} entries\n", s.locality - 1, s.ring_entries);
+  out += "  layer  depth_mm  vertices  faces  volume_ml  mean_edge_mm  min_angle  parts  closed  manifold  nested\n";
+  for (const auto& l : s.layers) {
+    const auto& q = l.quality;
+    const double depth = b && static_cast<size_t>(l.index) < b->layers.size() ? b->layers[l.index].depth_mm : 0.0;
+    out += fmt::format("  {:>5}  {:>8.1f}  {:>8}  {:>5}  {:>9.1f}  {:>12.2f}  {:>9.1f}  {:>5}  {:>6}  {:>8}  {:>6}\n",
+                       l.index, depth, q.vertices, q.faces, q.volume_mm3 / 1000.0, q.mean_edge_mm,
+                       q.min_angle_deg, q.components, q.closed ? "yes" : "NO",
+                       q.manifold ? "yes" : "NO", l.nested ? "yes" : "NO");
+  }
+  if (b)
+    for (const auto& w : b->warnings) out += "  note: " + w + "\n";
+  return out;
+}
+
+}  // namespace lamina::io

@@ -1,0 +1,63 @@
+#include "lamina/model/summarize_model.h"
+
+#include <algorithm>
+#include <numeric>
+
+#include "lamina/geometry/remesh.h"
+
+namespace lamina::model {
+
+SurfaceMesh layer_mesh(const Model& model, int32_t layer) {
+  const ModelLayer& l = model.layers.at(static_cast<size_t>(layer));
+  SurfaceMesh m;
+  m.V = model.X.middleRows(l.first_node, l.node_count);
+  m.F = l.F.array() - l.first_node;
+  return m;
+}
+
+ModelSummary summarize_model(const Model& model) {
+  ModelSummary s;
+  s.nodes = model.node_count();
+  s.springs = static_cast<int64_t>(model.springs.size());
+  for (SpringKind k : model.springs.kind)
+    (k == SpringKind::kIntraLayer ? s.intra_layer_springs : s.inter_layer_springs)++;
+  s.total_mass_kg = std::accumulate(model.mass_kg.begin(), model.mass_kg.end(), 0.0);
+  s.locality = model.rings.locality;
+  s.ring_entries = static_cast<int64_t>(model.rings.members.size());
+  if (!model.springs.rest_length_mm.empty()) {
+    const auto [lo, hi] = std::minmax_element(model.springs.rest_length_mm.begin(),
+                                              model.springs.rest_length_mm.end());
+    s.min_rest_length_mm = *lo;
+    s.max_rest_length_mm = *hi;
+  }
+
+  // Connectivity of the spring graph (union-find).
+  std::vector<int32_t> parent(static_cast<size_t>(s.nodes));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (size_t e = 0; e < model.springs.size(); ++e)
+    parent[find(model.springs.i[e])] = find(model.springs.j[e]);
+  for (int32_t v = 0; v < s.nodes; ++v) s.spring_components += find(v) == v;
+
+  SurfaceMesh outer;
+  for (int32_t k = 0; k < model.layer_count(); ++k) {
+    LayerSummary ls;
+    ls.index = k;
+    SurfaceMesh mesh = layer_mesh(model, k);
+    ls.quality = geometry::measure_mesh(mesh);
+    ls.self_intersecting = geometry::self_intersects(mesh);
+    if (k > 0) {
+      const geometry::Nesting n = geometry::check_nesting(outer, mesh);
+      ls.nested = n.nested();
+      ls.min_gap_mm = n.min_gap_mm;
+    }
+    s.layers.push_back(ls);
+    outer = std::move(mesh);
+  }
+  return s;
+}
+
+}  // namespace lamina::model

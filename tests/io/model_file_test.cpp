@@ -1,0 +1,276 @@
+#include "lamina/io/model_file.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <bit>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "lamina/core/error.h"
+
+namespace lamina::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh directory under the system temp dir, removed with everything in it.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    static std::atomic<int> counter{0};
+    path = fs::temp_directory_path() / ("lamina_model_file_test_" + std::to_string(::getpid()) +
+                                        "_" + std::to_string(counter++));
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string file(const std::string& name) const { return (path / name).string(); }
+};
+
+// Two layers: an octahedron (nodes 0-5) around a tetrahedron (nodes 6-9). The coordinates include
+// values with long or awkward decimal forms (1/3, 0.1 + 0.2, -0.0, a subnormal) that only survive
+// a text round trip if every digit needed is printed.
+Model make_test_model() {
+  Model m;
+  const double third = 1.0 / 3.0;
+  m.X.resize(10, 3);
+  m.X << 2, 0, 0, -2, 0, 0, 0, 2 + third, 0, 0, -2, 0, 0.1 + 0.2, 0, 2, -0.0, 1e-300, -2,  //
+      0.5, 0.5, 0.5, 0.5, -0.5, -0.5, -0.5, 0.5, -0.5, std::numeric_limits<double>::denorm_min(),
+      std::nextafter(-0.5, 0.0), 0.5;
+  m.layers.resize(2);
+  m.layers[0] = {0, 6, {}};
+  m.layers[0].F.resize(8, 3);
+  m.layers[0].F << 0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5;
+  m.layers[1] = {6, 4, {}};
+  m.layers[1].F.resize(4, 3);
+  m.layers[1].F << 6, 7, 8, 6, 9, 7, 6, 8, 9, 7, 9, 8;
+  m.layer_of = {0, 0, 0, 0, 0, 0, 1, 1, 1, 1};
+  for (int v = 0; v < 10; ++v) m.mass_kg.push_back(1.06e-6 * (1.0 + v / 7.0));
+  m.fixed = {0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  const auto add_spring = [&](int32_t i, int32_t j, double k, SpringKind kind) {
+    m.springs.i.push_back(i);
+    m.springs.j.push_back(j);
+    m.springs.rest_length_mm.push_back((m.X.row(i) - m.X.row(j)).norm());
+    m.springs.stiffness_n_per_m.push_back(k);
+    m.springs.kind.push_back(kind);
+  };
+  add_spring(0, 2, 150.0 / 7.0, SpringKind::kIntraLayer);
+  add_spring(2, 4, 0.1, SpringKind::kIntraLayer);
+  add_spring(6, 7, 1e5, SpringKind::kIntraLayer);
+  add_spring(8, 9, third, SpringKind::kIntraLayer);
+  add_spring(0, 6, 42.0, SpringKind::kInterLayer);
+  add_spring(3, 9, 2.5e-3, SpringKind::kInterLayer);
+  m.rings.locality = 3;
+  m.rings.offsets = {0, 1};  // must not be saved
+  m.rings.members = {0};
+  m.density_kg_per_mm3 = 1.06e-6;
+  m.source = "test";
+  return m;
+}
+
+uint64_t bits(double x) {
+  return std::bit_cast<uint64_t>(x);
+}
+
+void expect_bitwise_equal(const std::vector<double>& a, const std::vector<double>& b,
+                          const char* what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  for (size_t k = 0; k < a.size(); ++k)
+    EXPECT_EQ(bits(a[k]), bits(b[k])) << what << "[" << k << "]";
+}
+
+void expect_same_model(const Model& a, const Model& b) {
+  ASSERT_EQ(a.X.rows(), b.X.rows());
+  for (Eigen::Index v = 0; v < a.X.rows(); ++v)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(bits(a.X(v, c)), bits(b.X(v, c))) << v << "," << c;
+  expect_bitwise_equal(a.mass_kg, b.mass_kg, "mass_kg");
+  EXPECT_EQ(a.layer_of, b.layer_of);
+  EXPECT_EQ(a.fixed, b.fixed);
+  ASSERT_EQ(a.layer_count(), b.layer_count());
+  for (int32_t l = 0; l < a.layer_count(); ++l) {
+    EXPECT_EQ(a.layers[l].first_node, b.layers[l].first_node);
+    EXPECT_EQ(a.layers[l].node_count, b.layers[l].node_count);
+    EXPECT_EQ(a.layers[l].F, b.layers[l].F) << "layer " << l;
+  }
+  EXPECT_EQ(a.springs.i, b.springs.i);
+  EXPECT_EQ(a.springs.j, b.springs.j);
+  expect_bitwise_equal(a.springs.rest_length_mm, b.springs.rest_length_mm, "rest_length_mm");
+  expect_bitwise_equal(a.springs.stiffness_n_per_m, b.springs.stiffness_n_per_m, "stiffness");
+  EXPECT_EQ(a.springs.kind, b.springs.kind);
+  EXPECT_EQ(bits(a.density_kg_per_mm3), bits(b.density_kg_per_mm3));
+  EXPECT_EQ(a.source, b.source);
+  EXPECT_EQ(a.rings.locality, b.rings.locality);
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// Replaces the values of the array named `name` with `values`.
+std::string replace_values(std::string text, const std::string& name, const std::string& values) {
+  const size_t at = text.find("Name=\"" + name + "\"");
+  EXPECT_NE(at, std::string::npos) << name;
+  const size_t begin = text.find('>', at) + 1, end = text.find('<', begin);
+  return text.replace(begin, end - begin, values);
+}
+
+// Runs load_model(path) and checks that it fails the way the API promises: kInvalidInput, one
+// line, naming the file, and mentioning `expected`.
+void expect_load_error(const std::string& path, const std::string& expected) {
+  try {
+    load_model(path);
+    ADD_FAILURE() << "load_model accepted " << path << " (expected: " << expected << ")";
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(e.kind(), ErrorKind::kInvalidInput) << message;
+    EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    EXPECT_NE(message.find(expected), std::string::npos) << message;
+  }
+}
+
+TEST(ModelFile, RoundTripIsBitExact) {
+  const TempDir dir;
+  const Model model = make_test_model();
+  const std::string path = dir.file("model.vtu");
+  save_model(model, path);
+  const Model loaded = load_model(path);
+  expect_same_model(model, loaded);
+  EXPECT_TRUE(loaded.rings.offsets.empty());
+  EXPECT_TRUE(loaded.rings.members.empty());
+}
+
+TEST(ModelFile, SourceIsStoredAsBytes) {
+  const TempDir dir;
+  for (const std::string source : {"", "Leber <&> \"\xc3\xbc\"\nline 2"}) {
+    Model model = make_test_model();
+    model.source = source;
+    save_model(model, dir.file("model.vtu"));
+    EXPECT_EQ(load_model(dir.file("model.vtu")).source, source);
+  }
+}
+
+TEST(ModelFile, FileIsVtkUnstructuredGrid) {
+  const TempDir dir;
+  save_model(make_test_model(), dir.file("model.vtu"));
+  const std::string text = read_text(dir.file("model.vtu"));
+  EXPECT_NE(text.find("<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
+                      "byte_order=\"LittleEndian\" header_type=\"UInt64\">"),
+            std::string::npos);
+  // 12 triangles and 6 springs.
+  EXPECT_NE(text.find("<Piece NumberOfPoints=\"10\" NumberOfCells=\"18\">"), std::string::npos);
+  EXPECT_EQ(fs::directory_iterator(dir.path)->path().filename(), "model.vtu");  // no temp left
+}
+
+TEST(ModelFile, TruncatedFileThrows) {
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  save_model(make_test_model(), path);
+  const std::string text = read_text(path);
+  write_text(path, text.substr(0, text.size() / 2));
+  expect_load_error(path, "truncated");
+}
+
+TEST(ModelFile, WrongVersionThrows) {
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  save_model(make_test_model(), path);
+  write_text(path, replace_values(read_text(path), "lamina_format_version", "2"));
+  expect_load_error(path, "version 2 (this build reads version 1)");
+}
+
+TEST(ModelFile, FileWithoutVersionIsNotALaminaModel) {
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  save_model(make_test_model(), path);
+  std::string text = read_text(path);
+  text.replace(text.find("lamina_format_version"), 6, "other_");
+  write_text(path, text);
+  expect_load_error(path, "not a Lamina model");
+}
+
+TEST(ModelFile, MissingFileThrows) {
+  const TempDir dir;
+  expect_load_error(dir.file("absent.vtu"), "not found");
+}
+
+TEST(ModelFile, WrongNumberOfValuesNamesTheArray) {
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  save_model(make_test_model(), path);
+  const std::string text = read_text(path);
+  write_text(path, replace_values(text, "mass_kg", "1 2 3"));
+  expect_load_error(path, "mass_kg' has 3 values, expected 10");
+  std::string too_many;
+  for (int k = 0; k < 19; ++k) too_many += "1 ";
+  write_text(path, replace_values(text, "stiffness_n_per_m", too_many));
+  expect_load_error(path, "stiffness_n_per_m' has 19 values, expected 18");
+  write_text(path, replace_values(text, "connectivity", "0 1 x"));
+  expect_load_error(path, "connectivity");
+}
+
+TEST(ModelFile, SpringCellTypeMustAgreeWithKind) {
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  save_model(make_test_model(), path);
+  // The 18 cells are 12 triangles then 6 lines; make the first spring claim to be a triangle.
+  std::string kinds(12 * 2, ' ');
+  for (int c = 0; c < 12; ++c) kinds[2 * c] = '0';
+  write_text(path, replace_values(read_text(path), "cell_kind", kinds + "0 1 1 1 2 2"));
+  expect_load_error(path, "cell 12: VTK cell type 3 with cell_kind 0 does not agree");
+}
+
+// Models that save_model() writes as they are but load_model() must reject.
+TEST(ModelFile, InvalidModelsAreRejectedOnLoad) {
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  const std::vector<std::pair<std::function<void(Model&)>, std::string>> cases = {
+      {[](Model& m) { m.layers[1].F(0, 0) = 99; }, "uses node 99, outside the layer's nodes"},
+      {[](Model& m) { m.layers[1].F(0, 0) = 0; }, "uses node 0, outside the layer's nodes"},
+      {[](Model& m) { m.springs.j[0] = 10; }, "spring 0: joins nodes 0 and 10"},
+      {[](Model& m) { m.springs.kind[4] = SpringKind::kIntraLayer; },
+       "spring 4: intra-layer spring joins nodes of layers 0 and 1"},
+      {[](Model& m) { m.springs.stiffness_n_per_m[1] = -1.0; }, "stiffness_n_per_m is -1"},
+      {[](Model& m) { m.springs.rest_length_mm[2] = 0.0; }, "rest_length_mm is 0"},
+      {[](Model& m) { m.springs.rest_length_mm[3] = std::nan(""); }, "rest_length_mm is nan"},
+      {[](Model& m) { m.mass_kg[5] = 0.0; }, "node 5: mass_kg is 0"},
+      {[](Model& m) { m.mass_kg[5] = INFINITY; }, "node 5: mass_kg is inf"},
+      {[](Model& m) { m.layers[1].node_count = 3; }, "the layers hold 9 nodes"},
+      {[](Model& m) { m.layers[1].first_node = 5; }, "layer 1 starts at node 5"},
+  };
+  for (const auto& [corrupt, expected] : cases) {
+    Model model = make_test_model();
+    corrupt(model);
+    save_model(model, path);
+    expect_load_error(path, expected);
+  }
+}
+
+TEST(ModelFile, SaveIntoMissingDirectoryThrowsOutputError) {
+  const TempDir dir;
+  try {
+    save_model(make_test_model(), dir.file("no/such/dir/model.vtu"));
+    ADD_FAILURE() << "save_model wrote into a missing directory";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::kOutput);
+  }
+}
+
+}  // namespace
+}  // namespace lamina::io
