@@ -136,9 +136,14 @@ Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors) {
   return out;
 }
 
-DistanceField signed_distance(const Mask& mask) {
+namespace {
+
+// Exact Euclidean distance (mm) from every voxel OUTSIDE `inside` to the nearest voxel inside
+// it; 0 on inside voxels. ITK's Maurer filter measures to the foreground's contour voxels, and
+// for a background voxel the nearest foreground voxel is always a contour voxel.
+std::vector<float> distance_to_foreground(const GridFrame& frame, const std::vector<uint8_t>& inside) {
   using RealImage = itk::Image<float, 3>;
-  auto input = wrap<uint8_t>(mask.frame, mask.inside.data());
+  auto input = wrap<uint8_t>(frame, inside.data());
   auto maurer = itk::SignedMaurerDistanceMapImageFilter<MaskImage, RealImage>::New();
   maurer->SetInput(input);
   maurer->SetInsideIsPositive(false);
@@ -146,13 +151,32 @@ DistanceField signed_distance(const Mask& mask) {
   maurer->SetSquaredDistance(false);
   maurer->SetBackgroundValue(0);
   update(maurer.GetPointer(), "signed distance map");
-  DistanceField field;
-  field.frame = mask.frame;
+  const float* d = maurer->GetOutput()->GetBufferPointer();
+  std::vector<float> out(inside.size());
+  for (size_t v = 0; v < out.size(); ++v) out[v] = inside[v] ? 0.0f : d[v];
+  return out;
+}
+
+}  // namespace
+
+DistanceField signed_distance(const Mask& mask) {
+  // Two one-sided transforms rather than one signed one: ITK's signed map measures inside
+  // distances to a fully connected contour (voxels that touch the background only diagonally
+  // count), which makes depths up to a voxel too shallow; measuring from each side to the
+  // other side's voxel centres is exact and symmetric.
+  std::vector<uint8_t> outside(mask.inside.size());
+  for (size_t v = 0; v < outside.size(); ++v) outside[v] = mask.inside[v] ? 0 : 1;
+  const std::vector<float> d_out = distance_to_foreground(mask.frame, mask.inside);
+  std::vector<float> d_in = distance_to_foreground(mask.frame, outside);
+  // Voxel centres are half a voxel from the boundary between them: shifting both sides by half
+  // a voxel (geometric mean of the spacing) puts the zero level on the voxel faces.
   const auto& s = mask.frame.spacing_mm;
   const float half = static_cast<float>(0.5 * std::cbrt(s[0] * s[1] * s[2]));
-  const float* d = maurer->GetOutput()->GetBufferPointer();
-  field.phi.resize(mask.inside.size());
-  for (size_t v = 0; v < field.phi.size(); ++v) field.phi[v] = d[v] - half;
+  DistanceField field;
+  field.frame = mask.frame;
+  field.phi = std::move(d_in);
+  for (size_t v = 0; v < field.phi.size(); ++v)
+    field.phi[v] = mask.inside[v] ? -(field.phi[v] - half) : d_out[v] - half;
   return field;
 }
 

@@ -25,21 +25,23 @@ double smooth_min(double a, double b, double k) {
 double smooth_subtract(double a, double b, double k) { return -smooth_min(-a, b, k); }
 
 // Organ bounding box in its own frame (mm), with a little slack; checked by a test.
-constexpr double kLo[3] = {-125.0, -80.0, -75.0};
-constexpr double kHi[3] = {118.0, 88.0, 80.0};
+constexpr double kLo[3] = {-125.0, -66.0, -63.0};
+constexpr double kHi[3] = {120.0, 80.0, 70.0};
 
 }  // namespace
 
 double phantom_implicit(double x, double y, double z) {
   // Right lobe: the bulk of the liver, on the patient's right (x < 0), tall and deep.
-  const double right = ellipsoid(x, y, z, -45, 8, 0, 78, 72, 68);
+  const double right = ellipsoid(x, y, z, -45, 8, 0, 76, 70, 66);
   // Left lobe: thinner and flatter, reaching across the midline, raised towards the heart.
-  const double left = ellipsoid(x, y, z, 48, -12, 18, 68, 48, 30);
+  const double left = ellipsoid(x, y, z, 48, -12, 18, 68, 46, 30);
   double d = smooth_min(right, left, 30.0);
-  // Visceral (inferior) surface: scooped out from below, so the underside is concave.
-  d = smooth_subtract(d, ellipsoid(x, y, z, -10, 30, -92, 105, 85, 55), 14.0);
+  // Visceral (inferior) surface: flattened from below...
+  d = smooth_subtract(d, ellipsoid(x, y, z, -10, 30, -102, 105, 85, 55), 14.0);
+  // ...and hollowed where the kidney and duodenum press into it, so the underside is concave.
+  d = smooth_subtract(d, ellipsoid(x, y, z, -48, 22, -88, 40, 36, 58), 10.0);
   // Gallbladder fossa: a groove on the anterior underside of the right lobe.
-  d = smooth_subtract(d, ellipsoid(x, y, z, -30, -52, -42, 16, 34, 16), 6.0);
+  d = smooth_subtract(d, ellipsoid(x, y, z, -22, -50, -40, 14, 30, 14), 6.0);
   // Diaphragmatic dome stays convex; the posterior surface is flattened against the spine.
   d = smooth_subtract(d, 85.0 - y, 20.0);
   return d;

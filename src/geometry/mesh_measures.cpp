@@ -51,25 +51,23 @@ std::vector<int> face_components(const Eigen::MatrixX3i& F, Eigen::Index vertex_
 std::vector<SurfaceMesh> split_components(const SurfaceMesh& in) {
   int count = 0;
   const std::vector<int> comp = face_components(in.F, in.V.rows(), count);
-  std::vector<std::vector<int>> faces(static_cast<size_t>(count));
-  for (size_t f = 0; f < comp.size(); ++f) faces[comp[f]].push_back(static_cast<int>(f));
+  // Component of each vertex, then local indices in the original vertex order.
+  std::vector<int> vcomp(static_cast<size_t>(in.V.rows()), -1), local(vcomp.size(), -1);
+  for (Eigen::Index f = 0; f < in.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) vcomp[in.F(f, k)] = comp[f];
+  std::vector<Eigen::Index> nv(static_cast<size_t>(count), 0), nf(static_cast<size_t>(count), 0);
+  for (size_t v = 0; v < vcomp.size(); ++v)
+    if (vcomp[v] >= 0) local[v] = static_cast<int>(nv[vcomp[v]]++);
+  for (int c : comp) ++nf[c];
   std::vector<SurfaceMesh> out(static_cast<size_t>(count));
-  std::vector<int> local(static_cast<size_t>(in.V.rows()), -1);
-  for (int c = 0; c < count; ++c) {
-    std::vector<int> verts;
-    for (int f : faces[c])
-      for (int k = 0; k < 3; ++k)
-        if (local[in.F(f, k)] < 0) {
-          local[in.F(f, k)] = static_cast<int>(verts.size());
-          verts.push_back(in.F(f, k));
-        }
-    SurfaceMesh& m = out[c];
-    m.V.resize(static_cast<Eigen::Index>(verts.size()), 3);
-    for (size_t v = 0; v < verts.size(); ++v) m.V.row(static_cast<Eigen::Index>(v)) = in.V.row(verts[v]);
-    m.F.resize(static_cast<Eigen::Index>(faces[c].size()), 3);
-    for (size_t f = 0; f < faces[c].size(); ++f)
-      for (int k = 0; k < 3; ++k) m.F(static_cast<Eigen::Index>(f), k) = local[in.F(faces[c][f], k)];
-    for (int v : verts) local[v] = -1;
+  for (int c = 0; c < count; ++c) out[c].V.resize(nv[c], 3), out[c].F.resize(nf[c], 3);
+  for (size_t v = 0; v < vcomp.size(); ++v)
+    if (vcomp[v] >= 0) out[vcomp[v]].V.row(local[v]) = in.V.row(static_cast<Eigen::Index>(v));
+  std::fill(nf.begin(), nf.end(), 0);
+  for (Eigen::Index f = 0; f < in.F.rows(); ++f) {
+    const int c = comp[f];
+    for (int k = 0; k < 3; ++k) out[c].F(nf[c], k) = local[in.F(f, k)];
+    ++nf[c];
   }
   return out;
 }

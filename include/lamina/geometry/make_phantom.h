@@ -10,8 +10,8 @@
 
 namespace lamina::geometry {
 
-/// Options for make_phantom(). The organ has a fixed adult-liver size (about 1.5 L, roughly
-/// 220 x 150 x 140 mm); spacing and grid size only change how it is sampled.
+/// Options for make_phantom(). The organ has a fixed adult-liver size (about 1.7 L, roughly
+/// 235 x 135 x 125 mm); spacing and grid size only change how it is sampled.
 struct PhantomOptions {
   std::array<double, 3> spacing_mm{1.5, 1.5, 1.5};  ///< voxel size, mm, > 0
   /// Grid size in voxels; {0,0,0} = just large enough for the organ plus a 6 mm margin. A grid

@@ -34,11 +34,11 @@ int64_t fill_cavities(Mask& mask);
 /// @param[in] factors  >= 1 per axis; all ones returns a copy
 Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors);
 
-/// Signed distance (mm) to the mask boundary, negative inside, from ITK's exact Maurer
-/// Euclidean distance transform.
-/// \note ITK measures to the centres of the boundary voxels; we shift by half a voxel (the
-///   geometric mean of the spacing) so that the zero level lies on the voxel faces and the zero
-///   isosurface encloses the mask's voxel volume.
+/// Signed distance (mm) to the mask boundary, negative inside, from two exact Euclidean
+/// distance transforms (ITK's Maurer filter): inside voxels measure to the nearest outside voxel
+/// and vice versa.
+/// \note Both sides are shifted by half a voxel (the geometric mean of the spacing) so that the
+///   zero level lies on the voxel faces and the zero isosurface encloses the mask's voxel volume.
 DistanceField signed_distance(const Mask& mask);
 
 }  // namespace lamina::geometry

@@ -1,0 +1,500 @@
+// End-to-end tests of the `lamina` tool: the real binary (LAMINA_CLI) runs in a fresh folder with
+// stdout and stderr captured in files, so exit codes, messages and leftover files are exactly
+// what a user or a script would see.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "lamina/core/grid.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/io/label_volume_io.h"
+
+namespace lamina {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// A fresh folder per test: `work` is where inputs and outputs go (and must hold nothing
+// unexpected afterwards); the captured streams live beside it, not in it.
+struct TempDir {
+  fs::path root, work;
+  TempDir() {
+    static std::atomic<int> counter{0};
+    root = fs::temp_directory_path() /
+           ("lamina_cli_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    work = root / "work";
+    fs::create_directories(work);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(root, ec);
+  }
+  std::string file(const std::string& name) const { return (work / name).string(); }
+};
+
+struct RunResult {
+  int exit_code = -1;  ///< the process's exit status, or 128 + signal if it was killed
+  std::string out, err;
+};
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_file(const fs::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// Single quotes protect the paths from the shell; our temporary paths never contain one.
+std::string quoted(const std::string& s) { return "'" + s + "'"; }
+
+// Runs `lamina ARGS` with `dir` as working directory.
+RunResult run_lamina(const TempDir& dir, const std::string& args) {
+  const fs::path out = dir.root / "stdout.txt", err = dir.root / "stderr.txt";
+  const std::string command = "cd " + quoted(dir.work.string()) + " && " + quoted(LAMINA_CLI) +
+                              " " + args + " >" + quoted(out.string()) + " 2>" +
+                              quoted(err.string());
+  const int status = std::system(command.c_str());
+  RunResult r;
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.exit_code = 128 + WTERMSIG(status);
+  r.out = read_file(out);
+  r.err = read_file(err);
+  return r;
+}
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+// Files the tool left behind whose names start with "." (its temporary files do).
+std::vector<std::string> hidden_files(const fs::path& dir) {
+  std::vector<std::string> found;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.path().filename().string().starts_with(".")) found.push_back(e.path().string());
+  return found;
+}
+
+// A MetaImage file: a text header, then the raw voxels ("ElementDataFile = LOCAL").
+void write_mha(const fs::path& path, const std::string& header_fields, const std::string& voxels) {
+  write_file(path, "ObjectType = Image\n" + header_fields + "ElementDataFile = LOCAL\n" + voxels);
+}
+
+// An n^3 uint8 volume holding a cube of ones with a one-voxel-thick background border, so
+// that it is a valid mask whatever the header says about spacing.
+std::string cube_voxels(int n) {
+  std::string v(static_cast<size_t>(n * n * n), '\0');
+  for (int k = 1; k < n - 1; ++k)
+    for (int j = 1; j < n - 1; ++j)
+      for (int i = 1; i < n - 1; ++i) v[static_cast<size_t>(i + n * (j + n * k))] = 1;
+  return v;
+}
+
+LabelVolume cube_volume(int64_t n, int32_t label) {
+  LabelVolume v;
+  v.frame.size = {n, n, n};
+  v.frame.spacing_mm = {2.0, 2.0, 2.0};
+  v.labels.assign(static_cast<size_t>(n * n * n), 0);
+  for (int64_t k = 2; k < n - 2; ++k)
+    for (int64_t j = 2; j < n - 2; ++j)
+      for (int64_t i = 2; i < n - 2; ++i) v.labels[v.frame.index(i, j, k)] = label;
+  return v;
+}
+
+// The phantom at 3 mm: a valid input that reads and builds in well under a second.
+std::string write_small_phantom(const TempDir& dir, const std::string& name) {
+  const std::string path = dir.file(name);
+  io::write_label_volume(geometry::make_phantom({.spacing_mm = {3.0, 3.0, 3.0}}), path);
+  return path;
+}
+
+// Builds a small model with the tool itself (quietly), for the `info` and `export` cases.
+std::string build_small_model(const TempDir& dir, const std::string& name) {
+  const std::string input = write_small_phantom(dir, "model_input.nii.gz");
+  const RunResult r = run_lamina(dir, "-q build " + quoted(input) + " -o " + quoted(dir.file(name)) +
+                                          " --skin-vertices 300");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  fs::remove(input);
+  return dir.file(name);
+}
+
+void truncate_to_half(const std::string& path) {
+  const std::string bytes = read_file(path);
+  write_file(path, bytes.substr(0, bytes.size() / 2));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Unusable input: every case must end with exit code 2, one "lamina: error: " line naming the
+// input and the problem, and no output or temporary file.
+
+struct BadCase {
+  std::string name;
+  /// Creates the bad input in the test folder; returns the arguments for `lamina`.
+  std::function<std::string(const TempDir&)> setup;
+  /// Every one of these must appear in the message (case-insensitive): the input's name and
+  /// the word that tells the user what is wrong.
+  std::vector<std::string> message_has;
+  /// Files that must not exist afterwards (relative to the test folder).
+  std::vector<std::string> no_output = {"OUT.vtu"};
+};
+
+std::string build_args(const TempDir& dir, const std::string& input, const std::string& extra = "") {
+  return "build " + quoted(dir.file(input)) + " -o " + quoted(dir.file("OUT.vtu")) +
+         (extra.empty() ? "" : " " + extra);
+}
+
+std::vector<BadCase> bad_cases() {
+  std::vector<BadCase> c;
+  c.push_back({"MissingFile", [](const TempDir& d) { return build_args(d, "absent.nii.gz"); },
+               {"absent.nii.gz", "no such"}});
+  c.push_back({"FolderWithoutDicom",
+               [](const TempDir& d) {
+                 fs::create_directory(d.work / "scans");
+                 write_file(d.work / "scans" / "notes.txt", "not a DICOM slice\n");
+                 return build_args(d, "scans");
+               },
+               {"scans", "dicom"}});
+  c.push_back({"RandomBytesNamedNiiGz",
+               [](const TempDir& d) {
+                 std::mt19937 rng(7);
+                 std::string bytes(4096, '\0');
+                 for (char& b : bytes) b = static_cast<char>(rng());
+                 write_file(d.work / "x.nii.gz", bytes);
+                 return build_args(d, "x.nii.gz");
+               },
+               {"x.nii.gz", "read"}});
+  c.push_back({"GarbageTextNamedNrrd",
+               [](const TempDir& d) {
+                 write_file(d.work / "x.nrrd", "this is not an image\nat all\n");
+                 return build_args(d, "x.nrrd");
+               },
+               {"x.nrrd", "read"}});
+  // Each format is cut differently: raw voxels (.nii), a gzip stream (.nii.gz, and .nrrd and
+  // .mha, which write_label_volume compresses).
+  for (const std::string ext : {"nii", "nii.gz", "nrrd", "mha"}) {
+    std::string tag = ext;
+    std::replace(tag.begin(), tag.end(), '.', '_');
+    c.push_back({"PhantomCutInHalf_" + tag,
+                 [ext](const TempDir& d) {
+                   const std::string path = write_small_phantom(d, "half." + ext);
+                   truncate_to_half(path);
+                   return build_args(d, "half." + ext);
+                 },
+                 {"half." + ext, "truncated"}});
+  }
+  c.push_back({"MetaImageShorterThanItsHeader",
+               [](const TempDir& d) {
+                 write_mha(d.work / "short.mha",
+                           "NDims = 3\nDimSize = 40 40 40\nElementType = MET_UCHAR\n"
+                           "ElementSpacing = 1 1 1\n",
+                           cube_voxels(10));
+                 return build_args(d, "short.mha");
+               },
+               {"short.mha", "truncated"}});
+  c.push_back({"TwoDimensionalImage",
+               [](const TempDir& d) {
+                 write_mha(d.work / "flat.mha",
+                           "NDims = 2\nDimSize = 4 4\nElementType = MET_UCHAR\n"
+                           "ElementSpacing = 1 1\n",
+                           std::string(16, '\1'));
+                 return build_args(d, "flat.mha");
+               },
+               {"flat.mha", "2-D"}});
+  c.push_back({"FourDimensionalImage",
+               [](const TempDir& d) {
+                 write_mha(d.work / "time.mha",
+                           "NDims = 4\nDimSize = 6 6 6 2\nElementType = MET_UCHAR\n"
+                           "ElementSpacing = 1 1 1 1\n",
+                           cube_voxels(6) + cube_voxels(6));
+                 return build_args(d, "time.mha");
+               },
+               {"time.mha", "4-D"}});
+  c.push_back({"EmptyMask",
+               [](const TempDir& d) {
+                 io::write_label_volume(cube_volume(10, 0), d.file("empty.nii.gz"));
+                 return build_args(d, "empty.nii.gz");
+               },
+               {"empty.nii.gz", "empty"}});
+  c.push_back({"AbsentLabel",
+               [](const TempDir& d) {
+                 io::write_label_volume(cube_volume(10, 1), d.file("one_label.nii.gz"));
+                 return build_args(d, "one_label.nii.gz", "--label 7");
+               },
+               // The message must say which labels there are, so the user can pick one.
+               {"one_label.nii.gz", "label 7", "absent", "present: 1"}});
+  c.push_back({"OneVoxelMask",
+               [](const TempDir& d) {
+                 LabelVolume v = cube_volume(9, 0);
+                 v.labels[v.frame.index(4, 4, 4)] = 1;
+                 io::write_label_volume(v, d.file("dot.nii.gz"));
+                 return build_args(d, "dot.nii.gz");
+               },
+               {"dot.nii.gz", "voxel"}});
+  // ITK refuses a zero spacing itself, and turns a negative one into a positive spacing with a
+  // mirrored direction; neither may reach the model as if the header were sound.
+  c.push_back({"ZeroSpacing",
+               [](const TempDir& d) {
+                 write_mha(d.work / "zero.mha",
+                           "NDims = 3\nDimSize = 8 8 8\nElementType = MET_UCHAR\n"
+                           "ElementSpacing = 1 0 1\n",
+                           cube_voxels(8));
+                 return build_args(d, "zero.mha");
+               },
+               {"zero.mha", "spacing"}});
+  c.push_back({"NegativeSpacing",
+               [](const TempDir& d) {
+                 write_mha(d.work / "negative.mha",
+                           "NDims = 3\nDimSize = 8 8 8\nElementType = MET_UCHAR\n"
+                           "ElementSpacing = 1 -1 1\n",
+                           cube_voxels(8));
+                 return build_args(d, "negative.mha");
+               },
+               {"negative.mha", "spacing"}});
+  c.push_back({"ThreeComponentsPerVoxel",
+               [](const TempDir& d) {
+                 const std::string cube = cube_voxels(6);
+                 write_mha(d.work / "rgb.mha",
+                           "NDims = 3\nDimSize = 6 6 6\nElementType = MET_UCHAR\n"
+                           "ElementNumberOfChannels = 3\nElementSpacing = 1 1 1\n",
+                           cube + cube + cube);
+                 return build_args(d, "rgb.mha");
+               },
+               {"rgb.mha", "components"}});
+  // A corrupt header can claim terabytes; the tool must refuse before allocating them.
+  c.push_back({"HeaderClaimsTooManyVoxels",
+               [](const TempDir& d) {
+                 write_mha(d.work / "huge.mha",
+                           "NDims = 3\nDimSize = 100000 100000 100000\nElementType = MET_UCHAR\n"
+                           "ElementSpacing = 1 1 1\n",
+                           cube_voxels(4));
+                 return build_args(d, "huge.mha");
+               },
+               {"huge.mha", "voxels"}});
+  c.push_back({"NotANumberInFloatMask",
+               [](const TempDir& d) {
+                 std::vector<float> v(6 * 6 * 6, 0.0f);
+                 v[100] = std::numeric_limits<float>::quiet_NaN();
+                 write_mha(d.work / "nan.mha",
+                           "NDims = 3\nDimSize = 6 6 6\nElementType = MET_FLOAT\n"
+                           "ElementSpacing = 1 1 1\nBinaryDataByteOrderMSB = False\n",
+                           std::string(reinterpret_cast<const char*>(v.data()), v.size() * 4));
+                 return build_args(d, "nan.mha");
+               },
+               {"nan.mha", "non-finite"}});
+
+  // Bad options, with a valid input so that only the option can be at fault.
+  c.push_back({"ZeroLayers",
+               [](const TempDir& d) {
+                 write_small_phantom(d, "p.nii.gz");
+                 return build_args(d, "p.nii.gz", "--layers 0");
+               },
+               {"--layers", "0"}});
+  c.push_back({"ThreeSkinVertices",
+               [](const TempDir& d) {
+                 write_small_phantom(d, "p.nii.gz");
+                 return build_args(d, "p.nii.gz", "--skin-vertices 3");
+               },
+               {"--skin-vertices", "3"}});
+  c.push_back({"TextOutputExtension",
+               [](const TempDir& d) {
+                 write_small_phantom(d, "p.nii.gz");
+                 return "build " + quoted(d.file("p.nii.gz")) + " -o " + quoted(d.file("OUT.txt"));
+               },
+               {"OUT.txt", ".vtu"},
+               {"OUT.txt", "OUT.vtu"}});
+
+  // `info` and `export`.
+  c.push_back({"InfoOnMissingModel",
+               [](const TempDir& d) { return "info " + quoted(d.file("nowhere.vtu")); },
+               {"nowhere.vtu", "not found"},
+               {}});
+  c.push_back({"InfoOnTruncatedModel",
+               [](const TempDir& d) {
+                 truncate_to_half(build_small_model(d, "cut.vtu"));
+                 return "info " + quoted(d.file("cut.vtu"));
+               },
+               {"cut.vtu", "truncated"},
+               {}});
+  c.push_back({"ExportLayerOutOfRange",
+               [](const TempDir& d) {
+                 build_small_model(d, "m.vtu");
+                 return "export " + quoted(d.file("m.vtu")) + " -o " + quoted(d.file("e.obj")) +
+                        " --layer 2";
+               },
+               {"--layer", "2"},
+               {"e.obj"}});
+  c.push_back({"ExportNegativeLayer",
+               [](const TempDir& d) {
+                 build_small_model(d, "m.vtu");
+                 return "export " + quoted(d.file("m.vtu")) + " -o " + quoted(d.file("e.stl")) +
+                        " --layer -1";
+               },
+               {"--layer", "-1"},
+               {"e.stl"}});
+  return c;
+}
+
+class BadInput : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(BadInput, FailsWithOneLineExitTwoAndNoFiles) {
+  const BadCase& bad = GetParam();
+  TempDir dir;
+  const std::string args = bad.setup(dir);
+  SCOPED_TRACE("lamina " + args);
+  const RunResult r = run_lamina(dir, args);
+
+  EXPECT_EQ(r.exit_code, 2) << "stderr:\n" << r.err;
+  // Exactly one line: a script shows stderr to the user, and progress or library chatter
+  // before the error would bury it.
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "stderr:\n" << r.err;
+  EXPECT_TRUE(r.err.ends_with("\n")) << r.err;
+  EXPECT_TRUE(r.err.starts_with("lamina: error: ")) << r.err;
+  for (const std::string& word : bad.message_has)
+    EXPECT_NE(lower(r.err).find(lower(word)), std::string::npos)
+        << "the message should mention '" << word << "':\n" << r.err;
+
+  for (const std::string& name : bad.no_output)
+    EXPECT_FALSE(fs::exists(dir.work / name)) << name << " was written";
+  EXPECT_EQ(hidden_files(dir.work), std::vector<std::string>{}) << "temporary files left behind";
+}
+
+INSTANTIATE_TEST_SUITE_P(Cli, BadInput, ::testing::ValuesIn(bad_cases()),
+                         [](const auto& info) { return info.param.name; });
+
+// Options are checked before the input is read: with a missing input, the message must still
+// be about the option (a typo must not cost a long read of a large scan first).
+TEST(CliOptions, OptionErrorsComeBeforeReadingTheInput) {
+  TempDir dir;
+  for (const std::string option : {"--layers 0", "--skin-vertices 3", "--locality 0"}) {
+    SCOPED_TRACE(option);
+    const RunResult r = run_lamina(dir, build_args(dir, "absent.nii.gz", option));
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find(option.substr(0, option.find(' '))), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("absent.nii.gz"), std::string::npos) << r.err;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The documented workflow: phantom -> build -> info -> export.
+
+// Counts the lines of an OBJ file that start with `tag` ("v " or "f ").
+int64_t count_obj_lines(const std::string& text, const std::string& tag) {
+  int64_t n = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) n += line.starts_with(tag);
+  return n;
+}
+
+TEST(CliWorkflow, PhantomBuildInfoExport) {
+  TempDir dir;
+  RunResult r = run_lamina(dir, "phantom -o P.nii.gz --spacing 3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(dir.work / "P.nii.gz"));
+
+  r = run_lamina(dir, "build P.nii.gz -o M.vtu --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(dir.work / "M.vtu"));
+  // stdout must be exactly one JSON document (progress and logs go to stderr).
+  json built;
+  ASSERT_NO_THROW(built = json::parse(r.out)) << r.out;
+  EXPECT_EQ(built.at("input"), "P.nii.gz");
+  EXPECT_GT(built.at("build_seconds").get<double>(), 0.0);
+  const int64_t nodes = built.at("nodes");
+  const json& springs = built.at("springs");
+  EXPECT_EQ(springs.at("total").get<int64_t>(),
+            springs.at("intra_layer").get<int64_t>() + springs.at("inter_layer").get<int64_t>());
+  EXPECT_GT(springs.at("inter_layer").get<int64_t>(), 0) << "the layers are not linked";
+  const json& layers = built.at("layers");
+  ASSERT_EQ(layers.size(), 2u) << "default is two layers";
+  int64_t vertices = 0;
+  for (size_t k = 0; k < layers.size(); ++k) {
+    SCOPED_TRACE("layer " + std::to_string(k));
+    const json& l = layers[k];
+    EXPECT_EQ(l.at("index"), k);
+    for (const char* key : {"vertices", "faces", "closed", "manifold", "components", "volume_ml",
+                            "mean_edge_mm", "min_angle_deg"})
+      EXPECT_TRUE(l.contains(key)) << key;
+    EXPECT_TRUE(l.at("closed").get<bool>());
+    EXPECT_TRUE(l.at("manifold").get<bool>());
+    EXPECT_EQ(l.at("components"), 1);
+    // A closed triangle mesh of genus 0 has F = 2V - 4.
+    EXPECT_EQ(l.at("faces").get<int64_t>(), 2 * l.at("vertices").get<int64_t>() - 4);
+    EXPECT_GT(l.at("volume_ml").get<double>(), 0.0);
+    EXPECT_GT(l.at("mean_edge_mm").get<double>(), 0.0);
+    EXPECT_GT(l.at("min_angle_deg").get<double>(), 0.0);
+    vertices += l.at("vertices").get<int64_t>();
+  }
+  EXPECT_EQ(vertices, nodes) << "every node belongs to exactly one layer";
+  EXPECT_LT(layers[1].at("volume_ml").get<double>(), layers[0].at("volume_ml").get<double>());
+
+  // The saved model reads back as the same model.
+  r = run_lamina(dir, "info M.vtu --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json info;
+  ASSERT_NO_THROW(info = json::parse(r.out)) << r.out;
+  EXPECT_EQ(info.at("nodes"), nodes);
+  EXPECT_EQ(info.at("springs").at("total"), springs.at("total"));
+  EXPECT_EQ(info.at("springs").at("intra_layer"), springs.at("intra_layer"));
+  EXPECT_EQ(info.at("springs").at("inter_layer"), springs.at("inter_layer"));
+  ASSERT_EQ(info.at("layers").size(), layers.size());
+  for (size_t k = 0; k < layers.size(); ++k) {
+    EXPECT_EQ(info.at("layers")[k].at("vertices"), layers[k].at("vertices"));
+    EXPECT_EQ(info.at("layers")[k].at("faces"), layers[k].at("faces"));
+  }
+
+  r = run_lamina(dir, "export M.vtu -o skin.obj");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string obj = read_file(dir.work / "skin.obj");
+  EXPECT_EQ(count_obj_lines(obj, "v "), layers[0].at("vertices").get<int64_t>());
+  EXPECT_EQ(count_obj_lines(obj, "f "), layers[0].at("faces").get<int64_t>());
+
+  r = run_lamina(dir, "export M.vtu --layer 1 -o inner.stl");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Binary STL: 80-byte header, uint32 triangle count, 50 bytes per triangle.
+  const std::string stl = read_file(dir.work / "inner.stl");
+  ASSERT_GE(stl.size(), 84u);
+  uint32_t triangles = 0;
+  std::memcpy(&triangles, stl.data() + 80, 4);
+  EXPECT_EQ(triangles, layers[1].at("faces").get<uint32_t>());
+  EXPECT_EQ(stl.size(), 84u + 50u * triangles);
+
+  EXPECT_EQ(hidden_files(dir.work), std::vector<std::string>{}) << "temporary files left behind";
+}
+
+// Without an input the tool builds the built-in phantom, so a fresh machine needs no data.
+TEST(CliWorkflow, BuildWithoutInputUsesThePhantom) {
+  TempDir dir;
+  const RunResult r = run_lamina(dir, "build -o M.vtu --skin-vertices 300 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir.work / "M.vtu"));
+  json built;
+  ASSERT_NO_THROW(built = json::parse(r.out)) << r.out;
+  EXPECT_NE(lower(built.at("input").get<std::string>()).find("phantom"), std::string::npos);
+  EXPECT_GT(built.at("nodes").get<int64_t>(), 300);
+  EXPECT_EQ(hidden_files(dir.work), std::vector<std::string>{});
+}
+
+}  // namespace
+}  // namespace lamina

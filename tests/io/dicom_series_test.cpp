@@ -1,0 +1,165 @@
+// Reading a folder holding one DICOM series. The series is written here with ITK itself, so this
+// translation unit sees ITK's headers (tests/CMakeLists.txt) and, like src/io/itk_image_io.cpp,
+// must include no Eigen and no lamina header that includes Eigen.
+#include <gtest/gtest.h>
+#include <itkGDCMImageIO.h>
+#include <itkImage.h>
+#include <itkImageSeriesWriter.h>
+#include <itkMetaDataObject.h>
+#include <itkNumericSeriesFileNames.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "lamina/core/error.h"
+#include "lamina/core/grid.h"
+#include "lamina/io/label_volume_io.h"
+
+namespace lamina::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    static std::atomic<int> counter{0};
+    path = fs::temp_directory_path() /
+           ("lamina_dicom_series_test_" + std::to_string(::getpid()) + "_" +
+            std::to_string(counter++));
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+using Volume = itk::Image<uint16_t, 3>;
+using Slice = itk::Image<uint16_t, 2>;
+
+// A label image whose voxel value encodes its position (labels up to 2 + 4 + 8 = 14, plus a
+// background), so a reader that sorted slices wrongly or swapped axes returns other labels.
+uint16_t label_at(int64_t i, int64_t j, int64_t k) {
+  return static_cast<uint16_t>((i % 3) + 3 * (j % 2) + 6 * (k % 5));
+}
+
+// Writes `size` as one DICOM series into `dir`, one file per slice along k, with the per-slice
+// geometry and identity tags a scanner would write (as ITK's example
+// Examples/IO/ImageReadDicomSeriesWrite.cxx does).
+void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
+                  const std::array<double, 3>& spacing, const std::array<double, 3>& origin) {
+  auto image = Volume::New();
+  Volume::RegionType region;
+  Volume::SpacingType sp;
+  Volume::PointType org;
+  for (unsigned a = 0; a < 3; ++a) {
+    region.SetSize(a, static_cast<itk::SizeValueType>(size[a]));
+    sp[a] = spacing[a];
+    org[a] = origin[a];
+  }
+  image->SetRegions(region);
+  image->SetSpacing(sp);
+  image->SetOrigin(org);
+  image->Allocate();
+  for (int64_t k = 0; k < size[2]; ++k)
+    for (int64_t j = 0; j < size[1]; ++j)
+      for (int64_t i = 0; i < size[0]; ++i)
+        image->SetPixel({{i, j, k}}, label_at(i, j, k));
+
+  // Fixed UIDs (any digits-and-dots string is valid); all slices share study and series.
+  const std::string study = "1.2.826.0.1.3680043.2.1125.20261121.1";
+  const std::string series = "1.2.826.0.1.3680043.2.1125.20261121.2";
+  const std::string frame_of_reference = "1.2.826.0.1.3680043.2.1125.20261121.3";
+  std::vector<itk::MetaDataDictionary> dicts(static_cast<size_t>(size[2]));
+  std::vector<itk::MetaDataDictionary*> dict_ptrs;
+  for (int64_t k = 0; k < size[2]; ++k) {
+    itk::MetaDataDictionary& d = dicts[static_cast<size_t>(k)];
+    const auto set = [&d](const std::string& tag, const std::string& value) {
+      itk::EncapsulateMetaData<std::string>(d, tag, value);
+    };
+    std::ostringstream position, pixel_spacing, thickness, number, sop;
+    position.precision(17);
+    pixel_spacing.precision(17);
+    thickness.precision(17);
+    position << origin[0] << "\\" << origin[1] << "\\" << origin[2] + spacing[2] * k;
+    pixel_spacing << spacing[1] << "\\" << spacing[0];  // row spacing (along j) first
+    thickness << spacing[2];
+    number << k + 1;
+    sop << series << "." << k + 1;
+    set("0008|0060", "OT");                  // Modality
+    set("0008|0008", "DERIVED\\SECONDARY");  // Image Type
+    set("0028|0004", "MONOCHROME2");  // Photometric Interpretation
+    set("0020|000d", study);                 // Study Instance UID
+    set("0020|000e", series);                // Series Instance UID
+    set("0020|0052", frame_of_reference);    // Frame of Reference UID
+    set("0008|0018", sop.str());             // SOP Instance UID
+    set("0020|0013", number.str());          // Instance Number
+    set("0020|0032", position.str());        // Image Position (Patient)
+    set("0020|0037", "1\\0\\0\\0\\1\\0");    // Image Orientation (Patient)
+    set("0028|0030", pixel_spacing.str());   // Pixel Spacing
+    set("0018|0050", thickness.str());       // Slice Thickness
+    set("0018|0088", thickness.str());       // Spacing Between Slices
+    dict_ptrs.push_back(&d);
+  }
+
+  auto names = itk::NumericSeriesFileNames::New();
+  names->SetSeriesFormat((dir / "slice%03d.dcm").string());
+  names->SetStartIndex(1);
+  names->SetEndIndex(static_cast<itk::SizeValueType>(size[2]));
+  names->SetIncrementIndex(1);
+
+  // An explicit GDCMImageIO, so no IO factory needs registering here.
+  auto dicom = itk::GDCMImageIO::New();
+  dicom->KeepOriginalUIDOn();  // use the UIDs above rather than fresh ones per file
+  auto writer = itk::ImageSeriesWriter<Volume, Slice>::New();
+  writer->SetInput(image);
+  writer->SetImageIO(dicom);
+  writer->SetFileNames(names->GetFileNames());
+  writer->SetMetaDataDictionaryArray(&dict_ptrs);
+  writer->Update();
+}
+
+TEST(DicomSeries, FolderReadsAsOneVolume) {
+  TempDir dir;
+  const std::array<int64_t, 3> size{9, 7, 6};
+  const std::array<double, 3> spacing{0.75, 0.75, 2.5}, origin{-40.0, 12.5, 100.0};
+  ASSERT_NO_THROW(write_series(dir.path, size, spacing, origin));
+  std::fprintf(stderr, "=== written\n");
+
+  const LabelVolume v = read_label_volume(dir.path.string());
+  EXPECT_EQ(v.frame.size, size);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(v.frame.spacing_mm[a], spacing[a], 1e-3) << "spacing " << a;
+    EXPECT_NEAR(v.frame.origin_mm[a], origin[a], 1e-3) << "origin " << a;
+  }
+  const std::array<double, 9> identity{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  for (int n = 0; n < 9; ++n) EXPECT_NEAR(v.frame.direction[n], identity[n], 1e-6) << n;
+  ASSERT_EQ(static_cast<int64_t>(v.labels.size()), v.frame.voxel_count());
+  int64_t wrong = 0;
+  for (int64_t k = 0; k < size[2]; ++k)
+    for (int64_t j = 0; j < size[1]; ++j)
+      for (int64_t i = 0; i < size[0]; ++i) wrong += v.labels[v.frame.index(i, j, k)] != label_at(i, j, k);
+  EXPECT_EQ(wrong, 0) << "voxels whose label differs from the written one";
+}
+
+// A single slice is a 2-D image, which Lamina cannot model.
+TEST(DicomSeries, SingleSliceIsRejected) {
+  TempDir dir;
+  ASSERT_NO_THROW(write_series(dir.path, {9, 7, 1}, {1.0, 1.0, 1.0}, {0.0, 0.0, 0.0}));
+  try {
+    read_label_volume(dir.path.string());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::kInvalidInput);
+    EXPECT_NE(std::string(e.what()).find("2-D"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace lamina::io

@@ -1,0 +1,39 @@
+#pragma once
+// Synthetic label volumes for tests: spheres and boxes on small grids.
+
+#include <cmath>
+
+#include "lamina/core/grid.h"
+
+namespace lamina::test {
+
+/// An all-background volume of n^3 voxels at `spacing` mm.
+inline LabelVolume empty_volume(int64_t n, double spacing = 1.0) {
+  LabelVolume v;
+  v.frame.size = {n, n, n};
+  v.frame.spacing_mm = {spacing, spacing, spacing};
+  v.frame.origin_mm = {-10.0, 5.0, 2.5};
+  v.labels.assign(static_cast<size_t>(n * n * n), 0);
+  v.source = "synthetic";
+  return v;
+}
+
+/// Sets `label` on voxels whose centre is within r mm of c (mm, physical = index*spacing+origin).
+inline void paint_sphere(LabelVolume& v, const std::array<double, 3>& c, double r, int32_t label) {
+  const auto& f = v.frame;
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i) {
+        const auto p = f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+        const double d = std::hypot(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+        if (d <= r) v.labels[f.index(i, j, k)] = label;
+      }
+}
+
+inline int64_t count_label(const LabelVolume& v, int32_t label) {
+  int64_t n = 0;
+  for (int32_t l : v.labels) n += l == label;
+  return n;
+}
+
+}  // namespace lamina::test
