@@ -92,6 +92,27 @@ bool self_intersects(const SurfaceMesh& mesh) {
   return PMP::does_self_intersect(m);
 }
 
+SurfaceDistance surface_distance(const SurfaceMesh& from, const SurfaceMesh& to) {
+  SurfaceDistance d;
+  if (from.V.rows() == 0 || to.F.rows() == 0) return d;
+  const Mesh target = to_cgal(to, /*repair=*/false);
+  using Primitive = CGAL::AABB_face_graph_triangle_primitive<Mesh>;
+  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, Primitive>>;
+  Tree tree(faces(target).first, faces(target).second, target);
+  tree.accelerate_distance_queries();
+  double sum = 0.0, sum2 = 0.0;
+  for (Eigen::Index v = 0; v < from.V.rows(); ++v) {
+    const double dist = std::sqrt(tree.squared_distance(Point(from.V(v, 0), from.V(v, 1), from.V(v, 2))));
+    sum += dist;
+    sum2 += dist * dist;
+    d.max_mm = std::max(d.max_mm, dist);
+  }
+  const double n = static_cast<double>(from.V.rows());
+  d.mean_mm = sum / n;
+  d.rms_mm = std::sqrt(sum2 / n);
+  return d;
+}
+
 Nesting check_nesting(const SurfaceMesh& outer, const SurfaceMesh& inner) {
   Nesting result;
   if (outer.F.rows() == 0 || inner.F.rows() == 0) return result;

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <ostream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -66,7 +67,9 @@ void write_file(const fs::path& path, const std::string& bytes) {
 }
 
 // Single quotes protect the paths from the shell; our temporary paths never contain one.
-std::string quoted(const std::string& s) { return "'" + s + "'"; }
+std::string quoted(const std::string& s) {
+  return "'" + s + "'";
+}
 
 // Runs `lamina ARGS` with `dir` as working directory.
 RunResult run_lamina(const TempDir& dir, const std::string& args) {
@@ -133,8 +136,8 @@ std::string write_small_phantom(const TempDir& dir, const std::string& name) {
 // Builds a small model with the tool itself (quietly), for the `info` and `export` cases.
 std::string build_small_model(const TempDir& dir, const std::string& name) {
   const std::string input = write_small_phantom(dir, "model_input.nii.gz");
-  const RunResult r = run_lamina(dir, "-q build " + quoted(input) + " -o " + quoted(dir.file(name)) +
-                                          " --skin-vertices 300");
+  const RunResult r = run_lamina(
+      dir, "-q build " + quoted(input) + " -o " + quoted(dir.file(name)) + " --skin-vertices 300");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   fs::remove(input);
   return dir.file(name);
@@ -160,14 +163,16 @@ struct BadCase {
   std::vector<std::string> no_output = {"OUT.vtu"};
 };
 
-std::string build_args(const TempDir& dir, const std::string& input, const std::string& extra = "") {
+std::string build_args(const TempDir& dir, const std::string& input,
+                       const std::string& extra = "") {
   return "build " + quoted(dir.file(input)) + " -o " + quoted(dir.file("OUT.vtu")) +
          (extra.empty() ? "" : " " + extra);
 }
 
 std::vector<BadCase> bad_cases() {
   std::vector<BadCase> c;
-  c.push_back({"MissingFile", [](const TempDir& d) { return build_args(d, "absent.nii.gz"); },
+  c.push_back({"MissingFile",
+               [](const TempDir& d) { return build_args(d, "absent.nii.gz"); },
                {"absent.nii.gz", "no such"}});
   c.push_back({"FolderWithoutDicom",
                [](const TempDir& d) {
@@ -356,28 +361,41 @@ std::vector<BadCase> bad_cases() {
   return c;
 }
 
+// gtest prints a failing parameter; the case name is what identifies it.
+void PrintTo(const BadCase& c, std::ostream* os) {
+  *os << c.name;
+}
+
 class BadInput : public ::testing::TestWithParam<BadCase> {};
 
+// All of a case's problems are collected into one failure, so the report shows at a glance
+// everything that is wrong with one run, with its stderr once.
 TEST_P(BadInput, FailsWithOneLineExitTwoAndNoFiles) {
   const BadCase& bad = GetParam();
   TempDir dir;
   const std::string args = bad.setup(dir);
-  SCOPED_TRACE("lamina " + args);
   const RunResult r = run_lamina(dir, args);
 
-  EXPECT_EQ(r.exit_code, 2) << "stderr:\n" << r.err;
+  std::vector<std::string> problems;
+  if (r.exit_code != 2) problems.push_back("exit code " + std::to_string(r.exit_code) + ", not 2");
   // Exactly one line: a script shows stderr to the user, and progress or library chatter
-  // before the error would bury it.
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "stderr:\n" << r.err;
-  EXPECT_TRUE(r.err.ends_with("\n")) << r.err;
-  EXPECT_TRUE(r.err.starts_with("lamina: error: ")) << r.err;
+  // around the error would bury it.
+  const auto lines = std::count(r.err.begin(), r.err.end(), '\n');
+  if (lines != 1 || !r.err.ends_with("\n"))
+    problems.push_back("stderr has " + std::to_string(lines) + " lines, not exactly one");
+  if (r.err.find("lamina: error: ") != 0)
+    problems.push_back("stderr does not start with 'lamina: error: '");
   for (const std::string& word : bad.message_has)
-    EXPECT_NE(lower(r.err).find(lower(word)), std::string::npos)
-        << "the message should mention '" << word << "':\n" << r.err;
-
+    if (lower(r.err).find(lower(word)) == std::string::npos)
+      problems.push_back("the message does not mention '" + word + "'");
   for (const std::string& name : bad.no_output)
-    EXPECT_FALSE(fs::exists(dir.work / name)) << name << " was written";
-  EXPECT_EQ(hidden_files(dir.work), std::vector<std::string>{}) << "temporary files left behind";
+    if (fs::exists(dir.work / name)) problems.push_back(name + " was written");
+  for (const std::string& file : hidden_files(dir.work))
+    problems.push_back("temporary file left behind: " + file);
+
+  std::string report;
+  for (const std::string& p : problems) report += "  - " + p + "\n";
+  EXPECT_TRUE(problems.empty()) << "lamina " << args << "\n" << report << "stderr was:\n" << r.err;
 }
 
 INSTANTIATE_TEST_SUITE_P(Cli, BadInput, ::testing::ValuesIn(bad_cases()),

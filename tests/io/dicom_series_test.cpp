@@ -9,6 +9,7 @@
 #include <itkNumericSeriesFileNames.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
@@ -29,9 +30,8 @@ struct TempDir {
   fs::path path;
   TempDir() {
     static std::atomic<int> counter{0};
-    path = fs::temp_directory_path() /
-           ("lamina_dicom_series_test_" + std::to_string(::getpid()) + "_" +
-            std::to_string(counter++));
+    path = fs::temp_directory_path() / ("lamina_dicom_series_test_" + std::to_string(::getpid()) +
+                                        "_" + std::to_string(counter++));
     fs::create_directories(path);
   }
   ~TempDir() {
@@ -43,17 +43,19 @@ struct TempDir {
 using Volume = itk::Image<uint16_t, 3>;
 using Slice = itk::Image<uint16_t, 2>;
 
-// A label image whose voxel value encodes its position (labels up to 2 + 4 + 8 = 14, plus a
-// background), so a reader that sorted slices wrongly or swapped axes returns other labels.
+// Labels 0..29 that encode the voxel's position, so a reader that sorted the slices wrongly or
+// swapped axes returns other labels.
 uint16_t label_at(int64_t i, int64_t j, int64_t k) {
   return static_cast<uint16_t>((i % 3) + 3 * (j % 2) + 6 * (k % 5));
 }
 
-// Writes `size` as one DICOM series into `dir`, one file per slice along k, with the per-slice
-// geometry and identity tags a scanner would write (as ITK's example
-// Examples/IO/ImageReadDicomSeriesWrite.cxx does).
+// Writes a label volume as one DICOM series into `dir`, one file per slice along k, with the
+// per-slice geometry and identity tags a scanner would write (as ITK's example
+// Examples/IO/ImageReadDicomSeriesWrite.cxx does). Identity direction. With
+// `reverse_file_names`, the first file holds the last slice, as some exporters name them.
 void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
-                  const std::array<double, 3>& spacing, const std::array<double, 3>& origin) {
+                  const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
+                  bool reverse_file_names = false) {
   auto image = Volume::New();
   Volume::RegionType region;
   Volume::SpacingType sp;
@@ -69,8 +71,7 @@ void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
   image->Allocate();
   for (int64_t k = 0; k < size[2]; ++k)
     for (int64_t j = 0; j < size[1]; ++j)
-      for (int64_t i = 0; i < size[0]; ++i)
-        image->SetPixel({{i, j, k}}, label_at(i, j, k));
+      for (int64_t i = 0; i < size[0]; ++i) image->SetPixel({{i, j, k}}, label_at(i, j, k));
 
   // Fixed UIDs (any digits-and-dots string is valid); all slices share study and series.
   const std::string study = "1.2.826.0.1.3680043.2.1125.20261121.1";
@@ -94,17 +95,21 @@ void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
     sop << series << "." << k + 1;
     set("0008|0060", "OT");                  // Modality
     set("0008|0008", "DERIVED\\SECONDARY");  // Image Type
-    set("0028|0004", "MONOCHROME2");  // Photometric Interpretation
-    set("0020|000d", study);                 // Study Instance UID
-    set("0020|000e", series);                // Series Instance UID
-    set("0020|0052", frame_of_reference);    // Frame of Reference UID
-    set("0008|0018", sop.str());             // SOP Instance UID
-    set("0020|0013", number.str());          // Instance Number
-    set("0020|0032", position.str());        // Image Position (Patient)
-    set("0020|0037", "1\\0\\0\\0\\1\\0");    // Image Orientation (Patient)
-    set("0028|0030", pixel_spacing.str());   // Pixel Spacing
-    set("0018|0050", thickness.str());       // Slice Thickness
-    set("0018|0088", thickness.str());       // Spacing Between Slices
+    // SOP Class UID: CT Image Storage. Without it GDCM writes Secondary Capture, which has no
+    // Image Position/Orientation (the series then reads back at origin 0 with 1 mm slices).
+    set("0008|0016", "1.2.840.10008.5.1.4.1.1.2");
+    // Photometric Interpretation; without it GDCM warns on stderr for every slice.
+    set("0028|0004", "MONOCHROME2");
+    set("0020|000d", study);                // Study Instance UID
+    set("0020|000e", series);               // Series Instance UID
+    set("0020|0052", frame_of_reference);   // Frame of Reference UID
+    set("0008|0018", sop.str());            // SOP Instance UID
+    set("0020|0013", number.str());         // Instance Number
+    set("0020|0032", position.str());       // Image Position (Patient)
+    set("0020|0037", "1\\0\\0\\0\\1\\0");   // Image Orientation (Patient)
+    set("0028|0030", pixel_spacing.str());  // Pixel Spacing
+    set("0018|0050", thickness.str());      // Slice Thickness
+    set("0018|0088", thickness.str());      // Spacing Between Slices
     dict_ptrs.push_back(&d);
   }
 
@@ -120,17 +125,21 @@ void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
   auto writer = itk::ImageSeriesWriter<Volume, Slice>::New();
   writer->SetInput(image);
   writer->SetImageIO(dicom);
-  writer->SetFileNames(names->GetFileNames());
+  std::vector<std::string> files = names->GetFileNames();
+  if (reverse_file_names) std::reverse(files.begin(), files.end());
+  writer->SetFileNames(files);
   writer->SetMetaDataDictionaryArray(&dict_ptrs);
   writer->Update();
 }
 
-TEST(DicomSeries, FolderReadsAsOneVolume) {
+class DicomSeries : public ::testing::TestWithParam<bool> {};
+
+// Slices are ordered by their position in space, not by file name.
+TEST_P(DicomSeries, FolderReadsAsOneVolume) {
   TempDir dir;
   const std::array<int64_t, 3> size{9, 7, 6};
   const std::array<double, 3> spacing{0.75, 0.75, 2.5}, origin{-40.0, 12.5, 100.0};
-  ASSERT_NO_THROW(write_series(dir.path, size, spacing, origin));
-  std::fprintf(stderr, "=== written\n");
+  ASSERT_NO_THROW(write_series(dir.path, size, spacing, origin, GetParam()));
 
   const LabelVolume v = read_label_volume(dir.path.string());
   EXPECT_EQ(v.frame.size, size);
@@ -144,12 +153,17 @@ TEST(DicomSeries, FolderReadsAsOneVolume) {
   int64_t wrong = 0;
   for (int64_t k = 0; k < size[2]; ++k)
     for (int64_t j = 0; j < size[1]; ++j)
-      for (int64_t i = 0; i < size[0]; ++i) wrong += v.labels[v.frame.index(i, j, k)] != label_at(i, j, k);
+      for (int64_t i = 0; i < size[0]; ++i)
+        wrong += v.labels[v.frame.index(i, j, k)] != label_at(i, j, k);
   EXPECT_EQ(wrong, 0) << "voxels whose label differs from the written one";
 }
 
+INSTANTIATE_TEST_SUITE_P(FileNames, DicomSeries, ::testing::Bool(), [](const auto& info) {
+  return std::string(info.param ? "ReversedFileNames" : "FileNamesInSliceOrder");
+});
+
 // A single slice is a 2-D image, which Lamina cannot model.
-TEST(DicomSeries, SingleSliceIsRejected) {
+TEST(DicomSingleSlice, IsRejectedAsTwoDimensional) {
   TempDir dir;
   ASSERT_NO_THROW(write_series(dir.path, {9, 7, 1}, {1.0, 1.0, 1.0}, {0.0, 0.0, 0.0}));
   try {

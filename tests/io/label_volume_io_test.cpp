@@ -25,9 +25,9 @@ struct TempDir {
   fs::path path;
   TempDir() {
     static std::atomic<int> counter{0};
-    path = fs::temp_directory_path() / ("lamina_label_volume_io_test_" +
-                                        std::to_string(::getpid()) + "_" +
-                                        std::to_string(counter++));
+    path =
+        fs::temp_directory_path() / ("lamina_label_volume_io_test_" + std::to_string(::getpid()) +
+                                     "_" + std::to_string(counter++));
     fs::create_directories(path);
   }
   ~TempDir() {
@@ -179,20 +179,36 @@ TEST_P(SharedData, MatchesProvenance) {
   EXPECT_EQ(hi, m.bbox_hi);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Masks, SharedData,
-    ::testing::Values(
-        SharedMask{"liver_sofa_smooth_voxelized_1mm.nii.gz", {72, 57, 52}, 1.0, {-50, -1, -20},
-                   1e-6, 39284, {-1, -1, -1}, {-1, -1, -1}},
-        SharedMask{"liver_totalseg_example_3mm.nii.gz", {122, 101, 112}, 3.0,
-                   {-177.956, 11.319, 94.302}, 1e-3, 41602, {36, 25, 70}, {105, 86, 111}},
-        SharedMask{"kidney_right_totalseg_example_3mm.nii.gz", {122, 101, 112}, 3.0,
-                   {-177.956, 11.319, 94.302}, 1e-3, 6993, {70, 29, 66}, {93, 54, 101}}),
-    [](const auto& info) {
-      const std::string& f = info.param.file;
-      std::string name = f.substr(0, f.find('.'));
-      return name;
-    });
+INSTANTIATE_TEST_SUITE_P(Masks, SharedData,
+                         ::testing::Values(SharedMask{"liver_sofa_smooth_voxelized_1mm.nii.gz",
+                                                      {72, 57, 52},
+                                                      1.0,
+                                                      {-50, -1, -20},
+                                                      1e-6,
+                                                      39284,
+                                                      {-1, -1, -1},
+                                                      {-1, -1, -1}},
+                                           SharedMask{"liver_totalseg_example_3mm.nii.gz",
+                                                      {122, 101, 112},
+                                                      3.0,
+                                                      {-177.956, 11.319, 94.302},
+                                                      1e-3,
+                                                      41602,
+                                                      {36, 25, 70},
+                                                      {105, 86, 111}},
+                                           SharedMask{"kidney_right_totalseg_example_3mm.nii.gz",
+                                                      {122, 101, 112},
+                                                      3.0,
+                                                      {-177.956, 11.319, 94.302},
+                                                      1e-3,
+                                                      6993,
+                                                      {70, 29, 66},
+                                                      {93, 54, 101}}),
+                         [](const auto& info) {
+                           const std::string& f = info.param.file;
+                           std::string name = f.substr(0, f.find('.'));
+                           return name;
+                         });
 
 }  // namespace
 }  // namespace lamina::io

@@ -9,7 +9,9 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/label_volume_io.h"
+#include "lamina/io/mesh_file.h"
 #include "lamina/io/model_file.h"
+#include "lamina/geometry/remesh.h"
 #include "lamina/model/compute_rings.h"
 #include "lamina/model/summarize_model.h"
 #include "support/volumes.h"
@@ -198,6 +200,29 @@ TEST(BuildModel, RejectsBadOptions) {
   EXPECT_THROW(model::build_model(v, {.layer_depth_mm = -1.0}), Error);
   EXPECT_THROW(model::build_model(v, {.locality = 0}), Error);
   EXPECT_THROW(model::build_model(v, {.density_kg_per_mm3 = 0.0}), Error);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(BuildModel, SkinFromTheSofaVoxelisationLiesOnTheOriginalSofaMesh) {
+  // The shared 1 mm mask is a voxelisation of a real liver mesh (PROVENANCE.md): the skin we
+  // rebuild from it must lie on that mesh to within about a voxel. The OBJ is in the NIfTI's
+  // RAS frame; ITK (and so Lamina) works in LPS: x and y flip.
+  const auto& b = built("liver_sofa_smooth_voxelized_1mm.nii.gz");
+  SurfaceMesh sofa = io::read_obj(std::string(LAMINA_SHARED_DATA) + "/liver_sofa_smooth_mm.obj");
+  sofa.V.col(0) *= -1.0;
+  sofa.V.col(1) *= -1.0;
+  const SurfaceMesh skin = model::layer_mesh(b.model, 0);
+  const geometry::SurfaceDistance to_sofa = geometry::surface_distance(skin, sofa);
+  const geometry::SurfaceDistance from_sofa = geometry::surface_distance(sofa, skin);
+  EXPECT_LT(to_sofa.mean_mm, 0.5);
+  EXPECT_LT(to_sofa.max_mm, 2.0);
+  EXPECT_LT(from_sofa.mean_mm, 0.7);  // the coarser skin cuts corners between its vertices
+  EXPECT_LT(from_sofa.max_mm, 3.0);
+  RecordProperty("skin_to_sofa_mean_mm", std::to_string(to_sofa.mean_mm));
+  RecordProperty("sofa_to_skin_max_mm", std::to_string(from_sofa.max_mm));
 }
 
 }  // namespace

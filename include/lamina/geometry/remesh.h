@@ -32,6 +32,17 @@ struct Nesting {
   bool nested() const { return all_vertices_inside && !surfaces_intersect; }
 };
 
+/// Distances from the vertices of one surface to another.
+struct SurfaceDistance {
+  double mean_mm = 0.0;  ///< mean vertex-to-surface distance
+  double rms_mm = 0.0;
+  double max_mm = 0.0;   ///< one-sided Hausdorff distance (at the vertices)
+};
+
+/// Distance from every vertex of `from` to the nearest point on the triangles of `to`
+/// (AABB tree). Not symmetric: swap the arguments for the other direction.
+SurfaceDistance surface_distance(const SurfaceMesh& from, const SurfaceMesh& to);
+
 /// Checks that `inner` lies strictly inside the closed surface `outer` (AABB tree queries).
 Nesting check_nesting(const SurfaceMesh& outer, const SurfaceMesh& inner);
 
