@@ -14,9 +14,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <ostream>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <ostream>
 #include <random>
 #include <sstream>
 #include <string>
