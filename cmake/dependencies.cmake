@@ -6,6 +6,7 @@ find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(nanoflann REQUIRED)
+find_package(ZLIB REQUIRED)
 
 # ITK: only the modules we use. We register the IO factories ourselves (src/io/itk_image_io.cpp)
 # instead of include(${ITK_USE_FILE}), so ITK's include paths and its bundled Eigen 3.3 stay

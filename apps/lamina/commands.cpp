@@ -37,18 +37,24 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
                                         "' does not exist");
 }
 
-// Progress on stderr: one overwritten line on a terminal, one line per stage otherwise.
-ProgressFn stderr_progress() {
+}  // namespace
+
+ProgressFn stderr_progress(bool verbose) {
+  // On a terminal: one line, overwritten in place (main() clears it before an error). Elsewhere
+  // (logs, scripts) one line per stage, with -v only: an error must stay the only line.
   const bool tty = ::isatty(2);
+  if (!tty && !verbose) return {};
   return [tty](std::string_view stage, double fraction) {
     if (tty)
-      std::fprintf(stderr, "\r[%3d%%] %-24.*s%s", static_cast<int>(fraction * 100 + 0.5),
+      std::fprintf(stderr, "\r\033[K[%3d%%] %.*s%s", static_cast<int>(fraction * 100 + 0.5),
                    static_cast<int>(stage.size()), stage.data(), fraction >= 1.0 ? "\n" : "");
     else
       std::fprintf(stderr, "[%3d%%] %.*s\n", static_cast<int>(fraction * 100 + 0.5),
                    static_cast<int>(stage.size()), stage.data());
   };
 }
+
+namespace {
 
 Model load_with_rings(const std::string& path) {
   Model m = io::load_model(path);
@@ -73,10 +79,11 @@ int run_phantom(const PhantomArgs& a) {
 
 int run_build(const BuildArgs& a) {
   check_output(a.output, {".vtu"}, "model");
+  model::check_build_options(a.options);
   const LabelVolume volume = a.input == kPhantomInput ? geometry::make_phantom()
                                                       : io::read_label_volume(a.input);
   const model::BuildResult built =
-      model::build_model(volume, a.options, a.quiet ? ProgressFn{} : stderr_progress());
+      model::build_model(volume, a.options, a.quiet ? ProgressFn{} : stderr_progress(a.verbose));
   // The table lists the warnings itself; with --json they go to stderr, stdout stays JSON.
   if (a.json)
     for (const auto& w : built.report.warnings) log::warn("{}: {}", volume.source, w);

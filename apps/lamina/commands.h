@@ -13,6 +13,10 @@ namespace lamina::cli {
 /// Input name that selects the built-in phantom instead of a file.
 inline constexpr const char* kPhantomInput = "phantom";
 
+/// Progress for long work on stderr: an in-place line on a terminal; on a pipe or file, one line
+/// per stage when `verbose`, nothing otherwise.
+ProgressFn stderr_progress(bool verbose);
+
 struct PhantomArgs {
   std::string output;
   geometry::PhantomOptions options;
@@ -24,6 +28,7 @@ struct BuildArgs {
   std::string output;
   bool json = false;
   bool quiet = false;
+  bool verbose = false;
   model::BuildOptions options;
 };
 int run_build(const BuildArgs& args);

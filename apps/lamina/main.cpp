@@ -1,4 +1,6 @@
 // `lamina`: one command-line tool with subcommands (phantom, build, info, export).
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <string>
@@ -89,11 +91,13 @@ int main(int argc, char** argv) {
     if (*bu) {
       bo.density_kg_per_mm3 = density_g_cm3 * 1e-6;  // g/cm^3 -> kg/mm^3
       build.quiet = verbosity == 0;
+      build.verbose = verbosity == 2;
       return cli::run_build(build);
     }
     if (*in) return cli::run_info(info);
     if (*ex) return cli::run_export(exp);
   } catch (const Error& e) {
+    if (::isatty(2)) std::fprintf(stderr, "\r\033[K");  // clear a progress line
     std::fprintf(stderr, "lamina: error: %s\n", e.what());
     return e.exit_code();
   } catch (const std::exception& e) {

@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/itk_frame.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/mask_filters.h"
 
 namespace lamina::geometry {
 namespace {
 
+using itk_support::frame_of;
 using MaskImage = itk::Image<uint8_t, 3>;
 
 // Wraps our buffer as an ITK image without copying (ITK does not own the memory).
@@ -21,38 +23,13 @@ template <class Pixel>
 typename itk::Image<Pixel, 3>::Pointer wrap(const GridFrame& f, const Pixel* data) {
   using Import = itk::ImportImageFilter<Pixel, 3>;
   auto import = Import::New();
-  typename Import::RegionType region;
-  typename Import::SpacingType spacing;
-  typename Import::OriginType origin;
-  typename Import::DirectionType dir;
-  for (int a = 0; a < 3; ++a) {
-    region.SetSize(a, static_cast<itk::SizeValueType>(f.size[a]));
-    spacing[a] = f.spacing_mm[a];
-    origin[a] = f.origin_mm[a];
-    for (int c = 0; c < 3; ++c) dir(a, c) = f.direction[3 * a + c];
-  }
-  import->SetRegion(region);
-  import->SetSpacing(spacing);
-  import->SetOrigin(origin);
-  import->SetDirection(dir);
+  import->SetRegion(itk_support::apply_frame(import.GetPointer(), f));
   import->SetImportPointer(const_cast<Pixel*>(data), static_cast<itk::SizeValueType>(f.voxel_count()),
                            false);
   import->Update();
   typename itk::Image<Pixel, 3>::Pointer image = import->GetOutput();
   image->DisconnectPipeline();
   return image;
-}
-
-template <class Image>
-GridFrame frame_of(const Image* image) {
-  GridFrame f;
-  for (int a = 0; a < 3; ++a) {
-    f.size[a] = static_cast<int64_t>(image->GetLargestPossibleRegion().GetSize()[a]);
-    f.spacing_mm[a] = image->GetSpacing()[a];
-    f.origin_mm[a] = image->GetOrigin()[a];
-    for (int c = 0; c < 3; ++c) f.direction[3 * a + c] = image->GetDirection()(a, c);
-  }
-  return f;
 }
 
 template <class Filter>

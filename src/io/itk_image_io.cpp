@@ -11,12 +11,16 @@
 #include <itkNiftiImageIOFactory.h>
 #include <itkNrrdImageIOFactory.h>
 
+#include <zlib.h>
+
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <mutex>
 #include <sstream>
 
 #include "lamina/core/atomic_file.h"
+#include "core/itk_frame.h"
 #include "lamina/core/error.h"
 #include "lamina/io/label_volume_io.h"
 
@@ -24,6 +28,7 @@ namespace lamina::io {
 namespace {
 
 namespace fs = std::filesystem;
+using itk_support::frame_of;
 using LabelImage = itk::Image<int32_t, 3>;
 using RealImage = itk::Image<double, 3>;
 
@@ -47,19 +52,6 @@ std::string one_line(const itk::ExceptionObject& e) {
     if (c == '\n' || c == '\r') c = ' ';
   while (!d.empty() && d.back() == ' ') d.pop_back();
   return d.empty() ? std::string("ITK error") : d;
-}
-
-template <class Image>
-GridFrame frame_of(const Image* image) {
-  GridFrame f;
-  const auto size = image->GetLargestPossibleRegion().GetSize();
-  for (int a = 0; a < 3; ++a) {
-    f.size[a] = static_cast<int64_t>(size[a]);
-    f.spacing_mm[a] = image->GetSpacing()[a];
-    f.origin_mm[a] = image->GetOrigin()[a];
-    for (int c = 0; c < 3; ++c) f.direction[3 * a + c] = image->GetDirection()(a, c);
-  }
-  return f;
 }
 
 void check_frame(const std::string& path, const GridFrame& f) {
@@ -98,18 +90,73 @@ void check_header(const std::string& path, itk::ImageIOBase* io, const ReadVolum
                                   " components per voxel; a label image has one");
   for (unsigned d = 0; d < 3; ++d)
     if (io->GetDimensions(d) == 0) throw invalid_input(path, "has a zero dimension (" + shape.str() + ")");
+  // Checked here, on the header's own values: ITK's reader later turns a negative spacing into a
+  // positive one with a mirrored direction, which would hide a broken header.
+  for (unsigned d = 0; d < 3; ++d)
+    if (!(io->GetSpacing(d) > 0.0) || !std::isfinite(io->GetSpacing(d))) {
+      std::ostringstream m;
+      m << "voxel spacing must be positive, got " << io->GetSpacing(0) << " x " << io->GetSpacing(1)
+        << " x " << io->GetSpacing(2) << " mm (fix the header's spacing/pixdim)";
+      throw invalid_input(path, m.str());
+    }
   if (voxels > opt.max_voxels)
     throw invalid_input(path, "has " + std::to_string(voxels) + " voxels, more than the limit of " +
                                   std::to_string(opt.max_voxels));
 }
 
+// MetaIO reports a short read ("data not read completely") on std::cerr and carries on with
+// whatever is in the buffer; capture it and make it an error instead of a half-read image.
+class CerrCapture {
+ public:
+  CerrCapture() : old_(std::cerr.rdbuf(text_.rdbuf())) {}
+  ~CerrCapture() { std::cerr.rdbuf(old_); }
+  std::string first_line() const {
+    std::string t = text_.str();
+    t = t.substr(0, t.find('\n'));
+    return t;
+  }
+
+ private:
+  std::ostringstream text_;
+  std::streambuf* old_;
+};
+
 template <class Reader>
 void run_reader(const std::string& path, Reader* reader) {
+  CerrCapture capture;
   try {
     reader->Update();
   } catch (const itk::ExceptionObject& e) {
     throw invalid_input(path, "cannot read image data (truncated or corrupt?): " + one_line(e));
   }
+  if (!capture.first_line().empty())
+    throw invalid_input(path, "cannot read image data (truncated or corrupt?): " + capture.first_line());
+}
+
+// ITK's NIfTI reader accepts a file shorter than its header says (plain or gzipped) and leaves
+// the missing voxels zero: half a liver would build silently. Count the bytes that are really
+// there (gzread reads plain files too) against the header's claim.
+void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
+  const std::string name = io->GetNameOfClass();
+  if (name != "NiftiImageIO" || fs::path(path).extension() == ".hdr" || fs::path(path).extension() == ".img")
+    return;
+  constexpr uint64_t kMinHeaderBytes = 352;  // NIfTI-1 header (348) + extension flag (4)
+  const uint64_t expected = kMinHeaderBytes + io->GetImageSizeInBytes();
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) throw invalid_input(path, "cannot open the file");
+  std::vector<char> buf(1 << 20);
+  uint64_t total = 0;
+  int n = 0;
+  while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0) total += static_cast<uint64_t>(n);
+  int err = Z_OK;
+  std::string msg = gzerror(f, &err);  // copied: the text dies with gzclose
+  gzclose(f);
+  if (msg.rfind(path + ": ", 0) == 0) msg.erase(0, path.size() + 2);  // zlib prefixes the path
+  if (n < 0 || (err != Z_OK && err != Z_STREAM_END))
+    throw invalid_input(path, "the compressed data is corrupt or truncated (" + msg + ")");
+  if (total < expected)
+    throw invalid_input(path, "is truncated: the header describes " + std::to_string(expected) +
+                                  " bytes but the file holds " + std::to_string(total));
 }
 
 LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
@@ -125,6 +172,7 @@ LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
     throw invalid_input(path, "cannot read the image header: " + one_line(e));
   }
   check_header(path, io, opt);
+  check_nifti_complete(path, io);
 
   LabelVolume out;
   out.source = path;
@@ -205,20 +253,7 @@ template <class Pixel>
 void write_as(const LabelVolume& v, const std::string& tmp) {
   using Image = itk::Image<Pixel, 3>;
   auto image = Image::New();
-  typename Image::RegionType region;
-  typename Image::SpacingType spacing;
-  typename Image::PointType origin;
-  typename Image::DirectionType dir;
-  for (int a = 0; a < 3; ++a) {
-    region.SetSize(a, static_cast<itk::SizeValueType>(v.frame.size[a]));
-    spacing[a] = v.frame.spacing_mm[a];
-    origin[a] = v.frame.origin_mm[a];
-    for (int c = 0; c < 3; ++c) dir(a, c) = v.frame.direction[3 * a + c];
-  }
-  image->SetRegions(region);
-  image->SetSpacing(spacing);
-  image->SetOrigin(origin);
-  image->SetDirection(dir);
+  image->SetRegions(itk_support::apply_frame(image.GetPointer(), v.frame));
   image->Allocate();
   Pixel* p = image->GetBufferPointer();
   for (size_t n = 0; n < v.labels.size(); ++n) p[n] = static_cast<Pixel>(v.labels[n]);

@@ -78,7 +78,9 @@ class StageTimer {
   Clock::time_point last_;
 };
 
-void check_options(const BuildOptions& o) {
+}  // namespace
+
+void check_build_options(const BuildOptions& o) {
   if (o.layers < 1 || o.layers > 16)
     throw invalid_input("--layers", "must be between 1 and 16, got " + std::to_string(o.layers));
   if (o.skin_vertices < 50 || o.skin_vertices > 5'000'000)
@@ -96,10 +98,8 @@ void check_options(const BuildOptions& o) {
     throw invalid_input("--stiffness", "must be positive");
 }
 
-}  // namespace
-
 BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, const ProgressFn& progress) {
-  check_options(opt);
+  check_build_options(opt);
   const auto t0 = Clock::now();
   BuildResult result;
   BuildReport& rep = result.report;
@@ -221,8 +221,10 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
         geometry::self_intersects(layers[k]))
       throw Error(ErrorKind::kInternal,
                   fmt::format("{}: layer {} failed its mesh checks (closed {}, manifold {}, outward "
-                              "{}, degenerate faces {}); try a different --skin-vertices",
-                              name, k, q.closed, q.manifold, q.outward, q.degenerate_faces));
+                              "{}, degenerate faces {}, self-intersecting {}); try a different "
+                              "--skin-vertices",
+                              name, k, q.closed, q.manifold, q.outward, q.degenerate_faces,
+                              geometry::self_intersects(layers[k])));
     if (k > 0) {
       const geometry::Nesting n = geometry::check_nesting(layers[k - 1], layers[k]);
       rep.layers[k].nested = n.nested();

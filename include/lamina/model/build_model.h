@@ -56,6 +56,9 @@ struct BuildResult {
   BuildReport report;
 };
 
+/// Checks options before any work: throws lamina::Error (kInvalidInput) naming the option.
+void check_build_options(const BuildOptions& options);
+
 /// Runs the pipeline: prepare the mask, signed distance field, one isosurface per layer,
 /// isotropic remeshing to the skin's target density, springs (layer edges + links between
 /// neighbouring layers), lumped masses, BFS rings.
