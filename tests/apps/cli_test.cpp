@@ -25,6 +25,7 @@
 #include "lamina/core/grid.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/label_volume_io.h"
+#include "support/temp_dir.h"
 
 namespace lamina {
 namespace {
@@ -34,19 +35,12 @@ using nlohmann::json;
 
 // A fresh folder per test: `work` is where inputs and outputs go (and must hold nothing
 // unexpected afterwards); the captured streams live beside it, not in it.
-struct TempDir {
-  fs::path root, work;
-  TempDir() {
-    static std::atomic<int> counter{0};
-    root = fs::temp_directory_path() /
-           ("lamina_cli_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    work = root / "work";
-    fs::create_directories(work);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(root, ec);
-  }
+// Inputs and outputs go in work/; captured stdout and stderr beside it, so that checks for
+// stray files in work/ see only what lamina wrote.
+struct TempDir : lamina::test::TempDir {
+  fs::path& root = path;
+  fs::path work = path / "work";
+  TempDir() { fs::create_directories(work); }
   std::string file(const std::string& name) const { return (work / name).string(); }
 };
 

@@ -7,17 +7,11 @@
 #include <stdexcept>
 
 #include "lamina/core/error.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("lamina_core_" + name + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
@@ -29,7 +23,8 @@ size_t count_files(const fs::path& d) {
 }
 
 TEST(AtomicFile, WritesAndReplaces) {
-  const fs::path d = fresh_dir("write");
+  const lamina::test::TempDir dir;
+  const fs::path& d = dir.path;
   const std::string p = (d / "out.txt").string();
   lamina::write_file_atomically(p, [](std::ostream& o) { o << "first"; });
   lamina::write_file_atomically(p, [](std::ostream& o) { o << "second"; });
@@ -38,7 +33,8 @@ TEST(AtomicFile, WritesAndReplaces) {
 }
 
 TEST(AtomicFile, FailedWriteLeavesOldFileAndNoTemporary) {
-  const fs::path d = fresh_dir("fail");
+  const lamina::test::TempDir dir;
+  const fs::path& d = dir.path;
   const std::string p = (d / "model.vtu").string();
   lamina::write_file_atomically(p, [](std::ostream& o) { o << "good"; });
   EXPECT_THROW(lamina::write_file_atomically(p,
@@ -63,7 +59,8 @@ TEST(AtomicFile, MissingDirectoryIsAnOutputError) {
 
 TEST(AtomicFile, TemporaryKeepsCompoundExtension) {
   // ITK picks the writer from the extension: ".nii.gz" must survive whole.
-  const fs::path d = fresh_dir("ext");
+  const lamina::test::TempDir dir;
+  const fs::path& d = dir.path;
   const std::string tmp = lamina::temporary_path_beside((d / "liver.nii.gz").string());
   EXPECT_EQ(tmp.substr(tmp.size() - 7), ".nii.gz");
   EXPECT_EQ(fs::path(tmp).parent_path(), d);

@@ -21,25 +21,15 @@
 #include "lamina/core/error.h"
 #include "lamina/core/grid.h"
 #include "lamina/io/label_volume_io.h"
+#include "support/temp_dir.h"
 
 namespace lamina::io {
 namespace {
 
+using lamina::test::TempDir;
+
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path = fs::temp_directory_path() / ("lamina_dicom_series_test_" + std::to_string(::getpid()) +
-                                        "_" + std::to_string(counter++));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 using Volume = itk::Image<uint16_t, 3>;
 using Slice = itk::Image<uint16_t, 2>;

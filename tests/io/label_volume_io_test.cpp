@@ -15,27 +15,15 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/grid.h"
+#include "support/temp_dir.h"
 
 namespace lamina::io {
 namespace {
 
+using lamina::test::TempDir;
+
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path =
-        fs::temp_directory_path() / ("lamina_label_volume_io_test_" + std::to_string(::getpid()) +
-                                     "_" + std::to_string(counter++));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  std::string file(const std::string& name) const { return (path / name).string(); }
-};
 
 // An anisotropic, rotated, off-origin grid: a reader or writer that drops, swaps or transposes
 // any part of the frame fails the round trip. The origin is exactly representable in float,

@@ -12,27 +12,15 @@
 #include <string>
 
 #include "lamina/core/error.h"
+#include "support/temp_dir.h"
 
 namespace lamina::io {
 namespace {
 
+using lamina::test::TempDir;
+
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path = fs::temp_directory_path() / ("lamina_mesh_file_test_" + std::to_string(::getpid()) +
-                                        "_" + std::to_string(counter++));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  std::string file(const std::string& name) const { return (path / name).string(); }
-  bool empty() const { return fs::is_empty(path); }
-};
 
 // An octahedron, outward winding, with coordinates that need all 17 significant digits.
 SurfaceMesh make_octahedron() {

@@ -14,27 +14,15 @@
 #include <string>
 
 #include "lamina/core/error.h"
+#include "support/temp_dir.h"
 
 namespace lamina::io {
 namespace {
 
+using lamina::test::TempDir;
+
 namespace fs = std::filesystem;
 
-// A fresh directory under the system temp dir, removed with everything in it.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path = fs::temp_directory_path() / ("lamina_model_file_test_" + std::to_string(::getpid()) +
-                                        "_" + std::to_string(counter++));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  std::string file(const std::string& name) const { return (path / name).string(); }
-};
 
 // Two layers: an octahedron (nodes 0-5) around a tetrahedron (nodes 6-9). The coordinates include
 // values with long or awkward decimal forms (1/3, 0.1 + 0.2, -0.0, a subnormal) that only survive
