@@ -52,7 +52,12 @@ void BM_BuildClinicalMask(benchmark::State& state) {
   for (auto _ : state) r = model::build_model(v, {.layers = static_cast<int32_t>(state.range(0))});
   report(state, r, v);
 }
-BENCHMARK(BM_BuildClinicalMask)->Arg(2)->Arg(4)->Unit(benchmark::kMillisecond)->Iterations(3)->Repetitions(3);
+BENCHMARK(BM_BuildClinicalMask)
+    ->Arg(2)
+    ->Arg(4)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->Repetitions(3);
 
 void BM_BuildClinicalMaskFine(benchmark::State& state) {
   // A 20k-vertex skin: the remesher works at the input's own resolution.

@@ -19,22 +19,25 @@ namespace lamina::cli {
 namespace {
 
 bool has_suffix(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 // Checks an output path before any long work, so a typo does not cost a whole build.
-void check_output(const std::string& path, const std::vector<std::string>& extensions, const char* what) {
+void check_output(const std::string& path, const std::vector<std::string>& extensions,
+                  const char* what) {
   bool ok = false;
   for (const auto& e : extensions) ok |= has_suffix(path, e);
   if (!ok) {
     std::string list;
     for (const auto& e : extensions) list += (list.empty() ? "" : ", ") + e;
-    throw invalid_input(path, std::string("unsupported ") + what + " file extension (use " + list + ")");
+    throw invalid_input(path,
+                        std::string("unsupported ") + what + " file extension (use " + list + ")");
   }
   const std::filesystem::path p(path);
   if (p.has_parent_path() && !std::filesystem::is_directory(p.parent_path()))
-    throw Error(ErrorKind::kOutput, path + ": cannot write: directory '" + p.parent_path().string() +
-                                        "' does not exist");
+    throw Error(ErrorKind::kOutput, path + ": cannot write: directory '" +
+                                        p.parent_path().string() + "' does not exist");
 }
 
 }  // namespace
@@ -80,8 +83,8 @@ int run_phantom(const PhantomArgs& a) {
 int run_build(const BuildArgs& a) {
   check_output(a.output, {".vtu"}, "model");
   model::check_build_options(a.options);
-  const LabelVolume volume = a.input == kPhantomInput ? geometry::make_phantom()
-                                                      : io::read_label_volume(a.input);
+  const LabelVolume volume =
+      a.input == kPhantomInput ? geometry::make_phantom() : io::read_label_volume(a.input);
   const model::BuildResult built =
       model::build_model(volume, a.options, a.quiet ? ProgressFn{} : stderr_progress(a.verbose));
   // The table lists the warnings itself; with --json they go to stderr, stdout stays JSON.
@@ -92,7 +95,8 @@ int run_build(const BuildArgs& a) {
   if (a.json)
     std::cout << io::summary_json(summary, &built.report, volume.source) << "\n";
   else
-    std::cout << io::summary_table(summary, &built.report, volume.source) << "  saved to " << a.output << "\n";
+    std::cout << io::summary_table(summary, &built.report, volume.source) << "  saved to "
+              << a.output << "\n";
   return 0;
 }
 
@@ -109,7 +113,8 @@ int run_export(const ExportArgs& a) {
   const Model m = io::load_model(a.model);
   if (a.layer < 0 || a.layer >= m.layer_count())
     throw invalid_input("--layer", "model " + a.model + " has layers 0.." +
-                                       std::to_string(m.layer_count() - 1) + ", got " + std::to_string(a.layer));
+                                       std::to_string(m.layer_count() - 1) + ", got " +
+                                       std::to_string(a.layer));
   io::write_mesh(model::layer_mesh(m, a.layer), a.output);
   log::info("wrote layer {} of {} to {}", a.layer, a.model, a.output);
   return 0;

@@ -38,29 +38,36 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "lamina 0.1.0");
   int verbosity = 1;
-  app.add_flag_function("-q,--quiet", [&](int64_t) { verbosity = 0; }, "only warnings and errors");
-  app.add_flag_function("-v,--verbose", [&](int64_t) { verbosity = 2; }, "debug messages");
+  app.add_flag_function(
+      "-q,--quiet", [&](int64_t) { verbosity = 0; }, "only warnings and errors");
+  app.add_flag_function(
+      "-v,--verbose", [&](int64_t) { verbosity = 2; }, "debug messages");
 
   cli::PhantomArgs phantom;
   std::string spacing = "1.5", size;
   auto* ph = app.add_subcommand("phantom", "write the built-in liver-like phantom mask (NIfTI)");
-  ph->add_option("-o,--output", phantom.output, "output image (.nii.gz, .nii, .nrrd, .mha)")->required();
+  ph->add_option("-o,--output", phantom.output, "output image (.nii.gz, .nii, .nrrd, .mha)")
+      ->required();
   ph->add_option("--spacing", spacing, "voxel size in mm: MM or X,Y,Z (default 1.5)");
   ph->add_option("--size", size, "grid size in voxels NX,NY,NZ (default: fits the organ)");
 
   cli::BuildArgs build;
   auto& bo = build.options;
   double density_g_cm3 = 1.06;
-  auto* bu = app.add_subcommand("build", "build a multi-layer mass-spring model from a segmentation");
-  bu->add_option("input", build.input,
-                 "NIfTI/NRRD/MetaImage file or DICOM folder; 'phantom' (default) = built-in phantom");
-  bu->add_option("-o,--output", build.output, "model file to write (.vtu, opens in ParaView)")->required();
+  auto* bu =
+      app.add_subcommand("build", "build a multi-layer mass-spring model from a segmentation");
+  bu->add_option(
+      "input", build.input,
+      "NIfTI/NRRD/MetaImage file or DICOM folder; 'phantom' (default) = built-in phantom");
+  bu->add_option("-o,--output", build.output, "model file to write (.vtu, opens in ParaView)")
+      ->required();
   bu->add_option("--layers", bo.layers, "number of layers S, skin included (default 2)");
   bu->add_option("--skin-vertices", bo.skin_vertices, "target skin vertex count (default 1284)");
   bu->add_option("--layer-depth", bo.layer_depth_mm, "depth between layers in mm (default: auto)");
   bu->add_option("--label", bo.label, "label to model (default: any non-zero voxel)");
   bu->add_option("--locality", bo.locality, "BFS rings precomputed per node (default 4)");
-  bu->add_option("--links", bo.inter_layer_links, "nearest nodes linked on each neighbour layer (default 3)");
+  bu->add_option("--links", bo.inter_layer_links,
+                 "nearest nodes linked on each neighbour layer (default 3)");
   bu->add_option("--density", density_g_cm3, "tissue density in g/cm^3 (default 1.06, liver)");
   bu->add_option("--stiffness", bo.stiffness_n_per_m, "spring stiffness in N/m (default 3)");
   bu->add_flag("--json", build.json, "print the summary as one JSON object on stdout");

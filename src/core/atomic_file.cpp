@@ -18,8 +18,8 @@ std::string temporary_path_beside(const std::string& path) {
   const fs::path p(path);
   const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
   if (!fs::is_directory(dir))
-    throw Error(ErrorKind::kOutput, path + ": cannot write: directory '" + dir.string() +
-                                        "' does not exist");
+    throw Error(ErrorKind::kOutput,
+                path + ": cannot write: directory '" + dir.string() + "' does not exist");
   // Keep the whole extension ("liver.nii.gz" -> ".nii.gz") last: writers such as ITK choose the
   // format from it.
   const std::string name = p.filename().string();

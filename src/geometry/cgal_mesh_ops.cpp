@@ -32,7 +32,8 @@ using Mesh = CGAL::Surface_mesh<Point>;
 // with duplicate points or non-manifold vertices (possible in isosurfaces) still convert.
 Mesh to_cgal(const SurfaceMesh& in, bool repair) {
   std::vector<Point> points(static_cast<size_t>(in.V.rows()));
-  for (Eigen::Index v = 0; v < in.V.rows(); ++v) points[v] = Point(in.V(v, 0), in.V(v, 1), in.V(v, 2));
+  for (Eigen::Index v = 0; v < in.V.rows(); ++v)
+    points[v] = Point(in.V(v, 0), in.V(v, 1), in.V(v, 2));
   std::vector<std::array<size_t, 3>> faces(static_cast<size_t>(in.F.rows()));
   for (Eigen::Index f = 0; f < in.F.rows(); ++f)
     faces[f] = {static_cast<size_t>(in.F(f, 0)), static_cast<size_t>(in.F(f, 1)),
@@ -60,7 +61,8 @@ SurfaceMesh from_cgal(const Mesh& mesh) {
   int f = 0;
   for (auto face : mesh.faces()) {
     int c = 0;
-    for (auto v : CGAL::vertices_around_face(mesh.halfedge(face), mesh)) out.F(f, c++) = id[v.idx()];
+    for (auto v : CGAL::vertices_around_face(mesh.halfedge(face), mesh))
+      out.F(f, c++) = id[v.idx()];
     ++f;
   }
   return out;
@@ -88,7 +90,8 @@ SurfaceMesh remesh(const SurfaceMesh& input, const RemeshOptions& options) {
 bool self_intersects(const SurfaceMesh& mesh) {
   if (mesh.F.rows() == 0) return false;
   const Mesh m = to_cgal(mesh, /*repair=*/false);
-  if (m.number_of_faces() != static_cast<size_t>(mesh.F.rows())) return true;  // not a valid surface
+  if (m.number_of_faces() != static_cast<size_t>(mesh.F.rows()))
+    return true;  // not a valid surface
   return PMP::does_self_intersect(m);
 }
 
@@ -102,7 +105,8 @@ SurfaceDistance surface_distance(const SurfaceMesh& from, const SurfaceMesh& to)
   tree.accelerate_distance_queries();
   double sum = 0.0, sum2 = 0.0;
   for (Eigen::Index v = 0; v < from.V.rows(); ++v) {
-    const double dist = std::sqrt(tree.squared_distance(Point(from.V(v, 0), from.V(v, 1), from.V(v, 2))));
+    const double dist =
+        std::sqrt(tree.squared_distance(Point(from.V(v, 0), from.V(v, 1), from.V(v, 2))));
     sum += dist;
     sum2 += dist * dist;
     d.max_mm = std::max(d.max_mm, dist);
@@ -130,9 +134,9 @@ Nesting check_nesting(const SurfaceMesh& outer, const SurfaceMesh& inner) {
     if (side(p) != CGAL::ON_BOUNDED_SIDE) result.all_vertices_inside = false;
     result.min_gap_mm = std::min(result.min_gap_mm, std::sqrt(tree.squared_distance(p)));
   }
-  result.surfaces_intersect = PMP::do_intersect(out_mesh, in_mesh,
-                                                PMP::parameters::do_overlap_test_of_bounded_sides(false),
-                                                PMP::parameters::do_overlap_test_of_bounded_sides(false));
+  result.surfaces_intersect =
+      PMP::do_intersect(out_mesh, in_mesh, PMP::parameters::do_overlap_test_of_bounded_sides(false),
+                        PMP::parameters::do_overlap_test_of_bounded_sides(false));
   return result;
 }
 

@@ -1,11 +1,11 @@
 // The only translation unit that sees OpenVDB.
 #include "lamina/geometry/extract_isosurface.h"
 
-#include <Eigen/Geometry>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
+#include <Eigen/Geometry>
 #include <mutex>
 
 namespace lamina::geometry {
@@ -16,10 +16,10 @@ SurfaceMesh extract_isosurface(const DistanceField& field, double iso_mm, double
 
   const GridFrame& f = field.frame;
   // LayoutXYZ is OpenVDB's x-fastest layout, the same as our buffers (offset i + j*nx + ...).
-  const openvdb::CoordBBox box(openvdb::Coord(0, 0, 0),
-                               openvdb::Coord(static_cast<int>(f.size[0] - 1),
-                                              static_cast<int>(f.size[1] - 1),
-                                              static_cast<int>(f.size[2] - 1)));
+  const openvdb::CoordBBox box(
+      openvdb::Coord(0, 0, 0),
+      openvdb::Coord(static_cast<int>(f.size[0] - 1), static_cast<int>(f.size[1] - 1),
+                     static_cast<int>(f.size[2] - 1)));
   openvdb::tools::Dense<const float, openvdb::tools::LayoutXYZ> dense(box, field.phi.data());
   // Background = "far outside"; with zero tolerance every voxel stays active, so the grid is
   // an exact copy of the dense field.
@@ -56,8 +56,8 @@ SurfaceMesh extract_isosurface(const DistanceField& field, double iso_mm, double
   // matrix (det < 0) decides the sign; make the enclosed signed volume positive.
   double volume6 = 0.0;
   for (Eigen::Index r = 0; r < mesh.F.rows(); ++r)
-    volume6 += mesh.V.row(mesh.F(r, 0)).dot(
-        mesh.V.row(mesh.F(r, 1)).cross(mesh.V.row(mesh.F(r, 2))));
+    volume6 +=
+        mesh.V.row(mesh.F(r, 0)).dot(mesh.V.row(mesh.F(r, 1)).cross(mesh.V.row(mesh.F(r, 2))));
   if (volume6 < 0.0) mesh.F.col(1).swap(mesh.F.col(2));
   return mesh;
 }

@@ -24,8 +24,8 @@ typename itk::Image<Pixel, 3>::Pointer wrap(const GridFrame& f, const Pixel* dat
   using Import = itk::ImportImageFilter<Pixel, 3>;
   auto import = Import::New();
   import->SetRegion(itk_support::apply_frame(import.GetPointer(), f));
-  import->SetImportPointer(const_cast<Pixel*>(data), static_cast<itk::SizeValueType>(f.voxel_count()),
-                           false);
+  import->SetImportPointer(const_cast<Pixel*>(data),
+                           static_cast<itk::SizeValueType>(f.voxel_count()), false);
   import->Update();
   typename itk::Image<Pixel, 3>::Pointer image = import->GetOutput();
   image->DisconnectPipeline();
@@ -99,7 +99,8 @@ Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors) {
   auto input = wrap<uint8_t>(mask.frame, mask.inside.data());
   auto shrink = itk::BinShrinkImageFilter<MaskImage, RealImage>::New();
   shrink->SetInput(input);
-  for (int a = 0; a < 3; ++a) shrink->SetShrinkFactor(a, static_cast<unsigned>(std::max(1, factors[a])));
+  for (int a = 0; a < 3; ++a)
+    shrink->SetShrinkFactor(a, static_cast<unsigned>(std::max(1, factors[a])));
   update(shrink.GetPointer(), "downsampling");
   Mask out;
   out.frame = frame_of(shrink->GetOutput());
@@ -118,7 +119,8 @@ namespace {
 // Exact Euclidean distance (mm) from every voxel OUTSIDE `inside` to the nearest voxel inside
 // it; 0 on inside voxels. ITK's Maurer filter measures to the foreground's contour voxels, and
 // for a background voxel the nearest foreground voxel is always a contour voxel.
-std::vector<float> distance_to_foreground(const GridFrame& frame, const std::vector<uint8_t>& inside) {
+std::vector<float> distance_to_foreground(const GridFrame& frame,
+                                          const std::vector<uint8_t>& inside) {
   using RealImage = itk::Image<float, 3>;
   auto input = wrap<uint8_t>(frame, inside.data());
   auto maurer = itk::SignedMaurerDistanceMapImageFilter<MaskImage, RealImage>::New();

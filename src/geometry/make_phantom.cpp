@@ -22,7 +22,9 @@ double smooth_min(double a, double b, double k) {
   const double h = std::max(k - std::abs(a - b), 0.0) / k;
   return std::min(a, b) - h * h * k * 0.25;
 }
-double smooth_subtract(double a, double b, double k) { return -smooth_min(-a, b, k); }
+double smooth_subtract(double a, double b, double k) {
+  return -smooth_min(-a, b, k);
+}
 
 // Organ bounding box in its own frame (mm), with a little slack; checked by a test.
 constexpr double kLo[3] = {-125.0, -66.0, -63.0};

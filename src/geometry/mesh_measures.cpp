@@ -111,7 +111,8 @@ MeshQuality measure_mesh(const SurfaceMesh& m) {
   {
     std::vector<std::vector<std::pair<int, int>>> link(static_cast<size_t>(q.vertices));
     for (Eigen::Index f = 0; f < m.F.rows(); ++f)
-      for (int c = 0; c < 3; ++c) link[m.F(f, c)].emplace_back(m.F(f, (c + 1) % 3), m.F(f, (c + 2) % 3));
+      for (int c = 0; c < 3; ++c)
+        link[m.F(f, c)].emplace_back(m.F(f, (c + 1) % 3), m.F(f, (c + 2) % 3));
     for (auto& l : link) {
       if (l.empty()) continue;
       // Walk next = the link edge starting where the previous ended.
@@ -120,7 +121,8 @@ MeshQuality measure_mesh(const SurfaceMesh& m) {
       int at = l.front().second;
       const int start = l.front().first;
       while (at != start && steps <= l.size()) {
-        auto it = std::lower_bound(l.begin(), l.end(), std::make_pair(at, std::numeric_limits<int>::min()));
+        auto it = std::lower_bound(l.begin(), l.end(),
+                                   std::make_pair(at, std::numeric_limits<int>::min()));
         if (it == l.end() || it->first != at) break;
         at = it->second;
         ++steps;
@@ -157,7 +159,8 @@ MeshQuality measure_mesh(const SurfaceMesh& m) {
       }
     }
   }
-  q.mean_edge_mm = edge_sum / static_cast<double>(edge_count);  // interior edges counted twice: same mean
+  q.mean_edge_mm =
+      edge_sum / static_cast<double>(edge_count);  // interior edges counted twice: same mean
   q.min_angle_deg = min_angle * 180.0 / std::numbers::pi;
   q.volume_mm3 = enclosed_volume(m);
   q.outward = q.volume_mm3 > 0.0;

@@ -31,9 +31,9 @@ Mask crop_and_pad(const GridFrame& in_frame, const std::vector<uint8_t>& in,
   Mask out;
   out.frame = in_frame;
   for (int a = 0; a < 3; ++a) out.frame.size[a] = hi[a] - lo[a] + 1 + 2 * pad;
-  out.frame.origin_mm = in_frame.to_physical(static_cast<double>(lo[0] - pad),
-                                             static_cast<double>(lo[1] - pad),
-                                             static_cast<double>(lo[2] - pad));
+  out.frame.origin_mm =
+      in_frame.to_physical(static_cast<double>(lo[0] - pad), static_cast<double>(lo[1] - pad),
+                           static_cast<double>(lo[2] - pad));
   out.inside.assign(static_cast<size_t>(out.frame.voxel_count()), 0);
   const int64_t nx = hi[0] - lo[0] + 1;
 #pragma omp parallel for schedule(static)
@@ -86,8 +86,8 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
   if (count == 0) {
     if (options.label != 0)
       throw invalid_input(name, "label " + std::to_string(options.label) +
-                                    " is absent (labels present: " +
-                                    present_labels(volume.labels) + "); pick one with --label");
+                                    " is absent (labels present: " + present_labels(volume.labels) +
+                                    "); pick one with --label");
     throw invalid_input(name, "the mask is empty: no voxel is non-zero");
   }
 

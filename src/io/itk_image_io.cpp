@@ -10,7 +10,6 @@
 #include <itkMetaImageIOFactory.h>
 #include <itkNiftiImageIOFactory.h>
 #include <itkNrrdImageIOFactory.h>
-
 #include <zlib.h>
 
 #include <cmath>
@@ -19,8 +18,8 @@
 #include <mutex>
 #include <sstream>
 
-#include "lamina/core/atomic_file.h"
 #include "core/itk_frame.h"
+#include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "lamina/io/label_volume_io.h"
 
@@ -89,7 +88,8 @@ void check_header(const std::string& path, itk::ImageIOBase* io, const ReadVolum
     throw invalid_input(path, "has " + std::to_string(io->GetNumberOfComponents()) +
                                   " components per voxel; a label image has one");
   for (unsigned d = 0; d < 3; ++d)
-    if (io->GetDimensions(d) == 0) throw invalid_input(path, "has a zero dimension (" + shape.str() + ")");
+    if (io->GetDimensions(d) == 0)
+      throw invalid_input(path, "has a zero dimension (" + shape.str() + ")");
   // Checked here, on the header's own values: ITK's reader later turns a negative spacing into a
   // positive one with a mirrored direction, which would hide a broken header.
   for (unsigned d = 0; d < 3; ++d)
@@ -130,7 +130,8 @@ void run_reader(const std::string& path, Reader* reader) {
     throw invalid_input(path, "cannot read image data (truncated or corrupt?): " + one_line(e));
   }
   if (!capture.first_line().empty())
-    throw invalid_input(path, "cannot read image data (truncated or corrupt?): " + capture.first_line());
+    throw invalid_input(path,
+                        "cannot read image data (truncated or corrupt?): " + capture.first_line());
 }
 
 // ITK's NIfTI reader accepts a file shorter than its header says (plain or gzipped) and leaves
@@ -138,7 +139,8 @@ void run_reader(const std::string& path, Reader* reader) {
 // there (gzread reads plain files too) against the header's claim.
 void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
   const std::string name = io->GetNameOfClass();
-  if (name != "NiftiImageIO" || fs::path(path).extension() == ".hdr" || fs::path(path).extension() == ".img")
+  if (name != "NiftiImageIO" || fs::path(path).extension() == ".hdr" ||
+      fs::path(path).extension() == ".img")
     return;
   constexpr uint64_t kMinHeaderBytes = 352;  // NIfTI-1 header (348) + extension flag (4)
   const uint64_t expected = kMinHeaderBytes + io->GetImageSizeInBytes();
@@ -147,7 +149,8 @@ void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
   std::vector<char> buf(1 << 20);
   uint64_t total = 0;
   int n = 0;
-  while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0) total += static_cast<uint64_t>(n);
+  while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0)
+    total += static_cast<uint64_t>(n);
   int err = Z_OK;
   std::string msg = gzerror(f, &err);  // copied: the text dies with gzclose
   gzclose(f);
@@ -160,11 +163,12 @@ void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
 }
 
 LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
-  itk::ImageIOBase::Pointer io =
-      itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
+  itk::ImageIOBase::Pointer io = itk::ImageIOFactory::CreateImageIO(
+      path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
   if (!io)
-    throw invalid_input(path, "not a readable NIfTI (.nii/.nii.gz), NRRD (.nrrd), MetaImage "
-                              "(.mha/.mhd) file or DICOM folder");
+    throw invalid_input(path,
+                        "not a readable NIfTI (.nii/.nii.gz), NRRD (.nrrd), MetaImage "
+                        "(.mha/.mhd) file or DICOM folder");
   try {
     io->SetFileName(path);
     io->ReadImageInformation();
@@ -177,7 +181,8 @@ LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
   LabelVolume out;
   out.source = path;
   const auto ctype = io->GetComponentType();
-  const bool is_real = ctype == itk::IOComponentEnum::FLOAT || ctype == itk::IOComponentEnum::DOUBLE;
+  const bool is_real =
+      ctype == itk::IOComponentEnum::FLOAT || ctype == itk::IOComponentEnum::DOUBLE;
   if (!is_real) {
     auto reader = itk::ImageFileReader<LabelImage>::New();
     reader->SetImageIO(io);
@@ -199,9 +204,10 @@ LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
     out.labels.resize(static_cast<size_t>(out.frame.voxel_count()));
     for (size_t n = 0; n < out.labels.size(); ++n) {
       if (!std::isfinite(p[n]))
-        throw invalid_input(path, "holds a non-finite voxel value (NaN or infinity) at voxel " +
-                                      std::to_string(n));
-      if (std::abs(p[n]) > 2.0e9) throw invalid_input(path, "holds a voxel value too large for a label");
+        throw invalid_input(
+            path, "holds a non-finite voxel value (NaN or infinity) at voxel " + std::to_string(n));
+      if (std::abs(p[n]) > 2.0e9)
+        throw invalid_input(path, "holds a voxel value too large for a label");
       out.labels[n] = static_cast<int32_t>(std::lround(p[n]));
     }
   }
@@ -216,8 +222,9 @@ LabelVolume read_dicom_folder(const std::string& path, const ReadVolumeOptions& 
     names->SetDirectory(path);
     const auto& uids = names->GetSeriesUIDs();
     if (uids.empty())
-      throw invalid_input(path, "is a folder but holds no DICOM series (give a .nii.gz, .nrrd, "
-                                ".mha file, or a folder of DICOM slices)");
+      throw invalid_input(path,
+                          "is a folder but holds no DICOM series (give a .nii.gz, .nrrd, "
+                          ".mha file, or a folder of DICOM slices)");
     // Several series in one folder: take the one with the most slices.
     for (const auto& uid : uids) {
       auto f = names->GetFileNames(uid);
@@ -237,8 +244,9 @@ LabelVolume read_dicom_folder(const std::string& path, const ReadVolumeOptions& 
   }
   const auto size = reader->GetOutput()->GetLargestPossibleRegion().GetSize();
   if (size[2] < 2)
-    throw invalid_input(path, "holds a single DICOM slice (a 2-D image); Lamina needs a 3-D series");
-  if (static_cast<int64_t>(size[0]) * size[1] * size[2] > opt.max_voxels)
+    throw invalid_input(path,
+                        "holds a single DICOM slice (a 2-D image); Lamina needs a 3-D series");
+  if (static_cast<int64_t>(size[0] * size[1] * size[2]) > opt.max_voxels)
     throw invalid_input(path, "DICOM series is larger than the voxel limit");
   run_reader(path, reader.GetPointer());
   LabelVolume out;
@@ -269,10 +277,9 @@ void write_as(const LabelVolume& v, const std::string& tmp) {
 LabelVolume read_label_volume(const std::string& path, const ReadVolumeOptions& options) {
   register_image_formats();
   std::error_code ec;
-  if (!fs::exists(path, ec))
-    throw invalid_input(path, "no such file or folder");
-  LabelVolume v = fs::is_directory(path, ec) ? read_dicom_folder(path, options)
-                                             : read_file(path, options);
+  if (!fs::exists(path, ec)) throw invalid_input(path, "no such file or folder");
+  LabelVolume v =
+      fs::is_directory(path, ec) ? read_dicom_folder(path, options) : read_file(path, options);
   check_frame(path, v.frame);
   return v;
 }
@@ -281,20 +288,35 @@ void write_label_volume(const LabelVolume& volume, const std::string& path) {
   register_image_formats();
   if (static_cast<int64_t>(volume.labels.size()) != volume.frame.voxel_count())
     throw Error(ErrorKind::kInternal, path + ": label count does not match the grid size");
-  const std::string tmp = temporary_path_beside(path);
+  // Write into a temporary folder under the final file name(s), then move them into place: a
+  // MetaImage .mhd header names its data file, so the names must already be the final ones.
+  const std::string tmp_dir = temporary_path_beside(path);
+  std::error_code ec;
+  if (!fs::create_directory(tmp_dir, ec))
+    throw Error(ErrorKind::kOutput, path + ": cannot write: " + ec.message());
+  const fs::path target(path);
   int32_t lo = 0, hi = 0;
   for (int32_t l : volume.labels) lo = std::min(lo, l), hi = std::max(hi, l);
   try {
+    const std::string tmp = (fs::path(tmp_dir) / target.filename()).string();
     if (lo >= 0 && hi <= 255)
       write_as<uint8_t>(volume, tmp);
     else
       write_as<int32_t>(volume, tmp);
+    // The main file last, so that a reader never finds a header without its data.
+    for (const auto& entry : fs::directory_iterator(tmp_dir))
+      if (entry.path().filename() != target.filename())
+        commit_temporary(entry.path().string(),
+                         (target.parent_path() / entry.path().filename()).string());
+    commit_temporary(tmp, path);
   } catch (const itk::ExceptionObject& e) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
+    fs::remove_all(tmp_dir, ec);
     throw Error(ErrorKind::kOutput, path + ": cannot write image: " + one_line(e));
+  } catch (...) {
+    fs::remove_all(tmp_dir, ec);
+    throw;
   }
-  commit_temporary(tmp, path);
+  fs::remove_all(tmp_dir, ec);
 }
 
 }  // namespace lamina::io

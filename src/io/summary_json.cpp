@@ -74,26 +74,32 @@ std::string summary_table(const model::ModelSummary& s, const model::BuildReport
                           const std::string& input) {
   std::string out = fmt::format("Lamina model of {}\n", input);
   if (b)
-    out += fmt::format("  built in {:.2f} s; mask {:.1f} mL ({} voxels{}{}); skin volume error {:+.2f}%\n",
-                       b->build_seconds, b->mask_volume_ml, b->mask.kept_voxels,
-                       b->mask.components > 1 ? fmt::format(", dropped {} voxels in {} other components",
-                                                            b->mask.dropped_voxels, b->mask.components - 1)
-                                              : "",
-                       b->mask.touches_scan_border ? ", touches the scan edge" : "",
-                       b->skin_volume_error_pct);
-  out += fmt::format("  {} nodes, {} springs ({} in layers, {} between layers), {} connected body, mass {:.3f} kg\n",
-                     s.nodes, s.springs, s.intra_layer_springs, s.inter_layer_springs,
-                     s.spring_components == 1 ? "one" : fmt::format("{}-part", s.spring_components),
-                     s.total_mass_kg);
+    out += fmt::format(
+        "  built in {:.2f} s; mask {:.1f} mL ({} voxels{}{}); skin volume error {:+.2f}%\n",
+        b->build_seconds, b->mask_volume_ml, b->mask.kept_voxels,
+        b->mask.components > 1 ? fmt::format(", dropped {} voxels in {} other components",
+                                             b->mask.dropped_voxels, b->mask.components - 1)
+                               : "",
+        b->mask.touches_scan_border ? ", touches the scan edge" : "", b->skin_volume_error_pct);
+  out += fmt::format(
+      "  {} nodes, {} springs ({} in layers, {} between layers), {} connected body, mass {:.3f} "
+      "kg\n",
+      s.nodes, s.springs, s.intra_layer_springs, s.inter_layer_springs,
+      s.spring_components == 1 ? "one" : fmt::format("{}-part", s.spring_components),
+      s.total_mass_kg);
   out += fmt::format("  rings 0..{} per node: {} entries\n", s.locality - 1, s.ring_entries);
-  out += "  layer  depth_mm  vertices  faces  volume_ml  mean_edge_mm  min_angle  parts  closed  manifold  nested\n";
+  out +=
+      "  layer  depth_mm  vertices  faces  volume_ml  mean_edge_mm  min_angle  parts  closed  "
+      "manifold  nested\n";
   for (const auto& l : s.layers) {
     const auto& q = l.quality;
-    const double depth = b && static_cast<size_t>(l.index) < b->layers.size() ? b->layers[l.index].depth_mm : 0.0;
-    out += fmt::format("  {:>5}  {:>8.1f}  {:>8}  {:>5}  {:>9.1f}  {:>12.2f}  {:>9.1f}  {:>5}  {:>6}  {:>8}  {:>6}\n",
-                       l.index, depth, q.vertices, q.faces, q.volume_mm3 / 1000.0, q.mean_edge_mm,
-                       q.min_angle_deg, q.components, q.closed ? "yes" : "NO",
-                       q.manifold ? "yes" : "NO", l.nested ? "yes" : "NO");
+    const double depth =
+        b && static_cast<size_t>(l.index) < b->layers.size() ? b->layers[l.index].depth_mm : 0.0;
+    out += fmt::format(
+        "  {:>5}  {:>8.1f}  {:>8}  {:>5}  {:>9.1f}  {:>12.2f}  {:>9.1f}  {:>5}  {:>6}  {:>8}  "
+        "{:>6}\n",
+        l.index, depth, q.vertices, q.faces, q.volume_mm3 / 1000.0, q.mean_edge_mm, q.min_angle_deg,
+        q.components, q.closed ? "yes" : "NO", q.manifold ? "yes" : "NO", l.nested ? "yes" : "NO");
   }
   if (b)
     for (const auto& w : b->warnings) out += "  note: " + w + "\n";

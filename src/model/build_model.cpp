@@ -1,10 +1,11 @@
 #include "lamina/model/build_model.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
@@ -84,12 +85,13 @@ void check_build_options(const BuildOptions& o) {
   if (o.layers < 1 || o.layers > 16)
     throw invalid_input("--layers", "must be between 1 and 16, got " + std::to_string(o.layers));
   if (o.skin_vertices < 50 || o.skin_vertices > 5'000'000)
-    throw invalid_input("--skin-vertices", "must be between 50 and 5000000, got " +
-                                               std::to_string(o.skin_vertices));
+    throw invalid_input("--skin-vertices",
+                        "must be between 50 and 5000000, got " + std::to_string(o.skin_vertices));
   if (!(o.layer_depth_mm >= 0.0) || !std::isfinite(o.layer_depth_mm))
     throw invalid_input("--layer-depth", "must be a positive depth in mm (or 0 for automatic)");
   if (o.locality < 1 || o.locality > 64)
-    throw invalid_input("--locality", "must be between 1 and 64, got " + std::to_string(o.locality));
+    throw invalid_input("--locality",
+                        "must be between 1 and 64, got " + std::to_string(o.locality));
   if (o.inter_layer_links < 1 || o.inter_layer_links > 16)
     throw invalid_input("--links", "must be between 1 and 16");
   if (!(o.density_kg_per_mm3 > 0.0) || !std::isfinite(o.density_kg_per_mm3))
@@ -98,7 +100,8 @@ void check_build_options(const BuildOptions& o) {
     throw invalid_input("--stiffness", "must be positive");
 }
 
-BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, const ProgressFn& progress) {
+BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
+                        const ProgressFn& progress) {
   check_build_options(opt);
   const auto t0 = Clock::now();
   BuildResult result;
@@ -122,15 +125,17 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
   double edge = edge_for_vertex_count(area0, opt.skin_vertices);
   std::array<int, 3> factors{};
   for (int a = 0; a < 3; ++a)
-    factors[a] = std::max(1, static_cast<int>(std::floor(edge / 4.0 / prepared.mask.frame.spacing_mm[a])));
+    factors[a] =
+        std::max(1, static_cast<int>(std::floor(edge / 4.0 / prepared.mask.frame.spacing_mm[a])));
   Mask work = geometry::downsample_mask(prepared.mask, factors);
   prepared.mask = {};
   work = geometry::pad_mask(work, 2);
   // Downsampling can break a thin bridge or close a pocket: clean once more on the coarse grid.
   const auto cc = geometry::keep_largest_component(work);
   if (cc.components > 1)
-    rep.warnings.push_back(fmt::format("downsampling split off {} small piece(s) ({} voxels), dropped",
-                                       cc.components - 1, cc.dropped_voxels));
+    rep.warnings.push_back(
+        fmt::format("downsampling split off {} small piece(s) ({} voxels), dropped",
+                    cc.components - 1, cc.dropped_voxels));
   geometry::fill_cavities(work);
   rep.working_spacing_mm = work.frame.spacing_mm;
   timer.done("resample");
@@ -140,14 +145,15 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
   const DistanceField sdf = geometry::signed_distance(work);
   work = {};
   rep.max_depth_mm = -static_cast<double>(*std::min_element(sdf.phi.begin(), sdf.phi.end()));
-  const double depth_step = opt.layer_depth_mm > 0.0 ? opt.layer_depth_mm
-                                                     : rep.max_depth_mm / (opt.layers + 1);
+  const double depth_step =
+      opt.layer_depth_mm > 0.0 ? opt.layer_depth_mm : rep.max_depth_mm / (opt.layers + 1);
   timer.done("distance");
 
   // 4. Skin: the zero isosurface, remeshed to the requested vertex count. The first pass uses
   // the estimated area; the second corrects the edge length from the vertex count achieved.
   report_progress(progress, "skin", 0.3);
-  const double coarsest = std::max({sdf.frame.spacing_mm[0], sdf.frame.spacing_mm[1], sdf.frame.spacing_mm[2]});
+  const double coarsest =
+      std::max({sdf.frame.spacing_mm[0], sdf.frame.spacing_mm[1], sdf.frame.spacing_mm[2]});
   const double adaptivity = 3.0 * coarsest <= edge ? kIsosurfaceAdaptivity : 0.0;
   SurfaceMesh raw = geometry::extract_isosurface(sdf, 0.0, adaptivity);
   {
@@ -156,7 +162,8 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
       std::sort(parts.begin(), parts.end(), [](const auto& a, const auto& b) {
         return geometry::enclosed_volume(a) > geometry::enclosed_volume(b);
       });
-      rep.warnings.push_back(fmt::format("skin: kept the largest of {} surface pieces", parts.size()));
+      rep.warnings.push_back(
+          fmt::format("skin: kept the largest of {} surface pieces", parts.size()));
       raw = parts.front();
     }
   }
@@ -198,16 +205,21 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
         ++info.dropped_components;
     }
     if (info.dropped_components > 0)
-      rep.warnings.push_back(fmt::format("layer {}: dropped {} piece(s) too small to mesh in thin "
-                                         "parts of the organ", k, info.dropped_components));
+      rep.warnings.push_back(
+          fmt::format("layer {}: dropped {} piece(s) too small to mesh in thin "
+                      "parts of the organ",
+                      k, info.dropped_components));
     if (kept.empty()) {
       rep.warnings.push_back(fmt::format(
-          "layer {} at depth {:.1f} mm vanished after remeshing; the model has {} layer(s)", k, depth, k));
+          "layer {} at depth {:.1f} mm vanished after remeshing; the model has {} layer(s)", k,
+          depth, k));
       break;
     }
     if (kept.size() > 1)
-      rep.warnings.push_back(fmt::format("layer {} splits into {} separate pieces (thin parts of the "
-                                         "organ); each is linked to the layer outside it", k, kept.size()));
+      rep.warnings.push_back(
+          fmt::format("layer {} splits into {} separate pieces (thin parts of the "
+                      "organ); each is linked to the layer outside it",
+                      k, kept.size()));
     layers.push_back(geometry::merge_meshes(kept));
     rep.layers.push_back(info);
   }
@@ -219,21 +231,24 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
     const geometry::MeshQuality q = geometry::measure_mesh(layers[k]);
     if (!q.closed || !q.manifold || !q.outward || q.degenerate_faces > 0 ||
         geometry::self_intersects(layers[k]))
-      throw Error(ErrorKind::kInternal,
-                  fmt::format("{}: layer {} failed its mesh checks (closed {}, manifold {}, outward "
-                              "{}, degenerate faces {}, self-intersecting {}); try a different "
-                              "--skin-vertices",
-                              name, k, q.closed, q.manifold, q.outward, q.degenerate_faces,
-                              geometry::self_intersects(layers[k])));
+      throw Error(
+          ErrorKind::kInternal,
+          fmt::format("{}: layer {} failed its mesh checks (closed {}, manifold {}, outward "
+                      "{}, degenerate faces {}, self-intersecting {}); try a different "
+                      "--skin-vertices",
+                      name, k, q.closed, q.manifold, q.outward, q.degenerate_faces,
+                      geometry::self_intersects(layers[k])));
     if (k > 0) {
       const geometry::Nesting n = geometry::check_nesting(layers[k - 1], layers[k]);
       rep.layers[k].nested = n.nested();
       rep.layers[k].min_gap_to_outer_mm = n.min_gap_mm;
       if (!n.nested())
-        throw invalid_input(name, fmt::format(
-            "layer {} is not strictly inside layer {} after remeshing (closest gap {:.2f} mm); "
-            "use a larger --layer-depth (now {:.1f} mm) or more --skin-vertices",
-            k, k - 1, n.min_gap_mm, depth_step));
+        throw invalid_input(
+            name,
+            fmt::format(
+                "layer {} is not strictly inside layer {} after remeshing (closest gap {:.2f} mm); "
+                "use a larger --layer-depth (now {:.1f} mm) or more --skin-vertices",
+                k, k - 1, n.min_gap_mm, depth_step));
     }
   }
   timer.done("checks");
@@ -270,7 +285,8 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
   };
   for (const auto& l : m.layers)
     for (const auto& [a, b] : geometry::mesh_edges(l.F)) add_spring(a, b, SpringKind::kIntraLayer);
-  for (const auto& [a, b] : link_layers(m, opt.inter_layer_links)) add_spring(a, b, SpringKind::kInterLayer);
+  for (const auto& [a, b] : link_layers(m, opt.inter_layer_links))
+    add_spring(a, b, SpringKind::kInterLayer);
 
   // Lumped masses: each shell between layers k and k+1 gives half its mass to each of them, the
   // core inside the deepest layer all to it; within a layer, mass follows vertex area. The total
@@ -294,7 +310,8 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt, cons
   m.rings = compute_rings(m, opt.locality);
   timer.done("rings");
 
-  rep.skin_volume_error_pct = 100.0 * (enclosed[0] / 1000.0 - rep.mask_volume_ml) / rep.mask_volume_ml;
+  rep.skin_volume_error_pct =
+      100.0 * (enclosed[0] / 1000.0 - rep.mask_volume_ml) / rep.mask_volume_ml;
   rep.build_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   report_progress(progress, "done", 1.0);
   return result;

@@ -7,7 +7,8 @@
 namespace lamina::model {
 
 Rings compute_rings(const Model& model, int32_t locality) {
-  if (locality < 1) throw invalid_input("locality", "must be at least 1, got " + std::to_string(locality));
+  if (locality < 1)
+    throw invalid_input("locality", "must be at least 1, got " + std::to_string(locality));
   const int32_t n = model.node_count();
   // Intra-layer adjacency as CSR (inter-layer springs are not part of a layer's rings).
   std::vector<int32_t> degree(static_cast<size_t>(n) + 1, 0);
@@ -18,7 +19,8 @@ Rings compute_rings(const Model& model, int32_t locality) {
   std::vector<int32_t> adj(static_cast<size_t>(degree[n]));
   std::vector<int32_t> fill(degree.begin(), degree.end() - 1);
   for (size_t e = 0; e < s.size(); ++e)
-    if (s.kind[e] == SpringKind::kIntraLayer) adj[fill[s.i[e]]++] = s.j[e], adj[fill[s.j[e]]++] = s.i[e];
+    if (s.kind[e] == SpringKind::kIntraLayer)
+      adj[fill[s.i[e]]++] = s.j[e], adj[fill[s.j[e]]++] = s.i[e];
 
   Rings rings;
   rings.locality = locality;

@@ -44,7 +44,8 @@ TEST(Phantom, HasAConcaveUnderside) {
   // lies above the chord between the two sides, which no convex shape (a sphere, an ellipsoid)
   // can do.
   const double y = 22.0;
-  const double left = underside_z(-90.0, y), mid = underside_z(-50.0, y), right = underside_z(-10.0, y);
+  const double left = underside_z(-90.0, y), mid = underside_z(-50.0, y),
+               right = underside_z(-10.0, y);
   ASSERT_FALSE(std::isnan(left) || std::isnan(mid) || std::isnan(right));
   EXPECT_GT(mid, 0.5 * (left + right) + 10.0);
 }
@@ -67,7 +68,8 @@ TEST(Phantom, SmallGridCropsTheOrganAtTheEdge) {
   int64_t on_border = 0;
   for (int64_t k = 0; k < f.size[2]; ++k)
     for (int64_t j = 0; j < f.size[1]; ++j)
-      on_border += (v.labels[f.index(0, j, k)] != 0) + (v.labels[f.index(f.size[0] - 1, j, k)] != 0);
+      on_border +=
+          (v.labels[f.index(0, j, k)] != 0) + (v.labels[f.index(f.size[0] - 1, j, k)] != 0);
   EXPECT_GT(on_border, 0);
 }
 

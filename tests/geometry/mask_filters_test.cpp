@@ -40,7 +40,8 @@ TEST(SignedDistance, SphereDepthAndZeroLevelVolume) {
   // An isosurface 5 mm inside is a sphere of radius r - 5, to within half a voxel: where exactly
   // a voxelised sphere's surface lies is uncertain by that much.
   const SurfaceMesh inner = geometry::extract_isosurface(d, -5.0);
-  const double radius = std::cbrt(3.0 * geometry::measure_mesh(inner).volume_mm3 / (4.0 * std::numbers::pi));
+  const double radius =
+      std::cbrt(3.0 * geometry::measure_mesh(inner).volume_mm3 / (4.0 * std::numbers::pi));
   EXPECT_NEAR(radius, r - 5.0, 0.5);
 }
 
@@ -75,8 +76,8 @@ TEST(Components, KeepLargestAndFillCavities) {
     for (int j = 2; j < 7; ++j)
       for (int i = 2; i < 7; ++i)
         if (!(i == 4 && j == 4 && k == 4)) set(i, j, k);  // a 5^3 cube with a 1-voxel hole
-  set(8, 8, 8);                                          // a lone voxel
-  set(7, 7, 7);                                          // touches the cube only diagonally
+  set(8, 8, 8);                                           // a lone voxel
+  set(7, 7, 7);                                           // touches the cube only diagonally
   const geometry::ComponentStats s = geometry::keep_largest_component(m);
   EXPECT_EQ(s.components, 3);  // face connectivity: the diagonal voxel is separate
   EXPECT_EQ(s.kept_voxels, 124);

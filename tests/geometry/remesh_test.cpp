@@ -16,7 +16,8 @@ using namespace lamina;
 SurfaceMesh sphere_isosurface(double r, double iso = 0.0) {
   LabelVolume v = test::empty_volume(40);
   test::paint_sphere(v, v.frame.to_physical(19.5, 19.5, 19.5), r, 1);
-  const DistanceField d = geometry::signed_distance(geometry::prepare_mask(v, {.pad_voxels = 2}).mask);
+  const DistanceField d =
+      geometry::signed_distance(geometry::prepare_mask(v, {.pad_voxels = 2}).mask);
   return geometry::extract_isosurface(d, iso);
 }
 
@@ -48,7 +49,8 @@ TEST(Remesh, KeepsAnInwardOrientationIfGivenOne) {
 
 TEST(Nesting, InnerSphereIsNestedTouchingIsNot) {
   const SurfaceMesh outer = geometry::remesh(sphere_isosurface(15.0), {.target_edge_mm = 3.0});
-  const SurfaceMesh inner = geometry::remesh(sphere_isosurface(15.0, -5.0), {.target_edge_mm = 3.0});
+  const SurfaceMesh inner =
+      geometry::remesh(sphere_isosurface(15.0, -5.0), {.target_edge_mm = 3.0});
   const geometry::Nesting n = geometry::check_nesting(outer, inner);
   EXPECT_TRUE(n.nested());
   EXPECT_NEAR(n.min_gap_mm, 5.0, 1.0);
@@ -63,7 +65,8 @@ TEST(Nesting, InnerSphereIsNestedTouchingIsNot) {
 }
 
 TEST(SelfIntersection, DetectsTwoOverlappingShells) {
-  const SurfaceMesh a = test::octahedron(1.0), b = test::octahedron(1.0, Eigen::RowVector3d(0.5, 0.2, 0.1));
+  const SurfaceMesh a = test::octahedron(1.0),
+                    b = test::octahedron(1.0, Eigen::RowVector3d(0.5, 0.2, 0.1));
   EXPECT_FALSE(geometry::self_intersects(a));
   EXPECT_TRUE(geometry::self_intersects(geometry::merge_meshes({a, b})));
 }

@@ -30,7 +30,6 @@ using lamina::test::TempDir;
 
 namespace fs = std::filesystem;
 
-
 using Volume = itk::Image<uint16_t, 3>;
 using Slice = itk::Image<uint16_t, 2>;
 

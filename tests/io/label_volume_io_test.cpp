@@ -24,7 +24,6 @@ using lamina::test::TempDir;
 
 namespace fs = std::filesystem;
 
-
 // An anisotropic, rotated, off-origin grid: a reader or writer that drops, swaps or transposes
 // any part of the frame fails the round trip. The origin is exactly representable in float,
 // since NIfTI stores it in single precision.
@@ -87,7 +86,8 @@ TEST_P(RoundTrip, WideLabelsKeepLabelsAndFrame) {
   EXPECT_EQ(r.labels, v.labels);
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, RoundTrip, ::testing::Values(".nii", ".nii.gz", ".nrrd", ".mha"),
+INSTANTIATE_TEST_SUITE_P(Formats, RoundTrip,
+                         ::testing::Values(".nii", ".nii.gz", ".nrrd", ".seg.nrrd", ".mha", ".mhd"),
                          [](const auto& info) {
                            std::string name = info.param.substr(1);
                            std::replace(name.begin(), name.end(), '.', '_');

@@ -21,7 +21,6 @@ using lamina::test::TempDir;
 
 namespace fs = std::filesystem;
 
-
 // An octahedron, outward winding, with coordinates that need all 17 significant digits.
 SurfaceMesh make_octahedron() {
   SurfaceMesh mesh;

@@ -23,7 +23,6 @@ using lamina::test::TempDir;
 
 namespace fs = std::filesystem;
 
-
 // Two layers: an octahedron (nodes 0-5) around a tetrahedron (nodes 6-9). The coordinates include
 // values with long or awkward decimal forms (1/3, 0.1 + 0.2, -0.0, a subnormal) that only survive
 // a text round trip if every digit needed is printed.

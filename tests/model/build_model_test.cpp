@@ -8,10 +8,10 @@
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/geometry/remesh.h"
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/mesh_file.h"
 #include "lamina/io/model_file.h"
-#include "lamina/geometry/remesh.h"
 #include "lamina/model/compute_rings.h"
 #include "lamina/model/summarize_model.h"
 #include "support/volumes.h"
@@ -25,8 +25,9 @@ const model::BuildResult& built(const std::string& input) {
   static std::map<std::string, model::BuildResult> cache;
   auto it = cache.find(input);
   if (it == cache.end()) {
-    const LabelVolume v = input == "phantom" ? geometry::make_phantom()
-                                             : io::read_label_volume(std::string(LAMINA_SHARED_DATA) + "/" + input);
+    const LabelVolume v =
+        input == "phantom" ? geometry::make_phantom()
+                           : io::read_label_volume(std::string(LAMINA_SHARED_DATA) + "/" + input);
     it = cache.emplace(input, model::build_model(v, {})).first;
   }
   return it->second;
@@ -74,7 +75,8 @@ TEST_P(BuildOnOrgan, SkinVolumeWithinThreePercentOfTheMask) {
   const auto& b = built(GetParam());
   const double skin_ml = model::summarize_model(b.model).layers[0].quality.volume_mm3 / 1000.0;
   EXPECT_NEAR(skin_ml / b.report.mask_volume_ml, 1.0, 0.03);
-  EXPECT_NEAR(b.report.skin_volume_error_pct, 100.0 * (skin_ml / b.report.mask_volume_ml - 1.0), 1e-6);
+  EXPECT_NEAR(b.report.skin_volume_error_pct, 100.0 * (skin_ml / b.report.mask_volume_ml - 1.0),
+              1e-6);
 }
 
 TEST_P(BuildOnOrgan, SkinHasAboutThePapersVertexCount) {
@@ -107,7 +109,8 @@ TEST_P(BuildOnOrgan, RestLengthsAndMassesAreConsistent) {
   const Model& m = built(GetParam()).model;
   for (size_t e = 0; e < m.springs.size(); ++e) {
     ASSERT_LT(m.springs.i[e], m.springs.j[e]);
-    ASSERT_DOUBLE_EQ(m.springs.rest_length_mm[e], (m.X.row(m.springs.i[e]) - m.X.row(m.springs.j[e])).norm());
+    ASSERT_DOUBLE_EQ(m.springs.rest_length_mm[e],
+                     (m.X.row(m.springs.i[e]) - m.X.row(m.springs.j[e])).norm());
     ASSERT_GT(m.springs.rest_length_mm[e], 0.0);
   }
   for (double w : m.mass_kg) ASSERT_GT(w, 0.0);
@@ -118,7 +121,8 @@ TEST_P(BuildOnOrgan, RestLengthsAndMassesAreConsistent) {
 
 TEST_P(BuildOnOrgan, SavedModelLoadsBackExactly) {
   const Model& m = built(GetParam()).model;
-  const auto path = std::filesystem::temp_directory_path() / ("lamina_roundtrip_" + std::to_string(::getpid()) + ".vtu");
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("lamina_roundtrip_" + std::to_string(::getpid()) + ".vtu");
   io::save_model(m, path.string());
   const Model l = io::load_model(path.string());
   std::filesystem::remove(path);
@@ -158,7 +162,8 @@ TEST(BuildModel, SixLayersNestOnThePhantom) {
 
 TEST(BuildModel, LayerDeeperThanTheOrganVanishesWithAWarning) {
   const LabelVolume v = geometry::make_phantom({.spacing_mm = {3, 3, 3}});
-  const model::BuildResult b = model::build_model(v, {.layers = 3, .skin_vertices = 500, .layer_depth_mm = 35.0});
+  const model::BuildResult b =
+      model::build_model(v, {.layers = 3, .skin_vertices = 500, .layer_depth_mm = 35.0});
   EXPECT_EQ(b.model.layer_count(), 2);  // layer 2 at 70 mm is deeper than the ~54 mm organ
   ASSERT_FALSE(b.report.warnings.empty());
   EXPECT_NE(b.report.warnings.back().find("vanished"), std::string::npos);

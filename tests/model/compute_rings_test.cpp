@@ -17,7 +17,8 @@ using namespace lamina;
 Model model_of(const SurfaceMesh& mesh) {
   Model m;
   m.X = mesh.V;
-  m.layers.push_back({.first_node = 0, .node_count = static_cast<int32_t>(mesh.V.rows()), .F = mesh.F});
+  m.layers.push_back(
+      {.first_node = 0, .node_count = static_cast<int32_t>(mesh.V.rows()), .F = mesh.F});
   m.layer_of.assign(static_cast<size_t>(mesh.V.rows()), 0);
   for (const auto& [a, b] : geometry::mesh_edges(mesh.F)) {
     m.springs.i.push_back(a);

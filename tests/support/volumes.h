@@ -24,7 +24,8 @@ inline void paint_sphere(LabelVolume& v, const std::array<double, 3>& c, double 
   for (int64_t k = 0; k < f.size[2]; ++k)
     for (int64_t j = 0; j < f.size[1]; ++j)
       for (int64_t i = 0; i < f.size[0]; ++i) {
-        const auto p = f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+        const auto p =
+            f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
         const double d = std::hypot(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
         if (d <= r) v.labels[f.index(i, j, k)] = label;
       }

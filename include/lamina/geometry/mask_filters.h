@@ -11,9 +11,9 @@ namespace lamina::geometry {
 
 /// What keep_largest_component() removed.
 struct ComponentStats {
-  int32_t components = 0;        ///< face-connected foreground components found
-  int64_t kept_voxels = 0;       ///< voxels of the largest one
-  int64_t dropped_voxels = 0;    ///< voxels of all the others
+  int32_t components = 0;      ///< face-connected foreground components found
+  int64_t kept_voxels = 0;     ///< voxels of the largest one
+  int64_t dropped_voxels = 0;  ///< voxels of all the others
 };
 
 /// Keeps only the largest face-connected (6-neighbour) foreground component.

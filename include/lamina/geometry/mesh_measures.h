@@ -14,17 +14,17 @@ namespace lamina::geometry {
 struct MeshQuality {
   int64_t vertices = 0;
   int64_t faces = 0;
-  bool closed = false;          ///< every edge has exactly two faces
-  bool manifold = false;        ///< edges in <= 2 faces, consistently oriented, one fan per vertex
-  bool outward = false;         ///< enclosed volume > 0 with the faces' winding
-  int32_t components = 0;       ///< edge-connected components
-  int64_t degenerate_faces = 0; ///< faces with (near) zero area
-  double volume_mm3 = 0.0;      ///< enclosed volume (divergence theorem), mm^3
+  bool closed = false;           ///< every edge has exactly two faces
+  bool manifold = false;         ///< edges in <= 2 faces, consistently oriented, one fan per vertex
+  bool outward = false;          ///< enclosed volume > 0 with the faces' winding
+  int32_t components = 0;        ///< edge-connected components
+  int64_t degenerate_faces = 0;  ///< faces with (near) zero area
+  double volume_mm3 = 0.0;       ///< enclosed volume (divergence theorem), mm^3
   double area_mm2 = 0.0;
   double mean_edge_mm = 0.0;
   double min_edge_mm = 0.0;
   double max_edge_mm = 0.0;
-  double min_angle_deg = 0.0;   ///< smallest triangle angle
+  double min_angle_deg = 0.0;  ///< smallest triangle angle
 };
 
 /// Measures a mesh. Cost: O(#F log #F).

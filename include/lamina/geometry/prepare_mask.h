@@ -11,9 +11,9 @@ namespace lamina::geometry {
 
 /// Options for prepare_mask().
 struct MaskOptions {
-  int32_t label = 0;       ///< label to select; 0 = any non-zero label
-  int pad_voxels = 1;      ///< background margin kept around the organ's bounding box, voxels
-  int64_t min_voxels = 27; ///< fewer voxels than this cannot make a meaningful surface
+  int32_t label = 0;        ///< label to select; 0 = any non-zero label
+  int pad_voxels = 1;       ///< background margin kept around the organ's bounding box, voxels
+  int64_t min_voxels = 27;  ///< fewer voxels than this cannot make a meaningful surface
 };
 
 /// What prepare_mask() did, for the build report.

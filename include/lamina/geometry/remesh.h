@@ -36,7 +36,7 @@ struct Nesting {
 struct SurfaceDistance {
   double mean_mm = 0.0;  ///< mean vertex-to-surface distance
   double rms_mm = 0.0;
-  double max_mm = 0.0;   ///< one-sided Hausdorff distance (at the vertices)
+  double max_mm = 0.0;  ///< one-sided Hausdorff distance (at the vertices)
 };
 
 /// Distance from every vertex of `from` to the nearest point on the triangles of `to`

@@ -14,24 +14,25 @@ namespace lamina::model {
 
 /// Options for build_model(). Defaults reproduce the reference paper's setup.
 struct BuildOptions {
-  int32_t label = 0;                   ///< label to model; 0 = any non-zero voxel
-  int32_t layers = 2;                  ///< S: layer 0 is the skin, 1..S-1 nested inside; 1..16
-  int32_t skin_vertices = 1284;        ///< target skin vertex count (the paper's model size)
-  double layer_depth_mm = 0.0;         ///< depth between layers; 0 = auto (max depth / (S+1))
-  int32_t locality = 4;                ///< N: BFS rings 0..N-1 precomputed per node
-  int32_t inter_layer_links = 3;       ///< each node links to this many nearest nodes per neighbour layer
-  double density_kg_per_mm3 = 1.06e-6; ///< tissue density (liver 1.06 g/cm^3 = 1.06e-6 kg/mm^3)
-  double stiffness_n_per_m = 3.0;      ///< Hooke constant of every spring (the paper's K = 3)
-  int32_t min_component_vertices = 12; ///< smaller pieces of an inner layer are dropped
+  int32_t label = 0;             ///< label to model; 0 = any non-zero voxel
+  int32_t layers = 2;            ///< S: layer 0 is the skin, 1..S-1 nested inside; 1..16
+  int32_t skin_vertices = 1284;  ///< target skin vertex count (the paper's model size)
+  double layer_depth_mm = 0.0;   ///< depth between layers; 0 = auto (max depth / (S+1))
+  int32_t locality = 4;          ///< N: BFS rings 0..N-1 precomputed per node
+  int32_t inter_layer_links =
+      3;  ///< each node links to this many nearest nodes per neighbour layer
+  double density_kg_per_mm3 = 1.06e-6;  ///< tissue density (liver 1.06 g/cm^3 = 1.06e-6 kg/mm^3)
+  double stiffness_n_per_m = 3.0;       ///< Hooke constant of every spring (the paper's K = 3)
+  int32_t min_component_vertices = 12;  ///< smaller pieces of an inner layer are dropped
 };
 
 /// One layer as built.
 struct LayerBuildInfo {
   int32_t index = 0;
-  double depth_mm = 0.0;            ///< distance inside the skin of this layer's isosurface
-  int32_t dropped_components = 0;   ///< tiny pieces removed (thin parts of the organ)
-  double min_gap_to_outer_mm = 0.0; ///< closest approach to the layer outside it (0 for the skin)
-  bool nested = true;               ///< strictly inside the layer outside it
+  double depth_mm = 0.0;             ///< distance inside the skin of this layer's isosurface
+  int32_t dropped_components = 0;    ///< tiny pieces removed (thin parts of the organ)
+  double min_gap_to_outer_mm = 0.0;  ///< closest approach to the layer outside it (0 for the skin)
+  bool nested = true;                ///< strictly inside the layer outside it
 };
 
 /// What the build did and measured, besides the model itself.
@@ -42,11 +43,11 @@ struct BuildReport {
   double max_depth_mm = 0.0;                   ///< deepest point inside the organ
   double target_edge_mm = 0.0;                 ///< edge length all layers were remeshed to
   int32_t layers_requested = 0;
-  std::vector<LayerBuildInfo> layers;          ///< one per built layer
-  std::vector<std::string> warnings;           ///< vanished/split layers, dropped pieces
-  double mask_volume_ml = 0.0;                 ///< voxel volume of the prepared mask
-  double skin_volume_error_pct = 0.0;          ///< (skin volume - mask volume) / mask volume
-  double build_seconds = 0.0;                  ///< wall time of build_model (no file reading)
+  std::vector<LayerBuildInfo> layers;  ///< one per built layer
+  std::vector<std::string> warnings;   ///< vanished/split layers, dropped pieces
+  double mask_volume_ml = 0.0;         ///< voxel volume of the prepared mask
+  double skin_volume_error_pct = 0.0;  ///< (skin volume - mask volume) / mask volume
+  double build_seconds = 0.0;          ///< wall time of build_model (no file reading)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< per stage, in order
 };
 

@@ -18,9 +18,9 @@ enum class SpringKind : uint8_t {
 
 /// All springs, structure-of-arrays (the simulation streams through these).
 struct Springs {
-  std::vector<int32_t> i, j;                ///< node indices, i < j
-  std::vector<double> rest_length_mm;       ///< > 0
-  std::vector<double> stiffness_n_per_m;    ///< Hooke constant, N/m (= mN/mm), > 0
+  std::vector<int32_t> i, j;              ///< node indices, i < j
+  std::vector<double> rest_length_mm;     ///< > 0
+  std::vector<double> stiffness_n_per_m;  ///< Hooke constant, N/m (= mN/mm), > 0
   std::vector<SpringKind> kind;
 
   size_t size() const { return i.size(); }
@@ -37,9 +37,9 @@ struct ModelLayer {
 /// [0, locality), ring r of v is members[offsets[v * locality + r], offsets[v * locality + r + 1]).
 /// Ring 0 is {v}; ring r holds the nodes of v's own layer at breadth-first (edge-hop) distance r.
 struct Rings {
-  int32_t locality = 0;           ///< N: rings 0..N-1 are stored
-  std::vector<int64_t> offsets;   ///< #nodes * locality + 1 entries
-  std::vector<int32_t> members;   ///< node indices, each ring sorted ascending
+  int32_t locality = 0;          ///< N: rings 0..N-1 are stored
+  std::vector<int64_t> offsets;  ///< #nodes * locality + 1 entries
+  std::vector<int32_t> members;  ///< node indices, each ring sorted ascending
 
   /// Number of nodes in ring r of node v.
   int64_t ring_size(int32_t v, int32_t r) const {
@@ -54,11 +54,11 @@ struct Rings {
 
 /// The model. Nodes are ordered by layer: layer 0 (the skin) first.
 struct Model {
-  Eigen::MatrixX3d X;             ///< #nodes by 3 rest positions, mm (column-major = SoA)
-  std::vector<double> mass_kg;    ///< #nodes lumped masses, kg, > 0
-  std::vector<int32_t> layer_of;  ///< #nodes layer index of each node
-  std::vector<uint8_t> fixed;     ///< #nodes, 1 = held in place (boundary condition)
-  std::vector<ModelLayer> layers; ///< layer 0 = skin, then inward
+  Eigen::MatrixX3d X;              ///< #nodes by 3 rest positions, mm (column-major = SoA)
+  std::vector<double> mass_kg;     ///< #nodes lumped masses, kg, > 0
+  std::vector<int32_t> layer_of;   ///< #nodes layer index of each node
+  std::vector<uint8_t> fixed;      ///< #nodes, 1 = held in place (boundary condition)
+  std::vector<ModelLayer> layers;  ///< layer 0 = skin, then inward
   Springs springs;
   Rings rings;
   double density_kg_per_mm3 = 1.06e-6;  ///< used to lump the masses (liver: 1.06 g/cm^3)

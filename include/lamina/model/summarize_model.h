@@ -26,7 +26,7 @@ struct ModelSummary {
   int32_t spring_components = 0;  ///< connected components of the spring network (1 = one body)
   double total_mass_kg = 0.0;
   int32_t locality = 0;
-  int64_t ring_entries = 0;       ///< total stored ring members (CSR size)
+  int64_t ring_entries = 0;  ///< total stored ring members (CSR size)
   double min_rest_length_mm = 0.0, max_rest_length_mm = 0.0;
   std::vector<LayerSummary> layers;
 };
