@@ -5,7 +5,7 @@ set -euo pipefail
 
 pkgs=(
   cmake g++ make pkg-config ninja-build
-  libeigen3-dev libinsighttoolkit5-dev libcgal-dev libopenvdb-dev
+  libeigen3-dev libinsighttoolkit5-dev libcgal-dev libopenvdb-dev libtbb-dev libimath-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libgtest-dev libgmock-dev libbenchmark-dev
   zlib1g-dev

@@ -91,7 +91,7 @@ int run_build(const BuildArgs& a) {
   if (a.json)
     for (const auto& w : built.report.warnings) log::warn("{}: {}", volume.source, w);
   io::save_model(built.model, a.output);
-  const model::ModelSummary summary = model::summarize_model(built.model);
+  const model::ModelSummary summary = model::summarize_model(built.model, &built.report);
   if (a.json)
     std::cout << io::summary_json(summary, &built.report, volume.source) << "\n";
   else

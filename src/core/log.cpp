@@ -4,17 +4,21 @@
 
 namespace lamina::log {
 
-void set_verbosity(int level) {
-  // stderr, so that `--json` output on stdout stays machine-readable.
-  static auto logger = [] {
-    auto l = spdlog::stderr_color_mt("lamina");
-    l->set_pattern("%^%l%$: %v");
-    spdlog::set_default_logger(l);
-    return l;
+spdlog::logger& logger() {
+  // stderr, never spdlog's default (stdout) logger: --json output and embedding programs own
+  // stdout. Thread-safe static initialisation.
+  static std::shared_ptr<spdlog::logger> l = [] {
+    auto made = spdlog::stderr_color_mt("lamina");
+    made->set_pattern("%^%l%$: %v");
+    return made;
   }();
-  logger->set_level(level <= 0   ? spdlog::level::warn
-                    : level == 1 ? spdlog::level::info
-                                 : spdlog::level::debug);
+  return *l;
+}
+
+void set_verbosity(int level) {
+  logger().set_level(level <= 0   ? spdlog::level::warn
+                     : level == 1 ? spdlog::level::info
+                                  : spdlog::level::debug);
 }
 
 }  // namespace lamina::log

@@ -15,7 +15,7 @@ SurfaceMesh layer_mesh(const Model& model, int32_t layer) {
   return m;
 }
 
-ModelSummary summarize_model(const Model& model) {
+ModelSummary summarize_model(const Model& model, const BuildReport* build) {
   ModelSummary s;
   s.nodes = model.node_count();
   s.springs = static_cast<int64_t>(model.springs.size());
@@ -48,11 +48,16 @@ ModelSummary summarize_model(const Model& model) {
     ls.index = k;
     SurfaceMesh mesh = layer_mesh(model, k);
     ls.quality = geometry::measure_mesh(mesh);
-    ls.self_intersecting = geometry::self_intersects(mesh);
-    if (k > 0) {
-      const geometry::Nesting n = geometry::check_nesting(outer, mesh);
-      ls.nested = n.nested();
-      ls.min_gap_mm = n.min_gap_mm;
+    if (build && static_cast<size_t>(k) < build->layers.size()) {
+      ls.nested = build->layers[k].nested;
+      ls.min_gap_mm = build->layers[k].min_gap_to_outer_mm;
+    } else {
+      ls.self_intersecting = geometry::self_intersects(mesh);
+      if (k > 0) {
+        const geometry::Nesting n = geometry::check_nesting(outer, mesh);
+        ls.nested = n.nested();
+        ls.min_gap_mm = n.min_gap_mm;
+      }
     }
     s.layers.push_back(ls);
     outer = std::move(mesh);

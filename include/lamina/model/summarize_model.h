@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "lamina/geometry/mesh_measures.h"
+#include "lamina/model/build_model.h"
 #include "lamina/model/model.h"
 
 namespace lamina::model {
@@ -36,6 +37,10 @@ SurfaceMesh layer_mesh(const Model& model, int32_t layer);
 
 /// Measures a model: per-layer mesh quality (with CGAL self-intersection and nesting checks),
 /// spring counts and connectivity, mass.
-ModelSummary summarize_model(const Model& model);
+/// @param[in] model  the model
+/// @param[in] build  the report of the build that made `model`, or nullptr. build_model() has
+///   already checked self-intersection and nesting (it fails otherwise), so with a report those
+///   CGAL checks are not run again and the gaps are taken from it.
+ModelSummary summarize_model(const Model& model, const BuildReport* build = nullptr);
 
 }  // namespace lamina::model
