@@ -16,6 +16,20 @@ find_package(ITK 5.2 REQUIRED COMPONENTS
   ITKDistanceMap ITKConnectedComponents ITKLabelMap ITKBinaryMathematicalMorphology
   ITKImageGrid ITKThresholding ITKRegionGrowing)
 
+# lamina_itk_sources(<files>): lets these sources (and only these) see ITK's headers.
+# ITK lists /usr/include among its include directories; passing that as -I breaks libstdc++'s
+# #include_next <stdlib.h>, so it is filtered out. Under the sanitizers, one UBSan check is off
+# in these files: ITK 5.2's own itkConstNeighborhoodIterator.hxx offsets a null buffer pointer
+# ("applying non-zero offset to null pointer"), and its templates are instantiated here.
+set(LAMINA_ITK_INCLUDES ${ITK_INCLUDE_DIRS})
+list(REMOVE_ITEM LAMINA_ITK_INCLUDES /usr/include)
+function(lamina_itk_sources)
+  set_property(SOURCE ${ARGN} APPEND PROPERTY INCLUDE_DIRECTORIES ${LAMINA_ITK_INCLUDES})
+  if(LAMINA_SANITIZE)
+    set_property(SOURCE ${ARGN} APPEND PROPERTY COMPILE_OPTIONS -fno-sanitize=pointer-overflow)
+  endif()
+endfunction()
+
 # OpenVDB 10: Debian's FindOpenVDB wants Boost.Iostreams; the plain library is enough.
 find_library(OPENVDB_LIBRARY openvdb REQUIRED)
 find_package(TBB REQUIRED)
