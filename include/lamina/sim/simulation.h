@@ -1,0 +1,137 @@
+#pragma once
+/// \file
+/// Mass-spring dynamics of a Model: m x'' + gamma x' + f_springs(x) = f_ext (the paper's eq. 4).
+/// Plain structs and one step() call, in the manner of Box2D: make_simulation() once, step()
+/// every frame. Units: mm, kg, s; forces in mN (kg mm / s^2), stiffness in N/m (= mN/mm).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "lamina/model/model.h"
+
+namespace lamina::sim {
+
+/// Time integrators.
+enum class Integrator : uint8_t {
+  kSemiImplicitEuler,  ///< the paper's: v += dt a(x, v); x += dt v. Cheap; stable only for small dt
+  kImplicitEuler,      ///< backward Euler, one linearised solve by conjugate gradients per step
+};
+
+/// Which nodes move.
+enum class Mode : uint8_t {
+  kGlobal,  ///< every free node
+  kLocal,   ///< the paper's: only the nodes set with set_local_nodes(); the rest are held
+};
+
+/// Tissue parameters. Defaults are the reference paper's (K = 3, gamma = 3, unit node masses).
+struct Material {
+  /// > 0: every spring gets this Hooke constant (the paper's K), N/m. 0: keep the model's.
+  double stiffness_n_per_m = 3.0;
+  /// gamma: viscous damping per node, kg/s (force = -gamma v, mN for v in mm/s).
+  double damping_kg_per_s = 3.0;
+  /// > 0: every node has this mass, kg (the paper uses unit masses). 0: the model's lumped
+  /// masses from density and volume.
+  double node_mass_kg = 1.0;
+  /// > 0: every free node is tied to its rest position by a spring of this stiffness, N/m
+  /// (support from the surrounding tissue).
+  double anchor_stiffness_n_per_m = 0.0;
+  /// Gravity, mm/s^2 (Earth: 9810 along -z in LPS for a supine patient is (0, 9810, 0)).
+  Eigen::Vector3d gravity_mm_per_s2 = Eigen::Vector3d::Zero();
+};
+
+/// Solver parameters. Defaults are the paper's (dt = 0.01 s, threshold 1e-3 mm).
+struct SolverOptions {
+  Integrator integrator = Integrator::kSemiImplicitEuler;
+  double dt_s = 0.01;            ///< time step, s, > 0
+  double threshold_mm = 1e-3;    ///< converged when no node moves more than this in one step
+  int64_t max_steps = 100000;    ///< run_to_convergence() gives up after this many steps
+  Mode mode = Mode::kGlobal;
+  int32_t cg_max_iterations = 100;  ///< implicit Euler: CG iterations per step at most
+  double cg_tolerance = 1e-6;       ///< implicit Euler: relative residual to stop CG
+};
+
+/// What one step measured. Valid until the next step.
+struct StepStats {
+  double max_move_mm = 0.0;          ///< largest node move in this step (the convergence test)
+  double max_displacement_mm = 0.0;  ///< largest distance of a node from its rest position
+  double skin_volume_mm3 = 0.0;      ///< volume enclosed by the deformed skin (layer 0)
+  double volume_change_pct = 0.0;    ///< 100 (V - V_rest) / V_rest
+  double kinetic_energy_j = 0.0;     ///< 1/2 sum m v^2, joules
+  double step_us = 0.0;              ///< wall time of the step, microseconds
+  int32_t cg_iterations = 0;         ///< implicit Euler only
+  bool converged = false;            ///< max_move_mm < threshold
+  bool recovered = false;            ///< a non-finite state was rolled back and the step redone
+};
+
+/// The simulation: the model it runs on (not owned: it must outlive the simulation), its
+/// parameters, and structure-of-arrays state and workspace. Create with make_simulation().
+struct Simulation {
+  const Model* model = nullptr;
+  Material material;
+  SolverOptions options;
+
+  // State (#nodes by 3, column-major: x, y, z each contiguous).
+  Eigen::MatrixX3d x;      ///< positions, mm
+  Eigen::MatrixX3d v;      ///< velocities, mm/s
+  Eigen::MatrixX3d f_ext;  ///< external (tool) forces, mN; set by the caller before step()
+  double time_s = 0.0;
+  int64_t steps = 0;
+  int64_t recoveries = 0;  ///< steps that hit a non-finite state and were redone
+
+  // Per node.
+  std::vector<double> mass_kg;
+  std::vector<uint8_t> fixed;    ///< 1 = held at its rest position (boundary condition)
+  std::vector<uint8_t> movable;  ///< 1 = integrated this step (not fixed, and local when kLocal)
+
+  // Springs gathered per node (CSR), so each thread writes only its own nodes' forces.
+  std::vector<int32_t> adj_offsets;  ///< #nodes + 1
+  std::vector<int32_t> adj_other;    ///< the node at the other end
+  std::vector<int32_t> adj_spring;   ///< the spring index
+  std::vector<double> stiffness_n_per_m;  ///< per spring, after Material::stiffness_n_per_m
+  double rest_skin_volume_mm3 = 0.0;
+
+  // Workspace, sized once (no allocation per step).
+  Eigen::MatrixX3d f, x_prev, v_prev, r, p, z, q;
+  Eigen::MatrixX3d diag;                      ///< Jacobi preconditioner (per node, per axis)
+  Eigen::Matrix<double, Eigen::Dynamic, 4> dir;  ///< per spring: unit direction, 1 - L/l
+};
+
+/// Sets up a simulation of `model` at rest.
+/// \note Throws lamina::Error (kInvalidInput) naming the parameter for non-positive dt,
+///   negative stiffness or damping, and so on.
+Simulation make_simulation(const Model& model, const Material& material = {},
+                           const SolverOptions& options = {});
+
+/// Holds these nodes at their rest positions from now on (a region of the skin attached to
+/// surrounding anatomy). Without fixed nodes or anchor springs a pushed model drifts as a rigid
+/// body and cannot return to rest.
+void fix_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
+
+/// Nodes within `distance_mm` of the plane through `point` with normal `normal` (any length).
+std::vector<int32_t> nodes_near_plane(const Model& model, const Eigen::Vector3d& point,
+                                      const Eigen::Vector3d& normal, double distance_mm);
+
+/// Local mode: only these nodes move (besides being free); every other node is held where it is.
+void set_local_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
+
+/// Advances one time step: spring, damping, anchor, gravity and external forces; integrate;
+/// check every value is finite (else roll back and redo the step with two half steps, then with
+/// implicit Euler); measure.
+StepStats step(Simulation& sim);
+
+/// Steps until converged (after at least `min_steps`) or options.max_steps.
+/// @return the stats of the last step
+StepStats run_to_convergence(Simulation& sim, int64_t min_steps = 1);
+
+/// Spring forces at positions x (#nodes by 3, mm) into f (mN), gathered per node. Stateless
+/// apart from the adjacency in `sim`. Forces sum to zero (Newton's third law).
+void spring_forces(const Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+
+/// Volume enclosed by layer `layer` of the model at positions x, mm^3.
+double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer = 0);
+
+/// Total elastic energy of the springs at positions x, joules.
+double spring_energy(const Simulation& sim, const Eigen::MatrixX3d& x);
+
+}  // namespace lamina::sim

@@ -1,0 +1,180 @@
+#include "lamina/sim/simulation.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <random>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/model/build_model.h"
+
+namespace {
+
+using namespace lamina;
+
+// A small two-layer phantom model (about 600 nodes), built once per process.
+const Model& small_model() {
+  static const Model m =
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400}).model;
+  return m;
+}
+
+// Random displacements of every node, up to `amplitude` mm, reproducible.
+Eigen::MatrixX3d jiggle(const Eigen::MatrixX3d& X, double amplitude, unsigned seed = 7) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-amplitude, amplitude);
+  Eigen::MatrixX3d x = X;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += u(rng);
+  return x;
+}
+
+double total_energy(const sim::Simulation& s) {
+  double ke = 0.0;
+  for (Eigen::Index i = 0; i < s.v.rows(); ++i) ke += 0.5 * s.mass_kg[i] * s.v.row(i).squaredNorm();
+  return ke * 1e-6 + sim::spring_energy(s, s.x);
+}
+
+TEST(SpringForces, SumToZeroAndAreMinusTheEnergyGradient) {
+  const Model& m = small_model();
+  const sim::Simulation s = sim::make_simulation(m);
+  const Eigen::MatrixX3d x = jiggle(m.X, 2.0);
+  Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
+  sim::spring_forces(s, x, f);
+  const double scale = f.cwiseAbs().maxCoeff();
+  ASSERT_GT(scale, 0.0);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(f.col(c).sum() / scale, 0.0, 1e-12) << "axis " << c;
+  // f = -dE/dx by central differences (E in J = 1e-6 N mm... : f [mN] = -dE/dx [1e-6 J / mm]).
+  for (int node : {0, 17, m.node_count() - 1})
+    for (int c = 0; c < 3; ++c) {
+      Eigen::MatrixX3d xp = x, xm = x;
+      const double h = 1e-4;
+      xp(node, c) += h;
+      xm(node, c) -= h;
+      const double grad = (sim::spring_energy(s, xp) - sim::spring_energy(s, xm)) / (2 * h) * 1e6;
+      EXPECT_NEAR(f(node, c), -grad, 1e-6 * scale + 1e-7) << "node " << node << " axis " << c;
+    }
+}
+
+TEST(Simulation, AtRestStaysAtRest) {
+  sim::Simulation s = sim::make_simulation(small_model());
+  const sim::StepStats st = sim::step(s);
+  EXPECT_LT(st.max_move_mm, 1e-12);  // round-off of rest lengths only
+  EXPECT_TRUE(st.converged);
+  EXPECT_NEAR(st.volume_change_pct, 0.0, 1e-12);
+}
+
+TEST(Simulation, WithDampingAndNoToolEnergyNeverRises) {
+  for (auto integrator : {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler}) {
+    SCOPED_TRACE(integrator == sim::Integrator::kImplicitEuler ? "implicit" : "semi-implicit");
+    sim::Simulation s = sim::make_simulation(small_model(), {}, {.integrator = integrator});
+    s.x = jiggle(small_model().X, 1.5);
+    double previous = total_energy(s);
+    const double start = previous;
+    for (int k = 0; k < 300; ++k) {
+      sim::step(s);
+      const double e = total_energy(s);
+      ASSERT_LE(e, previous * (1.0 + 1e-9)) << "step " << k;
+      previous = e;
+    }
+    EXPECT_LT(previous, 0.5 * start);
+  }
+}
+
+// Support for a global-mode model: the posterior 15 mm held (attached to the back wall).
+std::vector<int32_t> posterior_nodes(const Model& m) {
+  const double back = m.X.col(1).maxCoeff();
+  return sim::nodes_near_plane(m, Eigen::Vector3d(0, back, 0), Eigen::Vector3d(0, 1, 0), 15.0);
+}
+
+TEST(Simulation, ReleasedModelReturnsToRest) {
+  for (auto integrator : {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler})
+    for (bool anchored : {false, true}) {
+      SCOPED_TRACE(std::string(integrator == sim::Integrator::kImplicitEuler ? "implicit" : "semi-implicit") +
+                   (anchored ? ", anchor springs" : ", fixed posterior region"));
+      const Model& m = small_model();
+      sim::Simulation s = sim::make_simulation(m, {.anchor_stiffness_n_per_m = anchored ? 0.5 : 0.0},
+                                               {.integrator = integrator, .threshold_mm = 1e-5});
+      if (!anchored) sim::fix_nodes(s, posterior_nodes(m));
+      const int32_t front = static_cast<int32_t>(std::distance(
+          m.X.col(1).data(), std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+      s.f_ext.row(front) << 0.0, 20.0, 0.0;  // mN, pushing the anterior surface backwards
+      for (int k = 0; k < 300; ++k) sim::step(s);
+      const double pushed = (s.x - m.X).rowwise().norm().maxCoeff();
+      EXPECT_GT(pushed, 1.0);
+      s.f_ext.setZero();
+      const sim::StepStats st = sim::run_to_convergence(s, 2);
+      EXPECT_TRUE(st.converged);
+      EXPECT_LT(st.max_displacement_mm, 0.01 * pushed);
+    }
+}
+
+TEST(Simulation, FixedNodesNeverMove) {
+  const Model& m = small_model();
+  sim::Simulation s = sim::make_simulation(m);
+  const std::vector<int32_t> held = posterior_nodes(m);
+  ASSERT_FALSE(held.empty());
+  sim::fix_nodes(s, held);
+  s.f_ext.setConstant(5.0);
+  for (int k = 0; k < 50; ++k) sim::step(s);
+  for (int32_t i : held) ASSERT_EQ(s.x.row(i), m.X.row(i));
+}
+
+TEST(Simulation, LocalModeMovesOnlyTheLocalNodes) {
+  const Model& m = small_model();
+  sim::Simulation s = sim::make_simulation(m, {}, {.mode = sim::Mode::kLocal});
+  std::vector<int32_t> local;
+  for (int32_t r = 0; r < m.rings.locality; ++r)
+    for (int64_t k = 0; k < m.rings.ring_size(5, r); ++k) local.push_back(m.rings.ring(5, r)[k]);
+  sim::set_local_nodes(s, local);
+  s.f_ext.row(5) << 0.0, 0.0, -30.0;
+  for (int k = 0; k < 50; ++k) sim::step(s);
+  std::vector<uint8_t> is_local(static_cast<size_t>(m.node_count()), 0);
+  for (int32_t i : local) is_local[i] = 1;
+  int moved = 0;
+  for (int32_t i = 0; i < m.node_count(); ++i) {
+    const double d = (s.x.row(i) - m.X.row(i)).norm();
+    if (!is_local[i]) ASSERT_EQ(d, 0.0) << "node " << i;
+    moved += d > 1e-6;
+  }
+  EXPECT_GT(moved, 1);
+}
+
+TEST(Simulation, LargeDtBlowUpIsCaughtAndImplicitEulerIsStable) {
+  const Model& m = small_model();
+  // dt = 1 s with unit masses and K = 3: semi-implicit Euler is far past its stability limit.
+  sim::Simulation ex = sim::make_simulation(m, {}, {.dt_s = 1.0});
+  ex.x = jiggle(m.X, 1.0);
+  for (int k = 0; k < 30; ++k) sim::step(ex);
+  EXPECT_GT(ex.recoveries, 0);
+  EXPECT_TRUE(ex.x.allFinite());
+  EXPECT_TRUE(ex.v.allFinite());
+
+  sim::Simulation im = sim::make_simulation(m, {}, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 1.0});
+  im.x = jiggle(m.X, 1.0);
+  const double start = total_energy(im);
+  for (int k = 0; k < 30; ++k) sim::step(im);
+  EXPECT_EQ(im.recoveries, 0);
+  EXPECT_LT(total_energy(im), start);
+}
+
+TEST(Simulation, SameResultOnOneAndTwoThreads) {
+  auto run = [](int threads) {
+    omp_set_num_threads(threads);
+    sim::Simulation s = sim::make_simulation(small_model(), {}, {.integrator = sim::Integrator::kImplicitEuler});
+    s.f_ext.row(3) << 10.0, -5.0, 2.0;
+    for (int k = 0; k < 20; ++k) sim::step(s);
+    return s.x;
+  };
+  const Eigen::MatrixX3d a = run(1), b = run(2);
+  omp_set_num_threads(omp_get_num_procs());
+  EXPECT_EQ(a, b);
+}
+
+TEST(Simulation, RejectsBadParameters) {
+  EXPECT_THROW(sim::make_simulation(small_model(), {}, {.dt_s = 0.0}), Error);
+  EXPECT_THROW(sim::make_simulation(small_model(), {.damping_kg_per_s = -1.0}), Error);
+  EXPECT_THROW(sim::make_simulation(small_model(), {.stiffness_n_per_m = std::nan("")}), Error);
+}
+
+}  // namespace
