@@ -18,7 +18,8 @@ void check_parameters(const Material& m, const SolverOptions& o) {
   auto non_negative = [](double v) { return v >= 0.0 && std::isfinite(v); };
   if (!non_negative(m.stiffness_n_per_m))
     throw invalid_input("material.stiffness", "must be >= 0 N/m (0 keeps the model's)");
-  if (!non_negative(m.damping_kg_per_s)) throw invalid_input("material.damping", "must be >= 0 kg/s");
+  if (!non_negative(m.damping_kg_per_s))
+    throw invalid_input("material.damping", "must be >= 0 kg/s");
   if (!non_negative(m.node_mass_kg))
     throw invalid_input("material.node_mass", "must be >= 0 kg (0 uses the model's masses)");
   if (!non_negative(m.anchor_stiffness_n_per_m))
@@ -178,7 +179,8 @@ int32_t implicit_euler(Simulation& s, double h) {
 
 }  // namespace
 
-Simulation make_simulation(const Model& model, const Material& material, const SolverOptions& options) {
+Simulation make_simulation(const Model& model, const Material& material,
+                           const SolverOptions& options) {
   check_parameters(material, options);
   Simulation s;
   s.model = &model;
@@ -188,8 +190,9 @@ Simulation make_simulation(const Model& model, const Material& material, const S
   s.x = model.X;
   s.v = Eigen::MatrixX3d::Zero(n, 3);
   s.f_ext = Eigen::MatrixX3d::Zero(n, 3);
-  s.mass_kg = material.node_mass_kg > 0.0 ? std::vector<double>(static_cast<size_t>(n), material.node_mass_kg)
-                                          : model.mass_kg;
+  s.mass_kg = material.node_mass_kg > 0.0
+                  ? std::vector<double>(static_cast<size_t>(n), material.node_mass_kg)
+                  : model.mass_kg;
   s.fixed = model.fixed.empty() ? std::vector<uint8_t>(static_cast<size_t>(n), 0) : model.fixed;
   s.movable.resize(static_cast<size_t>(n));
   for (int32_t i = 0; i < n; ++i) s.movable[i] = options.mode == Mode::kGlobal && !s.fixed[i];
@@ -290,7 +293,8 @@ StepStats step(Simulation& s) {
   s.v_prev = s.v;
   const double h = s.options.dt_s;
   // "Unstable" = non-finite, or a node 100 model-sizes from rest.
-  const double limit = 100.0 * (s.model->X.colwise().maxCoeff() - s.model->X.colwise().minCoeff()).norm() + 1.0;
+  const double limit =
+      100.0 * (s.model->X.colwise().maxCoeff() - s.model->X.colwise().minCoeff()).norm() + 1.0;
   if (s.options.integrator == Integrator::kSemiImplicitEuler)
     semi_implicit_euler(s, h);
   else
@@ -328,9 +332,11 @@ StepStats step(Simulation& s) {
   st.max_displacement_mm = std::sqrt(disp2);
   st.kinetic_energy_j = ke * kJoulesPerKgMm2PerS2;
   st.skin_volume_mm3 = layer_volume(*s.model, s.x, 0);
-  st.volume_change_pct = 100.0 * (st.skin_volume_mm3 - s.rest_skin_volume_mm3) / s.rest_skin_volume_mm3;
+  st.volume_change_pct =
+      100.0 * (st.skin_volume_mm3 - s.rest_skin_volume_mm3) / s.rest_skin_volume_mm3;
   st.converged = st.max_move_mm < s.options.threshold_mm;
-  st.step_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+  st.step_us =
+      std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }
 

@@ -16,7 +16,8 @@ using namespace lamina;
 // A small two-layer phantom model (about 600 nodes), built once per process.
 const Model& small_model() {
   static const Model m =
-      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400}).model;
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400})
+          .model;
   return m;
 }
 
@@ -90,14 +91,17 @@ std::vector<int32_t> posterior_nodes(const Model& m) {
 TEST(Simulation, ReleasedModelReturnsToRest) {
   for (auto integrator : {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler})
     for (bool anchored : {false, true}) {
-      SCOPED_TRACE(std::string(integrator == sim::Integrator::kImplicitEuler ? "implicit" : "semi-implicit") +
+      SCOPED_TRACE(std::string(integrator == sim::Integrator::kImplicitEuler ? "implicit"
+                                                                             : "semi-implicit") +
                    (anchored ? ", anchor springs" : ", fixed posterior region"));
       const Model& m = small_model();
-      sim::Simulation s = sim::make_simulation(m, {.anchor_stiffness_n_per_m = anchored ? 0.5 : 0.0},
-                                               {.integrator = integrator, .threshold_mm = 1e-5});
+      sim::Simulation s =
+          sim::make_simulation(m, {.anchor_stiffness_n_per_m = anchored ? 0.5 : 0.0},
+                               {.integrator = integrator, .threshold_mm = 1e-5});
       if (!anchored) sim::fix_nodes(s, posterior_nodes(m));
       const int32_t front = static_cast<int32_t>(std::distance(
-          m.X.col(1).data(), std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+          m.X.col(1).data(),
+          std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
       s.f_ext.row(front) << 0.0, 20.0, 0.0;  // mN, pushing the anterior surface backwards
       for (int k = 0; k < 300; ++k) sim::step(s);
       const double pushed = (s.x - m.X).rowwise().norm().maxCoeff();
@@ -150,7 +154,8 @@ TEST(Simulation, LargeDtBlowUpIsCaughtAndImplicitEulerIsStable) {
   EXPECT_TRUE(ex.x.allFinite());
   EXPECT_TRUE(ex.v.allFinite());
 
-  sim::Simulation im = sim::make_simulation(m, {}, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 1.0});
+  sim::Simulation im =
+      sim::make_simulation(m, {}, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 1.0});
   im.x = jiggle(m.X, 1.0);
   const double start = total_energy(im);
   for (int k = 0; k < 30; ++k) sim::step(im);
@@ -161,7 +166,8 @@ TEST(Simulation, LargeDtBlowUpIsCaughtAndImplicitEulerIsStable) {
 TEST(Simulation, SameResultOnOneAndTwoThreads) {
   auto run = [](int threads) {
     omp_set_num_threads(threads);
-    sim::Simulation s = sim::make_simulation(small_model(), {}, {.integrator = sim::Integrator::kImplicitEuler});
+    sim::Simulation s =
+        sim::make_simulation(small_model(), {}, {.integrator = sim::Integrator::kImplicitEuler});
     s.f_ext.row(3) << 10.0, -5.0, 2.0;
     for (int k = 0; k < 20; ++k) sim::step(s);
     return s.x;

@@ -43,9 +43,9 @@ struct Material {
 /// Solver parameters. Defaults are the paper's (dt = 0.01 s, threshold 1e-3 mm).
 struct SolverOptions {
   Integrator integrator = Integrator::kSemiImplicitEuler;
-  double dt_s = 0.01;            ///< time step, s, > 0
-  double threshold_mm = 1e-3;    ///< converged when no node moves more than this in one step
-  int64_t max_steps = 100000;    ///< run_to_convergence() gives up after this many steps
+  double dt_s = 0.01;          ///< time step, s, > 0
+  double threshold_mm = 1e-3;  ///< converged when no node moves more than this in one step
+  int64_t max_steps = 100000;  ///< run_to_convergence() gives up after this many steps
   Mode mode = Mode::kGlobal;
   int32_t cg_max_iterations = 100;  ///< implicit Euler: CG iterations per step at most
   double cg_tolerance = 1e-6;       ///< implicit Euler: relative residual to stop CG
@@ -85,15 +85,15 @@ struct Simulation {
   std::vector<uint8_t> movable;  ///< 1 = integrated this step (not fixed, and local when kLocal)
 
   // Springs gathered per node (CSR), so each thread writes only its own nodes' forces.
-  std::vector<int32_t> adj_offsets;  ///< #nodes + 1
-  std::vector<int32_t> adj_other;    ///< the node at the other end
-  std::vector<int32_t> adj_spring;   ///< the spring index
+  std::vector<int32_t> adj_offsets;       ///< #nodes + 1
+  std::vector<int32_t> adj_other;         ///< the node at the other end
+  std::vector<int32_t> adj_spring;        ///< the spring index
   std::vector<double> stiffness_n_per_m;  ///< per spring, after Material::stiffness_n_per_m
   double rest_skin_volume_mm3 = 0.0;
 
   // Workspace, sized once (no allocation per step).
   Eigen::MatrixX3d f, x_prev, v_prev, r, p, z, q;
-  Eigen::MatrixX3d diag;                      ///< Jacobi preconditioner (per node, per axis)
+  Eigen::MatrixX3d diag;                         ///< Jacobi preconditioner (per node, per axis)
   Eigen::Matrix<double, Eigen::Dynamic, 4> dir;  ///< per spring: unit direction, 1 - L/l
 };
 

@@ -1,0 +1,92 @@
+#pragma once
+/// \file
+/// The reference paper's tool interaction: a tool tip touches the nearest skin node; its force is
+/// spread over that node's BFS rings; along the force line, attenuated copies hit the first P
+/// surfaces the line crosses (inner layers, then the far side of the skin), each again spread
+/// over rings. Several tools at once, each with its own start and end time.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "lamina/model/model.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::interact {
+
+/// How a tool's force is distributed. Defaults reproduce the paper's figure 3 (N = 4, P = 4).
+struct RoutingOptions {
+  int32_t locality =
+      4;  ///< N: rings 0..N-1 of each hit node receive force (<= model.rings.locality)
+  int32_t penetration_depth =
+      4;  ///< P: crossings of the force line that receive a copy, the contact included
+  double ring_attenuation = 0.5;  ///< a node in ring r receives ring_attenuation^r of the copy
+  double crossing_attenuation =
+      0.95;  ///< crossing k (0 = the contact) receives crossing_attenuation^k of the force
+  double contact_threshold_mm =
+      10.0;  ///< a tool point farther than this from every skin node touches nothing
+};
+
+/// Where the force line crosses a layer.
+struct Crossing {
+  int32_t layer = 0;         ///< which surface
+  int32_t node = 0;          ///< the crossed triangle's vertex nearest to the crossing point
+  double distance_mm = 0.0;  ///< along the line from the contact node
+};
+
+/// A tool's force, distributed: the nodes that receive force and how much.
+struct ForceRoute {
+  int32_t contact_node = -1;
+  std::vector<Crossing>
+      crossings;               ///< the first P crossings, contact first, in order along the line
+  std::vector<int32_t> nodes;  ///< nodes receiving force (ring members), unique
+  Eigen::MatrixX3d forces;     ///< #nodes by 3, mN, matching `nodes`
+};
+
+/// The crossings of the line from skin node `contact_node` in `direction` with every layer's
+/// surface at positions x, ordered by distance; the contact itself comes first (distance 0).
+std::vector<Crossing> force_line_crossings(const Model& model, const Eigen::MatrixX3d& x,
+                                           int32_t contact_node, const Eigen::Vector3d& direction);
+
+/// Distributes `force_mn` applied at skin node `contact_node` (positions x) the paper's way.
+ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t contact_node,
+                       const Eigen::Vector3d& force_mn, const RoutingOptions& options = {});
+
+/// The skin node nearest to `point_mm` at positions x, or -1 if none is within threshold_mm.
+/// Uses a k-d tree over the current skin positions (nanoflann).
+int32_t nearest_skin_node(const Model& model, const Eigen::MatrixX3d& x,
+                          const Eigen::Vector3d& point_mm, double threshold_mm);
+
+/// A tool: where it touches (a point in mm, or a skin vertex), its force, and when it acts.
+struct Tool {
+  bool by_point = false;  ///< true: touch the skin node nearest to point_mm
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
+  int32_t vertex = 0;                                  ///< used when !by_point: a skin node index
+  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();  ///< mN (the scene file takes newtons)
+  double start_s = 0.0;                                ///< acts from this time...
+  double end_s = std::numeric_limits<double>::infinity();  ///< ...until this time, s
+};
+
+/// Drives a simulation with tools: activates and releases them by time, routes their forces into
+/// sim.f_ext, and in local mode makes exactly the ring nodes movable.
+struct ToolDriver {
+  std::vector<Tool> tools;
+  RoutingOptions routing;
+  std::vector<ForceRoute> routes;  ///< per tool; computed when the tool starts
+  std::vector<uint8_t> active;     ///< per tool
+  /// Local mode: every node that has received force since the start stays movable, so that a
+  /// released region can return to rest.
+  std::vector<int32_t> touched;
+};
+
+/// Updates sim.f_ext (and, in local mode, the movable nodes) for time sim.time_s.
+/// \note Throws lamina::Error (kInvalidInput) for a tool vertex outside the skin or a tool
+///   point that touches no skin node.
+/// @return true if any tool is active
+bool apply_tools(sim::Simulation& sim, ToolDriver& driver);
+
+/// The time after which no tool acts any more (0 with no tools; infinity if one never ends).
+double last_tool_end(const ToolDriver& driver);
+
+}  // namespace lamina::interact

@@ -1,0 +1,183 @@
+#include "lamina/interact/tools.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <nanoflann.hpp>
+
+#include "lamina/core/error.h"
+
+namespace lamina::interact {
+namespace {
+
+// Moller-Trumbore: distance t > 0 along the unit ray o + t d to triangle (a, b, c), or -1.
+double ray_triangle(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& a,
+                    const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d e1 = b - a, e2 = c - a;
+  const Eigen::Vector3d p = d.cross(e2);
+  const double det = e1.dot(p);
+  if (std::abs(det) < 1e-14 * e1.squaredNorm()) return -1.0;  // parallel
+  const double inv = 1.0 / det;
+  const Eigen::Vector3d s = o - a;
+  const double u = s.dot(p) * inv;
+  if (u < 0.0 || u > 1.0) return -1.0;
+  const Eigen::Vector3d q = s.cross(e1);
+  const double v = d.dot(q) * inv;
+  if (v < 0.0 || u + v > 1.0) return -1.0;
+  return e2.dot(q) * inv;
+}
+
+}  // namespace
+
+std::vector<Crossing> force_line_crossings(const Model& model, const Eigen::MatrixX3d& x,
+                                           int32_t contact_node, const Eigen::Vector3d& direction) {
+  std::vector<Crossing> out{{.layer = model.layer_of.at(static_cast<size_t>(contact_node)),
+                             .node = contact_node,
+                             .distance_mm = 0.0}};
+  const double len = direction.norm();
+  if (!(len > 0.0)) return out;
+  const Eigen::Vector3d d = direction / len, o = x.row(contact_node).transpose();
+  // Hits closer than this to the start are the contact's own triangles.
+  const double eps = 1e-6 * (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm();
+  struct Hit {
+    double t;
+    int32_t layer, node;
+  };
+  std::vector<Hit> hits;
+  for (int32_t k = 0; k < model.layer_count(); ++k) {
+    const Eigen::MatrixX3i& F = model.layers[k].F;
+    for (Eigen::Index f = 0; f < F.rows(); ++f) {
+      const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
+      const double t = ray_triangle(o, d, a, b, c);
+      if (t <= eps) continue;
+      // The crossed triangle's vertex nearest to the crossing point receives the copy.
+      const Eigen::Vector3d hit = o + t * d;
+      int32_t best = F(f, 0);
+      for (int j = 1; j < 3; ++j)
+        if ((x.row(F(f, j)).transpose() - hit).squaredNorm() <
+            (x.row(best).transpose() - hit).squaredNorm())
+          best = F(f, j);
+      hits.push_back({t, k, best});
+    }
+  }
+  std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t; });
+  for (const Hit& h : hits) {
+    // A line through a shared edge or vertex hits two triangles at one point: count it once.
+    const Crossing& last = out.back();
+    if (last.layer == h.layer && std::abs(h.t - last.distance_mm) <= 1e-9 * (1.0 + h.t)) continue;
+    out.push_back({.layer = h.layer, .node = h.node, .distance_mm = h.t});
+  }
+  return out;
+}
+
+ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t contact_node,
+                       const Eigen::Vector3d& force_mn, const RoutingOptions& o) {
+  if (o.locality < 1 || o.locality > model.rings.locality)
+    throw invalid_input("solver.locality",
+                        "must be between 1 and the model's precomputed locality (" +
+                            std::to_string(model.rings.locality) + "), got " +
+                            std::to_string(o.locality));
+  if (o.penetration_depth < 1)
+    throw invalid_input("solver.penetration_depth", "must be at least 1 (the contact itself)");
+  ForceRoute route;
+  route.contact_node = contact_node;
+  route.crossings = force_line_crossings(model, x, contact_node, force_mn);
+  if (static_cast<int32_t>(route.crossings.size()) > o.penetration_depth)
+    route.crossings.resize(static_cast<size_t>(o.penetration_depth));
+  // (node, force) contributions, then merged per node.
+  std::vector<std::pair<int32_t, Eigen::Vector3d>> parts;
+  double copy_scale = 1.0;
+  for (const Crossing& c : route.crossings) {
+    double ring_scale = copy_scale;
+    for (int32_t r = 0; r < o.locality; ++r) {
+      for (int64_t k = 0; k < model.rings.ring_size(c.node, r); ++k)
+        parts.emplace_back(model.rings.ring(c.node, r)[k], ring_scale * force_mn);
+      ring_scale *= o.ring_attenuation;
+    }
+    copy_scale *= o.crossing_attenuation;
+  }
+  std::sort(parts.begin(), parts.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Eigen::Vector3d> merged;
+  for (const auto& [node, f] : parts) {
+    if (!route.nodes.empty() && route.nodes.back() == node) {
+      merged.back() += f;
+    } else {
+      route.nodes.push_back(node);
+      merged.push_back(f);
+    }
+  }
+  route.forces.resize(static_cast<Eigen::Index>(merged.size()), 3);
+  for (size_t k = 0; k < merged.size(); ++k)
+    route.forces.row(static_cast<Eigen::Index>(k)) = merged[k];
+  return route;
+}
+
+int32_t nearest_skin_node(const Model& model, const Eigen::MatrixX3d& x,
+                          const Eigen::Vector3d& point_mm, double threshold_mm) {
+  using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  const ModelLayer& skin = model.layers.at(0);
+  const Points p = x.middleRows(skin.first_node, skin.node_count);
+  const nanoflann::KDTreeEigenMatrixAdaptor<Points, 3, nanoflann::metric_L2_Simple> tree(
+      3, std::cref(p), 16);
+  Eigen::Index index = 0;
+  double d2 = 0.0;
+  tree.query(point_mm.data(), 1, &index, &d2);
+  if (!(std::sqrt(d2) <= threshold_mm)) return -1;
+  return skin.first_node + static_cast<int32_t>(index);
+}
+
+bool apply_tools(sim::Simulation& s, ToolDriver& d) {
+  const Model& m = *s.model;
+  const size_t n = d.tools.size();
+  d.routes.resize(n);
+  d.active.resize(n, 0);
+  bool any = false, changed = false;
+  for (size_t t = 0; t < n; ++t) {
+    const Tool& tool = d.tools[t];
+    const bool on = s.time_s >= tool.start_s && s.time_s < tool.end_s;
+    if (on && !d.active[t]) {
+      // The tool touches down: find the contact and route its force on the current shape.
+      int32_t contact = tool.vertex;
+      if (tool.by_point) {
+        contact = nearest_skin_node(m, s.x, tool.point_mm, d.routing.contact_threshold_mm);
+        if (contact < 0)
+          throw invalid_input("tools[" + std::to_string(t) + "].point",
+                              "touches no skin node within " +
+                                  std::to_string(d.routing.contact_threshold_mm) + " mm");
+      } else if (contact < 0 || contact >= m.layers[0].node_count) {
+        throw invalid_input("tools[" + std::to_string(t) + "].vertex",
+                            "must be a skin node, 0.." +
+                                std::to_string(m.layers[0].node_count - 1) + ", got " +
+                                std::to_string(contact));
+      }
+      d.routes[t] = route_force(m, s.x, contact, tool.force_mn, d.routing);
+      d.touched.insert(d.touched.end(), d.routes[t].nodes.begin(), d.routes[t].nodes.end());
+      changed = true;
+    }
+    if (!on && d.active[t]) changed = true;
+    d.active[t] = on;
+    any |= on;
+  }
+  s.f_ext.setZero();
+  for (size_t t = 0; t < n; ++t) {
+    if (!d.active[t]) continue;
+    const ForceRoute& r = d.routes[t];
+    for (size_t k = 0; k < r.nodes.size(); ++k)
+      s.f_ext.row(r.nodes[k]) += r.forces.row(static_cast<Eigen::Index>(k));
+  }
+  if (changed && s.options.mode == sim::Mode::kLocal) {
+    std::sort(d.touched.begin(), d.touched.end());
+    d.touched.erase(std::unique(d.touched.begin(), d.touched.end()), d.touched.end());
+    sim::set_local_nodes(s, d.touched);
+  }
+  return any;
+}
+
+double last_tool_end(const ToolDriver& d) {
+  double end = 0.0;
+  for (const Tool& t : d.tools) end = std::max(end, t.end_s);
+  return end;
+}
+
+}  // namespace lamina::interact
