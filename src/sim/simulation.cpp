@@ -13,6 +13,10 @@ namespace {
 // kg (mm/s)^2 -> J.
 constexpr double kJoulesPerKgMm2PerS2 = 1e-6;
 
+// Below this many rows a parallel region costs more than it saves (a paper-size model's whole
+// spring pass is tens of microseconds); loops run serially there.
+constexpr Eigen::Index kParallelRows = 8192;
+
 void check_parameters(const Material& m, const SolverOptions& o) {
   auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
   auto non_negative = [](double v) { return v >= 0.0 && std::isfinite(v); };
@@ -37,7 +41,7 @@ void add_node_forces(const Simulation& s, const Eigen::MatrixX3d& x, const Eigen
   const Material& mat = s.material;
   const Eigen::MatrixX3d& X = s.model->X;
   const Eigen::Index n = x.rows();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelRows)
   for (Eigen::Index i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c)
       f(i, c) += s.f_ext(i, c) - mat.damping_kg_per_s * v(i, c) +
@@ -63,7 +67,7 @@ void semi_implicit_euler(Simulation& s, double dt) {
   spring_forces(s, s.x, s.f);
   add_node_forces(s, s.x, s.v, s.f);
   const Eigen::Index n = s.x.rows();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelRows)
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!s.movable[i]) {
       s.v.row(i).setZero();
@@ -82,7 +86,7 @@ void system_product(const Simulation& s, double h, const Eigen::MatrixX3d& p, Ei
   const Eigen::Index n = p.rows();
   const double h2 = h * h, damp = h * s.material.damping_kg_per_s;
   const double anchor = s.material.anchor_stiffness_n_per_m;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelRows)
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!s.movable[i]) {
       y.row(i).setZero();
@@ -110,7 +114,7 @@ int32_t implicit_euler(Simulation& s, double h) {
   const Eigen::Index n = s.x.rows();
   const int64_t springs = static_cast<int64_t>(s.model->springs.size());
   const Springs& sp = s.model->springs;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (springs >= kParallelRows)
   for (int64_t e = 0; e < springs; ++e) {
     Eigen::Vector3d d = s.x.row(sp.i[e]).transpose() - s.x.row(sp.j[e]).transpose();
     const double l = d.norm();
@@ -252,7 +256,7 @@ void spring_forces(const Simulation& s, const Eigen::MatrixX3d& x, Eigen::Matrix
   const Eigen::Index n = x.rows();
   // Gather: each node sums the springs it belongs to, so threads never write the same row. Each
   // spring is evaluated from both ends with the same arithmetic, so the pair is exactly opposite.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelRows)
   for (Eigen::Index i = 0; i < n; ++i) {
     double fx = 0.0, fy = 0.0, fz = 0.0;
     for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {

@@ -164,16 +164,20 @@ TEST(Simulation, LargeDtBlowUpIsCaughtAndImplicitEulerIsStable) {
 }
 
 TEST(Simulation, SameResultOnOneAndTwoThreads) {
+  // Large enough (> 8192 nodes) that the step's loops really run in parallel.
+  static const Model big =
+      model::build_model(geometry::make_phantom({.spacing_mm = {2, 2, 2}}), {.skin_vertices = 6000}).model;
+  ASSERT_GT(big.node_count(), 8192);
   auto run = [](int threads) {
     omp_set_num_threads(threads);
-    sim::Simulation s =
-        sim::make_simulation(small_model(), {}, {.integrator = sim::Integrator::kImplicitEuler});
+    sim::Simulation s = sim::make_simulation(big, {}, {.integrator = sim::Integrator::kImplicitEuler});
     s.f_ext.row(3) << 10.0, -5.0, 2.0;
-    for (int k = 0; k < 20; ++k) sim::step(s);
+    for (int k = 0; k < 5; ++k) sim::step(s);
     return s.x;
   };
   const Eigen::MatrixX3d a = run(1), b = run(2);
   omp_set_num_threads(omp_get_num_procs());
+  EXPECT_GT((a - big.X).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ(a, b);
 }
 
