@@ -46,4 +46,15 @@ struct ExportArgs {
 };
 int run_export(const ExportArgs& args);
 
+struct RunArgs {
+  std::string scene;   ///< scene file; empty = the default scene (the paper's poke on the phantom)
+  std::string output;  ///< output folder, created if missing
+  bool json = false;
+  bool quiet = false;
+  bool verbose = false;
+};
+/// Simulates a scene: writes OUTDIR/metrics.csv, summary.json, skin.pvd and frames/ (layout in
+/// docs/scenes.md).
+int run_run(const RunArgs& args);
+
 }  // namespace lamina::cli

@@ -1,4 +1,4 @@
-// `lamina`: one command-line tool with subcommands (phantom, build, info, export).
+// `lamina`: one command-line tool with subcommands (phantom, build, info, export, run).
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -83,6 +83,15 @@ int main(int argc, char** argv) {
   ex->add_option("-o,--output", exp.output, "mesh file (.obj, .ply, .vtp, .stl)")->required();
   ex->add_option("--layer", exp.layer, "layer index, 0 = skin (default 0)");
 
+  cli::RunArgs run;
+  auto* ru = app.add_subcommand("run", "simulate a scene: tools push the organ, it responds");
+  ru->add_option("scene", run.scene,
+                 "scene file (.json, docs/scenes.md); default: the paper's poke on the phantom");
+  ru->add_option("-o,--output", run.output,
+                 "output folder (created): metrics.csv, summary.json, skin.pvd, frames/")
+      ->required();
+  ru->add_flag("--json", run.json, "also print the summary as one JSON object on stdout");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -103,6 +112,11 @@ int main(int argc, char** argv) {
     }
     if (*in) return cli::run_info(info);
     if (*ex) return cli::run_export(exp);
+    if (*ru) {
+      run.quiet = verbosity == 0;
+      run.verbose = verbosity == 2;
+      return cli::run_run(run);
+    }
   } catch (const Error& e) {
     if (::isatty(2)) std::fprintf(stderr, "\r\033[K");  // clear a progress line
     std::fprintf(stderr, "lamina: error: %s\n", e.what());

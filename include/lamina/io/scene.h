@@ -1,0 +1,139 @@
+#pragma once
+/// \file
+/// Scene files: what `lamina run` simulates, as one JSON document (layout and every key with its
+/// unit and default: docs/scenes.md). Parsing validates everything up front, so a bad scene fails
+/// before any model is built or any output written.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "lamina/interact/tools.h"
+#include "lamina/model/build_model.h"
+#include "lamina/model/model.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::io {
+
+/// Input name that selects the built-in phantom instead of a mask file.
+inline constexpr const char* kScenePhantom = "phantom";
+
+/// A set of nodes held at their rest positions: the nodes within `distance_mm` of a plane, and/or
+/// an explicit index list.
+struct FixedRegion {
+  bool has_plane = false;
+  Eigen::Vector3d plane_point_mm = Eigen::Vector3d::Zero();  ///< a point on the plane, mm
+  Eigen::Vector3d plane_normal = Eigen::Vector3d::UnitY();   ///< any length, non-zero
+  double distance_mm = 10.0;                                 ///< half-thickness of the slab, mm
+  std::vector<int32_t> nodes;                                ///< node indices (any layer)
+};
+
+/// What `lamina run` writes besides metrics.csv and summary.json.
+struct SceneOutput {
+  /// Time between frames of the VTK series, s; 0 = only the first and the final state.
+  double frame_interval_s = 0.05;
+  bool all_layers = false;  ///< a series per layer, not only the skin
+  bool obj = false;         ///< OBJ frames beside the .vtp ones
+  /// true: one metrics.csv row per step; false: one per frame.
+  bool metrics_every_step = true;
+};
+
+/// A parsed scene. Default-constructed, it is the default scene: the paper's poke on the phantom.
+struct Scene {
+  std::string source = "default scene";  ///< the file it came from (names it in messages)
+
+  /// The model: either built from `input` (a mask path or kScenePhantom) with `build`, or loaded
+  /// from the saved .vtu `model_path` (then `input` is empty).
+  std::string input = kScenePhantom;
+  std::string model_path;
+  model::BuildOptions build;
+  /// True when the scene sets material.density_g_per_cm3: a loaded model's masses are rescaled
+  /// to it (they are proportional to the density they were lumped with).
+  bool density_given = false;
+
+  sim::Material material;
+  sim::SolverOptions solver;
+  interact::RoutingOptions routing;
+  std::vector<interact::Tool> tools;  ///< forces in mN (the file gives newtons)
+  std::vector<FixedRegion> fixed;
+  SceneOutput output;
+
+  /// The file has no "tools" key: resolve_scene_defaults() adds the paper's poke.
+  bool default_tool = true;
+  /// The file has no "boundary" key: resolve_scene_defaults() fixes the posterior 10 mm.
+  bool default_fixed = true;
+};
+
+/// Parses and validates a scene.
+/// @param[in] json_text    the scene, JSON (comments allowed)
+/// @param[in] source_name  names the scene in messages (normally its path)
+/// @return the scene; missing keys take the paper's values (docs/scenes.md); paths are kept as
+///   written (load_scene() makes them relative to the scene's folder)
+/// \note Throws lamina::Error (kInvalidInput) with the message "SOURCE: KEY.PATH: problem" (or
+///   the parser's line and column for malformed JSON) for a wrong type, an out-of-range or
+///   non-finite value, a tool with both or neither of point and vertex, and so on. An unknown
+///   key is not an error: it is logged as a warning naming its path and ignored.
+Scene parse_scene(const std::string& json_text, const std::string& source_name);
+
+/// Reads and parses the scene file at `path`; relative paths in it (model.input, model.model)
+/// are taken relative to the folder holding the file.
+/// \note Throws lamina::Error (kInvalidInput) naming `path` if it cannot be read, and as
+///   parse_scene().
+Scene load_scene(const std::string& path);
+
+/// Replaces the defaults that depend on the model with concrete values: without "tools", one
+/// tool at the skin node with the smallest y (the anterior surface in LPS) pushing +y
+/// (posteriorly) with 0.05 N from 0 to 1 s; without "boundary", the nodes within 10 mm of the
+/// plane through the largest y, normal +y (the posterior side), fixed.
+/// @param[in,out] scene  a parsed scene; default_tool and default_fixed are false afterwards
+/// @param[in]     model  the model the scene runs on
+void resolve_scene_defaults(Scene& scene, const Model& model);
+
+/// Checks the scene against the model it runs on, before anything is simulated: tool vertices
+/// are skin nodes, tool points touch the skin at rest, fixed node indices exist, and
+/// solver.locality does not exceed the model's rings.
+/// \note Throws lamina::Error (kInvalidInput) "SOURCE: tools[i].vertex: ..." and the like.
+void check_scene_against_model(const Scene& scene, const Model& model);
+
+/// The fixed nodes of every region of `scene`, sorted and unique.
+std::vector<int32_t> fixed_scene_nodes(const Scene& scene, const Model& model);
+
+/// What a scene run measured: the content of `lamina run`'s summary.json.
+struct RunSummary {
+  std::string scene;       ///< the scene's source
+  std::string model;       ///< what the model was built from or loaded from
+  bool converged = false;  ///< every tool ended and the model came to rest before max_steps
+  int64_t steps = 0;
+  double sim_seconds = 0.0;                ///< simulated time, s
+  double wall_seconds = 0.0;               ///< the whole run: model, simulation and output, s
+  double model_seconds = 0.0;              ///< building or loading the model (rings included), s
+  double max_displacement_mm = 0.0;        ///< largest node distance from rest over the run
+  double max_abs_volume_change_pct = 0.0;  ///< largest |skin volume change| over the run, %
+  double final_rest_error_mm = 0.0;        ///< largest node distance from rest at the end
+  double final_volume_change_pct = 0.0;    ///< skin volume change at the end, %
+  int64_t recoveries = 0;  ///< steps that hit a non-finite or unbounded state and were redone
+  sim::Integrator integrator = sim::Integrator::kSemiImplicitEuler;
+  sim::Mode mode = sim::Mode::kGlobal;
+  double dt_s = 0.0;
+  int32_t nodes = 0;
+  int64_t springs = 0;
+  int32_t layers = 0;
+  int32_t fixed_nodes = 0;
+  int32_t tools = 0;
+  double steps_per_second = 0.0;  ///< steps / total step time (tool routing included)
+  double mean_step_us = 0.0;
+  double median_step_us = 0.0;
+  int32_t frames = 0;  ///< frames in each VTK series
+};
+
+/// One JSON object with every field of `summary` (keys as the field names; nan_detected =
+/// recoveries > 0; integrator and mode as the scene file spells them).
+std::string run_summary_json(const RunSummary& summary);
+
+/// The scene file's spelling of an integrator ("semi_implicit_euler", "implicit_euler") and of a
+/// mode ("global", "local").
+std::string integrator_name(sim::Integrator integrator);
+std::string mode_name(sim::Mode mode);
+
+}  // namespace lamina::io

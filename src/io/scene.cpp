@@ -1,0 +1,521 @@
+#include "lamina/io/scene.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string_view>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+
+namespace lamina::io {
+namespace {
+
+using nlohmann::json;
+
+// The file gives tool forces in newtons; the simulation works in mN (kg mm / s^2).
+constexpr double kMilliNewtonsPerNewton = 1000.0;
+
+// Every check of one document goes through this reader, so every message has the same shape:
+// "SOURCE: key.path: problem".
+class Reader {
+ public:
+  explicit Reader(const std::string& source) : source_(source) {}
+
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+    throw invalid_input(source_, path + ": " + problem);
+  }
+
+  // Warns about keys the scene format does not know (a typo must not pass silently, but an
+  // extra key such as a comment field must not stop a run either).
+  void warn_unknown(const json& object, const std::string& path,
+                    std::initializer_list<std::string_view> known) const {
+    for (const auto& [key, value] : object.items()) {
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      log::warn("{}: {}: unknown key, ignored", source_, join(path, key));
+    }
+  }
+
+  static std::string join(const std::string& path, const std::string& key) {
+    return path.empty() ? key : path + "." + key;
+  }
+
+  void require_object(const json& v, const std::string& path) const {
+    if (!v.is_object()) fail(path, "expected an object {...}, got " + describe(v));
+  }
+
+  double number(const json& v, const std::string& path) const {
+    if (!v.is_number()) fail(path, "expected a number, got " + describe(v));
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) fail(path, "must be finite, got " + describe(v));
+    return d;
+  }
+
+  // Integers may be written 100000 or 1e5, but not 2.5.
+  int64_t integer(const json& v, const std::string& path, int64_t lo, int64_t hi) const {
+    int64_t i = 0;
+    if (v.is_number_unsigned()) {  // nlohmann stores non-negative integers as unsigned
+      const uint64_t u = v.get<uint64_t>();
+      if (u > static_cast<uint64_t>(hi)) fail(path, range_text(lo, hi) + ", got " + v.dump());
+      i = static_cast<int64_t>(u);
+    } else if (v.is_number_integer()) {
+      i = v.get<int64_t>();
+    } else if (v.is_number_float()) {
+      const double d = v.get<double>();
+      if (!std::isfinite(d) || d != std::floor(d) || std::abs(d) > 9e15)
+        fail(path, "expected an integer, got " + describe(v));
+      i = static_cast<int64_t>(d);
+    } else {
+      fail(path, "expected an integer, got " + describe(v));
+    }
+    if (i < lo || i > hi) fail(path, range_text(lo, hi) + ", got " + std::to_string(i));
+    return i;
+  }
+
+  bool boolean(const json& v, const std::string& path) const {
+    if (!v.is_boolean()) fail(path, "expected true or false, got " + describe(v));
+    return v.get<bool>();
+  }
+
+  std::string string(const json& v, const std::string& path) const {
+    if (!v.is_string()) fail(path, "expected a string, got " + describe(v));
+    const std::string s = v.get<std::string>();
+    if (s.empty()) fail(path, "must not be empty");
+    return s;
+  }
+
+  Eigen::Vector3d vec3(const json& v, const std::string& path) const {
+    if (!v.is_array() || v.size() != 3 ||
+        !std::all_of(v.begin(), v.end(), [](const json& e) { return e.is_number(); }))
+      fail(path, "expected an array of 3 numbers, got " + describe(v));
+    Eigen::Vector3d out;
+    for (int c = 0; c < 3; ++c) out[c] = number(v[static_cast<size_t>(c)], path);
+    return out;
+  }
+
+  // Short, one-line rendering of a value for messages.
+  static std::string describe(const json& v) {
+    std::string kind;
+    switch (v.type()) {
+      case json::value_t::null:
+        return "null";
+      case json::value_t::boolean:
+        kind = "boolean ";
+        break;
+      case json::value_t::string:
+        kind = "string ";
+        break;
+      case json::value_t::array:
+        kind = "array ";
+        break;
+      case json::value_t::object:
+        kind = "object ";
+        break;
+      default:
+        break;
+    }
+    std::string text = v.dump();
+    if (text.size() > 40) text = text.substr(0, 37) + "...";
+    return kind + text;
+  }
+
+ private:
+  static std::string range_text(int64_t lo, int64_t hi) {
+    // An upper bound that only guards the integer type is not worth showing.
+    if (hi >= std::numeric_limits<int32_t>::max()) return "must be >= " + std::to_string(lo);
+    return "must be between " + std::to_string(lo) + " and " + std::to_string(hi);
+  }
+
+  const std::string& source_;
+};
+
+std::string got(double v) {
+  return fmt::format("got {}", v);
+}
+
+// Reads an optional number key and checks it with `ok`; `rule` says what `ok` wants.
+template <class Ok>
+void read_number(const Reader& r, const json& object, const std::string& path, const char* key,
+                 double& out, Ok ok, const char* rule) {
+  const auto it = object.find(key);
+  if (it == object.end()) return;
+  const std::string p = Reader::join(path, key);
+  const double v = r.number(*it, p);
+  if (!ok(v)) r.fail(p, std::string(rule) + ", " + got(v));
+  out = v;
+}
+
+template <class Int>
+void read_integer(const Reader& r, const json& object, const std::string& path, const char* key,
+                  Int& out, int64_t lo, int64_t hi) {
+  const auto it = object.find(key);
+  if (it == object.end()) return;
+  out = static_cast<Int>(r.integer(*it, Reader::join(path, key), lo, hi));
+}
+
+void read_bool(const Reader& r, const json& object, const std::string& path, const char* key,
+               bool& out) {
+  const auto it = object.find(key);
+  if (it != object.end()) out = r.boolean(*it, Reader::join(path, key));
+}
+
+const auto kPositive = [](double v) { return v > 0.0; };
+const auto kNonNegative = [](double v) { return v >= 0.0; };
+const auto kFraction = [](double v) { return v >= 0.0 && v <= 1.0; };
+
+void read_model(const Reader& r, const json& j, Scene& s) {
+  const std::string path = "model";
+  r.require_object(j, path);
+  r.warn_unknown(j, path, {"input", "model", "build"});
+  const bool has_input = j.contains("input"), has_model = j.contains("model");
+  if (has_input && has_model)
+    r.fail(path,
+           "give either \"input\" (a mask to build from) or \"model\" (a saved .vtu), "
+           "not both");
+  if (has_input) s.input = r.string(j["input"], "model.input");
+  if (has_model) {
+    s.model_path = r.string(j["model"], "model.model");
+    s.input.clear();
+  }
+  const auto b = j.find("build");
+  if (b == j.end()) return;
+  const std::string bp = "model.build";
+  r.require_object(*b, bp);
+  if (has_model)
+    log::warn("{}: {}: ignored: the model is loaded from \"{}\", not built", s.source, bp,
+              s.model_path);
+  r.warn_unknown(*b, bp,
+                 {"layers", "skin_vertices", "layer_depth_mm", "label", "locality", "links"});
+  model::BuildOptions& o = s.build;
+  // Ranges are build_model's (check_build_options), checked here so messages name the key.
+  read_integer(r, *b, bp, "layers", o.layers, 1, 16);
+  read_integer(r, *b, bp, "skin_vertices", o.skin_vertices, 50, 5'000'000);
+  read_number(r, *b, bp, "layer_depth_mm", o.layer_depth_mm, kNonNegative,
+              "must be >= 0 (0 = automatic)");
+  read_integer(r, *b, bp, "label", o.label, 0, std::numeric_limits<int32_t>::max());
+  read_integer(r, *b, bp, "locality", o.locality, 1, 64);
+  read_integer(r, *b, bp, "links", o.inter_layer_links, 1, 16);
+}
+
+void read_material(const Reader& r, const json& j, Scene& s) {
+  const std::string path = "material";
+  r.require_object(j, path);
+  r.warn_unknown(j, path,
+                 {"stiffness_n_per_m", "damping_kg_per_s", "node_mass_kg",
+                  "anchor_stiffness_n_per_m", "gravity_mm_per_s2", "density_g_per_cm3"});
+  sim::Material& m = s.material;
+  read_number(r, j, path, "stiffness_n_per_m", m.stiffness_n_per_m, kNonNegative,
+              "must be >= 0 (0 keeps the model's)");
+  read_number(r, j, path, "damping_kg_per_s", m.damping_kg_per_s, kNonNegative, "must be >= 0");
+  read_number(r, j, path, "node_mass_kg", m.node_mass_kg, kNonNegative,
+              "must be >= 0 (0 = the model's lumped masses)");
+  read_number(r, j, path, "anchor_stiffness_n_per_m", m.anchor_stiffness_n_per_m, kNonNegative,
+              "must be >= 0");
+  if (j.contains("gravity_mm_per_s2"))
+    m.gravity_mm_per_s2 = r.vec3(j["gravity_mm_per_s2"], "material.gravity_mm_per_s2");
+  if (j.contains("density_g_per_cm3")) {
+    double g_per_cm3 = 0.0;
+    read_number(r, j, path, "density_g_per_cm3", g_per_cm3, kPositive, "must be > 0");
+    s.build.density_kg_per_mm3 = g_per_cm3 * 1e-6;  // 1 g/cm^3 = 1e-3 kg / 1e3 mm^3
+    s.density_given = true;
+  }
+}
+
+void read_solver(const Reader& r, const json& j, Scene& s) {
+  const std::string path = "solver";
+  r.require_object(j, path);
+  r.warn_unknown(j, path,
+                 {"integrator", "dt_s", "threshold_mm", "max_steps", "mode", "locality",
+                  "penetration_depth", "ring_attenuation", "crossing_attenuation",
+                  "contact_threshold_mm", "cg_max_iterations", "cg_tolerance"});
+  sim::SolverOptions& o = s.solver;
+  if (j.contains("integrator")) {
+    const std::string v = r.string(j["integrator"], "solver.integrator");
+    if (v == "semi_implicit_euler")
+      o.integrator = sim::Integrator::kSemiImplicitEuler;
+    else if (v == "implicit_euler")
+      o.integrator = sim::Integrator::kImplicitEuler;
+    else
+      r.fail("solver.integrator",
+             "expected \"semi_implicit_euler\" or \"implicit_euler\", got \"" + v + "\"");
+  }
+  read_number(r, j, path, "dt_s", o.dt_s, kPositive, "must be > 0");
+  read_number(r, j, path, "threshold_mm", o.threshold_mm, kPositive, "must be > 0");
+  read_integer(r, j, path, "max_steps", o.max_steps, 1, std::numeric_limits<int64_t>::max());
+  if (j.contains("mode")) {
+    const std::string v = r.string(j["mode"], "solver.mode");
+    if (v == "global")
+      o.mode = sim::Mode::kGlobal;
+    else if (v == "local")
+      o.mode = sim::Mode::kLocal;
+    else
+      r.fail("solver.mode", "expected \"global\" or \"local\", got \"" + v + "\"");
+  }
+  read_integer(r, j, path, "cg_max_iterations", o.cg_max_iterations, 1, 1'000'000);
+  read_number(r, j, path, "cg_tolerance", o.cg_tolerance, kPositive, "must be > 0");
+  interact::RoutingOptions& ro = s.routing;
+  read_integer(r, j, path, "locality", ro.locality, 1, 64);
+  read_integer(r, j, path, "penetration_depth", ro.penetration_depth, 1, 1'000'000);
+  read_number(r, j, path, "ring_attenuation", ro.ring_attenuation, kFraction,
+              "must be between 0 and 1");
+  read_number(r, j, path, "crossing_attenuation", ro.crossing_attenuation, kFraction,
+              "must be between 0 and 1");
+  read_number(r, j, path, "contact_threshold_mm", ro.contact_threshold_mm, kPositive,
+              "must be > 0");
+}
+
+void read_tools(const Reader& r, const json& j, Scene& s) {
+  if (!j.is_array())
+    r.fail("tools", "expected an array of tools [...], got " + Reader::describe(j));
+  s.default_tool = false;
+  for (size_t k = 0; k < j.size(); ++k) {
+    const std::string path = "tools[" + std::to_string(k) + "]";
+    const json& t = j[k];
+    r.require_object(t, path);
+    r.warn_unknown(t, path, {"point", "vertex", "force_n", "start_s", "end_s"});
+    interact::Tool tool;
+    const bool has_point = t.contains("point"), has_vertex = t.contains("vertex");
+    if (has_point == has_vertex)
+      r.fail(path, has_point ? "give either \"point\" or \"vertex\", not both"
+                             : "needs \"point\": [x, y, z] (mm) or \"vertex\": skin node index");
+    if (has_point) {
+      tool.by_point = true;
+      tool.point_mm = r.vec3(t["point"], path + ".point");
+    } else {
+      tool.vertex = static_cast<int32_t>(
+          r.integer(t["vertex"], path + ".vertex", 0, std::numeric_limits<int32_t>::max()));
+    }
+    if (!t.contains("force_n")) r.fail(path, "needs \"force_n\": [fx, fy, fz] (newtons)");
+    tool.force_mn = kMilliNewtonsPerNewton * r.vec3(t["force_n"], path + ".force_n");
+    read_number(r, t, path, "start_s", tool.start_s, kNonNegative, "must be >= 0");
+    // A null end means the tool never lets go (the same as leaving the key out).
+    if (t.contains("end_s") && !t["end_s"].is_null()) {
+      read_number(
+          r, t, path, "end_s", tool.end_s, [&](double v) { return v > tool.start_s; },
+          fmt::format("must be after start_s ({})", tool.start_s).c_str());
+    }
+    s.tools.push_back(tool);
+  }
+}
+
+void read_boundary(const Reader& r, const json& j, Scene& s) {
+  const std::string path = "boundary";
+  r.require_object(j, path);
+  r.warn_unknown(j, path, {"fixed"});
+  s.default_fixed = false;
+  const auto f = j.find("fixed");
+  if (f == j.end()) return;
+  if (!f->is_array())
+    r.fail("boundary.fixed", "expected an array of regions [...], got " + Reader::describe(*f));
+  for (size_t k = 0; k < f->size(); ++k) {
+    const std::string rp = "boundary.fixed[" + std::to_string(k) + "]";
+    const json& reg = (*f)[k];
+    r.require_object(reg, rp);
+    r.warn_unknown(reg, rp, {"plane", "nodes"});
+    if (!reg.contains("plane") && !reg.contains("nodes"))
+      r.fail(rp, "needs \"plane\": {point, normal, distance_mm} and/or \"nodes\": [indices]");
+    FixedRegion region;
+    if (reg.contains("plane")) {
+      const std::string pp = rp + ".plane";
+      const json& p = reg["plane"];
+      r.require_object(p, pp);
+      r.warn_unknown(p, pp, {"point", "normal", "distance_mm"});
+      region.has_plane = true;
+      if (!p.contains("point")) r.fail(pp, "needs \"point\": [x, y, z] (mm)");
+      if (!p.contains("normal")) r.fail(pp, "needs \"normal\": [nx, ny, nz]");
+      region.plane_point_mm = r.vec3(p["point"], pp + ".point");
+      region.plane_normal = r.vec3(p["normal"], pp + ".normal");
+      if (!(region.plane_normal.norm() > 0.0)) r.fail(pp + ".normal", "must not be zero");
+      read_number(r, p, pp, "distance_mm", region.distance_mm, kNonNegative, "must be >= 0");
+    }
+    if (reg.contains("nodes")) {
+      const std::string np = rp + ".nodes";
+      const json& n = reg["nodes"];
+      if (!n.is_array())
+        r.fail(np, "expected an array of node indices, got " + Reader::describe(n));
+      for (size_t i = 0; i < n.size(); ++i)
+        region.nodes.push_back(static_cast<int32_t>(r.integer(
+            n[i], np + "[" + std::to_string(i) + "]", 0, std::numeric_limits<int32_t>::max())));
+    }
+    s.fixed.push_back(std::move(region));
+  }
+}
+
+void read_output(const Reader& r, const json& j, Scene& s) {
+  const std::string path = "output";
+  r.require_object(j, path);
+  r.warn_unknown(j, path, {"frame_interval_s", "all_layers", "obj", "metrics_every_step"});
+  read_number(r, j, path, "frame_interval_s", s.output.frame_interval_s, kNonNegative,
+              "must be >= 0 (0 = first and final frames only)");
+  read_bool(r, j, path, "all_layers", s.output.all_layers);
+  read_bool(r, j, path, "obj", s.output.obj);
+  read_bool(r, j, path, "metrics_every_step", s.output.metrics_every_step);
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& json_text, const std::string& source_name) {
+  Scene s;
+  s.source = source_name;
+  const Reader r(s.source);
+  json doc;
+  try {
+    // Comments are allowed: a scene file is written by hand and worth annotating.
+    doc = json::parse(json_text, nullptr, true, true);
+  } catch (const json::exception& e) {
+    // "[json.exception.parse_error.101] parse error at line 3, column 5: ...": the bracketed
+    // tag means nothing to a person editing the file.
+    std::string what = e.what();
+    if (!what.empty() && what[0] == '[' && what.find("] ") != std::string::npos)
+      what = what.substr(what.find("] ") + 2);
+    throw invalid_input(source_name, "invalid JSON: " + what);
+  }
+  if (!doc.is_object())
+    throw invalid_input(source_name,
+                        "expected a JSON object {...} at the top, got " + Reader::describe(doc));
+  r.warn_unknown(doc, "", {"model", "material", "solver", "tools", "boundary", "output"});
+  if (doc.contains("model")) read_model(r, doc["model"], s);
+  if (doc.contains("material")) read_material(r, doc["material"], s);
+  if (doc.contains("solver")) read_solver(r, doc["solver"], s);
+  if (doc.contains("tools")) read_tools(r, doc["tools"], s);
+  if (doc.contains("boundary")) read_boundary(r, doc["boundary"], s);
+  if (doc.contains("output")) read_output(r, doc["output"], s);
+  // Rings must reach as far as the routing spreads force.
+  s.build.locality = std::max(s.build.locality, s.routing.locality);
+  return s;
+}
+
+Scene load_scene(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw invalid_input(path, "is a folder, not a scene file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw invalid_input(path, "cannot open the scene file (does it exist?)");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw invalid_input(path, "cannot read the scene file");
+  Scene s = parse_scene(text.str(), path);
+  const fs::path folder = fs::path(path).parent_path();
+  auto resolve = [&](std::string& p) {
+    if (!p.empty() && fs::path(p).is_relative()) p = (folder / p).lexically_normal().string();
+  };
+  if (s.input != kScenePhantom) resolve(s.input);
+  resolve(s.model_path);
+  return s;
+}
+
+void resolve_scene_defaults(Scene& s, const Model& m) {
+  const ModelLayer& skin = m.layers.at(0);
+  if (s.default_tool) {
+    // The paper's poke: the most anterior skin node (smallest y in LPS), pushed posteriorly.
+    int32_t front = skin.first_node;
+    for (int32_t i = skin.first_node; i < skin.first_node + skin.node_count; ++i)
+      if (m.X(i, 1) < m.X(front, 1)) front = i;
+    s.tools.push_back({.by_point = false,
+                       .vertex = front,
+                       .force_mn = Eigen::Vector3d(0.0, 0.05 * kMilliNewtonsPerNewton, 0.0),
+                       .start_s = 0.0,
+                       .end_s = 1.0});
+    s.default_tool = false;
+  }
+  if (s.default_fixed) {
+    // Held at the back, where the liver rests against the diaphragm and the posterior wall.
+    const double back = m.X.col(1).maxCoeff();
+    s.fixed.push_back({.has_plane = true,
+                       .plane_point_mm = Eigen::Vector3d(0.0, back, 0.0),
+                       .plane_normal = Eigen::Vector3d::UnitY(),
+                       .distance_mm = 10.0,
+                       .nodes = {}});
+    s.default_fixed = false;
+  }
+}
+
+void check_scene_against_model(const Scene& s, const Model& m) {
+  const Reader r(s.source);
+  if (s.routing.locality > m.rings.locality)
+    r.fail("solver.locality", fmt::format("must not exceed the model's rings ({}), got {}",
+                                          m.rings.locality, s.routing.locality));
+  const int32_t skin_nodes = m.layers.at(0).node_count;
+  for (size_t k = 0; k < s.tools.size(); ++k) {
+    const interact::Tool& t = s.tools[k];
+    const std::string path = "tools[" + std::to_string(k) + "]";
+    if (!t.by_point && (t.vertex < 0 || t.vertex >= skin_nodes))
+      r.fail(path + ".vertex",
+             fmt::format("must be a skin node, 0..{}, got {}", skin_nodes - 1, t.vertex));
+    if (t.by_point &&
+        interact::nearest_skin_node(m, m.X, t.point_mm, s.routing.contact_threshold_mm) < 0)
+      r.fail(path + ".point",
+             fmt::format("[{}, {}, {}] is farther than solver.contact_threshold_mm ({} mm) from "
+                         "every skin node at rest",
+                         t.point_mm.x(), t.point_mm.y(), t.point_mm.z(),
+                         s.routing.contact_threshold_mm));
+  }
+  for (size_t k = 0; k < s.fixed.size(); ++k)
+    for (size_t i = 0; i < s.fixed[k].nodes.size(); ++i)
+      if (s.fixed[k].nodes[i] >= m.node_count())
+        r.fail(fmt::format("boundary.fixed[{}].nodes[{}]", k, i),
+               fmt::format("must be a node of the model, 0..{}, got {}", m.node_count() - 1,
+                           s.fixed[k].nodes[i]));
+}
+
+std::vector<int32_t> fixed_scene_nodes(const Scene& s, const Model& m) {
+  std::vector<int32_t> out;
+  for (const FixedRegion& f : s.fixed) {
+    if (f.has_plane) {
+      const std::vector<int32_t> near =
+          sim::nodes_near_plane(m, f.plane_point_mm, f.plane_normal, f.distance_mm);
+      out.insert(out.end(), near.begin(), near.end());
+    }
+    out.insert(out.end(), f.nodes.begin(), f.nodes.end());
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+std::string integrator_name(sim::Integrator integrator) {
+  return integrator == sim::Integrator::kImplicitEuler ? "implicit_euler" : "semi_implicit_euler";
+}
+
+std::string mode_name(sim::Mode mode) {
+  return mode == sim::Mode::kLocal ? "local" : "global";
+}
+
+std::string run_summary_json(const RunSummary& s) {
+  nlohmann::ordered_json j;  // keys in this order, the most telling first
+  j["scene"] = s.scene;
+  j["model"] = s.model;
+  j["converged"] = s.converged;
+  j["steps"] = s.steps;
+  j["sim_seconds"] = s.sim_seconds;
+  j["wall_seconds"] = s.wall_seconds;
+  j["model_seconds"] = s.model_seconds;
+  j["max_displacement_mm"] = s.max_displacement_mm;
+  j["max_abs_volume_change_pct"] = s.max_abs_volume_change_pct;
+  j["final_rest_error_mm"] = s.final_rest_error_mm;
+  j["final_volume_change_pct"] = s.final_volume_change_pct;
+  j["nan_detected"] = s.recoveries > 0;
+  j["recoveries"] = s.recoveries;
+  j["integrator"] = integrator_name(s.integrator);
+  j["mode"] = mode_name(s.mode);
+  j["dt_s"] = s.dt_s;
+  j["nodes"] = s.nodes;
+  j["springs"] = s.springs;
+  j["layers"] = s.layers;
+  j["fixed_nodes"] = s.fixed_nodes;
+  j["tools"] = s.tools;
+  j["steps_per_second"] = s.steps_per_second;
+  j["mean_step_us"] = s.mean_step_us;
+  j["median_step_us"] = s.median_step_us;
+  j["frames"] = s.frames;
+  return j.dump(2);
+}
+
+}  // namespace lamina::io

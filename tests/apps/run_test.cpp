@@ -1,0 +1,273 @@
+// End-to-end tests of `lamina run`: the real binary (LAMINA_CLI) runs a scene into a fresh folder
+// and the files it leaves are read back as ParaView or a script would read them.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "support/temp_dir.h"
+
+namespace lamina {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const fs::path kExamples = fs::path(__FILE__).parent_path() / ".." / ".." / "examples";
+
+struct RunResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string quoted(const std::string& s) {
+  return "'" + s + "'";
+}
+
+// Runs `lamina ARGS` in `dir`, with stdout and stderr captured beside it.
+RunResult run_lamina(const test::TempDir& dir, const std::string& args) {
+  const fs::path out = dir.path / "stdout.txt", err = dir.path / "stderr.txt";
+  const std::string command = "cd " + quoted(dir.path.string()) + " && " + quoted(LAMINA_CLI) +
+                              " " + args + " >" + quoted(out.string()) + " 2>" +
+                              quoted(err.string());
+  const int status = std::system(command.c_str());
+  RunResult r;
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.exit_code = 128 + WTERMSIG(status);
+  r.out = read_text(out);
+  r.err = read_text(err);
+  return r;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+// The points of a .vtp written by io::write_mesh (ASCII Points array), #V by 3.
+Eigen::MatrixX3d read_vtp_points(const fs::path& path) {
+  const std::string text = read_text(path);
+  const auto begin = text.find("format=\"ascii\">");
+  const auto end = text.find("</DataArray>", begin);
+  EXPECT_NE(begin, std::string::npos) << path;
+  std::istringstream in(text.substr(begin + 15, end - begin - 15));
+  std::vector<double> v;
+  for (double d; in >> d;) v.push_back(d);
+  EXPECT_EQ(v.size() % 3, 0u);
+  Eigen::MatrixX3d P(static_cast<Eigen::Index>(v.size() / 3), 3);
+  for (size_t i = 0; i < v.size(); ++i) P(static_cast<Eigen::Index>(i / 3), i % 3) = v[i];
+  return P;
+}
+
+// (time, file) of every DataSet in a .pvd.
+std::vector<std::pair<double, std::string>> read_pvd(const fs::path& path) {
+  static const std::regex kDataSet(R"re(<DataSet timestep="([^"]+)"[^>]*file="([^"]+)"/>)re");
+  std::vector<std::pair<double, std::string>> out;
+  const std::string text = read_text(path);
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), kDataSet);
+       it != std::sregex_iterator(); ++it)
+    out.emplace_back(std::stod((*it)[1].str()), (*it)[2].str());
+  return out;
+}
+
+// Checks the common layout of a finished run in `out` and returns its summary.
+json check_run_folder(const fs::path& out) {
+  EXPECT_TRUE(fs::is_regular_file(out / "metrics.csv"));
+  EXPECT_TRUE(fs::is_regular_file(out / "summary.json"));
+  EXPECT_TRUE(fs::is_regular_file(out / "skin.pvd"));
+  const std::string csv = read_text(out / "metrics.csv");
+  const std::vector<std::string> rows = lines_of(csv);
+  EXPECT_GT(rows.size(), 11u);
+  if (!rows.empty())
+    EXPECT_EQ(rows[0],
+              "time_s,max_displacement_mm,skin_volume_ml,volume_change_pct,kinetic_energy_j,"
+              "step_us,converged,active_tools");
+  std::string lower = csv;
+  std::transform(lower.begin(), lower.end(), lower.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  EXPECT_EQ(lower.find("nan"), std::string::npos);
+  EXPECT_EQ(lower.find("inf"), std::string::npos);
+  for (size_t k = 1; k < rows.size(); ++k)
+    EXPECT_EQ(std::count(rows[k].begin(), rows[k].end(), ','), 7) << "row " << k;
+
+  const json summary = json::parse(read_text(out / "summary.json"));
+  const auto frames = read_pvd(out / "skin.pvd");
+  EXPECT_EQ(static_cast<int>(frames.size()), summary.value("frames", -1));
+  EXPECT_GE(frames.size(), 2u);
+  for (size_t k = 0; k < frames.size(); ++k) {
+    EXPECT_TRUE(fs::is_regular_file(out / frames[k].second)) << frames[k].second;
+    if (k > 0) EXPECT_GT(frames[k].first, frames[k - 1].first);
+  }
+  if (!frames.empty()) {
+    EXPECT_EQ(frames.front().first, 0.0);
+    EXPECT_NEAR(frames.back().first, summary.value("sim_seconds", -1.0), 1e-9);
+  }
+  // Nothing half-written is left behind.
+  for (const auto& e : fs::recursive_directory_iterator(out))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+  return summary;
+}
+
+TEST(LaminaRun, PaperExampleConvergesAndWritesAPlayableSeries) {
+  test::TempDir dir;
+  const fs::path scene = kExamples / "paper_gamma3_k3.json";
+  const RunResult r = run_lamina(dir, "run " + quoted(scene.string()) + " -o out --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json printed = json::parse(r.out);  // stdout is the summary and nothing else
+  const json summary = check_run_folder(dir.path / "out");
+  EXPECT_EQ(printed, summary);
+  EXPECT_TRUE(summary["converged"].get<bool>());
+  EXPECT_FALSE(summary["nan_detected"].get<bool>());
+  EXPECT_EQ(summary["recoveries"], 0);
+  EXPECT_EQ(summary["integrator"], "semi_implicit_euler");
+  EXPECT_EQ(summary["mode"], "local");
+  EXPECT_EQ(summary["dt_s"], 0.01);
+  EXPECT_GT(summary["steps"].get<int>(), 100);  // pushed for 1 s at dt = 0.01, then released
+  EXPECT_GT(summary["max_displacement_mm"].get<double>(), 1.0);
+  EXPECT_LT(summary["final_rest_error_mm"].get<double>(),
+            summary["max_displacement_mm"].get<double>());
+  for (const char* key : {"sim_seconds", "wall_seconds", "max_abs_volume_change_pct", "nodes",
+                          "springs", "steps_per_second", "mean_step_us", "median_step_us"})
+    EXPECT_TRUE(summary.contains(key)) << key;
+  // One row per step; the tool acts for the first second only.
+  const std::vector<std::string> rows = lines_of(read_text(dir.path / "out" / "metrics.csv"));
+  EXPECT_EQ(static_cast<int64_t>(rows.size()) - 1, summary["steps"].get<int64_t>());
+  EXPECT_EQ(rows[1].substr(rows[1].rfind(',') + 1), "1");
+  EXPECT_EQ(rows.back().substr(rows.back().rfind(',') + 1), "0");
+  EXPECT_EQ(rows.back().substr(rows.back().rfind(',') - 1, 1), "1");  // converged at the end
+}
+
+TEST(LaminaRun, WithoutASceneRunsTheDefaultPokeOnThePhantom) {
+  test::TempDir dir;
+  const RunResult r = run_lamina(dir, "run -o out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json summary = check_run_folder(dir.path / "out");
+  EXPECT_EQ(summary["scene"], "default scene");
+  EXPECT_EQ(summary["model"], "built-in phantom");
+  EXPECT_TRUE(summary["converged"].get<bool>());
+  EXPECT_FALSE(summary["nan_detected"].get<bool>());
+  EXPECT_EQ(summary["tools"], 1);
+  EXPECT_GT(summary["fixed_nodes"].get<int>(), 0);
+  EXPECT_GT(summary["max_displacement_mm"].get<double>(), 1.0);
+}
+
+TEST(LaminaRun, BadSceneIsOneLineExitTwoAndNoOutput) {
+  test::TempDir dir;
+  std::ofstream(dir.file("bad.json")) << R"({"solver": {"dt_s": -1}})";
+  const RunResult r = run_lamina(dir, "run bad.json -o out");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "lamina: error: bad.json: solver.dt_s: must be > 0, got -1\n");
+  EXPECT_EQ(r.out, "");
+  EXPECT_FALSE(fs::exists(dir.path / "out"));
+
+  // A tool that does not fit the model is found before anything is written too.
+  std::ofstream(dir.file("far.json")) << R"({"model": {"build": {"skin_vertices": 400}},
+             "tools": [{"point": [0, 0, 1000], "force_n": [0, 0, -1]}]})";
+  const RunResult far = run_lamina(dir, "-q run far.json -o out");
+  EXPECT_EQ(far.exit_code, 2);
+  EXPECT_EQ(lines_of(far.err).size(), 1u) << far.err;
+  EXPECT_NE(far.err.find("far.json: tools[0].point:"), std::string::npos) << far.err;
+  EXPECT_FALSE(fs::exists(dir.path / "out"));
+
+  const RunResult missing = run_lamina(dir, "run missing.json -o out");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_EQ(lines_of(missing.err).size(), 1u) << missing.err;
+  EXPECT_FALSE(fs::exists(dir.path / "out"));
+}
+
+TEST(LaminaRun, OutputFolderThatIsAFileIsExitThree) {
+  test::TempDir dir;
+  std::ofstream(dir.file("taken")) << "x";
+  const RunResult r = run_lamina(dir, "run -o taken");
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_EQ(lines_of(r.err).size(), 1u) << r.err;
+  EXPECT_EQ(read_text(dir.file("taken")), "x");
+}
+
+// A small phantom model (400 skin vertices), the paper's anterior poke, and optionally a second
+// tool pressing the top of the right lobe down at the same time.
+std::string small_scene(bool second_tool) {
+  json scene = {
+      {"model", {{"input", "phantom"}, {"build", {{"skin_vertices", 400}}}}},
+      {"solver", {{"mode", "global"}, {"contact_threshold_mm", 30}}},
+      {"tools",
+       json::array({{{"point", {-38.9, -61.3, -1.4}}, {"force_n", {0, 0.05, 0}}, {"end_s", 1.0}}})},
+      {"boundary",
+       {{"fixed",
+         json::array(
+             {{{"plane",
+                {{"point", {0, 75.3, 0}}, {"normal", {0, 1, 0}}, {"distance_mm", 10}}}}})}}},
+      {"output", {{"frame_interval_s", 0.2}, {"all_layers", true}, {"obj", true}}}};
+  if (second_tool)
+    scene["tools"].push_back(
+        {{"point", {-39.9, 8.9, 66.3}}, {"force_n", {0, 0, -0.05}}, {"end_s", 1.0}});
+  return scene.dump(2);
+}
+
+TEST(LaminaRun, TwoToolsAtOnceBothDeformTheSkin) {
+  test::TempDir dir;
+  std::ofstream(dir.file("one.json")) << small_scene(false);
+  std::ofstream(dir.file("two.json")) << small_scene(true);
+  const RunResult one = run_lamina(dir, "-q run one.json -o one");
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const RunResult two = run_lamina(dir, "-q run two.json -o two --json");
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  const json s1 = check_run_folder(dir.path / "one"), s2 = check_run_folder(dir.path / "two");
+  for (const json& s : {s1, s2}) {
+    EXPECT_TRUE(s["converged"].get<bool>());
+    EXPECT_FALSE(s["nan_detected"].get<bool>());
+  }
+  EXPECT_EQ(s2["tools"], 2);
+  EXPECT_EQ(s1["nodes"], s2["nodes"]);  // the same model
+
+  // all_layers and obj: a series per layer, OBJ beside every VTP frame.
+  const auto layer1 = read_pvd(dir.path / "two" / "layer1.pvd");
+  EXPECT_EQ(static_cast<int>(layer1.size()), s2["frames"].get<int>());
+  for (const auto& [t, file] : read_pvd(dir.path / "two" / "skin.pvd"))
+    EXPECT_TRUE(fs::is_regular_file(dir.path / "two" / fs::path(file).replace_extension(".obj")));
+
+  // Frame 4 is t = 0.8 s, both tools pressing. Near the second tool's contact only the two-tool
+  // run is pressed in (downwards); near the first, both runs are.
+  const auto frames1 = read_pvd(dir.path / "one" / "skin.pvd");
+  const auto frames2 = read_pvd(dir.path / "two" / "skin.pvd");
+  ASSERT_GT(frames1.size(), 4u);
+  ASSERT_GT(frames2.size(), 4u);
+  EXPECT_NEAR(frames2[4].first, 0.8, 1e-9);
+  const Eigen::MatrixX3d rest = read_vtp_points(dir.path / "two" / frames2[0].second);
+  const Eigen::MatrixX3d d1 = read_vtp_points(dir.path / "one" / frames1[4].second) - rest;
+  const Eigen::MatrixX3d d2 = read_vtp_points(dir.path / "two" / frames2[4].second) - rest;
+  ASSERT_EQ(d1.rows(), rest.rows());
+  ASSERT_EQ(d2.rows(), rest.rows());
+  auto nearest = [&](const Eigen::RowVector3d& p) {
+    Eigen::Index i = 0;
+    (rest.rowwise() - p).rowwise().squaredNorm().minCoeff(&i);
+    return i;
+  };
+  const Eigen::Index top = nearest({-39.9, 8.9, 66.3}), front = nearest({-38.9, -61.3, -1.4});
+  EXPECT_LT(d2(top, 2), -1.0) << "the second tool presses the top down";
+  EXPECT_LT(std::abs(d1(top, 2)), 0.5 * std::abs(d2(top, 2)));
+  EXPECT_GT(d1(front, 1), 1.0) << "the first tool pushes the front back";
+  EXPECT_GT(d2(front, 1), 1.0);
+}
+
+}  // namespace
+}  // namespace lamina

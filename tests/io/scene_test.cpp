@@ -1,0 +1,423 @@
+#include "lamina/io/scene.h"
+
+#include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/model/compute_rings.h"
+#include "support/temp_dir.h"
+
+namespace lamina::io {
+namespace {
+
+using lamina::test::TempDir;
+namespace fs = std::filesystem;
+
+// Captures what the library logs while it lives (warnings about unknown keys go there).
+class LogCapture {
+ public:
+  LogCapture() : sink_(std::make_shared<spdlog::sinks::ostream_sink_mt>(text_)) {
+    log::logger().sinks().push_back(sink_);
+  }
+  ~LogCapture() {
+    auto& sinks = log::logger().sinks();
+    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink_), sinks.end());
+  }
+  std::string text() const { return text_.str(); }
+
+ private:
+  std::ostringstream text_;
+  std::shared_ptr<spdlog::sinks::ostream_sink_mt> sink_;
+};
+
+// The message of the Error that parsing `text` throws, or "" if it does not throw. Every scene
+// error must be kInvalidInput.
+std::string parse_error(const std::string& text) {
+  try {
+    parse_scene(text, "scene.json");
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::kInvalidInput) << e.what();
+    return e.what();
+  }
+  return "";
+}
+
+// A one-layer octahedron of radius 2 mm (nodes 0..5: +x, -x, +y, -y, +z, -z) with its 12 edges
+// as springs and rings up to locality 2.
+Model octahedron() {
+  Model m;
+  m.X.resize(6, 3);
+  m.X << 2, 0, 0, -2, 0, 0, 0, 2, 0, 0, -2, 0, 0, 0, 2, 0, 0, -2;
+  m.layers.resize(1);
+  m.layers[0].first_node = 0;
+  m.layers[0].node_count = 6;
+  m.layers[0].F.resize(8, 3);
+  m.layers[0].F << 0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5;
+  m.layer_of.assign(6, 0);
+  m.mass_kg.assign(6, 1.0);
+  m.fixed.assign(6, 0);
+  for (int32_t i = 0; i < 6; ++i)
+    for (int32_t j = i + 1; j < 6; ++j) {
+      if (j == i + 1 && i % 2 == 0) continue;  // opposite corners are not joined
+      m.springs.i.push_back(i);
+      m.springs.j.push_back(j);
+      m.springs.rest_length_mm.push_back((m.X.row(i) - m.X.row(j)).norm());
+      m.springs.stiffness_n_per_m.push_back(3.0);
+      m.springs.kind.push_back(SpringKind::kIntraLayer);
+    }
+  m.rings = model::compute_rings(m, 2);
+  return m;
+}
+
+TEST(ParseScene, EmptySceneTakesThePapersDefaults) {
+  const Scene s = parse_scene("{}", "scene.json");
+  EXPECT_EQ(s.source, "scene.json");
+  EXPECT_EQ(s.input, kScenePhantom);
+  EXPECT_TRUE(s.model_path.empty());
+  EXPECT_EQ(s.build.layers, 2);
+  EXPECT_EQ(s.build.skin_vertices, 1284);
+  EXPECT_EQ(s.build.locality, 4);
+  EXPECT_DOUBLE_EQ(s.material.stiffness_n_per_m, 3.0);  // K
+  EXPECT_DOUBLE_EQ(s.material.damping_kg_per_s, 3.0);   // gamma
+  EXPECT_DOUBLE_EQ(s.material.node_mass_kg, 1.0);       // unit masses
+  EXPECT_DOUBLE_EQ(s.material.anchor_stiffness_n_per_m, 0.0);
+  EXPECT_EQ(s.material.gravity_mm_per_s2, Eigen::Vector3d::Zero());
+  EXPECT_FALSE(s.density_given);
+  EXPECT_EQ(s.solver.integrator, sim::Integrator::kSemiImplicitEuler);
+  EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.01);
+  EXPECT_DOUBLE_EQ(s.solver.threshold_mm, 1e-3);
+  EXPECT_EQ(s.solver.max_steps, 100000);
+  EXPECT_EQ(s.solver.mode, sim::Mode::kGlobal);
+  EXPECT_EQ(s.routing.locality, 4);           // N
+  EXPECT_EQ(s.routing.penetration_depth, 4);  // P
+  EXPECT_DOUBLE_EQ(s.routing.ring_attenuation, 0.5);
+  EXPECT_DOUBLE_EQ(s.routing.crossing_attenuation, 0.95);
+  EXPECT_DOUBLE_EQ(s.routing.contact_threshold_mm, 10.0);
+  EXPECT_TRUE(s.tools.empty());
+  EXPECT_TRUE(s.default_tool);
+  EXPECT_TRUE(s.fixed.empty());
+  EXPECT_TRUE(s.default_fixed);
+  EXPECT_DOUBLE_EQ(s.output.frame_interval_s, 0.05);
+  EXPECT_FALSE(s.output.all_layers);
+  EXPECT_FALSE(s.output.obj);
+  EXPECT_TRUE(s.output.metrics_every_step);
+}
+
+TEST(ParseScene, ReadsEveryKey) {
+  LogCapture log;
+  const Scene s = parse_scene(R"({
+    // comments are allowed
+    "model": {"input": "liver.nii.gz",
+              "build": {"layers": 3, "skin_vertices": 2000, "layer_depth_mm": 7.5, "label": 5,
+                        "locality": 6, "links": 2}},
+    "material": {"stiffness_n_per_m": 6, "damping_kg_per_s": 5, "node_mass_kg": 0,
+                 "anchor_stiffness_n_per_m": 0.25, "gravity_mm_per_s2": [0, 9810, 0],
+                 "density_g_per_cm3": 1.1},
+    "solver": {"integrator": "implicit_euler", "dt_s": 0.1, "threshold_mm": 1e-4,
+               "max_steps": 1e5, "mode": "local", "locality": 3, "penetration_depth": 2,
+               "ring_attenuation": 0.25, "crossing_attenuation": 0.9,
+               "contact_threshold_mm": 4, "cg_max_iterations": 50, "cg_tolerance": 1e-8},
+    "tools": [{"vertex": 7, "force_n": [0, 0.05, 0], "start_s": 0.5, "end_s": 1.5},
+              {"point": [1, -2, 3.5], "force_n": [-0.001, 0, 0.002]},
+              {"vertex": 0, "force_n": [0, 0, 1], "end_s": null}],
+    "boundary": {"fixed": [{"plane": {"point": [0, 80, 0], "normal": [0, 2, 0],
+                                      "distance_mm": 12}},
+                           {"nodes": [3, 1, 4]},
+                           {"plane": {"point": [1, 2, 3], "normal": [1, 0, 0]},
+                            "nodes": [9]}]},
+    "output": {"frame_interval_s": 0.2, "all_layers": true, "obj": true,
+               "metrics_every_step": false}
+  })",
+                              "scene.json");
+  EXPECT_EQ(log.text(), "");  // every key is known
+  EXPECT_EQ(s.input, "liver.nii.gz");
+  EXPECT_EQ(s.build.layers, 3);
+  EXPECT_EQ(s.build.skin_vertices, 2000);
+  EXPECT_DOUBLE_EQ(s.build.layer_depth_mm, 7.5);
+  EXPECT_EQ(s.build.label, 5);
+  EXPECT_EQ(s.build.locality, 6);
+  EXPECT_EQ(s.build.inter_layer_links, 2);
+  EXPECT_DOUBLE_EQ(s.material.stiffness_n_per_m, 6.0);
+  EXPECT_DOUBLE_EQ(s.material.damping_kg_per_s, 5.0);
+  EXPECT_DOUBLE_EQ(s.material.node_mass_kg, 0.0);
+  EXPECT_DOUBLE_EQ(s.material.anchor_stiffness_n_per_m, 0.25);
+  EXPECT_EQ(s.material.gravity_mm_per_s2, Eigen::Vector3d(0, 9810, 0));
+  EXPECT_TRUE(s.density_given);
+  EXPECT_DOUBLE_EQ(s.build.density_kg_per_mm3, 1.1e-6);  // g/cm^3 -> kg/mm^3
+  EXPECT_EQ(s.solver.integrator, sim::Integrator::kImplicitEuler);
+  EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.1);
+  EXPECT_DOUBLE_EQ(s.solver.threshold_mm, 1e-4);
+  EXPECT_EQ(s.solver.max_steps, 100000);
+  EXPECT_EQ(s.solver.mode, sim::Mode::kLocal);
+  EXPECT_EQ(s.solver.cg_max_iterations, 50);
+  EXPECT_DOUBLE_EQ(s.solver.cg_tolerance, 1e-8);
+  EXPECT_EQ(s.routing.locality, 3);
+  EXPECT_EQ(s.routing.penetration_depth, 2);
+  EXPECT_DOUBLE_EQ(s.routing.ring_attenuation, 0.25);
+  EXPECT_DOUBLE_EQ(s.routing.crossing_attenuation, 0.9);
+  EXPECT_DOUBLE_EQ(s.routing.contact_threshold_mm, 4.0);
+
+  ASSERT_EQ(s.tools.size(), 3u);
+  EXPECT_FALSE(s.default_tool);
+  EXPECT_FALSE(s.tools[0].by_point);
+  EXPECT_EQ(s.tools[0].vertex, 7);
+  EXPECT_DOUBLE_EQ(s.tools[0].start_s, 0.5);
+  EXPECT_DOUBLE_EQ(s.tools[0].end_s, 1.5);
+  EXPECT_TRUE(s.tools[1].by_point);
+  EXPECT_EQ(s.tools[1].point_mm, Eigen::Vector3d(1, -2, 3.5));
+  EXPECT_DOUBLE_EQ(s.tools[1].start_s, 0.0);
+  EXPECT_TRUE(std::isinf(s.tools[1].end_s));  // never lets go
+  EXPECT_TRUE(std::isinf(s.tools[2].end_s));
+
+  ASSERT_EQ(s.fixed.size(), 3u);
+  EXPECT_FALSE(s.default_fixed);
+  EXPECT_TRUE(s.fixed[0].has_plane);
+  EXPECT_EQ(s.fixed[0].plane_point_mm, Eigen::Vector3d(0, 80, 0));
+  EXPECT_EQ(s.fixed[0].plane_normal, Eigen::Vector3d(0, 2, 0));
+  EXPECT_DOUBLE_EQ(s.fixed[0].distance_mm, 12.0);
+  EXPECT_FALSE(s.fixed[1].has_plane);
+  EXPECT_EQ(s.fixed[1].nodes, (std::vector<int32_t>{3, 1, 4}));
+  EXPECT_TRUE(s.fixed[2].has_plane);
+  EXPECT_DOUBLE_EQ(s.fixed[2].distance_mm, 10.0);  // the default slab
+  EXPECT_EQ(s.fixed[2].nodes, (std::vector<int32_t>{9}));
+
+  EXPECT_DOUBLE_EQ(s.output.frame_interval_s, 0.2);
+  EXPECT_TRUE(s.output.all_layers);
+  EXPECT_TRUE(s.output.obj);
+  EXPECT_FALSE(s.output.metrics_every_step);
+}
+
+TEST(ParseScene, ToolForcesAreNewtonsInTheFileAndMilliNewtonsInside) {
+  const Scene s =
+      parse_scene(R"({"tools": [{"vertex": 0, "force_n": [0.05, -1, 2e-3]}]})", "scene.json");
+  ASSERT_EQ(s.tools.size(), 1u);
+  EXPECT_DOUBLE_EQ(s.tools[0].force_mn.x(), 50.0);
+  EXPECT_DOUBLE_EQ(s.tools[0].force_mn.y(), -1000.0);
+  EXPECT_DOUBLE_EQ(s.tools[0].force_mn.z(), 2.0);
+}
+
+TEST(ParseScene, ASavedModelReplacesTheInputAndRingsFollowTheRouting) {
+  const Scene s = parse_scene(
+      R"({"model": {"model": "liver.vtu"}, "solver": {"locality": 6}, "tools": []})", "s.json");
+  EXPECT_EQ(s.model_path, "liver.vtu");
+  EXPECT_TRUE(s.input.empty());
+  EXPECT_EQ(s.build.locality, 6);  // rings must reach as far as the force is spread
+  EXPECT_TRUE(s.tools.empty());
+  EXPECT_FALSE(s.default_tool);  // an explicit empty list means no tool, not the default poke
+}
+
+TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
+  struct Case {
+    const char* scene;
+    const char* message;  // the whole message after "scene.json: ", or its start
+  };
+  const Case cases[] = {
+      {R"({"solver": {"dt_s": -1}})", "solver.dt_s: must be > 0, got -1"},
+      {R"({"solver": {"dt_s": 0}})", "solver.dt_s: must be > 0, got 0"},
+      {R"({"solver": {"dt_s": "0.01"}})", "solver.dt_s: expected a number, got string \"0.01\""},
+      {R"({"tools": [{"vertex": 0, "force_n": [0, 1, 0]}, {"vertex": 1, "force_n": [1, 2]}]})",
+       "tools[1].force_n: expected an array of 3 numbers, got array [1,2]"},
+      {R"({"tools": [{"vertex": 0, "point": [0, 0, 0], "force_n": [0, 1, 0]}]})",
+       "tools[0]: give either \"point\" or \"vertex\", not both"},
+      {R"({"tools": [{"force_n": [0, 1, 0]}]})", "tools[0]: needs \"point\""},
+      {R"({"tools": [{"vertex": 0}]})", "tools[0]: needs \"force_n\""},
+      {R"({"tools": [{"vertex": -3, "force_n": [0, 1, 0]}]})",
+       "tools[0].vertex: must be >= 0, got -3"},
+      {R"({"tools": [{"vertex": 1.5, "force_n": [0, 1, 0]}]})",
+       "tools[0].vertex: expected an integer, got 1.5"},
+      {R"({"tools": [{"vertex": 0, "force_n": [0, 1, 0], "start_s": 2, "end_s": 1}]})",
+       "tools[0].end_s: must be after start_s (2), got 1"},
+      {R"({"tools": {"vertex": 0}})", "tools: expected an array of tools"},
+      {R"({"material": {"stiffness_n_per_m": -3}})",
+       "material.stiffness_n_per_m: must be >= 0 (0 keeps the model's), got -3"},
+      {R"({"material": {"damping_kg_per_s": -0.5}})",
+       "material.damping_kg_per_s: must be >= 0, got -0.5"},
+      {R"({"material": {"gravity_mm_per_s2": [0, "down", 0]}})",
+       "material.gravity_mm_per_s2: expected an array of 3 numbers"},
+      {R"({"material": []})", "material: expected an object {...}, got array []"},
+      {R"({"solver": {"locality": 0}})", "solver.locality: must be between 1 and 64, got 0"},
+      {R"({"solver": {"penetration_depth": 0}})", "solver.penetration_depth: must be between 1"},
+      {R"({"solver": {"integrator": "rk4"}})",
+       "solver.integrator: expected \"semi_implicit_euler\" or \"implicit_euler\", got \"rk4\""},
+      {R"({"solver": {"mode": 1}})", "solver.mode: expected a string, got 1"},
+      {R"({"solver": {"max_steps": 0}})", "solver.max_steps: must be >= 1, got 0"},
+      {R"({"solver": {"ring_attenuation": 1.5}})",
+       "solver.ring_attenuation: must be between 0 and 1, got 1.5"},
+      {R"({"solver": {"threshold_mm": 1e999}})", "invalid JSON"},  // overflows to infinity
+      {R"({"model": {"input": "a.nii", "model": "b.vtu"}})",
+       "model: give either \"input\" (a mask to build from) or \"model\""},
+      {R"({"model": {"build": {"layers": 17}}})",
+       "model.build.layers: must be between 1 and 16, got 17"},
+      {R"({"model": {"input": ""}})", "model.input: must not be empty"},
+      {R"({"boundary": {"fixed": [{"plane": {"point": [0, 0, 0], "normal": [0, 0, 0]}}]}})",
+       "boundary.fixed[0].plane.normal: must not be zero"},
+      {R"({"boundary": {"fixed": [{"plane": {"normal": [0, 1, 0]}}]}})",
+       "boundary.fixed[0].plane: needs \"point\""},
+      {R"({"boundary": {"fixed": [{"nodes": [1, "two"]}]}})",
+       "boundary.fixed[0].nodes[1]: expected an integer, got string \"two\""},
+      {R"({"boundary": {"fixed": [{}]}})", "boundary.fixed[0]: needs \"plane\""},
+      {R"({"output": {"obj": "yes"}})", "output.obj: expected true or false, got string \"yes\""},
+      {R"({"output": {"frame_interval_s": -0.1}})", "output.frame_interval_s: must be >= 0"},
+      {R"([1, 2])", "expected a JSON object {...} at the top, got array [1,2]"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.scene);
+    const std::string message = parse_error(c.scene);
+    EXPECT_EQ(message.rfind(std::string("scene.json: ") + c.message, 0), 0u) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << "one line";
+  }
+}
+
+TEST(ParseScene, MalformedJsonGivesTheParsersLineAndColumn) {
+  const std::string message = parse_error("{\n  \"solver\": {\"dt_s\": 0.01,}\n}");
+  EXPECT_NE(message.find("scene.json: invalid JSON: parse error at line 2, column"),
+            std::string::npos)
+      << message;
+}
+
+TEST(ParseScene, UnknownKeysAreWarningsNamingTheKeyPath) {
+  LogCapture log;
+  Scene s;
+  ASSERT_NO_THROW(s = parse_scene(R"({"solver": {"dtt_s": 0.5, "dt_s": 0.02},
+                                      "tools": [{"vertex": 0, "force_n": [0, 1, 0], "colour": 1}],
+                                      "notes": "a comment field"})",
+                                  "scene.json"));
+  EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.02);
+  const std::string text = log.text();
+  EXPECT_NE(text.find("scene.json: solver.dtt_s: unknown key, ignored"), std::string::npos) << text;
+  EXPECT_NE(text.find("scene.json: tools[0].colour: unknown key"), std::string::npos) << text;
+  EXPECT_NE(text.find("scene.json: notes: unknown key"), std::string::npos) << text;
+}
+
+TEST(LoadScene, RelativePathsAreRelativeToTheScenesFolder) {
+  TempDir dir;
+  fs::create_directories(dir.path / "scenes");
+  const std::string path = (dir.path / "scenes" / "s.json").string();
+  std::ofstream(path) << R"({"model": {"input": "../data/liver.nii.gz"}})";
+  EXPECT_EQ(load_scene(path).input, (dir.path / "data" / "liver.nii.gz").string());
+  std::ofstream(path) << R"({"model": {"model": "/abs/liver.vtu"}})";
+  EXPECT_EQ(load_scene(path).model_path, "/abs/liver.vtu");
+  std::ofstream(path) << R"({"model": {"input": "phantom"}})";
+  EXPECT_EQ(load_scene(path).input, kScenePhantom);
+}
+
+TEST(LoadScene, MissingFileIsAnInputErrorNamingIt) {
+  TempDir dir;
+  const std::string path = dir.file("nope.json");
+  try {
+    load_scene(path);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::kInvalidInput);
+    EXPECT_EQ(std::string(e.what()).rfind(path + ": ", 0), 0u) << e.what();
+  }
+}
+
+TEST(LoadScene, EveryShippedExampleParsesWithoutWarnings) {
+  const fs::path examples = fs::path(__FILE__).parent_path() / ".." / ".." / "examples";
+  int count = 0;
+  for (const auto& e : fs::directory_iterator(examples)) {
+    if (e.path().extension() != ".json") continue;
+    SCOPED_TRACE(e.path().string());
+    LogCapture log;
+    Scene s;
+    ASSERT_NO_THROW(s = load_scene(e.path().string()));
+    EXPECT_EQ(log.text(), "");
+    EXPECT_FALSE(s.tools.empty());
+    ++count;
+  }
+  EXPECT_GE(count, 6);
+}
+
+TEST(ResolveSceneDefaults, ThePapersPokeOnTheAnteriorSkinAndTheBackHeld) {
+  const Model m = octahedron();
+  Scene s;  // the default scene
+  resolve_scene_defaults(s, m);
+  EXPECT_FALSE(s.default_tool);
+  EXPECT_FALSE(s.default_fixed);
+  ASSERT_EQ(s.tools.size(), 1u);
+  EXPECT_FALSE(s.tools[0].by_point);
+  EXPECT_EQ(s.tools[0].vertex, 3);                            // (0, -2, 0): smallest y
+  EXPECT_EQ(s.tools[0].force_mn, Eigen::Vector3d(0, 50, 0));  // 0.05 N posteriorly
+  EXPECT_DOUBLE_EQ(s.tools[0].start_s, 0.0);
+  EXPECT_DOUBLE_EQ(s.tools[0].end_s, 1.0);
+  ASSERT_EQ(s.fixed.size(), 1u);
+  EXPECT_EQ(s.fixed[0].plane_point_mm.y(), 2.0);  // through the largest y
+  EXPECT_EQ(s.fixed[0].plane_normal, Eigen::Vector3d::UnitY());
+  EXPECT_DOUBLE_EQ(s.fixed[0].distance_mm, 10.0);
+
+  // Explicit tools and boundary are kept as they are.
+  Scene t = parse_scene(R"({"tools": [], "boundary": {}})", "s.json");
+  resolve_scene_defaults(t, m);
+  EXPECT_TRUE(t.tools.empty());
+  EXPECT_TRUE(t.fixed.empty());
+}
+
+TEST(FixedSceneNodes, UnionOfPlanesAndListsSortedAndUnique) {
+  const Model m = octahedron();
+  const Scene s = parse_scene(R"({"boundary": {"fixed": [
+      {"plane": {"point": [0, 2, 0], "normal": [0, 1, 0], "distance_mm": 0.5}, "nodes": [5, 2]},
+      {"nodes": [5, 0]}]}})",
+                              "s.json");
+  EXPECT_EQ(fixed_scene_nodes(s, m), (std::vector<int32_t>{0, 2, 5}));
+}
+
+TEST(CheckSceneAgainstModel, NamesTheKeyThatDoesNotFitTheModel) {
+  const Model m = octahedron();
+  auto message = [&](const std::string& text) -> std::string {
+    const Scene s = parse_scene(text, "scene.json");
+    try {
+      check_scene_against_model(s, m);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::kInvalidInput);
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(message(R"({"solver": {"locality": 2},
+                        "tools": [{"vertex": 5, "force_n": [0, 1, 0]},
+                                  {"point": [0, 0, 2.5], "force_n": [0, 1, 0]}],
+                        "boundary": {"fixed": [{"nodes": [5]}]}})"),
+            "");
+  EXPECT_EQ(
+      message(
+          R"({"tools": [{"vertex": 0, "force_n": [0, 1, 0]}, {"vertex": 6, "force_n": [0, 1, 0]}],
+                        "solver": {"locality": 2}})"),
+      "scene.json: tools[1].vertex: must be a skin node, 0..5, got 6");
+  EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 30], "force_n": [0, 1, 0]}],
+                        "solver": {"locality": 2}})")
+                .rfind("scene.json: tools[0].point: [0, 0, 30] is farther than "
+                       "solver.contact_threshold_mm (10 mm)",
+                       0),
+            0u);
+  EXPECT_EQ(message(R"({"tools": []})"),  // default locality 4 > the model's 2
+            "scene.json: solver.locality: must not exceed the model's rings (2), got 4");
+  EXPECT_EQ(message(R"({"tools": [], "solver": {"locality": 1},
+                        "boundary": {"fixed": [{"nodes": [0, 6]}]}})"),
+            "scene.json: boundary.fixed[0].nodes[1]: must be a node of the model, 0..5, got 6");
+}
+
+TEST(RunSummaryJson, ReportsNanDetectedFromRecoveries) {
+  RunSummary r;
+  r.integrator = sim::Integrator::kImplicitEuler;
+  r.mode = sim::Mode::kLocal;
+  std::string json = run_summary_json(r);
+  EXPECT_NE(json.find("\"nan_detected\": false"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"integrator\": \"implicit_euler\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"mode\": \"local\""), std::string::npos) << json;
+  r.recoveries = 2;
+  json = run_summary_json(r);
+  EXPECT_NE(json.find("\"nan_detected\": true"), std::string::npos) << json;
+}
+
+}  // namespace
+}  // namespace lamina::io
