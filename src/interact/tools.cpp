@@ -84,16 +84,20 @@ ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t co
   route.crossings = force_line_crossings(model, x, contact_node, force_mn);
   if (static_cast<int32_t>(route.crossings.size()) > o.penetration_depth)
     route.crossings.resize(static_cast<size_t>(o.penetration_depth));
-  // (node, force) contributions, then merged per node.
+  // (node, force) contributions, then merged per node. Each copy is spread over the rings of
+  // its node with weights ring_attenuation^r per node, normalised so that the copy's total is
+  // the copy's force: "spreading" moves force around, it does not multiply it.
   std::vector<std::pair<int32_t, Eigen::Vector3d>> parts;
   double copy_scale = 1.0;
   for (const Crossing& c : route.crossings) {
-    double ring_scale = copy_scale;
-    for (int32_t r = 0; r < o.locality; ++r) {
+    double weight_sum = 0.0, ring_weight = 1.0;
+    for (int32_t r = 0; r < o.locality; ++r, ring_weight *= o.ring_attenuation)
+      weight_sum += ring_weight * static_cast<double>(model.rings.ring_size(c.node, r));
+    double ring_weight_now = 1.0;
+    for (int32_t r = 0; r < o.locality; ++r, ring_weight_now *= o.ring_attenuation)
       for (int64_t k = 0; k < model.rings.ring_size(c.node, r); ++k)
-        parts.emplace_back(model.rings.ring(c.node, r)[k], ring_scale * force_mn);
-      ring_scale *= o.ring_attenuation;
-    }
+        parts.emplace_back(model.rings.ring(c.node, r)[k],
+                           (copy_scale * ring_weight_now / weight_sum) * force_mn);
     copy_scale *= o.crossing_attenuation;
   }
   std::sort(parts.begin(), parts.end(),

@@ -420,7 +420,7 @@ void resolve_scene_defaults(Scene& s, const Model& m) {
       if (m.X(i, 1) < m.X(front, 1)) front = i;
     s.tools.push_back({.by_point = false,
                        .vertex = front,
-                       .force_mn = Eigen::Vector3d(0.0, 0.05 * kMilliNewtonsPerNewton, 0.0),
+                       .force_mn = Eigen::Vector3d(0.0, 0.4 * kMilliNewtonsPerNewton, 0.0),
                        .start_s = 0.0,
                        .end_s = 1.0});
     s.default_tool = false;

@@ -210,7 +210,7 @@ std::string small_scene(bool second_tool) {
       {"model", {{"input", "phantom"}, {"build", {{"skin_vertices", 400}}}}},
       {"solver", {{"mode", "global"}, {"contact_threshold_mm", 30}}},
       {"tools",
-       json::array({{{"point", {-38.9, -61.3, -1.4}}, {"force_n", {0, 0.05, 0}}, {"end_s", 1.0}}})},
+       json::array({{{"point", {-38.9, -61.3, -1.4}}, {"force_n", {0, 0.4, 0}}, {"end_s", 1.0}}})},
       {"boundary",
        {{"fixed",
          json::array(
@@ -219,7 +219,7 @@ std::string small_scene(bool second_tool) {
       {"output", {{"frame_interval_s", 0.2}, {"all_layers", true}, {"obj", true}}}};
   if (second_tool)
     scene["tools"].push_back(
-        {{"point", {-39.9, 8.9, 66.3}}, {"force_n", {0, 0, -0.05}}, {"end_s", 1.0}});
+        {{"point", {-39.9, 8.9, 66.3}}, {"force_n", {0, 0, -0.4}}, {"end_s", 1.0}});
   return scene.dump(2);
 }
 

@@ -79,19 +79,23 @@ TEST(RouteForce, ExactlyTheFirstPCrossingsReceiveForce) {
   EXPECT_GT(f_far.dot(force), 0.0);
 }
 
-TEST(RouteForce, RingsAreAttenuatedRingByRing) {
+TEST(RouteForce, RingsAreAttenuatedRingByRingAndTheTotalIsTheForce) {
   const Model& m = sphere_model();
   const Eigen::Vector3d force(0, 0, -10);
   const interact::ForceRoute r = interact::route_force(
       m, m.X, 10, force, {.locality = 3, .penetration_depth = 1, .ring_attenuation = 0.5});
+  auto force_on = [&](int32_t node) -> Eigen::Vector3d {
+    const auto it = std::find(r.nodes.begin(), r.nodes.end(), node);
+    EXPECT_NE(it, r.nodes.end());
+    return r.forces.row(it - r.nodes.begin());
+  };
+  const Eigen::Vector3d centre = force_on(10);
+  EXPECT_GT(centre.dot(force), 0.0);
   for (int32_t ring = 0; ring < 3; ++ring)
-    for (int64_t k = 0; k < m.rings.ring_size(10, ring); ++k) {
-      const int32_t node = m.rings.ring(10, ring)[k];
-      const auto it = std::find(r.nodes.begin(), r.nodes.end(), node);
-      ASSERT_NE(it, r.nodes.end());
-      EXPECT_TRUE(
-          r.forces.row(it - r.nodes.begin()).transpose().isApprox(force * std::pow(0.5, ring)));
-    }
+    for (int64_t k = 0; k < m.rings.ring_size(10, ring); ++k)
+      EXPECT_TRUE(force_on(m.rings.ring(10, ring)[k]).isApprox(centre * std::pow(0.5, ring)));
+  // Spreading conserves the force: the total over all receiving nodes is the applied force.
+  EXPECT_TRUE(Eigen::Vector3d(r.forces.colwise().sum()).isApprox(force));
   EXPECT_THROW(interact::route_force(m, m.X, 10, force, {.locality = m.rings.locality + 1}), Error);
 }
 

@@ -347,7 +347,7 @@ TEST(ResolveSceneDefaults, ThePapersPokeOnTheAnteriorSkinAndTheBackHeld) {
   ASSERT_EQ(s.tools.size(), 1u);
   EXPECT_FALSE(s.tools[0].by_point);
   EXPECT_EQ(s.tools[0].vertex, 3);                            // (0, -2, 0): smallest y
-  EXPECT_EQ(s.tools[0].force_mn, Eigen::Vector3d(0, 50, 0));  // 0.05 N posteriorly
+  EXPECT_EQ(s.tools[0].force_mn, Eigen::Vector3d(0, 400, 0));  // 0.4 N posteriorly
   EXPECT_DOUBLE_EQ(s.tools[0].start_s, 0.0);
   EXPECT_DOUBLE_EQ(s.tools[0].end_s, 1.0);
   ASSERT_EQ(s.fixed.size(), 1u);
