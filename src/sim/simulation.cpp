@@ -344,12 +344,15 @@ StepStats step(Simulation& s) {
   return st;
 }
 
-StepStats run_to_convergence(Simulation& s, int64_t min_steps) {
+StepStats run_to_convergence(Simulation& s, int64_t quiet_steps) {
   StepStats st;
+  int64_t quiet = 0;
   for (int64_t k = 0; k < s.options.max_steps; ++k) {
     st = step(s);
-    if (st.converged && k + 1 >= min_steps) break;
+    quiet = st.converged ? quiet + 1 : 0;
+    if (quiet >= std::max<int64_t>(1, quiet_steps)) return st;
   }
+  st.converged = false;
   return st;
 }
 

@@ -107,7 +107,7 @@ TEST(Simulation, ReleasedModelReturnsToRest) {
       const double pushed = (s.x - m.X).rowwise().norm().maxCoeff();
       EXPECT_GT(pushed, 1.0);
       s.f_ext.setZero();
-      const sim::StepStats st = sim::run_to_convergence(s, 2);
+      const sim::StepStats st = sim::run_to_convergence(s);
       EXPECT_TRUE(st.converged);
       EXPECT_LT(st.max_displacement_mm, 0.01 * pushed);
     }

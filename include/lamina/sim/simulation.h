@@ -120,9 +120,11 @@ void set_local_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 /// implicit Euler); measure.
 StepStats step(Simulation& sim);
 
-/// Steps until converged (after at least `min_steps`) or options.max_steps.
-/// @return the stats of the last step
-StepStats run_to_convergence(Simulation& sim, int64_t min_steps = 1);
+/// Steps until converged for `quiet_steps` consecutive steps, or options.max_steps. One quiet
+/// step is not enough: a model just poked moves less than the threshold in its first steps, and
+/// velocities pass through zero at every turn of an oscillation.
+/// @return the stats of the last step (converged is true only if the quiet window was reached)
+StepStats run_to_convergence(Simulation& sim, int64_t quiet_steps = 10);
 
 /// Spring forces at positions x (#nodes by 3, mm) into f (mN), gathered per node. Stateless
 /// apart from the adjacency in `sim`. Forces sum to zero (Newton's third law).
