@@ -279,7 +279,8 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
     const std::string path = "tools[" + std::to_string(k) + "]";
     const json& t = j[k];
     r.require_object(t, path);
-    r.warn_unknown(t, path, {"point", "vertex", "force_n", "start_s", "end_s"});
+    r.warn_unknown(t, path,
+                   {"point", "vertex", "force_n", "drag_mm", "gain_n_per_mm", "start_s", "end_s"});
     interact::Tool tool;
     const bool has_point = t.contains("point"), has_vertex = t.contains("vertex");
     if (has_point == has_vertex)
@@ -292,8 +293,23 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
       tool.vertex = static_cast<int32_t>(
           r.integer(t["vertex"], path + ".vertex", 0, std::numeric_limits<int32_t>::max()));
     }
-    if (!t.contains("force_n")) r.fail(path, "needs \"force_n\": [fx, fy, fz] (newtons)");
-    tool.force_mn = kMilliNewtonsPerNewton * r.vec3(t["force_n"], path + ".force_n");
+    // The force is given directly, or (the paper's interaction) proportional to a drag:
+    // force = gain x drag vector.
+    const bool has_force = t.contains("force_n"), has_drag = t.contains("drag_mm");
+    if (has_force == has_drag)
+      r.fail(path,
+             has_force
+                 ? "give either \"force_n\" or \"drag_mm\", not both"
+                 : "needs \"force_n\": [fx, fy, fz] (newtons) or \"drag_mm\": [dx, dy, dz] (mm)");
+    if (has_force) {
+      if (t.contains("gain_n_per_mm"))
+        r.fail(path + ".gain_n_per_mm", "only applies with \"drag_mm\"");
+      tool.force_mn = kMilliNewtonsPerNewton * r.vec3(t["force_n"], path + ".force_n");
+    } else {
+      double gain = 0.05;
+      read_number(r, t, path, "gain_n_per_mm", gain, kPositive, "must be > 0 N/mm");
+      tool.force_mn = kMilliNewtonsPerNewton * gain * r.vec3(t["drag_mm"], path + ".drag_mm");
+    }
     read_number(r, t, path, "start_s", tool.start_s, kNonNegative, "must be >= 0");
     // A null end means the tool never lets go (the same as leaving the key out).
     if (t.contains("end_s") && !t["end_s"].is_null()) {

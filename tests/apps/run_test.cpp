@@ -15,6 +15,10 @@
 #include <string>
 #include <vector>
 
+#include "lamina/interact/tools.h"
+#include "lamina/io/label_volume_io.h"
+#include "lamina/io/scene.h"
+#include "lamina/model/build_model.h"
 #include "support/temp_dir.h"
 
 namespace lamina {
@@ -154,6 +158,46 @@ TEST(LaminaRun, PaperExampleConvergesAndWritesAPlayableSeries) {
   EXPECT_EQ(rows[1].substr(rows[1].rfind(',') + 1), "1");
   EXPECT_EQ(rows.back().substr(rows.back().rfind(',') + 1), "0");
   EXPECT_EQ(rows.back().substr(rows.back().rfind(',') - 1, 1), "1");  // converged at the end
+}
+
+// The organ's thickness along the first tool's force line: from the contact to where the line
+// leaves through the far side of the skin (the last skin crossing), on the scene's model at rest.
+double thickness_under_first_tool(const fs::path& scene_path) {
+  io::Scene scene = io::load_scene(scene_path.string());
+  const Model m = model::build_model(io::read_label_volume(scene.input), scene.build).model;
+  io::resolve_scene_defaults(scene, m);
+  const interact::Tool& tool = scene.tools.at(0);
+  const int32_t contact =
+      tool.by_point
+          ? interact::nearest_skin_node(m, m.X, tool.point_mm, scene.routing.contact_threshold_mm)
+          : tool.vertex;
+  double far = 0.0;
+  for (const auto& c : interact::force_line_crossings(m, m.X, contact, tool.force_mn))
+    if (c.layer == 0) far = c.distance_mm;
+  return far;
+}
+
+TEST(LaminaRun, PaperScenesOnTheSharedLiversConvergeThroughALargeDeformation) {
+  for (const char* name : {"liver_totalseg.json", "liver_sofa.json"}) {
+    SCOPED_TRACE(name);
+    test::TempDir dir;
+    const fs::path scene = kExamples / name;
+    const RunResult r = run_lamina(dir, "run " + quoted(scene.string()) + " -o out --json");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const json summary = json::parse(r.out);
+    EXPECT_TRUE(summary["converged"].get<bool>());
+    EXPECT_FALSE(summary["nan_detected"].get<bool>());
+    // "Large": the dent is more than 20% of the organ's depth under the tool.
+    const double thickness = thickness_under_first_tool(scene);
+    ASSERT_GT(thickness, 0.0);
+    EXPECT_GT(summary["max_displacement_mm"].get<double>(), 0.2 * thickness)
+        << "thickness " << thickness << " mm";
+    RecordProperty(std::string(name) + "_dent_mm",
+                   std::to_string(summary["max_displacement_mm"].get<double>()));
+    RecordProperty(std::string(name) + "_depth_mm", std::to_string(thickness));
+    EXPECT_LT(summary["final_rest_error_mm"].get<double>(),
+              summary["max_displacement_mm"].get<double>());
+  }
 }
 
 TEST(LaminaRun, WithoutASceneRunsTheDefaultPokeOnThePhantom) {

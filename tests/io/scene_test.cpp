@@ -205,6 +205,16 @@ TEST(ParseScene, ToolForcesAreNewtonsInTheFileAndMilliNewtonsInside) {
   EXPECT_DOUBLE_EQ(s.tools[0].force_mn.z(), 2.0);
 }
 
+TEST(ParseScene, ADragTimesTheGainIsTheForce) {
+  const Scene s = parse_scene(
+      R"({"tools": [{"vertex": 0, "drag_mm": [0, 10, 0], "gain_n_per_mm": 0.02},
+                    {"vertex": 1, "drag_mm": [0, 0, -4]}]})",
+      "scene.json");
+  ASSERT_EQ(s.tools.size(), 2u);
+  EXPECT_TRUE(s.tools[0].force_mn.isApprox(Eigen::Vector3d(0, 200, 0)));   // 0.02 N/mm x 10 mm
+  EXPECT_TRUE(s.tools[1].force_mn.isApprox(Eigen::Vector3d(0, 0, -200)));  // default 0.05 N/mm
+}
+
 TEST(ParseScene, ASavedModelReplacesTheInputAndRingsFollowTheRouting) {
   const Scene s = parse_scene(
       R"({"model": {"model": "liver.vtu"}, "solver": {"locality": 6}, "tools": []})", "s.json");
@@ -230,6 +240,10 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
        "tools[0]: give either \"point\" or \"vertex\", not both"},
       {R"({"tools": [{"force_n": [0, 1, 0]}]})", "tools[0]: needs \"point\""},
       {R"({"tools": [{"vertex": 0}]})", "tools[0]: needs \"force_n\""},
+      {R"({"tools": [{"vertex": 0, "force_n": [0, 1, 0], "drag_mm": [0, 1, 0]}]})",
+       "tools[0]: give either \"force_n\" or \"drag_mm\", not both"},
+      {R"({"tools": [{"vertex": 0, "drag_mm": [0, 1, 0], "gain_n_per_mm": 0}]})",
+       "tools[0].gain_n_per_mm: must be > 0 N/mm, got 0"},
       {R"({"tools": [{"vertex": -3, "force_n": [0, 1, 0]}]})",
        "tools[0].vertex: must be >= 0, got -3"},
       {R"({"tools": [{"vertex": 1.5, "force_n": [0, 1, 0]}]})",
@@ -332,10 +346,10 @@ TEST(LoadScene, EveryShippedExampleParsesWithoutWarnings) {
     Scene s;
     ASSERT_NO_THROW(s = load_scene(e.path().string()));
     EXPECT_EQ(log.text(), "");
-    EXPECT_FALSE(s.tools.empty());
+    EXPECT_TRUE(!s.tools.empty() || s.default_tool);  // a tool, listed or the default poke
     ++count;
   }
-  EXPECT_GE(count, 6);
+  EXPECT_GE(count, 7);
 }
 
 TEST(ResolveSceneDefaults, ThePapersPokeOnTheAnteriorSkinAndTheBackHeld) {
@@ -346,7 +360,7 @@ TEST(ResolveSceneDefaults, ThePapersPokeOnTheAnteriorSkinAndTheBackHeld) {
   EXPECT_FALSE(s.default_fixed);
   ASSERT_EQ(s.tools.size(), 1u);
   EXPECT_FALSE(s.tools[0].by_point);
-  EXPECT_EQ(s.tools[0].vertex, 3);                            // (0, -2, 0): smallest y
+  EXPECT_EQ(s.tools[0].vertex, 3);                             // (0, -2, 0): smallest y
   EXPECT_EQ(s.tools[0].force_mn, Eigen::Vector3d(0, 400, 0));  // 0.4 N posteriorly
   EXPECT_DOUBLE_EQ(s.tools[0].start_s, 0.0);
   EXPECT_DOUBLE_EQ(s.tools[0].end_s, 1.0);

@@ -84,7 +84,7 @@ Scene load_scene(const std::string& path);
 
 /// Replaces the defaults that depend on the model with concrete values: without "tools", one
 /// tool at the skin node with the smallest y (the anterior surface in LPS) pushing +y
-/// (posteriorly) with 0.05 N from 0 to 1 s; without "boundary", the nodes within 10 mm of the
+/// (posteriorly) with 0.4 N from 0 to 1 s; without "boundary", the nodes within 10 mm of the
 /// plane through the largest y, normal +y (the posterior side), fixed.
 /// @param[in,out] scene  a parsed scene; default_tool and default_fixed are false afterwards
 /// @param[in]     model  the model the scene runs on
