@@ -25,6 +25,7 @@
 #include "lamina/core/grid.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/label_volume_io.h"
+#include "support/run_cli.h"
 #include "support/temp_dir.h"
 
 namespace lamina {
@@ -44,40 +45,20 @@ struct TempDir : lamina::test::TempDir {
   std::string file(const std::string& name) const { return (work / name).string(); }
 };
 
-struct RunResult {
-  int exit_code = -1;  ///< the process's exit status, or 128 + signal if it was killed
-  std::string out, err;
-};
+using test::quoted;
+using test::RunResult;
 
 std::string read_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return test::read_text(path);
 }
 
 void write_file(const fs::path& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;
 }
 
-// Single quotes protect the paths from the shell; our temporary paths never contain one.
-std::string quoted(const std::string& s) {
-  return "'" + s + "'";
-}
-
 // Runs `lamina ARGS` with `dir` as working directory.
 RunResult run_lamina(const TempDir& dir, const std::string& args) {
-  const fs::path out = dir.root / "stdout.txt", err = dir.root / "stderr.txt";
-  const std::string command = "cd " + quoted(dir.work.string()) + " && " + quoted(LAMINA_CLI) +
-                              " " + args + " >" + quoted(out.string()) + " 2>" +
-                              quoted(err.string());
-  const int status = std::system(command.c_str());
-  RunResult r;
-  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) r.exit_code = 128 + WTERMSIG(status);
-  r.out = read_file(out);
-  r.err = read_file(err);
-  return r;
+  return test::run_cli(LAMINA_CLI, dir.work, dir.root, args);
 }
 
 std::string lower(std::string s) {

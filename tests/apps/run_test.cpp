@@ -19,6 +19,7 @@
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
+#include "support/run_cli.h"
 #include "support/temp_dir.h"
 
 namespace lamina {
@@ -29,35 +30,13 @@ using nlohmann::json;
 
 const fs::path kExamples = fs::path(__FILE__).parent_path() / ".." / ".." / "examples";
 
-struct RunResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quoted(const std::string& s) {
-  return "'" + s + "'";
-}
+using test::quoted;
+using test::read_text;
+using test::RunResult;
 
 // Runs `lamina ARGS` in `dir`, with stdout and stderr captured beside it.
 RunResult run_lamina(const test::TempDir& dir, const std::string& args) {
-  const fs::path out = dir.path / "stdout.txt", err = dir.path / "stderr.txt";
-  const std::string command = "cd " + quoted(dir.path.string()) + " && " + quoted(LAMINA_CLI) +
-                              " " + args + " >" + quoted(out.string()) + " 2>" +
-                              quoted(err.string());
-  const int status = std::system(command.c_str());
-  RunResult r;
-  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) r.exit_code = 128 + WTERMSIG(status);
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
+  return test::run_cli(LAMINA_CLI, dir.path, dir.path, args);
 }
 
 std::vector<std::string> lines_of(const std::string& text) {
