@@ -68,6 +68,11 @@ ProgressFn stderr_progress(bool verbose) {
 
 namespace {
 
+// The segmentation named by `input`: the built-in phantom for "phantom", else a file or folder.
+LabelVolume read_input(const std::string& input) {
+  return input == io::kScenePhantom ? geometry::make_phantom() : io::read_label_volume(input);
+}
+
 Model load_with_rings(const std::string& path) {
   Model m = io::load_model(path);
   m.rings = model::compute_rings(m, std::max(1, m.rings.locality));
@@ -92,8 +97,7 @@ int run_phantom(const PhantomArgs& a) {
 int run_build(const BuildArgs& a) {
   check_output(a.output, {".vtu"}, "model");
   model::check_build_options(a.options);
-  const LabelVolume volume =
-      a.input == kPhantomInput ? geometry::make_phantom() : io::read_label_volume(a.input);
+  const LabelVolume volume = read_input(a.input);
   const model::BuildResult built =
       model::build_model(volume, a.options, a.quiet ? ProgressFn{} : stderr_progress(a.verbose));
   // The table lists the warnings itself; with --json they go to stderr, stdout stays JSON.
@@ -197,8 +201,7 @@ SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress) 
     out.model.rings = model::compute_rings(out.model, std::max(out.model.rings.locality, locality));
     return out;
   }
-  const LabelVolume volume = scene.input == io::kScenePhantom ? geometry::make_phantom()
-                                                              : io::read_label_volume(scene.input);
+  const LabelVolume volume = read_input(scene.input);
   out.source = volume.source;
   model::BuildOptions options = scene.build;
   options.locality = locality;

@@ -6,12 +6,10 @@
 #include <string>
 
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
 
 namespace lamina::cli {
-
-/// Input name that selects the built-in phantom instead of a file.
-inline constexpr const char* kPhantomInput = "phantom";
 
 /// Progress for long work on stderr: an in-place line on a terminal; on a pipe or file, one line
 /// per stage when `verbose`, nothing otherwise.
@@ -24,7 +22,7 @@ struct PhantomArgs {
 int run_phantom(const PhantomArgs& args);
 
 struct BuildArgs {
-  std::string input = kPhantomInput;
+  std::string input = io::kScenePhantom;
   std::string output;
   bool json = false;
   bool quiet = false;

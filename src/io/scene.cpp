@@ -152,6 +152,25 @@ void read_number(const Reader& r, const json& object, const std::string& path, c
   out = v;
 }
 
+// Reads a string key that must be one of `choices` (name, value); leaves `out` alone if absent.
+template <class Enum>
+void read_choice(const Reader& r, const json& object, const std::string& path, const char* key,
+                 Enum& out, std::initializer_list<std::pair<const char*, Enum>> choices) {
+  const auto it = object.find(key);
+  if (it == object.end()) return;
+  const std::string p = Reader::join(path, key);
+  const std::string v = r.string(*it, p);
+  std::string expected;
+  for (const auto& [name, value] : choices) {
+    if (v == name) {
+      out = value;
+      return;
+    }
+    expected += (expected.empty() ? "\"" : " or \"") + std::string(name) + "\"";
+  }
+  r.fail(p, "expected " + expected + ", got \"" + v + "\"");
+}
+
 template <class Int>
 void read_integer(const Reader& r, const json& object, const std::string& path, const char* key,
                   Int& out, int64_t lo, int64_t hi) {
@@ -236,28 +255,14 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
                   "penetration_depth", "ring_attenuation", "crossing_attenuation",
                   "contact_threshold_mm", "cg_max_iterations", "cg_tolerance"});
   sim::SolverOptions& o = s.solver;
-  if (j.contains("integrator")) {
-    const std::string v = r.string(j["integrator"], "solver.integrator");
-    if (v == "semi_implicit_euler")
-      o.integrator = sim::Integrator::kSemiImplicitEuler;
-    else if (v == "implicit_euler")
-      o.integrator = sim::Integrator::kImplicitEuler;
-    else
-      r.fail("solver.integrator",
-             "expected \"semi_implicit_euler\" or \"implicit_euler\", got \"" + v + "\"");
-  }
+  read_choice(r, j, path, "integrator", o.integrator,
+              {{"semi_implicit_euler", sim::Integrator::kSemiImplicitEuler},
+               {"implicit_euler", sim::Integrator::kImplicitEuler}});
   read_number(r, j, path, "dt_s", o.dt_s, kPositive, "must be > 0");
   read_number(r, j, path, "threshold_mm", o.threshold_mm, kPositive, "must be > 0");
   read_integer(r, j, path, "max_steps", o.max_steps, 1, std::numeric_limits<int64_t>::max());
-  if (j.contains("mode")) {
-    const std::string v = r.string(j["mode"], "solver.mode");
-    if (v == "global")
-      o.mode = sim::Mode::kGlobal;
-    else if (v == "local")
-      o.mode = sim::Mode::kLocal;
-    else
-      r.fail("solver.mode", "expected \"global\" or \"local\", got \"" + v + "\"");
-  }
+  read_choice(r, j, path, "mode", o.mode,
+              {{"global", sim::Mode::kGlobal}, {"local", sim::Mode::kLocal}});
   read_integer(r, j, path, "cg_max_iterations", o.cg_max_iterations, 1, 1'000'000);
   read_number(r, j, path, "cg_tolerance", o.cg_tolerance, kPositive, "must be > 0");
   interact::RoutingOptions& ro = s.routing;

@@ -217,6 +217,8 @@ Simulation make_simulation(const Model& model, const Material& material,
     s.adj_other[fill[b]] = a, s.adj_spring[fill[b]++] = static_cast<int32_t>(e);
   }
   s.rest_skin_volume_mm3 = layer_volume(model, model.X, 0);
+  s.blowup_limit_mm =
+      100.0 * (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
   for (Eigen::MatrixX3d* m : {&s.f, &s.x_prev, &s.v_prev, &s.r, &s.p, &s.z, &s.q})
     *m = Eigen::MatrixX3d::Zero(n, 3);
   s.diag = Eigen::MatrixX3d::Ones(n, 3);
@@ -296,9 +298,7 @@ StepStats step(Simulation& s) {
   s.x_prev = s.x;
   s.v_prev = s.v;
   const double h = s.options.dt_s;
-  // "Unstable" = non-finite, or a node 100 model-sizes from rest.
-  const double limit =
-      100.0 * (s.model->X.colwise().maxCoeff() - s.model->X.colwise().minCoeff()).norm() + 1.0;
+  const double limit = s.blowup_limit_mm;
   if (s.options.integrator == Integrator::kSemiImplicitEuler)
     semi_implicit_euler(s, h);
   else

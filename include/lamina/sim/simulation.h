@@ -90,6 +90,8 @@ struct Simulation {
   std::vector<int32_t> adj_spring;        ///< the spring index
   std::vector<double> stiffness_n_per_m;  ///< per spring, after Material::stiffness_n_per_m
   double rest_skin_volume_mm3 = 0.0;
+  /// A node this far from its rest position (100 model sizes) counts as a blow-up.
+  double blowup_limit_mm = 0.0;
 
   // Workspace, sized once (no allocation per step).
   Eigen::MatrixX3d f, x_prev, v_prev, r, p, z, q;
