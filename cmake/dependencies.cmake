@@ -45,3 +45,12 @@ endif()
 if(LAMINA_BUILD_BENCHMARKS)
   find_package(benchmark 1.7 REQUIRED)
 endif()
+
+# Rendering and the viewer (render module only): GLFW windows, libepoxy as the GL and EGL loader
+# (Debian's GLEW only works with GLX), Dear ImGui with its GLFW and OpenGL 3 backends prebuilt
+# in Debian's libimgui.a, and stb_image_write (prebuilt in libstb).
+find_package(glfw3 3.3 REQUIRED)
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(EPOXY REQUIRED IMPORTED_TARGET epoxy)
+pkg_check_modules(IMGUI REQUIRED IMPORTED_TARGET imgui)
+pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)

@@ -9,6 +9,10 @@ pkgs=(
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libgtest-dev libgmock-dev libbenchmark-dev
   zlib1g-dev
+  # render module, viewer and figures: GLFW + libepoxy + Dear ImGui + stb, Mesa's EGL
+  # surfaceless (headless) and llvmpipe, Xvfb and xdotool (the viewer test), gnuplot (plots)
+  libglfw3-dev libimgui-dev libepoxy-dev libstb-dev libgl-dev libegl-dev libegl-mesa0
+  libgl1-mesa-dri xvfb xauth xdotool gnuplot-nox
 )
 
 missing=()

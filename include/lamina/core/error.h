@@ -13,6 +13,7 @@ enum class ErrorKind : int {
   kInternal = 1,      ///< a bug or an unexpected library failure
   kInvalidInput = 2,  ///< the user's input (file, option, data) cannot be used
   kOutput = 3,        ///< an output file could not be written
+  kUnavailable = 4,   ///< something the command needs is missing here (a display, EGL, gnuplot)
 };
 
 /// An error with a message meant for a person: it names the file or option and the problem,

@@ -1,0 +1,67 @@
+#pragma once
+/// \file
+/// What one picture shows: the model at some positions, plus the interaction overlays of the
+/// paper's figures (highlighted BFS rings, force arrows, contact and tool-tip spheres). Plain data,
+/// filled by the viewer, `lamina render` and `lamina figures` alike, and drawn by render::Renderer.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "lamina/model/model.h"
+
+namespace lamina::render {
+
+/// How the layers inside the skin are shown.
+enum class InnerLayers : uint8_t { kHidden, kTranslucent, kWireframe };
+/// What colours the skin.
+enum class Coloring : uint8_t {
+  kOrgan,         ///< the organ's colour
+  kDisplacement,  ///< distance from rest, blue (0) to red (Style::displacement_range_mm)
+};
+
+/// Drawing choices, all live in the viewer's "Display" panel.
+struct Style {
+  InnerLayers inner = InnerLayers::kTranslucent;
+  float skin_alpha = 1.0f;  ///< < 1 shows the inner layers through the skin
+  bool skin_wireframe = false;
+  bool springs = false;  ///< every spring as a line: layer edges grey, inter-layer links blue
+  Coloring coloring = Coloring::kOrgan;
+  float displacement_range_mm = 0.0f;  ///< kDisplacement: the red end; 0 = the frame's largest
+  Eigen::Vector4f background{0.12f, 0.13f, 0.16f, 1.0f};
+  Eigen::Vector3f organ_color{0.60f, 0.22f, 0.17f};  ///< liver red-brown
+};
+
+/// The BFS rings 0..levels-1 of a node, coloured level by level as in the paper's figure 2.
+struct RingHighlight {
+  int32_t node = -1;
+  int32_t levels = 0;  ///< at most the model's rings.locality
+};
+
+/// A force arrow from `from` to `to`, mm (the viewer scales forces to lengths).
+struct Arrow {
+  Eigen::Vector3d from = Eigen::Vector3d::Zero(), to = Eigen::Vector3d::Zero();
+  Eigen::Vector4f color{1.0f, 0.85f, 0.1f, 1.0f};
+};
+
+/// A sphere: a contact point, a pinned force's anchor or the tool tip.
+struct Marker {
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  double radius_mm = 2.0;
+  Eigen::Vector4f color{0.2f, 0.9f, 0.3f, 1.0f};
+};
+
+/// One picture's content. `model` and `x` are read during Renderer::draw() only.
+struct Frame {
+  const Model* model = nullptr;
+  const Eigen::MatrixX3d* x = nullptr;  ///< #nodes by 3 positions, mm; nullptr = rest shape
+  std::vector<RingHighlight> rings;
+  std::vector<Arrow> arrows;
+  std::vector<Marker> markers;
+  Style style;
+};
+
+/// Colour of BFS level r (0 = the contact node) in ring highlights and figures.
+Eigen::Vector4f ring_color(int32_t level);
+
+}  // namespace lamina::render

@@ -1,0 +1,186 @@
+// The renderer, headless: the phantom's picture is an organ (not blank, shaded), a deformed state
+// looks different, and the camera's rays and drags agree with its matrices.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/model/build_model.h"
+#include "lamina/render/camera.h"
+#include "lamina/render/offscreen.h"
+#include "lamina/render/renderer.h"
+
+namespace lamina::render {
+namespace {
+
+const Model& phantom_model() {
+  static const Model m = [] {
+    model::BuildOptions o;
+    o.layers = 3;
+    return model::build_model(geometry::make_phantom(), o).model;
+  }();
+  return m;
+}
+
+// Share of pixels that differ from the background, and the spread of their brightness.
+struct Coverage {
+  double fraction = 0.0, luminance_sd = 0.0;
+};
+Coverage coverage(const Image& img, const Eigen::Vector4f& background) {
+  double n = 0, sum = 0, sum2 = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      const uint8_t* p = img.pixel(x, y);
+      int diff = 0;
+      for (int c = 0; c < 3; ++c)
+        diff = std::max(diff, std::abs(p[c] - static_cast<int>(std::lround(255 * background[c]))));
+      if (diff <= 3) continue;
+      const double lum = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+      ++n, sum += lum, sum2 += lum * lum;
+    }
+  Coverage c;
+  c.fraction = n / (static_cast<double>(img.width) * img.height);
+  c.luminance_sd = n > 1 ? std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n))) : 0.0;
+  return c;
+}
+
+double differing_fraction(const Image& a, const Image& b) {
+  size_t n = 0;
+  for (size_t i = 0; i < a.rgba.size(); i += 4)
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(a.rgba[i + c] - b.rgba[i + c]) > 8) {
+        ++n;
+        break;
+      }
+  return static_cast<double>(n) / (a.rgba.size() / 4);
+}
+
+TEST(Camera, CentrePixelRayHitsTheTarget) {
+  Camera c;
+  c.target = {10, -20, 30};
+  c.distance_mm = 250;
+  const Ray r = pixel_ray(c, 640, 480, 320, 240);
+  const Eigen::Vector3d to_target = (c.target - r.origin).normalized();
+  EXPECT_NEAR(r.direction.dot(to_target), 1.0, 1e-12);
+  EXPECT_NEAR((r.origin - c.target).norm(), 250.0, 1e-9);
+}
+
+TEST(Camera, ProjectionMapsAPixelRayBackToItsPixel) {
+  Camera c = fit_camera(phantom_model());
+  const int w = 800, h = 600;
+  const Eigen::Matrix4d pv = projection_matrix(c, double(w) / h, 200.0) * view_matrix(c);
+  for (auto [px, py] : {std::pair{100.0, 50.0}, {700.0, 550.0}, {400.0, 300.0}}) {
+    const Ray r = pixel_ray(c, w, h, px, py);
+    const Eigen::Vector3d p = r.origin + c.distance_mm * r.direction;
+    const Eigen::Vector4d clip = pv * p.homogeneous();
+    EXPECT_NEAR((clip.x() / clip.w() + 1) * 0.5 * w, px, 1e-6);
+    EXPECT_NEAR((1 - clip.y() / clip.w()) * 0.5 * h, py, 1e-6);
+  }
+}
+
+TEST(Camera, AnteriorViewHasPatientLeftOnTheRightAndHeadUp) {
+  Camera c;
+  c.azimuth_deg = 0;
+  c.elevation_deg = 0;
+  const Eigen::Matrix4d v = view_matrix(c);
+  EXPECT_NEAR(v(0, 0), 1.0, 1e-12);  // +x (patient left) is screen right
+  EXPECT_NEAR(v(1, 2), 1.0, 1e-12);  // +z (superior) is screen up
+  EXPECT_LT(eye_position(c).y(), c.target.y());
+}
+
+TEST(Camera, DragInViewPlaneIsPerpendicularToTheViewAndScalesWithDepth) {
+  Camera c;
+  c.distance_mm = 300;
+  const Eigen::Vector3d d1 = drag_in_view_plane(c, 600, c.target, 60, 0);
+  EXPECT_NEAR(d1.dot(eye_direction(c)), 0.0, 1e-9);
+  // 60 px of a 600 px tall view at the target spans a tenth of the view's height there.
+  EXPECT_NEAR(d1.norm(), 0.1 * 2 * 300 * std::tan(35.0 / 2 * M_PI / 180), 1e-9);
+  const Eigen::Vector3d nearer = c.target + 150 * eye_direction(c);
+  EXPECT_NEAR(drag_in_view_plane(c, 600, nearer, 60, 0).norm(), 0.5 * d1.norm(), 1e-9);
+}
+
+class Headless : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    try {
+      context_ = new HeadlessContext;
+      renderer_ = new Renderer;
+    } catch (const Error& e) {
+      FAIL() << e.what();
+    }
+  }
+  static void TearDownTestSuite() {
+    delete renderer_;
+    delete context_;
+  }
+  static HeadlessContext* context_;
+  static Renderer* renderer_;
+};
+HeadlessContext* Headless::context_ = nullptr;
+Renderer* Headless::renderer_ = nullptr;
+
+TEST_F(Headless, PhantomCoversAPlausibleShareWithShading) {
+  ASSERT_NE(renderer_, nullptr);
+  Frame f;
+  f.model = &phantom_model();
+  const Image img = render_image(*renderer_, f, fit_camera(phantom_model()), 480, 360);
+  const Coverage c = coverage(img, f.style.background);
+  EXPECT_GT(c.fraction, 0.15);
+  EXPECT_LT(c.fraction, 0.85);
+  EXPECT_GT(c.luminance_sd, 8.0) << "flat, unlit colour";
+}
+
+TEST_F(Headless, DeformedStateAndOverlaysRenderDifferently) {
+  ASSERT_NE(renderer_, nullptr);
+  const Model& m = phantom_model();
+  const Camera cam = fit_camera(m);
+  Frame rest;
+  rest.model = &m;
+  const Image a = render_image(*renderer_, rest, cam, 320, 240);
+  const Image a2 = render_image(*renderer_, rest, cam, 320, 240);
+  EXPECT_EQ(differing_fraction(a, a2), 0.0) << "rendering is not repeatable";
+
+  // Push the superior half 15 mm towards the patient's left.
+  Eigen::MatrixX3d x = m.X;
+  const double mid_z = 0.5 * (m.X.col(2).minCoeff() + m.X.col(2).maxCoeff());
+  for (Eigen::Index i = 0; i < x.rows(); ++i)
+    if (x(i, 2) > mid_z) x(i, 0) += 15.0;
+  Frame dented = rest;
+  dented.x = &x;
+  EXPECT_GT(differing_fraction(a, render_image(*renderer_, dented, cam, 320, 240)), 0.02);
+
+  Frame marked = rest;
+  marked.rings.push_back({0, 3});
+  marked.arrows.push_back(
+      {m.X.row(0).transpose() - Eigen::Vector3d(0, 40, 0), m.X.row(0).transpose(), {}});
+  EXPECT_GT(differing_fraction(a, render_image(*renderer_, marked, cam, 320, 240)), 0.001);
+
+  Frame inside = rest;
+  inside.style.inner = InnerLayers::kWireframe;
+  inside.style.skin_alpha = 0.3f;
+  inside.style.springs = true;
+  EXPECT_GT(differing_fraction(a, render_image(*renderer_, inside, cam, 320, 240)), 0.02);
+}
+
+TEST_F(Headless, WritesAPng) {
+  ASSERT_NE(renderer_, nullptr);
+  Frame f;
+  f.model = &phantom_model();
+  const Image img = render_image(*renderer_, f, fit_camera(phantom_model()), 64, 48);
+  const std::string path = ::testing::TempDir() + "lamina_render_test.png";
+  write_png(img, path);
+  FILE* file = std::fopen(path.c_str(), "rb");
+  ASSERT_NE(file, nullptr);
+  unsigned char sig[8] = {};
+  EXPECT_EQ(std::fread(sig, 1, 8, file), 8u);
+  std::fclose(file);
+  EXPECT_EQ(sig[1], 'P');
+  EXPECT_EQ(sig[2], 'N');
+  EXPECT_EQ(sig[3], 'G');
+  EXPECT_THROW(render_image(*renderer_, f, fit_camera(phantom_model()), 0, 48), Error);
+}
+
+}  // namespace
+}  // namespace lamina::render
