@@ -226,6 +226,23 @@ Simulation make_simulation(const Model& model, const Material& material,
   return s;
 }
 
+void set_parameters(Simulation& s, const Material& material, const SolverOptions& options) {
+  check_parameters(material, options);
+  const Model& m = *s.model;
+  const size_t n = static_cast<size_t>(m.node_count());
+  if (material.node_mass_kg != s.material.node_mass_kg)
+    s.mass_kg =
+        material.node_mass_kg > 0.0 ? std::vector<double>(n, material.node_mass_kg) : m.mass_kg;
+  if (material.stiffness_n_per_m != s.material.stiffness_n_per_m)
+    s.stiffness_n_per_m = material.stiffness_n_per_m > 0.0
+                              ? std::vector<double>(m.springs.size(), material.stiffness_n_per_m)
+                              : m.springs.stiffness_n_per_m;
+  if (options.mode == Mode::kGlobal && s.options.mode != Mode::kGlobal)
+    for (size_t i = 0; i < n; ++i) s.movable[i] = !s.fixed[i];
+  s.material = material;
+  s.options = options;
+}
+
 void fix_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
   for (int32_t i : nodes) {
     if (i < 0 || i >= s.model->node_count())

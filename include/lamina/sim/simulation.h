@@ -105,6 +105,12 @@ struct Simulation {
 Simulation make_simulation(const Model& model, const Material& material = {},
                            const SolverOptions& options = {});
 
+/// Changes material and solver parameters of a running simulation, keeping its state (positions,
+/// velocities, time, fixed nodes). Switching to global mode makes every free node movable;
+/// switching to local mode keeps only the currently movable ones (set_local_nodes() adds more).
+/// \note Throws lamina::Error (kInvalidInput) as make_simulation(); `sim` is then unchanged.
+void set_parameters(Simulation& sim, const Material& material, const SolverOptions& options);
+
 /// Holds these nodes at their rest positions from now on (a region of the skin attached to
 /// surrounding anatomy). Without fixed nodes or anchor springs a pushed model drifts as a rigid
 /// body and cannot return to rest.

@@ -1,0 +1,146 @@
+#pragma once
+/// \file
+/// A simulation running in its own thread at a fixed rate (1 kHz by default, a haptic device's
+/// rate), decoupled from whoever draws it. The caller sets forces and parameters at any time;
+/// they take effect between two steps. The loop publishes a snapshot of the state (positions,
+/// step statistics, achieved rate, jitter, the tissue's reaction force) that the caller copies
+/// when it wants to draw: double-buffered, so neither side waits for the other.
+///
+/// Only the loop's thread touches the Simulation while it runs; every public member function is
+/// safe to call from any one other thread.
+
+#include <Eigen/Core>
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "lamina/interact/tools.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::interact {
+
+/// A force held on a skin node (a mouse drag, a pinned drag), routed the paper's way.
+struct LiveForce {
+  int32_t node = -1;                                   ///< skin node the force is applied to
+  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();  ///< mN
+};
+
+/// A spherical tool tip: skin nodes inside it are pushed out by a penalty force on the deepest
+/// one, proportional to its penetration, routed the paper's way.
+struct ToolTip {
+  bool active = false;
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  double radius_mm = 5.0;
+  double stiffness_n_per_m = 20.0;  ///< penalty: mN per mm of penetration
+};
+
+struct LoopOptions {
+  double rate_hz = 1000.0;  ///< steps per wall-clock second; 0 = as fast as possible
+  /// Minimum wall time between two published snapshots, s (a display needs no more than its
+  /// refresh rate; copying a large model every step would cost more than the step).
+  double publish_interval_s = 1.0 / 240.0;
+};
+
+/// What the loop last published. Positions are a copy: valid for as long as the caller keeps it.
+struct LoopSnapshot {
+  Eigen::MatrixX3d x;  ///< #nodes by 3, mm
+  sim::StepStats stats;
+  double time_s = 0.0;  ///< simulated time
+  int64_t steps = 0;
+  int64_t recoveries = 0;
+  uint64_t generation = 0;        ///< increases with each publication
+  double achieved_rate_hz = 0.0;  ///< steps per wall second over the last second
+  double mean_step_us = 0.0;      ///< over the last second
+  double worst_jitter_us = 0.0;   ///< worst lateness of a step's start over the last second
+  Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< tissue's push on the tools, mN
+  std::vector<int32_t> contact_nodes;  ///< where each live force and the tool tip act
+  bool tool_tip_touching = false;
+};
+
+class RealtimeLoop {
+ public:
+  /// Takes over `sim` (its model must outlive the loop). Does not start stepping.
+  RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing, const LoopOptions& options = {});
+  ~RealtimeLoop();  ///< stops the thread
+  RealtimeLoop(const RealtimeLoop&) = delete;
+  RealtimeLoop& operator=(const RealtimeLoop&) = delete;
+
+  void start();  ///< starts the thread (no-op if running)
+  void stop();   ///< stops and joins the thread (no-op if stopped)
+  bool running() const { return thread_.joinable(); }
+
+  /// Replaces every user force (an empty list releases them all: the organ returns to rest).
+  void set_forces(std::vector<LiveForce> forces);
+  void set_tool_tip(const ToolTip& tip);
+  /// New parameters, checked now (throws lamina::Error kInvalidInput, nothing changes), applied
+  /// before the next step.
+  void set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
+                      const RoutingOptions& routing);
+  void set_rate(double rate_hz);
+  void set_paused(bool paused);
+  /// Puts every node back at rest with zero velocity and time 0; forces are kept.
+  void reset();
+
+  /// Copies the latest snapshot into `out` if it is newer than out.generation.
+  /// @return true if `out` was updated
+  bool latest(LoopSnapshot& out) const;
+
+  /// Runs `steps` steps on the calling thread (the loop must not be running): for tests and
+  /// fixed-step tools that want the same physics without a thread.
+  void run_steps(int64_t steps);
+
+  const Model& model() const { return *sim_.model; }
+
+ private:
+  void thread_main();
+  void apply_pending();  // under mutex_
+  void route_forces();
+  void one_step();
+  void publish(bool force);
+
+  sim::Simulation sim_;
+  RoutingOptions routing_;
+  LoopOptions options_;
+
+  // Commands from the caller, guarded by mutex_.
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stop_requested_ = false, paused_ = false, reset_requested_ = false;
+  std::optional<std::vector<LiveForce>> new_forces_;
+  std::optional<ToolTip> new_tip_;
+  struct Params {
+    sim::Material material;
+    sim::SolverOptions solver;
+    RoutingOptions routing;
+  };
+  std::optional<Params> new_params_;
+  double rate_hz_ = 1000.0;
+
+  // Owned by the stepping thread.
+  std::vector<LiveForce> forces_;
+  ToolTip tip_;
+  std::vector<ForceRoute> routes_;
+  std::vector<int32_t> touched_;
+  int32_t tip_contact_ = -1;
+  Eigen::Vector3d tip_force_ = Eigen::Vector3d::Zero();
+  double last_publish_s_ = -1.0;
+  sim::StepStats last_stats_;
+  double window_step_sum_us_ = 0.0;
+  double window_start_s_ = 0.0;
+  int64_t window_steps_ = 0;
+  double achieved_rate_hz_ = 0.0, mean_step_us_ = 0.0, worst_jitter_us_ = 0.0;
+  double published_worst_jitter_ = 0.0;
+  double late_us_ = 0.0;  // how late the current step started, us
+
+  // The published snapshot, guarded by snapshot_mutex_.
+  mutable std::mutex snapshot_mutex_;
+  LoopSnapshot published_;
+
+  std::thread thread_;
+};
+
+}  // namespace lamina::interact

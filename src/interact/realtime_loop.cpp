@@ -1,0 +1,300 @@
+#include "lamina/interact/realtime_loop.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "lamina/core/error.h"
+
+namespace lamina::interact {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double now_s() {
+  static const Clock::time_point t0 = Clock::now();
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// The deepest skin node inside the sphere, or -1. Brute force: a k-d tree rebuilt at 1 kHz on a
+// moving skin would cost more than this scan (1.3k nodes, ~2 us).
+int32_t deepest_inside(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,
+                       double& distance) {
+  int32_t best = -1;
+  double best_d2 = tip.radius_mm * tip.radius_mm;
+  const int32_t skin = m.layers.empty() ? 0 : m.layers[0].node_count;
+  for (int32_t i = 0; i < skin; ++i) {
+    const double d2 = (x.row(i).transpose() - tip.center_mm).squaredNorm();
+    if (d2 < best_d2) best_d2 = d2, best = i;
+  }
+  distance = std::sqrt(best_d2);
+  return best;
+}
+
+}  // namespace
+
+RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
+                           const LoopOptions& options)
+    : sim_(std::move(sim)), routing_(routing), options_(options), rate_hz_(options.rate_hz) {
+  if (!sim_.model) throw Error(ErrorKind::kInternal, "RealtimeLoop: simulation has no model");
+  window_start_s_ = now_s();
+  publish(true);
+}
+
+RealtimeLoop::~RealtimeLoop() {
+  stop();
+}
+
+void RealtimeLoop::start() {
+  if (thread_.joinable()) return;
+  {
+    std::lock_guard lock(mutex_);
+    stop_requested_ = false;
+  }
+  thread_ = std::thread([this] { thread_main(); });
+}
+
+void RealtimeLoop::stop() {
+  if (!thread_.joinable()) return;
+  {
+    std::lock_guard lock(mutex_);
+    stop_requested_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();
+}
+
+void RealtimeLoop::set_forces(std::vector<LiveForce> forces) {
+  std::lock_guard lock(mutex_);
+  new_forces_ = std::move(forces);
+}
+
+void RealtimeLoop::set_tool_tip(const ToolTip& tip) {
+  std::lock_guard lock(mutex_);
+  new_tip_ = tip;
+}
+
+void RealtimeLoop::set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
+                                  const RoutingOptions& routing) {
+  // Validate now, on the caller's thread, so that the error reaches the caller.
+  if (routing.locality < 1 || routing.locality > sim_.model->rings.locality)
+    throw invalid_input("locality", "must be 1.." + std::to_string(sim_.model->rings.locality) +
+                                        " (the rings precomputed in the model)");
+  if (routing.penetration_depth < 1) throw invalid_input("penetration depth", "must be >= 1");
+  sim::make_simulation(*sim_.model, material, solver);  // throws, naming the bad parameter
+  std::lock_guard lock(mutex_);
+  new_params_ = Params{material, solver, routing};
+}
+
+void RealtimeLoop::set_rate(double rate_hz) {
+  std::lock_guard lock(mutex_);
+  rate_hz_ = std::max(rate_hz, 0.0);
+}
+
+void RealtimeLoop::set_paused(bool paused) {
+  {
+    std::lock_guard lock(mutex_);
+    paused_ = paused;
+  }
+  wake_.notify_all();
+}
+
+void RealtimeLoop::reset() {
+  std::lock_guard lock(mutex_);
+  reset_requested_ = true;
+}
+
+bool RealtimeLoop::latest(LoopSnapshot& out) const {
+  std::lock_guard lock(snapshot_mutex_);
+  if (published_.generation <= out.generation && out.x.rows() == published_.x.rows()) return false;
+  out = published_;
+  return true;
+}
+
+void RealtimeLoop::run_steps(int64_t steps) {
+  if (thread_.joinable()) throw Error(ErrorKind::kInternal, "run_steps() while the loop runs");
+  {
+    std::lock_guard lock(mutex_);
+    apply_pending();
+  }
+  for (int64_t k = 0; k < steps; ++k) one_step();
+  publish(true);
+}
+
+void RealtimeLoop::apply_pending() {
+  bool reroute = false;
+  if (reset_requested_) {
+    sim_.x = sim_.model->X;
+    sim_.v.setZero();
+    sim_.time_s = 0.0;
+    reset_requested_ = false;
+    reroute = true;
+  }
+  if (new_params_) {
+    sim::set_parameters(sim_, new_params_->material, new_params_->solver);
+    routing_ = new_params_->routing;
+    new_params_.reset();
+    reroute = true;
+  }
+  if (new_forces_) {
+    forces_ = std::move(*new_forces_);
+    new_forces_.reset();
+    reroute = true;
+  }
+  if (new_tip_) {
+    tip_ = *new_tip_;
+    new_tip_.reset();
+    tip_contact_ = -1;
+  }
+  if (reroute) route_forces();
+}
+
+// Live forces are routed on the shape at the moment they change (as the paper routes a tool
+// when it touches down), not every step: the contact and crossings of a held drag stay put.
+void RealtimeLoop::route_forces() {
+  const Model& m = *sim_.model;
+  routes_.clear();
+  for (const LiveForce& f : forces_) {
+    if (f.node < 0 || f.node >= m.layers[0].node_count || !f.force_mn.allFinite()) continue;
+    routes_.push_back(route_force(m, sim_.x, f.node, f.force_mn, routing_));
+    touched_.insert(touched_.end(), routes_.back().nodes.begin(), routes_.back().nodes.end());
+  }
+  if (sim_.options.mode == sim::Mode::kLocal) {
+    std::sort(touched_.begin(), touched_.end());
+    touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+    sim::set_local_nodes(sim_, touched_);
+  }
+}
+
+void RealtimeLoop::one_step() {
+  const Model& m = *sim_.model;
+  const double t0 = now_s();
+  sim_.f_ext.setZero();
+  for (const ForceRoute& r : routes_)
+    for (size_t k = 0; k < r.nodes.size(); ++k)
+      sim_.f_ext.row(r.nodes[k]) += r.forces.row(static_cast<Eigen::Index>(k));
+
+  // The tool tip: a penalty force on the deepest skin node inside it, along the line from the
+  // tip's centre, routed afresh when the contact moves (routes are linear in the force).
+  tip_force_.setZero();
+  ForceRoute tip_route;
+  if (tip_.active) {
+    double distance = 0.0;
+    const int32_t node = deepest_inside(m, sim_.x, tip_, distance);
+    if (node >= 0) {
+      Eigen::Vector3d dir = sim_.x.row(node).transpose() - tip_.center_mm;
+      dir = dir.norm() > 1e-9 ? dir.normalized() : Eigen::Vector3d(0, 1, 0);
+      tip_force_ = tip_.stiffness_n_per_m * (tip_.radius_mm - distance) * dir;
+      tip_route = route_force(m, sim_.x, node, tip_force_, routing_);
+      for (size_t k = 0; k < tip_route.nodes.size(); ++k)
+        sim_.f_ext.row(tip_route.nodes[k]) += tip_route.forces.row(static_cast<Eigen::Index>(k));
+      if (node != tip_contact_ && sim_.options.mode == sim::Mode::kLocal) {
+        touched_.insert(touched_.end(), tip_route.nodes.begin(), tip_route.nodes.end());
+        std::sort(touched_.begin(), touched_.end());
+        touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+        sim::set_local_nodes(sim_, touched_);
+      }
+    }
+    tip_contact_ = node;
+  } else {
+    tip_contact_ = -1;
+  }
+
+  last_stats_ = sim::step(sim_);
+  const double t1 = now_s();
+
+  // Rolling one-second window of rate, step time and jitter.
+  window_step_sum_us_ += 1e6 * (t1 - t0);
+  ++window_steps_;
+  worst_jitter_us_ = std::max(worst_jitter_us_, late_us_);
+  if (t1 - window_start_s_ >= 1.0) {
+    achieved_rate_hz_ = static_cast<double>(window_steps_) / (t1 - window_start_s_);
+    mean_step_us_ = window_step_sum_us_ / static_cast<double>(window_steps_);
+    published_worst_jitter_ = worst_jitter_us_;
+    window_step_sum_us_ = 0.0;
+    window_steps_ = 0;
+    worst_jitter_us_ = 0.0;
+    window_start_s_ = t1;
+  }
+}
+
+void RealtimeLoop::publish(bool force) {
+  const double t = now_s();
+  if (!force && t - last_publish_s_ < options_.publish_interval_s) return;
+  last_publish_s_ = t;
+
+  // The tissue's reaction: the spring and anchor forces on every free node that receives tool
+  // force (at rest under a held load, it balances the load; a fixed node's share goes into its
+  // support).
+  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
+  for (int32_t i = 0; i < sim_.f_ext.rows(); ++i) {
+    if (sim_.fixed[i] || sim_.f_ext.row(i).isZero()) continue;
+    for (int32_t a = sim_.adj_offsets[i]; a < sim_.adj_offsets[i + 1]; ++a) {
+      const int32_t j = sim_.adj_other[a], e = sim_.adj_spring[a];
+      const Eigen::Vector3d d = sim_.x.row(j) - sim_.x.row(i);
+      const double len = d.norm();
+      if (len > 1e-12)
+        reaction +=
+            sim_.stiffness_n_per_m[e] * (len - sim_.model->springs.rest_length_mm[e]) * (d / len);
+    }
+    reaction -=
+        sim_.material.anchor_stiffness_n_per_m * (sim_.x.row(i) - sim_.model->X.row(i)).transpose();
+  }
+
+  std::lock_guard lock(snapshot_mutex_);
+  LoopSnapshot& s = published_;
+  s.x = sim_.x;
+  s.stats = last_stats_;
+  s.time_s = sim_.time_s;
+  s.steps = sim_.steps;
+  s.recoveries = sim_.recoveries;
+  s.achieved_rate_hz = achieved_rate_hz_;
+  s.mean_step_us = mean_step_us_;
+  s.worst_jitter_us = published_worst_jitter_;
+  s.reaction_mn = reaction;
+  s.contact_nodes.clear();
+  for (const ForceRoute& r : routes_) s.contact_nodes.push_back(r.contact_node);
+  if (tip_contact_ >= 0) s.contact_nodes.push_back(tip_contact_);
+  s.tool_tip_touching = tip_contact_ >= 0;
+  ++s.generation;
+}
+
+void RealtimeLoop::thread_main() {
+  auto next = Clock::now();
+  std::unique_lock lock(mutex_);
+  while (!stop_requested_) {
+    if (paused_) {
+      wake_.wait_for(lock, std::chrono::milliseconds(20));
+      apply_pending();
+      lock.unlock();
+      publish(true);
+      lock.lock();
+      next = Clock::now();
+      continue;
+    }
+    apply_pending();
+    const double rate = rate_hz_;
+    lock.unlock();
+
+    late_us_ =
+        rate > 0.0
+            ? std::max(0.0, std::chrono::duration<double, std::micro>(Clock::now() - next).count())
+            : 0.0;
+    one_step();
+    publish(false);
+
+    lock.lock();
+    if (rate > 0.0) {
+      const auto period =
+          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
+      next += period;
+      // Fell far behind (a debugger, a busy machine): start afresh instead of racing to catch up.
+      if (Clock::now() - next > 50 * period) next = Clock::now();
+      wake_.wait_until(lock, next, [this] { return stop_requested_; });
+    } else {
+      next = Clock::now();
+    }
+  }
+}
+
+}  // namespace lamina::interact

@@ -1,0 +1,174 @@
+// The fixed-rate simulation thread and skin picking: forces move the organ and their release
+// returns it to rest, the loop never runs faster than its rate, parameters change live and are
+// checked, and the reaction force balances the load at rest.
+#include "lamina/interact/realtime_loop.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "lamina/core/error.h"
+#include "lamina/interact/pick.h"
+#include "lamina/model/build_model.h"
+#include "support/volumes.h"
+
+namespace {
+
+using namespace lamina;
+
+const Model& sphere_model(Eigen::Vector3d* centre = nullptr) {
+  static Eigen::Vector3d c;
+  static const Model m = [] {
+    LabelVolume v = test::empty_volume(50, 1.0);
+    const auto p = v.frame.to_physical(24.5, 24.5, 24.5);
+    c = Eigen::Vector3d(p[0], p[1], p[2]);
+    test::paint_sphere(v, p, 20.0, 1);
+    return model::build_model(v, {.skin_vertices = 600, .layer_depth_mm = 8.0}).model;
+  }();
+  if (centre) *centre = c;
+  return m;
+}
+
+// A simulation of the sphere with its far side (y > centre + 12 mm) fixed, stiffer than the
+// paper's K = 3 N/m so that it settles in a few thousand steps.
+sim::Simulation held_sphere(const sim::SolverOptions& o = {}) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  sim::Material material;
+  material.stiffness_n_per_m = 20.0;
+  material.damping_kg_per_s = 8.0;
+  sim::Simulation s = sim::make_simulation(m, material, o);
+  std::vector<int32_t> fixed;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (m.X(i, 1) > c.y() + 12.0) fixed.push_back(i);
+  sim::fix_nodes(s, fixed);
+  return s;
+}
+
+// The skin node nearest to the sphere's -y pole (the side a +y push acts on).
+int32_t front_node(const Model& m) {
+  int32_t best = 0;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (m.X(i, 1) < m.X(best, 1)) best = i;
+  return best;
+}
+
+TEST(PickSkin, RayTowardsTheCentreHitsTheNearSideAndARayAwayMisses) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  const Eigen::Vector3d origin = c - Eigen::Vector3d(0, 100, 0);
+  const interact::SkinHit hit = interact::pick_skin(m, m.X, origin, Eigen::Vector3d(0, 1, 0));
+  ASSERT_GE(hit.node, 0);
+  EXPECT_LT(hit.node, m.layers[0].node_count);
+  EXPECT_NEAR(hit.distance_mm, 80.0, 1.5);  // the sphere's radius is 20 mm
+  EXPECT_LT((m.X.row(hit.node).transpose() - hit.point).norm(), 3.0);
+  EXPECT_EQ(interact::pick_skin(m, m.X, origin, Eigen::Vector3d(0, -1, 0)).node, -1);
+}
+
+TEST(RealtimeLoop, ForceMovesTheNodeAlongItAndReleaseReturnsToRest) {
+  const Model& m = sphere_model();
+  interact::RealtimeLoop loop(held_sphere(), {});
+  const int32_t node = front_node(m);
+  loop.set_forces({{node, Eigen::Vector3d(0, 300, 0)}});  // 0.3 N posteriorly
+  loop.run_steps(400);
+  interact::LoopSnapshot s;
+  ASSERT_TRUE(loop.latest(s));
+  const Eigen::Vector3d moved = s.x.row(node) - m.X.row(node);
+  EXPECT_GT(moved.y(), 1.0);
+  EXPECT_GT(moved.y(), 3.0 * std::abs(moved.x()));
+  ASSERT_EQ(s.contact_nodes.size(), 1u);
+  EXPECT_EQ(s.contact_nodes[0], node);
+
+  loop.set_forces({});
+  loop.run_steps(3000);
+  ASSERT_TRUE(loop.latest(s));
+  EXPECT_LT((s.x - m.X).rowwise().norm().maxCoeff(), 0.05 * moved.norm());
+  EXPECT_TRUE(s.contact_nodes.empty());
+  EXPECT_FALSE(loop.latest(s)) << "no new snapshot without steps";
+}
+
+TEST(RealtimeLoop, ReactionBalancesTheHeldLoadAtRest) {
+  const Model& m = sphere_model();
+  sim::SolverOptions implicit;  // settles in fewer steps
+  implicit.integrator = sim::Integrator::kImplicitEuler;
+  implicit.dt_s = 0.05;
+  // P = 3: the contact and both crossings of the inner layer, none on the fixed far side (a
+  // held node's load goes into its support, not back to the tool).
+  interact::RoutingOptions routing;
+  routing.penetration_depth = 3;
+  interact::RealtimeLoop loop(held_sphere(implicit), routing);
+  loop.set_forces({{front_node(m), Eigen::Vector3d(0, 200, 0)}});
+  loop.run_steps(2000);
+  interact::LoopSnapshot s;
+  ASSERT_TRUE(loop.latest(s));
+  ASSERT_LT(s.stats.max_move_mm, 1e-3) << "not at rest";
+  // Every routed copy pushes +y; the tissue pushes back with as much.
+  const double applied = 200.0 * (1 + 0.95 + 0.95 * 0.95);
+  EXPECT_NEAR(s.reaction_mn.y(), -applied, 0.02 * applied);
+}
+
+TEST(RealtimeLoop, ToolTipPushesTheSkinOutOfTheSphere) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  interact::RealtimeLoop loop(held_sphere(), {});
+  const int32_t node = front_node(m);
+  interact::ToolTip tip;
+  tip.active = true;
+  tip.radius_mm = 6.0;
+  // The tip comes from outside (-y): its surface reaches 3 mm past the skin.
+  tip.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 3.0, 0);
+  loop.set_tool_tip(tip);
+  loop.run_steps(2000);
+  interact::LoopSnapshot s;
+  ASSERT_TRUE(loop.latest(s));
+  EXPECT_TRUE(s.tool_tip_touching);
+  EXPECT_GT(s.x(node, 1) - m.X(node, 1), 1.0) << "the skin gave way under the tip";
+  // Penalty contact: the deepest node is still a little inside, pushing back on the tip.
+  EXPECT_LT(s.reaction_mn.y(), 0.0);
+}
+
+TEST(RealtimeLoop, ParametersAreCheckedAndAppliedLive) {
+  interact::RealtimeLoop loop(held_sphere(), {});
+  sim::SolverOptions bad;
+  bad.dt_s = -1;
+  EXPECT_THROW(loop.set_parameters({}, bad, {}), Error);
+  interact::RoutingOptions too_far;
+  too_far.locality = 99;
+  EXPECT_THROW(loop.set_parameters({}, {}, too_far), Error);
+  sim::SolverOptions implicit;
+  implicit.integrator = sim::Integrator::kImplicitEuler;
+  implicit.dt_s = 0.05;
+  loop.set_parameters({}, implicit, {});
+  loop.run_steps(10);
+  interact::LoopSnapshot s;
+  ASSERT_TRUE(loop.latest(s));
+  EXPECT_NEAR(s.time_s, 0.5, 1e-9);
+  EXPECT_GT(s.stats.cg_iterations, -1);
+  loop.reset();
+  loop.run_steps(1);
+  ASSERT_TRUE(loop.latest(s));
+  EXPECT_NEAR(s.time_s, 0.05, 1e-9);
+}
+
+TEST(RealtimeLoop, ThreadNeverOutrunsItsRateAndStopsPromptly) {
+  const Model& m = sphere_model();
+  interact::LoopOptions o;
+  o.rate_hz = 200.0;
+  interact::RealtimeLoop loop(held_sphere(), {}, o);
+  loop.set_forces({{front_node(m), Eigen::Vector3d(0, 100, 0)}});
+  const auto t0 = std::chrono::steady_clock::now();
+  loop.start();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1300));
+  loop.stop();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  interact::LoopSnapshot s;
+  loop.latest(s);
+  EXPECT_GT(s.steps, 20) << "the thread barely ran";
+  EXPECT_LE(static_cast<double>(s.steps), 200.0 * wall + 2.0) << "faster than its rate";
+  EXPECT_LE(s.achieved_rate_hz, 200.0 * 1.05);
+  EXPECT_FALSE(loop.running());
+  EXPECT_GT(s.x(front_node(m), 1), m.X(front_node(m), 1));
+}
+
+}  // namespace
