@@ -32,7 +32,8 @@ bool has_suffix(const std::string& s, const std::string& suffix) {
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-// Checks an output path before any long work, so a typo does not cost a whole build.
+}  // namespace
+
 void check_output(const std::string& path, const std::vector<std::string>& extensions,
                   const char* what) {
   bool ok = false;
@@ -49,7 +50,6 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
                                         p.parent_path().string() + "' does not exist");
 }
 
-}  // namespace
 
 ProgressFn stderr_progress(bool verbose) {
   // On a terminal: one line, overwritten in place (main() clears it before an error). Elsewhere
@@ -145,8 +145,8 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// An output folder is checked before the model is built (that can take seconds): it must be a
-// folder already, or creatable inside a writable one.
+}  // namespace
+
 void check_output_folder(const std::string& dir) {
   std::error_code ec;
   const fs::path p = fs::absolute(dir, ec);
@@ -170,6 +170,8 @@ void create_folder(const fs::path& dir) {
     throw Error(ErrorKind::kOutput, dir.string() + ": cannot create the folder: " + ec.message());
 }
 
+namespace {
+
 // Frames of an earlier run in the same folder would be mistaken for this run's (a longer earlier
 // run leaves higher-numbered files); only names this command writes are removed.
 void remove_stale_frames(const fs::path& frames) {
@@ -180,10 +182,7 @@ void remove_stale_frames(const fs::path& frames) {
       fs::remove(e.path(), ec);
 }
 
-struct SceneModel {
-  Model model;
-  std::string source;
-};
+}  // namespace
 
 SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress) {
   SceneModel out;
@@ -208,6 +207,21 @@ SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress) 
   out.model = model::build_model(volume, options, progress).model;
   return out;
 }
+
+io::Scene scene_for(const std::string& what) {
+  if (has_suffix(what, ".json")) return io::load_scene(what);
+  io::Scene scene;
+  scene.source = what;
+  if (has_suffix(what, ".vtu")) {
+    scene.input.clear();
+    scene.model_path = what;
+  } else {
+    scene.input = what;
+  }
+  return scene;
+}
+
+namespace {
 
 // One VTK time series: a layer's mesh written at every frame, listed in NAME.pvd.
 struct Series {

@@ -3,6 +3,8 @@
 /// The CLI's subcommands, as plain functions of parsed options (main.cpp does the parsing).
 
 #include <array>
+#include <filesystem>
+#include <vector>
 #include <string>
 
 #include "lamina/geometry/make_phantom.h"
@@ -14,6 +16,27 @@ namespace lamina::cli {
 /// Progress for long work on stderr: an in-place line on a terminal; on a pipe or file, one line
 /// per stage when `verbose`, nothing otherwise.
 ProgressFn stderr_progress(bool verbose);
+
+/// Checks an output file path before any long work (so a typo does not cost a whole build): the
+/// extension is one of `extensions` and the folder exists. Throws lamina::Error.
+void check_output(const std::string& path, const std::vector<std::string>& extensions,
+                  const char* what);
+/// An output folder must exist already, or be creatable inside a writable one.
+void check_output_folder(const std::string& dir);
+/// Creates `dir` (and its parents) or throws lamina::Error (kOutput).
+void create_folder(const std::filesystem::path& dir);
+
+/// A scene's model: built from its input (a mask or the phantom) or loaded from a saved .vtu,
+/// with rings as far as its routing needs.
+struct SceneModel {
+  Model model;
+  std::string source;
+};
+SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress);
+
+/// What a positional argument names, as a scene: SCENE.json is loaded; a .vtu model, a mask
+/// file, a DICOM folder or "phantom" becomes the default scene on that model.
+io::Scene scene_for(const std::string& what);
 
 struct PhantomArgs {
   std::string output;
@@ -54,5 +77,40 @@ struct RunArgs {
 /// Simulates a scene: writes OUTDIR/metrics.csv, summary.json, skin.pvd and frames/ (layout in
 /// docs/scenes.md).
 int run_run(const RunArgs& args);
+
+struct ViewArgs {
+  std::string what = io::kScenePhantom;  ///< model, input or scene
+  std::string script;                    ///< scripted input (docs/viewer.md)
+  std::string report;                    ///< JSON report written at exit
+  double rate_hz = 1000.0;
+  std::array<int, 2> size = {1400, 900};
+  bool verbose = false;
+};
+/// Opens the interactive viewer.
+int run_view(const ViewArgs& args);
+
+struct RenderArgs {
+  std::string what = io::kScenePhantom;  ///< model, input or scene
+  std::string output;                    ///< PNG
+  double at_s = 0.0;                     ///< simulate the scene up to this time first
+  std::array<int, 2> size = {1200, 900};
+  std::string camera;                    ///< "AZ,EL[,DIST]" degrees, degrees, mm
+  std::string inner = "hidden";          ///< hidden, translucent, wireframe
+  std::string color = "organ";           ///< organ, displacement
+  bool springs = false;
+  bool white = false;                    ///< white background (print)
+  bool verbose = false;
+};
+/// Renders one picture without a window (EGL surfaceless).
+int run_render(const RenderArgs& args);
+
+struct FiguresArgs {
+  std::string output;                     ///< folder
+  std::string input = io::kScenePhantom;  ///< mask file, DICOM folder or "phantom"
+  bool quick = false;                     ///< fewer localities and shorter runs (CI)
+  bool verbose = false;
+};
+/// The reference paper's figures 4-6 and a volume-change plot, on any organ.
+int run_figures(const FiguresArgs& args);
 
 }  // namespace lamina::cli

@@ -1,4 +1,5 @@
-// `lamina`: one command-line tool with subcommands (phantom, build, info, export, run).
+// `lamina`: one command-line tool with subcommands (phantom, build, info, export, run, view,
+// render, figures).
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -28,6 +29,16 @@ std::array<int64_t, 3> parse_size(const std::string& s) {
   if (std::sscanf(s.c_str(), "%lld,%lld,%lld%c", &a, &b, &c, &tail) == 3 && a > 1 && b > 1 && c > 1)
     return {a, b, c};
   throw lamina::invalid_input("--size", "expected NX,NY,NZ voxels (each > 1), got '" + s + "'");
+}
+
+// "1200x900" -> {1200, 900}
+std::array<int, 2> parse_image_size(const std::string& s, const char* option) {
+  int w = 0, h = 0;
+  char tail;
+  if (std::sscanf(s.c_str(), "%dx%d%c", &w, &h, &tail) == 2 && w >= 16 && h >= 16 && w <= 8192 &&
+      h <= 8192)
+    return {w, h};
+  throw lamina::invalid_input(option, "expected WIDTHxHEIGHT in pixels (16..8192), got '" + s + "'");
 }
 
 }  // namespace
@@ -92,6 +103,40 @@ int main(int argc, char** argv) {
       ->required();
   ru->add_flag("--json", run.json, "also print the summary as one JSON object on stdout");
 
+  cli::ViewArgs view;
+  std::string view_size = "1400x900";
+  auto* vi = app.add_subcommand(
+      "view", "open the interactive viewer: drag the organ with the mouse, tune every parameter");
+  vi->add_option("input", view.what,
+                 "model (.vtu), segmentation, DICOM folder, scene (.json) or 'phantom' (default)");
+  vi->add_option("--rate", view.rate_hz, "simulation steps per second (default 1000; 0 = max)");
+  vi->add_option("--size", view_size, "window size WxH (default 1400x900)");
+  vi->add_option("--script", view.script, "scripted input: timed mouse/key events (docs/viewer.md)");
+  vi->add_option("--report", view.report, "write a JSON report here when the window closes");
+
+  cli::RenderArgs rend;
+  std::string render_size = "1200x900";
+  auto* re = app.add_subcommand("render", "render a picture without a window (no display needed)");
+  re->add_option("input", rend.what,
+                 "model (.vtu), segmentation, DICOM folder, scene (.json) or 'phantom' (default)");
+  re->add_option("-o,--output", rend.output, "PNG to write")->required();
+  re->add_option("--at", rend.at_s, "simulate the scene's tools up to this time, s (default 0)");
+  re->add_option("--size", render_size, "image size WxH (default 1200x900)");
+  re->add_option("--camera", rend.camera,
+                 "AZ,EL[,DIST]: degrees from the anterior view, degrees up, mm (default -30,20)");
+  re->add_option("--inner", rend.inner, "inner layers: hidden (default), translucent, wireframe");
+  re->add_option("--color", rend.color, "skin colour: organ (default) or displacement");
+  re->add_flag("--springs", rend.springs, "draw every spring");
+  re->add_flag("--white", rend.white, "white background (for print)");
+
+  cli::FiguresArgs figs;
+  auto* fi = app.add_subcommand(
+      "figures", "reproduce the reference paper's figures 4-6 and a volume plot on any organ");
+  fi->add_option("-o,--output", figs.output, "output folder (created)")->required();
+  fi->add_option("--input", figs.input,
+                 "segmentation or DICOM folder (default: the built-in phantom)");
+  fi->add_flag("--quick", figs.quick, "shorter runs and fewer localities (a CI smoke run)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -112,6 +157,20 @@ int main(int argc, char** argv) {
     }
     if (*in) return cli::run_info(info);
     if (*ex) return cli::run_export(exp);
+    if (*vi) {
+      view.size = parse_image_size(view_size, "--size");
+      view.verbose = verbosity == 2;
+      return cli::run_view(view);
+    }
+    if (*re) {
+      rend.size = parse_image_size(render_size, "--size");
+      rend.verbose = verbosity == 2;
+      return cli::run_render(rend);
+    }
+    if (*fi) {
+      figs.verbose = verbosity == 2;
+      return cli::run_figures(figs);
+    }
     if (*ru) {
       run.quiet = verbosity == 0;
       run.verbose = verbosity == 2;

@@ -137,13 +137,13 @@ void add_arrow(std::vector<OverlayVertex>& out, const Arrow& a, double scene_rad
   }
 }
 
-Eigen::Vector4f displacement_color(float t) {
-  // Diverging cool-to-warm (Moreland), readable in print and for most colour-blind viewers.
+// Displacement as heat on the organ: its own colour at rest, through orange to pale yellow at the
+// top of the range; monotonic in lightness, so it reads in greyscale and for colour-blind viewers.
+Eigen::Vector4f displacement_color(const Eigen::Vector3f& organ, float t) {
   t = std::clamp(t, 0.0f, 1.0f);
-  const Eigen::Vector3f cool(0.23f, 0.30f, 0.75f), mid(0.87f, 0.87f, 0.87f),
-      warm(0.71f, 0.02f, 0.15f);
-  const Eigen::Vector3f c =
-      t < 0.5f ? cool + (mid - cool) * (2.0f * t) : mid + (warm - mid) * (2.0f * t - 1.0f);
+  const Eigen::Vector3f mid(0.95f, 0.50f, 0.10f), top(1.0f, 0.95f, 0.55f);
+  const Eigen::Vector3f c = t < 0.5f ? organ + (mid - organ) * (2.0f * t)
+                                     : mid + (top - mid) * (2.0f * t - 1.0f);
   return {c[0], c[1], c[2], 1.0f};
 }
 
@@ -254,7 +254,7 @@ struct Renderer::Impl {
       Eigen::Vector4f c;
       if (k == 0 && st.coloring == Coloring::kDisplacement) {
         const float d = fr.x ? static_cast<float>((x.row(i) - m.X.row(i)).norm()) : 0.0f;
-        c = displacement_color(range > 0.0f ? d / range : 0.0f);
+        c = displacement_color(st.organ_color, range > 0.0f ? d / range : 0.0f);
       } else {
         // Inner layers fade from the organ colour towards a pale flesh tone with depth.
         const float t = layers > 1 ? 0.25f + 0.5f * static_cast<float>(k) / (layers - 1) : 0.0f;

@@ -17,7 +17,7 @@ enum class InnerLayers : uint8_t { kHidden, kTranslucent, kWireframe };
 /// What colours the skin.
 enum class Coloring : uint8_t {
   kOrgan,         ///< the organ's colour
-  kDisplacement,  ///< distance from rest, blue (0) to red (Style::displacement_range_mm)
+  kDisplacement,  ///< distance from rest: organ colour (0), orange, pale yellow (the range's top)
 };
 
 /// Drawing choices, all live in the viewer's "Display" panel.

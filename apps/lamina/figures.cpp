@@ -1,0 +1,363 @@
+// `lamina figures`: the reference paper's results (figures 4, 5 and 6) and the volume claim,
+// reproduced on any organ. Data go to CSV files, plots are drawn by gnuplot from scripts written
+// beside them (so a researcher can restyle them), snapshots by the project's own renderer.
+#include <fmt/format.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+
+#include "commands.h"
+#include "lamina/core/atomic_file.h"
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/interact/tools.h"
+#include "lamina/io/scene.h"
+#include "lamina/render/camera.h"
+#include "lamina/render/offscreen.h"
+#include "lamina/render/renderer.h"
+#include "lamina/sim/simulation.h"
+
+extern char** environ;
+
+namespace lamina::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+std::string find_gnuplot() {
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "/usr/bin:/bin";
+  size_t start = 0;
+  while (start <= dirs.size()) {
+    const size_t end = std::min(dirs.find(':', start), dirs.size());
+    const fs::path candidate = fs::path(dirs.substr(start, end - start)) / "gnuplot";
+    if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
+    start = end + 1;
+  }
+  throw Error(ErrorKind::kUnavailable,
+              "lamina figures needs gnuplot for its plots: apt-get install gnuplot-nox "
+              "(scripts/setup.sh installs it)");
+}
+
+// Runs `gnuplot script` (no shell), then renames the PNG it wrote to a temporary name into place,
+// so a failed plot never leaves a half-written picture.
+void plot(const std::string& gnuplot, const fs::path& script, const fs::path& tmp_png,
+          const fs::path& png) {
+  const std::string script_s = script.string();
+  char* argv[] = {const_cast<char*>("gnuplot"), const_cast<char*>(script_s.c_str()), nullptr};
+  pid_t pid = 0;
+  if (posix_spawn(&pid, gnuplot.c_str(), nullptr, nullptr, argv, environ) != 0)
+    throw Error(ErrorKind::kUnavailable, "cannot run " + gnuplot);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  std::error_code ec;
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || !fs::exists(tmp_png)) {
+    fs::remove(tmp_png, ec);
+    throw Error(ErrorKind::kOutput, png.string() + ": gnuplot failed on " + script_s);
+  }
+  fs::rename(tmp_png, png, ec);
+  if (ec) throw Error(ErrorKind::kOutput, png.string() + ": cannot write: " + ec.message());
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  write_file_atomically(path.string(), [&](std::ostream& out) { out << text; });
+}
+
+// gnuplot's string quoting: single quotes, with ' doubled.
+std::string quote(const fs::path& p) {
+  std::string s = "'";
+  for (char c : p.string()) s += c == '\'' ? std::string("''") : std::string(1, c);
+  return s + "'";
+}
+
+// The paper's setup on `model`: K = 3 N/m, gamma = 3 kg/s, unit masses, semi-implicit Euler at
+// dt = 0.01 s, local mode, N = 4, P = 4, the posterior 10 mm held.
+struct Setup {
+  const Model* model = nullptr;
+  std::vector<int32_t> fixed;
+  sim::Material material;
+  sim::SolverOptions solver;
+  interact::RoutingOptions routing;
+  std::vector<interact::Tool> tools;
+};
+
+Setup paper_setup(const Model& m) {
+  io::Scene scene;  // the default scene: the paper's poke (0.4 N, 0-1 s) and boundary
+  io::resolve_scene_defaults(scene, m);
+  Setup s;
+  s.model = &m;
+  s.fixed = io::fixed_scene_nodes(scene, m);
+  s.solver.mode = sim::Mode::kLocal;
+  s.tools = scene.tools;
+  return s;
+}
+
+struct RunStats {
+  double wall_s = 0.0;
+  int64_t steps = 0;
+  bool converged = false;
+};
+
+// Steps `setup` until t_end_s, or (if stop_at_rest) until every tool has ended and no node moved
+// more than the threshold for 10 consecutive steps. Calls per_step after each step.
+RunStats simulate(const Setup& setup, double t_end_s, bool stop_at_rest,
+                  const std::function<void(const sim::Simulation&, const interact::ToolDriver&)>&
+                      per_step = {}) {
+  sim::Simulation s = sim::make_simulation(*setup.model, setup.material, setup.solver);
+  sim::fix_nodes(s, setup.fixed);
+  interact::ToolDriver driver;
+  driver.tools = setup.tools;
+  driver.routing = setup.routing;
+  const double release = interact::last_tool_end(driver);
+  RunStats r;
+  int64_t quiet = 0;
+  const auto t0 = Clock::now();
+  while (s.time_s < t_end_s - 1e-9) {
+    interact::apply_tools(s, driver);
+    const sim::StepStats st = sim::step(s);
+    if (per_step) per_step(s, driver);
+    quiet = s.time_s > release && st.converged ? quiet + 1 : 0;
+    if (stop_at_rest && quiet >= 10) {
+      r.converged = true;
+      break;
+    }
+  }
+  r.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  r.steps = s.steps;
+  return r;
+}
+
+constexpr const char* kPlotStyle =
+    "set terminal pngcairo size 1000,640 enhanced font 'DejaVu Sans,13' linewidth 2\n"
+    "set datafile separator ','\n"
+    "set key top right box opaque\n"
+    "set grid lc rgb '#dddddd'\n"
+    "set border lw 1\n";
+
+}  // namespace
+
+int run_figures(const FiguresArgs& a) {
+  const auto t_start = Clock::now();
+  check_output_folder(a.output);
+  const std::string gnuplot = find_gnuplot();
+  render::HeadlessContext context;  // no EGL: say so before any long work
+  render::Renderer renderer;
+  const ProgressFn progress = stderr_progress(a.verbose);
+  const fs::path out = fs::absolute(a.output);
+  create_folder(out);
+
+  // Models: the paper's two layers, and a skin-only one for the volume comparison.
+  io::Scene scene = scene_for(a.input);
+  scene.build.layers = 2;
+  scene.build.locality = 6;  // figure 5 sweeps N = 1..6
+  report_progress(progress, "figures: building the 2-layer model", 0.0);
+  const SceneModel two = make_scene_model(scene, {});
+  scene.build.layers = 1;
+  report_progress(progress, "figures: building the skin-only model", 0.05);
+  const SceneModel one = make_scene_model(scene, {});
+  const Setup base = paper_setup(two.model);
+  const int32_t contact = base.tools.empty() ? 0 : base.tools[0].vertex;
+  const double t_end = a.quick ? 6.0 : 10.0;
+
+  // Figure 4: one surface node's displacement for (gamma, K) = (3,3), (5,3), (3,6).
+  report_progress(progress, "figures: fig. 4 trajectories", 0.1);
+  const std::pair<double, double> params[3] = {{3, 3}, {5, 3}, {3, 6}};
+  std::vector<std::vector<double>> disp(3);
+  std::vector<double> times;
+  for (int k = 0; k < 3; ++k) {
+    Setup s = base;
+    s.material.damping_kg_per_s = params[k].first;
+    s.material.stiffness_n_per_m = params[k].second;
+    simulate(s, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
+      if (k == 0) times.push_back(sim.time_s);
+      disp[k].push_back((sim.x.row(contact) - two.model.X.row(contact)).norm());
+    });
+  }
+  std::string csv = "time_s,gamma3_k3_mm,gamma5_k3_mm,gamma3_k6_mm\n";
+  for (size_t i = 0; i < times.size(); ++i)
+    csv += fmt::format("{:.4f},{:.6g},{:.6g},{:.6g}\n", times[i], disp[0][i], disp[1][i], disp[2][i]);
+  write_text(out / "fig4_trajectories.csv", csv);
+  const double force_n = base.tools.empty() ? 0.0 : base.tools[0].force_mn.norm() / 1000.0;
+  write_text(out / "fig4_trajectories.gp",
+             std::string(kPlotStyle) +
+                 fmt::format("set output {}\n", quote(out / "fig4_trajectories.png.tmp")) +
+                 fmt::format("set title \"Displacement of skin node {} under a {:.2g} N poke "
+                             "(0-1 s), then release\"\n",
+                             contact, force_n) +
+                 "set xlabel 'time (s)'\nset ylabel 'displacement (mm)'\n"
+                 "set object 1 rect from 0,graph 0 to 1,graph 1 fc rgb '#f3e9d2' fs solid "
+                 "noborder behind\n" +
+                 fmt::format("plot {0} using 1:2 with lines lc rgb '#1f77b4' title "
+                             "'{{/Symbol g}} = 3, K = 3', \\\n"
+                             "     {0} using 1:3 with lines lc rgb '#d62728' title "
+                             "'{{/Symbol g}} = 5, K = 3', \\\n"
+                             "     {0} using 1:4 with lines lc rgb '#2ca02c' title "
+                             "'{{/Symbol g}} = 3, K = 6'\n",
+                             quote(out / "fig4_trajectories.csv")));
+  plot(gnuplot, out / "fig4_trajectories.gp", out / "fig4_trajectories.png.tmp",
+       out / "fig4_trajectories.png");
+
+  // Figure 5: wall time from the poke to rest against locality, for two thresholds.
+  const int max_n = a.quick ? 3 : 6, repeats = a.quick ? 1 : 3;
+  csv = "locality,threshold_mm,median_ms,steps,converged\n";
+  std::string table;
+  for (int n = 1; n <= max_n; ++n) {
+    report_progress(progress, fmt::format("figures: fig. 5 timing, N = {}", n),
+                    0.3 + 0.4 * (n - 1) / max_n);
+    for (double threshold : {1e-3, 1e-4}) {
+      Setup s = base;
+      s.routing.locality = n;
+      s.solver.threshold_mm = threshold;
+      s.solver.max_steps = 100000;
+      std::vector<double> ms;
+      RunStats r;
+      for (int rep = 0; rep < repeats; ++rep) {
+        r = simulate(s, 1000.0, true);
+        ms.push_back(1000.0 * r.wall_s);
+      }
+      std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
+      csv += fmt::format("{},{:g},{:.3f},{},{}\n", n, threshold, ms[ms.size() / 2], r.steps,
+                         r.converged ? 1 : 0);
+    }
+  }
+  write_text(out / "fig5_timing.csv", csv);
+  write_text(out / "fig5_timing.gp",
+             std::string(kPlotStyle) +
+                 fmt::format("set output {}\n", quote(out / "fig5_timing.png.tmp")) +
+                 "set title 'Computation time from a poke to rest (median wall time, this "
+                 "machine)'\n"
+                 "set xlabel 'locality N (rings receiving force)'\nset ylabel 'time to "
+                 "convergence (ms)'\nset xtics 1\nset key top left box opaque\n"
+                 "set style data linespoints\n" +
+                 fmt::format("plot {0} every ::1 using ($2 == 0.001 ? $1 : 1/0):3 pt 7 lc rgb "
+                             "'#1f77b4' title 'threshold 10^{{-3}} mm', \\\n"
+                             "     {0} every ::1 using ($2 == 0.0001 ? $1 : 1/0):3 pt 5 lc rgb "
+                             "'#d62728' title 'threshold 10^{{-4}} mm'\n",
+                             quote(out / "fig5_timing.csv")));
+  plot(gnuplot, out / "fig5_timing.gp", out / "fig5_timing.png.tmp", out / "fig5_timing.png");
+
+  // Volume: skin volume change under the same poke, 2 layers against the skin alone.
+  report_progress(progress, "figures: volume change", 0.72);
+  std::vector<double> vol_two, vol_one, vol_t;
+  simulate(base, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
+    vol_t.push_back(sim.time_s);
+    vol_two.push_back(100.0 * (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
+  });
+  Setup skin_only = paper_setup(one.model);
+  // Its own default poke: the same rule (the most anterior skin node, 0.4 N, 0-1 s).
+  simulate(skin_only, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
+    vol_one.push_back(100.0 * (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
+  });
+  csv = "time_s,two_layers_pct,skin_only_pct\n";
+  double worst_two = 0.0, worst_one = 0.0;
+  for (size_t i = 0; i < vol_t.size() && i < vol_one.size(); ++i) {
+    csv += fmt::format("{:.4f},{:.6g},{:.6g}\n", vol_t[i], vol_two[i], vol_one[i]);
+    worst_two = std::max(worst_two, std::abs(vol_two[i]));
+    worst_one = std::max(worst_one, std::abs(vol_one[i]));
+  }
+  write_text(out / "volume_change.csv", csv);
+  write_text(out / "volume_change.gp",
+             std::string(kPlotStyle) +
+                 fmt::format("set output {}\n", quote(out / "volume_change.png.tmp")) +
+                 "set title 'Skin volume change under the same poke (0-1 s)'\n"
+                 "set xlabel 'time (s)'\nset ylabel 'skin volume change (%)'\n"
+                 "set key bottom right box opaque\n"
+                 "set object 1 rect from 0,graph 0 to 1,graph 1 fc rgb '#f3e9d2' fs solid "
+                 "noborder behind\n" +
+                 fmt::format("plot {0} using 1:2 with lines lc rgb '#1f77b4' title "
+                             "'multi-layer (2 layers)', \\\n"
+                             "     {0} using 1:3 with lines lc rgb '#d62728' title "
+                             "'skin only (1 layer)'\n",
+                             quote(out / "volume_change.csv")));
+  plot(gnuplot, out / "volume_change.gp", out / "volume_change.png.tmp", out / "volume_change.png");
+
+  // Figure 6: a large deformation by two tools at once and its recovery, rendered.
+  report_progress(progress, "figures: fig. 6 snapshots", 0.8);
+  Setup big = base;
+  big.tools[0].force_mn *= 3.0;  // 1.2 N push on the anterior node
+  interact::Tool pull;
+  int32_t lateral = 0;
+  for (int32_t i = 0; i < two.model.layers[0].node_count; ++i)
+    if (two.model.X(i, 0) > two.model.X(lateral, 0)) lateral = i;
+  pull.vertex = lateral;
+  pull.force_mn = Eigen::Vector3d(1000.0, 0.0, 0.0);  // 1 N pull to the patient's left
+  pull.start_s = 0.0;
+  pull.end_s = 1.0;
+  big.tools.push_back(pull);
+  const double shots[6] = {0.0, 0.5, 1.0, 1.5, 3.0, t_end};
+  const render::Camera camera = render::fit_camera(two.model, -25.0, 25.0);
+  size_t next = 0;
+  std::string montage;
+  auto shoot = [&](const sim::Simulation& sim, const interact::ToolDriver& driver) {
+    render::Frame f;
+    f.model = &two.model;
+    f.x = &sim.x;
+    f.style.background = {1.0f, 1.0f, 1.0f, 1.0f};
+    f.style.coloring = render::Coloring::kDisplacement;
+    f.style.displacement_range_mm = 30.0f;
+    const double r = 0.012 * (two.model.X.colwise().maxCoeff() - two.model.X.colwise().minCoeff()).norm();
+    const Eigen::Vector3d centre = two.model.X.colwise().mean().transpose();
+    int acting = 0;
+    for (size_t t = 0; t < driver.tools.size(); ++t) {
+      if (t >= driver.active.size() || !driver.active[t]) continue;
+      ++acting;
+      const int32_t node = driver.routes[t].contact_node;
+      const Eigen::Vector3d at = sim.x.row(node).transpose();
+      const Eigen::Vector3d len = driver.tools[t].force_mn * 0.04;  // 40 mm per N
+      render::Arrow arrow;
+      arrow.color = {0.1f, 0.1f, 0.1f, 1.0f};
+      if (len.dot(at - centre) < 0) arrow.from = at - len, arrow.to = at;
+      else arrow.from = at, arrow.to = at + len;
+      f.arrows.push_back(arrow);
+      f.markers.push_back({at, r, {0.1f, 0.8f, 0.2f, 1.0f}});
+    }
+    const std::string name = fmt::format("fig6_t{:05.2f}.png", sim.time_s);
+    render::write_png(render::render_image(renderer, f, camera, 640, 480), (out / name).string());
+    const double max_d = std::sqrt((sim.x - two.model.X).rowwise().squaredNorm().maxCoeff());
+    montage += fmt::format(
+        "set title \"t = {:.1f} s: {}, largest displacement {:.1f} mm\"\nplot {} binary "
+        "filetype=png with rgbimage\n",
+        sim.time_s, acting ? fmt::format("{} tools acting", acting) : "released", max_d,
+        quote(out / name));
+  };
+  simulate(big, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver& d) {
+    while (next < 6 && sim.time_s >= shots[next] - 1e-9) shoot(sim, d), ++next;
+  });
+  write_text(out / "fig6_snapshots.gp",
+             fmt::format("set terminal pngcairo size 1500,880 enhanced font 'DejaVu Sans,12'\n"
+                         "set output {}\n"
+                         "set multiplot layout 2,3 title \"Large deformation by two tools "
+                         "(1.2 N push, 1 N pull, 0-1 s) and recovery\\ncolour: displacement, "
+                         "organ red (0) to orange (15 mm) to yellow (30 mm); green: contacts\" "
+                         "font 'DejaVu Sans,14'\n"
+                         "unset border\nunset tics\nunset key\nset size ratio -1\n"
+                         "set lmargin 0\nset rmargin 0\nset tmargin 2\nset bmargin 0\n",
+                         quote(out / "fig6_snapshots.png.tmp")) +
+                 montage + "unset multiplot\n");
+  plot(gnuplot, out / "fig6_snapshots.gp", out / "fig6_snapshots.png.tmp", out / "fig6_snapshots.png");
+
+  report_progress(progress, "figures: done", 1.0);
+  std::cout << fmt::format(
+      "lamina figures: {} ({} nodes, 2 layers) in {:.1f} s\n"
+      "  fig4_trajectories.png  node {} under {:.2g} N for (gamma, K) = (3,3), (5,3), (3,6)\n"
+      "  fig5_timing.png        time to rest for N = 1..{} at 1e-3 and 1e-4 mm (data: "
+      "fig5_timing.csv)\n"
+      "  fig6_snapshots.png     large deformation by two tools and recovery\n"
+      "  volume_change.png      largest |skin volume change|: {:.3g}% with 2 layers, {:.3g}% "
+      "skin only\n"
+      "  wrote {}\n",
+      two.source, two.model.node_count(), std::chrono::duration<double>(Clock::now() - t_start).count(),
+      contact, force_n, max_n, worst_two, worst_one, a.output);
+  return 0;
+}
+
+}  // namespace lamina::cli

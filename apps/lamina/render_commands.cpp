@@ -1,0 +1,175 @@
+// `lamina view` and `lamina render`: the interactive viewer and one picture without a window.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+#include "commands.h"
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/interact/tools.h"
+#include "lamina/io/scene.h"
+#include "lamina/render/camera.h"
+#include "lamina/render/offscreen.h"
+#include "lamina/render/renderer.h"
+#include "lamina/render/viewer.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::cli {
+namespace {
+
+// The scene named on the command line, its model built or loaded, its defaults resolved.
+struct Prepared {
+  io::Scene scene;
+  SceneModel built;
+  std::vector<int32_t> fixed;
+  bool from_scene_file = false;
+};
+
+Prepared prepare(const std::string& what, const ProgressFn& progress) {
+  Prepared p;
+  p.scene = scene_for(what);
+  p.from_scene_file = what.size() >= 5 && what.compare(what.size() - 5, 5, ".json") == 0;
+  p.built = make_scene_model(p.scene, progress);
+  io::resolve_scene_defaults(p.scene, p.built.model);
+  io::check_scene_against_model(p.scene, p.built.model);
+  p.fixed = io::fixed_scene_nodes(p.scene, p.built.model);
+  return p;
+}
+
+// "AZ,EL" or "AZ,EL,DIST" (degrees, degrees, mm); distance 0 = fit the organ.
+struct CameraOption {
+  double azimuth_deg = render::Camera{}.azimuth_deg, elevation_deg = render::Camera{}.elevation_deg;
+  double distance_mm = 0.0;
+};
+CameraOption parse_camera(const std::string& text) {
+  CameraOption c;
+  if (text.empty()) return c;
+  double az = 0, el = 0, dist = 0;
+  char tail = 0;
+  const int n = std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &az, &el, &dist, &tail);
+  if ((n != 2 && n != 3) || !std::isfinite(az) || !std::isfinite(el) || el < -90 || el > 90 ||
+      (n == 3 && !(dist > 0)))
+    throw invalid_input("--camera", "expected AZIMUTH,ELEVATION[,DISTANCE] in degrees and mm "
+                                    "(elevation -90..90, distance > 0), got '" + text + "'");
+  c.azimuth_deg = az;
+  c.elevation_deg = el;
+  if (n == 3) c.distance_mm = dist;
+  return c;
+}
+
+}  // namespace
+
+int run_view(const ViewArgs& a) {
+  const ProgressFn progress = stderr_progress(a.verbose);
+  Prepared p = prepare(a.what, progress);
+
+  render::ViewerOptions o;
+  o.width = a.size[0];
+  o.height = a.size[1];
+  o.rate_hz = a.rate_hz;
+  o.material = p.scene.material;
+  o.solver = p.scene.solver;
+  o.routing = p.scene.routing;
+  o.script = a.script;
+  o.report = a.report;
+  render::ViewerModel vm;
+  vm.source = p.built.source;
+  vm.fixed = p.fixed;
+  // A scene file's tools act from the start, pinned; on a bare model the default poke's node is
+  // only watched (plotted), and the user pushes.
+  for (const interact::Tool& t : p.scene.tools) {
+    int32_t node = t.vertex;
+    if (t.by_point)
+      node = interact::nearest_skin_node(p.built.model, p.built.model.X, t.point_mm,
+                                         p.scene.routing.contact_threshold_mm);
+    if (node < 0) continue;
+    if (p.from_scene_file) vm.pinned.emplace_back(node, t.force_mn);
+    if (vm.watched_node < 0) vm.watched_node = node;
+  }
+  vm.model = std::move(p.built.model);
+  if (!p.scene.input.empty()) {
+    // Rebuilding re-reads the segmentation with the scene's options and its boundary rule.
+    o.rebuild = [scene = p.scene](int32_t layers, int32_t skin_vertices, const ProgressFn& pr) {
+      io::Scene s = scene;
+      s.build.layers = layers;
+      s.build.skin_vertices = skin_vertices;
+      SceneModel b = make_scene_model(s, pr);
+      s.default_fixed = scene.default_fixed;
+      s.default_tool = true;
+      s.tools.clear();
+      io::resolve_scene_defaults(s, b.model);
+      render::ViewerModel out;
+      out.fixed = io::fixed_scene_nodes(s, b.model);
+      out.source = b.source;
+      out.model = std::move(b.model);
+      return out;
+    };
+  }
+  render::Viewer viewer(o);
+  viewer.set_model(std::move(vm));
+  return viewer.show();
+}
+
+int run_render(const RenderArgs& a) {
+  check_output(a.output, {".png"}, "picture");
+  if (!(a.at_s >= 0.0) || !std::isfinite(a.at_s))
+    throw invalid_input("--at", "must be a time >= 0 s");
+  render::Style style;
+  if (a.inner == "hidden") style.inner = render::InnerLayers::kHidden;
+  else if (a.inner == "translucent") style.inner = render::InnerLayers::kTranslucent;
+  else if (a.inner == "wireframe") style.inner = render::InnerLayers::kWireframe;
+  else throw invalid_input("--inner", "expected hidden, translucent or wireframe, got '" + a.inner + "'");
+  if (style.inner != render::InnerLayers::kHidden) style.skin_alpha = 0.35f;
+  if (a.color == "organ") style.coloring = render::Coloring::kOrgan;
+  else if (a.color == "displacement") style.coloring = render::Coloring::kDisplacement;
+  else throw invalid_input("--color", "expected organ or displacement, got '" + a.color + "'");
+  style.springs = a.springs;
+  if (a.white) style.background = {1.0f, 1.0f, 1.0f, 1.0f};
+  const CameraOption view = parse_camera(a.camera);  // checked before the (slow) model
+
+  // The context first: with no EGL, say so before spending seconds on a model.
+  render::HeadlessContext context;
+  render::Renderer renderer;
+
+  Prepared p = prepare(a.what, stderr_progress(a.verbose));
+  const Model& m = p.built.model;
+  sim::Simulation s = sim::make_simulation(m, p.scene.material, p.scene.solver);
+  sim::fix_nodes(s, p.fixed);
+  interact::ToolDriver driver;
+  driver.tools = p.scene.tools;
+  driver.routing = p.scene.routing;
+  while (s.time_s < a.at_s - 1e-9 * std::max(1.0, a.at_s)) {
+    interact::apply_tools(s, driver);
+    sim::step(s);
+  }
+
+  render::Frame frame;
+  frame.model = &m;
+  frame.x = &s.x;
+  frame.style = style;
+  const double r = 0.012 * (m.X.colwise().maxCoeff() - m.X.colwise().minCoeff()).norm();
+  const Eigen::Vector3d centre = m.X.colwise().mean().transpose();
+  for (size_t t = 0; t < driver.tools.size(); ++t) {
+    if (t >= driver.active.size() || !driver.active[t]) continue;
+    const int32_t node = driver.routes[t].contact_node;
+    const Eigen::Vector3d at = s.x.row(node).transpose();
+    const Eigen::Vector3d len = driver.tools[t].force_mn * (60.0 / 1000.0);  // 60 mm per N
+    render::Arrow arrow;
+    if (len.dot(at - centre) < 0) arrow.from = at - len, arrow.to = at;
+    else arrow.from = at, arrow.to = at + len;
+    frame.arrows.push_back(arrow);
+    frame.markers.push_back({at, r, {0.2f, 0.9f, 0.3f, 1.0f}});
+    frame.rings.push_back({node, p.scene.routing.locality});
+  }
+  render::Camera camera = render::fit_camera(m, view.azimuth_deg, view.elevation_deg);
+  if (view.distance_mm > 0.0) camera.distance_mm = view.distance_mm;
+  render::write_png(render::render_image(renderer, frame, camera, a.size[0], a.size[1]), a.output);
+  std::cout << fmt::format("lamina render: wrote {} ({}x{}, t = {:.3g} s, {} tool(s) acting)\n",
+                           a.output, a.size[0], a.size[1], s.time_s, frame.arrows.size());
+  return 0;
+}
+
+}  // namespace lamina::cli

@@ -1,0 +1,100 @@
+#include "viewer_script.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "lamina/core/error.h"
+
+namespace lamina::render {
+namespace {
+
+using nlohmann::json;
+
+int button_index(const json& v, const std::string& where) {
+  if (v == "left") return 0;
+  if (v == "right") return 1;
+  if (v == "middle") return 2;
+  throw invalid_input(where, "expected \"left\", \"right\" or \"middle\"");
+}
+
+}  // namespace
+
+std::vector<ScriptEvent> load_viewer_script(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw invalid_input(path, "cannot read the viewer script");
+  std::stringstream text;
+  text << in.rdbuf();
+  json doc;
+  try {
+    doc = json::parse(text.str(), nullptr, true, /*ignore_comments=*/true);
+  } catch (const json::parse_error& e) {
+    throw invalid_input(path, std::string("not valid JSON: ") + e.what());
+  }
+  if (!doc.is_object() || !doc.contains("events") || !doc["events"].is_array())
+    throw invalid_input(path, "expected an object with an \"events\" array");
+  std::vector<ScriptEvent> events;
+  const json& list = doc["events"];
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string where = path + ": events[" + std::to_string(i) + "]";
+    const json& e = list[i];
+    if (!e.is_object()) throw invalid_input(where, "expected an object");
+    ScriptEvent ev;
+    if (!e.contains("at") || !e["at"].is_number() || !(e["at"].get<double>() >= 0.0))
+      throw invalid_input(where + ".at", "expected a time in seconds >= 0");
+    ev.at_s = e["at"].get<double>();
+    for (const auto& [key, value] : e.items()) {
+      const std::string at = where + "." + key;
+      if (key == "at") {
+      } else if (key == "mouse") {
+        if (!value.is_array() || value.size() != 2 || !value[0].is_number() ||
+            !value[1].is_number())
+          throw invalid_input(at, "expected [x, y], fractions of the window (0..1)");
+        const Eigen::Vector2d p(value[0].get<double>(), value[1].get<double>());
+        if (!(p.minCoeff() >= 0.0 && p.maxCoeff() <= 1.0))
+          throw invalid_input(at, "x and y must be in 0..1 (fractions of the window)");
+        ev.mouse = p;
+      } else if (key == "over") {
+        if (!value.is_number() || !(value.get<double>() >= 0.0))
+          throw invalid_input(at, "expected seconds >= 0");
+        ev.over_s = value.get<double>();
+      } else if (key == "press") {
+        ev.press = button_index(value, at);
+      } else if (key == "release") {
+        ev.release = button_index(value, at);
+      } else if (key == "shift") {
+        if (!value.is_boolean()) throw invalid_input(at, "expected true or false");
+        ev.shift = value.get<bool>();
+      } else if (key == "scroll") {
+        if (!value.is_number() || !std::isfinite(value.get<double>()))
+          throw invalid_input(at, "expected a number of wheel clicks");
+        ev.scroll = value.get<double>();
+      } else if (key == "mode") {
+        if (value != "drag" && value != "tool") throw invalid_input(at, "expected \"drag\" or \"tool\"");
+        ev.mode = value.get<std::string>();
+      } else if (key == "key") {
+        if (value != "r" && value != "space" && value != "c" && value != "t")
+          throw invalid_input(at, "expected \"r\", \"space\", \"c\" or \"t\"");
+        ev.key = value.get<std::string>();
+      } else if (key == "screenshot") {
+        if (!value.is_string() || value.get<std::string>().empty())
+          throw invalid_input(at, "expected a PNG path");
+        ev.screenshot = value.get<std::string>();
+      } else if (key == "quit") {
+        if (!value.is_boolean()) throw invalid_input(at, "expected true");
+        ev.quit = value.get<bool>();
+      } else {
+        throw invalid_input(at, "unknown key (known: at, mouse, over, press, release, shift, "
+                                "scroll, mode, key, screenshot, quit)");
+      }
+    }
+    events.push_back(ev);
+  }
+  std::stable_sort(events.begin(), events.end(),
+                   [](const ScriptEvent& a, const ScriptEvent& b) { return a.at_s < b.at_s; });
+  return events;
+}
+
+}  // namespace lamina::render
