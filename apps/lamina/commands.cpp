@@ -50,7 +50,6 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
                                         p.parent_path().string() + "' does not exist");
 }
 
-
 ProgressFn stderr_progress(bool verbose) {
   // On a terminal: one line, overwritten in place (main() clears it before an error). Elsewhere
   // (logs, scripts) one line per stage, with -v only: an error must stay the only line.

@@ -4,8 +4,8 @@
 
 #include <array>
 #include <filesystem>
-#include <vector>
 #include <string>
+#include <vector>
 
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/scene.h"
@@ -83,6 +83,7 @@ struct ViewArgs {
   std::string script;                    ///< scripted input (docs/viewer.md)
   std::string report;                    ///< JSON report written at exit
   double rate_hz = 1000.0;
+  double gain_n_per_mm = 0.01;
   std::array<int, 2> size = {1400, 900};
   bool verbose = false;
 };
@@ -94,11 +95,11 @@ struct RenderArgs {
   std::string output;                    ///< PNG
   double at_s = 0.0;                     ///< simulate the scene up to this time first
   std::array<int, 2> size = {1200, 900};
-  std::string camera;                    ///< "AZ,EL[,DIST]" degrees, degrees, mm
-  std::string inner = "hidden";          ///< hidden, translucent, wireframe
-  std::string color = "organ";           ///< organ, displacement
+  std::string camera;            ///< "AZ,EL[,DIST]" degrees, degrees, mm
+  std::string inner = "hidden";  ///< hidden, translucent, wireframe
+  std::string color = "organ";   ///< organ, displacement
   bool springs = false;
-  bool white = false;                    ///< white background (print)
+  bool white = false;  ///< white background (print)
   bool verbose = false;
 };
 /// Renders one picture without a window (EGL surfaceless).

@@ -109,9 +109,9 @@ struct RunStats {
 
 // Steps `setup` until t_end_s, or (if stop_at_rest) until every tool has ended and no node moved
 // more than the threshold for 10 consecutive steps. Calls per_step after each step.
-RunStats simulate(const Setup& setup, double t_end_s, bool stop_at_rest,
-                  const std::function<void(const sim::Simulation&, const interact::ToolDriver&)>&
-                      per_step = {}) {
+RunStats simulate(
+    const Setup& setup, double t_end_s, bool stop_at_rest,
+    const std::function<void(const sim::Simulation&, const interact::ToolDriver&)>& per_step = {}) {
   sim::Simulation s = sim::make_simulation(*setup.model, setup.material, setup.solver);
   sim::fix_nodes(s, setup.fixed);
   interact::ToolDriver driver;
@@ -184,7 +184,8 @@ int run_figures(const FiguresArgs& a) {
   }
   std::string csv = "time_s,gamma3_k3_mm,gamma5_k3_mm,gamma3_k6_mm\n";
   for (size_t i = 0; i < times.size(); ++i)
-    csv += fmt::format("{:.4f},{:.6g},{:.6g},{:.6g}\n", times[i], disp[0][i], disp[1][i], disp[2][i]);
+    csv +=
+        fmt::format("{:.4f},{:.6g},{:.6g},{:.6g}\n", times[i], disp[0][i], disp[1][i], disp[2][i]);
   write_text(out / "fig4_trajectories.csv", csv);
   const double force_n = base.tools.empty() ? 0.0 : base.tools[0].force_mn.norm() / 1000.0;
   write_text(out / "fig4_trajectories.gp",
@@ -250,12 +251,14 @@ int run_figures(const FiguresArgs& a) {
   std::vector<double> vol_two, vol_one, vol_t;
   simulate(base, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
     vol_t.push_back(sim.time_s);
-    vol_two.push_back(100.0 * (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
+    vol_two.push_back(100.0 *
+                      (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
   });
   Setup skin_only = paper_setup(one.model);
   // Its own default poke: the same rule (the most anterior skin node, 0.4 N, 0-1 s).
   simulate(skin_only, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
-    vol_one.push_back(100.0 * (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
+    vol_one.push_back(100.0 *
+                      (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
   });
   csv = "time_s,two_layers_pct,skin_only_pct\n";
   double worst_two = 0.0, worst_one = 0.0;
@@ -304,7 +307,8 @@ int run_figures(const FiguresArgs& a) {
     f.style.background = {1.0f, 1.0f, 1.0f, 1.0f};
     f.style.coloring = render::Coloring::kDisplacement;
     f.style.displacement_range_mm = 30.0f;
-    const double r = 0.012 * (two.model.X.colwise().maxCoeff() - two.model.X.colwise().minCoeff()).norm();
+    const double r =
+        0.012 * (two.model.X.colwise().maxCoeff() - two.model.X.colwise().minCoeff()).norm();
     const Eigen::Vector3d centre = two.model.X.colwise().mean().transpose();
     int acting = 0;
     for (size_t t = 0; t < driver.tools.size(); ++t) {
@@ -315,8 +319,10 @@ int run_figures(const FiguresArgs& a) {
       const Eigen::Vector3d len = driver.tools[t].force_mn * 0.04;  // 40 mm per N
       render::Arrow arrow;
       arrow.color = {0.1f, 0.1f, 0.1f, 1.0f};
-      if (len.dot(at - centre) < 0) arrow.from = at - len, arrow.to = at;
-      else arrow.from = at, arrow.to = at + len;
+      if (len.dot(at - centre) < 0)
+        arrow.from = at - len, arrow.to = at;
+      else
+        arrow.from = at, arrow.to = at + len;
       f.arrows.push_back(arrow);
       f.markers.push_back({at, r, {0.1f, 0.8f, 0.2f, 1.0f}});
     }
@@ -343,7 +349,8 @@ int run_figures(const FiguresArgs& a) {
                          "set lmargin 0\nset rmargin 0\nset tmargin 2\nset bmargin 0\n",
                          quote(out / "fig6_snapshots.png.tmp")) +
                  montage + "unset multiplot\n");
-  plot(gnuplot, out / "fig6_snapshots.gp", out / "fig6_snapshots.png.tmp", out / "fig6_snapshots.png");
+  plot(gnuplot, out / "fig6_snapshots.gp", out / "fig6_snapshots.png.tmp",
+       out / "fig6_snapshots.png");
 
   report_progress(progress, "figures: done", 1.0);
   std::cout << fmt::format(
@@ -355,8 +362,9 @@ int run_figures(const FiguresArgs& a) {
       "  volume_change.png      largest |skin volume change|: {:.3g}% with 2 layers, {:.3g}% "
       "skin only\n"
       "  wrote {}\n",
-      two.source, two.model.node_count(), std::chrono::duration<double>(Clock::now() - t_start).count(),
-      contact, force_n, max_n, worst_two, worst_one, a.output);
+      two.source, two.model.node_count(),
+      std::chrono::duration<double>(Clock::now() - t_start).count(), contact, force_n, max_n,
+      worst_two, worst_one, a.output);
   return 0;
 }
 

@@ -38,7 +38,8 @@ std::array<int, 2> parse_image_size(const std::string& s, const char* option) {
   if (std::sscanf(s.c_str(), "%dx%d%c", &w, &h, &tail) == 2 && w >= 16 && h >= 16 && w <= 8192 &&
       h <= 8192)
     return {w, h};
-  throw lamina::invalid_input(option, "expected WIDTHxHEIGHT in pixels (16..8192), got '" + s + "'");
+  throw lamina::invalid_input(option,
+                              "expected WIDTHxHEIGHT in pixels (16..8192), got '" + s + "'");
 }
 
 }  // namespace
@@ -111,7 +112,10 @@ int main(int argc, char** argv) {
                  "model (.vtu), segmentation, DICOM folder, scene (.json) or 'phantom' (default)");
   vi->add_option("--rate", view.rate_hz, "simulation steps per second (default 1000; 0 = max)");
   vi->add_option("--size", view_size, "window size WxH (default 1400x900)");
-  vi->add_option("--script", view.script, "scripted input: timed mouse/key events (docs/viewer.md)");
+  vi->add_option("--gain", view.gain_n_per_mm,
+                 "drag force per mm of mouse drag, N/mm (default 0.01)");
+  vi->add_option("--script", view.script,
+                 "scripted input: timed mouse/key events (docs/viewer.md)");
   vi->add_option("--report", view.report, "write a JSON report here when the window closes");
 
   cli::RenderArgs rend;

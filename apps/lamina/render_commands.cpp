@@ -52,8 +52,10 @@ CameraOption parse_camera(const std::string& text) {
   const int n = std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &az, &el, &dist, &tail);
   if ((n != 2 && n != 3) || !std::isfinite(az) || !std::isfinite(el) || el < -90 || el > 90 ||
       (n == 3 && !(dist > 0)))
-    throw invalid_input("--camera", "expected AZIMUTH,ELEVATION[,DISTANCE] in degrees and mm "
-                                    "(elevation -90..90, distance > 0), got '" + text + "'");
+    throw invalid_input("--camera",
+                        "expected AZIMUTH,ELEVATION[,DISTANCE] in degrees and mm "
+                        "(elevation -90..90, distance > 0), got '" +
+                            text + "'");
   c.azimuth_deg = az;
   c.elevation_deg = el;
   if (n == 3) c.distance_mm = dist;
@@ -63,6 +65,13 @@ CameraOption parse_camera(const std::string& text) {
 }  // namespace
 
 int run_view(const ViewArgs& a) {
+  // Everything that can fail fast does, before the model is built.
+  if (!(a.rate_hz >= 0.0) || a.rate_hz > 1e6)
+    throw invalid_input("--rate", "must be 0..1e6 steps/s");
+  if (!(a.gain_n_per_mm > 0.0) || a.gain_n_per_mm > 100.0)
+    throw invalid_input("--gain", "must be in (0, 100] N/mm");
+  if (!a.script.empty()) render::check_viewer_script(a.script);
+  render::check_display();
   const ProgressFn progress = stderr_progress(a.verbose);
   Prepared p = prepare(a.what, progress);
 
@@ -70,6 +79,7 @@ int run_view(const ViewArgs& a) {
   o.width = a.size[0];
   o.height = a.size[1];
   o.rate_hz = a.rate_hz;
+  o.gain_n_per_mm = a.gain_n_per_mm;
   o.material = p.scene.material;
   o.solver = p.scene.solver;
   o.routing = p.scene.routing;
@@ -118,14 +128,22 @@ int run_render(const RenderArgs& a) {
   if (!(a.at_s >= 0.0) || !std::isfinite(a.at_s))
     throw invalid_input("--at", "must be a time >= 0 s");
   render::Style style;
-  if (a.inner == "hidden") style.inner = render::InnerLayers::kHidden;
-  else if (a.inner == "translucent") style.inner = render::InnerLayers::kTranslucent;
-  else if (a.inner == "wireframe") style.inner = render::InnerLayers::kWireframe;
-  else throw invalid_input("--inner", "expected hidden, translucent or wireframe, got '" + a.inner + "'");
+  if (a.inner == "hidden")
+    style.inner = render::InnerLayers::kHidden;
+  else if (a.inner == "translucent")
+    style.inner = render::InnerLayers::kTranslucent;
+  else if (a.inner == "wireframe")
+    style.inner = render::InnerLayers::kWireframe;
+  else
+    throw invalid_input("--inner",
+                        "expected hidden, translucent or wireframe, got '" + a.inner + "'");
   if (style.inner != render::InnerLayers::kHidden) style.skin_alpha = 0.35f;
-  if (a.color == "organ") style.coloring = render::Coloring::kOrgan;
-  else if (a.color == "displacement") style.coloring = render::Coloring::kDisplacement;
-  else throw invalid_input("--color", "expected organ or displacement, got '" + a.color + "'");
+  if (a.color == "organ")
+    style.coloring = render::Coloring::kOrgan;
+  else if (a.color == "displacement")
+    style.coloring = render::Coloring::kDisplacement;
+  else
+    throw invalid_input("--color", "expected organ or displacement, got '" + a.color + "'");
   style.springs = a.springs;
   if (a.white) style.background = {1.0f, 1.0f, 1.0f, 1.0f};
   const CameraOption view = parse_camera(a.camera);  // checked before the (slow) model
@@ -158,8 +176,10 @@ int run_render(const RenderArgs& a) {
     const Eigen::Vector3d at = s.x.row(node).transpose();
     const Eigen::Vector3d len = driver.tools[t].force_mn * (60.0 / 1000.0);  // 60 mm per N
     render::Arrow arrow;
-    if (len.dot(at - centre) < 0) arrow.from = at - len, arrow.to = at;
-    else arrow.from = at, arrow.to = at + len;
+    if (len.dot(at - centre) < 0)
+      arrow.from = at - len, arrow.to = at;
+    else
+      arrow.from = at, arrow.to = at + len;
     frame.arrows.push_back(arrow);
     frame.markers.push_back({at, r, {0.2f, 0.9f, 0.3f, 1.0f}});
     frame.rings.push_back({node, p.scene.routing.locality});

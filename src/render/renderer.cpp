@@ -142,8 +142,8 @@ void add_arrow(std::vector<OverlayVertex>& out, const Arrow& a, double scene_rad
 Eigen::Vector4f displacement_color(const Eigen::Vector3f& organ, float t) {
   t = std::clamp(t, 0.0f, 1.0f);
   const Eigen::Vector3f mid(0.95f, 0.50f, 0.10f), top(1.0f, 0.95f, 0.55f);
-  const Eigen::Vector3f c = t < 0.5f ? organ + (mid - organ) * (2.0f * t)
-                                     : mid + (top - mid) * (2.0f * t - 1.0f);
+  const Eigen::Vector3f c =
+      t < 0.5f ? organ + (mid - organ) * (2.0f * t) : mid + (top - mid) * (2.0f * t - 1.0f);
   return {c[0], c[1], c[2], 1.0f};
 }
 

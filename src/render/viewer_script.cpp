@@ -72,7 +72,8 @@ std::vector<ScriptEvent> load_viewer_script(const std::string& path) {
           throw invalid_input(at, "expected a number of wheel clicks");
         ev.scroll = value.get<double>();
       } else if (key == "mode") {
-        if (value != "drag" && value != "tool") throw invalid_input(at, "expected \"drag\" or \"tool\"");
+        if (value != "drag" && value != "tool")
+          throw invalid_input(at, "expected \"drag\" or \"tool\"");
         ev.mode = value.get<std::string>();
       } else if (key == "key") {
         if (value != "r" && value != "space" && value != "c" && value != "t")
@@ -86,8 +87,9 @@ std::vector<ScriptEvent> load_viewer_script(const std::string& path) {
         if (!value.is_boolean()) throw invalid_input(at, "expected true");
         ev.quit = value.get<bool>();
       } else {
-        throw invalid_input(at, "unknown key (known: at, mouse, over, press, release, shift, "
-                                "scroll, mode, key, screenshot, quit)");
+        throw invalid_input(at,
+                            "unknown key (known: at, mouse, over, press, release, shift, "
+                            "scroll, mode, key, screenshot, quit)");
       }
     }
     events.push_back(ev);

@@ -35,7 +35,8 @@ struct ViewerModel {
   std::string source;          ///< shown in the title bar and panels
   /// Forces acting from the start (pinned), e.g. a scene's tools: skin node and force in mN.
   std::vector<std::pair<int32_t, Eigen::Vector3d>> pinned;
-  int32_t watched_node = -1;  ///< node whose displacement is plotted at first; -1 = the first pinned
+  int32_t watched_node =
+      -1;  ///< node whose displacement is plotted at first; -1 = the first pinned
 };
 
 /// Rebuilds the model with other layer counts or resolution (from the viewer's Model panel).
@@ -46,12 +47,14 @@ using RebuildFn =
 struct ViewerOptions {
   int width = 1400, height = 900;
   std::string title = "Lamina";
-  double rate_hz = 1000.0;        ///< simulation steps per wall second; 0 = as fast as possible
-  double gain_n_per_mm = 0.05;    ///< drag force per mm of drag (the scene files' default)
-  sim::Material material;         ///< start values of the panels
+  double rate_hz = 1000.0;  ///< simulation steps per wall second; 0 = as fast as possible
+  /// Drag force per mm of drag. Lower than the scene files' 0.05: a mouse drags 100 mm easily,
+  /// and 1 N already dents the paper's K = 3 N/m model by about 20 mm.
+  double gain_n_per_mm = 0.01;
+  sim::Material material;  ///< start values of the panels
   sim::SolverOptions solver;
   interact::RoutingOptions routing;
-  RebuildFn rebuild;              ///< empty: the Model panel cannot rebuild
+  RebuildFn rebuild;  ///< empty: the Model panel cannot rebuild
   /// Scripted input (docs/viewer.md): a JSON file of timed mouse, key and screenshot events,
   /// fed through the same code as the real mouse. For tests, demos and recordings.
   std::string script;
@@ -59,6 +62,14 @@ struct ViewerOptions {
   /// displacement...); empty = none.
   std::string report;
 };
+
+/// Throws lamina::Error (kUnavailable) if no display can be reached (DISPLAY and WAYLAND_DISPLAY
+/// unset), with a message suggesting `lamina render`. Cheap: call it before long work.
+void check_display();
+
+/// Reads and checks a scripted-input file without opening anything.
+/// \note Throws lamina::Error (kInvalidInput) "PATH: events[i].key: problem".
+void check_viewer_script(const std::string& path);
 
 class Viewer {
  public:

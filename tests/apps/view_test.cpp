@@ -1,0 +1,149 @@
+// The viewer and the pictures, end to end with the real binary: `lamina view` under Xvfb driven
+// by its scripted input and by real X events (xdotool), `lamina render` with no display at all,
+// and `lamina figures` writing every file.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "support/run_cli.h"
+#include "support/temp_dir.h"
+
+namespace lamina {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using test::quoted;
+
+constexpr const char* kXvfb = "xvfb-run -a -s '-screen 0 1600x1000x24' ";
+
+// Runs a shell command from a script file in `dir` (no nested quoting).
+test::RunResult run_shell(const test::TempDir& dir, const std::string& command,
+                          const std::string& name = "command.sh") {
+  std::ofstream(dir.path / name) << command << "\n";
+  return test::run_cli("/bin/sh", dir.path, dir.path, name);
+}
+
+bool is_png(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  char sig[4] = {};
+  in.read(sig, 4);
+  return in && sig[1] == 'P' && sig[2] == 'N' && sig[3] == 'G';
+}
+
+TEST(View, ScriptedDragMovesTheSkinAndReleaseLetsItReturn) {
+  test::TempDir dir;
+  std::ofstream(dir.path / "drag.json") << R"({"events": [
+    {"at": 0.5, "mouse": [0.5, 0.5]},
+    {"at": 0.7, "press": "left"},
+    {"at": 0.8, "mouse": [0.5, 0.35], "over": 0.8},
+    {"at": 2.0, "screenshot": "dragged.png"},
+    {"at": 2.2, "release": "left"},
+    {"at": 5.0, "quit": true}]})";
+  const auto r = run_shell(dir, std::string(kXvfb) + quoted(LAMINA_CLI) +
+                                    " view --script drag.json --report report.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json rep = json::parse(test::read_text(dir.path / "report.json"));
+  EXPECT_EQ(rep["drags"], 1);
+  EXPECT_GE(rep["frames"].get<int>(), 10) << "the window did not keep drawing";
+  EXPECT_GT(rep["sim_steps"].get<int>(), 500) << "the simulation thread did not run";
+  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 2.0) << "the drag did not move the skin";
+  EXPECT_LT(rep["final_max_displacement_mm"].get<double>(),
+            0.8 * rep["max_displacement_mm"].get<double>())
+      << "the organ did not start back to rest after release";
+  EXPECT_EQ(rep["recoveries"], 0);
+  EXPECT_TRUE(is_png(dir.path / "dragged.png"));
+  EXPECT_FALSE(fs::exists(dir.path / "imgui.ini")) << "stray file";
+}
+
+TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
+  test::TempDir dir;
+  std::ofstream(dir.path / "quit.json") << R"({"events": [{"at": 7.0, "quit": true}]})";
+  // The viewer waits for the X events; xdotool presses at the window's centre (the organ) and
+  // drags upwards in steps, then lets go.
+  const std::string session =
+      quoted(LAMINA_CLI) + " view --script quit.json --report report.json & " +
+      "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
+      "xdotool mousemove --window $w 700 450 sleep 0.3 mousedown 1 sleep 0.3 "
+      "mousemove --window $w 700 420 sleep 0.2 mousemove --window $w 700 380 sleep 0.2 "
+      "mousemove --window $w 700 340 sleep 1.5 mouseup 1; wait";
+  std::ofstream(dir.path / "session.sh") << session << "\n";
+  const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json rep = json::parse(test::read_text(dir.path / "report.json"));
+  EXPECT_EQ(rep["drags"], 1) << "the press on the organ was not seen";
+  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 2.0);
+}
+
+TEST(View, WithoutADisplaySaysSoAndSuggestsRender) {
+  test::TempDir dir;
+  const auto r =
+      run_shell(dir, "env -u DISPLAY -u WAYLAND_DISPLAY " + quoted(LAMINA_CLI) + " view");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.err.find("no display"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("lamina render"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+TEST(View, BadScriptIsRejectedBeforeAnyWindow) {
+  test::TempDir dir;
+  std::ofstream(dir.path / "bad.json") << R"({"events": [{"at": 1, "press": "thumb"}]})";
+  const auto r =
+      run_shell(dir, std::string(kXvfb) + quoted(LAMINA_CLI) + " view --script bad.json");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("bad.json: events[0].press"), std::string::npos) << r.err;
+}
+
+TEST(Render, WritesAPictureWithNoDisplayAndRejectsBadOptions) {
+  test::TempDir dir;
+  auto r = run_shell(dir, "env -u DISPLAY " + quoted(LAMINA_CLI) +
+                              " render phantom -o poke.png --at 0.8 --size 320x240");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(is_png(dir.path / "poke.png"));
+  EXPECT_NE(r.out.find("1 tool(s) acting"), std::string::npos) << r.out;
+
+  r = run_shell(dir, quoted(LAMINA_CLI) + " render phantom -o bad.png --camera 10,100");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--camera"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir.path / "bad.png"));
+  r = run_shell(dir, quoted(LAMINA_CLI) + " render phantom -o picture.jpg");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_FALSE(fs::exists(dir.path / "picture.jpg"));
+}
+
+TEST(Figures, QuickRunWritesEveryFigureAndItsData) {
+  test::TempDir dir;
+  const auto r = run_shell(dir, quoted(LAMINA_CLI) + " figures --quick -o figs");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* png :
+       {"fig4_trajectories.png", "fig5_timing.png", "fig6_snapshots.png", "volume_change.png"})
+    EXPECT_TRUE(is_png(dir.path / "figs" / png)) << png;
+  // Figure 5's data: every locality converged at both thresholds, and the stricter threshold
+  // never needs fewer steps.
+  std::ifstream csv(dir.path / "figs" / "fig5_timing.csv");
+  std::string line;
+  std::getline(csv, line);
+  int rows = 0;
+  long previous_steps = 0;
+  while (std::getline(csv, line)) {
+    int n = 0, converged = 0;
+    double threshold = 0, ms = 0;
+    long steps = 0;
+    ASSERT_EQ(
+        std::sscanf(line.c_str(), "%d,%lf,%lf,%ld,%d", &n, &threshold, &ms, &steps, &converged), 5)
+        << line;
+    EXPECT_EQ(converged, 1) << line;
+    if (threshold < 5e-4) EXPECT_GE(steps, previous_steps) << line;
+    previous_steps = steps;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 6);
+  for (const auto& e : fs::directory_iterator(dir.path / "figs"))
+    EXPECT_EQ(e.path().extension() == ".tmp", false) << e.path();
+}
+
+}  // namespace
+}  // namespace lamina
