@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Quick start on a fresh Debian 12 machine: install the dependencies, build Lamina, and run the
-# main job on the built-in phantom (phantom -> multi-layer model -> summary -> exported meshes).
+# main job on the built-in phantom (phantom -> multi-layer model -> summary -> exported meshes ->
+# rendered pictures, no display needed).
 # Outputs go to ./out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,6 +16,10 @@ mkdir -p out
 "$lamina" build out/liver_phantom.nii.gz -o out/liver_model.vtu
 "$lamina" export out/liver_model.vtu -o out/liver_skin.obj
 "$lamina" export out/liver_model.vtu --layer 1 -o out/liver_layer1.obj
+"$lamina" render out/liver_model.vtu --inner wireframe -o out/liver_model.png
+"$lamina" render out/liver_phantom.nii.gz --at 1 --rings -o out/liver_poke.png
 echo
-echo "Done. Open out/liver_model.vtu in ParaView, or the meshes out/liver_skin.obj and"
-echo "out/liver_layer1.obj in any mesh viewer. Run the tests with: ctest --preset release -j2"
+echo "Done. Pictures: out/liver_model.png, out/liver_poke.png. Open out/liver_model.vtu in"
+echo "ParaView, or the meshes out/liver_skin.obj and out/liver_layer1.obj in any mesh viewer."
+echo "With a display: $lamina view  (drag the organ with the mouse)."
+echo "Run the tests with: ctest --preset release -j2"

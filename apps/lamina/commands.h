@@ -99,6 +99,7 @@ struct RenderArgs {
   std::string inner = "hidden";  ///< hidden, translucent, wireframe
   std::string color = "organ";   ///< organ, displacement
   bool springs = false;
+  bool rings = false;  ///< colour the contacts' BFS rings (paper fig. 2)
   bool white = false;  ///< white background (print)
   bool verbose = false;
 };

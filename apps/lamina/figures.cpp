@@ -273,7 +273,7 @@ int run_figures(const FiguresArgs& a) {
                  fmt::format("set output {}\n", quote(out / "volume_change.png.tmp")) +
                  "set title 'Skin volume change under the same poke (0-1 s)'\n"
                  "set xlabel 'time (s)'\nset ylabel 'skin volume change (%)'\n"
-                 "set key bottom right box opaque\n"
+                 "set key right center box opaque\n"
                  "set object 1 rect from 0,graph 0 to 1,graph 1 fc rgb '#f3e9d2' fs solid "
                  "noborder behind\n" +
                  fmt::format("plot {0} using 1:2 with lines lc rgb '#1f77b4' title "

@@ -131,6 +131,7 @@ int main(int argc, char** argv) {
   re->add_option("--inner", rend.inner, "inner layers: hidden (default), translucent, wireframe");
   re->add_option("--color", rend.color, "skin colour: organ (default) or displacement");
   re->add_flag("--springs", rend.springs, "draw every spring");
+  re->add_flag("--rings", rend.rings, "colour each contact's BFS rings (the paper's figure 2)");
   re->add_flag("--white", rend.white, "white background (for print)");
 
   cli::FiguresArgs figs;

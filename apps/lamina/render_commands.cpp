@@ -182,7 +182,7 @@ int run_render(const RenderArgs& a) {
       arrow.from = at, arrow.to = at + len;
     frame.arrows.push_back(arrow);
     frame.markers.push_back({at, r, {0.2f, 0.9f, 0.3f, 1.0f}});
-    frame.rings.push_back({node, p.scene.routing.locality});
+    if (a.rings) frame.rings.push_back({node, p.scene.routing.locality});
   }
   render::Camera camera = render::fit_camera(m, view.azimuth_deg, view.elevation_deg);
   if (view.distance_mm > 0.0) camera.distance_mm = view.distance_mm;

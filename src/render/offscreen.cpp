@@ -119,18 +119,8 @@ Image render_image(Renderer& renderer, const Frame& frame, const Camera& camera,
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo[1]);
   glBlitFramebuffer(0, 0, width, height, 0, 0, width, height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
 
-  Image img;
-  img.width = width;
-  img.height = height;
-  img.rgba.resize(static_cast<size_t>(width) * height * 4);
   glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo[1]);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
-  // OpenGL's rows run bottom to top; images run top to bottom.
-  const size_t row = static_cast<size_t>(width) * 4;
-  for (int y = 0; y < height / 2; ++y)
-    std::swap_ranges(img.rgba.begin() + y * row, img.rgba.begin() + (y + 1) * row,
-                     img.rgba.begin() + (height - 1 - y) * row);
+  Image img = read_pixels(width, height);
 
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(old_draw));
   glBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<GLuint>(old_read));
@@ -139,6 +129,22 @@ Image render_image(Renderer& renderer, const Frame& frame, const Camera& camera,
   glDeleteRenderbuffers(3, rbo);
   if (!complete)
     throw Error(ErrorKind::kUnavailable, "OpenGL: the offscreen framebuffer is incomplete");
+  return img;
+}
+
+Image read_pixels(int width, int height) {
+  Image img;
+  img.width = width;
+  img.height = height;
+  img.rgba.resize(static_cast<size_t>(width) * height * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
+  // OpenGL's rows run bottom to top; images run top to bottom.
+  const size_t row = static_cast<size_t>(width) * 4;
+  for (int y = 0; y < height / 2; ++y)
+    std::swap_ranges(img.rgba.begin() + y * row, img.rgba.begin() + (y + 1) * row,
+                     img.rgba.begin() + (height - 1 - y) * row);
+  for (size_t i = 3; i < img.rgba.size(); i += 4) img.rgba[i] = 255;  // a window's alpha is noise
   return img;
 }
 

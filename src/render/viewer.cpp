@@ -132,6 +132,7 @@ struct Viewer::Impl {
   int64_t drags = 0;
   std::vector<std::string> screenshots;
   std::string status;
+  std::string window_shot;  // taken after the panels are drawn, before the buffers swap
   char screenshot_path[512] = "";
   char export_path[512] = "lamina_skin.obj";
 
@@ -236,6 +237,7 @@ struct Viewer::Impl {
       if (!e.mode.empty()) tool_mode = e.mode == "tool";
       if (!e.key.empty()) keys.push_back(e.key);
       if (!e.screenshot.empty()) save_screenshot(e.screenshot);
+      if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
       if (e.quit) quit = true;
     }
     return keys;
@@ -381,7 +383,7 @@ struct Viewer::Impl {
 
   void panels() {
     ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
-    ImGui::SetNextWindowSize(ImVec2(380, 0), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowSize(ImVec2(440, 0), ImGuiCond_FirstUseEver);
     ImGui::Begin("Lamina");
     const Model& m = vm->model;
     ImGui::TextWrapped("%s", vm->source.c_str());
@@ -512,8 +514,8 @@ struct Viewer::Impl {
     ImGui::End();
 
     ImGui::SetNextWindowPos(ImVec2(static_cast<float>(width()) - 430, 10), ImGuiCond_FirstUseEver);
-    ImGui::SetNextWindowSize(ImVec2(420, 0), ImGuiCond_FirstUseEver);
-    ImGui::Begin("Plots (last 10 s)");
+    ImGui::SetNextWindowSize(ImVec2(420, 370), ImGuiCond_FirstUseEver);
+    ImGui::Begin("Plots (last 600 frames)");
     plot("displacement of node " + std::to_string(watched) + ", mm", h_displacement);
     plot("skin volume change, %", h_volume);
     plot("step time, us", h_step_us);
@@ -530,7 +532,8 @@ struct Viewer::Impl {
     if (hi - lo < 1e-6f) hi = lo + 1e-6f;
     const std::string overlay = fmt::format("{}: {:.4g}", label, h.last());
     ImGui::PlotLines(("##" + label).c_str(), h.values.data(), History::kLength, h.next,
-                     overlay.c_str(), lo, hi, ImVec2(-1, 70));
+                     overlay.c_str(), lo, hi,
+                     ImVec2(std::max(ImGui::GetContentRegionAvail().x, 100.0f), 70));
   }
 
   void record_plots() {
@@ -734,6 +737,17 @@ int Viewer::show() {
       glfwGetFramebufferSize(v.window, &fw, &fh);
       if (fw > 0 && fh > 0) v.renderer->draw(v.make_frame(), v.camera, fw, fh);
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      if (!v.window_shot.empty() && fw > 0 && fh > 0) {
+        glReadBuffer(GL_BACK);
+        const Image img = read_pixels(fw, fh);
+        try {
+          write_png(img, v.window_shot);
+          v.screenshots.push_back(v.window_shot);
+        } catch (const Error& e) {
+          v.status = e.what();
+        }
+        v.window_shot.clear();
+      }
       glfwSwapBuffers(v.window);
       ++v.frames;
       v.frame_seconds += seconds_since(frame_start);

@@ -83,13 +83,17 @@ std::vector<ScriptEvent> load_viewer_script(const std::string& path) {
         if (!value.is_string() || value.get<std::string>().empty())
           throw invalid_input(at, "expected a PNG path");
         ev.screenshot = value.get<std::string>();
+      } else if (key == "window_screenshot") {
+        if (!value.is_string() || value.get<std::string>().empty())
+          throw invalid_input(at, "expected a PNG path");
+        ev.window_screenshot = value.get<std::string>();
       } else if (key == "quit") {
         if (!value.is_boolean()) throw invalid_input(at, "expected true");
         ev.quit = value.get<bool>();
       } else {
         throw invalid_input(at,
                             "unknown key (known: at, mouse, over, press, release, shift, "
-                            "scroll, mode, key, screenshot, quit)");
+                            "scroll, mode, key, screenshot, window_screenshot, quit)");
       }
     }
     events.push_back(ev);

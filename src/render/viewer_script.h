@@ -18,7 +18,8 @@ struct ScriptEvent {
   double scroll = 0.0;                   ///< wheel clicks (> 0 away from the user)
   std::string mode;                      ///< "drag" or "tool"
   std::string key;                       ///< "r" reset, "space" pause, "c" release pinned, "t"
-  std::string screenshot;                ///< PNG path
+  std::string screenshot;                ///< PNG path: the 3-D view, without the panels
+  std::string window_screenshot;         ///< PNG path: the whole window, panels included
   bool quit = false;
 };
 

@@ -44,6 +44,9 @@ class HeadlessContext {
 Image render_image(Renderer& renderer, const Frame& frame, const Camera& camera, int width,
                    int height);
 
+/// Reads the bound read framebuffer's width x height pixels (rows top to bottom, opaque).
+Image read_pixels(int width, int height);
+
 /// Writes `image` as a PNG, atomically (temp file, then rename).
 /// \note Throws lamina::Error (kOutput) naming `path`.
 void write_png(const Image& image, const std::string& path);
