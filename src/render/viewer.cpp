@@ -129,7 +129,7 @@ struct Viewer::Impl {
   bool quit = false;
   int64_t frames = 0;
   double max_displacement_mm = 0.0, frame_seconds = 0.0;
-  int64_t drags = 0;
+  int64_t drags = 0, rebuilds = 0;
   std::vector<std::string> screenshots;
   std::string status;
   std::string window_shot;  // taken after the panels are drawn, before the buffers swap
@@ -140,6 +140,7 @@ struct Viewer::Impl {
   std::unique_ptr<Renderer> renderer;
 
   void start_loop() {
+    routing.locality = std::min(routing.locality, vm->model.rings.locality);
     sim::Simulation s = sim::make_simulation(vm->model, material, solver);
     sim::fix_nodes(s, vm->fixed);
     interact::LoopOptions lo;
@@ -156,7 +157,6 @@ struct Viewer::Impl {
     watched = vm->watched_node >= 0 ? vm->watched_node : (pinned.empty() ? 0 : pinned[0].node);
     rebuild_layers = vm->model.layer_count();
     rebuild_vertices = vm->model.layers.empty() ? 0 : vm->model.layers[0].node_count;
-    routing.locality = std::min(routing.locality, vm->model.rings.locality);
   }
 
   void push_parameters() {
@@ -238,6 +238,11 @@ struct Viewer::Impl {
       if (!e.key.empty()) keys.push_back(e.key);
       if (!e.screenshot.empty()) save_screenshot(e.screenshot);
       if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
+      if (e.rebuild_layers > 0) {
+        rebuild_layers = e.rebuild_layers;
+        rebuild_vertices = e.rebuild_skin_vertices;
+        start_rebuild();
+      }
       if (e.quit) quit = true;
     }
     return keys;
@@ -583,6 +588,7 @@ struct Viewer::Impl {
     vm = std::move(next);
     gesture = Gesture::kNone;
     start_loop();
+    ++rebuilds;
     status = fmt::format("rebuilt: {} nodes, {} layers", vm->model.node_count(),
                          vm->model.layer_count());
   }
@@ -602,6 +608,8 @@ struct Viewer::Impl {
     j["drags"] = drags;
     j["pinned_forces"] = pinned.size();
     j["nodes"] = vm->model.node_count();
+    j["layers"] = vm->model.layer_count();
+    j["rebuilds"] = rebuilds;
     j["screenshots"] = screenshots;
     const std::string text = j.dump(2);
     write_file_atomically(options.report, [&](std::ostream& out) { out << text << "\n"; });

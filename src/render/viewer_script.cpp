@@ -87,13 +87,22 @@ std::vector<ScriptEvent> load_viewer_script(const std::string& path) {
         if (!value.is_string() || value.get<std::string>().empty())
           throw invalid_input(at, "expected a PNG path");
         ev.window_screenshot = value.get<std::string>();
+      } else if (key == "rebuild") {
+        if (!value.is_object() || !value.contains("layers") ||
+            !value["layers"].is_number_integer() || !value.contains("skin_vertices") ||
+            !value["skin_vertices"].is_number_integer())
+          throw invalid_input(at, "expected {\"layers\": S, \"skin_vertices\": N}");
+        ev.rebuild_layers = value["layers"].get<int>();
+        ev.rebuild_skin_vertices = value["skin_vertices"].get<int>();
+        if (ev.rebuild_layers < 1 || ev.rebuild_layers > 16 || ev.rebuild_skin_vertices < 50)
+          throw invalid_input(at, "layers must be 1..16 and skin_vertices >= 50");
       } else if (key == "quit") {
         if (!value.is_boolean()) throw invalid_input(at, "expected true");
         ev.quit = value.get<bool>();
       } else {
         throw invalid_input(at,
                             "unknown key (known: at, mouse, over, press, release, shift, "
-                            "scroll, mode, key, screenshot, window_screenshot, quit)");
+                            "scroll, mode, key, screenshot, window_screenshot, rebuild, quit)");
       }
     }
     events.push_back(ev);

@@ -20,6 +20,8 @@ struct ScriptEvent {
   std::string key;                       ///< "r" reset, "space" pause, "c" release pinned, "t"
   std::string screenshot;                ///< PNG path: the 3-D view, without the panels
   std::string window_screenshot;         ///< PNG path: the whole window, panels included
+  int rebuild_layers = 0;                ///< > 0: rebuild the model with this many layers...
+  int rebuild_skin_vertices = 0;         ///< ...and about this many skin vertices
   bool quit = false;
 };
 

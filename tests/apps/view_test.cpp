@@ -59,6 +59,25 @@ TEST(View, ScriptedDragMovesTheSkinAndReleaseLetsItReturn) {
   EXPECT_FALSE(fs::exists(dir.path / "imgui.ini")) << "stray file";
 }
 
+TEST(View, RebuildSwapsTheModelUnderTheRunningSimulation) {
+  test::TempDir dir;
+  std::ofstream(dir.path / "rebuild.json") << R"({"events": [
+    {"at": 0.3, "rebuild": {"layers": 3, "skin_vertices": 800}},
+    {"at": 5.0, "mouse": [0.5, 0.5]},
+    {"at": 5.2, "press": "left"},
+    {"at": 5.3, "mouse": [0.5, 0.4], "over": 0.5},
+    {"at": 6.5, "release": "left"},
+    {"at": 7.0, "quit": true}]})";
+  const auto r = run_shell(dir, std::string(kXvfb) + quoted(LAMINA_CLI) +
+                                    " view --script rebuild.json --report report.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json rep = json::parse(test::read_text(dir.path / "report.json"));
+  EXPECT_EQ(rep["rebuilds"], 1) << "the rebuild did not finish within 5 s";
+  EXPECT_EQ(rep["layers"], 3);
+  EXPECT_EQ(rep["drags"], 1) << "dragging the rebuilt model failed";
+  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 1.0);
+}
+
 TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
   test::TempDir dir;
   std::ofstream(dir.path / "quit.json") << R"({"events": [{"at": 7.0, "quit": true}]})";
