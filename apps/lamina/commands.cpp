@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <iostream>
 #include <regex>
+#include <thread>
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
@@ -255,13 +256,15 @@ void write_pvd(const Series& series, const fs::path& out) {
 
 constexpr const char* kMetricsHeader =
     "time_s,max_displacement_mm,skin_volume_ml,volume_change_pct,kinetic_energy_j,step_us,"
-    "converged,active_tools\n";
+    "converged,active_tools,reaction_x_mn,reaction_y_mn,reaction_z_mn\n";
 
 void append_metrics(std::string& csv, double time_s, const sim::StepStats& st, double step_us,
-                    int active_tools) {
-  fmt::format_to(std::back_inserter(csv), "{:.10g},{:.9g},{:.9g},{:.9g},{:.9g},{:.2f},{},{}\n",
-                 time_s, st.max_displacement_mm, st.skin_volume_mm3 / 1000.0, st.volume_change_pct,
-                 st.kinetic_energy_j, step_us, st.converged ? 1 : 0, active_tools);
+                    int active_tools, const Eigen::Vector3d& reaction) {
+  fmt::format_to(std::back_inserter(csv),
+                 "{:.10g},{:.9g},{:.9g},{:.9g},{:.9g},{:.2f},{},{},{:.6g},{:.6g},{:.6g}\n", time_s,
+                 st.max_displacement_mm, st.skin_volume_mm3 / 1000.0, st.volume_change_pct,
+                 st.kinetic_energy_j, step_us, st.converged ? 1 : 0, active_tools, reaction.x(),
+                 reaction.y(), reaction.z());
 }
 
 double max_rest_distance(const sim::Simulation& s) {
@@ -336,6 +339,15 @@ int run_run(const RunArgs& a) {
   sim::StepStats st;
   auto last_report = Clock::now();
   const double report_every_s = tty ? 0.1 : 2.0;
+  if (a.realtime && !(a.rate_hz > 0.0 && a.rate_hz <= 1e6))
+    throw invalid_input("--rate", "must be in (0, 1e6] steps per second");
+  const auto period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(a.realtime ? 1.0 / a.rate_hz : 0.0));
+  auto tick = Clock::now();
+  const auto loop_start = Clock::now();
+  std::vector<double> lateness_us;
+  if (a.realtime) lateness_us.reserve(step_us.capacity());
+  double max_reaction_mn = 0.0;
   for (int64_t k = 0; k < scene.solver.max_steps; ++k) {
     const bool settling = s.time_s >= settle_from;
     const auto t0 = Clock::now();
@@ -343,6 +355,17 @@ int run_run(const RunArgs& a) {
     st = sim::step(s);
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     step_us.push_back(us);
+    const Eigen::Vector3d reaction = interact::reaction_force(s);
+    max_reaction_mn = std::max(max_reaction_mn, reaction.norm());
+    if (a.realtime) {
+      // A haptic loop: the next step starts at its tick, not as soon as this one ends. Lateness
+      // is measured against the tick; a loop that falls far behind restarts its schedule.
+      tick += period;
+      const auto now = Clock::now();
+      if (now - tick > 50 * period) tick = now;
+      std::this_thread::sleep_until(tick);
+      lateness_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - tick).count());
+    }
     const int active = static_cast<int>(std::count(driver.active.begin(), driver.active.end(), 1));
     max_displacement = std::max(max_displacement, st.max_displacement_mm);
     max_abs_volume = std::max(max_abs_volume, std::abs(st.volume_change_pct));
@@ -356,7 +379,7 @@ int run_run(const RunArgs& a) {
     }
     if (scene.output.metrics_every_step || frame_due || converged ||
         k + 1 == scene.solver.max_steps)
-      append_metrics(csv, s.time_s, st, us, active);
+      append_metrics(csv, s.time_s, st, us, active, reaction);
     if (converged) break;
 
     if (progress && seconds_since(last_report) >= report_every_s) {
@@ -418,6 +441,17 @@ int run_run(const RunArgs& a) {
     sum.median_step_us = *mid;
   }
   sum.frames = frame;
+  sum.max_reaction_n = max_reaction_mn / 1000.0;
+  if (a.realtime) {
+    sum.realtime = true;
+    sum.rate_hz = a.rate_hz;
+    sum.achieved_rate_hz = static_cast<double>(s.steps) / std::max(seconds_since(loop_start), 1e-9);
+    if (!lateness_us.empty()) {
+      std::sort(lateness_us.begin(), lateness_us.end());
+      sum.worst_jitter_us = lateness_us.back();
+      sum.p99_jitter_us = lateness_us[static_cast<size_t>(0.99 * (lateness_us.size() - 1))];
+    }
+  }
   sum.wall_seconds = seconds_since(t_start);
   const std::string json = io::run_summary_json(sum);
   write_file_atomically((out / "summary.json").string(),
@@ -435,6 +469,11 @@ int run_run(const RunArgs& a) {
         converged ? "converged" : "NOT converged", sum.steps, sum.sim_seconds, sum.wall_seconds,
         sum.steps_per_second, sum.max_displacement_mm, sum.max_abs_volume_change_pct,
         sum.final_rest_error_mm, a.output, series.size() > 1 ? "skin.pvd, layer*" : "skin", frame);
+    if (sum.realtime)
+      std::cout << fmt::format(
+          "  realtime: {:.0f} steps/s achieved of {:.0f}; step start late by {:.0f} us at worst, "
+          "{:.0f} us at the 99th percentile\n",
+          sum.achieved_rate_hz, sum.rate_hz, sum.worst_jitter_us, sum.p99_jitter_us);
   }
   return 0;
 }

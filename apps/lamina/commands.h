@@ -73,6 +73,8 @@ struct RunArgs {
   bool json = false;
   bool quiet = false;
   bool verbose = false;
+  bool realtime = false;  ///< pace the steps at rate_hz of wall time
+  double rate_hz = 1000.0;
 };
 /// Simulates a scene: writes OUTDIR/metrics.csv, summary.json, skin.pvd and frames/ (layout in
 /// docs/scenes.md).

@@ -103,6 +103,9 @@ int main(int argc, char** argv) {
                  "output folder (created): metrics.csv, summary.json, skin.pvd, frames/")
       ->required();
   ru->add_flag("--json", run.json, "also print the summary as one JSON object on stdout");
+  ru->add_flag("--realtime", run.realtime,
+               "pace the steps at --rate per wall second (a haptic loop); reports jitter");
+  ru->add_option("--rate", run.rate_hz, "steps per wall second with --realtime (default 1000)");
 
   cli::ViewArgs view;
   std::string view_size = "1400x900";

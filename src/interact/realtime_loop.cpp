@@ -223,23 +223,7 @@ void RealtimeLoop::publish(bool force) {
   if (!force && t - last_publish_s_ < options_.publish_interval_s) return;
   last_publish_s_ = t;
 
-  // The tissue's reaction: the spring and anchor forces on every free node that receives tool
-  // force (at rest under a held load, it balances the load; a fixed node's share goes into its
-  // support).
-  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
-  for (int32_t i = 0; i < sim_.f_ext.rows(); ++i) {
-    if (sim_.fixed[i] || sim_.f_ext.row(i).isZero()) continue;
-    for (int32_t a = sim_.adj_offsets[i]; a < sim_.adj_offsets[i + 1]; ++a) {
-      const int32_t j = sim_.adj_other[a], e = sim_.adj_spring[a];
-      const Eigen::Vector3d d = sim_.x.row(j) - sim_.x.row(i);
-      const double len = d.norm();
-      if (len > 1e-12)
-        reaction +=
-            sim_.stiffness_n_per_m[e] * (len - sim_.model->springs.rest_length_mm[e]) * (d / len);
-    }
-    reaction -=
-        sim_.material.anchor_stiffness_n_per_m * (sim_.x.row(i) - sim_.model->X.row(i)).transpose();
-  }
+  const Eigen::Vector3d reaction = reaction_force(sim_);
 
   std::lock_guard lock(snapshot_mutex_);
   LoopSnapshot& s = published_;

@@ -178,6 +178,22 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
   return any;
 }
 
+Eigen::Vector3d reaction_force(const sim::Simulation& s) {
+  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
+  for (int32_t i = 0; i < s.f_ext.rows(); ++i) {
+    if (s.fixed[i] || s.f_ext.row(i).isZero()) continue;
+    for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+      const int32_t j = s.adj_other[a], e = s.adj_spring[a];
+      const Eigen::Vector3d d = s.x.row(j) - s.x.row(i);
+      const double len = d.norm();
+      if (len > 1e-12)
+        reaction += s.stiffness_n_per_m[e] * (len - s.model->springs.rest_length_mm[e]) * (d / len);
+    }
+    reaction -= s.material.anchor_stiffness_n_per_m * (s.x.row(i) - s.model->X.row(i)).transpose();
+  }
+  return reaction;
+}
+
 double last_tool_end(const ToolDriver& d) {
   double end = 0.0;
   for (const Tool& t : d.tools) end = std::max(end, t.end_s);

@@ -536,6 +536,14 @@ std::string run_summary_json(const RunSummary& s) {
   j["mean_step_us"] = s.mean_step_us;
   j["median_step_us"] = s.median_step_us;
   j["frames"] = s.frames;
+  j["max_reaction_n"] = s.max_reaction_n;
+  j["realtime"] = s.realtime;
+  if (s.realtime) {
+    j["rate_hz"] = s.rate_hz;
+    j["achieved_rate_hz"] = s.achieved_rate_hz;
+    j["worst_jitter_us"] = s.worst_jitter_us;
+    j["p99_jitter_us"] = s.p99_jitter_us;
+  }
   return j.dump(2);
 }
 

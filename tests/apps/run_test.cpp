@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cctype>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -83,14 +84,14 @@ json check_run_folder(const fs::path& out) {
   if (!rows.empty())
     EXPECT_EQ(rows[0],
               "time_s,max_displacement_mm,skin_volume_ml,volume_change_pct,kinetic_energy_j,"
-              "step_us,converged,active_tools");
+              "step_us,converged,active_tools,reaction_x_mn,reaction_y_mn,reaction_z_mn");
   std::string lower = csv;
   std::transform(lower.begin(), lower.end(), lower.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   EXPECT_EQ(lower.find("nan"), std::string::npos);
   EXPECT_EQ(lower.find("inf"), std::string::npos);
   for (size_t k = 1; k < rows.size(); ++k)
-    EXPECT_EQ(std::count(rows[k].begin(), rows[k].end(), ','), 7) << "row " << k;
+    EXPECT_EQ(std::count(rows[k].begin(), rows[k].end(), ','), 10) << "row " << k;
 
   const json summary = json::parse(read_text(out / "summary.json"));
   const auto frames = read_pvd(out / "skin.pvd");
@@ -134,9 +135,15 @@ TEST(LaminaRun, PaperExampleConvergesAndWritesAPlayableSeries) {
   // One row per step; the tool acts for the first second only.
   const std::vector<std::string> rows = lines_of(read_text(dir.path / "out" / "metrics.csv"));
   EXPECT_EQ(static_cast<int64_t>(rows.size()) - 1, summary["steps"].get<int64_t>());
-  EXPECT_EQ(rows[1].substr(rows[1].rfind(',') + 1), "1");
-  EXPECT_EQ(rows.back().substr(rows.back().rfind(',') + 1), "0");
-  EXPECT_EQ(rows.back().substr(rows.back().rfind(',') - 1, 1), "1");  // converged at the end
+  auto column = [](const std::string& row, int k) {  // 6 = converged, 7 = active_tools
+    std::stringstream ss(row);
+    std::string cell;
+    for (int i = 0; i <= k; ++i) std::getline(ss, cell, ',');
+    return cell;
+  };
+  EXPECT_EQ(column(rows[1], 7), "1");
+  EXPECT_EQ(column(rows.back(), 7), "0");
+  EXPECT_EQ(column(rows.back(), 6), "1");  // converged at the end
 }
 
 // The organ's thickness along the first tool's force line: from the contact to where the line
@@ -290,6 +297,31 @@ TEST(LaminaRun, TwoToolsAtOnceBothDeformTheSkin) {
   EXPECT_LT(std::abs(d1(top, 2)), 0.5 * std::abs(d2(top, 2)));
   EXPECT_GT(d1(front, 1), 1.0) << "the first tool pushes the front back";
   EXPECT_GT(d2(front, 1), 1.0);
+}
+
+TEST(Run, RealtimeKeepsItsRateAndReportsTheReaction) {
+  test::TempDir dir;
+  std::ofstream(dir.path / "short.json") << R"({
+    "tools": [{"vertex": 0, "force_n": [0, 0, 0.3], "start_s": 0, "end_s": 0.5}],
+    "solver": {"max_steps": 400},
+    "output": {"frame_interval_s": 0}})";
+  const auto t0 = std::chrono::steady_clock::now();
+  const RunResult r = run_lamina(dir, "run short.json -o out --realtime --rate 400 --json");
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json sum = json::parse(read_text(dir.path / "out" / "summary.json"));
+  EXPECT_TRUE(sum["realtime"].get<bool>());
+  const double steps = sum["steps"].get<double>();
+  EXPECT_GE(wall, steps / 400.0 * 0.95) << "ran faster than its rate";
+  EXPECT_LE(sum["achieved_rate_hz"].get<double>(), 400.0 * 1.02);
+  EXPECT_GE(sum["worst_jitter_us"].get<double>(), sum["p99_jitter_us"].get<double>());
+  // While the tool pushes +z, the tissue pushes back (-z).
+  const std::vector<std::string> rows = lines_of(read_text(dir.path / "out" / "metrics.csv"));
+  ASSERT_GT(rows.size(), 30u);
+  double z = 0;
+  std::sscanf(rows[30].substr(rows[30].rfind(',') + 1).c_str(), "%lf", &z);
+  EXPECT_LT(z, 0.0) << rows[30];
+  EXPECT_GT(sum["max_reaction_n"].get<double>(), 0.0);
 }
 
 }  // namespace

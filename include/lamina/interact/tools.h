@@ -86,6 +86,12 @@ struct ToolDriver {
 /// @return true if any tool is active
 bool apply_tools(sim::Simulation& sim, ToolDriver& driver);
 
+/// The tissue's push back on the tools, mN: the spring and anchor forces on every free node that
+/// receives external force (a held node's share goes into its support). At rest under a held
+/// load it balances the load; a haptic device renders it. Costs a pass over the loaded nodes'
+/// springs only.
+Eigen::Vector3d reaction_force(const sim::Simulation& sim);
+
 /// The time after which no tool acts any more (0 with no tools; infinity if one never ends).
 double last_tool_end(const ToolDriver& driver);
 

@@ -125,6 +125,13 @@ struct RunSummary {
   double mean_step_us = 0.0;
   double median_step_us = 0.0;
   int32_t frames = 0;  ///< frames in each VTK series
+  /// --realtime: steps were paced at rate_hz of wall time (a haptic device's loop).
+  bool realtime = false;
+  double rate_hz = 0.0;           ///< the target rate (realtime only)
+  double achieved_rate_hz = 0.0;  ///< steps / wall time of the stepping loop (realtime only)
+  double worst_jitter_us = 0.0;   ///< latest start of a step after its tick (realtime only)
+  double p99_jitter_us = 0.0;     ///< 99th percentile of that lateness (realtime only)
+  double max_reaction_n = 0.0;    ///< largest |reaction force| of the tissue on the tools, N
 };
 
 /// One JSON object with every field of `summary` (keys as the field names; nan_detected =
