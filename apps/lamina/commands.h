@@ -117,4 +117,13 @@ struct FiguresArgs {
 /// The reference paper's figures 4-6 and a volume-change plot, on any organ.
 int run_figures(const FiguresArgs& args);
 
+struct BenchArgs {
+  bool json = false;
+  bool quick = false;  ///< paper-size and 10k models only, shorter timings (under a minute)
+  bool verbose = false;
+};
+/// Measures this machine: memory bandwidth, then build time, explicit and implicit step time and
+/// time from a poke to rest on phantom models of about 2k, 10k and 100k nodes.
+int run_bench(const BenchArgs& args);
+
 }  // namespace lamina::cli

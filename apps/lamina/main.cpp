@@ -145,6 +145,12 @@ int main(int argc, char** argv) {
                  "segmentation or DICOM folder (default: the built-in phantom)");
   fi->add_flag("--quick", figs.quick, "shorter runs and fewer localities (a CI smoke run)");
 
+  cli::BenchArgs bench;
+  auto* be = app.add_subcommand("bench",
+                                "measure this machine: step times, poke to rest, bandwidth floor");
+  be->add_flag("--json", bench.json, "print one JSON object (keys: docs/benchmarks.md)");
+  be->add_flag("--quick", bench.quick, "paper-size and 10k-node models only (under a minute)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -174,6 +180,10 @@ int main(int argc, char** argv) {
       rend.size = parse_image_size(render_size, "--size");
       rend.verbose = verbosity == 2;
       return cli::run_render(rend);
+    }
+    if (*be) {
+      bench.verbose = verbosity == 2;
+      return cli::run_bench(bench);
     }
     if (*fi) {
       figs.verbose = verbosity == 2;

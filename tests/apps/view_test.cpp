@@ -164,5 +164,26 @@ TEST(Figures, QuickRunWritesEveryFigureAndItsData) {
     EXPECT_EQ(e.path().extension() == ".tmp", false) << e.path();
 }
 
+TEST(Bench, QuickRunReportsEveryKeyForTwoModels) {
+  test::TempDir dir;
+  const auto r = run_shell(dir, quoted(LAMINA_CLI) + " bench --quick --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  EXPECT_GT(j["memory_bandwidth_gb_s"].get<double>(), 0.1);
+  ASSERT_EQ(j["models"].size(), 2u);
+  EXPECT_LT(j["models"][0]["nodes"].get<int>(), j["models"][1]["nodes"].get<int>());
+  for (const json& m : j["models"]) {
+    for (const char* integrator : {"explicit", "implicit"}) {
+      EXPECT_GT(m[integrator]["us_per_step"].get<double>(), 0.0);
+      EXPECT_GT(m[integrator]["steps_per_second"].get<double>(), 0.0);
+    }
+    const double fraction = m["explicit"]["fraction_of_floor"].get<double>();
+    EXPECT_GT(fraction, 0.0);
+    EXPECT_LT(fraction, 1.5) << "faster than the memory system allows: the floor model is wrong";
+    EXPECT_GT(m["build_seconds"].get<double>(), 0.0);
+  }
+  EXPECT_TRUE(j["models"][0]["poke_to_rest"]["converged"].get<bool>());
+}
+
 }  // namespace
 }  // namespace lamina

@@ -1,0 +1,232 @@
+// `lamina bench`: this machine's speed on models of three sizes built from the phantom, against
+// its own measured memory bandwidth. Keys of --json: docs/benchmarks.md.
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "commands.h"
+#include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/interact/tools.h"
+#include "lamina/io/scene.h"
+#include "lamina/model/build_model.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// STREAM's triad (a = b + s c) over arrays far larger than the caches, on every thread; the best
+// of several repeats, as STREAM reports. Bytes moved: 3 arrays x 8 bytes per element (the write
+// allocate of `a` is not counted, as in STREAM).
+double measure_bandwidth_gb_s(size_t elements, int repeats) {
+  std::vector<double> a(elements), b(elements, 1.0), c(elements, 2.0);
+  const auto n = static_cast<std::ptrdiff_t>(elements);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i) a[i] = 0.0;  // first touch on the threads that use it
+  double best = 0.0;
+  for (int r = 0; r < repeats; ++r) {
+    const auto t0 = Clock::now();
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i) a[i] = b[i] + 3.0 * c[i];
+    const double s = seconds_since(t0);
+    best = std::max(best, 3.0 * 8.0 * static_cast<double>(elements) / s / 1e9);
+  }
+  if (a[elements / 2] != 7.0) throw Error(ErrorKind::kInternal, "bandwidth kernel miscomputed");
+  return best;
+}
+
+struct SizeResult {
+  std::string name;
+  int32_t nodes = 0, skin_vertices = 0, layers = 0;
+  int64_t springs = 0;
+  double build_s = 0.0;
+  double explicit_us = 0.0, implicit_us = 0.0;
+  int32_t implicit_cg_iterations = 0;
+  double poke_to_rest_ms = 0.0;
+  int64_t poke_steps = 0;
+  bool poke_converged = false;
+  double floor_ns_per_spring = 0.0;
+};
+
+// Median microseconds per step over `batches` batches of `steps` steps, under a held poke (so
+// the step does real work: moving nodes, a non-zero external force).
+double time_steps(const Model& m, const std::vector<int32_t>& fixed, const interact::Tool& tool,
+                  sim::Integrator integrator, int steps, int batches,
+                  int32_t* cg_iterations = nullptr) {
+  sim::SolverOptions o;
+  o.integrator = integrator;
+  sim::Simulation s = sim::make_simulation(m, {}, o);
+  sim::fix_nodes(s, fixed);
+  interact::ToolDriver d;
+  d.tools = {tool};
+  d.tools[0].end_s = std::numeric_limits<double>::infinity();
+  interact::apply_tools(s, d);
+  for (int k = 0; k < std::max(10, steps / 5); ++k) sim::step(s);  // warm up: caches, pages
+  std::vector<double> us;
+  for (int b = 0; b < batches; ++b) {
+    const auto t0 = Clock::now();
+    sim::StepStats st;
+    for (int k = 0; k < steps; ++k) st = sim::step(s);
+    us.push_back(1e6 * seconds_since(t0) / steps);
+    if (cg_iterations) *cg_iterations = st.cg_iterations;
+  }
+  return median(us);
+}
+
+// The paper's poke (0.4 N for 1 s, local mode, N = P = 4, threshold 1e-3 mm) to rest: wall ms.
+double poke_to_rest_ms(const Model& m, const std::vector<int32_t>& fixed,
+                       const interact::Tool& tool, int64_t& steps, bool& converged) {
+  sim::SolverOptions o;
+  o.mode = sim::Mode::kLocal;
+  sim::Simulation s = sim::make_simulation(m, {}, o);
+  sim::fix_nodes(s, fixed);
+  interact::ToolDriver d;
+  d.tools = {tool};
+  int64_t quiet = 0;
+  converged = false;
+  const auto t0 = Clock::now();
+  while (s.steps < 200000) {
+    interact::apply_tools(s, d);
+    const sim::StepStats st = sim::step(s);
+    quiet = s.time_s > tool.end_s && st.converged ? quiet + 1 : 0;
+    if (quiet >= 10) {
+      converged = true;
+      break;
+    }
+  }
+  steps = s.steps;
+  return 1000.0 * seconds_since(t0);
+}
+
+}  // namespace
+
+int run_bench(const BenchArgs& a) {
+  const auto t_start = Clock::now();
+  const ProgressFn progress = stderr_progress(a.verbose);
+  const int threads = omp_get_max_threads();
+
+  report_progress(progress, "bench: memory bandwidth (STREAM triad)", 0.0);
+  const double bandwidth =
+      measure_bandwidth_gb_s(a.quick ? (size_t{1} << 23) : (size_t{1} << 25), a.quick ? 5 : 10);
+
+  struct Size {
+    const char* name;
+    int32_t skin_vertices, layers;
+  };
+  std::vector<Size> sizes = {{"paper", 1284, 2}, {"10k", 6500, 2}};
+  if (!a.quick) sizes.push_back({"100k", 33500, 5});
+
+  const LabelVolume phantom = geometry::make_phantom();
+  std::vector<SizeResult> results;
+  for (size_t k = 0; k < sizes.size(); ++k) {
+    const Size& z = sizes[k];
+    report_progress(progress, fmt::format("bench: building the {} model", z.name),
+                    0.05 + 0.9 * k / sizes.size());
+    model::BuildOptions bo;
+    bo.skin_vertices = z.skin_vertices;
+    bo.layers = z.layers;
+    const model::BuildResult built = model::build_model(phantom, bo);
+    const Model& m = built.model;
+    SizeResult r;
+    r.name = z.name;
+    r.nodes = m.node_count();
+    r.skin_vertices = m.layers[0].node_count;
+    r.layers = m.layer_count();
+    r.springs = static_cast<int64_t>(m.springs.size());
+    r.build_s = built.report.build_seconds;
+
+    io::Scene scene;  // the default poke and boundary, resolved on this model
+    io::resolve_scene_defaults(scene, m);
+    const std::vector<int32_t> fixed = io::fixed_scene_nodes(scene, m);
+    const interact::Tool& tool = scene.tools.front();
+
+    report_progress(progress, fmt::format("bench: stepping the {} model", z.name),
+                    0.05 + 0.9 * (k + 0.5) / sizes.size());
+    const int explicit_steps =
+        std::max(20, static_cast<int>(2e6 / std::max<int64_t>(r.springs, 1)));
+    r.explicit_us = time_steps(m, fixed, tool, sim::Integrator::kSemiImplicitEuler,
+                               a.quick ? explicit_steps / 4 : explicit_steps, 5);
+    r.implicit_us =
+        time_steps(m, fixed, tool, sim::Integrator::kImplicitEuler,
+                   std::max(5, explicit_steps / 20), a.quick ? 3 : 5, &r.implicit_cg_iterations);
+    if (k == 0 || !a.quick)
+      r.poke_to_rest_ms = poke_to_rest_ms(m, fixed, tool, r.poke_steps, r.poke_converged);
+
+    // The floor: the bytes one explicit step must move at least, at the measured bandwidth.
+    // Per spring: its two node indices, rest length and stiffness (4 + 4 + 8 + 8 bytes); per
+    // node: read x, v, f_ext and mass, write x and v (6 x 24 + 8 bytes). Neighbour positions are
+    // assumed to come from cache.
+    const double bytes = 24.0 * static_cast<double>(r.springs) + 152.0 * r.nodes;
+    r.floor_ns_per_spring = bytes / (bandwidth * 1e9) * 1e9 / static_cast<double>(r.springs);
+    results.push_back(r);
+  }
+  report_progress(progress, "bench: done", 1.0);
+
+  nlohmann::json j;
+  j["threads"] = threads;
+  j["quick"] = a.quick;
+  j["memory_bandwidth_gb_s"] = bandwidth;
+  j["wall_seconds"] = seconds_since(t_start);
+  for (const SizeResult& r : results) {
+    nlohmann::json m;
+    m["name"] = r.name;
+    m["nodes"] = r.nodes;
+    m["skin_vertices"] = r.skin_vertices;
+    m["layers"] = r.layers;
+    m["springs"] = r.springs;
+    m["build_seconds"] = r.build_s;
+    const double ns_per_spring = 1000.0 * r.explicit_us / static_cast<double>(r.springs);
+    m["explicit"] = {{"us_per_step", r.explicit_us},
+                     {"ns_per_spring", ns_per_spring},
+                     {"steps_per_second", 1e6 / r.explicit_us},
+                     {"floor_ns_per_spring", r.floor_ns_per_spring},
+                     {"fraction_of_floor", r.floor_ns_per_spring / ns_per_spring}};
+    m["implicit"] = {{"us_per_step", r.implicit_us},
+                     {"ns_per_spring", 1000.0 * r.implicit_us / static_cast<double>(r.springs)},
+                     {"steps_per_second", 1e6 / r.implicit_us},
+                     {"cg_iterations", r.implicit_cg_iterations}};
+    if (r.poke_steps > 0)
+      m["poke_to_rest"] = {
+          {"ms", r.poke_to_rest_ms}, {"steps", r.poke_steps}, {"converged", r.poke_converged}};
+    j["models"].push_back(m);
+  }
+  if (a.json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << fmt::format(
+      "lamina bench: {} thread(s), memory bandwidth {:.1f} GB/s (STREAM triad), {:.0f} s\n"
+      "  model   nodes  springs  build_s  explicit_us  steps/s  ns/spring  floor_ns  "
+      "of_floor  implicit_us  poke_to_rest_ms\n",
+      threads, bandwidth, seconds_since(t_start));
+  for (const SizeResult& r : results) {
+    const double ns = 1000.0 * r.explicit_us / static_cast<double>(r.springs);
+    std::cout << fmt::format(
+        "  {:6} {:6} {:8} {:8.2f} {:12.1f} {:8.0f} {:10.1f} {:9.2f} {:8.0f}% {:12.1f} {:>16}\n",
+        r.name, r.nodes, r.springs, r.build_s, r.explicit_us, 1e6 / r.explicit_us, ns,
+        r.floor_ns_per_spring, 100.0 * r.floor_ns_per_spring / ns, r.implicit_us,
+        r.poke_steps > 0 ? fmt::format("{:.1f}{}", r.poke_to_rest_ms, r.poke_converged ? "" : "*")
+                         : std::string("-"));
+  }
+  return 0;
+}
+
+}  // namespace lamina::cli
