@@ -80,13 +80,14 @@ TEST(View, RebuildSwapsTheModelUnderTheRunningSimulation) {
 
 TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
   test::TempDir dir;
-  std::ofstream(dir.path / "quit.json") << R"({"events": [{"at": 7.0, "quit": true}]})";
+  std::ofstream(dir.path / "quit.json") << R"({"events": [{"at": 9.0, "quit": true}]})";
   // The viewer waits for the X events; xdotool presses at the window's centre (the organ) and
-  // drags upwards in steps, then lets go.
+  // drags upwards in steps, then lets go. The press is held a second before the drag, so that
+  // a frame sees it at the centre even when a loaded machine draws only a few frames a second.
   const std::string session =
       quoted(LAMINA_CLI) + " view --script quit.json --report report.json & " +
       "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
-      "xdotool mousemove --window $w 700 450 sleep 0.3 mousedown 1 sleep 0.3 "
+      "xdotool mousemove --window $w 700 450 sleep 0.5 mousedown 1 sleep 1.0 "
       "mousemove --window $w 700 420 sleep 0.2 mousemove --window $w 700 380 sleep 0.2 "
       "mousemove --window $w 700 340 sleep 1.5 mouseup 1; wait";
   std::ofstream(dir.path / "session.sh") << session << "\n";
