@@ -31,7 +31,7 @@ struct Prepared {
 Prepared prepare(const std::string& what, const ProgressFn& progress) {
   Prepared p;
   p.scene = scene_for(what);
-  p.from_scene_file = what.size() >= 5 && what.compare(what.size() - 5, 5, ".json") == 0;
+  p.from_scene_file = has_suffix(what, ".json");
   p.built = make_scene_model(p.scene, progress);
   io::resolve_scene_defaults(p.scene, p.built.model);
   io::check_scene_against_model(p.scene, p.built.model);
@@ -168,20 +168,11 @@ int run_render(const RenderArgs& a) {
   frame.model = &m;
   frame.x = &s.x;
   frame.style = style;
-  const double r = 0.012 * (m.X.colwise().maxCoeff() - m.X.colwise().minCoeff()).norm();
-  const Eigen::Vector3d centre = m.X.colwise().mean().transpose();
   for (size_t t = 0; t < driver.tools.size(); ++t) {
     if (t >= driver.active.size() || !driver.active[t]) continue;
     const int32_t node = driver.routes[t].contact_node;
-    const Eigen::Vector3d at = s.x.row(node).transpose();
-    const Eigen::Vector3d len = driver.tools[t].force_mn * (60.0 / 1000.0);  // 60 mm per N
-    render::Arrow arrow;
-    if (len.dot(at - centre) < 0)
-      arrow.from = at - len, arrow.to = at;
-    else
-      arrow.from = at, arrow.to = at + len;
-    frame.arrows.push_back(arrow);
-    frame.markers.push_back({at, r, {0.2f, 0.9f, 0.3f, 1.0f}});
+    render::add_force_arrow(frame, node, driver.tools[t].force_mn, 60.0);  // 60 mm per N
+    render::add_contact_marker(frame, node);
     if (a.rings) frame.rings.push_back({node, p.scene.routing.locality});
   }
   render::Camera camera = render::fit_camera(m, view.azimuth_deg, view.elevation_deg);

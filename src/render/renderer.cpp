@@ -149,14 +149,6 @@ Eigen::Vector4f displacement_color(const Eigen::Vector3f& organ, float t) {
 
 }  // namespace
 
-Eigen::Vector4f ring_color(int32_t level) {
-  static const float kPalette[][3] = {{1.00f, 0.92f, 0.10f}, {1.00f, 0.55f, 0.10f},
-                                      {0.30f, 0.80f, 0.30f}, {0.15f, 0.70f, 0.95f},
-                                      {0.35f, 0.40f, 1.00f}, {0.75f, 0.40f, 0.95f}};
-  const auto& c = kPalette[static_cast<size_t>(std::max(level, 0)) % 6];
-  return {c[0], c[1], c[2], 1.0f};
-}
-
 struct Renderer::Impl {
   GLuint program = 0, vao = 0, vbo_pos = 0, vbo_normal = 0, vbo_color = 0, ebo = 0;
   GLuint overlay_vao = 0, overlay_vbo = 0;

@@ -335,27 +335,11 @@ struct Viewer::Impl {
     f.model = &vm->model;
     f.x = &snap.x;
     f.style = style;
-    const double scale = arrow_mm_per_n / 1000.0;  // mm per mN
-    auto add_force = [&](int32_t node, const Eigen::Vector3d& force) {
-      if (node < 0 || node >= snap.x.rows()) return;
-      const Eigen::Vector3d p = snap.x.row(node).transpose();
-      const Eigen::Vector3d centre = vm->model.X.colwise().mean().transpose();
-      const Eigen::Vector3d len = force * scale;
-      // A push is drawn arriving at the node from outside, a pull leaving it.
-      Arrow a;
-      if (force.dot(p - centre) < 0.0)
-        a.from = p - len, a.to = p;
-      else
-        a.from = p, a.to = p + len;
-      f.arrows.push_back(a);
-      if (show_rings) f.rings.push_back({node, routing.locality});
-    };
-    for (const interact::LiveForce& lf : sent) add_force(lf.node, lf.force_mn);
-    const double r =
-        0.012 * (vm->model.X.colwise().maxCoeff() - vm->model.X.colwise().minCoeff()).norm();
-    for (int32_t node : snap.contact_nodes)
-      if (node >= 0 && node < snap.x.rows())
-        f.markers.push_back({snap.x.row(node).transpose(), r, {0.2f, 0.9f, 0.3f, 1.0f}});
+    for (const interact::LiveForce& lf : sent) {
+      add_force_arrow(f, lf.node, lf.force_mn, arrow_mm_per_n);
+      if (show_rings) f.rings.push_back({lf.node, routing.locality});
+    }
+    for (int32_t node : snap.contact_nodes) add_contact_marker(f, node);
     if (tip.active) f.markers.push_back({tip.center_mm, tip.radius_mm, {0.7f, 0.75f, 0.8f, 1.0f}});
     return f;
   }
@@ -698,91 +682,87 @@ int Viewer::show() {
   ImGui_ImplGlfw_InitForOpenGL(v.window, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
 
-  int result = 0;
-  try {
-    v.renderer = std::make_unique<Renderer>();
-    v.camera = fit_camera(v.vm->model);
-    v.start_loop();
-    const auto t0 = Clock::now();
-    Input prev;
-    bool s_was_down = false;
-    while (!glfwWindowShouldClose(v.window) && !v.quit) {
-      const auto frame_start = Clock::now();
-      glfwPollEvents();
-      const double t = seconds_since(t0);
-      Input in = v.poll_real_input();
-      std::vector<std::string> keys;
-      if (!v.script.empty()) {
-        keys = v.run_script(t);
-        if (v.script_drives_mouse) in = v.scripted;
-      }
-      v.loop->latest(v.snap);
-      v.max_displacement_mm = std::max(v.max_displacement_mm, v.snap.stats.max_displacement_mm);
-      v.record_plots();
-      v.adopt_rebuilt();
-
-      ImGui_ImplOpenGL3_NewFrame();
-      ImGui_ImplGlfw_NewFrame();
-      ImGui::NewFrame();
-      const ImGuiIO& io = ImGui::GetIO();
-      if (!io.WantCaptureKeyboard) {
-        for (auto [glfw_key, name] : {std::pair{GLFW_KEY_R, "r"},
-                                      {GLFW_KEY_SPACE, "space"},
-                                      {GLFW_KEY_C, "c"},
-                                      {GLFW_KEY_T, "t"}})
-          if (ImGui::IsKeyPressed(glfw_key, false)) keys.push_back(name);  // 1.86: native key codes
-        const bool s_down = glfwGetKey(v.window, GLFW_KEY_S) == GLFW_PRESS;
-        if (s_down && !s_was_down) v.save_screenshot(v.screenshot_path);
-        s_was_down = s_down;
-      }
-      for (const std::string& k : keys) v.handle_key(k);
-      v.handle_mouse(in, prev, io.WantCaptureMouse && !v.script_drives_mouse);
-      prev = in;
-      v.panels();
-      ImGui::Render();
-
-      int fw = 0, fh = 0;
-      glfwGetFramebufferSize(v.window, &fw, &fh);
-      if (fw > 0 && fh > 0) v.renderer->draw(v.make_frame(), v.camera, fw, fh);
-      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-      if (!v.window_shot.empty() && fw > 0 && fh > 0) {
-        glReadBuffer(GL_BACK);
-        const Image img = read_pixels(fw, fh);
-        try {
-          write_png(img, v.window_shot);
-          v.screenshots.push_back(v.window_shot);
-        } catch (const Error& e) {
-          v.status = e.what();
-        }
-        v.window_shot.clear();
-      }
-      glfwSwapBuffers(v.window);
-      ++v.frames;
-      v.frame_seconds += seconds_since(frame_start);
-      // At most 60 frames a second even where the display has no vertical sync (Xvfb): the
-      // simulation thread needs the other core more than the screen needs more frames.
-      std::this_thread::sleep_until(frame_start + std::chrono::microseconds(16667));
+  // However show() ends, the simulation thread, ImGui and the window are torn down in order.
+  struct Teardown {
+    Impl& v;
+    ~Teardown() {
+      if (v.loop) v.loop->stop();
+      ImGui_ImplOpenGL3_Shutdown();
+      ImGui_ImplGlfw_Shutdown();
+      ImGui::DestroyContext();
+      v.renderer.reset();
+      glfwDestroyWindow(v.window);
+      v.window = nullptr;
+      glfwTerminate();
     }
-  } catch (...) {
-    if (v.loop) v.loop->stop();
-    ImGui_ImplOpenGL3_Shutdown();
-    ImGui_ImplGlfw_Shutdown();
-    ImGui::DestroyContext();
-    v.renderer.reset();
-    glfwDestroyWindow(v.window);
-    glfwTerminate();
-    throw;
+  } teardown{v};
+  v.renderer = std::make_unique<Renderer>();
+  v.camera = fit_camera(v.vm->model);
+  v.start_loop();
+  const auto t0 = Clock::now();
+  Input prev;
+  bool s_was_down = false;
+  while (!glfwWindowShouldClose(v.window) && !v.quit) {
+    const auto frame_start = Clock::now();
+    glfwPollEvents();
+    const double t = seconds_since(t0);
+    Input in = v.poll_real_input();
+    std::vector<std::string> keys;
+    if (!v.script.empty()) {
+      keys = v.run_script(t);
+      if (v.script_drives_mouse) in = v.scripted;
+    }
+    v.loop->latest(v.snap);
+    v.max_displacement_mm = std::max(v.max_displacement_mm, v.snap.stats.max_displacement_mm);
+    v.record_plots();
+    v.adopt_rebuilt();
+
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    const ImGuiIO& io = ImGui::GetIO();
+    if (!io.WantCaptureKeyboard) {
+      for (auto [glfw_key, name] : {std::pair{GLFW_KEY_R, "r"},
+                                    {GLFW_KEY_SPACE, "space"},
+                                    {GLFW_KEY_C, "c"},
+                                    {GLFW_KEY_T, "t"}})
+        if (ImGui::IsKeyPressed(glfw_key, false)) keys.push_back(name);  // 1.86: native key codes
+      const bool s_down = glfwGetKey(v.window, GLFW_KEY_S) == GLFW_PRESS;
+      if (s_down && !s_was_down) v.save_screenshot(v.screenshot_path);
+      s_was_down = s_down;
+    }
+    for (const std::string& k : keys) v.handle_key(k);
+    v.handle_mouse(in, prev, io.WantCaptureMouse && !v.script_drives_mouse);
+    prev = in;
+    v.panels();
+    ImGui::Render();
+
+    int fw = 0, fh = 0;
+    glfwGetFramebufferSize(v.window, &fw, &fh);
+    if (fw > 0 && fh > 0) v.renderer->draw(v.make_frame(), v.camera, fw, fh);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    if (!v.window_shot.empty() && fw > 0 && fh > 0) {
+      glReadBuffer(GL_BACK);
+      const Image img = read_pixels(fw, fh);
+      try {
+        write_png(img, v.window_shot);
+        v.screenshots.push_back(v.window_shot);
+      } catch (const Error& e) {
+        v.status = e.what();
+      }
+      v.window_shot.clear();
+    }
+    glfwSwapBuffers(v.window);
+    ++v.frames;
+    v.frame_seconds += seconds_since(frame_start);
+    // At most 60 frames a second even where the display has no vertical sync (Xvfb): the
+    // simulation thread needs the other core more than the screen needs more frames.
+    std::this_thread::sleep_until(frame_start + std::chrono::microseconds(16667));
   }
   v.loop->stop();
   v.loop->latest(v.snap);
   v.write_report();
-  ImGui_ImplOpenGL3_Shutdown();
-  ImGui_ImplGlfw_Shutdown();
-  ImGui::DestroyContext();
-  v.renderer.reset();
-  glfwDestroyWindow(v.window);
-  glfwTerminate();
-  return result;
+  return 0;
 }
 
 }  // namespace lamina::render

@@ -64,4 +64,14 @@ struct Frame {
 /// Colour of BFS level r (0 = the contact node) in ring highlights and figures.
 Eigen::Vector4f ring_color(int32_t level);
 
+/// Adds to `frame` (its model and positions must be set) an arrow for `force_mn` acting on
+/// `node`, `mm_per_n` long per newton: a push (towards the organ's centre) arrives at the node
+/// from outside, a pull leaves it, so the arrow stays visible outside the skin.
+void add_force_arrow(Frame& frame, int32_t node, const Eigen::Vector3d& force_mn, double mm_per_n,
+                     const Eigen::Vector4f& color = Arrow{}.color);
+
+/// Adds a sphere on `node` sized for the model (1.2% of its rest bounding-box diagonal).
+void add_contact_marker(Frame& frame, int32_t node,
+                        const Eigen::Vector4f& color = {0.2f, 0.9f, 0.3f, 1.0f});
+
 }  // namespace lamina::render

@@ -1,0 +1,49 @@
+#include "lamina/render/frame.h"
+
+#include <algorithm>
+
+namespace lamina::render {
+
+Eigen::Vector4f ring_color(int32_t level) {
+  static const float kPalette[][3] = {{1.00f, 0.92f, 0.10f}, {1.00f, 0.55f, 0.10f},
+                                      {0.30f, 0.80f, 0.30f}, {0.15f, 0.70f, 0.95f},
+                                      {0.35f, 0.40f, 1.00f}, {0.75f, 0.40f, 0.95f}};
+  const auto& c = kPalette[static_cast<size_t>(std::max(level, 0)) % 6];
+  return {c[0], c[1], c[2], 1.0f};
+}
+
+namespace {
+
+const Eigen::MatrixX3d& positions(const Frame& f) {
+  return f.x ? *f.x : f.model->X;
+}
+
+bool valid_node(const Frame& f, int32_t node) {
+  return f.model && node >= 0 && node < positions(f).rows();
+}
+
+}  // namespace
+
+void add_force_arrow(Frame& f, int32_t node, const Eigen::Vector3d& force_mn, double mm_per_n,
+                     const Eigen::Vector4f& color) {
+  if (!valid_node(f, node)) return;
+  const Eigen::Vector3d at = positions(f).row(node).transpose();
+  const Eigen::Vector3d centre = f.model->X.colwise().mean().transpose();
+  const Eigen::Vector3d length = force_mn * (mm_per_n / 1000.0);
+  Arrow a;
+  a.color = color;
+  if (length.dot(at - centre) < 0.0)
+    a.from = at - length, a.to = at;
+  else
+    a.from = at, a.to = at + length;
+  f.arrows.push_back(a);
+}
+
+void add_contact_marker(Frame& f, int32_t node, const Eigen::Vector4f& color) {
+  if (!valid_node(f, node)) return;
+  const Eigen::MatrixX3d& X = f.model->X;
+  const double radius = 0.012 * (X.colwise().maxCoeff() - X.colwise().minCoeff()).norm();
+  f.markers.push_back({positions(f).row(node).transpose(), radius, color});
+}
+
+}  // namespace lamina::render
