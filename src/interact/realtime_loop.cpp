@@ -81,7 +81,7 @@ void RealtimeLoop::set_parameters(const sim::Material& material, const sim::Solv
     throw invalid_input("locality", "must be 1.." + std::to_string(sim_.model->rings.locality) +
                                         " (the rings precomputed in the model)");
   if (routing.penetration_depth < 1) throw invalid_input("penetration depth", "must be >= 1");
-  sim::make_simulation(*sim_.model, material, solver);  // throws, naming the bad parameter
+  sim::check_parameters(material, solver);  // throws, naming the bad parameter
   std::lock_guard lock(mutex_);
   new_params_ = Params{material, solver, routing};
 }

@@ -17,24 +17,6 @@ constexpr double kJoulesPerKgMm2PerS2 = 1e-6;
 // spring pass is tens of microseconds); loops run serially there.
 constexpr Eigen::Index kParallelRows = 8192;
 
-void check_parameters(const Material& m, const SolverOptions& o) {
-  auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
-  auto non_negative = [](double v) { return v >= 0.0 && std::isfinite(v); };
-  if (!non_negative(m.stiffness_n_per_m))
-    throw invalid_input("material.stiffness", "must be >= 0 N/m (0 keeps the model's)");
-  if (!non_negative(m.damping_kg_per_s))
-    throw invalid_input("material.damping", "must be >= 0 kg/s");
-  if (!non_negative(m.node_mass_kg))
-    throw invalid_input("material.node_mass", "must be >= 0 kg (0 uses the model's masses)");
-  if (!non_negative(m.anchor_stiffness_n_per_m))
-    throw invalid_input("material.anchor_stiffness", "must be >= 0 N/m");
-  if (!m.gravity_mm_per_s2.allFinite()) throw invalid_input("material.gravity", "must be finite");
-  if (!positive(o.dt_s)) throw invalid_input("solver.dt", "must be > 0 s");
-  if (!positive(o.threshold_mm)) throw invalid_input("solver.threshold", "must be > 0 mm");
-  if (o.max_steps < 1) throw invalid_input("solver.max_steps", "must be >= 1");
-  if (o.cg_max_iterations < 1) throw invalid_input("solver.cg_max_iterations", "must be >= 1");
-}
-
 // Forces that do not come from springs: external, damping, gravity, anchors. Added to f.
 void add_node_forces(const Simulation& s, const Eigen::MatrixX3d& x, const Eigen::MatrixX3d& v,
                      Eigen::MatrixX3d& f) {
@@ -182,6 +164,24 @@ int32_t implicit_euler(Simulation& s, double h) {
 }
 
 }  // namespace
+
+void check_parameters(const Material& m, const SolverOptions& o) {
+  auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  auto non_negative = [](double v) { return v >= 0.0 && std::isfinite(v); };
+  if (!non_negative(m.stiffness_n_per_m))
+    throw invalid_input("material.stiffness", "must be >= 0 N/m (0 keeps the model's)");
+  if (!non_negative(m.damping_kg_per_s))
+    throw invalid_input("material.damping", "must be >= 0 kg/s");
+  if (!non_negative(m.node_mass_kg))
+    throw invalid_input("material.node_mass", "must be >= 0 kg (0 uses the model's masses)");
+  if (!non_negative(m.anchor_stiffness_n_per_m))
+    throw invalid_input("material.anchor_stiffness", "must be >= 0 N/m");
+  if (!m.gravity_mm_per_s2.allFinite()) throw invalid_input("material.gravity", "must be finite");
+  if (!positive(o.dt_s)) throw invalid_input("solver.dt", "must be > 0 s");
+  if (!positive(o.threshold_mm)) throw invalid_input("solver.threshold", "must be > 0 mm");
+  if (o.max_steps < 1) throw invalid_input("solver.max_steps", "must be >= 1");
+  if (o.cg_max_iterations < 1) throw invalid_input("solver.cg_max_iterations", "must be >= 1");
+}
 
 Simulation make_simulation(const Model& model, const Material& material,
                            const SolverOptions& options) {

@@ -99,6 +99,11 @@ struct Simulation {
   Eigen::Matrix<double, Eigen::Dynamic, 4> dir;  ///< per spring: unit direction, 1 - L/l
 };
 
+/// Checks material and solver parameters (make_simulation() and set_parameters() call it).
+/// \note Throws lamina::Error (kInvalidInput) naming the parameter: non-positive dt or
+///   threshold, negative stiffness, damping, mass or anchor, non-finite gravity, and so on.
+void check_parameters(const Material& material, const SolverOptions& options);
+
 /// Sets up a simulation of `model` at rest.
 /// \note Throws lamina::Error (kInvalidInput) naming the parameter for non-positive dt,
 ///   negative stiffness or damping, and so on.
