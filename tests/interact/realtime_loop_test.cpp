@@ -11,24 +11,13 @@
 #include "lamina/core/error.h"
 #include "lamina/interact/pick.h"
 #include "lamina/model/build_model.h"
-#include "support/volumes.h"
+#include "support/sphere_model.h"
 
 namespace {
 
 using namespace lamina;
 
-const Model& sphere_model(Eigen::Vector3d* centre = nullptr) {
-  static Eigen::Vector3d c;
-  static const Model m = [] {
-    LabelVolume v = test::empty_volume(50, 1.0);
-    const auto p = v.frame.to_physical(24.5, 24.5, 24.5);
-    c = Eigen::Vector3d(p[0], p[1], p[2]);
-    test::paint_sphere(v, p, 20.0, 1);
-    return model::build_model(v, {.skin_vertices = 600, .layer_depth_mm = 8.0}).model;
-  }();
-  if (centre) *centre = c;
-  return m;
-}
+using test::sphere_model;
 
 // A simulation of the sphere with its far side (y > centre + 12 mm) fixed, stiffer than the
 // paper's K = 3 N/m so that it settles in a few thousand steps.

@@ -7,25 +7,13 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/model/build_model.h"
-#include "support/volumes.h"
+#include "support/sphere_model.h"
 
 namespace {
 
 using namespace lamina;
 
-// A two-layer sphere model, radius 20 mm, centred at `centre` (built once).
-const Model& sphere_model(Eigen::Vector3d* centre = nullptr) {
-  static Eigen::Vector3d c;
-  static const Model m = [] {
-    LabelVolume v = test::empty_volume(50, 1.0);
-    const auto p = v.frame.to_physical(24.5, 24.5, 24.5);
-    c = Eigen::Vector3d(p[0], p[1], p[2]);
-    test::paint_sphere(v, p, 20.0, 1);
-    return model::build_model(v, {.skin_vertices = 600, .layer_depth_mm = 8.0}).model;
-  }();
-  if (centre) *centre = c;
-  return m;
-}
+using test::sphere_model;
 
 std::set<int32_t> ring_members(const Model& m, int32_t node, int32_t rings) {
   std::set<int32_t> s;
