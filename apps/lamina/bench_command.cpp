@@ -17,6 +17,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
+#include "paper_run.h"
 
 namespace lamina::cli {
 namespace {
@@ -91,31 +92,6 @@ double time_steps(const Model& m, const std::vector<int32_t>& fixed, const inter
   return median(us);
 }
 
-// The paper's poke (0.4 N for 1 s, local mode, N = P = 4, threshold 1e-3 mm) to rest: wall ms.
-double poke_to_rest_ms(const Model& m, const std::vector<int32_t>& fixed,
-                       const interact::Tool& tool, int64_t& steps, bool& converged) {
-  sim::SolverOptions o;
-  o.mode = sim::Mode::kLocal;
-  sim::Simulation s = sim::make_simulation(m, {}, o);
-  sim::fix_nodes(s, fixed);
-  interact::ToolDriver d;
-  d.tools = {tool};
-  int64_t quiet = 0;
-  converged = false;
-  const auto t0 = Clock::now();
-  while (s.steps < 200000) {
-    interact::apply_tools(s, d);
-    const sim::StepStats st = sim::step(s);
-    quiet = s.time_s > tool.end_s && st.converged ? quiet + 1 : 0;
-    if (quiet >= 10) {
-      converged = true;
-      break;
-    }
-  }
-  steps = s.steps;
-  return 1000.0 * seconds_since(t0);
-}
-
 }  // namespace
 
 int run_bench(const BenchArgs& a) {
@@ -167,8 +143,13 @@ int run_bench(const BenchArgs& a) {
     r.implicit_us =
         time_steps(m, fixed, tool, sim::Integrator::kImplicitEuler,
                    std::max(5, explicit_steps / 20), a.quick ? 3 : 5, &r.implicit_cg_iterations);
-    if (k == 0 || !a.quick)
-      r.poke_to_rest_ms = poke_to_rest_ms(m, fixed, tool, r.poke_steps, r.poke_converged);
+    if (k == 0 || !a.quick) {
+      // The paper's poke (0.4 N for 1 s, local mode, N = P = 4) to rest at 1e-3 mm.
+      const RunStats run = simulate(paper_setup(m), 2000.0, /*stop_at_rest=*/true);
+      r.poke_to_rest_ms = 1000.0 * run.wall_s;
+      r.poke_steps = run.steps;
+      r.poke_converged = run.converged;
+    }
 
     // The floor: the bytes one explicit step must move at least, at the measured bandwidth.
     // Per spring: its two node indices, rest length and stiffness (4 + 4 + 8 + 8 bytes); per

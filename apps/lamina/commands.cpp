@@ -26,14 +26,12 @@
 #include "lamina/sim/simulation.h"
 
 namespace lamina::cli {
-namespace {
-
 bool has_suffix(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() &&
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-}  // namespace
+namespace {}  // namespace
 
 void check_output(const std::string& path, const std::vector<std::string>& extensions,
                   const char* what) {

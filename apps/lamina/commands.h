@@ -17,6 +17,9 @@ namespace lamina::cli {
 /// per stage when `verbose`, nothing otherwise.
 ProgressFn stderr_progress(bool verbose);
 
+/// True if `s` ends with `suffix`.
+bool has_suffix(const std::string& s, const std::string& suffix);
+
 /// Checks an output file path before any long work (so a typo does not cost a whole build): the
 /// extension is one of `extensions` and the folder exists. Throws lamina::Error.
 void check_output(const std::string& path, const std::vector<std::string>& extensions,

@@ -24,6 +24,7 @@
 #include "lamina/render/offscreen.h"
 #include "lamina/render/renderer.h"
 #include "lamina/sim/simulation.h"
+#include "paper_run.h"
 
 extern char** environ;
 
@@ -79,61 +80,13 @@ std::string quote(const fs::path& p) {
   return s + "'";
 }
 
-// The paper's setup on `model`: K = 3 N/m, gamma = 3 kg/s, unit masses, semi-implicit Euler at
-// dt = 0.01 s, local mode, N = 4, P = 4, the posterior 10 mm held.
-struct Setup {
-  const Model* model = nullptr;
-  std::vector<int32_t> fixed;
-  sim::Material material;
-  sim::SolverOptions solver;
-  interact::RoutingOptions routing;
-  std::vector<interact::Tool> tools;
-};
-
-Setup paper_setup(const Model& m) {
-  io::Scene scene;  // the default scene: the paper's poke (0.4 N, 0-1 s) and boundary
-  io::resolve_scene_defaults(scene, m);
-  Setup s;
-  s.model = &m;
-  s.fixed = io::fixed_scene_nodes(scene, m);
-  s.solver.mode = sim::Mode::kLocal;
-  s.tools = scene.tools;
-  return s;
-}
-
-struct RunStats {
-  double wall_s = 0.0;
-  int64_t steps = 0;
-  bool converged = false;
-};
-
-// Steps `setup` until t_end_s, or (if stop_at_rest) until every tool has ended and no node moved
-// more than the threshold for 10 consecutive steps. Calls per_step after each step.
-RunStats simulate(
-    const Setup& setup, double t_end_s, bool stop_at_rest,
-    const std::function<void(const sim::Simulation&, const interact::ToolDriver&)>& per_step = {}) {
-  sim::Simulation s = sim::make_simulation(*setup.model, setup.material, setup.solver);
-  sim::fix_nodes(s, setup.fixed);
-  interact::ToolDriver driver;
-  driver.tools = setup.tools;
-  driver.routing = setup.routing;
-  const double release = interact::last_tool_end(driver);
-  RunStats r;
-  int64_t quiet = 0;
-  const auto t0 = Clock::now();
-  while (s.time_s < t_end_s - 1e-9) {
-    interact::apply_tools(s, driver);
-    const sim::StepStats st = sim::step(s);
-    if (per_step) per_step(s, driver);
-    quiet = s.time_s > release && st.converged ? quiet + 1 : 0;
-    if (stop_at_rest && quiet >= 10) {
-      r.converged = true;
-      break;
-    }
-  }
-  r.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
-  r.steps = s.steps;
-  return r;
+// Writes DIR/NAME.gp (`header`, the output line, then `body`) beside its data and draws
+// DIR/NAME.png with it.
+void draw_plot(const std::string& gnuplot, const fs::path& dir, const std::string& name,
+               const std::string& header, const std::string& body) {
+  const fs::path script = dir / (name + ".gp"), tmp = dir / (name + ".png.tmp");
+  write_text(script, header + fmt::format("set output {}\n", quote(tmp)) + body);
+  plot(gnuplot, script, tmp, dir / (name + ".png"));
 }
 
 constexpr const char* kPlotStyle =
@@ -177,10 +130,11 @@ int run_figures(const FiguresArgs& a) {
     Setup s = base;
     s.material.damping_kg_per_s = params[k].first;
     s.material.stiffness_n_per_m = params[k].second;
-    simulate(s, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
-      if (k == 0) times.push_back(sim.time_s);
-      disp[k].push_back((sim.x.row(contact) - two.model.X.row(contact)).norm());
-    });
+    simulate(s, t_end, false,
+             [&](const sim::Simulation& sim, const interact::ToolDriver&, const sim::StepStats&) {
+               if (k == 0) times.push_back(sim.time_s);
+               disp[k].push_back((sim.x.row(contact) - two.model.X.row(contact)).norm());
+             });
   }
   std::string csv = "time_s,gamma3_k3_mm,gamma5_k3_mm,gamma3_k6_mm\n";
   for (size_t i = 0; i < times.size(); ++i)
@@ -188,24 +142,20 @@ int run_figures(const FiguresArgs& a) {
         fmt::format("{:.4f},{:.6g},{:.6g},{:.6g}\n", times[i], disp[0][i], disp[1][i], disp[2][i]);
   write_text(out / "fig4_trajectories.csv", csv);
   const double force_n = base.tools.empty() ? 0.0 : base.tools[0].force_mn.norm() / 1000.0;
-  write_text(out / "fig4_trajectories.gp",
-             std::string(kPlotStyle) +
-                 fmt::format("set output {}\n", quote(out / "fig4_trajectories.png.tmp")) +
-                 fmt::format("set title \"Displacement of skin node {} under a {:.2g} N poke "
-                             "(0-1 s), then release\"\n",
-                             contact, force_n) +
-                 "set xlabel 'time (s)'\nset ylabel 'displacement (mm)'\n"
-                 "set object 1 rect from 0,graph 0 to 1,graph 1 fc rgb '#f3e9d2' fs solid "
-                 "noborder behind\n" +
-                 fmt::format("plot {0} using 1:2 with lines lc rgb '#1f77b4' title "
-                             "'{{/Symbol g}} = 3, K = 3', \\\n"
-                             "     {0} using 1:3 with lines lc rgb '#d62728' title "
-                             "'{{/Symbol g}} = 5, K = 3', \\\n"
-                             "     {0} using 1:4 with lines lc rgb '#2ca02c' title "
-                             "'{{/Symbol g}} = 3, K = 6'\n",
-                             quote(out / "fig4_trajectories.csv")));
-  plot(gnuplot, out / "fig4_trajectories.gp", out / "fig4_trajectories.png.tmp",
-       out / "fig4_trajectories.png");
+  draw_plot(gnuplot, out, "fig4_trajectories", kPlotStyle,
+            fmt::format("set title \"Displacement of skin node {} under a {:.2g} N poke "
+                        "(0-1 s), then release\"\n",
+                        contact, force_n) +
+                "set xlabel 'time (s)'\nset ylabel 'displacement (mm)'\n"
+                "set object 1 rect from 0,graph 0 to 1,graph 1 fc rgb '#f3e9d2' fs solid "
+                "noborder behind\n" +
+                fmt::format("plot {0} using 1:2 with lines lc rgb '#1f77b4' title "
+                            "'{{/Symbol g}} = 3, K = 3', \\\n"
+                            "     {0} using 1:3 with lines lc rgb '#d62728' title "
+                            "'{{/Symbol g}} = 5, K = 3', \\\n"
+                            "     {0} using 1:4 with lines lc rgb '#2ca02c' title "
+                            "'{{/Symbol g}} = 3, K = 6'\n",
+                            quote(out / "fig4_trajectories.csv")));
 
   // Figure 5: wall time from the poke to rest against locality, for two thresholds.
   const int max_n = a.quick ? 3 : 6, repeats = a.quick ? 1 : 3;
@@ -231,35 +181,32 @@ int run_figures(const FiguresArgs& a) {
     }
   }
   write_text(out / "fig5_timing.csv", csv);
-  write_text(out / "fig5_timing.gp",
-             std::string(kPlotStyle) +
-                 fmt::format("set output {}\n", quote(out / "fig5_timing.png.tmp")) +
-                 "set title 'Computation time from a poke to rest (median wall time, this "
-                 "machine)'\n"
-                 "set xlabel 'locality N (rings receiving force)'\nset ylabel 'time to "
-                 "convergence (ms)'\nset xtics 1\nset key top left box opaque\n"
-                 "set style data linespoints\n" +
-                 fmt::format("plot {0} every ::1 using ($2 == 0.001 ? $1 : 1/0):3 pt 7 lc rgb "
-                             "'#1f77b4' title 'threshold 10^{{-3}} mm', \\\n"
-                             "     {0} every ::1 using ($2 == 0.0001 ? $1 : 1/0):3 pt 5 lc rgb "
-                             "'#d62728' title 'threshold 10^{{-4}} mm'\n",
-                             quote(out / "fig5_timing.csv")));
-  plot(gnuplot, out / "fig5_timing.gp", out / "fig5_timing.png.tmp", out / "fig5_timing.png");
+  draw_plot(gnuplot, out, "fig5_timing", kPlotStyle,
+            "set title 'Computation time from a poke to rest (median wall time, this "
+            "machine)'\n"
+            "set xlabel 'locality N (rings receiving force)'\nset ylabel 'time to "
+            "convergence (ms)'\nset xtics 1\nset key top left box opaque\n"
+            "set style data linespoints\n" +
+                fmt::format("plot {0} every ::1 using ($2 == 0.001 ? $1 : 1/0):3 pt 7 lc rgb "
+                            "'#1f77b4' title 'threshold 10^{{-3}} mm', \\\n"
+                            "     {0} every ::1 using ($2 == 0.0001 ? $1 : 1/0):3 pt 5 lc rgb "
+                            "'#d62728' title 'threshold 10^{{-4}} mm'\n",
+                            quote(out / "fig5_timing.csv")));
 
   // Volume: skin volume change under the same poke, 2 layers against the skin alone.
   report_progress(progress, "figures: volume change", 0.72);
   std::vector<double> vol_two, vol_one, vol_t;
-  simulate(base, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
-    vol_t.push_back(sim.time_s);
-    vol_two.push_back(100.0 *
-                      (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
-  });
+  simulate(base, t_end, false,
+           [&](const sim::Simulation& sim, const interact::ToolDriver&, const sim::StepStats& st) {
+             vol_t.push_back(sim.time_s);
+             vol_two.push_back(st.volume_change_pct);
+           });
   Setup skin_only = paper_setup(one.model);
   // Its own default poke: the same rule (the most anterior skin node, 0.4 N, 0-1 s).
-  simulate(skin_only, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver&) {
-    vol_one.push_back(100.0 *
-                      (sim::layer_volume(*sim.model, sim.x) / sim.rest_skin_volume_mm3 - 1.0));
-  });
+  simulate(skin_only, t_end, false,
+           [&](const sim::Simulation&, const interact::ToolDriver&, const sim::StepStats& st) {
+             vol_one.push_back(st.volume_change_pct);
+           });
   csv = "time_s,two_layers_pct,skin_only_pct\n";
   double worst_two = 0.0, worst_one = 0.0;
   for (size_t i = 0; i < vol_t.size() && i < vol_one.size(); ++i) {
@@ -268,20 +215,17 @@ int run_figures(const FiguresArgs& a) {
     worst_one = std::max(worst_one, std::abs(vol_one[i]));
   }
   write_text(out / "volume_change.csv", csv);
-  write_text(out / "volume_change.gp",
-             std::string(kPlotStyle) +
-                 fmt::format("set output {}\n", quote(out / "volume_change.png.tmp")) +
-                 "set title 'Skin volume change under the same poke (0-1 s)'\n"
-                 "set xlabel 'time (s)'\nset ylabel 'skin volume change (%)'\n"
-                 "set key right center box opaque\n"
-                 "set object 1 rect from 0,graph 0 to 1,graph 1 fc rgb '#f3e9d2' fs solid "
-                 "noborder behind\n" +
-                 fmt::format("plot {0} using 1:2 with lines lc rgb '#1f77b4' title "
-                             "'multi-layer (2 layers)', \\\n"
-                             "     {0} using 1:3 with lines lc rgb '#d62728' title "
-                             "'skin only (1 layer)'\n",
-                             quote(out / "volume_change.csv")));
-  plot(gnuplot, out / "volume_change.gp", out / "volume_change.png.tmp", out / "volume_change.png");
+  draw_plot(gnuplot, out, "volume_change", kPlotStyle,
+            "set title 'Skin volume change under the same poke (0-1 s)'\n"
+            "set xlabel 'time (s)'\nset ylabel 'skin volume change (%)'\n"
+            "set key right center box opaque\n"
+            "set object 1 rect from 0,graph 0 to 1,graph 1 fc rgb '#f3e9d2' fs solid "
+            "noborder behind\n" +
+                fmt::format("plot {0} using 1:2 with lines lc rgb '#1f77b4' title "
+                            "'multi-layer (2 layers)', \\\n"
+                            "     {0} using 1:3 with lines lc rgb '#d62728' title "
+                            "'skin only (1 layer)'\n",
+                            quote(out / "volume_change.csv")));
 
   // Figure 6: a large deformation by two tools at once and its recovery, rendered.
   report_progress(progress, "figures: fig. 6 snapshots", 0.8);
@@ -307,24 +251,13 @@ int run_figures(const FiguresArgs& a) {
     f.style.background = {1.0f, 1.0f, 1.0f, 1.0f};
     f.style.coloring = render::Coloring::kDisplacement;
     f.style.displacement_range_mm = 30.0f;
-    const double r =
-        0.012 * (two.model.X.colwise().maxCoeff() - two.model.X.colwise().minCoeff()).norm();
-    const Eigen::Vector3d centre = two.model.X.colwise().mean().transpose();
     int acting = 0;
     for (size_t t = 0; t < driver.tools.size(); ++t) {
       if (t >= driver.active.size() || !driver.active[t]) continue;
       ++acting;
       const int32_t node = driver.routes[t].contact_node;
-      const Eigen::Vector3d at = sim.x.row(node).transpose();
-      const Eigen::Vector3d len = driver.tools[t].force_mn * 0.04;  // 40 mm per N
-      render::Arrow arrow;
-      arrow.color = {0.1f, 0.1f, 0.1f, 1.0f};
-      if (len.dot(at - centre) < 0)
-        arrow.from = at - len, arrow.to = at;
-      else
-        arrow.from = at, arrow.to = at + len;
-      f.arrows.push_back(arrow);
-      f.markers.push_back({at, r, {0.1f, 0.8f, 0.2f, 1.0f}});
+      render::add_force_arrow(f, node, driver.tools[t].force_mn, 40.0, {0.1f, 0.1f, 0.1f, 1.0f});
+      render::add_contact_marker(f, node, {0.1f, 0.8f, 0.2f, 1.0f});
     }
     const std::string name = fmt::format("fig6_t{:05.2f}.png", sim.time_s);
     render::write_png(render::render_image(renderer, f, camera, 640, 480), (out / name).string());
@@ -335,22 +268,19 @@ int run_figures(const FiguresArgs& a) {
         sim.time_s, acting ? fmt::format("{} tools acting", acting) : "released", max_d,
         quote(out / name));
   };
-  simulate(big, t_end, false, [&](const sim::Simulation& sim, const interact::ToolDriver& d) {
-    while (next < 6 && sim.time_s >= shots[next] - 1e-9) shoot(sim, d), ++next;
-  });
-  write_text(out / "fig6_snapshots.gp",
-             fmt::format("set terminal pngcairo size 1500,880 enhanced font 'DejaVu Sans,12'\n"
-                         "set output {}\n"
-                         "set multiplot layout 2,3 title \"Large deformation by two tools "
-                         "(1.2 N push, 1 N pull, 0-1 s) and recovery\\ncolour: displacement, "
-                         "organ red (0) to orange (15 mm) to yellow (30 mm); green: contacts\" "
-                         "font 'DejaVu Sans,14'\n"
-                         "unset border\nunset tics\nunset key\nset size ratio -1\n"
-                         "set lmargin 0\nset rmargin 0\nset tmargin 2\nset bmargin 0\n",
-                         quote(out / "fig6_snapshots.png.tmp")) +
-                 montage + "unset multiplot\n");
-  plot(gnuplot, out / "fig6_snapshots.gp", out / "fig6_snapshots.png.tmp",
-       out / "fig6_snapshots.png");
+  simulate(big, t_end, false,
+           [&](const sim::Simulation& sim, const interact::ToolDriver& d, const sim::StepStats&) {
+             while (next < 6 && sim.time_s >= shots[next] - 1e-9) shoot(sim, d), ++next;
+           });
+  draw_plot(gnuplot, out, "fig6_snapshots",
+            "set terminal pngcairo size 1500,880 enhanced font 'DejaVu Sans,12'\n",
+            std::string("set multiplot layout 2,3 title \"Large deformation by two tools "
+                        "(1.2 N push, 1 N pull, 0-1 s) and recovery\\ncolour: displacement, "
+                        "organ red (0) to orange (15 mm) to yellow (30 mm); green: contacts\" "
+                        "font 'DejaVu Sans,14'\n"
+                        "unset border\nunset tics\nunset key\nset size ratio -1\n"
+                        "set lmargin 0\nset rmargin 0\nset tmargin 2\nset bmargin 0\n") +
+                montage + "unset multiplot\n");
 
   report_progress(progress, "figures: done", 1.0);
   std::cout << fmt::format(

@@ -1,0 +1,49 @@
+#include "paper_run.h"
+
+#include <chrono>
+
+#include "lamina/io/scene.h"
+
+namespace lamina::cli {
+
+using Clock = std::chrono::steady_clock;
+
+Setup paper_setup(const Model& m) {
+  io::Scene scene;  // the default scene: the paper's poke (0.4 N, 0-1 s) and boundary
+  io::resolve_scene_defaults(scene, m);
+  Setup s;
+  s.model = &m;
+  s.fixed = io::fixed_scene_nodes(scene, m);
+  s.solver.mode = sim::Mode::kLocal;
+  s.tools = scene.tools;
+  return s;
+}
+
+RunStats simulate(const Setup& setup, double t_end_s, bool stop_at_rest,
+                  const std::function<void(const sim::Simulation&, const interact::ToolDriver&,
+                                           const sim::StepStats&)>& per_step) {
+  sim::Simulation s = sim::make_simulation(*setup.model, setup.material, setup.solver);
+  sim::fix_nodes(s, setup.fixed);
+  interact::ToolDriver driver;
+  driver.tools = setup.tools;
+  driver.routing = setup.routing;
+  const double release = interact::last_tool_end(driver);
+  RunStats r;
+  int64_t quiet = 0;
+  const auto t0 = Clock::now();
+  while (s.time_s < t_end_s - 1e-9) {
+    interact::apply_tools(s, driver);
+    const sim::StepStats st = sim::step(s);
+    if (per_step) per_step(s, driver, st);
+    quiet = s.time_s > release && st.converged ? quiet + 1 : 0;
+    if (stop_at_rest && quiet >= 10) {
+      r.converged = true;
+      break;
+    }
+  }
+  r.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  r.steps = s.steps;
+  return r;
+}
+
+}  // namespace lamina::cli
