@@ -273,6 +273,8 @@ double max_rest_distance(const sim::Simulation& s) {
 
 int run_run(const RunArgs& a) {
   const auto t_start = Clock::now();
+  if (a.realtime && !(a.rate_hz > 0.0 && a.rate_hz <= 1e6))
+    throw invalid_input("--rate", "must be in (0, 1e6] steps per second");
   io::Scene scene = a.scene.empty() ? io::Scene{} : io::load_scene(a.scene);
   check_output_folder(a.output);
   const bool tty = ::isatty(2);
@@ -337,8 +339,6 @@ int run_run(const RunArgs& a) {
   sim::StepStats st;
   auto last_report = Clock::now();
   const double report_every_s = tty ? 0.1 : 2.0;
-  if (a.realtime && !(a.rate_hz > 0.0 && a.rate_hz <= 1e6))
-    throw invalid_input("--rate", "must be in (0, 1e6] steps per second");
   const auto period = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(a.realtime ? 1.0 / a.rate_hz : 0.0));
   auto tick = Clock::now();

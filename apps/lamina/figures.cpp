@@ -106,7 +106,6 @@ int run_figures(const FiguresArgs& a) {
   render::Renderer renderer;
   const ProgressFn progress = stderr_progress(a.verbose);
   const fs::path out = fs::absolute(a.output);
-  create_folder(out);
 
   // Models: the paper's two layers, and a skin-only one for the volume comparison.
   io::Scene scene = scene_for(a.input);
@@ -117,6 +116,7 @@ int run_figures(const FiguresArgs& a) {
   scene.build.layers = 1;
   report_progress(progress, "figures: building the skin-only model", 0.05);
   const SceneModel one = make_scene_model(scene, {});
+  create_folder(out);  // only once the input has been read and modelled
   const Setup base = paper_setup(two.model);
   const int32_t contact = base.tools.empty() ? 0 : base.tools[0].vertex;
   const double t_end = a.quick ? 6.0 : 10.0;

@@ -324,5 +324,13 @@ TEST(Run, RealtimeKeepsItsRateAndReportsTheReaction) {
   EXPECT_GT(sum["max_reaction_n"].get<double>(), 0.0);
 }
 
+TEST(Run, RealtimeWithABadRateWritesNothing) {
+  test::TempDir dir;
+  const RunResult r = run_lamina(dir, "run --realtime --rate 0 -o out");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--rate"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path / "out"));
+}
+
 }  // namespace
 }  // namespace lamina

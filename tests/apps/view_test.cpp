@@ -3,6 +3,7 @@
 // and `lamina figures` writing every file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -184,6 +185,15 @@ TEST(Bench, QuickRunReportsEveryKeyForTwoModels) {
     EXPECT_GT(m["build_seconds"].get<double>(), 0.0);
   }
   EXPECT_TRUE(j["models"][0]["poke_to_rest"]["converged"].get<bool>());
+}
+
+TEST(Figures, BadInputIsOneLineAndLeavesNoFolder) {
+  test::TempDir dir;
+  const auto r = run_shell(dir, quoted(LAMINA_CLI) + " figures --input nosuch.nii.gz -o figs");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("nosuch.nii.gz"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path / "figs"));
 }
 
 }  // namespace
