@@ -353,7 +353,7 @@ int run_run(const RunArgs& a) {
     st = sim::step(s);
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     step_us.push_back(us);
-    const Eigen::Vector3d reaction = interact::reaction_force(s);
+    const Eigen::Vector3d reaction = interact::reaction_force(s, driver.loads);
     max_reaction_mn = std::max(max_reaction_mn, reaction.norm());
     if (a.realtime) {
       // A haptic loop: the next step starts at its tick, not as soon as this one ends. Lateness

@@ -124,9 +124,7 @@ void RealtimeLoop::run_steps(int64_t steps) {
 void RealtimeLoop::apply_pending() {
   bool reroute = false;
   if (reset_requested_) {
-    sim_.x = sim_.model->X;
-    sim_.v.setZero();
-    sim_.time_s = 0.0;
+    sim::reset(sim_);
     reset_requested_ = false;
     reroute = true;
   }
@@ -169,10 +167,8 @@ void RealtimeLoop::route_forces() {
 void RealtimeLoop::one_step() {
   const Model& m = *sim_.model;
   const double t0 = now_s();
-  sim_.f_ext.setZero();
-  for (const ForceRoute& r : routes_)
-    for (size_t k = 0; k < r.nodes.size(); ++k)
-      sim_.f_ext.row(r.nodes[k]) += r.forces.row(static_cast<Eigen::Index>(k));
+  clear_loads(sim_, loads_);
+  for (const ForceRoute& r : routes_) add_load(sim_, r, loads_);
 
   // The tool tip: a penalty force on the deepest skin node inside it, along the line from the
   // tip's centre, routed afresh when the contact moves (routes are linear in the force).
@@ -186,8 +182,7 @@ void RealtimeLoop::one_step() {
       dir = dir.norm() > 1e-9 ? dir.normalized() : Eigen::Vector3d(0, 1, 0);
       tip_force_ = tip_.stiffness_n_per_m * (tip_.radius_mm - distance) * dir;
       tip_route = route_force(m, sim_.x, node, tip_force_, routing_);
-      for (size_t k = 0; k < tip_route.nodes.size(); ++k)
-        sim_.f_ext.row(tip_route.nodes[k]) += tip_route.forces.row(static_cast<Eigen::Index>(k));
+      add_load(sim_, tip_route, loads_);
       if (node != tip_contact_ && sim_.options.mode == sim::Mode::kLocal) {
         touched_.insert(touched_.end(), tip_route.nodes.begin(), tip_route.nodes.end());
         std::sort(touched_.begin(), touched_.end());
@@ -223,7 +218,7 @@ void RealtimeLoop::publish(bool force) {
   if (!force && t - last_publish_s_ < options_.publish_interval_s) return;
   last_publish_s_ = t;
 
-  const Eigen::Vector3d reaction = reaction_force(sim_);
+  const Eigen::Vector3d reaction = reaction_force(sim_, loads_);
 
   std::lock_guard lock(snapshot_mutex_);
   LoopSnapshot& s = published_;

@@ -163,13 +163,9 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
     d.active[t] = on;
     any |= on;
   }
-  s.f_ext.setZero();
-  for (size_t t = 0; t < n; ++t) {
-    if (!d.active[t]) continue;
-    const ForceRoute& r = d.routes[t];
-    for (size_t k = 0; k < r.nodes.size(); ++k)
-      s.f_ext.row(r.nodes[k]) += r.forces.row(static_cast<Eigen::Index>(k));
-  }
+  clear_loads(s, d.loads);
+  for (size_t t = 0; t < n; ++t)
+    if (d.active[t]) add_load(s, d.routes[t], d.loads);
   if (changed && s.options.mode == sim::Mode::kLocal) {
     std::sort(d.touched.begin(), d.touched.end());
     d.touched.erase(std::unique(d.touched.begin(), d.touched.end()), d.touched.end());
@@ -178,19 +174,55 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
   return any;
 }
 
+void clear_loads(sim::Simulation& s, Loads& loads) {
+  if (!loads.cleared) {
+    s.f_ext.setZero();
+    loads.cleared = true;
+  }
+  for (int32_t i : loads.nodes) s.f_ext.row(i).setZero();
+  loads.nodes.clear();
+}
+
+void add_load(sim::Simulation& s, const ForceRoute& r, Loads& loads) {
+  for (size_t k = 0; k < r.nodes.size(); ++k)
+    s.f_ext.row(r.nodes[k]) += r.forces.row(static_cast<Eigen::Index>(k));
+  loads.nodes.insert(loads.nodes.end(), r.nodes.begin(), r.nodes.end());
+}
+
+namespace {
+
+// The spring and anchor forces on free node i (its share of the reaction).
+Eigen::Vector3d node_reaction(const sim::Simulation& s, int32_t i) {
+  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
+  for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+    const int32_t j = s.adj_other[a], e = s.adj_spring[a];
+    const Eigen::Vector3d d = s.x.row(j) - s.x.row(i);
+    const double len = d.norm();
+    if (len > 1e-12)
+      reaction += s.stiffness_n_per_m[e] * (len - s.model->springs.rest_length_mm[e]) * (d / len);
+  }
+  reaction -= s.material.anchor_stiffness_n_per_m * (s.x.row(i) - s.model->X.row(i)).transpose();
+  return reaction;
+}
+
+}  // namespace
+
 Eigen::Vector3d reaction_force(const sim::Simulation& s) {
   Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
-  for (int32_t i = 0; i < s.f_ext.rows(); ++i) {
-    if (s.fixed[i] || s.f_ext.row(i).isZero()) continue;
-    for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-      const int32_t j = s.adj_other[a], e = s.adj_spring[a];
-      const Eigen::Vector3d d = s.x.row(j) - s.x.row(i);
-      const double len = d.norm();
-      if (len > 1e-12)
-        reaction += s.stiffness_n_per_m[e] * (len - s.model->springs.rest_length_mm[e]) * (d / len);
-    }
-    reaction -= s.material.anchor_stiffness_n_per_m * (s.x.row(i) - s.model->X.row(i)).transpose();
-  }
+  for (int32_t i = 0; i < s.f_ext.rows(); ++i)
+    if (!s.fixed[i] && !s.f_ext.row(i).isZero()) reaction += node_reaction(s, i);
+  return reaction;
+}
+
+Eigen::Vector3d reaction_force(const sim::Simulation& s, const Loads& loads) {
+  // A node can be loaded by several routes: count it once, in ascending order as above.
+  thread_local std::vector<int32_t> nodes;
+  nodes.assign(loads.nodes.begin(), loads.nodes.end());
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
+  for (int32_t i : nodes)
+    if (!s.fixed[i] && !s.f_ext.row(i).isZero()) reaction += node_reaction(s, i);
   return reaction;
 }
 

@@ -1,7 +1,10 @@
 #include "lamina/sim/simulation.h"
 
+#include <omp.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -13,154 +16,440 @@ namespace {
 // kg (mm/s)^2 -> J.
 constexpr double kJoulesPerKgMm2PerS2 = 1e-6;
 
-// Below this many rows a parallel region costs more than it saves (a paper-size model's whole
-// spring pass is tens of microseconds); loops run serially there.
-constexpr Eigen::Index kParallelRows = 8192;
+// Below this many springs a step runs on one thread: a parallel region costs a few microseconds,
+// more than it saves on a small model.
+constexpr int64_t kParallelSprings = 4096;
+constexpr int kMaxThreads = 64;
 
-// Forces that do not come from springs: external, damping, gravity, anchors. Added to f.
-void add_node_forces(const Simulation& s, const Eigen::MatrixX3d& x, const Eigen::MatrixX3d& v,
-                     Eigen::MatrixX3d& f) {
+int threads_for(const Simulation& s) {
+  return static_cast<int64_t>(s.active_springs.size()) >= kParallelSprings
+             ? std::clamp(omp_get_max_threads(), 1, kMaxThreads)
+             : 1;
+}
+
+// Runs body(begin, end, thread) on `threads` threads, each over its own fixed slice of [0, n).
+// Fixed slices and per-thread partial results summed in thread order keep every result the same
+// from run to run (an OpenMP reduction may add the partials in any order).
+template <class Body>
+void for_slices(int64_t n, int threads, Body&& body) {
+  if (threads <= 1) {
+    body(int64_t{0}, n, 0);
+    return;
+  }
+#pragma omp parallel num_threads(threads)
+  {
+    const int t = omp_get_thread_num(), T = omp_get_num_threads();
+    body(n * t / T, n * (t + 1) / T, t);
+  }
+}
+
+// Per-thread partial results, one cache line each so that threads never share one.
+struct alignas(64) Partial {
+  double a = 0.0, b = 0.0, c = 0.0;
+  bool ok = true;
+};
+using Partials = std::array<Partial, kMaxThreads>;
+
+// Column pointers of an #n by 3 column-major matrix.
+struct Cols {
+  double *x, *y, *z;
+  explicit Cols(Eigen::MatrixX3d& m) : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
+};
+struct ConstCols {
+  const double *x, *y, *z;
+  explicit ConstCols(const Eigen::MatrixX3d& m)
+      : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
+};
+
+// Hooke force of each listed spring on its first node i, k (l - L) (x_j - x_i) / l, into fs.
+// Each spring is evaluated once; a node then gathers +fs (as i) or -fs (as j), so forces on the
+// two ends are exactly opposite and no two threads write the same value.
+void spring_pass(const Simulation& s, const Eigen::MatrixX3d& x, const int32_t* list,
+                 int64_t count, Eigen::MatrixX3d& fs, int threads) {
+  const Springs& sp = s.model->springs;
+  const int32_t *si = sp.i.data(), *sj = sp.j.data();
+  const double *rest = sp.rest_length_mm.data(), *k = s.stiffness_n_per_m.data();
+  const ConstCols p(x);
+  Cols f(fs);
+  for_slices(count, threads, [&](int64_t begin, int64_t end, int) {
+    for (int64_t q = begin; q < end; ++q) {
+      const int64_t e = list ? list[q] : q;
+      const int32_t a = si[e], b = sj[e];
+      const double dx = p.x[b] - p.x[a], dy = p.y[b] - p.y[a], dz = p.z[b] - p.z[a];
+      // A zero-length spring has no direction: its force is 0 (|d| / l <= 1 bounds it anyway).
+      const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
+      const double t = k[e] * (l - rest[e]) / l;
+      f.x[e] = t * dx, f.y[e] = t * dy, f.z[e] = t * dz;
+    }
+  });
+}
+
+// The spring force on node i: the sum of its springs' forces, signed by which end it is.
+inline void gather(const Simulation& s, int32_t i, const ConstCols& fs, double& fx, double& fy,
+                   double& fz) {
+  for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+    const int32_t e = s.adj_spring[a];
+    const double sign = s.adj_other[a] > i ? 1.0 : -1.0;  // springs store i < j
+    fx += sign * fs.x[e], fy += sign * fs.y[e], fz += sign * fs.z[e];
+  }
+}
+
+// Everything a step measures about the movable nodes, from their state before (x_prev) and after.
+struct Measured {
+  double move2 = 0.0, disp2 = 0.0, ke = 0.0;
+  bool ok = true;
+};
+
+Measured combine(const Partials& part, int threads) {
+  Measured m;
+  for (int t = 0; t < std::max(threads, 1); ++t) {
+    m.move2 = std::max(m.move2, part[t].a);
+    m.disp2 = std::max(m.disp2, part[t].b);
+    m.ke += part[t].c;
+    m.ok = m.ok && part[t].ok;
+  }
+  return m;
+}
+
+// One node's end-of-step bookkeeping: the finite and bounded check (a blow-up can stay finite for
+// a few steps while growing without bound) and the measurements.
+inline void account(const Simulation& s, int32_t i, double x0, double y0, double z0, double nx,
+                    double ny, double nz, double vx, double vy, double vz, Partial& out) {
+  const Eigen::MatrixX3d& X = s.model->X;
+  const double ex = nx - X(i, 0), ey = ny - X(i, 1), ez = nz - X(i, 2);
+  const double lim = s.blowup_limit_mm;
+  out.ok = out.ok && std::abs(ex) < lim && std::abs(ey) < lim && std::abs(ez) < lim &&
+           std::isfinite(vx + vy + vz);  // NaN fails every comparison; inf - inf is NaN
+  const double mx = nx - x0, my = ny - y0, mz = nz - z0;
+  out.a = std::max(out.a, mx * mx + my * my + mz * mz);
+  out.b = std::max(out.b, ex * ex + ey * ey + ez * ez);
+  out.c += 0.5 * s.mass_kg[i] * (vx * vx + vy * vy + vz * vz);
+}
+
+// Semi-implicit (symplectic) Euler, the paper's: v += dt a(x, v); x += dt v. Two passes: the
+// springs, then each movable node gathers its forces, integrates, checks and measures itself.
+// With save, the movable nodes' old state goes to x_prev/v_prev first (the step's rollback).
+Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
+  const int T = threads_for(s);
+  spring_pass(s, s.x, s.active_springs.data(), static_cast<int64_t>(s.active_springs.size()),
+              s.spring_force, T);
   const Material& mat = s.material;
   const Eigen::MatrixX3d& X = s.model->X;
-  const Eigen::Index n = x.rows();
-#pragma omp parallel for schedule(static) if (n >= kParallelRows)
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c)
-      f(i, c) += s.f_ext(i, c) - mat.damping_kg_per_s * v(i, c) +
-                 s.mass_kg[i] * mat.gravity_mm_per_s2[c] -
-                 mat.anchor_stiffness_n_per_m * (x(i, c) - X(i, c));
+  const ConstCols fs(s.spring_force), fe(s.f_ext);
+  Cols x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev);
+  const double damp = mat.damping_kg_per_s, anchor = mat.anchor_stiffness_n_per_m;
+  const Eigen::Vector3d g = mat.gravity_mm_per_s2;
+  Partials part;
+  for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
+             [&](int64_t begin, int64_t end, int t) {
+               Partial acc;
+               for (int64_t q = begin; q < end; ++q) {
+                 const int32_t i = s.active_nodes[q];
+                 const double m = s.mass_kg[i];
+                 const double x0 = x.x[i], y0 = x.y[i], z0 = x.z[i];
+                 double fx = fe.x[i] - damp * v.x[i] + m * g.x() - anchor * (x0 - X(i, 0));
+                 double fy = fe.y[i] - damp * v.y[i] + m * g.y() - anchor * (y0 - X(i, 1));
+                 double fz = fe.z[i] - damp * v.z[i] + m * g.z() - anchor * (z0 - X(i, 2));
+                 gather(s, i, fs, fx, fy, fz);
+                 if (save) {
+                   xp.x[i] = x0, xp.y[i] = y0, xp.z[i] = z0;
+                   vp.x[i] = v.x[i], vp.y[i] = v.y[i], vp.z[i] = v.z[i];
+                 }
+                 const double h_m = dt / m;
+                 const double vx = v.x[i] + h_m * fx, vy = v.y[i] + h_m * fy,
+                              vz = v.z[i] + h_m * fz;
+                 const double nx = x0 + dt * vx, ny = y0 + dt * vy, nz = z0 + dt * vz;
+                 v.x[i] = vx, v.y[i] = vy, v.z[i] = vz;
+                 x.x[i] = nx, x.y[i] = ny, x.z[i] = nz;
+                 account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
+               }
+               part[t] = acc;
+             });
+  return combine(part, T);
 }
 
-bool all_finite_and_bounded(const Simulation& s, double limit_mm) {
-  // A blow-up can stay finite for a few steps while growing without bound: treat a node far
-  // outside the model's reach as unstable too.
-  const Eigen::MatrixX3d& X = s.model->X;
-  bool ok = true;
-  for (Eigen::Index i = 0; i < s.x.rows() && ok; ++i)
-    for (int c = 0; c < 3; ++c)
-      ok &= std::isfinite(s.x(i, c)) && std::isfinite(s.v(i, c)) &&
-            std::abs(s.x(i, c) - X(i, c)) < limit_mm;
-  return ok;
-}
-
-// Semi-implicit (symplectic) Euler, the paper's: v += dt a(x, v); x += dt v.
-void semi_implicit_euler(Simulation& s, double dt) {
-  s.f.setZero();
-  spring_forces(s, s.x, s.f);
-  add_node_forces(s, s.x, s.v, s.f);
-  const Eigen::Index n = s.x.rows();
-#pragma omp parallel for schedule(static) if (n >= kParallelRows)
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (!s.movable[i]) {
-      s.v.row(i).setZero();
-      continue;
-    }
-    for (int c = 0; c < 3; ++c) {
-      s.v(i, c) += dt * s.f(i, c) / s.mass_kg[i];
-      s.x(i, c) += dt * s.v(i, c);
-    }
-  }
-}
-
-// y = (M + h gamma + h^2 K) p on movable nodes, K the spring (and anchor) stiffness matrix
-// linearised at the current positions (directions and 1 - L/l cached in s.dir).
-void system_product(const Simulation& s, double h, const Eigen::MatrixX3d& p, Eigen::MatrixX3d& y) {
-  const Eigen::Index n = p.rows();
-  const double h2 = h * h, damp = h * s.material.damping_kg_per_s;
-  const double anchor = s.material.anchor_stiffness_n_per_m;
-#pragma omp parallel for schedule(static) if (n >= kParallelRows)
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (!s.movable[i]) {
-      y.row(i).setZero();
-      continue;
-    }
-    Eigen::Vector3d kp = anchor * p.row(i).transpose();
-    for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-      const int32_t e = s.adj_spring[a], j = s.adj_other[a];
-      const Eigen::Vector3d d = p.row(i).transpose() - p.row(j).transpose();
-      const Eigen::Vector3d u = s.dir.row(e).head<3>().transpose();
-      const double alpha = s.dir(e, 3);
-      const double along = u.dot(d);
-      // k [u u^T + alpha (I - u u^T)] d
-      kp += s.stiffness_n_per_m[e] * (along * u + alpha * (d - along * u));
-    }
-    y.row(i) = (s.mass_kg[i] + damp) * p.row(i) + h2 * kp.transpose();
-  }
+// y = (M + h gamma + h^2 K) p on the movable nodes, K the spring (and anchor) stiffness matrix
+// linearised at the current positions (directions and max(0, 1 - L/l) cached in s.dir): per
+// spring k [u u^T + alpha (I - u u^T)]. Returns p . y (CG's curvature) summed in thread order.
+double system_product(const Simulation& s, double h, const Eigen::MatrixX3d& pm,
+                      Eigen::MatrixX3d& ym, int T) {
+  const double h2 = h * h, anchor = s.material.anchor_stiffness_n_per_m;
+  const double damp = h * s.material.damping_kg_per_s;
+  const ConstCols p(pm);
+  Cols y(ym);
+  const double *ux = s.dir.col(0).data(), *uy = s.dir.col(1).data(), *uz = s.dir.col(2).data(),
+               *al = s.dir.col(3).data();
+  Partials part;
+  for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
+             [&](int64_t begin, int64_t end, int t) {
+               double pap = 0.0;
+               for (int64_t q = begin; q < end; ++q) {
+                 const int32_t i = s.active_nodes[q];
+                 const double pix = p.x[i], piy = p.y[i], piz = p.z[i];
+                 double kx = anchor * pix, ky = anchor * piy, kz = anchor * piz;
+                 for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+                   const int32_t e = s.adj_spring[a], j = s.adj_other[a];
+                   const double dx = pix - p.x[j], dy = piy - p.y[j], dz = piz - p.z[j];
+                   const double along = ux[e] * dx + uy[e] * dy + uz[e] * dz;
+                   const double k = s.stiffness_n_per_m[e], ka = k * al[e];
+                   // k (along u + alpha (d - along u)) = k alpha d + k (1 - alpha) along u
+                   const double ku = (k - ka) * along;
+                   kx += ka * dx + ku * ux[e], ky += ka * dy + ku * uy[e], kz += ka * dz + ku * uz[e];
+                 }
+                 const double md = s.mass_kg[i] + damp;
+                 const double yx = md * pix + h2 * kx, yy = md * piy + h2 * ky,
+                              yz = md * piz + h2 * kz;
+                 y.x[i] = yx, y.y[i] = yy, y.z[i] = yz;
+                 pap += pix * yx + piy * yy + piz * yz;
+               }
+               part[t].a = pap;
+             });
+  double sum = 0.0;
+  for (int t = 0; t < T; ++t) sum += part[t].a;
+  return sum;
 }
 
 // Backward Euler, linearised once per step (Baraff-Witkin):
 //   (M + h gamma + h^2 K) dv = h (f(x, v) - h K v),   v += dv,   x += h v.
 // K's geometric term is clamped at max(0, 1 - L/l) so the matrix stays positive definite under
-// compression and CG applies. Jacobi-preconditioned, warm-started from dv = 0.
-int32_t implicit_euler(Simulation& s, double h) {
-  const Eigen::Index n = s.x.rows();
-  const int64_t springs = static_cast<int64_t>(s.model->springs.size());
+// compression and CG applies. Jacobi-preconditioned, warm-started from the last step's dv.
+Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations) {
+  const int T = threads_for(s);
   const Springs& sp = s.model->springs;
-#pragma omp parallel for schedule(static) if (springs >= kParallelRows)
-  for (int64_t e = 0; e < springs; ++e) {
-    Eigen::Vector3d d = s.x.row(sp.i[e]).transpose() - s.x.row(sp.j[e]).transpose();
-    const double l = d.norm();
-    if (l > 0.0) d /= l;
-    s.dir.row(e) << d.transpose(), l > 0.0 ? std::max(0.0, 1.0 - sp.rest_length_mm[e] / l) : 0.0;
+  const Material& mat = s.material;
+  const double h2 = h * h, damp_h = h * mat.damping_kg_per_s;
+  const double damp = mat.damping_kg_per_s, anchor = mat.anchor_stiffness_n_per_m;
+  const Eigen::Vector3d g = mat.gravity_mm_per_s2;
+  const Eigen::MatrixX3d& X = s.model->X;
+
+  // 1. Springs: the force on the first node, and the linearisation (direction, 1 - L/l).
+  {
+    const ConstCols x(s.x);
+    Cols f(s.spring_force);
+    double *ux = s.dir.col(0).data(), *uy = s.dir.col(1).data(), *uz = s.dir.col(2).data(),
+           *al = s.dir.col(3).data();
+    for_slices(static_cast<int64_t>(s.active_springs.size()), T,
+               [&](int64_t begin, int64_t end, int) {
+                 for (int64_t q = begin; q < end; ++q) {
+                   const int32_t e = s.active_springs[q], a = sp.i[e], b = sp.j[e];
+                   const double dx = x.x[b] - x.x[a], dy = x.y[b] - x.y[a], dz = x.z[b] - x.z[a];
+                   const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
+                   const double t = s.stiffness_n_per_m[e] * (l - sp.rest_length_mm[e]) / l;
+                   f.x[e] = t * dx, f.y[e] = t * dy, f.z[e] = t * dz;
+                   ux[e] = dx / l, uy[e] = dy / l, uz[e] = dz / l;
+                   al[e] = std::max(0.0, 1.0 - sp.rest_length_mm[e] / l);
+                 }
+               });
   }
-  s.f.setZero();
-  spring_forces(s, s.x, s.f);
-  add_node_forces(s, s.x, s.v, s.f);
-  // rhs = h f - h^2 K v: K v from the product with the damping and mass terms taken out.
-  system_product(s, h, s.v, s.q);
-  const double h2 = h * h, damp = h * s.material.damping_kg_per_s;
-  const double anchor = s.material.anchor_stiffness_n_per_m;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (!s.movable[i]) {
-      s.r.row(i).setZero();
-      s.diag.row(i).setOnes();
-      continue;
-    }
-    s.r.row(i) = h * s.f.row(i) - (s.q.row(i) - (s.mass_kg[i] + damp) * s.v.row(i));
-    for (int c = 0; c < 3; ++c) {
-      double k_diag = anchor;
-      for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-        const int32_t e = s.adj_spring[a];
-        const double u = s.dir(e, c), alpha = s.dir(e, 3);
-        k_diag += s.stiffness_n_per_m[e] * (u * u + alpha * (1.0 - u * u));
-      }
-      s.diag(i, c) = s.mass_kg[i] + damp + h2 * k_diag;
-    }
+
+  // 2. Per node: b = h f - h^2 K v and the residual of the warm start dv0,
+  //    r = b - (M + h gamma) dv0 - h^2 K dv0 = h f - (M + h gamma) dv0 - h^2 K (v + dv0);
+  //    the Jacobi diagonal; z = r / diag; p = z.
+  Partials part;
+  {
+    const ConstCols fs(s.spring_force), fe(s.f_ext), v(s.v), x(s.x);
+    Cols dv(s.dv), r(s.r), z(s.z), pp(s.p), dg(s.diag);
+    const double *ux = s.dir.col(0).data(), *uy = s.dir.col(1).data(),
+                 *uz = s.dir.col(2).data(), *al = s.dir.col(3).data();
+    for_slices(
+        static_cast<int64_t>(s.active_nodes.size()), T, [&](int64_t begin, int64_t end, int t) {
+          Partial acc;  // a: |b|^2, b: r.z, c: |r|^2
+          for (int64_t q = begin; q < end; ++q) {
+            const int32_t i = s.active_nodes[q];
+            const double m = s.mass_kg[i];
+            double fx = fe.x[i] - damp * v.x[i] + m * g.x() - anchor * (x.x[i] - X(i, 0));
+            double fy = fe.y[i] - damp * v.y[i] + m * g.y() - anchor * (x.y[i] - X(i, 1));
+            double fz = fe.z[i] - damp * v.z[i] + m * g.z() - anchor * (x.z[i] - X(i, 2));
+            gather(s, i, fs, fx, fy, fz);
+            // K v and K (v + dv0) in one sweep of the node's springs.
+            const double wx = v.x[i] + dv.x[i], wy = v.y[i] + dv.y[i], wz = v.z[i] + dv.z[i];
+            double kvx = anchor * v.x[i], kvy = anchor * v.y[i], kvz = anchor * v.z[i];
+            double kwx = anchor * wx, kwy = anchor * wy, kwz = anchor * wz;
+            double d0 = anchor, d1 = anchor, d2 = anchor;
+            for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+              const int32_t e = s.adj_spring[a], j = s.adj_other[a];
+              const double k = s.stiffness_n_per_m[e], ka = k * al[e], kb = k - ka;
+              const double cx = ux[e], cy = uy[e], cz = uz[e];
+              double dx = v.x[i] - v.x[j], dy = v.y[i] - v.y[j], dz = v.z[i] - v.z[j];
+              double along = kb * (cx * dx + cy * dy + cz * dz);
+              kvx += ka * dx + along * cx, kvy += ka * dy + along * cy, kvz += ka * dz + along * cz;
+              dx = wx - (v.x[j] + dv.x[j]), dy = wy - (v.y[j] + dv.y[j]),
+              dz = wz - (v.z[j] + dv.z[j]);
+              along = kb * (cx * dx + cy * dy + cz * dz);
+              kwx += ka * dx + along * cx, kwy += ka * dy + along * cy, kwz += ka * dz + along * cz;
+              d0 += ka + kb * cx * cx, d1 += ka + kb * cy * cy, d2 += ka + kb * cz * cz;
+            }
+            const double md = m + damp_h;
+            const double bx = h * fx - h2 * kvx, by = h * fy - h2 * kvy, bz = h * fz - h2 * kvz;
+            const double rx = h * fx - md * dv.x[i] - h2 * kwx, ry = h * fy - md * dv.y[i] - h2 * kwy,
+                         rz = h * fz - md * dv.z[i] - h2 * kwz;
+            const double gx = md + h2 * d0, gy = md + h2 * d1, gz = md + h2 * d2;
+            dg.x[i] = gx, dg.y[i] = gy, dg.z[i] = gz;
+            r.x[i] = rx, r.y[i] = ry, r.z[i] = rz;
+            const double zx = rx / gx, zy = ry / gy, zz = rz / gz;
+            z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+            pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
+            acc.a += bx * bx + by * by + bz * bz;
+            acc.b += rx * zx + ry * zy + rz * zz;
+            acc.c += rx * rx + ry * ry + rz * rz;
+          }
+          part[t] = acc;
+        });
   }
-  // Conjugate gradients on dv (stored in s.x_prev's twin, s.p is the search direction).
-  Eigen::MatrixX3d& dv = s.q;
-  dv.setZero();
-  s.z = s.r.cwiseQuotient(s.diag);
-  s.p = s.z;
-  double rz = s.r.cwiseProduct(s.z).sum();
-  const double r0 = std::sqrt(s.r.squaredNorm());
+  double b2 = 0.0, rz = 0.0, r2 = 0.0;
+  for (int t = 0; t < T; ++t) b2 += part[t].a, rz += part[t].b, r2 += part[t].c;
+
+  // 3. Conjugate gradients on dv.
+  const double stop2 = s.options.cg_tolerance * s.options.cg_tolerance * b2;
   int32_t it = 0;
-  Eigen::MatrixX3d& ap = s.f;  // forces are no longer needed: reuse as A p
-  for (; it < s.options.cg_max_iterations && r0 > 0.0; ++it) {
-    system_product(s, h, s.p, ap);
-    const double pap = s.p.cwiseProduct(ap).sum();
-    if (!(pap > 0.0)) break;
-    const double alpha = rz / pap;
-    dv += alpha * s.p;
-    s.r -= alpha * ap;
-    if (std::sqrt(s.r.squaredNorm()) <= s.options.cg_tolerance * r0) {
-      ++it;
-      break;
+  if (b2 == 0.0) {
+    // No force and no motion: the answer is dv = 0, whatever the warm start said.
+    for (int32_t i : s.active_nodes) s.dv.row(i).setZero();
+  } else {
+    for (; it < s.options.cg_max_iterations && r2 > stop2; ++it) {
+      const double pap = system_product(s, h, s.p, s.y, T);
+      if (!(pap > 0.0)) break;
+      const double alpha = rz / pap;
+      Cols dv(s.dv), r(s.r), z(s.z);
+      const ConstCols pp(s.p), y(s.y), dg(s.diag);
+      for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
+                 [&](int64_t begin, int64_t end, int t) {
+                   Partial acc;  // b: r.z, c: |r|^2
+                   for (int64_t q = begin; q < end; ++q) {
+                     const int32_t i = s.active_nodes[q];
+                     dv.x[i] += alpha * pp.x[i], dv.y[i] += alpha * pp.y[i],
+                         dv.z[i] += alpha * pp.z[i];
+                     const double rx = r.x[i] - alpha * y.x[i], ry = r.y[i] - alpha * y.y[i],
+                                  rz_ = r.z[i] - alpha * y.z[i];
+                     r.x[i] = rx, r.y[i] = ry, r.z[i] = rz_;
+                     const double zx = rx / dg.x[i], zy = ry / dg.y[i], zz = rz_ / dg.z[i];
+                     z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+                     acc.b += rx * zx + ry * zy + rz_ * zz;
+                     acc.c += rx * rx + ry * ry + rz_ * rz_;
+                   }
+                   part[t] = acc;
+                 });
+      double rz_new = 0.0;
+      r2 = 0.0;
+      for (int t = 0; t < T; ++t) rz_new += part[t].b, r2 += part[t].c;
+      const double beta = rz_new / rz;
+      rz = rz_new;
+      if (r2 <= stop2) {
+        ++it;
+        break;
+      }
+      Cols pw(s.p);
+      const ConstCols zc(s.z);
+      for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
+                 [&](int64_t begin, int64_t end, int) {
+                   for (int64_t q = begin; q < end; ++q) {
+                     const int32_t i = s.active_nodes[q];
+                     pw.x[i] = zc.x[i] + beta * pw.x[i], pw.y[i] = zc.y[i] + beta * pw.y[i],
+                     pw.z[i] = zc.z[i] + beta * pw.z[i];
+                   }
+                 });
     }
-    s.z = s.r.cwiseQuotient(s.diag);
-    const double rz_new = s.r.cwiseProduct(s.z).sum();
-    s.p = s.z + (rz_new / rz) * s.p;
-    rz = rz_new;
   }
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (!s.movable[i]) {
-      s.v.row(i).setZero();
+  iterations = it;
+
+  // 4. Update, check and measure.
+  Cols x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev);
+  const ConstCols dv(s.dv);
+  for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
+             [&](int64_t begin, int64_t end, int t) {
+               Partial acc;
+               for (int64_t q = begin; q < end; ++q) {
+                 const int32_t i = s.active_nodes[q];
+                 const double x0 = x.x[i], y0 = x.y[i], z0 = x.z[i];
+                 if (save) {
+                   xp.x[i] = x0, xp.y[i] = y0, xp.z[i] = z0;
+                   vp.x[i] = v.x[i], vp.y[i] = v.y[i], vp.z[i] = v.z[i];
+                 }
+                 const double vx = v.x[i] + dv.x[i], vy = v.y[i] + dv.y[i], vz = v.z[i] + dv.z[i];
+                 const double nx = x0 + h * vx, ny = y0 + h * vy, nz = z0 + h * vz;
+                 v.x[i] = vx, v.y[i] = vy, v.z[i] = vz;
+                 x.x[i] = nx, x.y[i] = ny, x.z[i] = nz;
+                 account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
+               }
+               part[t] = acc;
+             });
+  return combine(part, T);
+}
+
+Measured advance(Simulation& s, Integrator integrator, double h, bool save, int32_t& cg) {
+  return integrator == Integrator::kSemiImplicitEuler ? semi_implicit_euler(s, h, save)
+                                                      : implicit_euler(s, h, save, cg);
+}
+
+// The movable nodes back to their state before the step.
+void roll_back(Simulation& s) {
+  for (int32_t i : s.active_nodes) {
+    s.x.row(i) = s.x_prev.row(i);
+    s.v.row(i) = s.v_prev.row(i);
+  }
+}
+
+// Measurements of the movable nodes against x_prev (after a recovered step, whose parts each
+// measured only themselves).
+Measured measure(const Simulation& s) {
+  Partial acc;
+  for (int32_t i : s.active_nodes)
+    account(s, i, s.x_prev(i, 0), s.x_prev(i, 1), s.x_prev(i, 2), s.x(i, 0), s.x(i, 1), s.x(i, 2),
+            s.v(i, 0), s.v(i, 1), s.v(i, 2), acc);
+  Partials part;
+  part[0] = acc;
+  return combine(part, 1);
+}
+
+// 6 x the signed volume of the listed triangles (all of F when list is empty and all = true).
+double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& xm, const int32_t* list,
+               int64_t count, int threads) {
+  const ConstCols x(xm);
+  Partials part;
+  for_slices(count, threads, [&](int64_t begin, int64_t end, int t) {
+    double v6 = 0.0;
+    for (int64_t q = begin; q < end; ++q) {
+      const Eigen::Index f = list ? list[q] : q;
+      const int32_t a = F(f, 0), b = F(f, 1), c = F(f, 2);
+      v6 += x.x[a] * (x.y[b] * x.z[c] - x.z[b] * x.y[c]) +
+            x.y[a] * (x.z[b] * x.x[c] - x.x[b] * x.z[c]) +
+            x.z[a] * (x.x[b] * x.y[c] - x.y[b] * x.x[c]);
+    }
+    part[t].a = v6;
+  });
+  double sum = 0.0;
+  for (int t = 0; t < std::max(threads, 1); ++t) sum += part[t].a;
+  return sum;
+}
+
+// Rebuilds what a step visits and what it caches about the nodes that stay put. O(model); runs
+// only when the movable set changes.
+void refresh(Simulation& s) {
+  const Model& m = *s.model;
+  const int32_t n = m.node_count();
+  s.active_nodes.clear();
+  double frozen2 = 0.0;
+  for (int32_t i = 0; i < n; ++i) {
+    if (s.movable[i]) {
+      s.active_nodes.push_back(i);
       continue;
     }
-    s.v.row(i) += dv.row(i);
-    s.x.row(i) += h * s.v.row(i);
+    s.v.row(i).setZero();
+    for (Eigen::MatrixX3d* w : {&s.r, &s.z, &s.p, &s.dv}) w->row(i).setZero();
+    frozen2 = std::max(frozen2, (s.x.row(i) - m.X.row(i)).squaredNorm());
   }
-  return it;
+  s.frozen_max_displacement_mm = std::sqrt(frozen2);
+  const Springs& sp = m.springs;
+  s.active_springs.clear();
+  for (size_t e = 0; e < sp.size(); ++e)
+    if (s.movable[sp.i[e]] || s.movable[sp.j[e]]) s.active_springs.push_back(static_cast<int32_t>(e));
+  const Eigen::MatrixX3i& F = m.layers.at(0).F;
+  s.volume_triangles.clear();
+  std::vector<int32_t> frozen;
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    (s.movable[F(t, 0)] || s.movable[F(t, 1)] || s.movable[F(t, 2)] ? s.volume_triangles : frozen)
+        .push_back(static_cast<int32_t>(t));
+  s.frozen_volume6_mm3 = volume6(F, s.x, frozen.data(), static_cast<int64_t>(frozen.size()), 1);
 }
 
 }  // namespace
@@ -219,10 +508,13 @@ Simulation make_simulation(const Model& model, const Material& material,
   s.rest_skin_volume_mm3 = layer_volume(model, model.X, 0);
   s.blowup_limit_mm =
       100.0 * (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
-  for (Eigen::MatrixX3d* m : {&s.f, &s.x_prev, &s.v_prev, &s.r, &s.p, &s.z, &s.q})
+  for (Eigen::MatrixX3d* m : {&s.x_prev, &s.v_prev, &s.r, &s.p, &s.z, &s.y, &s.dv})
     *m = Eigen::MatrixX3d::Zero(n, 3);
   s.diag = Eigen::MatrixX3d::Ones(n, 3);
-  s.dir = Eigen::Matrix<double, Eigen::Dynamic, 4>::Zero(static_cast<Eigen::Index>(sp.size()), 4);
+  const auto springs = static_cast<Eigen::Index>(sp.size());
+  s.spring_force = Eigen::MatrixX3d::Zero(springs, 3);
+  s.dir = Eigen::Matrix<double, Eigen::Dynamic, 4>::Zero(springs, 4);
+  refresh(s);
   return s;
 }
 
@@ -237,22 +529,34 @@ void set_parameters(Simulation& s, const Material& material, const SolverOptions
     s.stiffness_n_per_m = material.stiffness_n_per_m > 0.0
                               ? std::vector<double>(m.springs.size(), material.stiffness_n_per_m)
                               : m.springs.stiffness_n_per_m;
-  if (options.mode == Mode::kGlobal && s.options.mode != Mode::kGlobal)
+  const bool to_global = options.mode == Mode::kGlobal && s.options.mode != Mode::kGlobal;
+  if (to_global)
     for (size_t i = 0; i < n; ++i) s.movable[i] = !s.fixed[i];
   s.material = material;
   s.options = options;
+  if (to_global) refresh(s);
 }
 
 void fix_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
-  for (int32_t i : nodes) {
+  for (int32_t i : nodes)
     if (i < 0 || i >= s.model->node_count())
       throw invalid_input("fixed nodes", "node " + std::to_string(i) + " is not in the model (0.." +
                                              std::to_string(s.model->node_count() - 1) + ")");
+  for (int32_t i : nodes) {
     s.fixed[i] = 1;
     s.movable[i] = 0;
     s.x.row(i) = s.model->X.row(i);
     s.v.row(i).setZero();
   }
+  refresh(s);
+}
+
+void reset(Simulation& s) {
+  s.x = s.model->X;
+  s.v.setZero();
+  s.dv.setZero();
+  s.time_s = 0.0;
+  refresh(s);
 }
 
 std::vector<int32_t> nodes_near_plane(const Model& model, const Eigen::Vector3d& point,
@@ -268,35 +572,35 @@ void set_local_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
   std::fill(s.movable.begin(), s.movable.end(), 0);
   for (int32_t i : nodes)
     if (i >= 0 && i < s.model->node_count() && !s.fixed[i]) s.movable[i] = 1;
+  refresh(s);
 }
 
 void spring_forces(const Simulation& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f) {
-  const Springs& sp = s.model->springs;
-  const Eigen::Index n = x.rows();
-  // Gather: each node sums the springs it belongs to, so threads never write the same row. Each
-  // spring is evaluated from both ends with the same arithmetic, so the pair is exactly opposite.
-#pragma omp parallel for schedule(static) if (n >= kParallelRows)
-  for (Eigen::Index i = 0; i < n; ++i) {
-    double fx = 0.0, fy = 0.0, fz = 0.0;
-    for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-      const int32_t j = s.adj_other[a], e = s.adj_spring[a];
-      const double dx = x(j, 0) - x(i, 0), dy = x(j, 1) - x(i, 1), dz = x(j, 2) - x(i, 2);
-      const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
-      if (l <= 0.0) continue;
-      // Hooke: k (l - L) along the spring, pulling i towards j when stretched.
-      const double scale = s.stiffness_n_per_m[e] * (l - sp.rest_length_mm[e]) / l;
-      fx += scale * dx, fy += scale * dy, fz += scale * dz;
+  // Every spring, not only the active ones: this is the whole model's force at any x.
+  const auto springs = static_cast<int64_t>(s.model->springs.size());
+  Eigen::MatrixX3d fs(springs, 3);
+  const int T = springs >= kParallelSprings ? std::clamp(omp_get_max_threads(), 1, kMaxThreads) : 1;
+  spring_pass(s, x, nullptr, springs, fs, T);
+  const ConstCols c(fs);
+  for_slices(x.rows(), T, [&](int64_t begin, int64_t end, int) {
+    for (int64_t i = begin; i < end; ++i) {
+      double fx = 0.0, fy = 0.0, fz = 0.0;
+      gather(s, static_cast<int32_t>(i), c, fx, fy, fz);
+      f(i, 0) += fx, f(i, 1) += fy, f(i, 2) += fz;
     }
-    f(i, 0) += fx, f(i, 1) += fy, f(i, 2) += fz;
-  }
+  });
+}
+
+void implicit_system_product(const Simulation& s, double h, const Eigen::MatrixX3d& p,
+                             Eigen::MatrixX3d& y) {
+  for (int32_t i = 0; i < s.model->node_count(); ++i)
+    if (!s.movable[i]) y.row(i).setZero();
+  system_product(s, h, p, y, threads_for(s));
 }
 
 double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer) {
   const Eigen::MatrixX3i& F = model.layers.at(static_cast<size_t>(layer)).F;
-  double v6 = 0.0;
-  for (Eigen::Index t = 0; t < F.rows(); ++t)
-    v6 += x.row(F(t, 0)).dot(x.row(F(t, 1)).cross(x.row(F(t, 2))));
-  return v6 / 6.0;
+  return volume6(F, x, nullptr, F.rows(), 1) / 6.0;
 }
 
 double spring_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
@@ -312,47 +616,45 @@ double spring_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
 StepStats step(Simulation& s) {
   const auto t0 = std::chrono::steady_clock::now();
   StepStats st;
-  s.x_prev = s.x;
-  s.v_prev = s.v;
   const double h = s.options.dt_s;
-  const double limit = s.blowup_limit_mm;
-  if (s.options.integrator == Integrator::kSemiImplicitEuler)
-    semi_implicit_euler(s, h);
-  else
-    st.cg_iterations = implicit_euler(s, h);
-  if (!all_finite_and_bounded(s, limit)) {
+  const Integrator integrator = s.options.integrator;
+  Measured m = advance(s, integrator, h, /*save=*/true, st.cg_iterations);
+  if (!m.ok) {
     // Roll back and redo: two half steps of the same integrator, then backward Euler (stable at
     // any dt); if even that fails, stop the motion: never let a NaN out.
     st.recovered = true;
     ++s.recoveries;
-    s.x = s.x_prev, s.v = s.v_prev;
-    if (s.options.integrator == Integrator::kSemiImplicitEuler) {
-      semi_implicit_euler(s, 0.5 * h);
-      semi_implicit_euler(s, 0.5 * h);
+    roll_back(s);
+    if (integrator == Integrator::kSemiImplicitEuler) {
+      m = semi_implicit_euler(s, 0.5 * h, false);
+      if (m.ok) m = semi_implicit_euler(s, 0.5 * h, false);
     }
-    if (!all_finite_and_bounded(s, limit)) {
-      s.x = s.x_prev, s.v = s.v_prev;
-      st.cg_iterations = implicit_euler(s, h);
+    if (!m.ok || integrator != Integrator::kSemiImplicitEuler) {
+      roll_back(s);
+      s.dv.setZero();  // the failed solve's answer is no guess for the next
+      m = implicit_euler(s, h, false, st.cg_iterations);
     }
-    if (!all_finite_and_bounded(s, limit)) {
-      s.x = s.x_prev;
-      s.v.setZero();
+    if (!m.ok) {
+      roll_back(s);
+      for (int32_t i : s.active_nodes) s.v.row(i).setZero();
+      s.dv.setZero();
     }
+    m = measure(s);
   }
   s.time_s += h;
   ++s.steps;
 
-  // Measure.
-  double move2 = 0.0, disp2 = 0.0, ke = 0.0;
-  for (Eigen::Index i = 0; i < s.x.rows(); ++i) {
-    move2 = std::max(move2, (s.x.row(i) - s.x_prev.row(i)).squaredNorm());
-    disp2 = std::max(disp2, (s.x.row(i) - s.model->X.row(i)).squaredNorm());
-    ke += 0.5 * s.mass_kg[i] * s.v.row(i).squaredNorm();
-  }
-  st.max_move_mm = std::sqrt(move2);
-  st.max_displacement_mm = std::sqrt(disp2);
-  st.kinetic_energy_j = ke * kJoulesPerKgMm2PerS2;
-  st.skin_volume_mm3 = layer_volume(*s.model, s.x, 0);
+  st.max_move_mm = std::sqrt(m.move2);
+  st.max_displacement_mm = std::max(std::sqrt(m.disp2), s.frozen_max_displacement_mm);
+  st.kinetic_energy_j = m.ke * kJoulesPerKgMm2PerS2;
+  const Eigen::MatrixX3i& F = s.model->layers[0].F;
+  const auto tris = static_cast<int64_t>(s.volume_triangles.size());
+  const int T = tris >= 4 * kParallelSprings ? threads_for(s) : 1;
+  st.skin_volume_mm3 =
+      (s.frozen_volume6_mm3 +
+       (tris == F.rows() ? volume6(F, s.x, nullptr, tris, T)
+                         : volume6(F, s.x, s.volume_triangles.data(), tris, T))) /
+      6.0;
   st.volume_change_pct =
       100.0 * (st.skin_volume_mm3 - s.rest_skin_volume_mm3) / s.rest_skin_volume_mm3;
   st.converged = st.max_move_mm < s.options.threshold_mm;

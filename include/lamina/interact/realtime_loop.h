@@ -125,6 +125,7 @@ class RealtimeLoop {
   ToolTip tip_;
   std::vector<ForceRoute> routes_;
   std::vector<int32_t> touched_;
+  Loads loads_;
   int32_t tip_contact_ = -1;
   Eigen::Vector3d tip_force_ = Eigen::Vector3d::Zero();
   double last_publish_s_ = -1.0;

@@ -48,7 +48,9 @@ struct SolverOptions {
   int64_t max_steps = 100000;  ///< run_to_convergence() gives up after this many steps
   Mode mode = Mode::kGlobal;
   int32_t cg_max_iterations = 100;  ///< implicit Euler: CG iterations per step at most
-  double cg_tolerance = 1e-6;       ///< implicit Euler: relative residual to stop CG
+  /// implicit Euler: CG stops at ||b - A dv|| <= cg_tolerance ||b|| (warm-started from the last
+  /// step's dv, which a smooth motion changes little)
+  double cg_tolerance = 1e-6;
 };
 
 /// What one step measured. Valid until the next step.
@@ -66,6 +68,11 @@ struct StepStats {
 
 /// The simulation: the model it runs on (not owned: it must outlive the simulation), its
 /// parameters, and structure-of-arrays state and workspace. Create with make_simulation().
+///
+/// A step costs in proportion to the movable nodes and their springs, not to the model: in local
+/// mode a poke on a 100k-node model steps only the nodes it reaches. Nodes that do not move keep
+/// their positions; write them only through make_simulation(), fix_nodes(), set_local_nodes(),
+/// set_parameters() or reset(), which also refresh what the measurements cache about them.
 struct Simulation {
   const Model* model = nullptr;
   Material material;
@@ -93,10 +100,21 @@ struct Simulation {
   /// A node this far from its rest position (100 model sizes) counts as a blow-up.
   double blowup_limit_mm = 0.0;
 
-  // Workspace, sized once (no allocation per step).
-  Eigen::MatrixX3d f, x_prev, v_prev, r, p, z, q;
-  Eigen::MatrixX3d diag;                         ///< Jacobi preconditioner (per node, per axis)
-  Eigen::Matrix<double, Eigen::Dynamic, 4> dir;  ///< per spring: unit direction, 1 - L/l
+  // What a step visits: the movable nodes (ascending) and every spring with a movable end.
+  std::vector<int32_t> active_nodes;
+  std::vector<int32_t> active_springs;
+  // What the nodes that do not move add to the measurements, cached when the lists change.
+  double frozen_max_displacement_mm = 0.0;
+  std::vector<int32_t> volume_triangles;  ///< skin triangles with a movable corner
+  double frozen_volume6_mm3 = 0.0;        ///< 6 x the signed volume of the other skin triangles
+
+  // Workspace, sized once (no allocation per step). Rows of nodes that do not move stay zero in
+  // r, z, p, dv: the implicit solve treats them as held.
+  Eigen::MatrixX3d spring_force;     ///< per spring: its Hooke force on its first node, mN
+  Eigen::MatrixX3d x_prev, v_prev;   ///< the movable nodes' state before the step (rollback)
+  Eigen::MatrixX3d r, p, z, y, dv;   ///< implicit Euler: conjugate gradients; dv warm-starts
+  Eigen::MatrixX3d diag;             ///< Jacobi preconditioner (per node, per axis)
+  Eigen::Matrix<double, Eigen::Dynamic, 4> dir;  ///< per spring: unit direction, max(0, 1 - L/l)
 };
 
 /// Checks material and solver parameters (make_simulation() and set_parameters() call it).
@@ -128,6 +146,9 @@ std::vector<int32_t> nodes_near_plane(const Model& model, const Eigen::Vector3d&
 /// Local mode: only these nodes move (besides being free); every other node is held where it is.
 void set_local_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 
+/// Puts every node back at rest (x = X, v = 0, time 0), keeping parameters and fixed nodes.
+void reset(Simulation& sim);
+
 /// Advances one time step: spring, damping, anchor, gravity and external forces; integrate;
 /// check every value is finite (else roll back and redo the step with two half steps, then with
 /// implicit Euler); measure.
@@ -142,6 +163,12 @@ StepStats run_to_convergence(Simulation& sim, int64_t quiet_steps = 10);
 /// Spring forces at positions x (#nodes by 3, mm) into f (mN), gathered per node. Stateless
 /// apart from the adjacency in `sim`. Forces sum to zero (Newton's third law).
 void spring_forces(const Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+
+/// The implicit system's product y = (M + h gamma + h^2 K) p on the movable nodes (rows of other
+/// nodes get 0), with K linearised by the last implicit step (one conjugate-gradient iteration's
+/// main cost; public for benchmarks).
+void implicit_system_product(const Simulation& sim, double h, const Eigen::MatrixX3d& p,
+                             Eigen::MatrixX3d& y);
 
 /// Volume enclosed by layer `layer` of the model at positions x, mm^3.
 double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer = 0);
