@@ -6,6 +6,7 @@ find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(nanoflann REQUIRED)
+find_package(meshoptimizer REQUIRED)
 find_package(ZLIB REQUIRED)
 
 # ITK: only the modules we use. We register the IO factories ourselves (src/io/itk_image_io.cpp)
@@ -35,8 +36,15 @@ find_library(OPENVDB_LIBRARY openvdb REQUIRED)
 find_package(TBB REQUIRED)
 find_package(Imath REQUIRED)
 
-# CGAL is header-only.
+# CGAL is header-only. Its usage requirements include -frounding-math, which its exact predicates
+# need but which stops GCC vectorising any loop with a sqrt (and slowed the simulation's spring
+# pass 3x): so only the sources listed with lamina_cgal_sources() get CGAL's compile flags, and
+# targets link CGAL with $<LINK_ONLY:CGAL::CGAL>.
 find_package(CGAL 5.5 REQUIRED)
+function(lamina_cgal_sources)
+  set_property(SOURCE ${ARGN} APPEND PROPERTY COMPILE_OPTIONS -frounding-math)
+  set_property(SOURCE ${ARGN} APPEND PROPERTY COMPILE_DEFINITIONS CGAL_USE_GMPXX=1)
+endfunction()
 
 if(LAMINA_BUILD_TESTS)
   find_package(GTest 1.12 REQUIRED CONFIG)

@@ -61,37 +61,73 @@ struct ConstCols {
       : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
 };
 
-// Hooke force of each listed spring on its first node i, k (l - L) (x_j - x_i) / l, into fs.
-// Each spring is evaluated once; a node then gathers +fs (as i) or -fs (as j), so forces on the
-// two ends are exactly opposite and no two threads write the same value.
+// Hooke force of springs [begin, end) (of `list`, or all springs when it is null) on their first
+// node i, k (l - L) (x_j - x_i) / l, into f (one row per spring). Each spring is evaluated once;
+// a node then gathers +f (as i) or -f (as j), so forces on the two ends are exactly opposite and
+// no two threads write the same value. Restrict-qualified plain loops with contiguous stores, so
+// that the compiler vectorises the dense case (docs/benchmarks.md has the measurements).
+void spring_kernel(int64_t begin, int64_t end, const int32_t* __restrict list,
+                   const int32_t* __restrict si, const int32_t* __restrict sj,
+                   const double* __restrict rest, const double* __restrict k,
+                   const double* __restrict px, const double* __restrict py,
+                   const double* __restrict pz, double* __restrict fx, double* __restrict fy,
+                   double* __restrict fz) {
+  // Written out twice (not as a lambda): a lambda's by-reference captures drop __restrict.
+  if (!list) {
+    for (int64_t e = begin; e < end; ++e) {
+      const int32_t a = si[e], b = sj[e];
+      const double dx = px[b] - px[a], dy = py[b] - py[a], dz = pz[b] - pz[a];
+      // A zero-length spring has no direction: |d| / l <= 1 keeps its force bounded (0 at d = 0).
+      const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
+      const double t = k[e] * (l - rest[e]) / l;
+      fx[e] = t * dx, fy[e] = t * dy, fz[e] = t * dz;
+    }
+    return;
+  }
+  for (int64_t q = begin; q < end; ++q) {
+    const int64_t e = list[q];
+    const int32_t a = si[e], b = sj[e];
+    const double dx = px[b] - px[a], dy = py[b] - py[a], dz = pz[b] - pz[a];
+    const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
+    const double t = k[e] * (l - rest[e]) / l;
+    fx[e] = t * dx, fy[e] = t * dy, fz[e] = t * dz;
+  }
+}
+
 void spring_pass(const Simulation& s, const Eigen::MatrixX3d& x, const int32_t* list,
                  int64_t count, Eigen::MatrixX3d& fs, int threads) {
   const Springs& sp = s.model->springs;
-  const int32_t *si = sp.i.data(), *sj = sp.j.data();
-  const double *rest = sp.rest_length_mm.data(), *k = s.stiffness_n_per_m.data();
   const ConstCols p(x);
   Cols f(fs);
   for_slices(count, threads, [&](int64_t begin, int64_t end, int) {
-    for (int64_t q = begin; q < end; ++q) {
-      const int64_t e = list ? list[q] : q;
-      const int32_t a = si[e], b = sj[e];
-      const double dx = p.x[b] - p.x[a], dy = p.y[b] - p.y[a], dz = p.z[b] - p.z[a];
-      // A zero-length spring has no direction: its force is 0 (|d| / l <= 1 bounds it anyway).
-      const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
-      const double t = k[e] * (l - rest[e]) / l;
-      f.x[e] = t * dx, f.y[e] = t * dy, f.z[e] = t * dz;
-    }
+    spring_kernel(begin, end, list, sp.i.data(), sp.j.data(), sp.rest_length_mm.data(),
+                  s.stiffness_n_per_m.data(), p.x, p.y, p.z, f.x, f.y, f.z);
   });
 }
 
-// The spring force on node i: the sum of its springs' forces, signed by which end it is.
+// The spring force on node i: its springs' forces, + where it is the first node, - where the
+// second. adj_spring holds e for the first and ~e (negative) for the second, so one load gives
+// both. Two sets of sums halve the chain of dependent additions (a node has about ten springs).
 inline void gather(const Simulation& s, int32_t i, const ConstCols& fs, double& fx, double& fy,
                    double& fz) {
-  for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-    const int32_t e = s.adj_spring[a];
-    const double sign = s.adj_other[a] > i ? 1.0 : -1.0;  // springs store i < j
-    fx += sign * fs.x[e], fy += sign * fs.y[e], fz += sign * fs.z[e];
+  const int32_t* __restrict signed_spring = s.adj_signed.data();
+  const double *__restrict gx = fs.x, *__restrict gy = fs.y, *__restrict gz = fs.z;
+  double ax = 0.0, ay = 0.0, az = 0.0, bx = 0.0, by = 0.0, bz = 0.0;
+  int32_t a = s.adj_offsets[i];
+  const int32_t end = s.adj_offsets[i + 1];
+  for (; a + 1 < end; a += 2) {
+    const int32_t c0 = signed_spring[a], c1 = signed_spring[a + 1];
+    const int32_t e0 = c0 < 0 ? ~c0 : c0, e1 = c1 < 0 ? ~c1 : c1;
+    const double s0 = c0 < 0 ? -1.0 : 1.0, s1 = c1 < 0 ? -1.0 : 1.0;
+    ax += s0 * gx[e0], ay += s0 * gy[e0], az += s0 * gz[e0];
+    bx += s1 * gx[e1], by += s1 * gy[e1], bz += s1 * gz[e1];
   }
+  if (a < end) {
+    const int32_t c = signed_spring[a], e = c < 0 ? ~c : c;
+    const double sg = c < 0 ? -1.0 : 1.0;
+    ax += sg * gx[e], ay += sg * gy[e], az += sg * gz[e];
+  }
+  fx += ax + bx, fy += ay + by, fz += az + bz;
 }
 
 // Everything a step measures about the movable nodes, from their state before (x_prev) and after.
@@ -131,8 +167,9 @@ inline void account(const Simulation& s, int32_t i, double x0, double y0, double
 // With save, the movable nodes' old state goes to x_prev/v_prev first (the step's rollback).
 Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
   const int T = threads_for(s);
-  spring_pass(s, s.x, s.active_springs.data(), static_cast<int64_t>(s.active_springs.size()),
-              s.spring_force, T);
+  const bool dense = s.active_springs.size() == s.model->springs.size();
+  spring_pass(s, s.x, dense ? nullptr : s.active_springs.data(),
+              static_cast<int64_t>(s.active_springs.size()), s.spring_force, T);
   const Material& mat = s.material;
   const Eigen::MatrixX3d& X = s.model->X;
   const ConstCols fs(s.spring_force), fe(s.f_ext);
@@ -499,11 +536,13 @@ Simulation make_simulation(const Model& model, const Material& material,
   for (int32_t i = 0; i < n; ++i) s.adj_offsets[i + 1] += s.adj_offsets[i];
   s.adj_other.resize(static_cast<size_t>(s.adj_offsets[n]));
   s.adj_spring.resize(s.adj_other.size());
+  s.adj_signed.resize(s.adj_other.size());
   std::vector<int32_t> fill(s.adj_offsets.begin(), s.adj_offsets.end() - 1);
   for (size_t e = 0; e < sp.size(); ++e) {
-    const int32_t a = sp.i[e], b = sp.j[e];
-    s.adj_other[fill[a]] = b, s.adj_spring[fill[a]++] = static_cast<int32_t>(e);
-    s.adj_other[fill[b]] = a, s.adj_spring[fill[b]++] = static_cast<int32_t>(e);
+    const int32_t a = sp.i[e], b = sp.j[e], ei = static_cast<int32_t>(e);
+    s.adj_signed[fill[a]] = ei, s.adj_signed[fill[b]] = ~ei;
+    s.adj_other[fill[a]] = b, s.adj_spring[fill[a]++] = ei;
+    s.adj_other[fill[b]] = a, s.adj_spring[fill[b]++] = ei;
   }
   s.rest_skin_volume_mm3 = layer_volume(model, model.X, 0);
   s.blowup_limit_mm =
@@ -575,13 +614,12 @@ void set_local_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
   refresh(s);
 }
 
-void spring_forces(const Simulation& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f) {
+void spring_forces(Simulation& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f) {
   // Every spring, not only the active ones: this is the whole model's force at any x.
   const auto springs = static_cast<int64_t>(s.model->springs.size());
-  Eigen::MatrixX3d fs(springs, 3);
   const int T = springs >= kParallelSprings ? std::clamp(omp_get_max_threads(), 1, kMaxThreads) : 1;
-  spring_pass(s, x, nullptr, springs, fs, T);
-  const ConstCols c(fs);
+  spring_pass(s, x, nullptr, springs, s.spring_force, T);
+  const ConstCols c(s.spring_force);
   for_slices(x.rows(), T, [&](int64_t begin, int64_t end, int) {
     for (int64_t i = begin; i < end; ++i) {
       double fx = 0.0, fy = 0.0, fz = 0.0;

@@ -95,6 +95,7 @@ struct Simulation {
   std::vector<int32_t> adj_offsets;       ///< #nodes + 1
   std::vector<int32_t> adj_other;         ///< the node at the other end
   std::vector<int32_t> adj_spring;        ///< the spring index
+  std::vector<int32_t> adj_signed;        ///< e where the node is spring e's first end, ~e else
   std::vector<double> stiffness_n_per_m;  ///< per spring, after Material::stiffness_n_per_m
   double rest_skin_volume_mm3 = 0.0;
   /// A node this far from its rest position (100 model sizes) counts as a blow-up.
@@ -160,9 +161,10 @@ StepStats step(Simulation& sim);
 /// @return the stats of the last step (converged is true only if the quiet window was reached)
 StepStats run_to_convergence(Simulation& sim, int64_t quiet_steps = 10);
 
-/// Spring forces at positions x (#nodes by 3, mm) into f (mN), gathered per node. Stateless
-/// apart from the adjacency in `sim`. Forces sum to zero (Newton's third law).
-void spring_forces(const Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+/// Adds the spring forces at positions x (#nodes by 3, mm) to f (mN): the step's own two passes
+/// (each spring once, then each node sums its springs) over every spring, with sim's workspace.
+/// Forces sum to zero (Newton's third law).
+void spring_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
 
 /// The implicit system's product y = (M + h gamma + h^2 K) p on the movable nodes (rows of other
 /// nodes get 0), with K linearised by the last implicit step (one conjugate-gradient iteration's
