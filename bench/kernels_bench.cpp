@@ -4,7 +4,10 @@
 // query and the skin volume. Each reports per-element times; `lamina bench` the whole steps.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cmath>
 #include <map>
+#include <vector>
 
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/interact/tools.h"
@@ -60,6 +63,52 @@ void BM_SpringForces(benchmark::State& state) {
 }
 BENCHMARK(BM_SpringForces)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
 
+// The precision study: the same spring kernel as the step's (each spring once, Hooke force on
+// its first node) over the model's springs, with positions, rest lengths, stiffnesses and output
+// in float or in double. Only the arithmetic width differs; the library steps in double (see
+// docs/benchmarks.md for why).
+template <class Real>
+void spring_kernel(int64_t n, const int32_t* __restrict si, const int32_t* __restrict sj,
+                   const Real* __restrict rest, const Real* __restrict k,
+                   const Real* __restrict px, const Real* __restrict py,
+                   const Real* __restrict pz, Real* __restrict fx, Real* __restrict fy,
+                   Real* __restrict fz) {
+  for (int64_t e = 0; e < n; ++e) {
+    const int32_t a = si[e], b = sj[e];
+    const Real dx = px[b] - px[a], dy = py[b] - py[a], dz = pz[b] - pz[a];
+    const Real l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), Real(1e-12));
+    const Real t = k[e] * (l - rest[e]) / l;
+    fx[e] = t * dx, fy[e] = t * dy, fz[e] = t * dz;
+  }
+}
+
+template <class Real>
+void BM_SpringKernelPrecision(benchmark::State& state) {
+  const Model& m = model(state.range(0));
+  const Springs& sp = m.springs;
+  const auto n = static_cast<int64_t>(sp.size());
+  std::vector<Real> rest(sp.rest_length_mm.begin(), sp.rest_length_mm.end()),
+      k(sp.size(), Real(3)), f(3 * sp.size());
+  std::vector<Real> p(3 * static_cast<size_t>(m.node_count()));
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    for (int c = 0; c < 3; ++c) p[c * m.node_count() + i] = static_cast<Real>(1.02 * m.X(i, c));
+  const Real* px = p.data();
+  for (auto _ : state) {
+    spring_kernel<Real>(n, sp.i.data(), sp.j.data(), rest.data(), k.data(), px,
+                        px + m.node_count(), px + 2 * m.node_count(), f.data(), f.data() + n,
+                        f.data() + 2 * n);
+    benchmark::ClobberMemory();
+  }
+  label(state, m);
+  state.counters["ns_per_spring"] = per(state, static_cast<double>(n));
+  // How finely float can place a node of this model: the spacing of floats at its largest
+  // coordinate (patient coordinates, not centred), against the 1e-4 mm convergence threshold.
+  const auto far = static_cast<float>(m.X.cwiseAbs().maxCoeff());
+  state.counters["float_spacing_mm"] = std::nextafter(far, 2.0f * far) - far;
+}
+BENCHMARK(BM_SpringKernelPrecision<float>)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringKernelPrecision<double>)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
+
 // One conjugate-gradient iteration's product (M + h gamma + h^2 K) p, K linearised by a step.
 void BM_CgIteration(benchmark::State& state) {
   const Model& m = model(state.range(0));
@@ -76,6 +125,26 @@ void BM_CgIteration(benchmark::State& state) {
   state.counters["ns_per_spring"] = per(state, static_cast<double>(m.springs.size()));
 }
 BENCHMARK(BM_CgIteration)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
+
+// One whole step under a held poke, for comparison with the kernels (`lamina bench` reports the
+// same on the same models).
+void BM_WholeStep(benchmark::State& state) {
+  const Model& m = model(state.range(0));
+  const auto integrator =
+      state.range(1) ? sim::Integrator::kImplicitEuler : sim::Integrator::kSemiImplicitEuler;
+  sim::Simulation s = sim::make_simulation(m, {}, {.integrator = integrator});
+  s.f_ext.row(0) << 0.0, 400.0, 0.0;
+  for (int k = 0; k < 10; ++k) sim::step(s);
+  int32_t cg = 0;
+  for (auto _ : state) cg = sim::step(s).cg_iterations;
+  label(state, m);
+  state.counters["cg_iterations"] = cg;
+  state.counters["ns_per_spring"] = per(state, static_cast<double>(m.springs.size()));
+}
+BENCHMARK(BM_WholeStep)
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
+    ->ArgNames({"model", "implicit"})
+    ->Unit(benchmark::kMicrosecond);
 
 // The paper's neighbourhood rings by breadth-first search, up to locality N (done at build).
 void BM_Rings(benchmark::State& state) {

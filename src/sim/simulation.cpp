@@ -206,7 +206,8 @@ Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
 }
 
 // y = (M + h gamma + h^2 K) p on the movable nodes, K the spring (and anchor) stiffness matrix
-// linearised at the current positions (directions and max(0, 1 - L/l) cached in s.dir): per
+// linearised at the current positions (directions and max(0, 1 - L/l) cached in s.dir, in single
+// precision: the linearisation only steers the solve, and half the bytes speed the product): per
 // spring k [u u^T + alpha (I - u u^T)]. Returns p . y (CG's curvature) summed in thread order.
 double system_product(const Simulation& s, double h, const Eigen::MatrixX3d& pm,
                       Eigen::MatrixX3d& ym, int T) {
@@ -214,8 +215,7 @@ double system_product(const Simulation& s, double h, const Eigen::MatrixX3d& pm,
   const double damp = h * s.material.damping_kg_per_s;
   const ConstCols p(pm);
   Cols y(ym);
-  const double *ux = s.dir.col(0).data(), *uy = s.dir.col(1).data(), *uz = s.dir.col(2).data(),
-               *al = s.dir.col(3).data();
+  const float* dir = s.dir.data();  // per spring: ux, uy, uz, alpha
   Partials part;
   for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
              [&](int64_t begin, int64_t end, int t) {
@@ -227,11 +227,13 @@ double system_product(const Simulation& s, double h, const Eigen::MatrixX3d& pm,
                  for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
                    const int32_t e = s.adj_spring[a], j = s.adj_other[a];
                    const double dx = pix - p.x[j], dy = piy - p.y[j], dz = piz - p.z[j];
-                   const double along = ux[e] * dx + uy[e] * dy + uz[e] * dz;
-                   const double k = s.stiffness_n_per_m[e], ka = k * al[e];
+                   const float* u = dir + 4 * static_cast<int64_t>(e);
+                   const double cx = u[0], cy = u[1], cz = u[2];
+                   const double along = cx * dx + cy * dy + cz * dz;
+                   const double k = s.stiffness_n_per_m[e], ka = k * u[3];
                    // k (along u + alpha (d - along u)) = k alpha d + k (1 - alpha) along u
                    const double ku = (k - ka) * along;
-                   kx += ka * dx + ku * ux[e], ky += ka * dy + ku * uy[e], kz += ka * dz + ku * uz[e];
+                   kx += ka * dx + ku * cx, ky += ka * dy + ku * cy, kz += ka * dz + ku * cz;
                  }
                  const double md = s.mass_kg[i] + damp;
                  const double yx = md * pix + h2 * kx, yy = md * piy + h2 * ky,
@@ -246,25 +248,28 @@ double system_product(const Simulation& s, double h, const Eigen::MatrixX3d& pm,
   return sum;
 }
 
-// Backward Euler, linearised once per step (Baraff-Witkin):
-//   (M + h gamma + h^2 K) dv = h (f(x, v) - h K v),   v += dv,   x += h v.
-// K's geometric term is clamped at max(0, 1 - L/l) so the matrix stays positive definite under
-// compression and CG applies. Jacobi-preconditioned, warm-started from the last step's dv.
+// Backward Euler, linearised once per step (Baraff-Witkin), solved for the new velocity:
+//   (M + h gamma + h^2 K) v1 = M v0 + h f0(x0),   x1 = x0 + h v1,
+// f0 every force but damping, K the spring (and anchor) stiffness at x0. K's geometric term is
+// clamped at max(0, 1 - L/l) so the matrix stays positive definite under compression and CG
+// applies. Jacobi-preconditioned, warm-started from v0 plus the last step's change (a smooth
+// motion changes its velocity by about the same each step). One product for the start residual
+// and one per CG iteration.
 Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations) {
   const int T = threads_for(s);
   const Springs& sp = s.model->springs;
   const Material& mat = s.material;
   const double h2 = h * h, damp_h = h * mat.damping_kg_per_s;
-  const double damp = mat.damping_kg_per_s, anchor = mat.anchor_stiffness_n_per_m;
+  const double anchor = mat.anchor_stiffness_n_per_m;
   const Eigen::Vector3d g = mat.gravity_mm_per_s2;
   const Eigen::MatrixX3d& X = s.model->X;
+  const auto nodes = static_cast<int64_t>(s.active_nodes.size());
 
   // 1. Springs: the force on the first node, and the linearisation (direction, 1 - L/l).
   {
     const ConstCols x(s.x);
     Cols f(s.spring_force);
-    double *ux = s.dir.col(0).data(), *uy = s.dir.col(1).data(), *uz = s.dir.col(2).data(),
-           *al = s.dir.col(3).data();
+    float* dir = s.dir.data();
     for_slices(static_cast<int64_t>(s.active_springs.size()), T,
                [&](int64_t begin, int64_t end, int) {
                  for (int64_t q = begin; q < end; ++q) {
@@ -273,74 +278,80 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
                    const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
                    const double t = s.stiffness_n_per_m[e] * (l - sp.rest_length_mm[e]) / l;
                    f.x[e] = t * dx, f.y[e] = t * dy, f.z[e] = t * dz;
-                   ux[e] = dx / l, uy[e] = dy / l, uz[e] = dz / l;
-                   al[e] = std::max(0.0, 1.0 - sp.rest_length_mm[e] / l);
+                   float* u = dir + 4 * static_cast<int64_t>(e);
+                   u[0] = static_cast<float>(dx / l), u[1] = static_cast<float>(dy / l);
+                   u[2] = static_cast<float>(dz / l);
+                   u[3] = static_cast<float>(std::max(0.0, 1.0 - sp.rest_length_mm[e] / l));
                  }
                });
   }
 
-  // 2. Per node: b = h f - h^2 K v and the residual of the warm start dv0,
-  //    r = b - (M + h gamma) dv0 - h^2 K dv0 = h f - (M + h gamma) dv0 - h^2 K (v + dv0);
-  //    the Jacobi diagonal; z = r / diag; p = z.
+  // 2. The warm start w = v0 + (last step's v1 - v0), into dv (which holds the solution from
+  //    here on; rows of held nodes stay 0 there and in v).
+  {
+    Cols w(s.dv);
+    const ConstCols v(s.v);
+    for_slices(nodes, T, [&](int64_t begin, int64_t end, int) {
+      for (int64_t q = begin; q < end; ++q) {
+        const int32_t i = s.active_nodes[q];
+        w.x[i] += v.x[i], w.y[i] += v.y[i], w.z[i] += v.z[i];
+      }
+    });
+  }
+
+  // 3. Per node: b = M v0 + h f0, r = b - A w, the Jacobi diagonal, z = r / diag, p = z.
   Partials part;
   {
-    const ConstCols fs(s.spring_force), fe(s.f_ext), v(s.v), x(s.x);
-    Cols dv(s.dv), r(s.r), z(s.z), pp(s.p), dg(s.diag);
-    const double *ux = s.dir.col(0).data(), *uy = s.dir.col(1).data(),
-                 *uz = s.dir.col(2).data(), *al = s.dir.col(3).data();
-    for_slices(
-        static_cast<int64_t>(s.active_nodes.size()), T, [&](int64_t begin, int64_t end, int t) {
-          Partial acc;  // a: |b|^2, b: r.z, c: |r|^2
-          for (int64_t q = begin; q < end; ++q) {
-            const int32_t i = s.active_nodes[q];
-            const double m = s.mass_kg[i];
-            double fx = fe.x[i] - damp * v.x[i] + m * g.x() - anchor * (x.x[i] - X(i, 0));
-            double fy = fe.y[i] - damp * v.y[i] + m * g.y() - anchor * (x.y[i] - X(i, 1));
-            double fz = fe.z[i] - damp * v.z[i] + m * g.z() - anchor * (x.z[i] - X(i, 2));
-            gather(s, i, fs, fx, fy, fz);
-            // K v and K (v + dv0) in one sweep of the node's springs.
-            const double wx = v.x[i] + dv.x[i], wy = v.y[i] + dv.y[i], wz = v.z[i] + dv.z[i];
-            double kvx = anchor * v.x[i], kvy = anchor * v.y[i], kvz = anchor * v.z[i];
-            double kwx = anchor * wx, kwy = anchor * wy, kwz = anchor * wz;
-            double d0 = anchor, d1 = anchor, d2 = anchor;
-            for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-              const int32_t e = s.adj_spring[a], j = s.adj_other[a];
-              const double k = s.stiffness_n_per_m[e], ka = k * al[e], kb = k - ka;
-              const double cx = ux[e], cy = uy[e], cz = uz[e];
-              double dx = v.x[i] - v.x[j], dy = v.y[i] - v.y[j], dz = v.z[i] - v.z[j];
-              double along = kb * (cx * dx + cy * dy + cz * dz);
-              kvx += ka * dx + along * cx, kvy += ka * dy + along * cy, kvz += ka * dz + along * cz;
-              dx = wx - (v.x[j] + dv.x[j]), dy = wy - (v.y[j] + dv.y[j]),
-              dz = wz - (v.z[j] + dv.z[j]);
-              along = kb * (cx * dx + cy * dy + cz * dz);
-              kwx += ka * dx + along * cx, kwy += ka * dy + along * cy, kwz += ka * dz + along * cz;
-              d0 += ka + kb * cx * cx, d1 += ka + kb * cy * cy, d2 += ka + kb * cz * cz;
-            }
-            const double md = m + damp_h;
-            const double bx = h * fx - h2 * kvx, by = h * fy - h2 * kvy, bz = h * fz - h2 * kvz;
-            const double rx = h * fx - md * dv.x[i] - h2 * kwx, ry = h * fy - md * dv.y[i] - h2 * kwy,
-                         rz = h * fz - md * dv.z[i] - h2 * kwz;
-            const double gx = md + h2 * d0, gy = md + h2 * d1, gz = md + h2 * d2;
-            dg.x[i] = gx, dg.y[i] = gy, dg.z[i] = gz;
-            r.x[i] = rx, r.y[i] = ry, r.z[i] = rz;
-            const double zx = rx / gx, zy = ry / gy, zz = rz / gz;
-            z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
-            pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
-            acc.a += bx * bx + by * by + bz * bz;
-            acc.b += rx * zx + ry * zy + rz * zz;
-            acc.c += rx * rx + ry * ry + rz * rz;
-          }
-          part[t] = acc;
-        });
+    const ConstCols fs(s.spring_force), fe(s.f_ext), v(s.v), x(s.x), w(s.dv);
+    Cols r(s.r), z(s.z), pp(s.p), dg(s.diag);
+    const float* dir = s.dir.data();
+    for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
+      Partial acc;  // a: |b|^2, b: r.z, c: |r|^2
+      for (int64_t q = begin; q < end; ++q) {
+        const int32_t i = s.active_nodes[q];
+        const double m = s.mass_kg[i];
+        double fx = fe.x[i] + m * g.x() - anchor * (x.x[i] - X(i, 0));
+        double fy = fe.y[i] + m * g.y() - anchor * (x.y[i] - X(i, 1));
+        double fz = fe.z[i] + m * g.z() - anchor * (x.z[i] - X(i, 2));
+        gather(s, i, fs, fx, fy, fz);
+        const double wx = w.x[i], wy = w.y[i], wz = w.z[i];
+        double kx = anchor * wx, ky = anchor * wy, kz = anchor * wz;
+        double d0 = anchor, d1 = anchor, d2 = anchor;
+        for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+          const int32_t e = s.adj_spring[a], j = s.adj_other[a];
+          const float* u = dir + 4 * static_cast<int64_t>(e);
+          const double k = s.stiffness_n_per_m[e], ka = k * u[3], kb = k - ka;
+          const double cx = u[0], cy = u[1], cz = u[2];
+          const double dx = wx - w.x[j], dy = wy - w.y[j], dz = wz - w.z[j];
+          const double along = kb * (cx * dx + cy * dy + cz * dz);
+          kx += ka * dx + along * cx, ky += ka * dy + along * cy, kz += ka * dz + along * cz;
+          d0 += ka + kb * cx * cx, d1 += ka + kb * cy * cy, d2 += ka + kb * cz * cz;
+        }
+        const double md = m + damp_h;
+        const double bx = m * v.x[i] + h * fx, by = m * v.y[i] + h * fy, bz = m * v.z[i] + h * fz;
+        const double rx = bx - md * wx - h2 * kx, ry = by - md * wy - h2 * ky,
+                     rz = bz - md * wz - h2 * kz;
+        const double gx = md + h2 * d0, gy = md + h2 * d1, gz = md + h2 * d2;
+        dg.x[i] = gx, dg.y[i] = gy, dg.z[i] = gz;
+        r.x[i] = rx, r.y[i] = ry, r.z[i] = rz;
+        const double zx = rx / gx, zy = ry / gy, zz = rz / gz;
+        z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+        pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
+        acc.a += bx * bx + by * by + bz * bz;
+        acc.b += rx * zx + ry * zy + rz * zz;
+        acc.c += rx * rx + ry * ry + rz * rz;
+      }
+      part[t] = acc;
+    });
   }
   double b2 = 0.0, rz = 0.0, r2 = 0.0;
   for (int t = 0; t < T; ++t) b2 += part[t].a, rz += part[t].b, r2 += part[t].c;
 
-  // 3. Conjugate gradients on dv.
+  // 4. Conjugate gradients on v1 (in dv).
   const double stop2 = s.options.cg_tolerance * s.options.cg_tolerance * b2;
   int32_t it = 0;
   if (b2 == 0.0) {
-    // No force and no motion: the answer is dv = 0, whatever the warm start said.
+    // No force and no motion: the answer is v1 = 0, whatever the warm start said.
     for (int32_t i : s.active_nodes) s.dv.row(i).setZero();
   } else {
     for (; it < s.options.cg_max_iterations && r2 > stop2; ++it) {
@@ -349,23 +360,21 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
       const double alpha = rz / pap;
       Cols dv(s.dv), r(s.r), z(s.z);
       const ConstCols pp(s.p), y(s.y), dg(s.diag);
-      for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
-                 [&](int64_t begin, int64_t end, int t) {
-                   Partial acc;  // b: r.z, c: |r|^2
-                   for (int64_t q = begin; q < end; ++q) {
-                     const int32_t i = s.active_nodes[q];
-                     dv.x[i] += alpha * pp.x[i], dv.y[i] += alpha * pp.y[i],
-                         dv.z[i] += alpha * pp.z[i];
-                     const double rx = r.x[i] - alpha * y.x[i], ry = r.y[i] - alpha * y.y[i],
-                                  rz_ = r.z[i] - alpha * y.z[i];
-                     r.x[i] = rx, r.y[i] = ry, r.z[i] = rz_;
-                     const double zx = rx / dg.x[i], zy = ry / dg.y[i], zz = rz_ / dg.z[i];
-                     z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
-                     acc.b += rx * zx + ry * zy + rz_ * zz;
-                     acc.c += rx * rx + ry * ry + rz_ * rz_;
-                   }
-                   part[t] = acc;
-                 });
+      for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
+        Partial acc;  // b: r.z, c: |r|^2
+        for (int64_t q = begin; q < end; ++q) {
+          const int32_t i = s.active_nodes[q];
+          dv.x[i] += alpha * pp.x[i], dv.y[i] += alpha * pp.y[i], dv.z[i] += alpha * pp.z[i];
+          const double rx = r.x[i] - alpha * y.x[i], ry = r.y[i] - alpha * y.y[i],
+                       rz_ = r.z[i] - alpha * y.z[i];
+          r.x[i] = rx, r.y[i] = ry, r.z[i] = rz_;
+          const double zx = rx / dg.x[i], zy = ry / dg.y[i], zz = rz_ / dg.z[i];
+          z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+          acc.b += rx * zx + ry * zy + rz_ * zz;
+          acc.c += rx * rx + ry * ry + rz_ * rz_;
+        }
+        part[t] = acc;
+      });
       double rz_new = 0.0;
       r2 = 0.0;
       for (int t = 0; t < T; ++t) rz_new += part[t].b, r2 += part[t].c;
@@ -377,39 +386,37 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
       }
       Cols pw(s.p);
       const ConstCols zc(s.z);
-      for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
-                 [&](int64_t begin, int64_t end, int) {
-                   for (int64_t q = begin; q < end; ++q) {
-                     const int32_t i = s.active_nodes[q];
-                     pw.x[i] = zc.x[i] + beta * pw.x[i], pw.y[i] = zc.y[i] + beta * pw.y[i],
-                     pw.z[i] = zc.z[i] + beta * pw.z[i];
-                   }
-                 });
+      for_slices(nodes, T, [&](int64_t begin, int64_t end, int) {
+        for (int64_t q = begin; q < end; ++q) {
+          const int32_t i = s.active_nodes[q];
+          pw.x[i] = zc.x[i] + beta * pw.x[i], pw.y[i] = zc.y[i] + beta * pw.y[i],
+          pw.z[i] = zc.z[i] + beta * pw.z[i];
+        }
+      });
     }
   }
   iterations = it;
 
-  // 4. Update, check and measure.
-  Cols x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev);
-  const ConstCols dv(s.dv);
-  for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
-             [&](int64_t begin, int64_t end, int t) {
-               Partial acc;
-               for (int64_t q = begin; q < end; ++q) {
-                 const int32_t i = s.active_nodes[q];
-                 const double x0 = x.x[i], y0 = x.y[i], z0 = x.z[i];
-                 if (save) {
-                   xp.x[i] = x0, xp.y[i] = y0, xp.z[i] = z0;
-                   vp.x[i] = v.x[i], vp.y[i] = v.y[i], vp.z[i] = v.z[i];
-                 }
-                 const double vx = v.x[i] + dv.x[i], vy = v.y[i] + dv.y[i], vz = v.z[i] + dv.z[i];
-                 const double nx = x0 + h * vx, ny = y0 + h * vy, nz = z0 + h * vz;
-                 v.x[i] = vx, v.y[i] = vy, v.z[i] = vz;
-                 x.x[i] = nx, x.y[i] = ny, x.z[i] = nz;
-                 account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
-               }
-               part[t] = acc;
-             });
+  // 5. Update, check and measure; dv keeps this step's change for the next warm start.
+  Cols x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev), dv(s.dv);
+  for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
+    Partial acc;
+    for (int64_t q = begin; q < end; ++q) {
+      const int32_t i = s.active_nodes[q];
+      const double x0 = x.x[i], y0 = x.y[i], z0 = x.z[i];
+      if (save) {
+        xp.x[i] = x0, xp.y[i] = y0, xp.z[i] = z0;
+        vp.x[i] = v.x[i], vp.y[i] = v.y[i], vp.z[i] = v.z[i];
+      }
+      const double vx = dv.x[i], vy = dv.y[i], vz = dv.z[i];
+      dv.x[i] = vx - v.x[i], dv.y[i] = vy - v.y[i], dv.z[i] = vz - v.z[i];
+      const double nx = x0 + h * vx, ny = y0 + h * vy, nz = z0 + h * vz;
+      v.x[i] = vx, v.y[i] = vy, v.z[i] = vz;
+      x.x[i] = nx, x.y[i] = ny, x.z[i] = nz;
+      account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
+    }
+    part[t] = acc;
+  });
   return combine(part, T);
 }
 
@@ -552,7 +559,7 @@ Simulation make_simulation(const Model& model, const Material& material,
   s.diag = Eigen::MatrixX3d::Ones(n, 3);
   const auto springs = static_cast<Eigen::Index>(sp.size());
   s.spring_force = Eigen::MatrixX3d::Zero(springs, 3);
-  s.dir = Eigen::Matrix<double, Eigen::Dynamic, 4>::Zero(springs, 4);
+  s.dir = Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor>::Zero(springs, 4);
   refresh(s);
   return s;
 }

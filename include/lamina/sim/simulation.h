@@ -115,7 +115,9 @@ struct Simulation {
   Eigen::MatrixX3d x_prev, v_prev;   ///< the movable nodes' state before the step (rollback)
   Eigen::MatrixX3d r, p, z, y, dv;   ///< implicit Euler: conjugate gradients; dv warm-starts
   Eigen::MatrixX3d diag;             ///< Jacobi preconditioner (per node, per axis)
-  Eigen::Matrix<double, Eigen::Dynamic, 4> dir;  ///< per spring: unit direction, max(0, 1 - L/l)
+  /// Per spring, for implicit Euler's stiffness matrix: unit direction and max(0, 1 - L/l), in
+  /// single precision (it only steers the solve; docs/benchmarks.md has the measurement).
+  Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor> dir;
 };
 
 /// Checks material and solver parameters (make_simulation() and set_parameters() call it).
