@@ -162,6 +162,27 @@ inline void account(const Simulation& s, int32_t i, double x0, double y0, double
   out.c += 0.5 * s.mass_kg[i] * (vx * vx + vy * vy + vz * vz);
 }
 
+// The state a step writes, as column pointers.
+struct NodeState {
+  Cols x, v, xp, vp;
+  explicit NodeState(Simulation& s) : x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev) {}
+};
+
+// A movable node's end of step: its old state saved for rollback (with save), the new velocity
+// and the position it leads to stored, the node checked and measured.
+inline void finish_node(const Simulation& s, NodeState& st, int32_t i, double h, bool save,
+                        double vx, double vy, double vz, Partial& acc) {
+  const double x0 = st.x.x[i], y0 = st.x.y[i], z0 = st.x.z[i];
+  if (save) {
+    st.xp.x[i] = x0, st.xp.y[i] = y0, st.xp.z[i] = z0;
+    st.vp.x[i] = st.v.x[i], st.vp.y[i] = st.v.y[i], st.vp.z[i] = st.v.z[i];
+  }
+  const double nx = x0 + h * vx, ny = y0 + h * vy, nz = z0 + h * vz;
+  st.v.x[i] = vx, st.v.y[i] = vy, st.v.z[i] = vz;
+  st.x.x[i] = nx, st.x.y[i] = ny, st.x.z[i] = nz;
+  account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
+}
+
 // Semi-implicit (symplectic) Euler, the paper's: v += dt a(x, v); x += dt v. Two passes: the
 // springs, then each movable node gathers its forces, integrates, checks and measures itself.
 // With save, the movable nodes' old state goes to x_prev/v_prev first (the step's rollback).
@@ -173,7 +194,8 @@ Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
   const Material& mat = s.material;
   const Eigen::MatrixX3d& X = s.model->X;
   const ConstCols fs(s.spring_force), fe(s.f_ext);
-  Cols x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev);
+  const ConstCols x(s.x), v(s.v);
+  NodeState state(s);
   const double damp = mat.damping_kg_per_s, anchor = mat.anchor_stiffness_n_per_m;
   const Eigen::Vector3d g = mat.gravity_mm_per_s2;
   Partials part;
@@ -188,17 +210,9 @@ Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
                  double fy = fe.y[i] - damp * v.y[i] + m * g.y() - anchor * (y0 - X(i, 1));
                  double fz = fe.z[i] - damp * v.z[i] + m * g.z() - anchor * (z0 - X(i, 2));
                  gather(s, i, fs, fx, fy, fz);
-                 if (save) {
-                   xp.x[i] = x0, xp.y[i] = y0, xp.z[i] = z0;
-                   vp.x[i] = v.x[i], vp.y[i] = v.y[i], vp.z[i] = v.z[i];
-                 }
                  const double h_m = dt / m;
-                 const double vx = v.x[i] + h_m * fx, vy = v.y[i] + h_m * fy,
-                              vz = v.z[i] + h_m * fz;
-                 const double nx = x0 + dt * vx, ny = y0 + dt * vy, nz = z0 + dt * vz;
-                 v.x[i] = vx, v.y[i] = vy, v.z[i] = vz;
-                 x.x[i] = nx, x.y[i] = ny, x.z[i] = nz;
-                 account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
+                 finish_node(s, state, i, dt, save, v.x[i] + h_m * fx, v.y[i] + h_m * fy,
+                             v.z[i] + h_m * fz, acc);
                }
                part[t] = acc;
              });
@@ -398,22 +412,16 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
   iterations = it;
 
   // 5. Update, check and measure; dv keeps this step's change for the next warm start.
-  Cols x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev), dv(s.dv);
+  NodeState state(s);
+  Cols dv(s.dv);
+  const ConstCols v(s.v);
   for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
     Partial acc;
     for (int64_t q = begin; q < end; ++q) {
       const int32_t i = s.active_nodes[q];
-      const double x0 = x.x[i], y0 = x.y[i], z0 = x.z[i];
-      if (save) {
-        xp.x[i] = x0, xp.y[i] = y0, xp.z[i] = z0;
-        vp.x[i] = v.x[i], vp.y[i] = v.y[i], vp.z[i] = v.z[i];
-      }
       const double vx = dv.x[i], vy = dv.y[i], vz = dv.z[i];
       dv.x[i] = vx - v.x[i], dv.y[i] = vy - v.y[i], dv.z[i] = vz - v.z[i];
-      const double nx = x0 + h * vx, ny = y0 + h * vy, nz = z0 + h * vz;
-      v.x[i] = vx, v.y[i] = vy, v.z[i] = vz;
-      x.x[i] = nx, x.y[i] = ny, x.z[i] = nz;
-      account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
+      finish_node(s, state, i, h, save, vx, vy, vz, acc);
     }
     part[t] = acc;
   });
