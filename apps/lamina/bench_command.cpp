@@ -59,7 +59,7 @@ struct SizeResult {
   int32_t nodes = 0, skin_vertices = 0, layers = 0;
   int64_t springs = 0;
   double build_s = 0.0;
-  double explicit_us = 0.0, implicit_us = 0.0;
+  double explicit_us = 0.0, implicit_us = 0.0, projective_us = 0.0, projective_factor_s = 0.0;
   int32_t implicit_cg_iterations = 0;
   double poke_to_rest_ms = 0.0;
   int64_t poke_steps = 0;
@@ -68,10 +68,11 @@ struct SizeResult {
 };
 
 // Median microseconds per step over `batches` batches of `steps` steps, under a held poke (so
-// the step does real work: moving nodes, a non-zero external force).
+// the step does real work: moving nodes, a non-zero external force), after `warmup` steps (caches,
+// pages). first_step_s: the first step's wall time (projective dynamics factors its matrix then).
 double time_steps(const Model& m, const std::vector<int32_t>& fixed, const interact::Tool& tool,
-                  sim::Integrator integrator, int steps, int batches,
-                  int32_t* cg_iterations = nullptr) {
+                  sim::Integrator integrator, int steps, int batches, int warmup,
+                  int32_t* cg_iterations = nullptr, double* first_step_s = nullptr) {
   sim::SolverOptions o;
   o.integrator = integrator;
   sim::Simulation s = sim::make_simulation(m, {}, o);
@@ -80,7 +81,10 @@ double time_steps(const Model& m, const std::vector<int32_t>& fixed, const inter
   d.tools = {tool};
   d.tools[0].end_s = std::numeric_limits<double>::infinity();
   interact::apply_tools(s, d);
-  for (int k = 0; k < std::max(10, steps / 5); ++k) sim::step(s);  // warm up: caches, pages
+  const auto t_first = Clock::now();
+  sim::step(s);
+  if (first_step_s) *first_step_s = seconds_since(t_first);
+  for (int k = 1; k < warmup; ++k) sim::step(s);
   std::vector<double> us;
   for (int b = 0; b < batches; ++b) {
     const auto t0 = Clock::now();
@@ -138,11 +142,17 @@ int run_bench(const BenchArgs& a) {
                     0.05 + 0.9 * (k + 0.5) / sizes.size());
     const int explicit_steps =
         std::max(20, static_cast<int>(2e6 / std::max<int64_t>(r.springs, 1)));
-    r.explicit_us = time_steps(m, fixed, tool, sim::Integrator::kSemiImplicitEuler,
-                               a.quick ? explicit_steps / 4 : explicit_steps, 5);
+    const int steps = a.quick ? explicit_steps / 4 : explicit_steps;
+    r.explicit_us = time_steps(m, fixed, tool, sim::Integrator::kSemiImplicitEuler, steps, 5,
+                               std::max(10, steps / 5));
     r.implicit_us =
-        time_steps(m, fixed, tool, sim::Integrator::kImplicitEuler,
-                   std::max(5, explicit_steps / 20), a.quick ? 3 : 5, &r.implicit_cg_iterations);
+        time_steps(m, fixed, tool, sim::Integrator::kImplicitEuler, std::max(5, explicit_steps / 20),
+                   a.quick ? 3 : 5, 10, &r.implicit_cg_iterations);
+    // Projective dynamics (Liu et al. 2013), the prefactored reference: its first step factors
+    // the matrix. Few steps: on this machine it is the slowest of the three by far.
+    r.projective_us =
+        time_steps(m, fixed, tool, sim::Integrator::kProjective, std::max(1, explicit_steps / 40),
+                   3, 2, nullptr, &r.projective_factor_s);
     if (k == 0 || !a.quick) {
       // The paper's poke (0.4 N for 1 s, local mode, N = P = 4) to rest at 1e-3 mm.
       const RunStats run = simulate(paper_setup(m), 2000.0, /*stop_at_rest=*/true);
@@ -184,6 +194,10 @@ int run_bench(const BenchArgs& a) {
                      {"ns_per_spring", 1000.0 * r.implicit_us / static_cast<double>(r.springs)},
                      {"steps_per_second", 1e6 / r.implicit_us},
                      {"cg_iterations", r.implicit_cg_iterations}};
+    m["projective"] = {{"us_per_step", r.projective_us},
+                       {"steps_per_second", 1e6 / r.projective_us},
+                       {"iterations", sim::SolverOptions{}.projective_iterations},
+                       {"first_step_with_factor_seconds", r.projective_factor_s}};
     if (r.poke_steps > 0)
       m["poke_to_rest"] = {
           {"ms", r.poke_to_rest_ms}, {"steps", r.poke_steps}, {"converged", r.poke_converged}};
@@ -196,14 +210,15 @@ int run_bench(const BenchArgs& a) {
   std::cout << fmt::format(
       "lamina bench: {} thread(s), memory bandwidth {:.1f} GB/s (STREAM triad), {:.0f} s\n"
       "  model   nodes  springs  build_s  explicit_us  steps/s  ns/spring  floor_ns  "
-      "of_floor  implicit_us  poke_to_rest_ms\n",
+      "of_floor  implicit_us  projective_us  poke_to_rest_ms\n",
       threads, bandwidth, seconds_since(t_start));
   for (const SizeResult& r : results) {
     const double ns = 1000.0 * r.explicit_us / static_cast<double>(r.springs);
     std::cout << fmt::format(
-        "  {:6} {:6} {:8} {:8.2f} {:12.1f} {:8.0f} {:10.1f} {:9.2f} {:8.0f}% {:12.1f} {:>16}\n",
+        "  {:6} {:6} {:8} {:8.2f} {:12.1f} {:8.0f} {:10.1f} {:9.2f} {:8.0f}% {:12.1f} {:14.1f} "
+        "{:>16}\n",
         r.name, r.nodes, r.springs, r.build_s, r.explicit_us, 1e6 / r.explicit_us, ns,
-        r.floor_ns_per_spring, 100.0 * r.floor_ns_per_spring / ns, r.implicit_us,
+        r.floor_ns_per_spring, 100.0 * r.floor_ns_per_spring / ns, r.implicit_us, r.projective_us,
         r.poke_steps > 0 ? fmt::format("{:.1f}{}", r.poke_to_rest_ms, r.poke_converged ? "" : "*")
                          : std::string("-"));
   }

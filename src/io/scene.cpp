@@ -160,13 +160,16 @@ void read_choice(const Reader& r, const json& object, const std::string& path, c
   if (it == object.end()) return;
   const std::string p = Reader::join(path, key);
   const std::string v = r.string(*it, p);
-  std::string expected;
+  std::string expected;  // "a" or "b"; "a", "b" or "c"
+  size_t k = 0;
   for (const auto& [name, value] : choices) {
     if (v == name) {
       out = value;
       return;
     }
-    expected += (expected.empty() ? "\"" : " or \"") + std::string(name) + "\"";
+    const char* sep = k == 0 ? "" : k + 1 == choices.size() ? " or " : ", ";
+    expected += sep + ("\"" + std::string(name) + "\"");
+    ++k;
   }
   r.fail(p, "expected " + expected + ", got \"" + v + "\"");
 }
@@ -253,11 +256,13 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
   r.warn_unknown(j, path,
                  {"integrator", "dt_s", "threshold_mm", "max_steps", "mode", "locality",
                   "penetration_depth", "ring_attenuation", "crossing_attenuation",
-                  "contact_threshold_mm", "cg_max_iterations", "cg_tolerance"});
+                  "contact_threshold_mm", "cg_max_iterations", "cg_tolerance",
+                  "projective_iterations"});
   sim::SolverOptions& o = s.solver;
   read_choice(r, j, path, "integrator", o.integrator,
               {{"semi_implicit_euler", sim::Integrator::kSemiImplicitEuler},
-               {"implicit_euler", sim::Integrator::kImplicitEuler}});
+               {"implicit_euler", sim::Integrator::kImplicitEuler},
+               {"projective", sim::Integrator::kProjective}});
   read_number(r, j, path, "dt_s", o.dt_s, kPositive, "must be > 0");
   read_number(r, j, path, "threshold_mm", o.threshold_mm, kPositive, "must be > 0");
   read_integer(r, j, path, "max_steps", o.max_steps, 1, std::numeric_limits<int64_t>::max());
@@ -265,6 +270,7 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
               {{"global", sim::Mode::kGlobal}, {"local", sim::Mode::kLocal}});
   read_integer(r, j, path, "cg_max_iterations", o.cg_max_iterations, 1, 1'000'000);
   read_number(r, j, path, "cg_tolerance", o.cg_tolerance, kPositive, "must be > 0");
+  read_integer(r, j, path, "projective_iterations", o.projective_iterations, 1, 10'000);
   interact::RoutingOptions& ro = s.routing;
   read_integer(r, j, path, "locality", ro.locality, 1, 64);
   read_integer(r, j, path, "penetration_depth", ro.penetration_depth, 1, 1'000'000);
@@ -502,7 +508,14 @@ std::vector<int32_t> fixed_scene_nodes(const Scene& s, const Model& m) {
 }
 
 std::string integrator_name(sim::Integrator integrator) {
-  return integrator == sim::Integrator::kImplicitEuler ? "implicit_euler" : "semi_implicit_euler";
+  switch (integrator) {
+    case sim::Integrator::kImplicitEuler:
+      return "implicit_euler";
+    case sim::Integrator::kProjective:
+      return "projective";
+    default:
+      return "semi_implicit_euler";
+  }
 }
 
 std::string mode_name(sim::Mode mode) {

@@ -423,10 +423,11 @@ struct Viewer::Impl {
           ImGui::InputDouble("anchor N/m", &material.anchor_stiffness_n_per_m, 0.1, 1, "%.3f");
     }
     if (ImGui::CollapsingHeader("Solver", ImGuiTreeNodeFlags_DefaultOpen)) {
-      int integrator = solver.integrator == sim::Integrator::kImplicitEuler ? 1 : 0;
-      if (ImGui::Combo("integrator", &integrator, "semi-implicit Euler\0implicit Euler (CG)\0")) {
-        solver.integrator =
-            integrator ? sim::Integrator::kImplicitEuler : sim::Integrator::kSemiImplicitEuler;
+      // The combo's order is the enum's: semi-implicit, implicit (CG), projective.
+      int integrator = static_cast<int>(solver.integrator);
+      if (ImGui::Combo("integrator", &integrator,
+                       "semi-implicit Euler\0implicit Euler (CG)\0projective (Liu 2013)\0")) {
+        solver.integrator = static_cast<sim::Integrator>(integrator);
         changed = true;
       }
       int mode = solver.mode == sim::Mode::kLocal ? 1 : 0;
@@ -437,6 +438,7 @@ struct Viewer::Impl {
       changed |= ImGui::InputDouble("dt s", &solver.dt_s, 0.001, 0.01, "%.4f");
       changed |= ImGui::InputDouble("threshold mm", &solver.threshold_mm, 0.0, 0.0, "%.1e");
       changed |= ImGui::InputInt("CG iterations", &solver.cg_max_iterations);
+      changed |= ImGui::InputInt("projective iterations", &solver.projective_iterations);
       changed |= ImGui::InputDouble("rate Hz (0 = max)", &rate_hz, 100, 1000, "%.0f");
       ImGui::Text("last step: max move %.2e mm %s", snap.stats.max_move_mm,
                   snap.stats.converged ? "(below threshold)" : "");

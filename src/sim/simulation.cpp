@@ -9,57 +9,15 @@
 #include <cmath>
 
 #include "lamina/core/error.h"
+#include "step_parts.h"
 
 namespace lamina::sim {
 namespace {
 
+using namespace detail;
+
 // kg (mm/s)^2 -> J.
 constexpr double kJoulesPerKgMm2PerS2 = 1e-6;
-
-// Below this many springs a step runs on one thread: a parallel region costs a few microseconds,
-// more than it saves on a small model.
-constexpr int64_t kParallelSprings = 4096;
-constexpr int kMaxThreads = 64;
-
-int threads_for(const Simulation& s) {
-  return static_cast<int64_t>(s.active_springs.size()) >= kParallelSprings
-             ? std::clamp(omp_get_max_threads(), 1, kMaxThreads)
-             : 1;
-}
-
-// Runs body(begin, end, thread) on `threads` threads, each over its own fixed slice of [0, n).
-// Fixed slices and per-thread partial results summed in thread order keep every result the same
-// from run to run (an OpenMP reduction may add the partials in any order).
-template <class Body>
-void for_slices(int64_t n, int threads, Body&& body) {
-  if (threads <= 1) {
-    body(int64_t{0}, n, 0);
-    return;
-  }
-#pragma omp parallel num_threads(threads)
-  {
-    const int t = omp_get_thread_num(), T = omp_get_num_threads();
-    body(n * t / T, n * (t + 1) / T, t);
-  }
-}
-
-// Per-thread partial results, one cache line each so that threads never share one.
-struct alignas(64) Partial {
-  double a = 0.0, b = 0.0, c = 0.0;
-  bool ok = true;
-};
-using Partials = std::array<Partial, kMaxThreads>;
-
-// Column pointers of an #n by 3 column-major matrix.
-struct Cols {
-  double *x, *y, *z;
-  explicit Cols(Eigen::MatrixX3d& m) : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
-};
-struct ConstCols {
-  const double *x, *y, *z;
-  explicit ConstCols(const Eigen::MatrixX3d& m)
-      : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
-};
 
 // Hooke force of springs [begin, end) (of `list`, or all springs when it is null) on their first
 // node i, k (l - L) (x_j - x_i) / l, into f (one row per spring). Each spring is evaluated once;
@@ -128,59 +86,6 @@ inline void gather(const Simulation& s, int32_t i, const ConstCols& fs, double& 
     ax += sg * gx[e], ay += sg * gy[e], az += sg * gz[e];
   }
   fx += ax + bx, fy += ay + by, fz += az + bz;
-}
-
-// Everything a step measures about the movable nodes, from their state before (x_prev) and after.
-struct Measured {
-  double move2 = 0.0, disp2 = 0.0, ke = 0.0;
-  bool ok = true;
-};
-
-Measured combine(const Partials& part, int threads) {
-  Measured m;
-  for (int t = 0; t < std::max(threads, 1); ++t) {
-    m.move2 = std::max(m.move2, part[t].a);
-    m.disp2 = std::max(m.disp2, part[t].b);
-    m.ke += part[t].c;
-    m.ok = m.ok && part[t].ok;
-  }
-  return m;
-}
-
-// One node's end-of-step bookkeeping: the finite and bounded check (a blow-up can stay finite for
-// a few steps while growing without bound) and the measurements.
-inline void account(const Simulation& s, int32_t i, double x0, double y0, double z0, double nx,
-                    double ny, double nz, double vx, double vy, double vz, Partial& out) {
-  const Eigen::MatrixX3d& X = s.model->X;
-  const double ex = nx - X(i, 0), ey = ny - X(i, 1), ez = nz - X(i, 2);
-  const double lim = s.blowup_limit_mm;
-  out.ok = out.ok && std::abs(ex) < lim && std::abs(ey) < lim && std::abs(ez) < lim &&
-           std::isfinite(vx + vy + vz);  // NaN fails every comparison; inf - inf is NaN
-  const double mx = nx - x0, my = ny - y0, mz = nz - z0;
-  out.a = std::max(out.a, mx * mx + my * my + mz * mz);
-  out.b = std::max(out.b, ex * ex + ey * ey + ez * ez);
-  out.c += 0.5 * s.mass_kg[i] * (vx * vx + vy * vy + vz * vz);
-}
-
-// The state a step writes, as column pointers.
-struct NodeState {
-  Cols x, v, xp, vp;
-  explicit NodeState(Simulation& s) : x(s.x), v(s.v), xp(s.x_prev), vp(s.v_prev) {}
-};
-
-// A movable node's end of step: its old state saved for rollback (with save), the new velocity
-// and the position it leads to stored, the node checked and measured.
-inline void finish_node(const Simulation& s, NodeState& st, int32_t i, double h, bool save,
-                        double vx, double vy, double vz, Partial& acc) {
-  const double x0 = st.x.x[i], y0 = st.x.y[i], z0 = st.x.z[i];
-  if (save) {
-    st.xp.x[i] = x0, st.xp.y[i] = y0, st.xp.z[i] = z0;
-    st.vp.x[i] = st.v.x[i], st.vp.y[i] = st.v.y[i], st.vp.z[i] = st.v.z[i];
-  }
-  const double nx = x0 + h * vx, ny = y0 + h * vy, nz = z0 + h * vz;
-  st.v.x[i] = vx, st.v.y[i] = vy, st.v.z[i] = vz;
-  st.x.x[i] = nx, st.x.y[i] = ny, st.x.z[i] = nz;
-  account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
 }
 
 // Semi-implicit (symplectic) Euler, the paper's: v += dt a(x, v); x += dt v. Two passes: the
@@ -429,8 +334,14 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
 }
 
 Measured advance(Simulation& s, Integrator integrator, double h, bool save, int32_t& cg) {
-  return integrator == Integrator::kSemiImplicitEuler ? semi_implicit_euler(s, h, save)
-                                                      : implicit_euler(s, h, save, cg);
+  switch (integrator) {
+    case Integrator::kSemiImplicitEuler:
+      return semi_implicit_euler(s, h, save);
+    case Integrator::kProjective:
+      return projective_step(s, h, save);
+    default:
+      return implicit_euler(s, h, save, cg);
+  }
 }
 
 // The movable nodes back to their state before the step.
@@ -477,6 +388,7 @@ double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& xm, const int3
 // Rebuilds what a step visits and what it caches about the nodes that stay put. O(model); runs
 // only when the movable set changes.
 void refresh(Simulation& s) {
+  ++s.setup_version;
   const Model& m = *s.model;
   const int32_t n = m.node_count();
   s.active_nodes.clear();
@@ -522,6 +434,8 @@ void check_parameters(const Material& m, const SolverOptions& o) {
   if (!positive(o.threshold_mm)) throw invalid_input("solver.threshold", "must be > 0 mm");
   if (o.max_steps < 1) throw invalid_input("solver.max_steps", "must be >= 1");
   if (o.cg_max_iterations < 1) throw invalid_input("solver.cg_max_iterations", "must be >= 1");
+  if (o.projective_iterations < 1)
+    throw invalid_input("solver.projective_iterations", "must be >= 1");
 }
 
 Simulation make_simulation(const Model& model, const Material& material,
@@ -588,6 +502,7 @@ void set_parameters(Simulation& s, const Material& material, const SolverOptions
     for (size_t i = 0; i < n; ++i) s.movable[i] = !s.fixed[i];
   s.material = material;
   s.options = options;
+  ++s.setup_version;
   if (to_global) refresh(s);
 }
 

@@ -261,7 +261,8 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
       {R"({"solver": {"locality": 0}})", "solver.locality: must be between 1 and 64, got 0"},
       {R"({"solver": {"penetration_depth": 0}})", "solver.penetration_depth: must be between 1"},
       {R"({"solver": {"integrator": "rk4"}})",
-       "solver.integrator: expected \"semi_implicit_euler\" or \"implicit_euler\", got \"rk4\""},
+       "solver.integrator: expected \"semi_implicit_euler\", \"implicit_euler\" or \"projective\", "
+       "got \"rk4\""},
       {R"({"solver": {"mode": 1}})", "solver.mode: expected a string, got 1"},
       {R"({"solver": {"max_steps": 0}})", "solver.max_steps: must be >= 1, got 0"},
       {R"({"solver": {"ring_attenuation": 1.5}})",

@@ -6,16 +6,25 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "lamina/model/model.h"
 
 namespace lamina::sim {
+namespace detail {
+struct ProjectiveSolver;  // projective.cpp: the prefactored system, reused across steps
+}
 
 /// Time integrators.
 enum class Integrator : uint8_t {
   kSemiImplicitEuler,  ///< the paper's: v += dt a(x, v); x += dt v. Cheap; stable only for small dt
   kImplicitEuler,      ///< backward Euler, one linearised solve by conjugate gradients per step
+  /// projective dynamics, the "fast mass-spring" method of Liu et al. 2013: backward Euler's
+  /// nonlinear system by a fixed number of local (project each spring to its rest length) and
+  /// global (one prefactored sparse solve) iterations. The factor is reused while dt, the
+  /// material and the movable nodes stay the same.
+  kProjective,
 };
 
 /// Which nodes move.
@@ -51,6 +60,7 @@ struct SolverOptions {
   /// implicit Euler: CG stops at ||b - A dv|| <= cg_tolerance ||b|| (warm-started from the last
   /// step's dv, which a smooth motion changes little)
   double cg_tolerance = 1e-6;
+  int32_t projective_iterations = 10;  ///< projective dynamics: local/global iterations per step
 };
 
 /// What one step measured. Valid until the next step.
@@ -100,6 +110,10 @@ struct Simulation {
   double rest_skin_volume_mm3 = 0.0;
   /// A node this far from its rest position (100 model sizes) counts as a blow-up.
   double blowup_limit_mm = 0.0;
+
+  /// Counts changes of what a prefactored solve depends on (movable nodes, material, dt).
+  uint64_t setup_version = 0;
+  std::shared_ptr<detail::ProjectiveSolver> projective;  ///< made on the first projective step
 
   // What a step visits: the movable nodes (ascending) and every spring with a movable end.
   std::vector<int32_t> active_nodes;

@@ -1,0 +1,143 @@
+// Projective dynamics for mass-spring systems: the "fast mass-spring" method of Liu, Bargteil,
+// O'Brien and Kavan (2013). Backward Euler's nonlinear system,
+//   (M + h gamma + h^2 L) x1 = M (x0 + h v0) + h gamma x0 + h^2 (J d + f_ext + M g + anchor X),
+// is solved by alternating a local step (each spring's vector projected to its rest length,
+// d_e = L_e (x_i - x_j) / |x_i - x_j|) and a global step (one solve with the constant matrix,
+// factored once by Eigen's sparse LDLT and reused while dt, the material and the movable nodes
+// stay the same). Held nodes are boundary values: their springs' pull enters the right side.
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <vector>
+
+#include "lamina/core/error.h"
+#include "step_parts.h"
+
+namespace lamina::sim::detail {
+
+struct ProjectiveSolver {
+  uint64_t version = 0;  ///< Simulation::setup_version it was factored for
+  double h = 0.0;
+  bool factored = false;
+  std::vector<int32_t> row_of;  ///< node -> unknown, -1 for a node that does not move
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  Eigen::MatrixX3d base, rhs, sol;  ///< per unknown
+  Eigen::MatrixX3d d;               ///< per spring: its projected (rest-length) vector x_i - x_j
+};
+
+namespace {
+
+void factor(const Simulation& s, ProjectiveSolver& p, double h) {
+  const Model& m = *s.model;
+  const auto n = static_cast<Eigen::Index>(s.active_nodes.size());
+  p.row_of.assign(static_cast<size_t>(m.node_count()), -1);
+  for (Eigen::Index q = 0; q < n; ++q) p.row_of[s.active_nodes[q]] = static_cast<int32_t>(q);
+  const double h2 = h * h, damp = h * s.material.damping_kg_per_s;
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<size_t>(n) + s.adj_other.size());
+  for (Eigen::Index q = 0; q < n; ++q) {
+    const int32_t i = s.active_nodes[q];
+    double diag = s.mass_kg[i] + damp + h2 * s.material.anchor_stiffness_n_per_m;
+    for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+      const double k = s.stiffness_n_per_m[s.adj_spring[a]];
+      diag += h2 * k;
+      const int32_t r = p.row_of[s.adj_other[a]];
+      if (r >= 0) t.emplace_back(q, r, -h2 * k);
+    }
+    t.emplace_back(q, q, diag);
+  }
+  Eigen::SparseMatrix<double> A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  p.ldlt.compute(A);
+  if (p.ldlt.info() != Eigen::Success)
+    throw Error(ErrorKind::kInternal, "projective dynamics: the system matrix did not factor");
+  p.base.resize(n, 3);
+  p.rhs.resize(n, 3);
+  p.sol.resize(n, 3);
+  p.d.resize(static_cast<Eigen::Index>(m.springs.size()), 3);
+  p.version = s.setup_version;
+  p.h = h;
+  p.factored = true;
+}
+
+}  // namespace
+
+Measured projective_step(Simulation& s, double h, bool save) {
+  if (!s.projective) s.projective = std::make_shared<ProjectiveSolver>();
+  ProjectiveSolver& p = *s.projective;
+  if (!p.factored || p.version != s.setup_version || p.h != h) factor(s, p, h);
+  const Model& m = *s.model;
+  const Springs& sp = m.springs;
+  const Material& mat = s.material;
+  const auto n = static_cast<int64_t>(s.active_nodes.size());
+  const int T = threads_for(s);
+  const double h2 = h * h, damp = h * mat.damping_kg_per_s;
+
+  // The inertial and constant parts of the right side, and the first iterate x0 + h v0.
+  for_slices(n, T, [&](int64_t begin, int64_t end, int) {
+    for (int64_t q = begin; q < end; ++q) {
+      const int32_t i = s.active_nodes[q];
+      const double mi = s.mass_kg[i];
+      for (int c = 0; c < 3; ++c) {
+        const double predicted = s.x(i, c) + h * s.v(i, c);
+        p.base(q, c) = mi * predicted + damp * s.x(i, c) +
+                       h2 * (s.f_ext(i, c) + mi * mat.gravity_mm_per_s2[c] +
+                             mat.anchor_stiffness_n_per_m * m.X(i, c));
+        p.sol(q, c) = predicted;
+      }
+    }
+  });
+  auto position = [&](int32_t node, int c) {
+    const int32_t r = p.row_of[node];
+    return r >= 0 ? p.sol(r, c) : s.x(node, c);
+  };
+  const auto springs = static_cast<int64_t>(s.active_springs.size());
+  for (int32_t it = 0; it < s.options.projective_iterations; ++it) {
+    // Local: each spring's vector at its rest length, along its current direction (along its
+    // rest direction if it has collapsed to a point).
+    for_slices(springs, T, [&](int64_t begin, int64_t end, int) {
+      for (int64_t q = begin; q < end; ++q) {
+        const int32_t e = s.active_springs[q], a = sp.i[e], b = sp.j[e];
+        Eigen::Vector3d v(position(a, 0) - position(b, 0), position(a, 1) - position(b, 1),
+                          position(a, 2) - position(b, 2));
+        double l = v.norm();
+        if (!(l > 1e-12)) {
+          v = (m.X.row(a) - m.X.row(b)).transpose();
+          l = v.norm();
+        }
+        p.d.row(e) = (sp.rest_length_mm[e] / l) * v.transpose();
+      }
+    });
+    // Global: rhs = base + h^2 (J d + pull of held neighbours), then one prefactored solve.
+    for_slices(n, T, [&](int64_t begin, int64_t end, int) {
+      for (int64_t q = begin; q < end; ++q) {
+        const int32_t i = s.active_nodes[q];
+        double r[3] = {p.base(q, 0), p.base(q, 1), p.base(q, 2)};
+        for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
+          const int32_t c = s.adj_signed[a], e = c < 0 ? ~c : c, j = s.adj_other[a];
+          const double k = s.stiffness_n_per_m[e], sign = c < 0 ? -1.0 : 1.0;
+          const bool held = p.row_of[j] < 0;
+          for (int ax = 0; ax < 3; ++ax)
+            r[ax] += h2 * k * (sign * p.d(e, ax) + (held ? s.x(j, ax) : 0.0));
+        }
+        for (int ax = 0; ax < 3; ++ax) p.rhs(q, ax) = r[ax];
+      }
+    });
+    p.sol = p.ldlt.solve(p.rhs);
+  }
+
+  // The new velocity (x1 - x0) / h; each node's end of step as the other integrators'.
+  NodeState state(s);
+  Partials part;
+  for_slices(n, T, [&](int64_t begin, int64_t end, int t) {
+    Partial acc;
+    for (int64_t q = begin; q < end; ++q) {
+      const int32_t i = s.active_nodes[q];
+      finish_node(s, state, i, h, save, (p.sol(q, 0) - s.x(i, 0)) / h,
+                  (p.sol(q, 1) - s.x(i, 1)) / h, (p.sol(q, 2) - s.x(i, 2)) / h, acc);
+    }
+    part[t] = acc;
+  });
+  return combine(part, T);
+}
+
+}  // namespace lamina::sim::detail
