@@ -14,6 +14,7 @@
 #include "lamina/model/build_model.h"
 #include "lamina/model/compute_rings.h"
 #include "lamina/sim/simulation.h"
+#include "lamina/sim/spring_kernel.h"
 
 namespace {
 
@@ -63,25 +64,9 @@ void BM_SpringForces(benchmark::State& state) {
 }
 BENCHMARK(BM_SpringForces)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
 
-// The precision study: the same spring kernel as the step's (each spring once, Hooke force on
-// its first node) over the model's springs, with positions, rest lengths, stiffnesses and output
-// in float or in double. Only the arithmetic width differs; the library steps in double (see
-// docs/benchmarks.md for why).
-template <class Real>
-void spring_kernel(int64_t n, const int32_t* __restrict si, const int32_t* __restrict sj,
-                   const Real* __restrict rest, const Real* __restrict k,
-                   const Real* __restrict px, const Real* __restrict py,
-                   const Real* __restrict pz, Real* __restrict fx, Real* __restrict fy,
-                   Real* __restrict fz) {
-  for (int64_t e = 0; e < n; ++e) {
-    const int32_t a = si[e], b = sj[e];
-    const Real dx = px[b] - px[a], dy = py[b] - py[a], dz = pz[b] - pz[a];
-    const Real l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), Real(1e-12));
-    const Real t = k[e] * (l - rest[e]) / l;
-    fx[e] = t * dx, fy[e] = t * dy, fz[e] = t * dz;
-  }
-}
-
+// The precision study: the step's own spring kernel (sim::spring_kernel) over the model's
+// springs, with positions, rest lengths, stiffnesses and output in float or in double. Only the
+// arithmetic width differs; the library steps in double (docs/benchmarks.md says why).
 template <class Real>
 void BM_SpringKernelPrecision(benchmark::State& state) {
   const Model& m = model(state.range(0));
@@ -94,7 +79,7 @@ void BM_SpringKernelPrecision(benchmark::State& state) {
     for (int c = 0; c < 3; ++c) p[c * m.node_count() + i] = static_cast<Real>(1.02 * m.X(i, c));
   const Real* px = p.data();
   for (auto _ : state) {
-    spring_kernel<Real>(n, sp.i.data(), sp.j.data(), rest.data(), k.data(), px,
+    sim::spring_kernel<Real>(0, n, nullptr, sp.i.data(), sp.j.data(), rest.data(), k.data(), px,
                         px + m.node_count(), px + 2 * m.node_count(), f.data(), f.data() + n,
                         f.data() + 2 * n);
     benchmark::ClobberMemory();

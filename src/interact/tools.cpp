@@ -207,15 +207,8 @@ Eigen::Vector3d node_reaction(const sim::Simulation& s, int32_t i) {
 
 }  // namespace
 
-Eigen::Vector3d reaction_force(const sim::Simulation& s) {
-  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
-  for (int32_t i = 0; i < s.f_ext.rows(); ++i)
-    if (!s.fixed[i] && !s.f_ext.row(i).isZero()) reaction += node_reaction(s, i);
-  return reaction;
-}
-
 Eigen::Vector3d reaction_force(const sim::Simulation& s, const Loads& loads) {
-  // A node can be loaded by several routes: count it once, in ascending order as above.
+  // A node can be loaded by several routes: count it once, in ascending order.
   thread_local std::vector<int32_t> nodes;
   nodes.assign(loads.nodes.begin(), loads.nodes.end());
   std::sort(nodes.begin(), nodes.end());

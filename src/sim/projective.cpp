@@ -113,8 +113,8 @@ Measured projective_step(Simulation& s, double h, bool save) {
         const int32_t i = s.active_nodes[q];
         double r[3] = {p.base(q, 0), p.base(q, 1), p.base(q, 2)};
         for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-          const int32_t c = s.adj_signed[a], e = c < 0 ? ~c : c, j = s.adj_other[a];
-          const double k = s.stiffness_n_per_m[e], sign = c < 0 ? -1.0 : 1.0;
+          const int32_t c = s.adj_signed[a], e = spring_of(c), j = s.adj_other[a];
+          const double k = s.stiffness_n_per_m[e], sign = end_sign(c);
           const bool held = p.row_of[j] < 0;
           for (int ax = 0; ax < 3; ++ax)
             r[ax] += h2 * k * (sign * p.d(e, ax) + (held ? s.x(j, ax) : 0.0));

@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "lamina/core/error.h"
+#include "lamina/sim/spring_kernel.h"
 #include "step_parts.h"
 
 namespace lamina::sim {
@@ -19,46 +20,13 @@ using namespace detail;
 // kg (mm/s)^2 -> J.
 constexpr double kJoulesPerKgMm2PerS2 = 1e-6;
 
-// Hooke force of springs [begin, end) (of `list`, or all springs when it is null) on their first
-// node i, k (l - L) (x_j - x_i) / l, into f (one row per spring). Each spring is evaluated once;
-// a node then gathers +f (as i) or -f (as j), so forces on the two ends are exactly opposite and
-// no two threads write the same value. Restrict-qualified plain loops with contiguous stores, so
-// that the compiler vectorises the dense case (docs/benchmarks.md has the measurements).
-void spring_kernel(int64_t begin, int64_t end, const int32_t* __restrict list,
-                   const int32_t* __restrict si, const int32_t* __restrict sj,
-                   const double* __restrict rest, const double* __restrict k,
-                   const double* __restrict px, const double* __restrict py,
-                   const double* __restrict pz, double* __restrict fx, double* __restrict fy,
-                   double* __restrict fz) {
-  // Written out twice (not as a lambda): a lambda's by-reference captures drop __restrict.
-  if (!list) {
-    for (int64_t e = begin; e < end; ++e) {
-      const int32_t a = si[e], b = sj[e];
-      const double dx = px[b] - px[a], dy = py[b] - py[a], dz = pz[b] - pz[a];
-      // A zero-length spring has no direction: |d| / l <= 1 keeps its force bounded (0 at d = 0).
-      const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
-      const double t = k[e] * (l - rest[e]) / l;
-      fx[e] = t * dx, fy[e] = t * dy, fz[e] = t * dz;
-    }
-    return;
-  }
-  for (int64_t q = begin; q < end; ++q) {
-    const int64_t e = list[q];
-    const int32_t a = si[e], b = sj[e];
-    const double dx = px[b] - px[a], dy = py[b] - py[a], dz = pz[b] - pz[a];
-    const double l = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), 1e-12);
-    const double t = k[e] * (l - rest[e]) / l;
-    fx[e] = t * dx, fy[e] = t * dy, fz[e] = t * dz;
-  }
-}
-
 void spring_pass(const Simulation& s, const Eigen::MatrixX3d& x, const int32_t* list,
                  int64_t count, Eigen::MatrixX3d& fs, int threads) {
   const Springs& sp = s.model->springs;
   const ConstCols p(x);
   Cols f(fs);
   for_slices(count, threads, [&](int64_t begin, int64_t end, int) {
-    spring_kernel(begin, end, list, sp.i.data(), sp.j.data(), sp.rest_length_mm.data(),
+    spring_kernel<double>(begin, end, list, sp.i.data(), sp.j.data(), sp.rest_length_mm.data(),
                   s.stiffness_n_per_m.data(), p.x, p.y, p.z, f.x, f.y, f.z);
   });
 }
@@ -75,17 +43,36 @@ inline void gather(const Simulation& s, int32_t i, const ConstCols& fs, double& 
   const int32_t end = s.adj_offsets[i + 1];
   for (; a + 1 < end; a += 2) {
     const int32_t c0 = signed_spring[a], c1 = signed_spring[a + 1];
-    const int32_t e0 = c0 < 0 ? ~c0 : c0, e1 = c1 < 0 ? ~c1 : c1;
-    const double s0 = c0 < 0 ? -1.0 : 1.0, s1 = c1 < 0 ? -1.0 : 1.0;
+    const int32_t e0 = spring_of(c0), e1 = spring_of(c1);
+    const double s0 = end_sign(c0), s1 = end_sign(c1);
     ax += s0 * gx[e0], ay += s0 * gy[e0], az += s0 * gz[e0];
     bx += s1 * gx[e1], by += s1 * gy[e1], bz += s1 * gz[e1];
   }
   if (a < end) {
-    const int32_t c = signed_spring[a], e = c < 0 ? ~c : c;
-    const double sg = c < 0 ? -1.0 : 1.0;
+    const int32_t c = signed_spring[a], e = spring_of(c);
+    const double sg = end_sign(c);
     ax += sg * gx[e], ay += sg * gy[e], az += sg * gz[e];
   }
   fx += ax + bx, fy += ay + by, fz += az + bz;
+}
+
+// The force on movable node i (mN): its springs' (gathered from fs), the tool's, gravity, its
+// anchor spring and, if damped, -gamma v. Backward Euler puts the damping into its matrix instead.
+inline void node_force(const Simulation& s, int32_t i, const ConstCols& fs, const ConstCols& fe,
+                       const ConstCols& x, const ConstCols& v, bool damped, double& fx,
+                       double& fy, double& fz) {
+  const Material& mat = s.material;
+  const Eigen::MatrixX3d& X = s.model->X;
+  const double m = s.mass_kg[i], anchor = mat.anchor_stiffness_n_per_m;
+  const Eigen::Vector3d& g = mat.gravity_mm_per_s2;
+  fx = fe.x[i] + m * g.x() - anchor * (x.x[i] - X(i, 0));
+  fy = fe.y[i] + m * g.y() - anchor * (x.y[i] - X(i, 1));
+  fz = fe.z[i] + m * g.z() - anchor * (x.z[i] - X(i, 2));
+  if (damped) {
+    const double damp = mat.damping_kg_per_s;
+    fx -= damp * v.x[i], fy -= damp * v.y[i], fz -= damp * v.z[i];
+  }
+  gather(s, i, fs, fx, fy, fz);
 }
 
 // Semi-implicit (symplectic) Euler, the paper's: v += dt a(x, v); x += dt v. Two passes: the
@@ -96,26 +83,17 @@ Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
   const bool dense = s.active_springs.size() == s.model->springs.size();
   spring_pass(s, s.x, dense ? nullptr : s.active_springs.data(),
               static_cast<int64_t>(s.active_springs.size()), s.spring_force, T);
-  const Material& mat = s.material;
-  const Eigen::MatrixX3d& X = s.model->X;
-  const ConstCols fs(s.spring_force), fe(s.f_ext);
-  const ConstCols x(s.x), v(s.v);
+  const ConstCols fs(s.spring_force), fe(s.f_ext), x(s.x), v(s.v);
   NodeState state(s);
-  const double damp = mat.damping_kg_per_s, anchor = mat.anchor_stiffness_n_per_m;
-  const Eigen::Vector3d g = mat.gravity_mm_per_s2;
   Partials part;
   for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
              [&](int64_t begin, int64_t end, int t) {
                Partial acc;
                for (int64_t q = begin; q < end; ++q) {
                  const int32_t i = s.active_nodes[q];
-                 const double m = s.mass_kg[i];
-                 const double x0 = x.x[i], y0 = x.y[i], z0 = x.z[i];
-                 double fx = fe.x[i] - damp * v.x[i] + m * g.x() - anchor * (x0 - X(i, 0));
-                 double fy = fe.y[i] - damp * v.y[i] + m * g.y() - anchor * (y0 - X(i, 1));
-                 double fz = fe.z[i] - damp * v.z[i] + m * g.z() - anchor * (z0 - X(i, 2));
-                 gather(s, i, fs, fx, fy, fz);
-                 const double h_m = dt / m;
+                 double fx, fy, fz;
+                 node_force(s, i, fs, fe, x, v, /*damped=*/true, fx, fy, fz);
+                 const double h_m = dt / s.mass_kg[i];
                  finish_node(s, state, i, dt, save, v.x[i] + h_m * fx, v.y[i] + h_m * fy,
                              v.z[i] + h_m * fz, acc);
                }
@@ -180,8 +158,6 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
   const Material& mat = s.material;
   const double h2 = h * h, damp_h = h * mat.damping_kg_per_s;
   const double anchor = mat.anchor_stiffness_n_per_m;
-  const Eigen::Vector3d g = mat.gravity_mm_per_s2;
-  const Eigen::MatrixX3d& X = s.model->X;
   const auto nodes = static_cast<int64_t>(s.active_nodes.size());
 
   // 1. Springs: the force on the first node, and the linearisation (direction, 1 - L/l).
@@ -229,10 +205,8 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
       for (int64_t q = begin; q < end; ++q) {
         const int32_t i = s.active_nodes[q];
         const double m = s.mass_kg[i];
-        double fx = fe.x[i] + m * g.x() - anchor * (x.x[i] - X(i, 0));
-        double fy = fe.y[i] + m * g.y() - anchor * (x.y[i] - X(i, 1));
-        double fz = fe.z[i] + m * g.z() - anchor * (x.z[i] - X(i, 2));
-        gather(s, i, fs, fx, fy, fz);
+        double fx, fy, fz;
+        node_force(s, i, fs, fe, x, v, /*damped=*/false, fx, fy, fz);
         const double wx = w.x[i], wy = w.y[i], wz = w.z[i];
         double kx = anchor * wx, ky = anchor * wy, kz = anchor * wz;
         double d0 = anchor, d1 = anchor, d2 = anchor;
@@ -547,7 +521,7 @@ void set_local_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
 void spring_forces(Simulation& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f) {
   // Every spring, not only the active ones: this is the whole model's force at any x.
   const auto springs = static_cast<int64_t>(s.model->springs.size());
-  const int T = springs >= kParallelSprings ? std::clamp(omp_get_max_threads(), 1, kMaxThreads) : 1;
+  const int T = threads_for_springs(springs);
   spring_pass(s, x, nullptr, springs, s.spring_force, T);
   const ConstCols c(s.spring_force);
   for_slices(x.rows(), T, [&](int64_t begin, int64_t end, int) {

@@ -20,10 +20,13 @@ namespace lamina::sim::detail {
 constexpr int64_t kParallelSprings = 4096;
 constexpr int kMaxThreads = 64;
 
+inline int threads_for_springs(int64_t springs) {
+  return springs >= kParallelSprings ? std::clamp(omp_get_max_threads(), 1, kMaxThreads) : 1;
+}
+
+/// Threads for a step of `s`: by the springs it visits.
 inline int threads_for(const Simulation& s) {
-  return static_cast<int64_t>(s.active_springs.size()) >= kParallelSprings
-             ? std::clamp(omp_get_max_threads(), 1, kMaxThreads)
-             : 1;
+  return threads_for_springs(static_cast<int64_t>(s.active_springs.size()));
 }
 
 // Runs body(begin, end, thread) on `threads` threads, each over its own fixed slice of [0, n).
@@ -41,6 +44,13 @@ inline void for_slices(int64_t n, int threads, Body&& body) {
     body(n * t / T, n * (t + 1) / T, t);
   }
 }
+
+// An entry of Simulation::adj_signed: e where the node is spring e's first end, ~e where its
+// second. The spring, and the sign its stored force (on the first end) takes at this node.
+inline int32_t spring_of(int32_t signed_spring) {
+  return signed_spring < 0 ? ~signed_spring : signed_spring;
+}
+inline double end_sign(int32_t signed_spring) { return signed_spring < 0 ? -1.0 : 1.0; }
 
 // Per-thread partial results, one cache line each so that threads never share one.
 struct alignas(64) Partial {

@@ -100,13 +100,10 @@ struct ToolDriver {
 /// @return true if any tool is active
 bool apply_tools(sim::Simulation& sim, ToolDriver& driver);
 
-/// The tissue's push back on the tools, mN: the spring and anchor forces on every free node that
-/// receives external force (a held node's share goes into its support). At rest under a held
-/// load it balances the load; a haptic device renders it. Costs a pass over the loaded nodes'
-/// springs only.
-Eigen::Vector3d reaction_force(const sim::Simulation& sim);
-
-/// The same, visiting only the loaded nodes (cheap on a large model).
+/// The tissue's push back on the tools, mN: the spring and anchor forces on every free node of
+/// `loads` that receives external force (a held node's share goes into its support). At rest
+/// under a held load it balances the load; a haptic device renders it. Costs a pass over the
+/// loaded nodes' springs only.
 Eigen::Vector3d reaction_force(const sim::Simulation& sim, const Loads& loads);
 
 /// The time after which no tool acts any more (0 with no tools; infinity if one never ends).
