@@ -281,13 +281,14 @@ int run_run(const RunArgs& a) {
   const ProgressFn progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose);
 
   // 1. The model, and the scene checked against it, before anything is written.
-  const SceneModel built = make_scene_model(scene, progress);
-  const Model& m = built.model;
+  SceneModel built = make_scene_model(scene, progress);
   const double model_seconds = seconds_since(t_start);
-  io::resolve_scene_defaults(scene, m);
-  io::check_scene_against_model(scene, m);
+  io::resolve_scene_defaults(scene, built.model);
+  io::check_scene_against_model(scene, built.model);
+  const std::vector<int32_t> fixed = io::fixed_scene_nodes(scene, built.model);
+  const io::MaterialReport material = io::resolve_material(scene, built.model, fixed);
+  const Model& m = built.model;
   sim::Simulation s = sim::make_simulation(m, scene.material, scene.solver);
-  const std::vector<int32_t> fixed = io::fixed_scene_nodes(scene, m);
   sim::fix_nodes(s, fixed);
   if (fixed.empty() && scene.material.anchor_stiffness_n_per_m == 0.0 &&
       scene.solver.mode == sim::Mode::kGlobal)
@@ -412,6 +413,7 @@ int run_run(const RunArgs& a) {
   io::RunSummary sum;
   sum.scene = scene.source;
   sum.model = built.source;
+  sum.material = material;
   sum.converged = converged;
   sum.steps = s.steps;
   sum.sim_seconds = s.time_s;

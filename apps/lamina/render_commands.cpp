@@ -36,6 +36,7 @@ Prepared prepare(const std::string& what, const ProgressFn& progress) {
   io::resolve_scene_defaults(p.scene, p.built.model);
   io::check_scene_against_model(p.scene, p.built.model);
   p.fixed = io::fixed_scene_nodes(p.scene, p.built.model);
+  io::resolve_material(p.scene, p.built.model, p.fixed);
   return p;
 }
 
@@ -113,6 +114,8 @@ int run_view(const ViewArgs& a) {
       io::resolve_scene_defaults(s, b.model);
       render::ViewerModel out;
       out.fixed = io::fixed_scene_nodes(s, b.model);
+      // A physical material's spring constants belong to the model: identify them again.
+      if (s.elastic) model::identify_springs(b.model, s.elastic_material, b.model.springs.stiffness_n_per_m);
       out.source = b.source;
       out.model = std::move(b.model);
       return out;

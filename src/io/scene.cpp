@@ -231,8 +231,41 @@ void read_material(const Reader& r, const json& j, Scene& s) {
   r.require_object(j, path);
   r.warn_unknown(j, path,
                  {"stiffness_n_per_m", "damping_kg_per_s", "node_mass_kg",
-                  "anchor_stiffness_n_per_m", "gravity_mm_per_s2", "density_g_per_cm3"});
+                  "anchor_stiffness_n_per_m", "gravity_mm_per_s2", "density_g_per_cm3", "density",
+                  "mass_damping_per_s", "volume_stiffness_kpa", "young_modulus_kpa",
+                  "poisson_ratio", "damping_ratio"});
   sim::Material& m = s.material;
+  if (j.contains("young_modulus_kpa")) {
+    // A physical tissue: the spring constants and masses follow from E, nu and the density, so
+    // the paper's raw constants cannot be given beside them.
+    for (const char* raw : {"stiffness_n_per_m", "node_mass_kg"})
+      if (j.contains(raw))
+        r.fail(path + "." + raw,
+               "cannot be given with young_modulus_kpa (springs and masses then follow from "
+               "E, nu and the density); remove one of them");
+    s.elastic = true;
+    m.stiffness_n_per_m = 0.0;
+    m.node_mass_kg = 0.0;
+    m.damping_kg_per_s = 0.0;
+  }
+  if (j.contains("poisson_ratio") && !s.elastic)
+    r.fail(path + ".poisson_ratio", "needs young_modulus_kpa beside it");
+  read_number(r, j, path, "young_modulus_kpa", s.elastic_material.young_modulus_kpa, kPositive,
+              "must be > 0 (healthy liver: about 6 kPa)");
+  read_number(r, j, path, "poisson_ratio", s.elastic_material.poisson_ratio,
+              [](double v) { return v >= 0.0 && v < 0.5; },
+              "must be in [0, 0.5) (soft tissue: 0.45-0.49)");
+  read_number(r, j, path, "damping_ratio", s.damping_ratio, kNonNegative,
+              "must be >= 0 (1 = critically damped slowest mode)");
+  read_number(r, j, path, "mass_damping_per_s", m.mass_damping_per_s, kNonNegative,
+              "must be >= 0");
+  read_number(r, j, path, "volume_stiffness_kpa", m.volume_stiffness_kpa, kNonNegative,
+              "must be >= 0 (0 = no volume term)");
+  s.volume_stiffness_given = j.contains("volume_stiffness_kpa");
+  s.damping_given = j.contains("damping_kg_per_s") || j.contains("mass_damping_per_s");
+  if (s.damping_given && s.damping_ratio >= 0.0)
+    r.fail(path + ".damping_ratio",
+           "cannot be given with damping_kg_per_s or mass_damping_per_s; remove one of them");
   read_number(r, j, path, "stiffness_n_per_m", m.stiffness_n_per_m, kNonNegative,
               "must be >= 0 (0 keeps the model's)");
   read_number(r, j, path, "damping_kg_per_s", m.damping_kg_per_s, kNonNegative, "must be >= 0");
@@ -242,9 +275,12 @@ void read_material(const Reader& r, const json& j, Scene& s) {
               "must be >= 0");
   if (j.contains("gravity_mm_per_s2"))
     m.gravity_mm_per_s2 = r.vec3(j["gravity_mm_per_s2"], "material.gravity_mm_per_s2");
-  if (j.contains("density_g_per_cm3")) {
+  if (j.contains("density_g_per_cm3") && j.contains("density"))
+    r.fail(path + ".density", "give density_g_per_cm3 or density (the same, g/cm^3), not both");
+  for (const char* key : {"density_g_per_cm3", "density"}) {
+    if (!j.contains(key)) continue;
     double g_per_cm3 = 0.0;
-    read_number(r, j, path, "density_g_per_cm3", g_per_cm3, kPositive, "must be > 0");
+    read_number(r, j, path, key, g_per_cm3, kPositive, "must be > 0 g/cm^3 (liver: 1.06)");
     s.build.density_kg_per_mm3 = g_per_cm3 * 1e-6;  // 1 g/cm^3 = 1e-3 kg / 1e3 mm^3
     s.density_given = true;
   }
@@ -259,6 +295,7 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
                   "contact_threshold_mm", "cg_max_iterations", "cg_tolerance",
                   "projective_iterations"});
   sim::SolverOptions& o = s.solver;
+  s.integrator_given = j.contains("integrator");
   read_choice(r, j, path, "integrator", o.integrator,
               {{"semi_implicit_euler", sim::Integrator::kSemiImplicitEuler},
                {"implicit_euler", sim::Integrator::kImplicitEuler},
@@ -550,6 +587,25 @@ std::string run_summary_json(const RunSummary& s) {
   j["median_step_us"] = s.median_step_us;
   j["frames"] = s.frames;
   j["max_reaction_n"] = s.max_reaction_n;
+  {
+    const MaterialReport& m = s.material;
+    nlohmann::ordered_json mj;
+    mj["elastic"] = m.elastic;
+    if (m.elastic) {
+      mj["young_modulus_kpa"] = m.elastic_material.young_modulus_kpa;
+      mj["poisson_ratio"] = m.elastic_material.poisson_ratio;
+      mj["shear_modulus_kpa"] = m.identification.shear_modulus_kpa;
+      mj["spring_fit_residual"] = m.identification.fit_residual;
+    }
+    mj["volume_stiffness_kpa"] = m.volume_stiffness_kpa;
+    mj["mass_damping_per_s"] = m.mass_damping_per_s;
+    if (m.damping_ratio >= 0.0) {
+      mj["damping_ratio"] = m.damping_ratio;
+      mj["lowest_frequency_hz"] = m.lowest_frequency_hz;
+    }
+    mj["explicit_dt_limit_s"] = m.explicit_dt_limit_s;
+    j["material"] = mj;
+  }
   j["realtime"] = s.realtime;
   if (s.realtime) {
     j["rate_hz"] = s.rate_hz;

@@ -84,6 +84,7 @@ struct Viewer::Impl {
   sim::Material material;
   sim::SolverOptions solver;
   interact::RoutingOptions routing;
+  double last_volume_kpa = 1.0;  // what the volume term comes back at when ticked again
   double rate_hz = 1000.0;
   bool paused = false;
   std::string param_error;
@@ -421,6 +422,19 @@ struct Viewer::Impl {
           ImGui::InputDouble("node mass kg (0 = lumped)", &material.node_mass_kg, 0.1, 1, "%.4g");
       changed |=
           ImGui::InputDouble("anchor N/m", &material.anchor_stiffness_n_per_m, 0.1, 1, "%.3f");
+      changed |= ImGui::InputDouble("mass damping alpha 1/s", &material.mass_damping_per_s, 1, 10,
+                                    "%.4g");
+      // The volume term: 0 is the paper's model; a physical scene starts at lambda - mu.
+      bool volume = material.volume_stiffness_kpa > 0.0;
+      if (ImGui::Checkbox("volume term", &volume)) {
+        material.volume_stiffness_kpa = volume ? std::max(last_volume_kpa, 1e-3) : 0.0;
+        changed = true;
+      }
+      if (volume) {
+        changed |= ImGui::InputDouble("volume stiffness kPa", &material.volume_stiffness_kpa, 0.5,
+                                      5, "%.4g");
+        last_volume_kpa = material.volume_stiffness_kpa;
+      }
     }
     if (ImGui::CollapsingHeader("Solver", ImGuiTreeNodeFlags_DefaultOpen)) {
       // The combo's order is the enum's: semi-implicit, implicit (CG), projective.
@@ -618,6 +632,7 @@ void check_viewer_script(const std::string& path) {
 Viewer::Viewer(ViewerOptions options) : impl_(std::make_unique<Impl>()) {
   Impl& v = *impl_;
   v.material = options.material;
+  if (v.material.volume_stiffness_kpa > 0.0) v.last_volume_kpa = v.material.volume_stiffness_kpa;
   v.solver = options.solver;
   v.routing = options.routing;
   v.rate_hz = options.rate_hz;

@@ -32,11 +32,12 @@ void factor(const Simulation& s, ProjectiveSolver& p, double h) {
   p.row_of.assign(static_cast<size_t>(m.node_count()), -1);
   for (Eigen::Index q = 0; q < n; ++q) p.row_of[s.active_nodes[q]] = static_cast<int32_t>(q);
   const double h2 = h * h, damp = h * s.material.damping_kg_per_s;
+  const double mass_damp = h * s.material.mass_damping_per_s;
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(static_cast<size_t>(n) + s.adj_other.size());
   for (Eigen::Index q = 0; q < n; ++q) {
     const int32_t i = s.active_nodes[q];
-    double diag = s.mass_kg[i] + damp + h2 * s.material.anchor_stiffness_n_per_m;
+    double diag = s.mass_kg[i] * (1.0 + mass_damp) + damp + h2 * s.material.anchor_stiffness_n_per_m;
     for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
       const double k = s.stiffness_n_per_m[s.adj_spring[a]];
       diag += h2 * k;
@@ -70,18 +71,25 @@ Measured projective_step(Simulation& s, double h, bool save) {
   const Material& mat = s.material;
   const auto n = static_cast<int64_t>(s.active_nodes.size());
   const int T = threads_for(s);
-  const double h2 = h * h, damp = h * mat.damping_kg_per_s;
+  const double h2 = h * h;
+  // The volume term enters explicitly, at x0: its pressure is one number per region, and the
+  // prefactored matrix has no room for its dense rank-one stiffness.
+  const bool volume = mat.volume_stiffness_kpa > 0.0;
+  if (volume) update_volume_term(s, s.x, T);
 
   // The inertial and constant parts of the right side, and the first iterate x0 + h v0.
   for_slices(n, T, [&](int64_t begin, int64_t end, int) {
     for (int64_t q = begin; q < end; ++q) {
       const int32_t i = s.active_nodes[q];
       const double mi = s.mass_kg[i];
+      const double damp = h * (mat.damping_kg_per_s + mat.mass_damping_per_s * mi);
+      const double jump = volume ? s.pressure_jump_kpa[m.layer_of[i]] : 0.0;
       for (int c = 0; c < 3; ++c) {
         const double predicted = s.x(i, c) + h * s.v(i, c);
+        const double pressure = volume ? -jump * s.volume_gradient(i, c) : 0.0;
         p.base(q, c) = mi * predicted + damp * s.x(i, c) +
                        h2 * (s.f_ext(i, c) + mi * mat.gravity_mm_per_s2[c] +
-                             mat.anchor_stiffness_n_per_m * m.X(i, c));
+                             mat.anchor_stiffness_n_per_m * m.X(i, c) + pressure);
         p.sol(q, c) = predicted;
       }
     }

@@ -57,7 +57,8 @@ inline void gather(const Simulation& s, int32_t i, const ConstCols& fs, double& 
 }
 
 // The force on movable node i (mN): its springs' (gathered from fs), the tool's, gravity, its
-// anchor spring and, if damped, -gamma v. Backward Euler puts the damping into its matrix instead.
+// anchor spring, the volume term's pressure (from update_volume_term) and, if damped,
+// -(gamma + alpha m) v. Backward Euler puts the damping into its matrix instead.
 inline void node_force(const Simulation& s, int32_t i, const ConstCols& fs, const ConstCols& fe,
                        const ConstCols& x, const ConstCols& v, bool damped, double& fx,
                        double& fy, double& fz) {
@@ -69,8 +70,14 @@ inline void node_force(const Simulation& s, int32_t i, const ConstCols& fs, cons
   fy = fe.y[i] + m * g.y() - anchor * (x.y[i] - X(i, 1));
   fz = fe.z[i] + m * g.z() - anchor * (x.z[i] - X(i, 2));
   if (damped) {
-    const double damp = mat.damping_kg_per_s;
+    const double damp = mat.damping_kg_per_s + mat.mass_damping_per_s * m;
     fx -= damp * v.x[i], fy -= damp * v.y[i], fz -= damp * v.z[i];
+  }
+  if (mat.volume_stiffness_kpa > 0.0) {
+    // The pressures on either side of the node's layer, across its share of the layer's area.
+    const double jump = s.pressure_jump_kpa[s.model->layer_of[i]];
+    const Eigen::MatrixX3d& g = s.volume_gradient;
+    fx -= jump * g(i, 0), fy -= jump * g(i, 1), fz -= jump * g(i, 2);
   }
   gather(s, i, fs, fx, fy, fz);
 }
@@ -80,6 +87,7 @@ inline void node_force(const Simulation& s, int32_t i, const ConstCols& fs, cons
 // With save, the movable nodes' old state goes to x_prev/v_prev first (the step's rollback).
 Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
   const int T = threads_for(s);
+  if (s.material.volume_stiffness_kpa > 0.0) update_volume_term(s, s.x, T);
   const bool dense = s.active_springs.size() == s.model->springs.size();
   spring_pass(s, s.x, dense ? nullptr : s.active_springs.data(),
               static_cast<int64_t>(s.active_springs.size()), s.spring_force, T);
@@ -109,10 +117,17 @@ Measured semi_implicit_euler(Simulation& s, double dt, bool save) {
 double system_product(const Simulation& s, double h, const Eigen::MatrixX3d& pm,
                       Eigen::MatrixX3d& ym, int T) {
   const double h2 = h * h, anchor = s.material.anchor_stiffness_n_per_m;
-  const double damp = h * s.material.damping_kg_per_s;
+  const double damp = h * s.material.damping_kg_per_s, mass_damp = h * s.material.mass_damping_per_s;
   const ConstCols p(pm);
   Cols y(ym);
   const float* dir = s.dir.data();  // per spring: ux, uy, uz, alpha
+  // The volume term's stiffness is one rank-one matrix per region: two passes instead of a
+  // dense matrix (its pressure-times-curvature part is left out, keeping the matrix positive).
+  const bool volume = s.material.volume_stiffness_kpa > 0.0;
+  std::array<double, kMaxLayers> vm{};
+  if (volume) volume_multipliers(s, pm, T, vm.data());
+  const ConstCols g(s.volume_gradient);
+  const int32_t* layer_of = s.model->layer_of.data();
   Partials part;
   for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
              [&](int64_t begin, int64_t end, int t) {
@@ -132,7 +147,11 @@ double system_product(const Simulation& s, double h, const Eigen::MatrixX3d& pm,
                    const double ku = (k - ka) * along;
                    kx += ka * dx + ku * cx, ky += ka * dy + ku * cy, kz += ka * dz + ku * cz;
                  }
-                 const double md = s.mass_kg[i] + damp;
+                 if (volume) {
+                   const double c = vm[layer_of[i]];
+                   kx += c * g.x[i], ky += c * g.y[i], kz += c * g.z[i];
+                 }
+                 const double md = s.mass_kg[i] * (1.0 + mass_damp) + damp;
                  const double yx = md * pix + h2 * kx, yy = md * piy + h2 * ky,
                               yz = md * piz + h2 * kz;
                  y.x[i] = yx, y.y[i] = yy, y.z[i] = yz;
@@ -157,8 +176,11 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
   const Springs& sp = s.model->springs;
   const Material& mat = s.material;
   const double h2 = h * h, damp_h = h * mat.damping_kg_per_s;
+  const double mass_damp_h = h * mat.mass_damping_per_s;
   const double anchor = mat.anchor_stiffness_n_per_m;
   const auto nodes = static_cast<int64_t>(s.active_nodes.size());
+  const bool volume = mat.volume_stiffness_kpa > 0.0;
+  if (volume) update_volume_term(s, s.x, T);
 
   // 1. Springs: the force on the first node, and the linearisation (direction, 1 - L/l).
   {
@@ -196,7 +218,14 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
 
   // 3. Per node: b = M v0 + h f0, r = b - A w, the Jacobi diagonal, z = r / diag, p = z.
   Partials part;
+  std::array<double, kMaxLayers> vm{}, vd{};  // the volume term along w; its diagonal factor
+  if (volume) {
+    volume_multipliers(s, s.dv, T, vm.data());
+    for (size_t k = 0; k < s.model->layers.size(); ++k)
+      vd[k] = region_stiffness(s, k) + (k > 0 ? region_stiffness(s, k - 1) : 0.0);
+  }
   {
+    const ConstCols g(s.volume_gradient);
     const ConstCols fs(s.spring_force), fe(s.f_ext), v(s.v), x(s.x), w(s.dv);
     Cols r(s.r), z(s.z), pp(s.p), dg(s.diag);
     const float* dir = s.dir.data();
@@ -220,7 +249,13 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
           kx += ka * dx + along * cx, ky += ka * dy + along * cy, kz += ka * dz + along * cz;
           d0 += ka + kb * cx * cx, d1 += ka + kb * cy * cy, d2 += ka + kb * cz * cz;
         }
-        const double md = m + damp_h;
+        if (volume) {
+          const int32_t k = s.model->layer_of[i];
+          const double gx = g.x[i], gy = g.y[i], gz = g.z[i];
+          kx += vm[k] * gx, ky += vm[k] * gy, kz += vm[k] * gz;
+          d0 += vd[k] * gx * gx, d1 += vd[k] * gy * gy, d2 += vd[k] * gz * gz;
+        }
+        const double md = m * (1.0 + mass_damp_h) + damp_h;
         const double bx = m * v.x[i] + h * fx, by = m * v.y[i] + h * fy, bz = m * v.z[i] + h * fz;
         const double rx = bx - md * wx - h2 * kx, ry = by - md * wy - h2 * ky,
                      rz = bz - md * wz - h2 * kz;
@@ -338,27 +373,6 @@ Measured measure(const Simulation& s) {
   return combine(part, 1);
 }
 
-// 6 x the signed volume of the listed triangles (all of F when list is empty and all = true).
-double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& xm, const int32_t* list,
-               int64_t count, int threads) {
-  const ConstCols x(xm);
-  Partials part;
-  for_slices(count, threads, [&](int64_t begin, int64_t end, int t) {
-    double v6 = 0.0;
-    for (int64_t q = begin; q < end; ++q) {
-      const Eigen::Index f = list ? list[q] : q;
-      const int32_t a = F(f, 0), b = F(f, 1), c = F(f, 2);
-      v6 += x.x[a] * (x.y[b] * x.z[c] - x.z[b] * x.y[c]) +
-            x.y[a] * (x.z[b] * x.x[c] - x.x[b] * x.z[c]) +
-            x.z[a] * (x.x[b] * x.y[c] - x.y[b] * x.x[c]);
-    }
-    part[t].a = v6;
-  });
-  double sum = 0.0;
-  for (int t = 0; t < std::max(threads, 1); ++t) sum += part[t].a;
-  return sum;
-}
-
 // Rebuilds what a step visits and what it caches about the nodes that stay put. O(model); runs
 // only when the movable set changes.
 void refresh(Simulation& s) {
@@ -381,13 +395,20 @@ void refresh(Simulation& s) {
   s.active_springs.clear();
   for (size_t e = 0; e < sp.size(); ++e)
     if (s.movable[sp.i[e]] || s.movable[sp.j[e]]) s.active_springs.push_back(static_cast<int32_t>(e));
-  const Eigen::MatrixX3i& F = m.layers.at(0).F;
-  s.volume_triangles.clear();
+  s.layer_triangles.resize(m.layers.size());
+  s.frozen_layer_volume6_mm3.resize(m.layers.size());
   std::vector<int32_t> frozen;
-  for (Eigen::Index t = 0; t < F.rows(); ++t)
-    (s.movable[F(t, 0)] || s.movable[F(t, 1)] || s.movable[F(t, 2)] ? s.volume_triangles : frozen)
-        .push_back(static_cast<int32_t>(t));
-  s.frozen_volume6_mm3 = volume6(F, s.x, frozen.data(), static_cast<int64_t>(frozen.size()), 1);
+  for (size_t k = 0; k < m.layers.size(); ++k) {
+    const Eigen::MatrixX3i& F = m.layers[k].F;
+    std::vector<int32_t>& active = s.layer_triangles[k];
+    active.clear();
+    frozen.clear();
+    for (Eigen::Index t = 0; t < F.rows(); ++t)
+      (s.movable[F(t, 0)] || s.movable[F(t, 1)] || s.movable[F(t, 2)] ? active : frozen)
+          .push_back(static_cast<int32_t>(t));
+    s.frozen_layer_volume6_mm3[k] =
+        volume6(F, s.x, frozen.data(), static_cast<int64_t>(frozen.size()), 1);
+  }
 }
 
 }  // namespace
@@ -403,6 +424,10 @@ void check_parameters(const Material& m, const SolverOptions& o) {
     throw invalid_input("material.node_mass", "must be >= 0 kg (0 uses the model's masses)");
   if (!non_negative(m.anchor_stiffness_n_per_m))
     throw invalid_input("material.anchor_stiffness", "must be >= 0 N/m");
+  if (!non_negative(m.mass_damping_per_s))
+    throw invalid_input("material.mass_damping", "must be >= 0 1/s");
+  if (!non_negative(m.volume_stiffness_kpa))
+    throw invalid_input("material.volume_stiffness", "must be >= 0 kPa (0 = off)");
   if (!m.gravity_mm_per_s2.allFinite()) throw invalid_input("material.gravity", "must be finite");
   if (!positive(o.dt_s)) throw invalid_input("solver.dt", "must be > 0 s");
   if (!positive(o.threshold_mm)) throw invalid_input("solver.threshold", "must be > 0 mm");
@@ -447,7 +472,11 @@ Simulation make_simulation(const Model& model, const Material& material,
     s.adj_other[fill[a]] = b, s.adj_spring[fill[a]++] = ei;
     s.adj_other[fill[b]] = a, s.adj_spring[fill[b]++] = ei;
   }
-  s.rest_skin_volume_mm3 = layer_volume(model, model.X, 0);
+  s.rest_layer_volume_mm3.resize(model.layers.size());
+  for (int32_t k = 0; k < model.layer_count(); ++k)
+    s.rest_layer_volume_mm3[k] = layer_volume(model, model.X, k);
+  s.rest_skin_volume_mm3 = s.rest_layer_volume_mm3.at(0);
+  if (material.volume_stiffness_kpa > 0.0) setup_volume_term(s);
   s.blowup_limit_mm =
       100.0 * (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
   for (Eigen::MatrixX3d* m : {&s.x_prev, &s.v_prev, &s.r, &s.p, &s.z, &s.y, &s.dv})
@@ -476,6 +505,7 @@ void set_parameters(Simulation& s, const Material& material, const SolverOptions
     for (size_t i = 0; i < n; ++i) s.movable[i] = !s.fixed[i];
   s.material = material;
   s.options = options;
+  if (material.volume_stiffness_kpa > 0.0 && s.corner_offsets.empty()) setup_volume_term(s);
   ++s.setup_version;
   if (to_global) refresh(s);
 }
@@ -545,6 +575,14 @@ double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer
   return volume6(F, x, nullptr, F.rows(), 1) / 6.0;
 }
 
+double elastic_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
+  const double anchor = 0.5 * s.material.anchor_stiffness_n_per_m *
+                        (x - s.model->X).rowwise().squaredNorm().sum();  // N/m mm^2 = 1e-6 J
+  const double volume =
+      s.material.volume_stiffness_kpa > 0.0 ? volume_energy(s, x) : 0.0;  // kPa mm^3 = 1e-6 J
+  return spring_energy(s, x) + (anchor + volume) * kJoulesPerKgMm2PerS2;
+}
+
 double spring_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
   const Springs& sp = s.model->springs;
   double e = 0.0;
@@ -589,14 +627,8 @@ StepStats step(Simulation& s) {
   st.max_move_mm = std::sqrt(m.move2);
   st.max_displacement_mm = std::max(std::sqrt(m.disp2), s.frozen_max_displacement_mm);
   st.kinetic_energy_j = m.ke * kJoulesPerKgMm2PerS2;
-  const Eigen::MatrixX3i& F = s.model->layers[0].F;
-  const auto tris = static_cast<int64_t>(s.volume_triangles.size());
-  const int T = tris >= 4 * kParallelSprings ? threads_for(s) : 1;
-  st.skin_volume_mm3 =
-      (s.frozen_volume6_mm3 +
-       (tris == F.rows() ? volume6(F, s.x, nullptr, tris, T)
-                         : volume6(F, s.x, s.volume_triangles.data(), tris, T))) /
-      6.0;
+  const auto tris = static_cast<int64_t>(s.layer_triangles[0].size());
+  st.skin_volume_mm3 = layer_volume_now(s, s.x, 0, tris >= 4 * kParallelSprings ? threads_for(s) : 1);
   st.volume_change_pct =
       100.0 * (st.skin_volume_mm3 - s.rest_skin_volume_mm3) / s.rest_skin_volume_mm3;
   st.converged = st.max_move_mm < s.options.threshold_mm;

@@ -19,6 +19,7 @@ namespace lamina::sim::detail {
 // more than it saves on a small model.
 constexpr int64_t kParallelSprings = 4096;
 constexpr int kMaxThreads = 64;
+constexpr size_t kMaxLayers = 16;  // BuildOptions::layers is at most 16
 
 inline int threads_for_springs(int64_t springs) {
   return springs >= kParallelSprings ? std::clamp(omp_get_max_threads(), 1, kMaxThreads) : 1;
@@ -122,6 +123,25 @@ inline void finish_node(const Simulation& s, NodeState& st, int32_t i, double h,
   st.x.x[i] = nx, st.x.y[i] = ny, st.x.z[i] = nz;
   account(s, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
 }
+
+// The volume term (volume_term.cpp; Material::volume_stiffness_kpa).
+/// 6 x the signed volume of the listed triangles of F (all of F when list is null).
+double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x, const int32_t* list,
+               int64_t count, int threads);
+/// Volume enclosed by layer k at x, from the cached part of the nodes that do not move.
+double layer_volume_now(const Simulation& s, const Eigen::MatrixX3d& x, size_t k, int threads);
+/// Sizes the volume term's tables (make_simulation).
+void setup_volume_term(Simulation& s);
+/// At x: each layer's pressure jump and each movable node's volume gradient (start of a step).
+void update_volume_term(Simulation& s, const Eigen::MatrixX3d& x, int threads);
+/// K_v / V0 of region r (between layers r and r + 1, or the core).
+double region_stiffness(const Simulation& s, size_t r);
+/// The volume term's stiffness along p: (H p)_i = multiplier[layer of i] * gradient_i, H the
+/// sum over regions of K_v / V0 G G^T (G the gradient of the region's volume).
+void volume_multipliers(const Simulation& s, const Eigen::MatrixX3d& p, int threads,
+                        double* multiplier);
+/// The volume term's energy at x, 1e-6 J (kPa mm^3).
+double volume_energy(const Simulation& s, const Eigen::MatrixX3d& x);
 
 /// Projective dynamics ("fast mass-spring", Liu et al. 2013) for Integrator::kProjective
 /// (projective.cpp).

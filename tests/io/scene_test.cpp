@@ -12,6 +12,9 @@
 #include <vector>
 
 #include "lamina/core/error.h"
+#include "support/sphere_model.h"
+
+#include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/model/compute_rings.h"
 #include "support/temp_dir.h"
@@ -258,6 +261,20 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
       {R"({"material": {"gravity_mm_per_s2": [0, "down", 0]}})",
        "material.gravity_mm_per_s2: expected an array of 3 numbers"},
       {R"({"material": []})", "material: expected an object {...}, got array []"},
+      {R"({"material": {"young_modulus_kpa": 0}})",
+       "material.young_modulus_kpa: must be > 0 (healthy liver: about 6 kPa), got 0"},
+      {R"({"material": {"young_modulus_kpa": 6, "poisson_ratio": 0.5}})",
+       "material.poisson_ratio: must be in [0, 0.5)"},
+      {R"({"material": {"poisson_ratio": 0.45}})",
+       "material.poisson_ratio: needs young_modulus_kpa beside it"},
+      {R"({"material": {"young_modulus_kpa": 6, "stiffness_n_per_m": 3}})",
+       "material.stiffness_n_per_m: cannot be given with young_modulus_kpa"},
+      {R"({"material": {"damping_ratio": 1, "damping_kg_per_s": 3}})",
+       "material.damping_ratio: cannot be given with damping_kg_per_s"},
+      {R"({"material": {"volume_stiffness_kpa": -1}})",
+       "material.volume_stiffness_kpa: must be >= 0 (0 = no volume term), got -1"},
+      {R"({"material": {"density": 1, "density_g_per_cm3": 1}})",
+       "material.density: give density_g_per_cm3 or density"},
       {R"({"solver": {"locality": 0}})", "solver.locality: must be between 1 and 64, got 0"},
       {R"({"solver": {"penetration_depth": 0}})", "solver.penetration_depth: must be between 1"},
       {R"({"solver": {"integrator": "rk4"}})",
@@ -289,6 +306,60 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
     const std::string message = parse_error(c.scene);
     EXPECT_EQ(message.rfind(std::string("scene.json: ") + c.message, 0), 0u) << message;
     EXPECT_EQ(message.find('\n'), std::string::npos) << "one line";
+  }
+}
+
+TEST(ParseScene, AnElasticMaterialReplacesThePapersConstants) {
+  const Scene s = parse_scene(R"({"material": {"young_modulus_kpa": 4.5, "poisson_ratio": 0.49,
+                                               "density": 1.05}})",
+                              "scene.json");
+  EXPECT_TRUE(s.elastic);
+  EXPECT_DOUBLE_EQ(s.elastic_material.young_modulus_kpa, 4.5);
+  EXPECT_DOUBLE_EQ(s.elastic_material.poisson_ratio, 0.49);
+  EXPECT_DOUBLE_EQ(s.build.density_kg_per_mm3, 1.05e-6);
+  EXPECT_EQ(s.material.stiffness_n_per_m, 0.0);  // the model's (identified) constants
+  EXPECT_EQ(s.material.node_mass_kg, 0.0);       // lumped masses
+  EXPECT_EQ(s.material.damping_kg_per_s, 0.0);   // damping comes from a ratio instead
+  EXPECT_FALSE(s.volume_stiffness_given);
+  EXPECT_FALSE(s.integrator_given);
+  const Scene p = parse_scene(R"({"material": {"volume_stiffness_kpa": 2, "mass_damping_per_s": 4},
+                                  "solver": {"integrator": "projective"}})",
+                              "scene.json");
+  EXPECT_FALSE(p.elastic);
+  EXPECT_DOUBLE_EQ(p.material.volume_stiffness_kpa, 2.0);
+  EXPECT_DOUBLE_EQ(p.material.mass_damping_per_s, 4.0);
+  EXPECT_TRUE(p.volume_stiffness_given && p.damping_given && p.integrator_given);
+}
+
+TEST(ResolveMaterial, IdentifiesSpringsTurnsOnTheVolumeTermAndDampsFromTheRatio) {
+  Model m = test::sphere_model();
+  Scene s = parse_scene(R"({"material": {"young_modulus_kpa": 6, "poisson_ratio": 0.45}})",
+                        "scene.json");
+  resolve_scene_defaults(s, m);
+  const std::vector<int32_t> fixed = fixed_scene_nodes(s, m);
+  const MaterialReport r = resolve_material(s, m, fixed);
+  EXPECT_TRUE(r.elastic);
+  EXPECT_NE(m.springs.stiffness_n_per_m, test::sphere_model().springs.stiffness_n_per_m);
+  EXPECT_NEAR(s.material.volume_stiffness_kpa, r.identification.lame_lambda_kpa -
+                                                   r.identification.shear_modulus_kpa, 1e-12);
+  EXPECT_EQ(s.solver.integrator, sim::Integrator::kImplicitEuler);
+  EXPECT_DOUBLE_EQ(r.damping_ratio, 1.0);
+  EXPECT_GT(r.lowest_frequency_hz, 0.0);
+  EXPECT_NEAR(s.material.mass_damping_per_s, 2.0 * 2.0 * 3.14159265358979 * r.lowest_frequency_hz,
+              1e-9 * s.material.mass_damping_per_s);
+  // Physical tissue against its node masses: the explicit limit is far below the paper's dt.
+  EXPECT_LT(r.explicit_dt_limit_s, 0.01);
+
+  // A damping ratio on a model held nowhere is refused, naming the scene.
+  Model free = test::sphere_model();
+  Scene f = parse_scene(R"({"material": {"damping_ratio": 0.5}, "boundary": {"fixed": []}})",
+                        "free.json");
+  resolve_scene_defaults(f, free);
+  try {
+    resolve_material(f, free, fixed_scene_nodes(f, free));
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("free.json: material.damping_ratio: ", 0), 0u) << e.what();
   }
 }
 

@@ -11,6 +11,7 @@
 
 #include "lamina/interact/tools.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/identify_springs.h"
 #include "lamina/model/model.h"
 #include "lamina/sim/simulation.h"
 
@@ -53,6 +54,18 @@ struct Scene {
   bool density_given = false;
 
   sim::Material material;
+  /// material.young_modulus_kpa given: the tissue is physical. Spring constants come from E and
+  /// nu (model::identify_springs), node masses from the density, the volume term from the
+  /// bulk stiffness the springs cannot carry, and damping from `damping_ratio`
+  /// (resolve_elastic_material(); docs/physics.md).
+  bool elastic = false;
+  model::ElasticMaterial elastic_material;
+  /// >= 0: mass-proportional damping that damps the slowest mode at this ratio (1 = critical).
+  /// Unset (< 0) with an elastic material and no damping key: 1.
+  double damping_ratio = -1.0;
+  bool volume_stiffness_given = false;  ///< material.volume_stiffness_kpa was in the file
+  bool damping_given = false;           ///< damping_kg_per_s or mass_damping_per_s was
+  bool integrator_given = false;        ///< solver.integrator was
   sim::SolverOptions solver;
   interact::RoutingOptions routing;
   std::vector<interact::Tool> tools;  ///< forces in mN (the file gives newtons)
@@ -99,6 +112,18 @@ void check_scene_against_model(const Scene& scene, const Model& model);
 /// The fixed nodes of every region of `scene`, sorted and unique.
 std::vector<int32_t> fixed_scene_nodes(const Scene& scene, const Model& model);
 
+/// What resolve_material() decided, for logs and the run summary.
+struct MaterialReport {
+  bool elastic = false;                 ///< spring constants came from E and nu
+  model::ElasticMaterial elastic_material;
+  model::SpringIdentification identification;  ///< valid when elastic
+  double volume_stiffness_kpa = 0.0;    ///< the volume term in use (0 = off)
+  double damping_ratio = -1.0;          ///< the ratio damping was set from (< 0: none)
+  double lowest_frequency_hz = 0.0;     ///< omega_1 / 2 pi, when a damping ratio was used
+  double mass_damping_per_s = 0.0;      ///< alpha in use
+  double explicit_dt_limit_s = 0.0;     ///< semi-implicit Euler is unstable above about this dt
+};
+
 /// What a scene run measured: the content of `lamina run`'s summary.json.
 struct RunSummary {
   std::string scene;       ///< the scene's source
@@ -132,7 +157,20 @@ struct RunSummary {
   double worst_jitter_us = 0.0;   ///< latest start of a step after its tick (realtime only)
   double p99_jitter_us = 0.0;     ///< 99th percentile of that lateness (realtime only)
   double max_reaction_n = 0.0;    ///< largest |reaction force| of the tissue on the tools, N
+  MaterialReport material;        ///< written as the "material" object
 };
+
+/// Resolves the scene's material against its model, after resolve_scene_defaults(): with an
+/// elastic material, identifies the model's spring constants from E and nu (they replace the
+/// model's), turns the volume term on at the bulk stiffness the springs cannot carry (unless
+/// the file set volume_stiffness_kpa), chooses implicit Euler (unless the file set an
+/// integrator: physical tissue is stiff against its node masses, and semi-implicit Euler would
+/// need dt of about a millisecond); with a damping ratio, sets Material::mass_damping_per_s from
+/// the model's slowest vibration with the nodes in `fixed` held. Warns if semi-implicit Euler's
+/// dt is beyond its stability limit.
+/// \note Throws lamina::Error (kInvalidInput) naming the scene for a damping ratio on a model
+///   held nowhere.
+MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed);
 
 /// One JSON object with every field of `summary` (keys as the field names; nan_detected =
 /// recoveries > 0; integrator and mode as the scene file spells them).

@@ -39,12 +39,21 @@ struct Material {
   double stiffness_n_per_m = 3.0;
   /// gamma: viscous damping per node, kg/s (force = -gamma v, mN for v in mm/s).
   double damping_kg_per_s = 3.0;
+  /// alpha: mass-proportional damping, 1/s: each node also feels -alpha m v (the mass term of
+  /// Rayleigh damping). With physical lumped masses, which differ from node to node, this damps
+  /// every node at the same rate; model::damping_for_ratio() derives it from a damping ratio.
+  double mass_damping_per_s = 0.0;
   /// > 0: every node has this mass, kg (the paper uses unit masses). 0: the model's lumped
   /// masses from density and volume.
   double node_mass_kg = 1.0;
   /// > 0: every free node is tied to its rest position by a spring of this stiffness, N/m
   /// (support from the surrounding tissue).
   double anchor_stiffness_n_per_m = 0.0;
+  /// K_v > 0 turns the volume term on: each region between neighbouring layers (and the core
+  /// inside the deepest layer) resists a change of its volume as a fluid of bulk modulus K_v,
+  /// kPa (= mN/mm^2): energy K_v (V - V0)^2 / (2 V0), pressure K_v (V - V0) / V0 on the layers
+  /// that bound it (after Teschner et al. 2004; docs/physics.md). 0 = off (the paper's model).
+  double volume_stiffness_kpa = 0.0;
   /// Gravity, mm/s^2 (Earth: 9810 along -z in LPS for a supine patient is (0, 9810, 0)).
   Eigen::Vector3d gravity_mm_per_s2 = Eigen::Vector3d::Zero();
 };
@@ -108,6 +117,7 @@ struct Simulation {
   std::vector<int32_t> adj_signed;        ///< e where the node is spring e's first end, ~e else
   std::vector<double> stiffness_n_per_m;  ///< per spring, after Material::stiffness_n_per_m
   double rest_skin_volume_mm3 = 0.0;
+  std::vector<double> rest_layer_volume_mm3;  ///< per layer: the volume it encloses at rest
   /// A node this far from its rest position (100 model sizes) counts as a blow-up.
   double blowup_limit_mm = 0.0;
 
@@ -120,8 +130,17 @@ struct Simulation {
   std::vector<int32_t> active_springs;
   // What the nodes that do not move add to the measurements, cached when the lists change.
   double frozen_max_displacement_mm = 0.0;
-  std::vector<int32_t> volume_triangles;  ///< skin triangles with a movable corner
-  double frozen_volume6_mm3 = 0.0;        ///< 6 x the signed volume of the other skin triangles
+  /// Per layer: its triangles with a movable corner, and 6 x the signed volume of the others.
+  std::vector<std::vector<int32_t>> layer_triangles;
+  std::vector<double> frozen_layer_volume6_mm3;
+
+  // Volume term (Material::volume_stiffness_kpa > 0). Each node's layer triangles as the two
+  // corners that follow it (CSR, 2 per triangle): the gradient of its layer's volume is
+  // 1/6 sum x_b x x_c over them.
+  std::vector<int32_t> corner_offsets;  ///< #nodes + 1
+  std::vector<int32_t> corner_pairs;
+  std::vector<double> pressure_jump_kpa;  ///< per layer: pressure inside minus outside it
+  Eigen::MatrixX3d volume_gradient;       ///< per movable node: d(its layer's volume)/dx, mm^2
 
   // Workspace, sized once (no allocation per step). Rows of nodes that do not move stay zero in
   // r, z, p, dv: the implicit solve treats them as held.
@@ -191,7 +210,22 @@ void implicit_system_product(const Simulation& sim, double h, const Eigen::Matri
 /// Volume enclosed by layer `layer` of the model at positions x, mm^3.
 double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer = 0);
 
+/// omega_1, rad/s: the slowest natural frequency of the model about its rest shape, with its
+/// held nodes and anchors and the current masses and stiffness (inverse iteration on a sparse
+/// factorization; the volume term is left out). Mass-proportional damping
+/// Material::mass_damping_per_s = 2 zeta omega_1 damps that mode at damping ratio zeta.
+/// \note Throws lamina::Error (kInvalidInput) if the model is held nowhere (its slowest motion
+///   is a free drift) or everywhere.
+double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations = 300);
+
 /// Total elastic energy of the springs at positions x, joules.
 double spring_energy(const Simulation& sim, const Eigen::MatrixX3d& x);
+
+/// Every stored energy at positions x, joules: springs, anchor springs and the volume term.
+double elastic_energy(const Simulation& sim, const Eigen::MatrixX3d& x);
+
+/// The volume term's forces at positions x added to f (mN), for every node (zero when the term
+/// is off): minus the gradient of its energy.
+void volume_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
 
 }  // namespace lamina::sim

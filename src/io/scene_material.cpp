@@ -1,0 +1,87 @@
+// A scene's material resolved against its model: spring constants from E and nu, the volume
+// term, the integrator a physical tissue needs, and damping from a damping ratio.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/io/scene.h"
+
+namespace lamina::io {
+namespace {
+
+// Semi-implicit Euler is stable for dt < 2 / omega_max. Gershgorin's bound on M^-1 K (each
+// node's spring constants twice, plus its anchor, over its mass) bounds omega_max from above,
+// so 2 / sqrt(bound) is a safe estimate of the limit (the volume term's stiffness aside).
+double explicit_dt_limit(const Model& m, const sim::Material& mat) {
+  const int32_t n = m.node_count();
+  std::vector<double> k(static_cast<size_t>(n), mat.anchor_stiffness_n_per_m);
+  const Springs& sp = m.springs;
+  for (size_t e = 0; e < sp.size(); ++e) {
+    const double ke = mat.stiffness_n_per_m > 0.0 ? mat.stiffness_n_per_m : sp.stiffness_n_per_m[e];
+    k[sp.i[e]] += 2.0 * ke, k[sp.j[e]] += 2.0 * ke;
+  }
+  double worst = 0.0;
+  for (int32_t i = 0; i < n; ++i) {
+    const double mass = mat.node_mass_kg > 0.0 ? mat.node_mass_kg : m.mass_kg[i];
+    worst = std::max(worst, k[i] / mass);
+  }
+  return worst > 0.0 ? 2.0 / std::sqrt(worst) : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
+MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed) {
+  MaterialReport rep;
+  sim::Material& mat = scene.material;
+  if (scene.elastic) {
+    rep.elastic = true;
+    rep.elastic_material = scene.elastic_material;
+    rep.identification =
+        model::identify_springs(model, scene.elastic_material, model.springs.stiffness_n_per_m);
+    mat.stiffness_n_per_m = 0.0;  // the identified constants
+    mat.node_mass_kg = 0.0;       // the lumped masses
+    if (!scene.volume_stiffness_given)
+      mat.volume_stiffness_kpa = rep.identification.volume_stiffness_kpa;
+    if (!scene.integrator_given) scene.solver.integrator = sim::Integrator::kImplicitEuler;
+    if (!scene.damping_given && scene.damping_ratio < 0.0) scene.damping_ratio = 1.0;
+    log::info(
+        "{}: E = {:.3g} kPa, nu = {:.3g}: shear modulus {:.3g} kPa in the springs (fit residual "
+        "{:.2f}), volume term {:.3g} kPa",
+        scene.source, scene.elastic_material.young_modulus_kpa,
+        scene.elastic_material.poisson_ratio, rep.identification.shear_modulus_kpa,
+        rep.identification.fit_residual, mat.volume_stiffness_kpa);
+  }
+  if (scene.damping_ratio >= 0.0) {
+    if (fixed.empty() && mat.anchor_stiffness_n_per_m == 0.0)
+      throw invalid_input(scene.source,
+                          "material.damping_ratio: the model is held nowhere (no fixed nodes, no "
+                          "anchor springs), so its slowest motion is a free drift; fix a region "
+                          "or give damping_kg_per_s");
+    sim::Simulation probe = sim::make_simulation(model, mat, scene.solver);
+    sim::fix_nodes(probe, fixed);
+    const double omega = sim::lowest_angular_frequency(probe);
+    mat.mass_damping_per_s = 2.0 * scene.damping_ratio * omega;
+    rep.damping_ratio = scene.damping_ratio;
+    rep.lowest_frequency_hz = omega / (2.0 * std::numbers::pi);
+    log::info("{}: slowest vibration {:.3g} Hz; damping ratio {:.3g} gives alpha = {:.4g} 1/s",
+              scene.source, rep.lowest_frequency_hz, scene.damping_ratio,
+              mat.mass_damping_per_s);
+  }
+  rep.volume_stiffness_kpa = mat.volume_stiffness_kpa;
+  rep.mass_damping_per_s = mat.mass_damping_per_s;
+  rep.explicit_dt_limit_s = explicit_dt_limit(model, mat);
+  if (scene.solver.integrator == sim::Integrator::kSemiImplicitEuler &&
+      scene.solver.dt_s > rep.explicit_dt_limit_s)
+    log::warn(
+        "{}: dt = {:.3g} s is beyond semi-implicit Euler's stability limit for this material "
+        "(about {:.2g} s): steps will blow up and be redone; use \"integrator\": "
+        "\"implicit_euler\" or a smaller dt_s",
+        scene.source, scene.solver.dt_s, rep.explicit_dt_limit_s);
+  return rep;
+}
+
+}  // namespace lamina::io
