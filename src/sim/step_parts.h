@@ -16,8 +16,11 @@
 namespace lamina::sim::detail {
 
 // Below this many springs a step runs on one thread: a parallel region costs a few microseconds,
-// more than it saves on a small model.
-constexpr int64_t kParallelSprings = 4096;
+// and on the paper-size model (10k springs) two threads gained only about 10%
+// (docs/benchmarks.md). On a machine busy with other work, every one of a step's parallel
+// regions (a dozen per implicit step with its CG iterations) can also wait for a time slice:
+// a 13k-spring implicit run took 18x longer on two threads than on one beside a compiler.
+constexpr int64_t kParallelSprings = 16384;
 constexpr int kMaxThreads = 64;
 constexpr size_t kMaxLayers = 16;  // BuildOptions::layers is at most 16
 
