@@ -524,6 +524,16 @@ void fix_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
   refresh(s);
 }
 
+void hold_nodes(Simulation& s, const std::vector<int32_t>& nodes,
+                const Eigen::MatrixX3d& positions) {
+  if (positions.rows() != static_cast<Eigen::Index>(nodes.size()))
+    throw invalid_input("held nodes", "need one position per node");
+  if (!positions.allFinite()) throw invalid_input("held nodes", "positions must be finite");
+  fix_nodes(s, nodes);  // checks the indices, stops the nodes
+  for (size_t k = 0; k < nodes.size(); ++k) s.x.row(nodes[k]) = positions.row(static_cast<Eigen::Index>(k));
+  refresh(s);  // the caches of what stays put see the new positions
+}
+
 void reset(Simulation& s) {
   s.x = s.model->X;
   s.v.setZero();

@@ -216,6 +216,47 @@ TEST(Simulation, EveryIntegratorReachesTheSameLoadedEquilibrium) {
         << name(kAllIntegrators[k]);
 }
 
+TEST(Simulation, HeldNodesStayWhereTheyAreHeldAndDriveTheRest) {
+  // A displacement-controlled indenter: a patch of skin held 3 mm in, the back held at rest.
+  const Model& m = small_model();
+  const int32_t front = static_cast<int32_t>(std::distance(
+      m.X.col(1).data(),
+      std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+  std::vector<int32_t> patch;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if ((m.X.row(i) - m.X.row(front)).norm() < 20.0) patch.push_back(i);
+  ASSERT_GT(patch.size(), 2u);
+  Eigen::MatrixX3d at(static_cast<Eigen::Index>(patch.size()), 3);
+  for (size_t k = 0; k < patch.size(); ++k)
+    at.row(static_cast<Eigen::Index>(k)) = m.X.row(patch[k]) + Eigen::RowVector3d(0, 3, 0);
+  std::vector<Eigen::MatrixX3d> settled;
+  for (auto integrator : kAllIntegrators) {
+    SCOPED_TRACE(name(integrator));
+    sim::Simulation s = sim::make_simulation(
+        m, {.anchor_stiffness_n_per_m = 0.3},
+        {.integrator = integrator, .dt_s = 0.05, .threshold_mm = 1e-4});
+    sim::fix_nodes(s, posterior_nodes(m));
+    sim::hold_nodes(s, patch, at);
+    ASSERT_TRUE(sim::run_to_convergence(s, 20).converged);
+    for (size_t k = 0; k < patch.size(); ++k)
+      ASSERT_EQ(s.x.row(patch[k]), at.row(static_cast<Eigen::Index>(k)));
+    settled.push_back(s.x);
+  }
+  // Neighbours follow the patch, and the three integrators agree on where.
+  const double moved = (settled[0] - m.X).rowwise().norm().maxCoeff();
+  EXPECT_NEAR(moved, 3.0, 1e-9);  // the patch itself; nothing overshoots it
+  int followers = 0;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    followers += (settled[0].row(i) - m.X.row(i)).norm() > 0.3 &&
+                 std::find(patch.begin(), patch.end(), i) == patch.end();
+  EXPECT_GT(followers, 5);
+  for (size_t k = 1; k < settled.size(); ++k)
+    EXPECT_LT((settled[k] - settled[0]).rowwise().norm().maxCoeff(), 0.01 * moved);
+  sim::Simulation bad = sim::make_simulation(m);
+  EXPECT_THROW(sim::hold_nodes(bad, {0, 1}, Eigen::MatrixX3d::Zero(1, 3)), Error);
+  EXPECT_THROW(sim::hold_nodes(bad, {-1}, Eigen::MatrixX3d::Zero(1, 3)), Error);
+}
+
 TEST(Simulation, FixedNodesNeverMove) {
   const Model& m = small_model();
   sim::Simulation s = sim::make_simulation(m);

@@ -175,6 +175,14 @@ void set_parameters(Simulation& sim, const Material& material, const SolverOptio
 /// body and cannot return to rest.
 void fix_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 
+/// Holds these nodes at the given positions from now on (a displacement-controlled indenter, a
+/// clamp that has moved them): like fix_nodes(), but at `positions` (one row per node, mm)
+/// instead of their rest positions. Calling it again moves them on.
+/// \note Throws lamina::Error (kInvalidInput) for a node outside the model, a row count that
+///   differs from the node count, or a non-finite position.
+void hold_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
+                const Eigen::MatrixX3d& positions);
+
 /// Nodes within `distance_mm` of the plane through `point` with normal `normal` (any length).
 std::vector<int32_t> nodes_near_plane(const Model& model, const Eigen::Vector3d& point,
                                       const Eigen::Vector3d& normal, double distance_mm);
