@@ -64,12 +64,11 @@ ProgressFn stderr_progress(bool verbose) {
   };
 }
 
-namespace {
-
-// The segmentation named by `input`: the built-in phantom for "phantom", else a file or folder.
 LabelVolume read_input(const std::string& input) {
   return input == io::kScenePhantom ? geometry::make_phantom() : io::read_label_volume(input);
 }
+
+namespace {
 
 Model load_with_rings(const std::string& path) {
   Model m = io::load_model(path);

@@ -37,6 +37,9 @@ struct SceneModel {
 };
 SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress);
 
+/// The segmentation named by `input`: the built-in phantom for "phantom", else a file or folder.
+LabelVolume read_input(const std::string& input);
+
 /// What a positional argument names, as a scene: SCENE.json is loaded; a .vtu model, a mask
 /// file, a DICOM folder or "phantom" becomes the default scene on that model.
 io::Scene scene_for(const std::string& what);
@@ -119,6 +122,17 @@ struct FiguresArgs {
 };
 /// The reference paper's figures 4-6 and a volume-change plot, on any organ.
 int run_figures(const FiguresArgs& args);
+
+struct ValidateArgs {
+  std::string what = io::kScenePhantom;  ///< SCENE.json, a mask file or folder, or "phantom"
+  std::string output;                    ///< folder for CSV, plots and summary; empty = none
+  bool json = false;                     ///< the summary as JSON on stdout
+  bool quick = false;                    ///< two depths, coarser FEM mesh (CI)
+  bool verbose = false;
+};
+/// The mass-spring model against linear and corotational finite elements on the same
+/// indentations (docs/validation.md).
+int run_validate(const ValidateArgs& args);
 
 struct BenchArgs {
   bool json = false;

@@ -151,6 +151,18 @@ int main(int argc, char** argv) {
   be->add_flag("--json", bench.json, "print one JSON object (keys: docs/benchmarks.md)");
   be->add_flag("--quick", bench.quick, "paper-size and 10k-node models only (under a minute)");
 
+  cli::ValidateArgs val;
+  auto* va = app.add_subcommand(
+      "validate",
+      "check the mass-spring model against linear and corotational finite elements on the same "
+      "indentations (docs/validation.md)");
+  va->add_option("input", val.what,
+                 "scene (.json), segmentation or DICOM folder (default: the built-in phantom)");
+  va->add_option("-o,--output", val.output,
+                 "folder (created): validation.csv, summary.json, plots");
+  va->add_flag("--json", val.json, "print the summary as one JSON object on stdout");
+  va->add_flag("--quick", val.quick, "two depths and a coarser finite-element mesh (a smoke run)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -184,6 +196,10 @@ int main(int argc, char** argv) {
     if (*be) {
       bench.verbose = verbosity == 2;
       return cli::run_bench(bench);
+    }
+    if (*va) {
+      val.verbose = verbosity == 2;
+      return cli::run_validate(val);
     }
     if (*fi) {
       figs.verbose = verbosity == 2;

@@ -1,0 +1,227 @@
+// `lamina validate`: the mass-spring model against linear and corotational finite elements on
+// the same indentations of the same segmentation, and the volume each keeps (docs/validation.md).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "lamina/core/atomic_file.h"
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/geometry/prepare_mask.h"
+#include "lamina/io/scene.h"
+#include "lamina/model/identify_springs.h"
+#include "lamina/validate/indentation.h"
+#include "plots.h"
+
+namespace lamina::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+// One row of the comparison: a solver's answer to one indentation depth.
+struct Row {
+  double depth_pct = 0.0, depth_mm = 0.0;
+  std::string solver;  // fem_corotational, fem_linear, ms_volume, ms_layers, ms_skin
+  validate::IndentResult result;
+  validate::FieldError error;  // against fem_corotational at the same depth
+};
+
+double median_intra_length(const Model& m) {
+  std::vector<double> l;
+  for (size_t e = 0; e < m.springs.size(); ++e)
+    if (m.springs.kind[e] == SpringKind::kIntraLayer) l.push_back(m.springs.rest_length_mm[e]);
+  std::nth_element(l.begin(), l.begin() + static_cast<long>(l.size() / 2), l.end());
+  return l[l.size() / 2];
+}
+
+// A scene without E and nu is validated with the documented liver defaults.
+void make_elastic(io::Scene& scene) {
+  if (scene.elastic) return;
+  scene.elastic = true;
+  scene.material.stiffness_n_per_m = 0.0;
+  scene.material.node_mass_kg = 0.0;
+  scene.material.damping_kg_per_s = 0.0;
+}
+
+std::string csv_of(const std::vector<Row>& rows) {
+  std::string csv =
+      "depth_pct,depth_mm,solver,force_n,volume_change_pct,rms_error_mm,max_error_mm,"
+      "rms_error_pct,max_displacement_mm,converged,steps,seconds\n";
+  for (const Row& r : rows)
+    csv += fmt::format("{:.4g},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.4g},{:.6g},{},{},{:.3f}\n",
+                       r.depth_pct, r.depth_mm, r.solver, r.result.force_n,
+                       r.result.volume_change_pct, r.error.rms_mm, r.error.max_mm,
+                       r.error.reference_max_mm > 0 ? 100.0 * r.error.rms_mm / r.error.reference_max_mm : 0.0,
+                       r.result.skin_u.rows() ? r.result.skin_u.rowwise().norm().maxCoeff() : 0.0,
+                       r.result.converged ? 1 : 0, r.result.steps, r.result.seconds);
+  return csv;
+}
+
+void draw_plots(const fs::path& out, const std::vector<std::string>& solvers) {
+  const std::string gp = find_gnuplot();
+  const std::string data = quote(out / "validation.csv");
+  auto series = [&](const std::string& column, bool skip_reference) {
+    std::string s;
+    for (const std::string& name : solvers) {
+      if (skip_reference && name == "fem_corotational") continue;
+      s += fmt::format("{}{} using 1:(strcol(3) eq '{}' ? {} : NaN) with linespoints title '{}'",
+                       s.empty() ? "plot " : ", \\\n     ", data, name, column, name);
+    }
+    return s + "\n";
+  };
+  draw_plot(gp, out, "force_depth",
+            std::string(kPlotStyle) +
+                "set xlabel 'indentation, % of the organ depth'\nset ylabel 'indenter force, N'\n"
+                "set key top left box opaque\nset datafile missing NaN\n",
+            series("$4", false));
+  draw_plot(gp, out, "skin_error",
+            std::string(kPlotStyle) +
+                "set xlabel 'indentation, % of the organ depth'\n"
+                "set ylabel 'skin displacement RMS error vs corotational FEM, % of its largest'\n"
+                "set key top left box opaque\nset datafile missing NaN\n",
+            series("$8", true));
+  draw_plot(gp, out, "volume_change",
+            std::string(kPlotStyle) +
+                "set xlabel 'indentation, % of the organ depth'\nset ylabel '|volume change|, %'\n"
+                "set logscale y\nset key top left box opaque\nset datafile missing NaN\n",
+            series("(abs($5) > 0 ? abs($5) : NaN)", false));
+}
+
+}  // namespace
+
+int run_validate(const ValidateArgs& a) {
+  const auto t0 = Clock::now();
+  io::Scene scene = scene_for(a.what);
+  if (!scene.model_path.empty())
+    throw invalid_input(a.what,
+                        "lamina validate meshes the segmentation for its finite elements: give "
+                        "the mask (or a scene with model.input), not a saved model");
+  if (!a.output.empty()) check_output_folder(a.output);
+  make_elastic(scene);
+  const ProgressFn progress = stderr_progress(a.verbose);
+
+  // 1. The mass-spring models: the scene's (layers, volume term) and a skin-only one.
+  SceneModel built = make_scene_model(scene, progress);
+  Model& m = built.model;
+  const double edge = median_intra_length(m);
+  const validate::Indentation ind = validate::paper_indentation(m, std::max(8.0, 1.6 * edge));
+  const std::vector<int32_t> held =
+      sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
+  const io::MaterialReport material = io::resolve_material(scene, m, held);
+  io::Scene skin_scene = scene;
+  skin_scene.build.layers = 1;
+  SceneModel skin_built = make_scene_model(skin_scene, {});
+  Model& skin = skin_built.model;
+  model::identify_springs(skin, scene.elastic_material, skin.springs.stiffness_n_per_m);
+  log::info("validate: {} ({} nodes, {} layers), indenter radius {:.1f} mm at ({:.1f}, {:.1f}, "
+            "{:.1f}) mm, organ depth {:.1f} mm along +y",
+            built.source, m.node_count(), m.layer_count(), ind.radius_mm, ind.contact_mm.x(),
+            ind.contact_mm.y(), ind.contact_mm.z(), ind.organ_depth_mm);
+
+  // 2. The finite-element mesh of the same mask, a little finer than the springs.
+  const LabelVolume volume = read_input(scene.input);
+  const geometry::PreparedMask prepared =
+      geometry::prepare_mask(volume, {.label = scene.build.label});
+  const auto t_mesh = Clock::now();
+  const validate::TetMesh mesh =
+      validate::mesh_mask_tets(prepared.mask, {.cell_size_mm = (a.quick ? 1.0 : 0.7) * edge});
+  log::info("validate: finite-element mesh {} vertices, {} tets ({:.1f} s)", mesh.V.rows(),
+            mesh.T.rows(), std::chrono::duration<double>(Clock::now() - t_mesh).count());
+
+  // 3. Each depth, each solver. Quasi-static mass-spring runs: implicit Euler to a tight rest.
+  const std::vector<double> depths =
+      a.quick ? std::vector<double>{10.0, 20.0} : std::vector<double>{5.0, 10.0, 20.0, 30.0};
+  sim::SolverOptions solver = scene.solver;
+  solver.integrator = sim::Integrator::kImplicitEuler;
+  solver.threshold_mm = 1e-4;
+  solver.max_steps = 20000;
+  sim::Material with_volume = scene.material, layers_only = scene.material;
+  layers_only.volume_stiffness_kpa = 0.0;
+  // Large indentations invert elements near the tip unless the load comes on gradually.
+  const validate::FemOptions fem_options{.load_steps = 20, .max_newton_iterations = 50};
+  const validate::FemMaterial fem_material{scene.elastic_material.young_modulus_kpa,
+                                           scene.elastic_material.poisson_ratio};
+  const ModelLayer& layer0 = m.layers[0];
+  const Eigen::MatrixX3d samples = m.X.middleRows(layer0.first_node, layer0.node_count);
+  const Eigen::MatrixX3d skin_samples = skin.X.middleRows(0, skin.layers[0].node_count);
+  std::vector<Row> rows;
+  for (double pct : depths) {
+    const double d = pct / 100.0 * ind.organ_depth_mm;
+    report_progress(progress, fmt::format("indentation {:.0f}%", pct),
+                    static_cast<double>(&pct - depths.data()) / depths.size());
+    Row co{pct, d, "fem_corotational",
+           validate::indent_fem(mesh, fem_material, ind, d, true, samples, fem_options), {}};
+    const Eigen::MatrixX3d skin_reference =
+        validate::sample_on_boundary(mesh, co.result.u, skin_samples);
+    Row li{pct, d, "fem_linear", validate::indent_fem(mesh, fem_material, ind, d, false, samples), {}};
+    Row mv{pct, d, "ms_volume", validate::indent_mass_spring(m, with_volume, solver, ind, d), {}};
+    Row ml{pct, d, "ms_layers", validate::indent_mass_spring(m, layers_only, solver, ind, d), {}};
+    Row ms{pct, d, "ms_skin", validate::indent_mass_spring(skin, layers_only, solver, ind, d), {}};
+    for (Row* r : {&li, &mv, &ml}) r->error = validate::field_error(r->result.skin_u, co.result.skin_u);
+    ms.error = validate::field_error(ms.result.skin_u, skin_reference);
+    co.error.reference_max_mm = co.result.skin_u.rowwise().norm().maxCoeff();
+    for (Row* r : {&co, &li, &mv, &ml, &ms}) rows.push_back(*r);
+  }
+  report_progress(progress, "done", 1.0);
+
+  // 4. Report.
+  nlohmann::ordered_json j;
+  j["input"] = built.source;
+  j["young_modulus_kpa"] = scene.elastic_material.young_modulus_kpa;
+  j["poisson_ratio"] = scene.elastic_material.poisson_ratio;
+  j["volume_stiffness_kpa"] = material.volume_stiffness_kpa;
+  j["spring_fit_residual"] = material.identification.fit_residual;
+  j["nodes"] = m.node_count();
+  j["layers"] = m.layer_count();
+  j["fem_vertices"] = mesh.V.rows();
+  j["fem_tets"] = mesh.T.rows();
+  j["organ_depth_mm"] = ind.organ_depth_mm;
+  j["indenter_radius_mm"] = ind.radius_mm;
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (const Row& r : rows) {
+    nlohmann::ordered_json o;
+    o["depth_pct"] = r.depth_pct;
+    o["depth_mm"] = r.depth_mm;
+    o["solver"] = r.solver;
+    o["force_n"] = r.result.force_n;
+    o["volume_change_pct"] = r.result.volume_change_pct;
+    o["rms_error_mm"] = r.error.rms_mm;
+    o["max_error_mm"] = r.error.max_mm;
+    o["rms_error_pct"] =
+        r.error.reference_max_mm > 0 ? 100.0 * r.error.rms_mm / r.error.reference_max_mm : 0.0;
+    o["converged"] = r.result.converged;
+    o["seconds"] = r.result.seconds;
+    list.push_back(o);
+  }
+  j["rows"] = list;
+  j["wall_seconds"] = std::chrono::duration<double>(Clock::now() - t0).count();
+
+  fmt::print(stderr, "{:>6} {:>17} {:>9} {:>11} {:>10} {:>9} {:>5}\n", "depth", "solver", "force N",
+             "volume %", "RMS err %", "max err", "conv");
+  for (const Row& r : rows)
+    fmt::print(stderr, "{:>5.0f}% {:>17} {:>9.4f} {:>11.4f} {:>10.2f} {:>7.2f}mm {:>5}\n",
+               r.depth_pct, r.solver, r.result.force_n, r.result.volume_change_pct,
+               r.error.reference_max_mm > 0 ? 100.0 * r.error.rms_mm / r.error.reference_max_mm : 0.0,
+               r.error.max_mm, r.result.converged ? "yes" : "NO");
+  if (!a.output.empty()) {
+    const fs::path out = a.output;
+    create_folder(out);
+    write_text(out / "validation.csv", csv_of(rows));
+    write_text(out / "summary.json", j.dump(2) + "\n");
+    draw_plots(out, {"fem_corotational", "fem_linear", "ms_volume", "ms_layers", "ms_skin"});
+    log::info("wrote {}: validation.csv, summary.json, force_depth.png, skin_error.png, "
+              "volume_change.png",
+              out.string());
+  }
+  if (a.json) std::cout << j.dump(2) << "\n";
+  return 0;
+}
+
+}  // namespace lamina::cli

@@ -1,0 +1,209 @@
+#include "lamina/validate/indentation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <nanoflann.hpp>
+
+#include "lamina/core/error.h"
+#include "lamina/interact/tools.h"
+
+namespace lamina::validate {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+bool in_slab(const Eigen::Vector3d& p, const Indentation& ind) {
+  return std::abs((p - ind.held_point_mm).dot(ind.held_normal.normalized())) <=
+         ind.held_distance_mm;
+}
+
+// The point of triangle (a, b, c) closest to p, as barycentric weights (Ericson, Real-Time
+// Collision Detection, 5.1.5).
+Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double v = d1 / (d1 - d3);
+    return {1 - v, v, 0};
+  }
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double w = d2 / (d2 - d6);
+    return {1 - w, 0, w};
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {0, 1 - w, w};
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, w = vc * denom;
+  return {1 - v - w, v, w};
+}
+
+// u sampled at each point of `samples` from the nearest point of the boundary faces F.
+Eigen::MatrixX3d sample_on_faces(const TetMesh& mesh, const Eigen::MatrixX3i& F,
+                                 const Eigen::MatrixX3d& u, const Eigen::MatrixX3d& samples) {
+  using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  Points centroids(F.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    centroids.row(f) = (mesh.V.row(F(f, 0)) + mesh.V.row(F(f, 1)) + mesh.V.row(F(f, 2))) / 3.0;
+  const nanoflann::KDTreeEigenMatrixAdaptor<Points, 3, nanoflann::metric_L2_Simple> tree(
+      3, std::cref(centroids), 16);
+  const size_t k = std::min<size_t>(16, static_cast<size_t>(F.rows()));
+  std::vector<Eigen::Index> idx(k);
+  std::vector<double> d2(k);
+  Eigen::MatrixX3d out(samples.rows(), 3);
+  for (Eigen::Index s = 0; s < samples.rows(); ++s) {
+    const Eigen::Vector3d p = samples.row(s).transpose();
+    const double q[3] = {p.x(), p.y(), p.z()};
+    tree.query(q, k, idx.data(), d2.data());
+    double best = std::numeric_limits<double>::infinity();
+    for (size_t n = 0; n < k; ++n) {
+      const Eigen::Index f = idx[n];
+      const Eigen::Vector3d a = mesh.V.row(F(f, 0)), b = mesh.V.row(F(f, 1)),
+                            c = mesh.V.row(F(f, 2));
+      const Eigen::Vector3d w = closest_on_triangle(p, a, b, c);
+      const double dist = (w[0] * a + w[1] * b + w[2] * c - p).squaredNorm();
+      if (dist < best) {
+        best = dist;
+        out.row(s) = w[0] * u.row(F(f, 0)) + w[1] * u.row(F(f, 1)) + w[2] * u.row(F(f, 2));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Indentation paper_indentation(const Model& m, double radius_mm) {
+  const ModelLayer& skin = m.layers.at(0);
+  int32_t front = skin.first_node;
+  for (int32_t i = skin.first_node; i < skin.first_node + skin.node_count; ++i)
+    if (m.X(i, 1) < m.X(front, 1)) front = i;
+  Indentation ind;
+  ind.contact_mm = m.X.row(front).transpose();
+  ind.direction = Eigen::Vector3d::UnitY();
+  ind.radius_mm = radius_mm;
+  for (const interact::Crossing& c : interact::force_line_crossings(m, m.X, front, ind.direction))
+    if (c.layer == 0) ind.organ_depth_mm = std::max(ind.organ_depth_mm, c.distance_mm);
+  ind.held_point_mm = Eigen::Vector3d(0.0, m.X.col(1).maxCoeff(), 0.0);
+  ind.held_normal = Eigen::Vector3d::UnitY();
+  ind.held_distance_mm = 10.0;
+  return ind;
+}
+
+IndentResult indent_mass_spring(const Model& m, const sim::Material& material,
+                                sim::SolverOptions solver, const Indentation& ind,
+                                double depth_mm, int ramp) {
+  const auto t0 = Clock::now();
+  solver.mode = sim::Mode::kGlobal;
+  sim::Simulation s = sim::make_simulation(m, material, solver);
+  std::vector<int32_t> held, patch;
+  for (int32_t i = 0; i < m.node_count(); ++i) {
+    const Eigen::Vector3d p = m.X.row(i).transpose();
+    if (in_slab(p, ind))
+      held.push_back(i);
+    else if (m.layer_of[i] == 0 && (p - ind.contact_mm).norm() <= ind.radius_mm)
+      patch.push_back(i);
+  }
+  if (patch.empty())
+    throw invalid_input(m.source, "no skin node within the indenter's radius of the contact");
+  sim::fix_nodes(s, held);
+  IndentResult r;
+  r.converged = true;
+  const Eigen::RowVector3d dir = ind.direction.normalized().transpose();
+  Eigen::MatrixX3d at(static_cast<Eigen::Index>(patch.size()), 3);
+  for (int k = 1; k <= std::max(ramp, 1); ++k) {
+    const double d = depth_mm * k / std::max(ramp, 1);
+    for (size_t q = 0; q < patch.size(); ++q)
+      at.row(static_cast<Eigen::Index>(q)) = m.X.row(patch[q]) + d * dir;
+    sim::hold_nodes(s, patch, at);
+    const sim::StepStats st = sim::run_to_convergence(s, 10);
+    r.converged = r.converged && st.converged;
+  }
+  r.steps = s.steps;
+  // The indenter holds the patch against the tissue's internal forces on it.
+  Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
+  sim::spring_forces(s, s.x, f);
+  sim::volume_forces(s, s.x, f);
+  f -= material.anchor_stiffness_n_per_m * (s.x - m.X);
+  double push = 0.0;
+  for (int32_t i : patch) push -= f.row(i).dot(dir);
+  r.force_n = push / 1000.0;  // mN -> N
+  const ModelLayer& skin = m.layers[0];
+  r.skin_u = s.x.middleRows(skin.first_node, skin.node_count) -
+             m.X.middleRows(skin.first_node, skin.node_count);
+  const double v0 = sim::layer_volume(m, m.X, 0);
+  r.volume_change_pct = 100.0 * (sim::layer_volume(m, s.x, 0) - v0) / v0;
+  r.seconds = seconds_since(t0);
+  return r;
+}
+
+IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material, const Indentation& ind,
+                        double depth_mm, bool corotational, const Eigen::MatrixX3d& samples,
+                        const FemOptions& options) {
+  const auto t0 = Clock::now();
+  const Eigen::MatrixX3i F = boundary_faces(mesh);
+  std::vector<uint8_t> on_boundary(static_cast<size_t>(mesh.V.rows()), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) on_boundary[F(f, c)] = 1;
+  FemBoundary bc;
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) {
+    const Eigen::Vector3d p = mesh.V.row(v).transpose();
+    if (in_slab(p, ind))
+      bc.fixed.push_back(static_cast<int32_t>(v));
+    else if (on_boundary[v] && (p - ind.contact_mm).norm() <= ind.radius_mm)
+      bc.driven.push_back(static_cast<int32_t>(v));
+  }
+  if (bc.driven.empty())
+    throw invalid_input("finite-element mesh",
+                        "no boundary vertex within the indenter's radius of the contact");
+  const Eigen::RowVector3d dir = ind.direction.normalized().transpose();
+  bc.driven_displacement_mm = (depth_mm * dir).replicate(static_cast<Eigen::Index>(bc.driven.size()), 1);
+  const FemResult fem = corotational ? solve_corotational(mesh, material, bc, options)
+                                     : solve_linear(mesh, material, bc);
+  IndentResult r;
+  r.converged = fem.converged;
+  r.steps = fem.iterations;
+  double push = 0.0;
+  for (int32_t v : bc.driven) push += fem.reaction_mn.row(v).dot(dir);
+  r.force_n = push / 1000.0;
+  const double v0 = tet_volume(mesh, mesh.V);
+  r.volume_change_pct = 100.0 * (fem.volume_mm3 - v0) / v0;
+  r.skin_u = sample_on_faces(mesh, F, fem.u, samples);
+  r.u = fem.u;
+  r.seconds = seconds_since(t0);
+  return r;
+}
+
+Eigen::MatrixX3d sample_on_boundary(const TetMesh& mesh, const Eigen::MatrixX3d& u,
+                                    const Eigen::MatrixX3d& samples) {
+  return sample_on_faces(mesh, boundary_faces(mesh), u, samples);
+}
+
+FieldError field_error(const Eigen::MatrixX3d& u, const Eigen::MatrixX3d& reference) {
+  FieldError e;
+  if (u.rows() != reference.rows() || u.rows() == 0) return e;
+  const Eigen::VectorXd d = (u - reference).rowwise().norm();
+  e.rms_mm = std::sqrt(d.squaredNorm() / static_cast<double>(d.size()));
+  e.max_mm = d.maxCoeff();
+  e.reference_max_mm = reference.rowwise().norm().maxCoeff();
+  return e;
+}
+
+}  // namespace lamina::validate
