@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
@@ -223,6 +224,39 @@ TEST(LaminaRun, PhysicalLiverExampleDeformsReturnsAndKeepsItsVolume) {
   EXPECT_LT(summary["max_displacement_mm"].get<double>(), 40.0);
   EXPECT_LT(summary["max_abs_volume_change_pct"].get<double>(), 0.5);
   EXPECT_LT(summary["final_rest_error_mm"].get<double>(), 0.1);
+}
+
+TEST(LaminaValidate, QuickRunComparesTheModelsWithConvergedFiniteElements) {
+  // One 10% indentation of the phantom: both FEM solves converge and agree with each other
+  // closely at this depth, every mass-spring variant comes to rest, the volume term keeps the
+  // volume better than the layers alone, and the CSV, summary and plots are written.
+  test::TempDir dir;
+  const RunResult r = run_lamina(dir, "validate --quick -o out --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  for (const char* f : {"validation.csv", "summary.json", "force_depth.png", "skin_error.png",
+                        "volume_change.png"})
+    EXPECT_TRUE(fs::exists(dir.path / "out" / f)) << f;
+  std::map<std::string, json> by;
+  for (const json& row : j["rows"]) by[row["solver"]] = row;
+  ASSERT_EQ(by.size(), 5u);
+  for (const auto& [name, row] : by) EXPECT_TRUE(row["converged"].get<bool>()) << name;
+  EXPECT_LT(by["fem_linear"]["rms_error_pct"].get<double>(), 10.0);
+  EXPECT_GT(by["fem_corotational"]["force_n"].get<double>(), 0.0);
+  EXPECT_LT(std::abs(by["ms_volume"]["volume_change_pct"].get<double>()),
+            0.5 * std::abs(by["ms_layers"]["volume_change_pct"].get<double>()));
+  EXPECT_LT(std::abs(by["ms_layers"]["volume_change_pct"].get<double>()),
+            std::abs(by["ms_skin"]["volume_change_pct"].get<double>()));
+}
+
+TEST(LaminaValidate, ASavedModelIsRefusedBeforeAnythingIsWritten) {
+  test::TempDir dir;
+  { std::ofstream(dir.path / "m.vtu") << "<VTKFile/>"; }
+  const RunResult r = run_lamina(dir, "validate m.vtu -o out");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("m.vtu: lamina validate meshes the segmentation"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir.path / "out"));
 }
 
 TEST(LaminaRun, BadSceneIsOneLineExitTwoAndNoOutput) {
