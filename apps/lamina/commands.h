@@ -127,7 +127,7 @@ struct ValidateArgs {
   std::string what = io::kScenePhantom;  ///< SCENE.json, a mask file or folder, or "phantom"
   std::string output;                    ///< folder for CSV, plots and summary; empty = none
   bool json = false;                     ///< the summary as JSON on stdout
-  bool quick = false;                    ///< one depth (10%), coarser FEM mesh (CI)
+  bool quick = false;                    ///< one depth (10%) instead of four (CI)
   bool verbose = false;
 };
 /// The mass-spring model against linear and corotational finite elements on the same

@@ -161,7 +161,7 @@ int main(int argc, char** argv) {
   va->add_option("-o,--output", val.output,
                  "folder (created): validation.csv, summary.json, plots");
   va->add_flag("--json", val.json, "print the summary as one JSON object on stdout");
-  va->add_flag("--quick", val.quick, "one depth (10%) and a coarser finite-element mesh (a smoke run)");
+  va->add_flag("--quick", val.quick, "one depth (10%) instead of four (a smoke run)");
 
   try {
     app.parse(argc, argv);
