@@ -72,8 +72,12 @@ std::string label_of(const std::string& solver) {
   return "mass-spring, skin only";
 }
 
-void draw_plots(const fs::path& out, const std::vector<std::string>& solvers) {
+void draw_plots(const fs::path& out, const std::vector<std::string>& solvers,
+                const std::vector<double>& depths) {
   const std::string gp = find_gnuplot();
+  // Depths from 0 to a little past the deepest (one depth alone would be an empty x range).
+  const std::string style = std::string(kPlotStyle) +
+                            fmt::format("set xrange [0:{}]\n", 1.1 * depths.back());
   const std::string data = quote(out / "validation.csv");
   auto series = [&](const std::string& column, bool skip_reference) {
     std::string s;
@@ -86,18 +90,18 @@ void draw_plots(const fs::path& out, const std::vector<std::string>& solvers) {
     return s + "\n";
   };
   draw_plot(gp, out, "force_depth",
-            std::string(kPlotStyle) +
+            style +
                 "set xlabel 'indentation, % of the organ depth'\nset ylabel 'indenter force, N'\n"
                 "set key top left box opaque\nset datafile missing NaN\n",
             series("$4", false));
   draw_plot(gp, out, "skin_error",
-            std::string(kPlotStyle) +
+            style +
                 "set xlabel 'indentation, % of the organ depth'\n"
                 "set ylabel 'skin displacement RMS error vs corotational FEM, % of its largest'\n"
                 "set key top left box opaque\nset datafile missing NaN\n",
             series("$8", true));
   draw_plot(gp, out, "volume_change",
-            std::string(kPlotStyle) +
+            style +
                 "set xlabel 'indentation, % of the organ depth'\nset ylabel '|volume change|, %'\n"
                 "set logscale y\nset key top left box opaque\nset datafile missing NaN\n",
             series("(abs($5) > 0 ? abs($5) : NaN)", false));
@@ -225,7 +229,8 @@ int run_validate(const ValidateArgs& a) {
     create_folder(out);
     write_text(out / "validation.csv", csv_of(rows));
     write_text(out / "summary.json", j.dump(2) + "\n");
-    draw_plots(out, {"fem_corotational", "fem_linear", "ms_volume", "ms_layers", "ms_skin"});
+    draw_plots(out, {"fem_corotational", "fem_linear", "ms_volume", "ms_layers", "ms_skin"},
+               depths);
     log::info("wrote {}: validation.csv, summary.json, force_depth.png, skin_error.png, "
               "volume_change.png",
               out.string());
