@@ -29,20 +29,13 @@ const Model& phantom_model(int32_t skin_vertices) {
   return it->second;
 }
 
-// The most anterior skin node: where the default scene pokes.
-int32_t anterior_node(const Model& m) {
-  Eigen::Index i = 0;
-  m.X.col(1).head(m.layers[0].node_count).minCoeff(&i);
-  return static_cast<int32_t>(i);
-}
-
 void BM_Step(benchmark::State& state) {
   const Model& m = phantom_model(static_cast<int32_t>(state.range(0)));
   const auto integrator =
       state.range(1) ? sim::Integrator::kImplicitEuler : sim::Integrator::kSemiImplicitEuler;
   sim::Simulation s = sim::make_simulation(m, {}, {.integrator = integrator});
   interact::ToolDriver d;
-  d.tools.push_back({.vertex = anterior_node(m), .force_mn = Eigen::Vector3d(0, 50, 0)});
+  d.tools.push_back({.vertex = interact::most_anterior_skin_node(m), .force_mn = Eigen::Vector3d(0, 50, 0)});
   interact::apply_tools(s, d);
   for (auto _ : state) benchmark::DoNotOptimize(sim::step(s));
   state.counters["nodes"] = m.node_count();
@@ -71,7 +64,7 @@ void BM_PokeToConvergence(benchmark::State& state) {
         sim::make_simulation(m, {}, {.threshold_mm = threshold, .mode = sim::Mode::kLocal});
     interact::ToolDriver d;
     d.routing.locality = locality;
-    d.tools.push_back({.vertex = anterior_node(m), .force_mn = Eigen::Vector3d(0, 400, 0)});
+    d.tools.push_back({.vertex = interact::most_anterior_skin_node(m), .force_mn = Eigen::Vector3d(0, 400, 0)});
     interact::apply_tools(s, d);
     steps = sim::run_to_convergence(s).converged ? s.steps : -1;
   }

@@ -41,13 +41,12 @@ double median_intra_length(const Model& m) {
   return l[l.size() / 2];
 }
 
-// A scene without E and nu is validated with the documented liver defaults.
+// A scene without E and nu is validated with the documented liver defaults, damped by the
+// default ratio (the paper's gamma belongs to its unit masses, not to physical ones).
 void make_elastic(io::Scene& scene) {
   if (scene.elastic) return;
-  scene.elastic = true;
-  scene.material.stiffness_n_per_m = 0.0;
-  scene.material.node_mass_kg = 0.0;
-  scene.material.damping_kg_per_s = 0.0;
+  scene.damping_given = false;
+  io::use_elastic_material(scene);
 }
 
 std::string csv_of(const std::vector<Row>& rows) {

@@ -117,6 +117,13 @@ ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t co
   return route;
 }
 
+int32_t most_anterior_skin_node(const Model& model) {
+  const ModelLayer& skin = model.layers.at(0);
+  Eigen::Index i = 0;
+  model.X.col(1).segment(skin.first_node, skin.node_count).minCoeff(&i);
+  return skin.first_node + static_cast<int32_t>(i);
+}
+
 int32_t nearest_skin_node(const Model& model, const Eigen::MatrixX3d& x,
                           const Eigen::Vector3d& point_mm, double threshold_mm) {
   using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;

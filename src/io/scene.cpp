@@ -243,10 +243,7 @@ void read_material(const Reader& r, const json& j, Scene& s) {
         r.fail(path + "." + raw,
                "cannot be given with young_modulus_kpa (springs and masses then follow from "
                "E, nu and the density); remove one of them");
-    s.elastic = true;
-    m.stiffness_n_per_m = 0.0;
-    m.node_mass_kg = 0.0;
-    m.damping_kg_per_s = 0.0;
+    use_elastic_material(s);  // damping keys, read below, may still set gamma
   }
   if (j.contains("poisson_ratio") && !s.elastic)
     r.fail(path + ".poisson_ratio", "needs young_modulus_kpa beside it");
@@ -475,15 +472,18 @@ Scene load_scene(const std::string& path) {
   return s;
 }
 
+void use_elastic_material(Scene& s) {
+  s.elastic = true;
+  s.material.stiffness_n_per_m = 0.0;
+  s.material.node_mass_kg = 0.0;
+  if (!s.damping_given) s.material.damping_kg_per_s = 0.0;
+}
+
 void resolve_scene_defaults(Scene& s, const Model& m) {
-  const ModelLayer& skin = m.layers.at(0);
   if (s.default_tool) {
-    // The paper's poke: the most anterior skin node (smallest y in LPS), pushed posteriorly.
-    int32_t front = skin.first_node;
-    for (int32_t i = skin.first_node; i < skin.first_node + skin.node_count; ++i)
-      if (m.X(i, 1) < m.X(front, 1)) front = i;
+    // The paper's poke: the most anterior skin node, pushed posteriorly.
     s.tools.push_back({.by_point = false,
-                       .vertex = front,
+                       .vertex = interact::most_anterior_skin_node(m),
                        .force_mn = Eigen::Vector3d(0.0, 0.4 * kMilliNewtonsPerNewton, 0.0),
                        .start_s = 0.0,
                        .end_s = 1.0});

@@ -15,20 +15,16 @@ namespace {
 
 // Semi-implicit Euler is stable for dt < 2 / omega_max. Gershgorin's bound on M^-1 K (each
 // node's spring constants twice, plus its anchor, over its mass) bounds omega_max from above,
-// so 2 / sqrt(bound) is a safe estimate of the limit (the volume term's stiffness aside).
-double explicit_dt_limit(const Model& m, const sim::Material& mat) {
-  const int32_t n = m.node_count();
-  std::vector<double> k(static_cast<size_t>(n), mat.anchor_stiffness_n_per_m);
+// so 2 / sqrt(bound) is a safe estimate of the limit (the volume term's stiffness aside). It
+// reads the constants and masses the simulation resolved from the material and the model.
+double explicit_dt_limit(const sim::Simulation& s) {
+  const Model& m = *s.model;
+  std::vector<double> k(static_cast<size_t>(m.node_count()), s.material.anchor_stiffness_n_per_m);
   const Springs& sp = m.springs;
-  for (size_t e = 0; e < sp.size(); ++e) {
-    const double ke = mat.stiffness_n_per_m > 0.0 ? mat.stiffness_n_per_m : sp.stiffness_n_per_m[e];
-    k[sp.i[e]] += 2.0 * ke, k[sp.j[e]] += 2.0 * ke;
-  }
+  for (size_t e = 0; e < sp.size(); ++e)
+    k[sp.i[e]] += 2.0 * s.stiffness_n_per_m[e], k[sp.j[e]] += 2.0 * s.stiffness_n_per_m[e];
   double worst = 0.0;
-  for (int32_t i = 0; i < n; ++i) {
-    const double mass = mat.node_mass_kg > 0.0 ? mat.node_mass_kg : m.mass_kg[i];
-    worst = std::max(worst, k[i] / mass);
-  }
+  for (int32_t i = 0; i < m.node_count(); ++i) worst = std::max(worst, k[i] / s.mass_kg[i]);
   return worst > 0.0 ? 2.0 / std::sqrt(worst) : std::numeric_limits<double>::infinity();
 }
 
@@ -42,8 +38,7 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
     rep.elastic_material = scene.elastic_material;
     rep.identification =
         model::identify_springs(model, scene.elastic_material, model.springs.stiffness_n_per_m);
-    mat.stiffness_n_per_m = 0.0;  // the identified constants
-    mat.node_mass_kg = 0.0;       // the lumped masses
+    use_elastic_material(scene);  // the identified constants, the lumped masses
     if (!scene.volume_stiffness_given)
       mat.volume_stiffness_kpa = rep.identification.volume_stiffness_kpa;
     if (!scene.integrator_given) scene.solver.integrator = sim::Integrator::kImplicitEuler;
@@ -55,14 +50,15 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
         scene.elastic_material.poisson_ratio, rep.identification.shear_modulus_kpa,
         rep.identification.fit_residual, mat.volume_stiffness_kpa);
   }
+  if (scene.damping_ratio >= 0.0 && fixed.empty() && mat.anchor_stiffness_n_per_m == 0.0)
+    throw invalid_input(scene.source,
+                        "material.damping_ratio: the model is held nowhere (no fixed nodes, no "
+                        "anchor springs), so its slowest motion is a free drift; fix a region "
+                        "or give damping_kg_per_s");
+  // The material as a simulation resolves it (constants, masses), held as the scene holds it.
+  sim::Simulation probe = sim::make_simulation(model, mat, scene.solver);
+  sim::fix_nodes(probe, fixed);
   if (scene.damping_ratio >= 0.0) {
-    if (fixed.empty() && mat.anchor_stiffness_n_per_m == 0.0)
-      throw invalid_input(scene.source,
-                          "material.damping_ratio: the model is held nowhere (no fixed nodes, no "
-                          "anchor springs), so its slowest motion is a free drift; fix a region "
-                          "or give damping_kg_per_s");
-    sim::Simulation probe = sim::make_simulation(model, mat, scene.solver);
-    sim::fix_nodes(probe, fixed);
     const double omega = sim::lowest_angular_frequency(probe);
     mat.mass_damping_per_s = 2.0 * scene.damping_ratio * omega;
     rep.damping_ratio = scene.damping_ratio;
@@ -73,7 +69,7 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
   }
   rep.volume_stiffness_kpa = mat.volume_stiffness_kpa;
   rep.mass_damping_per_s = mat.mass_damping_per_s;
-  rep.explicit_dt_limit_s = explicit_dt_limit(model, mat);
+  rep.explicit_dt_limit_s = explicit_dt_limit(probe);
   if (scene.solver.integrator == sim::Integrator::kSemiImplicitEuler &&
       scene.solver.dt_s > rep.explicit_dt_limit_s)
     log::warn(

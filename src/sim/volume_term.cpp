@@ -149,8 +149,7 @@ void volume_multipliers(const Simulation& s, const Eigen::MatrixX3d& pm, int thr
 double volume_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
   const Model& m = *s.model;
   std::vector<double> now(m.layers.size());
-  for (size_t k = 0; k < m.layers.size(); ++k)
-    now[k] = volume6(m.layers[k].F, x, nullptr, m.layers[k].F.rows(), 1) / 6.0;
+  for (size_t k = 0; k < m.layers.size(); ++k) now[k] = layer_volume(m, x, static_cast<int32_t>(k));
   double e = 0.0;
   for (size_t r = 0; r < now.size(); ++r) {
     const double rest = rest_region_volume(s, r);
@@ -168,8 +167,7 @@ void volume_forces(Simulation& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& 
   if (!(s.material.volume_stiffness_kpa > 0.0)) return;
   const Model& m = *s.model;
   std::array<double, detail::kMaxLayers> now{};
-  for (size_t k = 0; k < m.layers.size(); ++k)
-    now[k] = detail::volume6(m.layers[k].F, xm, nullptr, m.layers[k].F.rows(), 1) / 6.0;
+  for (size_t k = 0; k < m.layers.size(); ++k) now[k] = layer_volume(m, xm, static_cast<int32_t>(k));
   detail::set_pressures(s, now.data());
   const detail::ConstCols x(xm);
   for (int32_t i = 0; i < m.node_count(); ++i) {

@@ -91,10 +91,7 @@ Eigen::MatrixX3d sample_on_faces(const TetMesh& mesh, const Eigen::MatrixX3i& F,
 }  // namespace
 
 Indentation paper_indentation(const Model& m, double radius_mm) {
-  const ModelLayer& skin = m.layers.at(0);
-  int32_t front = skin.first_node;
-  for (int32_t i = skin.first_node; i < skin.first_node + skin.node_count; ++i)
-    if (m.X(i, 1) < m.X(front, 1)) front = i;
+  const int32_t front = interact::most_anterior_skin_node(m);
   Indentation ind;
   ind.contact_mm = m.X.row(front).transpose();
   ind.direction = Eigen::Vector3d::UnitY();

@@ -8,6 +8,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/interact/tools.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/identify_springs.h"
 
@@ -106,9 +107,7 @@ TEST(VolumeTerm, KeepsTheVolumeUnderLoadAndLeavesTheRestShapeAlone) {
   // The same held poke, without and with the volume term: the term must cut the skin's volume
   // change, with every integrator, and not move a model at rest.
   const Model& m = small_model();
-  const int32_t front = static_cast<int32_t>(std::distance(
-      m.X.col(1).data(),
-      std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+  const int32_t front = interact::most_anterior_skin_node(m);
   for (auto integrator : kAllIntegrators) {
     SCOPED_TRACE(name(integrator));
     std::array<double, 2> change{};
@@ -178,9 +177,7 @@ TEST(Simulation, ReleasedModelReturnsToRest) {
                                 .dt_s = integrator == sim::Integrator::kProjective ? 0.05 : 0.01,
                                 .threshold_mm = 1e-5});
       if (!anchored) sim::fix_nodes(s, posterior_nodes(m));
-      const int32_t front = static_cast<int32_t>(std::distance(
-          m.X.col(1).data(),
-          std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+      const int32_t front = interact::most_anterior_skin_node(m);
       s.f_ext.row(front) << 0.0, 20.0, 0.0;  // mN, pushing the anterior surface backwards
       for (int k = 0; k < 300; ++k) sim::step(s);
       const double pushed = (s.x - m.X).rowwise().norm().maxCoeff();
@@ -197,9 +194,7 @@ TEST(Simulation, EveryIntegratorReachesTheSameLoadedEquilibrium) {
   // three settle where the springs balance the load (projective dynamics with its prefactored
   // matrix included, and after its factor is reused for hundreds of steps).
   const Model& m = small_model();
-  const int32_t front = static_cast<int32_t>(std::distance(
-      m.X.col(1).data(),
-      std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+  const int32_t front = interact::most_anterior_skin_node(m);
   std::vector<Eigen::MatrixX3d> settled;
   for (auto integrator : kAllIntegrators) {
     SCOPED_TRACE(name(integrator));
@@ -220,9 +215,7 @@ TEST(Simulation, EveryIntegratorReachesTheSameLoadedEquilibrium) {
 TEST(Simulation, HeldNodesStayWhereTheyAreHeldAndDriveTheRest) {
   // A displacement-controlled indenter: a patch of skin held 3 mm in, the back held at rest.
   const Model& m = small_model();
-  const int32_t front = static_cast<int32_t>(std::distance(
-      m.X.col(1).data(),
-      std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+  const int32_t front = interact::most_anterior_skin_node(m);
   std::vector<int32_t> patch;
   for (int32_t i = 0; i < m.layers[0].node_count; ++i)
     if ((m.X.row(i) - m.X.row(front)).norm() < 20.0) patch.push_back(i);
@@ -354,9 +347,7 @@ TEST(Simulation, PhysicalLiverIsStableAtTenTimesThePapersDtWithImplicitEuler) {
   sim::fix_nodes(s, posterior_nodes(m));
   mat.mass_damping_per_s = 2.0 * sim::lowest_angular_frequency(s);
   sim::set_parameters(s, mat, s.options);
-  const int32_t front = static_cast<int32_t>(std::distance(
-      m.X.col(1).data(),
-      std::min_element(m.X.col(1).data(), m.X.col(1).data() + m.layers[0].node_count)));
+  const int32_t front = interact::most_anterior_skin_node(m);
   s.f_ext.row(front) << 0.0, 400.0, 0.0;  // 0.4 N, the paper's poke
   for (int k = 0; k < 10; ++k) sim::step(s);
   const double pushed = (s.x - m.X).rowwise().norm().maxCoeff();

@@ -58,6 +58,10 @@ ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t co
 int32_t nearest_skin_node(const Model& model, const Eigen::MatrixX3d& x,
                           const Eigen::Vector3d& point_mm, double threshold_mm);
 
+/// The most anterior skin node at rest (smallest y in LPS; the first of equals): where the
+/// reference paper's poke, the default scene's tool and `lamina validate`'s indenter touch.
+int32_t most_anterior_skin_node(const Model& model);
+
 /// A tool: where it touches (a point in mm, or a skin vertex), its force, and when it acts.
 struct Tool {
   bool by_point = false;  ///< true: touch the skin node nearest to point_mm

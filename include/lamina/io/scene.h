@@ -112,6 +112,11 @@ void check_scene_against_model(const Scene& scene, const Model& model);
 /// The fixed nodes of every region of `scene`, sorted and unique.
 std::vector<int32_t> fixed_scene_nodes(const Scene& scene, const Model& model);
 
+/// Makes `scene`'s material elastic: spring constants from E and nu (stiffness_n_per_m = 0 keeps
+/// the model's, which resolve_material() identifies), the model's lumped masses, and no per-node
+/// gamma unless the file gave one (damping then comes from a damping ratio).
+void use_elastic_material(Scene& scene);
+
 /// What resolve_material() decided, for logs and the run summary.
 struct MaterialReport {
   bool elastic = false;                 ///< spring constants came from E and nu
