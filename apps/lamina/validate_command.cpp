@@ -33,6 +33,11 @@ struct Row {
   validate::FieldError error;  // against fem_corotational at the same depth
 };
 
+// The RMS error in % of the reference's largest displacement (0 for the reference itself).
+double rms_pct(const validate::FieldError& e) {
+  return e.reference_max_mm > 0 ? 100.0 * e.rms_mm / e.reference_max_mm : 0.0;
+}
+
 double median_intra_length(const Model& m) {
   std::vector<double> l;
   for (size_t e = 0; e < m.springs.size(); ++e)
@@ -57,7 +62,7 @@ std::string csv_of(const std::vector<Row>& rows) {
     csv += fmt::format("{:.4g},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.4g},{:.6g},{},{},{:.3f}\n",
                        r.depth_pct, r.depth_mm, r.solver, r.result.force_n,
                        r.result.volume_change_pct, r.error.rms_mm, r.error.max_mm,
-                       r.error.reference_max_mm > 0 ? 100.0 * r.error.rms_mm / r.error.reference_max_mm : 0.0,
+                       rms_pct(r.error),
                        r.result.skin_u.rows() ? r.result.skin_u.rowwise().norm().maxCoeff() : 0.0,
                        r.result.converged ? 1 : 0, r.result.steps, r.result.seconds);
   return csv;
@@ -208,7 +213,7 @@ int run_validate(const ValidateArgs& a) {
     o["rms_error_mm"] = r.error.rms_mm;
     o["max_error_mm"] = r.error.max_mm;
     o["rms_error_pct"] =
-        r.error.reference_max_mm > 0 ? 100.0 * r.error.rms_mm / r.error.reference_max_mm : 0.0;
+        rms_pct(r.error);
     o["converged"] = r.result.converged;
     o["seconds"] = r.result.seconds;
     list.push_back(o);
@@ -221,7 +226,7 @@ int run_validate(const ValidateArgs& a) {
   for (const Row& r : rows)
     fmt::print(stderr, "{:>5.0f}% {:>17} {:>9.4f} {:>11.4f} {:>10.2f} {:>7.2f}mm {:>5}\n",
                r.depth_pct, r.solver, r.result.force_n, r.result.volume_change_pct,
-               r.error.reference_max_mm > 0 ? 100.0 * r.error.rms_mm / r.error.reference_max_mm : 0.0,
+               rms_pct(r.error),
                r.error.max_mm, r.result.converged ? "yes" : "NO");
   if (!a.output.empty()) {
     const fs::path out = a.output;

@@ -190,35 +190,33 @@ void setup(const TetMesh& mesh, const FemMaterial& material, const FemBoundary& 
     w.free_index[d] = w.unknowns++;
   }
 
-  // Sparsity pattern of the unknowns' block, then each element entry's place in it.
+  // Sparsity pattern of the unknowns' block, then each element entry's place in it: both walk
+  // every (tet, row p, column q) whose row and column are unknowns.
+  auto for_each_free_entry = [&](auto&& visit) {
+    for (Eigen::Index t = 0; t < tets; ++t)
+      for (int p = 0; p < 12; ++p) {
+        const int r = w.free_index[3 * mesh.T(t, p / 3) + p % 3];
+        if (r < 0) continue;
+        for (int q = 0; q < 12; ++q) {
+          const int c = w.free_index[3 * mesh.T(t, q / 3) + q % 3];
+          if (c >= 0) visit(t, p, q, r, c);
+        }
+      }
+  };
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(static_cast<size_t>(tets) * 144);
-  for (Eigen::Index t = 0; t < tets; ++t)
-    for (int p = 0; p < 12; ++p) {
-      const int r = w.free_index[3 * mesh.T(t, p / 3) + p % 3];
-      if (r < 0) continue;
-      for (int q = 0; q < 12; ++q) {
-        const int c = w.free_index[3 * mesh.T(t, q / 3) + q % 3];
-        if (c >= 0) entries.emplace_back(r, c, 0.0);
-      }
-    }
+  for_each_free_entry(
+      [&](Eigen::Index, int, int, int r, int c) { entries.emplace_back(r, c, 0.0); });
   w.K.resize(w.unknowns, w.unknowns);
   w.K.setFromTriplets(entries.begin(), entries.end());
   w.K.makeCompressed();
   w.slot.assign(static_cast<size_t>(tets) * 144, -1);
   const int* outer = w.K.outerIndexPtr();
   const int* inner = w.K.innerIndexPtr();
-  for (Eigen::Index t = 0; t < tets; ++t)
-    for (int p = 0; p < 12; ++p) {
-      const int r = w.free_index[3 * mesh.T(t, p / 3) + p % 3];
-      if (r < 0) continue;
-      for (int q = 0; q < 12; ++q) {
-        const int c = w.free_index[3 * mesh.T(t, q / 3) + q % 3];
-        if (c < 0) continue;
-        const int* at = std::lower_bound(inner + outer[c], inner + outer[c + 1], r);
-        w.slot[static_cast<size_t>(t) * 144 + 12 * p + q] = static_cast<int>(at - inner);
-      }
-    }
+  for_each_free_entry([&](Eigen::Index t, int p, int q, int r, int c) {
+    const int* at = std::lower_bound(inner + outer[c], inner + outer[c + 1], r);
+    w.slot[static_cast<size_t>(t) * 144 + 12 * p + q] = static_cast<int>(at - inner);
+  });
 
   w.rotation.assign(static_cast<size_t>(tets), Eigen::Matrix3d::Identity());
   w.element_force.resize(12, tets);
