@@ -212,8 +212,7 @@ int run_validate(const ValidateArgs& a) {
     o["volume_change_pct"] = r.result.volume_change_pct;
     o["rms_error_mm"] = r.error.rms_mm;
     o["max_error_mm"] = r.error.max_mm;
-    o["rms_error_pct"] =
-        rms_pct(r.error);
+    o["rms_error_pct"] = rms_pct(r.error);
     o["converged"] = r.result.converged;
     o["seconds"] = r.result.seconds;
     list.push_back(o);
