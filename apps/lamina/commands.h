@@ -128,6 +128,8 @@ struct ValidateArgs {
   std::string output;                    ///< folder for CSV, plots and summary; empty = none
   bool json = false;                     ///< the summary as JSON on stdout
   bool quick = false;                    ///< one depth (10%) instead of four (CI)
+  std::vector<double> depths;  ///< indentation depths, % of the organ's depth; empty = default
+  bool stability = false;  ///< the stability suite instead of the finite-element comparison
   bool verbose = false;
 };
 /// The mass-spring model against linear and corotational finite elements on the same

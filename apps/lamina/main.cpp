@@ -161,7 +161,15 @@ int main(int argc, char** argv) {
   va->add_option("-o,--output", val.output,
                  "folder (created): validation.csv, summary.json, plots");
   va->add_flag("--json", val.json, "print the summary as one JSON object on stdout");
-  va->add_flag("--quick", val.quick, "one depth (10%) instead of four (a smoke run)");
+  va->add_flag("--quick", val.quick,
+               "one depth (10%) instead of four; with --stability, 5 cases instead of 22");
+  va->add_option("--depths", val.depths,
+                 "indentation depths, % of the organ's depth, comma-separated (default 5,10,20,30)")
+      ->delimiter(',')
+      ->check(CLI::Range(0.5, 60.0));
+  va->add_flag("--stability", val.stability,
+               "the stability suite: indentations to 50%, pulls, several tools, dt sweeps per "
+               "integrator, each released and checked (finite, layer order, energy, rest)");
 
   try {
     app.parse(argc, argv);

@@ -18,6 +18,7 @@
 #include "lamina/model/identify_springs.h"
 #include "lamina/validate/indentation.h"
 #include "plots.h"
+#include "stability_report.h"
 
 namespace lamina::cli {
 namespace {
@@ -132,6 +133,7 @@ int run_validate(const ValidateArgs& a) {
   const std::vector<int32_t> held =
       sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
   const io::MaterialReport material = io::resolve_material(scene, m, held);
+  if (a.stability) return report_stability(a, scene, m, ind);
   io::Scene skin_scene = scene;
   skin_scene.build.layers = 1;
   SceneModel skin_built = make_scene_model(skin_scene, {});
@@ -154,8 +156,12 @@ int run_validate(const ValidateArgs& a) {
             mesh.T.rows(), std::chrono::duration<double>(Clock::now() - t_mesh).count());
 
   // 3. Each depth, each solver. Quasi-static mass-spring runs: implicit Euler to a tight rest.
-  const std::vector<double> depths =
+  std::vector<double> depths =
       a.quick ? std::vector<double>{10.0} : std::vector<double>{5.0, 10.0, 20.0, 30.0};
+  if (!a.depths.empty()) {
+    depths = a.depths;
+    std::sort(depths.begin(), depths.end());
+  }
   sim::SolverOptions solver = scene.solver;
   solver.integrator = sim::Integrator::kImplicitEuler;
   solver.threshold_mm = 1e-4;

@@ -131,9 +131,10 @@ Nesting check_nesting(const SurfaceMesh& outer, const SurfaceMesh& inner) {
   result.min_gap_mm = std::numeric_limits<double>::infinity();
   for (Eigen::Index v = 0; v < inner.V.rows(); ++v) {
     const Point p(inner.V(v, 0), inner.V(v, 1), inner.V(v, 2));
-    if (side(p) != CGAL::ON_BOUNDED_SIDE) result.all_vertices_inside = false;
+    if (side(p) != CGAL::ON_BOUNDED_SIDE) ++result.vertices_outside;
     result.min_gap_mm = std::min(result.min_gap_mm, std::sqrt(tree.squared_distance(p)));
   }
+  result.all_vertices_inside = result.vertices_outside == 0;
   result.surfaces_intersect =
       PMP::do_intersect(out_mesh, in_mesh, PMP::parameters::do_overlap_test_of_bounded_sides(false),
                         PMP::parameters::do_overlap_test_of_bounded_sides(false));

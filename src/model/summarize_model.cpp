@@ -8,9 +8,13 @@
 namespace lamina::model {
 
 SurfaceMesh layer_mesh(const Model& model, int32_t layer) {
+  return layer_mesh(model, layer, model.X);
+}
+
+SurfaceMesh layer_mesh(const Model& model, int32_t layer, const Eigen::MatrixX3d& x) {
   const ModelLayer& l = model.layers.at(static_cast<size_t>(layer));
   SurfaceMesh m;
-  m.V = model.X.middleRows(l.first_node, l.node_count);
+  m.V = x.middleRows(l.first_node, l.node_count);
   m.F = l.F.array() - l.first_node;
   return m;
 }

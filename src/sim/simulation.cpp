@@ -510,11 +510,17 @@ void set_parameters(Simulation& s, const Material& material, const SolverOptions
   if (to_global) refresh(s);
 }
 
-void fix_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
+namespace {
+void check_nodes(const Simulation& s, const std::vector<int32_t>& nodes) {
   for (int32_t i : nodes)
     if (i < 0 || i >= s.model->node_count())
       throw invalid_input("fixed nodes", "node " + std::to_string(i) + " is not in the model (0.." +
                                              std::to_string(s.model->node_count() - 1) + ")");
+}
+}  // namespace
+
+void fix_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
+  check_nodes(s, nodes);
   for (int32_t i : nodes) {
     s.fixed[i] = 1;
     s.movable[i] = 0;
@@ -532,6 +538,18 @@ void hold_nodes(Simulation& s, const std::vector<int32_t>& nodes,
   fix_nodes(s, nodes);  // checks the indices, stops the nodes
   for (size_t k = 0; k < nodes.size(); ++k) s.x.row(nodes[k]) = positions.row(static_cast<Eigen::Index>(k));
   refresh(s);  // the caches of what stays put see the new positions
+}
+
+void release_nodes(Simulation& s, const std::vector<int32_t>& nodes) {
+  check_nodes(s, nodes);
+  for (int32_t i : nodes) {
+    s.fixed[i] = 0;
+    // In local mode only the nodes a tool reaches move; a released node joins them, so that
+    // it can return to rest.
+    s.movable[i] = 1;
+    s.v.row(i).setZero();
+  }
+  refresh(s);
 }
 
 void reset(Simulation& s) {

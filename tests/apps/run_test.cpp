@@ -249,6 +249,35 @@ TEST(LaminaValidate, QuickRunComparesTheModelsWithConvergedFiniteElements) {
             std::abs(by["ms_skin"]["volume_change_pct"].get<double>()));
 }
 
+TEST(LaminaValidate, StabilityQuickRunReleasesEveryLoadAndWritesItsReport) {
+  // The quick suite on a small physical phantom: every case stays finite and every implicit
+  // case at ten times the paper's dt passes all checks; the CSVs, summary and plots are written.
+  test::TempDir dir;
+  std::ofstream(dir.file("small.json"))
+      << R"({"model": {"input": "phantom", "build": {"skin_vertices": 400}}})";
+  const RunResult r = run_lamina(dir, "validate small.json --stability --quick -o out --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  for (const char* f : {"stability.csv", "stability_energy.csv", "summary.json",
+                        "stability_energy.png", "stability_dt.png"})
+    EXPECT_TRUE(fs::exists(dir.path / "out" / f)) << f;
+  ASSERT_EQ(j["cases"].size(), 5u);
+  int ten_x = 0;
+  for (const json& c : j["cases"]) {
+    EXPECT_TRUE(c["finite"].get<bool>()) << c["case"];
+    EXPECT_GT(c["peak_displacement_mm"].get<double>(), 1.0) << c["case"];
+    if (c["dt_s"].get<double>() > 0.05) {
+      ++ten_x;
+      EXPECT_TRUE(c["passed"].get<bool>()) << c["case"] << " " << c["integrator"];
+      EXPECT_EQ(c["recoveries"].get<int>(), 0) << c["case"];
+    }
+  }
+  EXPECT_EQ(ten_x, 2);
+  EXPECT_EQ(j["cases_passed"].get<int>(),
+            std::count_if(j["cases"].begin(), j["cases"].end(),
+                          [](const json& c) { return c["passed"].get<bool>(); }));
+}
+
 TEST(LaminaValidate, ASavedModelIsRefusedBeforeAnythingIsWritten) {
   test::TempDir dir;
   { std::ofstream(dir.path / "m.vtu") << "<VTKFile/>"; }

@@ -2,6 +2,7 @@
 /// \file
 /// Near-uniform remeshing and mesh repair, through CGAL's Polygon Mesh Processing.
 
+#include <cstdint>
 #include <vector>
 
 #include "lamina/geometry/surface_mesh.h"
@@ -27,6 +28,7 @@ bool self_intersects(const SurfaceMesh& mesh);
 /// How `inner` sits relative to `outer`.
 struct Nesting {
   bool all_vertices_inside = false;  ///< every vertex of inner is strictly inside outer
+  int64_t vertices_outside = 0;      ///< vertices of inner on or outside outer
   bool surfaces_intersect = true;    ///< some triangle of inner crosses a triangle of outer
   double min_gap_mm = 0.0;           ///< smallest distance from an inner vertex to outer
   bool nested() const { return all_vertices_inside && !surfaces_intersect; }

@@ -32,8 +32,10 @@ struct ModelSummary {
   std::vector<LayerSummary> layers;
 };
 
-/// One layer as a standalone mesh (vertex indices local to the layer).
+/// One layer as a standalone mesh (vertex indices local to the layer), at rest or at positions x
+/// (#nodes by 3, mm).
 SurfaceMesh layer_mesh(const Model& model, int32_t layer);
+SurfaceMesh layer_mesh(const Model& model, int32_t layer, const Eigen::MatrixX3d& x);
 
 /// Measures a model: per-layer mesh quality (with CGAL self-intersection and nesting checks),
 /// spring counts and connectivity, mass.

@@ -183,6 +183,11 @@ void fix_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 void hold_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
                 const Eigen::MatrixX3d& positions);
 
+/// Lets these nodes move again from where they are held (releases an indenter or a clamp): they
+/// become free, at rest velocity, and movable unless local mode has not made them so.
+/// \note Throws lamina::Error (kInvalidInput) for a node outside the model.
+void release_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
+
 /// Nodes within `distance_mm` of the plane through `point` with normal `normal` (any length).
 std::vector<int32_t> nodes_near_plane(const Model& model, const Eigen::Vector3d& point,
                                       const Eigen::Vector3d& normal, double distance_mm);

@@ -1,0 +1,198 @@
+// `lamina validate --stability`: large loads, releases and time-step sweeps, each checked for
+// finite states, layer order, decaying energy and the return to rest.
+#include "stability_report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "lamina/core/log.h"
+#include "lamina/validate/stability.h"
+#include "plots.h"
+
+namespace lamina::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using validate::StabilityResult;
+
+std::string kind_name(validate::LoadKind k) {
+  switch (k) {
+    case validate::LoadKind::kIndent:
+      return "indent";
+    case validate::LoadKind::kPull:
+      return "pull";
+    case validate::LoadKind::kTools:
+      return "tools";
+  }
+  return "";
+}
+
+std::string csv_of(const std::vector<StabilityResult>& rows, const validate::StabilityOptions& o) {
+  std::string csv =
+      "case,kind,integrator,dt_s,passed,finite,recoveries,outside_nodes,surfaces_cross,"
+      "peak_displacement_mm,peak_volume_change_pct,loaded_at_rest,energy_rise,final_energy_ratio,"
+      "returned_at_rest,rest_error_mm,steps,seconds\n";
+  for (const StabilityResult& r : rows) {
+    const double e0 = r.release_energy_j > 0 ? r.release_energy_j : 1.0;
+    csv += fmt::format("{},{},{},{:g},{},{},{},{},{},{:.6g},{:.6g},{},{:.6g},{:.6g},{},{:.6g},{},{:.3f}\n",
+                       r.c.name, kind_name(r.c.kind), io::integrator_name(r.c.integrator),
+                       r.c.dt_s, r.passed(o) ? 1 : 0, r.finite ? 1 : 0, r.recoveries,
+                       r.outside_nodes, r.surfaces_cross ? 1 : 0, r.peak_displacement_mm,
+                       r.peak_volume_change_pct, r.loaded_at_rest ? 1 : 0,
+                       r.max_energy_j / e0 - 1.0, r.final_energy_j / e0,
+                       r.returned_at_rest ? 1 : 0, r.rest_error_mm, r.steps, r.seconds);
+  }
+  return csv;
+}
+
+// The energy after each release relative to its value at the release, at most ~300 samples a
+// case (a run at a small dt has thousands of steps).
+std::string energy_csv_of(const std::vector<StabilityResult>& rows) {
+  std::string csv = "case,integrator,dt_s,t_s,energy_j,relative_energy\n";
+  for (const StabilityResult& r : rows) {
+    if (r.energy_trace.empty() || r.release_energy_j <= 0) continue;
+    const size_t every = std::max<size_t>(1, r.energy_trace.size() / 300);
+    for (size_t k = 0; k < r.energy_trace.size(); k += every) {
+      const auto& [t, e] = r.energy_trace[k];
+      csv += fmt::format("{},{},{:g},{:.6g},{:.6g},{:.6g}\n", r.c.name,
+                         io::integrator_name(r.c.integrator), r.c.dt_s, t, e,
+                         e / r.release_energy_j);
+    }
+  }
+  return csv;
+}
+
+void draw_plots(const fs::path& out, const std::vector<StabilityResult>& rows, double base_dt) {
+  const std::string gp = find_gnuplot();
+  const std::string energy = quote(out / "stability_energy.csv");
+  // Energy decay of the load cases at the scene's dt (the dt sweep would crowd the picture).
+  std::string body;
+  for (const StabilityResult& r : rows) {
+    if (r.c.dt_s != base_dt || r.c.integrator != sim::Integrator::kImplicitEuler) continue;
+    body += fmt::format(
+        "{}{} using 4:(strcol(1) eq '{}' && strcol(2) eq 'implicit_euler' && $3 == {:g} && $6 > 0 "
+        "? $6 : NaN) with lines lw 2 title '{}' noenhanced",
+        body.empty() ? "plot " : ", \\\n     ", energy, r.c.name, base_dt, r.c.name);
+  }
+  draw_plot(gp, out, "stability_energy",
+            std::string(kPlotStyle) +
+                "set xlabel 'time after the release, s'\n"
+                "set ylabel 'energy / energy at the release'\nset logscale y\n"
+                "set key top right box opaque\nset datafile missing NaN\n",
+            body + "\n");
+  // The dt sweep: steps to load and return to rest against dt, per integrator.
+  const std::string data = quote(out / "stability.csv");
+  std::string sweep;
+  for (const char* in : {"semi_implicit_euler", "implicit_euler", "projective"})
+    sweep += fmt::format(
+        "{}{} using 4:(strcol(3) eq '{}' && strcol(1) eq 'indent 30%' ? $17 : NaN) with "
+        "linespoints lw 2 title '{}' noenhanced, \\\n     {} using 4:(strcol(3) eq '{}' && "
+        "strcol(1) eq 'indent 30%' && $5 == 0 ? $17 : NaN) with points pt 6 ps 3 lc 'red' "
+        "notitle",
+        sweep.empty() ? "plot " : ", \\\n     ", data, in, in, data, in);
+  draw_plot(gp, out, "stability_dt",
+            std::string(kPlotStyle) +
+                "set xlabel 'time step dt, s'\nset ylabel 'steps to load (30% indentation) and "
+                "return to rest'\nset logscale xy\nset key top right box opaque\n"
+                "set datafile missing NaN\nset label 1 'red ring: a check failed' at graph "
+                "0.02, graph 0.05\n",
+            sweep + "\n");
+}
+
+}  // namespace
+
+int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model& m,
+                     const validate::Indentation& ind) {
+  const ProgressFn progress = stderr_progress(a.verbose);
+  const validate::StabilityOptions options;
+  const std::vector<validate::StabilityCase> cases =
+      validate::stability_cases(scene.solver.dt_s, a.quick);
+  std::vector<StabilityResult> rows;
+  for (size_t k = 0; k < cases.size(); ++k) {
+    const validate::StabilityCase& c = cases[k];
+    report_progress(progress,
+                    fmt::format("{}, {}, dt {:g} s", c.name, io::integrator_name(c.integrator),
+                                c.dt_s),
+                    static_cast<double>(k) / cases.size());
+    rows.push_back(
+        validate::run_stability_case(m, scene.material, scene.solver, ind, c, options));
+  }
+  report_progress(progress, "done", 1.0);
+
+  fmt::print(stderr, "{:>14} {:>19} {:>7} {:>9} {:>8} {:>7} {:>5} {:>9} {:>9} {:>6} {:>5}\n",
+             "case", "integrator", "dt s", "peak mm", "vol %", "outside", "recov", "E rise",
+             "rest mm", "steps", "pass");
+  int passed = 0;
+  for (const StabilityResult& r : rows) {
+    const bool ok = r.passed(options);
+    passed += ok;
+    const double e0 = r.release_energy_j > 0 ? r.release_energy_j : 1.0;
+    fmt::print(stderr, "{:>14} {:>19} {:>7g} {:>9.2f} {:>8.3f} {:>7} {:>5} {:>8.2f}% {:>9.4f} {:>6} {:>5}\n",
+               r.c.name, io::integrator_name(r.c.integrator), r.c.dt_s, r.peak_displacement_mm,
+               r.peak_volume_change_pct, r.outside_nodes, r.recoveries,
+               100.0 * (r.max_energy_j / e0 - 1.0), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
+  }
+  const std::string verdict =
+      fmt::format("stability: {} of {} cases passed (organ depth {:.1f} mm, rest tolerance {:g} mm)",
+                  passed, rows.size(), ind.organ_depth_mm, options.rest_tolerance_mm);
+  if (passed == static_cast<int>(rows.size()))
+    log::info("{}", verdict);
+  else
+    log::warn("{}", verdict);
+
+  nlohmann::ordered_json j;
+  j["input"] = m.source;
+  j["nodes"] = m.node_count();
+  j["layers"] = m.layer_count();
+  j["organ_depth_mm"] = ind.organ_depth_mm;
+  j["indenter_radius_mm"] = ind.radius_mm;
+  j["rest_tolerance_mm"] = options.rest_tolerance_mm;
+  j["cases_passed"] = passed;
+  j["all_passed"] = passed == static_cast<int>(rows.size());
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (const StabilityResult& r : rows) {
+    nlohmann::ordered_json o;
+    o["case"] = r.c.name;
+    o["kind"] = kind_name(r.c.kind);
+    o["integrator"] = io::integrator_name(r.c.integrator);
+    o["dt_s"] = r.c.dt_s;
+    o["passed"] = r.passed(options);
+    o["finite"] = r.finite;
+    o["recoveries"] = r.recoveries;
+    o["outside_nodes"] = r.outside_nodes;
+    o["surfaces_cross"] = r.surfaces_cross;
+    o["order_checks"] = r.order_checks;
+    o["peak_displacement_mm"] = r.peak_displacement_mm;
+    o["peak_volume_change_pct"] = r.peak_volume_change_pct;
+    o["loaded_at_rest"] = r.loaded_at_rest;
+    o["release_energy_j"] = r.release_energy_j;
+    o["max_energy_j"] = r.max_energy_j;
+    o["final_energy_j"] = r.final_energy_j;
+    o["energy_decays"] = r.energy_decays(options);
+    o["returned_at_rest"] = r.returned_at_rest;
+    o["rest_error_mm"] = r.rest_error_mm;
+    o["steps"] = r.steps;
+    o["seconds"] = r.seconds;
+    list.push_back(o);
+  }
+  j["cases"] = list;
+  if (!a.output.empty()) {
+    const fs::path out = a.output;
+    create_folder(out);
+    write_text(out / "stability.csv", csv_of(rows, options));
+    write_text(out / "stability_energy.csv", energy_csv_of(rows));
+    write_text(out / "summary.json", j.dump(2) + "\n");
+    draw_plots(out, rows, scene.solver.dt_s);
+    log::info("wrote {}: stability.csv, stability_energy.csv, summary.json, "
+              "stability_energy.png, stability_dt.png",
+              out.string());
+  }
+  if (a.json) std::cout << j.dump(2) << "\n";
+  return 0;
+}
+
+}  // namespace lamina::cli

@@ -1,0 +1,241 @@
+#include "lamina/validate/stability.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/remesh.h"
+#include "lamina/interact/tools.h"
+#include "lamina/model/summarize_model.h"
+
+namespace lamina::validate {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The layer order at x, folded into the result's worst.
+void record_layer_order(const Model& m, const Eigen::MatrixX3d& x, StabilityResult& r) {
+  ++r.order_checks;
+  const LayerOrder o = check_layer_order(m, x);
+  r.outside_nodes = std::max(r.outside_nodes, o.outside_nodes);
+  r.surfaces_cross = r.surfaces_cross || o.surfaces_cross;
+}
+
+// One stage: steps until the model has been at rest for 10 steps (or the budget runs out),
+// checking each state. After the release it also follows the energy.
+struct Stage {
+  sim::Simulation& s;
+  interact::ToolDriver* tools;  // applied before every step, or nullptr
+  const StabilityOptions& o;
+  StabilityResult& r;
+  double next_check_s = 0.0;
+  double release_s = -1.0;  // >= 0: released at this time
+
+  bool run() {
+    const Model& m = *s.model;
+    int64_t quiet = 0;
+    for (int64_t k = 0; k < o.max_steps_per_stage; ++k) {
+      if (tools) interact::apply_tools(s, *tools);
+      const sim::StepStats st = sim::step(s);
+      ++r.steps;
+      if (!s.x.allFinite() || !s.v.allFinite()) {
+        r.finite = false;
+        return false;
+      }
+      r.peak_displacement_mm = std::max(r.peak_displacement_mm, st.max_displacement_mm);
+      r.peak_volume_change_pct = std::max(r.peak_volume_change_pct, std::abs(st.volume_change_pct));
+      if (release_s >= 0.0) {
+        const double e = st.kinetic_energy_j + sim::elastic_energy(s, s.x);
+        r.max_energy_j = std::max(r.max_energy_j, e);
+        r.final_energy_j = e;
+        r.energy_trace.emplace_back(s.time_s - release_s, e);
+      }
+      if (s.time_s >= next_check_s) {
+        record_layer_order(m, s.x, r);
+        next_check_s = s.time_s + o.check_interval_s;
+      }
+      quiet = st.converged ? quiet + 1 : 0;
+      if (quiet >= 10) {
+        record_layer_order(m, s.x, r);
+        return true;
+      }
+    }
+    record_layer_order(m, s.x, r);
+    return false;
+  }
+
+  void release() {
+    release_s = s.time_s;
+    r.release_energy_j = sim::elastic_energy(s, s.x);  // at rest under the load: no motion
+    r.max_energy_j = r.final_energy_j = r.release_energy_j;
+    r.energy_trace.emplace_back(0.0, r.release_energy_j);
+  }
+};
+
+// The skin nodes within the indenter's radius of the contact, outside the held slab.
+std::vector<int32_t> indenter_patch(const Model& m, const Indentation& ind,
+                                    const std::vector<uint8_t>& held) {
+  std::vector<int32_t> patch;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (!held[i] && (m.X.row(i).transpose() - ind.contact_mm).norm() <= ind.radius_mm)
+      patch.push_back(i);
+  if (patch.empty())
+    throw invalid_input(m.source, "no skin node within the indenter's radius of the contact");
+  return patch;
+}
+
+// Up to three tools on the organ's front, all pushing along the indentation direction: the
+// indenter's contact, then the most anterior skin nodes a quarter of the organ's width to its
+// left and to its right (a probe and two graspers' worth of load at once). The paper's routing
+// adds its copies (rings, crossings) without normalising them, so each tool's force is scaled
+// for its routed load along `dir` to total `force_n`.
+std::vector<interact::Tool> make_tools(const Model& m, const Indentation& ind, int32_t count,
+                                       double force_n, const interact::RoutingOptions& routing) {
+  const int32_t skin = m.layers[0].node_count;
+  const Eigen::VectorXd xs = m.X.col(0).head(skin);
+  const double width = xs.maxCoeff() - xs.minCoeff();
+  const Eigen::Vector3d dir = ind.direction.normalized();
+  auto front_near = [&](double x) {  // the skin node most against `dir` within a strip at x
+    int32_t best = -1;
+    for (int32_t i = 0; i < skin; ++i)
+      if (std::abs(m.X(i, 0) - x) <= 0.05 * width &&
+          (best < 0 || m.X.row(i).dot(dir) < m.X.row(best).dot(dir)))
+        best = i;
+    return best;
+  };
+  const int32_t front = interact::most_anterior_skin_node(m);
+  std::vector<int32_t> contacts = {front};
+  if (count >= 2) contacts.push_back(front_near(m.X(front, 0) - 0.25 * width));
+  if (count >= 3) contacts.push_back(front_near(m.X(front, 0) + 0.25 * width));
+  std::vector<interact::Tool> tools;
+  for (int32_t node : contacts) {
+    if (node < 0) continue;  // no skin there (the contact is near the organ's side)
+    const interact::ForceRoute route = interact::route_force(m, m.X, node, dir, routing);
+    const double total = (route.forces * dir).sum();  // mN per mN of tool force
+    interact::Tool t;
+    t.vertex = node;
+    t.force_mn = 1000.0 * force_n / std::max(total, 1e-12) * dir;
+    tools.push_back(t);
+  }
+  return tools;
+}
+
+}  // namespace
+
+LayerOrder check_layer_order(const Model& m, const Eigen::MatrixX3d& x) {
+  LayerOrder order;
+  SurfaceMesh outer = model::layer_mesh(m, 0, x);
+  for (int32_t l = 1; l < m.layer_count(); ++l) {
+    SurfaceMesh inner = model::layer_mesh(m, l, x);
+    const geometry::Nesting n = geometry::check_nesting(outer, inner);
+    order.outside_nodes += n.vertices_outside;
+    order.surfaces_cross = order.surfaces_cross || n.surfaces_intersect;
+    outer = std::move(inner);
+  }
+  return order;
+}
+
+bool StabilityResult::energy_decays(const StabilityOptions& o) const {
+  return max_energy_j <= release_energy_j * (1.0 + o.energy_rise_tolerance) &&
+         final_energy_j <= release_energy_j * o.final_energy_fraction;
+}
+
+bool StabilityResult::passed(const StabilityOptions& o) const {
+  return finite && layers_ordered() && loaded_at_rest && returned_at_rest && energy_decays(o) &&
+         rest_error_mm <= o.rest_tolerance_mm;
+}
+
+std::vector<StabilityCase> stability_cases(double dt, bool quick) {
+  using sim::Integrator;
+  std::vector<StabilityCase> cases;
+  auto indent = [&](LoadKind kind, double pct, Integrator in, double h) {
+    cases.push_back({fmt::format("{} {:.0f}%", kind == LoadKind::kIndent ? "indent" : "pull", pct),
+                     kind, pct / 100.0, 0, 0.0, in, h});
+  };
+  auto tools = [&](int32_t n, double force_n) {
+    cases.push_back({fmt::format("{} tool{} {:g} N", n, n > 1 ? "s" : "", force_n),
+                     LoadKind::kTools, 0.0, n, force_n, Integrator::kImplicitEuler, dt});
+  };
+  if (quick) {
+    indent(LoadKind::kIndent, 50, Integrator::kImplicitEuler, dt);
+    indent(LoadKind::kPull, 30, Integrator::kImplicitEuler, dt);
+    tools(3, 1.0);
+    indent(LoadKind::kIndent, 30, Integrator::kImplicitEuler, 10 * dt);
+    indent(LoadKind::kIndent, 30, Integrator::kProjective, 10 * dt);
+    return cases;
+  }
+  for (double pct : {10.0, 20.0, 30.0, 40.0, 50.0})
+    indent(LoadKind::kIndent, pct, Integrator::kImplicitEuler, dt);
+  for (double pct : {10.0, 20.0, 30.0}) indent(LoadKind::kPull, pct, Integrator::kImplicitEuler, dt);
+  for (int32_t n : {1, 2, 3}) tools(n, 1.0);
+  for (Integrator in :
+       {Integrator::kSemiImplicitEuler, Integrator::kImplicitEuler, Integrator::kProjective})
+    for (double f : {0.1, 0.3, 1.0, 3.0, 10.0})
+      if (in != Integrator::kImplicitEuler || f != 1.0)  // that one is the 30% load case
+        indent(LoadKind::kIndent, 30, in, f * dt);
+  return cases;
+}
+
+StabilityResult run_stability_case(const Model& m, const sim::Material& material,
+                                   const sim::SolverOptions& solver, const Indentation& ind,
+                                   const StabilityCase& c, const StabilityOptions& o) {
+  const auto t0 = Clock::now();
+  sim::Material mat = material;
+  mat.gravity_mm_per_s2.setZero();
+  sim::SolverOptions opt = solver;
+  opt.mode = sim::Mode::kGlobal;
+  opt.integrator = c.integrator;
+  opt.dt_s = c.dt_s;
+  opt.threshold_mm = o.threshold_mm;
+  sim::Simulation s = sim::make_simulation(m, mat, opt);
+  const std::vector<int32_t> held =
+      sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
+  sim::fix_nodes(s, held);
+
+  StabilityResult r;
+  r.c = c;
+  Stage stage{s, nullptr, o, r};
+  bool loaded = true;
+  std::vector<int32_t> patch;
+  interact::ToolDriver driver;
+  if (c.kind == LoadKind::kTools) {
+    driver.routing.locality = std::min(driver.routing.locality, m.rings.locality);
+    driver.tools = make_tools(m, ind, c.tool_count, c.tool_force_n, driver.routing);
+    stage.tools = &driver;
+    loaded = stage.run();
+  } else {
+    patch = indenter_patch(m, ind, s.fixed);
+    const double sign = c.kind == LoadKind::kPull ? -1.0 : 1.0;
+    const Eigen::RowVector3d step =
+        sign * c.depth_fraction * ind.organ_depth_mm * ind.direction.normalized().transpose();
+    Eigen::MatrixX3d at(static_cast<Eigen::Index>(patch.size()), 3);
+    const int32_t ramp = std::max(1, o.ramp);
+    for (int32_t k = 1; k <= ramp && r.finite; ++k) {
+      for (size_t q = 0; q < patch.size(); ++q)
+        at.row(static_cast<Eigen::Index>(q)) = m.X.row(patch[q]) + (double(k) / ramp) * step;
+      sim::hold_nodes(s, patch, at);
+      loaded = stage.run() && loaded;
+    }
+  }
+  r.loaded_at_rest = loaded && r.finite;
+  if (r.finite) {
+    if (c.kind == LoadKind::kTools) {
+      for (interact::Tool& t : driver.tools) t.end_s = s.time_s;
+      interact::apply_tools(s, driver);
+    } else {
+      sim::release_nodes(s, patch);
+    }
+    stage.release();
+    r.returned_at_rest = stage.run() && r.finite;
+  }
+  r.recoveries = s.recoveries;
+  r.rest_error_mm = r.finite ? (s.x - m.X).rowwise().norm().maxCoeff() : INFINITY;
+  r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace lamina::validate
