@@ -129,6 +129,7 @@ struct ValidateArgs {
   bool json = false;                     ///< the summary as JSON on stdout
   bool quick = false;                    ///< one depth (10%) instead of four (CI)
   std::vector<double> depths;  ///< indentation depths, % of the organ's depth; empty = default
+  bool deepest = false;  ///< indent where the organ is deepest, not at its most anterior point
   bool stability = false;  ///< the stability suite instead of the finite-element comparison
   bool verbose = false;
 };

@@ -167,6 +167,9 @@ int main(int argc, char** argv) {
                  "indentation depths, % of the organ's depth, comma-separated (default 5,10,20,30)")
       ->delimiter(',')
       ->check(CLI::Range(0.5, 60.0));
+  va->add_flag("--deepest", val.deepest,
+               "indent where the organ is deepest along +y instead of at its most anterior point "
+               "(the paper's, which can be a thin edge)");
   va->add_flag("--stability", val.stability,
                "the stability suite: indentations to 50%, pulls, several tools, dt sweeps per "
                "integrator, each released and checked (finite, layer order, energy, rest)");

@@ -129,7 +129,9 @@ int run_validate(const ValidateArgs& a) {
   SceneModel built = make_scene_model(scene, progress);
   Model& m = built.model;
   const double edge = median_intra_length(m);
-  const validate::Indentation ind = validate::paper_indentation(m, std::max(8.0, 1.6 * edge));
+  const double radius = std::max(8.0, 1.6 * edge);
+  const validate::Indentation ind = a.deepest ? validate::deepest_indentation(m, radius)
+                                              : validate::paper_indentation(m, radius);
   const std::vector<int32_t> held =
       sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
   const io::MaterialReport material = io::resolve_material(scene, m, held);
@@ -206,6 +208,7 @@ int run_validate(const ValidateArgs& a) {
   j["layers"] = m.layer_count();
   j["fem_vertices"] = mesh.V.rows();
   j["fem_tets"] = mesh.T.rows();
+  j["contact_mm"] = {ind.contact_mm.x(), ind.contact_mm.y(), ind.contact_mm.z()};
   j["organ_depth_mm"] = ind.organ_depth_mm;
   j["indenter_radius_mm"] = ind.radius_mm;
   nlohmann::ordered_json list = nlohmann::ordered_json::array();

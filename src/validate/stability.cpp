@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "lamina/core/error.h"
@@ -107,7 +108,8 @@ std::vector<interact::Tool> make_tools(const Model& m, const Indentation& ind, i
         best = i;
     return best;
   };
-  const int32_t front = interact::most_anterior_skin_node(m);
+  const int32_t front =
+      interact::nearest_skin_node(m, m.X, ind.contact_mm, std::numeric_limits<double>::infinity());
   std::vector<int32_t> contacts = {front};
   if (count >= 2) contacts.push_back(front_near(m.X(front, 0) - 0.25 * width));
   if (count >= 3) contacts.push_back(front_near(m.X(front, 0) + 0.25 * width));

@@ -33,6 +33,12 @@ struct Indentation {
 /// far side of the skin along that line.
 Indentation paper_indentation(const Model& model, double radius_mm = 10.0);
 
+/// Like paper_indentation(), but at the skin node where the organ is deepest along +y (its
+/// first exit through the skin), so that a large indentation has room: the paper's anterior-most
+/// point can be a thin edge (16.5 mm deep on the TotalSegmentator liver). Tries at most about
+/// 400 skin nodes, evenly spread.
+Indentation deepest_indentation(const Model& model, double radius_mm = 10.0);
+
 /// One solved indentation.
 struct IndentResult {
   Eigen::MatrixX3d skin_u;      ///< displacement at each sample point (skin node), mm
