@@ -11,24 +11,6 @@
 #include "lamina/io/scene.h"
 
 namespace lamina::io {
-namespace {
-
-// Semi-implicit Euler is stable for dt < 2 / omega_max. Gershgorin's bound on M^-1 K (each
-// node's spring constants twice, plus its anchor, over its mass) bounds omega_max from above,
-// so 2 / sqrt(bound) is a safe estimate of the limit (the volume term's stiffness aside). It
-// reads the constants and masses the simulation resolved from the material and the model.
-double explicit_dt_limit(const sim::Simulation& s) {
-  const Model& m = *s.model;
-  std::vector<double> k(static_cast<size_t>(m.node_count()), s.material.anchor_stiffness_n_per_m);
-  const Springs& sp = m.springs;
-  for (size_t e = 0; e < sp.size(); ++e)
-    k[sp.i[e]] += 2.0 * s.stiffness_n_per_m[e], k[sp.j[e]] += 2.0 * s.stiffness_n_per_m[e];
-  double worst = 0.0;
-  for (int32_t i = 0; i < m.node_count(); ++i) worst = std::max(worst, k[i] / s.mass_kg[i]);
-  return worst > 0.0 ? 2.0 / std::sqrt(worst) : std::numeric_limits<double>::infinity();
-}
-
-}  // namespace
 
 MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed) {
   MaterialReport rep;
@@ -69,14 +51,15 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
   }
   rep.volume_stiffness_kpa = mat.volume_stiffness_kpa;
   rep.mass_damping_per_s = mat.mass_damping_per_s;
-  rep.explicit_dt_limit_s = explicit_dt_limit(probe);
+  rep.explicit_dt_limit_s = sim::explicit_dt_limit(probe);
   if (scene.solver.integrator == sim::Integrator::kSemiImplicitEuler &&
       scene.solver.dt_s > rep.explicit_dt_limit_s)
     log::warn(
         "{}: dt = {:.3g} s is beyond semi-implicit Euler's stability limit for this material "
-        "(about {:.2g} s): steps will blow up and be redone; use \"integrator\": "
-        "\"implicit_euler\" or a smaller dt_s",
-        scene.source, scene.solver.dt_s, rep.explicit_dt_limit_s);
+        "(about {:.2g} s): each step runs as {} substeps; \"integrator\": \"implicit_euler\" "
+        "takes the whole step at once",
+        scene.source, scene.solver.dt_s, rep.explicit_dt_limit_s,
+        sim::explicit_substeps(scene.solver.dt_s, rep.explicit_dt_limit_s));
   return rep;
 }
 

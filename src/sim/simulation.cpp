@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "lamina/core/error.h"
 #include "lamina/sim/spring_kernel.h"
@@ -342,10 +343,22 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
   return combine(part, T);
 }
 
+Measured measure(const Simulation& s);
+
 Measured advance(Simulation& s, Integrator integrator, double h, bool save, int32_t& cg) {
   switch (integrator) {
-    case Integrator::kSemiImplicitEuler:
-      return semi_implicit_euler(s, h, save);
+    case Integrator::kSemiImplicitEuler: {
+      // Beyond the stability limit: equal substeps below it (the rollback saves the start).
+      if (s.explicit_limit_version != s.setup_version) {
+        s.explicit_limit_s = explicit_dt_limit(s);
+        s.explicit_limit_version = s.setup_version;
+      }
+      const int64_t n = explicit_substeps(h, s.explicit_limit_s);
+      Measured m = semi_implicit_euler(s, h / static_cast<double>(n), save);
+      for (int64_t k = 1; k < n && m.ok; ++k)
+        m = semi_implicit_euler(s, h / static_cast<double>(n), false);
+      return n > 1 && m.ok ? measure(s) : m;
+    }
     case Integrator::kProjective:
       return projective_step(s, h, save);
     default:
@@ -609,6 +622,25 @@ double elastic_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
   const double volume =
       s.material.volume_stiffness_kpa > 0.0 ? volume_energy(s, x) : 0.0;  // kPa mm^3 = 1e-6 J
   return spring_energy(s, x) + (anchor + volume) * kJoulesPerKgMm2PerS2;
+}
+
+double explicit_dt_limit(const Simulation& s) {
+  const Model& m = *s.model;
+  std::vector<double> row(static_cast<size_t>(m.node_count()), s.material.anchor_stiffness_n_per_m);
+  const Springs& sp = m.springs;
+  for (size_t e = 0; e < sp.size(); ++e) {
+    row[sp.i[e]] += 2.0 * s.stiffness_n_per_m[e];
+    row[sp.j[e]] += 2.0 * s.stiffness_n_per_m[e];
+  }
+  if (s.material.volume_stiffness_kpa > 0.0) add_volume_stiffness_rows(s, row);
+  double limit = std::numeric_limits<double>::infinity();
+  for (int32_t i = 0; i < m.node_count(); ++i) {
+    if (s.fixed[i] || row[i] <= 0.0) continue;
+    const double w2 = row[i] / s.mass_kg[i];
+    const double c = s.material.damping_kg_per_s / s.mass_kg[i] + s.material.mass_damping_per_s;
+    limit = std::min(limit, (std::sqrt(c * c + 4.0 * w2) - c) / w2);  // root of w2 h^2 + 2ch = 4
+  }
+  return limit;
 }
 
 double spring_energy(const Simulation& s, const Eigen::MatrixX3d& x) {

@@ -143,6 +143,9 @@ double region_stiffness(const Simulation& s, size_t r);
 /// sum over regions of K_v / V0 G G^T (G the gradient of the region's volume).
 void volume_multipliers(const Simulation& s, const Eigen::MatrixX3d& p, int threads,
                         double* multiplier);
+/// Adds to each node's Gershgorin row sum (N/m) the volume term's: sum over the regions it
+/// bounds of K_v / V0 |g_i|_max ||G_r||_1, gradients at rest (explicit_dt_limit()).
+void add_volume_stiffness_rows(const Simulation& s, std::vector<double>& row);
 /// The volume term's energy at x, 1e-6 J (kPa mm^3).
 double volume_energy(const Simulation& s, const Eigen::MatrixX3d& x);
 

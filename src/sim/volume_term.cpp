@@ -146,6 +146,28 @@ void volume_multipliers(const Simulation& s, const Eigen::MatrixX3d& pm, int thr
   }
 }
 
+void add_volume_stiffness_rows(const Simulation& s, std::vector<double>& row) {
+  const Model& m = *s.model;
+  const size_t layers = m.layers.size();
+  const ConstCols x(m.X);
+  std::vector<double> g_max(static_cast<size_t>(m.node_count()));
+  std::vector<double> layer_l1(layers, 0.0);  // ||g||_1 over each layer's nodes
+  for (int32_t i = 0; i < m.node_count(); ++i) {
+    double gx, gy, gz;
+    layer_volume_gradient(s, x, i, gx, gy, gz);
+    g_max[i] = std::max({std::abs(gx), std::abs(gy), std::abs(gz)});
+    layer_l1[m.layer_of[i]] += std::abs(gx) + std::abs(gy) + std::abs(gz);
+  }
+  // Region r is bounded by layers r and r + 1 (the core by the deepest alone).
+  std::vector<double> region(layers);
+  for (size_t r = 0; r < layers; ++r)
+    region[r] = region_stiffness(s, r) * (layer_l1[r] + (r + 1 < layers ? layer_l1[r + 1] : 0.0));
+  for (int32_t i = 0; i < m.node_count(); ++i) {
+    const auto k = static_cast<size_t>(m.layer_of[i]);
+    row[i] += g_max[i] * (region[k] + (k > 0 ? region[k - 1] : 0.0));
+  }
+}
+
 double volume_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
   const Model& m = *s.model;
   std::vector<double> now(m.layers.size());

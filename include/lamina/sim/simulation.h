@@ -5,6 +5,7 @@
 /// every frame. Units: mm, kg, s; forces in mN (kg mm / s^2), stiffness in N/m (= mN/mm).
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -123,6 +124,9 @@ struct Simulation {
 
   /// Counts changes of what a prefactored solve depends on (movable nodes, material, dt).
   uint64_t setup_version = 0;
+  /// explicit_dt_limit(), cached for the setup_version it was computed at (0 = not yet).
+  double explicit_limit_s = 0.0;
+  uint64_t explicit_limit_version = 0;
   std::shared_ptr<detail::ProjectiveSolver> projective;  ///< made on the first projective step
 
   // What a step visits: the movable nodes (ascending) and every spring with a movable end.
@@ -198,7 +202,8 @@ void set_local_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 /// Puts every node back at rest (x = X, v = 0, time 0), keeping parameters and fixed nodes.
 void reset(Simulation& sim);
 
-/// Advances one time step: spring, damping, anchor, gravity and external forces; integrate;
+/// Advances one time step: spring, damping, anchor, gravity and external forces; integrate
+/// (semi-implicit Euler in explicit_substeps() equal parts when dt is beyond its limit);
 /// check every value is finite (else roll back and redo the step with two half steps, then with
 /// implicit Euler); measure.
 StepStats step(Simulation& sim);
@@ -230,6 +235,20 @@ double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer
 /// \note Throws lamina::Error (kInvalidInput) if the model is held nowhere (its slowest motion
 ///   is a free drift) or everywhere.
 double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations = 300);
+
+/// Semi-implicit Euler's stability limit for this simulation's masses, stiffness and damping,
+/// s: the largest dt with h^2 w^2 + 2 h c < 4 at every node, w^2 Gershgorin's bound on the
+/// node's row of M^-1 K (springs, anchor and the volume term's rank-one stiffness at rest) and
+/// c its damping rate. A safe (low) estimate: Gershgorin bounds w from above. step() splits a
+/// semi-implicit Euler step longer than 0.9 of it into equal substeps, so a physical material
+/// at a large dt costs more steps instead of blowing up.
+double explicit_dt_limit(const Simulation& sim);
+
+/// How many substeps step() splits a semi-implicit Euler step of dt_s into, given the limit.
+inline int64_t explicit_substeps(double dt_s, double limit_s) {
+  const double safe = 0.9 * limit_s;
+  return dt_s > safe ? static_cast<int64_t>(std::ceil(dt_s / safe)) : 1;
+}
 
 /// Total elastic energy of the springs at positions x, joules.
 double spring_energy(const Simulation& sim, const Eigen::MatrixX3d& x);
