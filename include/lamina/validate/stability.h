@@ -53,7 +53,7 @@ struct StabilityOptions {
   double final_energy_fraction = 1e-3;  ///< ... and must end below this fraction of it
   double threshold_mm = 1e-4;           ///< rest: no node moves more than this in one step
   double check_interval_s = 0.05;       ///< layer order checked this often (and at each stage)
-  int32_t ramp = 5;                     ///< a displacement load comes on in this many holds
+  double ramp_s = 2.0;  ///< an indentation or pull moves in at a steady speed over this time
   int64_t max_steps_per_stage = 20000;  ///< a stage that has not come to rest by then fails
 };
 
