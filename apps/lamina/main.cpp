@@ -162,7 +162,7 @@ int main(int argc, char** argv) {
                  "folder (created): validation.csv, summary.json, plots");
   va->add_flag("--json", val.json, "print the summary as one JSON object on stdout");
   va->add_flag("--quick", val.quick,
-               "one depth (10%) instead of four; with --stability, 5 cases instead of 22");
+               "one depth (10%) instead of four; with --stability, 5 cases instead of 25");
   va->add_option("--depths", val.depths,
                  "indentation depths, % of the organ's depth, comma-separated (default 5,10,20,30)")
       ->delimiter(',')

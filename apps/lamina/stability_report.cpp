@@ -37,13 +37,13 @@ std::string csv_of(const std::vector<StabilityResult>& rows, const validate::Sta
       "peak_displacement_mm,peak_volume_change_pct,loaded_at_rest,energy_rise,final_energy_ratio,"
       "returned_at_rest,rest_error_mm,steps,seconds\n";
   for (const StabilityResult& r : rows) {
-    const double e0 = r.release_energy_j > 0 ? r.release_energy_j : 1.0;
+    const double e0 = r.release_energy_j > 0 ? r.release_energy_j : 1.0;  // the final ratio's
     csv += fmt::format("{},{},{},{:g},{},{},{},{},{},{:.6g},{:.6g},{},{:.6g},{:.6g},{},{:.6g},{},{:.3f}\n",
                        r.c.name, kind_name(r.c.kind), io::integrator_name(r.c.integrator),
                        r.c.dt_s, r.passed(o) ? 1 : 0, r.finite ? 1 : 0, r.recoveries,
-                       r.outside_nodes, r.surfaces_cross ? 1 : 0, r.peak_displacement_mm,
-                       r.peak_volume_change_pct, r.loaded_at_rest ? 1 : 0,
-                       r.max_energy_j / e0 - 1.0, r.final_energy_j / e0,
+                       r.order.outside_nodes, r.order.surfaces_cross ? 1 : 0,
+                       r.peak_displacement_mm, r.peak_volume_change_pct, r.loaded_at_rest ? 1 : 0,
+                       r.energy_rise(), r.final_energy_j / e0,
                        r.returned_at_rest ? 1 : 0, r.rest_error_mm, r.steps, r.seconds);
   }
   return csv;
@@ -143,11 +143,10 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
   for (const StabilityResult& r : rows) {
     const bool ok = r.passed(options);
     passed += ok;
-    const double e0 = r.release_energy_j > 0 ? r.release_energy_j : 1.0;
     fmt::print(stderr, "{:>14} {:>19} {:>7g} {:>9.2f} {:>8.3f} {:>7} {:>5} {:>8.2f}% {:>9.4f} {:>6} {:>5}\n",
                r.c.name, io::integrator_name(r.c.integrator), r.c.dt_s, r.peak_displacement_mm,
-               r.peak_volume_change_pct, r.outside_nodes, r.recoveries,
-               100.0 * (r.max_energy_j / e0 - 1.0), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
+               r.peak_volume_change_pct, r.order.outside_nodes, r.recoveries,
+               100.0 * r.energy_rise(), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
   }
   const std::string verdict =
       fmt::format("stability: {} of {} cases passed (organ depth {:.1f} mm, rest tolerance {:g} mm)",
@@ -176,8 +175,8 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
     o["passed"] = r.passed(options);
     o["finite"] = r.finite;
     o["recoveries"] = r.recoveries;
-    o["outside_nodes"] = r.outside_nodes;
-    o["surfaces_cross"] = r.surfaces_cross;
+    o["outside_nodes"] = r.order.outside_nodes;
+    o["surfaces_cross"] = r.order.surfaces_cross;
     o["order_checks"] = r.order_checks;
     o["peak_displacement_mm"] = r.peak_displacement_mm;
     o["peak_volume_change_pct"] = r.peak_volume_change_pct;

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "lamina/core/error.h"
+#include "lamina/model/summarize_model.h"
 
 namespace lamina::model {
 namespace {
@@ -22,23 +23,6 @@ Mandel isotropic(double lambda, double mu) {
   c.topLeftCorner<3, 3>().setConstant(lambda);
   for (int a = 0; a < 3; ++a) c(a, a) += 2.0 * mu, c(a + 3, a + 3) = 2.0 * mu;
   return c;
-}
-
-// Each node's unit normal on its layer (area-weighted face normals).
-Eigen::MatrixX3d layer_normals(const Model& m) {
-  Eigen::MatrixX3d n = Eigen::MatrixX3d::Zero(m.node_count(), 3);
-  for (const ModelLayer& l : m.layers)
-    for (Eigen::Index t = 0; t < l.F.rows(); ++t) {
-      const Eigen::RowVector3d a = m.X.row(l.F(t, 0)), b = m.X.row(l.F(t, 1)),
-                               c = m.X.row(l.F(t, 2));
-      const Eigen::RowVector3d fn = (b - a).cross(c - a);  // twice the area, outward
-      for (int k = 0; k < 3; ++k) n.row(l.F(t, k)) += fn;
-    }
-  for (Eigen::Index i = 0; i < n.rows(); ++i) {
-    const double len = n.row(i).norm();
-    n.row(i) = len > 0.0 ? Eigen::RowVector3d(n.row(i) / len) : Eigen::RowVector3d(0, 0, 1);
-  }
-  return n;
 }
 
 // A spring along d contributes k l^2 D D^T to the network's tensor (times 1 / V), D = (d1^2,

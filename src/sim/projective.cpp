@@ -87,8 +87,6 @@ void add_volume_term(const Simulation& s, ProjectiveSolver& p, double h) {
     p.G[k].row(q) += s.volume_gradient.row(i);
     if (k > 0) p.G[k - 1].row(q) -= s.volume_gradient.row(i);
   }
-  Eigen::MatrixX3d x0(n, 3);
-  for (Eigen::Index q = 0; q < n; ++q) x0.row(q) = s.x.row(s.active_nodes[q]);
   const auto r = static_cast<Eigen::Index>(regions);
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(r, r);
   const double h2 = h * h;
@@ -96,7 +94,9 @@ void add_volume_term(const Simulation& s, ProjectiveSolver& p, double h) {
     const double c = region_stiffness(s, static_cast<size_t>(a));  // K_v / V0, kPa / mm^3
     p.Z[a] = p.ldlt.solve(p.G[a]);
     // h^2 c G (G^T x0): the Gauss-Newton term's share of the right side.
-    p.base += (h2 * c * p.G[a].cwiseProduct(x0).sum()) * p.G[a];
+    double g_x0 = 0.0;
+    for (Eigen::Index q = 0; q < n; ++q) g_x0 += p.G[a].row(q).dot(s.x.row(s.active_nodes[q]));
+    p.base += (h2 * c * g_x0) * p.G[a];
     S(a, a) = 1.0 / (h2 * c);
   }
   for (Eigen::Index a = 0; a < r; ++a)

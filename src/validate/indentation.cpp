@@ -4,11 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <Eigen/Geometry>
 #include <nanoflann.hpp>
 
 #include "lamina/core/error.h"
 #include "lamina/interact/tools.h"
+#include "lamina/model/summarize_model.h"
 
 namespace lamina::validate {
 namespace {
@@ -108,18 +108,12 @@ Indentation paper_indentation(const Model& m, double radius_mm) {
 Indentation deepest_indentation(const Model& m, double radius_mm) {
   Indentation ind = paper_indentation(m, radius_mm);
   const int32_t skin = m.layers[0].node_count;
-  // Area-weighted skin normals: only a node facing forward (-y) is pushed into the organ by +y.
-  const Eigen::MatrixX3i& F = m.layers[0].F;
-  Eigen::MatrixX3d normal = Eigen::MatrixX3d::Zero(skin, 3);
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::RowVector3d a = m.X.row(F(f, 0)), b = m.X.row(F(f, 1)), c = m.X.row(F(f, 2));
-    const Eigen::RowVector3d n = (b - a).cross(c - a);
-    for (int k = 0; k < 3; ++k) normal.row(F(f, k)) += n;
-  }
+  // Only a skin node facing forward (-y) is pushed into the organ by +y.
+  const Eigen::MatrixX3d normal = model::layer_normals(m);
   const int32_t stride = std::max(1, skin / 400);
   double deepest = 0.0;
   for (int32_t i = 0; i < skin; i += stride) {
-    if (in_slab(m.X.row(i).transpose(), ind) || normal(i, 1) > -0.5 * normal.row(i).norm())
+    if (in_slab(m.X.row(i).transpose(), ind) || normal(i, 1) > -0.5)
       continue;
     for (const interact::Crossing& c :
          interact::force_line_crossings(m, m.X, i, Eigen::Vector3d::UnitY()))

@@ -22,8 +22,8 @@ using Clock = std::chrono::steady_clock;
 void record_layer_order(const Model& m, const Eigen::MatrixX3d& x, StabilityResult& r) {
   ++r.order_checks;
   const LayerOrder o = check_layer_order(m, x);
-  r.outside_nodes = std::max(r.outside_nodes, o.outside_nodes);
-  r.surfaces_cross = r.surfaces_cross || o.surfaces_cross;
+  r.order.outside_nodes = std::max(r.order.outside_nodes, o.outside_nodes);
+  r.order.surfaces_cross = r.order.surfaces_cross || o.surfaces_cross;
 }
 
 // One stage: steps until the model has been at rest for 10 steps (or the budget runs out),
@@ -147,13 +147,17 @@ LayerOrder check_layer_order(const Model& m, const Eigen::MatrixX3d& x) {
   return order;
 }
 
+double StabilityResult::energy_rise() const {
+  return release_energy_j > 0.0 ? max_energy_j / release_energy_j - 1.0 : 0.0;
+}
+
 bool StabilityResult::energy_decays(const StabilityOptions& o) const {
   return max_energy_j <= release_energy_j * (1.0 + o.energy_rise_tolerance) &&
          final_energy_j <= release_energy_j * o.final_energy_fraction;
 }
 
 bool StabilityResult::passed(const StabilityOptions& o) const {
-  return finite && layers_ordered() && loaded_at_rest && returned_at_rest && energy_decays(o) &&
+  return finite && order.ordered() && loaded_at_rest && returned_at_rest && energy_decays(o) &&
          rest_error_mm <= o.rest_tolerance_mm;
 }
 

@@ -50,8 +50,8 @@ void expect_passed(const validate::StabilityResult& r) {
   const validate::StabilityOptions o;
   SCOPED_TRACE(r.c.name + ", " + io::integrator_name(r.c.integrator));
   EXPECT_TRUE(r.finite);
-  EXPECT_EQ(r.outside_nodes, 0);
-  EXPECT_FALSE(r.surfaces_cross);
+  EXPECT_EQ(r.order.outside_nodes, 0);
+  EXPECT_FALSE(r.order.surfaces_cross);
   EXPECT_GT(r.order_checks, 5);
   EXPECT_TRUE(r.loaded_at_rest);
   EXPECT_TRUE(r.returned_at_rest);

@@ -37,6 +37,10 @@ struct ModelSummary {
 SurfaceMesh layer_mesh(const Model& model, int32_t layer);
 SurfaceMesh layer_mesh(const Model& model, int32_t layer, const Eigen::MatrixX3d& x);
 
+/// Each node's outward unit normal on its own layer at rest (area-weighted face normals;
+/// #nodes by 3).
+Eigen::MatrixX3d layer_normals(const Model& model);
+
 /// Measures a model: per-layer mesh quality (with CGAL self-intersection and nesting checks),
 /// spring counts and connectivity, mass.
 /// @param[in] model  the model

@@ -62,8 +62,8 @@ struct StabilityResult {
   StabilityCase c;
   bool finite = true;              ///< every state finite (after any rollback)
   int64_t recoveries = 0;          ///< steps that went non-finite and were rolled back and redone
-  int64_t outside_nodes = 0;       ///< worst check: nodes of inner layers on or outside their outer
-  bool surfaces_cross = false;     ///< some check found an inner layer crossing its outer layer
+  /// The worst of the checks: most nodes outside, and whether any check found surfaces crossing.
+  LayerOrder order;
   int32_t order_checks = 0;        ///< how many times the layer order was checked
   double peak_displacement_mm = 0.0;
   double peak_volume_change_pct = 0.0;  ///< of the skin's enclosed volume, largest |change|
@@ -78,7 +78,8 @@ struct StabilityResult {
   /// Energy after the release, sampled each step: (time since release s, J), for the plot.
   std::vector<std::pair<double, double>> energy_trace;
 
-  bool layers_ordered() const { return outside_nodes == 0 && !surfaces_cross; }
+  /// The largest energy after the release over the energy at the release, minus 1.
+  double energy_rise() const;
   bool energy_decays(const StabilityOptions& o) const;
   bool passed(const StabilityOptions& o) const;
 };
