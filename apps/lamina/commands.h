@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
 
@@ -38,6 +39,8 @@ struct SceneModel {
 SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress);
 
 /// The segmentation named by `input`: the built-in phantom for "phantom", else a file or folder.
+/// How every command reads a volume: main() sets the voxel budget (--max-voxels).
+extern io::ReadVolumeOptions volume_read_options;
 LabelVolume read_input(const std::string& input);
 
 /// What a positional argument names, as a scene: SCENE.json is loaded; a .vtu model, a mask
@@ -81,6 +84,9 @@ struct RunArgs {
   bool verbose = false;
   bool realtime = false;  ///< pace the steps at rate_hz of wall time
   double rate_hz = 1000.0;
+  int64_t checkpoint_every = 0;  ///< > 0: write OUTDIR/checkpoint.lmck every this many steps
+  std::string resume;            ///< a checkpoint to continue from
+  int64_t stop_after_steps = 0;  ///< > 0: stop (with a checkpoint) after this many steps
 };
 /// Simulates a scene: writes OUTDIR/metrics.csv, summary.json, skin.pvd and frames/ (layout in
 /// docs/scenes.md).

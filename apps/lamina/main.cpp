@@ -54,6 +54,11 @@ int main(int argc, char** argv) {
       "-q,--quiet", [&](int64_t) { verbosity = 0; }, "only warnings and errors");
   app.add_flag_function(
       "-v,--verbose", [&](int64_t) { verbosity = 2; }, "debug messages");
+  app.add_option("--max-voxels", cli::volume_read_options.max_voxels,
+                 "refuse a volume with more voxels than this before reading it (default 2^31; "
+                 "a corrupt header can claim terabytes)")
+      ->envname("LAMINA_MAX_VOXELS")
+      ->check(CLI::PositiveNumber);
 
   cli::PhantomArgs phantom;
   std::string spacing = "1.5", size;
@@ -106,6 +111,13 @@ int main(int argc, char** argv) {
   ru->add_flag("--realtime", run.realtime,
                "pace the steps at --rate per wall second (a haptic loop); reports jitter");
   ru->add_option("--rate", run.rate_hz, "steps per wall second with --realtime (default 1000)");
+  ru->add_option("--checkpoint-every", run.checkpoint_every,
+                 "save the whole state to OUTDIR/checkpoint.lmck every N steps (atomically)");
+  ru->add_option("--resume", run.resume,
+                 "continue a run from its checkpoint, bit for bit (the scene defaults to the "
+                 "checkpoint's)");
+  ru->add_option("--stop-after", run.stop_after_steps,
+                 "stop after N steps with a checkpoint (run a long job in chunks)");
 
   cli::ViewArgs view;
   std::string view_size = "1400x900";

@@ -101,7 +101,8 @@ void check_header(const std::string& path, itk::ImageIOBase* io, const ReadVolum
     }
   if (voxels > opt.max_voxels)
     throw invalid_input(path, "has " + std::to_string(voxels) + " voxels, more than the limit of " +
-                                  std::to_string(opt.max_voxels));
+                                  std::to_string(opt.max_voxels) +
+                                  " (raise it with --max-voxels if the image is really this large)");
 }
 
 // MetaIO reports a short read ("data not read completely") on std::cerr and carries on with

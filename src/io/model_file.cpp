@@ -1,5 +1,7 @@
 #include "lamina/io/model_file.h"
 
+#include <zlib.h>
+
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -19,6 +21,14 @@
 #include "lamina/core/error.h"
 
 namespace lamina::io {
+namespace {
+
+uint32_t crc(uint32_t c, const void* data, size_t bytes) {
+  return static_cast<uint32_t>(crc32_z(c, static_cast<const Bytef*>(data), bytes));
+}
+
+}  // namespace
+
 namespace {
 
 constexpr int32_t kFormatVersion = 1;
@@ -323,6 +333,8 @@ void save_model(const Model& m, const std::string& path) {
     write_array(out, field, "layer_node_count", node_count, 1, true);
     write_array(out, field, "layer_face_count", face_count, 1, true);
     write_array(out, field, "source", source, 1, true);
+    write_array(out, field, "content_crc32",
+                std::vector<int64_t>{static_cast<int64_t>(model_fingerprint(m))}, 1, true);
     out << "    </FieldData>\n"
         << "    <Piece NumberOfPoints=\"" << n << "\" NumberOfCells=\"" << types.size() << "\">\n"
         << "      <PointData>\n";
@@ -493,7 +505,32 @@ Model load_model(const std::string& path) {
     s.stiffness_n_per_m.push_back(stiffness[cell]);
     s.kind.push_back(kind);
   }
+  // Every value above passed its own check; the checksum catches one changed to another valid
+  // value (an edited position or stiffness). Files written before it existed have none.
+  if (f.arrays.contains("FieldData/content_crc32")) {
+    const int64_t stored = read_values<int64_t>(path, f, "FieldData/content_crc32", 1)[0];
+    if (stored != static_cast<int64_t>(model_fingerprint(m)))
+      throw bad("contents do not match their checksum (content_crc32): the file was edited or "
+                "damaged; rebuild it with lamina build");
+  }
   return m;
 }
+
+uint32_t model_fingerprint(const Model& m) {
+  uint32_t c = crc(0, m.X.data(), static_cast<size_t>(m.X.size()) * sizeof(double));
+  c = crc(c, m.mass_kg.data(), m.mass_kg.size() * sizeof(double));
+  c = crc(c, m.fixed.data(), m.fixed.size());
+  c = crc(c, m.layer_of.data(), m.layer_of.size() * sizeof(int32_t));
+  for (const ModelLayer& l : m.layers)
+    c = crc(c, l.F.data(), static_cast<size_t>(l.F.size()) * sizeof(int));
+  const Springs& s = m.springs;
+  c = crc(c, s.i.data(), s.i.size() * sizeof(int32_t));
+  c = crc(c, s.j.data(), s.j.size() * sizeof(int32_t));
+  c = crc(c, s.rest_length_mm.data(), s.rest_length_mm.size() * sizeof(double));
+  c = crc(c, s.stiffness_n_per_m.data(), s.stiffness_n_per_m.size() * sizeof(double));
+  return c;
+}
+
+
 
 }  // namespace lamina::io

@@ -564,6 +564,8 @@ std::string run_summary_json(const RunSummary& s) {
   j["scene"] = s.scene;
   j["model"] = s.model;
   j["converged"] = s.converged;
+  j["stopped"] = s.stopped;
+  j["unstable"] = s.unstable;
   j["steps"] = s.steps;
   j["sim_seconds"] = s.sim_seconds;
   j["wall_seconds"] = s.wall_seconds;

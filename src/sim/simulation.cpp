@@ -275,6 +275,13 @@ Measured implicit_euler(Simulation& s, double h, bool save, int32_t& iterations)
   }
   double b2 = 0.0, rz = 0.0, r2 = 0.0;
   for (int t = 0; t < T; ++t) b2 += part[t].a, rz += part[t].b, r2 += part[t].c;
+  // A load so large that |b|^2 overflows would stop CG before its first iteration and pass for
+  // "no motion": it is a failed step (nothing has been written yet).
+  if (!std::isfinite(b2) || !std::isfinite(rz)) {
+    Measured failed;
+    failed.ok = false;
+    return failed;
+  }
 
   // 4. Conjugate gradients on v1 (in dv).
   const double stop2 = s.options.cg_tolerance * s.options.cg_tolerance * b2;
@@ -573,6 +580,39 @@ void reset(Simulation& s) {
   refresh(s);
 }
 
+SimState capture_state(const Simulation& s) {
+  return SimState{s.x, s.v, s.f_ext, s.dv, s.time_s, s.steps, s.recoveries, s.fixed, s.movable};
+}
+
+void restore_state(Simulation& s, const SimState& st) {
+  const Eigen::Index n = s.model->node_count();
+  const auto un = static_cast<size_t>(n);
+  for (const Eigen::MatrixX3d* m : {&st.x, &st.v, &st.f_ext, &st.dv})
+    if (m->rows() != n) throw invalid_input("simulation state", "has " + std::to_string(m->rows()) +
+                                                                    " nodes, the model " +
+                                                                    std::to_string(n));
+  if (st.fixed.size() != un || st.movable.size() != un)
+    throw invalid_input("simulation state", "node flags do not match the model's node count");
+  if (!st.x.allFinite() || !st.v.allFinite() || !st.f_ext.allFinite() || !st.dv.allFinite())
+    throw invalid_input("simulation state", "holds a value that is not finite");
+  for (size_t i = 0; i < un; ++i)
+    if (st.fixed[i] > 1 || st.movable[i] > 1 || (st.fixed[i] && st.movable[i]))
+      throw invalid_input("simulation state", "node " + std::to_string(i) +
+                                                  ": fixed and movable flags are not 0/1 or both set");
+  if (!std::isfinite(st.time_s) || st.time_s < 0.0 || st.steps < 0 || st.recoveries < 0)
+    throw invalid_input("simulation state", "time, step or recovery count out of range");
+  s.x = st.x;
+  s.v = st.v;
+  s.f_ext = st.f_ext;
+  s.fixed = st.fixed;
+  s.movable = st.movable;
+  s.time_s = st.time_s;
+  s.steps = st.steps;
+  s.recoveries = st.recoveries;
+  refresh(s);  // the active lists and frozen caches; it zeroes dv of nodes that do not move
+  s.dv = st.dv;
+}
+
 std::vector<int32_t> nodes_near_plane(const Model& model, const Eigen::Vector3d& point,
                                       const Eigen::Vector3d& normal, double distance_mm) {
   const Eigen::Vector3d n = normal.normalized();
@@ -678,6 +718,7 @@ StepStats step(Simulation& s) {
       roll_back(s);
       for (int32_t i : s.active_nodes) s.v.row(i).setZero();
       s.dv.setZero();
+      st.failed = true;
     }
     m = measure(s);
   }
@@ -691,7 +732,7 @@ StepStats step(Simulation& s) {
   st.skin_volume_mm3 = layer_volume_now(s, s.x, 0, tris >= 4 * kParallelSprings ? threads_for(s) : 1);
   st.volume_change_pct =
       100.0 * (st.skin_volume_mm3 - s.rest_skin_volume_mm3) / s.rest_skin_volume_mm3;
-  st.converged = st.max_move_mm < s.options.threshold_mm;
+  st.converged = !st.failed && st.max_move_mm < s.options.threshold_mm;
   st.step_us =
       std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
   return st;
@@ -702,6 +743,7 @@ StepStats run_to_convergence(Simulation& s, int64_t quiet_steps) {
   int64_t quiet = 0;
   for (int64_t k = 0; k < s.options.max_steps; ++k) {
     st = step(s);
+    if (st.failed) break;  // held still by force, not at rest
     quiet = st.converged ? quiet + 1 : 0;
     if (quiet >= std::max<int64_t>(1, quiet_steps)) return st;
   }

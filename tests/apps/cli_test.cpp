@@ -333,6 +333,70 @@ std::vector<BadCase> bad_cases() {
                },
                {"--layer", "-1"},
                {"e.stl"}});
+  c.push_back({"VolumeOverTheConfiguredVoxelBudget",
+               [](const TempDir& d) {
+                 write_small_phantom(d, "p.nii.gz");
+                 return "--max-voxels 1000 " + build_args(d, "p.nii.gz");
+               },
+               {"p.nii.gz", "limit of 1000", "--max-voxels"}});
+  // A model whose every value is valid but one was changed after saving: only its checksum can
+  // tell.
+  c.push_back({"InfoOnModelEditedAfterSaving",
+               [](const TempDir& d) {
+                 const std::string path = build_small_model(d, "edited.vtu");
+                 std::string text = read_file(path);
+                 size_t at = text.find(">", text.find("Name=\"Points\"")) + 1;
+                 while (!std::isdigit(static_cast<unsigned char>(text[at]))) ++at;
+                 text[at] = text[at] == '9' ? '8' : static_cast<char>(text[at] + 1);
+                 write_file(path, text);
+                 return "info " + quoted(path);
+               },
+               {"edited.vtu", "checksum"},
+               {}});
+  c.push_back({"InfoOnModelOfAnotherVersion",
+               [](const TempDir& d) {
+                 const std::string path = build_small_model(d, "future.vtu");
+                 std::string text = read_file(path);
+                 const size_t name = text.find("Name=\"lamina_format_version\"");
+                 const size_t value = text.find(">", name) + 1;
+                 text.replace(value, text.find("<", value) - value, "\n99\n");
+                 write_file(path, text);
+                 return "info " + quoted(path);
+               },
+               {"future.vtu", "version 99"},
+               {}});
+
+  // Scenes: each must be refused before the model is built or the output folder made.
+  const auto scene_case = [&](const std::string& name, const std::string& text,
+                              std::vector<std::string> message) {
+    c.push_back({name,
+                 [text](const TempDir& d) {
+                   write_file(d.work / "scene.json", text);
+                   return "run " + quoted(d.file("scene.json")) + " -o " + quoted(d.file("out"));
+                 },
+                 std::move(message),
+                 {"out"}});
+  };
+  scene_case("SceneInvalidJson", "{\"solver\": {\"dt_s\": 0.01,,}}", {"scene.json", "JSON"});
+  scene_case("SceneWrongType", R"({"solver": {"dt_s": "fast"}})", {"scene.json", "solver.dt_s"});
+  scene_case("SceneNegativeDt", R"({"solver": {"dt_s": -0.01}})", {"scene.json", "solver.dt_s"});
+  scene_case("SceneNegativeStiffness", R"({"material": {"stiffness_n_per_m": -3}})",
+             {"scene.json", "material.stiffness_n_per_m"});
+  scene_case("SceneLocalityZero", R"({"solver": {"locality": 0}})", {"scene.json", "locality"});
+  scene_case("SceneInfiniteForce",
+             R"({"tools": [{"vertex": 0, "force_n": [0, 1e999, 0]}]})",
+             {"scene.json", "1e999"});
+  scene_case("SceneMissingModelFile", R"({"model": {"model": "nowhere.vtu"}})",
+             {"nowhere.vtu"});
+
+  // Checkpoints (lamina run --resume).
+  c.push_back({"ResumeFromAFileThatIsNotACheckpoint",
+               [](const TempDir& d) {
+                 write_file(d.work / "ck.lmck", "LAMCKPT\nbut not really");
+                 return "run -o " + quoted(d.file("out")) + " --resume " + quoted(d.file("ck.lmck"));
+               },
+               {"ck.lmck", "checkpoint"},
+               {"out"}});
   return c;
 }
 

@@ -420,5 +420,139 @@ TEST(Run, RealtimeWithABadRateWritesNothing) {
   EXPECT_FALSE(fs::exists(dir.path / "out"));
 }
 
+// metrics.csv without its step_us column (wall time, which no two runs share).
+std::string metrics_without_timing(const fs::path& csv) {
+  std::string out;
+  for (const std::string& row : lines_of(read_text(csv))) {
+    size_t a = 0;
+    for (int c = 0; c < 5; ++c) a = row.find(',', a) + 1;
+    out += row.substr(0, a) + row.substr(row.find(',', a) + 1) + "\n";
+  }
+  return out;
+}
+
+// A scene on the small phantom whose second tool touches down after the checkpoint, so that a
+// resume must carry the first tool's route, the local-mode node set and the loads across.
+std::string checkpoint_scene(const json& material, const json& solver) {
+  json scene = {
+      {"model", {{"input", "phantom"}, {"build", {{"skin_vertices", 400}, {"layers", 3}}}}},
+      {"material", material},
+      {"solver", solver},
+      {"tools", json::array({{{"point", {-38.9, -61.3, -1.4}}, {"force_n", {0, 0.4, 0}},
+                              {"end_s", 0.6}},
+                             {{"point", {-39.9, 8.9, 66.3}}, {"force_n", {0, 0, -0.3}},
+                              {"start_s", 0.4}, {"end_s", 0.8}}})},
+      {"boundary",
+       {{"fixed", json::array({{{"plane", {{"point", {0, 75.3, 0}}, {"normal", {0, 1, 0}},
+                                           {"distance_mm", 10}}}}})}}},
+      {"output", {{"frame_interval_s", 0.1}, {"all_layers", true}}}};
+  scene["solver"]["contact_threshold_mm"] = 30;
+  return scene.dump(2);
+}
+
+TEST(LaminaRun, ResumeFromACheckpointContinuesBitForBit) {
+  const std::vector<std::pair<json, json>> setups = {
+      // The paper's: semi-implicit Euler, local mode (the movable set grows with each tool).
+      {{{"stiffness_n_per_m", 3}, {"damping_kg_per_s", 3}, {"node_mass_kg", 1}},
+       {{"mode", "local"}, {"max_steps", 3000}}},
+      // Physical: implicit Euler with its warm start, the volume term, mass damping.
+      {{{"young_modulus_kpa", 6}, {"poisson_ratio", 0.45}, {"damping_ratio", 1.0}},
+       {{"mode", "global"}, {"integrator", "implicit_euler"}, {"max_steps", 3000}}},
+      // Projective dynamics with its prefactored system.
+      {{{"stiffness_n_per_m", 3}, {"damping_kg_per_s", 3}, {"node_mass_kg", 1}},
+       {{"mode", "global"}, {"integrator", "projective"}, {"max_steps", 3000}}},
+  };
+  for (const auto& [material, solver] : setups) {
+    SCOPED_TRACE(solver.dump());
+    test::TempDir dir;
+    std::ofstream(dir.file("scene.json")) << checkpoint_scene(material, solver);
+    const RunResult whole = run_lamina(dir, "-q run scene.json -o whole");
+    ASSERT_EQ(whole.exit_code, 0) << whole.err;
+    // Stopped at step 25 (t = 0.25 s: the first tool pressing, the second not down yet), then
+    // resumed in two chunks; the last resume names no scene: the checkpoint does.
+    const RunResult part = run_lamina(dir, "-q run scene.json -o part --stop-after 25");
+    ASSERT_EQ(part.exit_code, 0) << part.err;
+    const json stopped = json::parse(read_text(dir.path / "part" / "summary.json"));
+    EXPECT_TRUE(stopped["stopped"].get<bool>());
+    EXPECT_FALSE(stopped["converged"].get<bool>());
+    EXPECT_EQ(stopped["steps"], 25);
+    const RunResult more = run_lamina(
+        dir, "-q run scene.json -o part --resume part/checkpoint.lmck --stop-after 30");
+    ASSERT_EQ(more.exit_code, 0) << more.err;
+    const RunResult rest = run_lamina(dir, "-q run -o part --resume part/checkpoint.lmck");
+    ASSERT_EQ(rest.exit_code, 0) << rest.err;
+
+    const json a = json::parse(read_text(dir.path / "whole" / "summary.json"));
+    const json b = json::parse(read_text(dir.path / "part" / "summary.json"));
+    ASSERT_TRUE(a["converged"].get<bool>());
+    EXPECT_GT(a["steps"].get<int>(), 55);
+    for (const char* key : {"converged", "steps", "sim_seconds", "max_displacement_mm",
+                            "max_abs_volume_change_pct", "final_rest_error_mm",
+                            "final_volume_change_pct", "frames", "max_reaction_n", "recoveries"})
+      EXPECT_EQ(a[key], b[key]) << key;
+    EXPECT_EQ(metrics_without_timing(dir.path / "whole" / "metrics.csv"),
+              metrics_without_timing(dir.path / "part" / "metrics.csv"));
+    for (const char* series : {"skin.pvd", "layer1.pvd", "layer2.pvd"}) {
+      EXPECT_EQ(read_text(dir.path / "whole" / series), read_text(dir.path / "part" / series));
+      for (const auto& [t, file] : read_pvd(dir.path / "whole" / series))
+        EXPECT_EQ(read_text(dir.path / "whole" / file), read_text(dir.path / "part" / file))
+            << file;
+    }
+  }
+}
+
+TEST(LaminaRun, ABadCheckpointOrAChangedSceneIsRefused) {
+  test::TempDir dir;
+  std::ofstream(dir.file("scene.json"))
+      << checkpoint_scene({{"stiffness_n_per_m", 3}}, {{"mode", "local"}});
+  ASSERT_EQ(run_lamina(dir, "-q run scene.json -o part --stop-after 5").exit_code, 0);
+  const std::string good = read_text(dir.path / "part" / "checkpoint.lmck");
+  const auto refused = [&](const std::string& args, const std::string& message) {
+    const RunResult r = run_lamina(dir, args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(lines_of(r.err).size(), 1u) << r.err;
+    EXPECT_NE(r.err.find(message), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir.path / "out")) << args;
+  };
+  std::string flipped = good;
+  flipped[flipped.size() / 2] ^= 0x10;
+  std::ofstream(dir.file("flipped.lmck"), std::ios::binary) << flipped;
+  refused("-q run -o out --resume flipped.lmck", "flipped.lmck: checkpoint is corrupt");
+  std::ofstream(dir.file("short.lmck"), std::ios::binary) << good.substr(0, good.size() - 9);
+  refused("-q run -o out --resume short.lmck", "short.lmck: checkpoint is truncated");
+  std::ofstream(dir.file("model.vtu")) << "<VTKFile/>";
+  refused("-q run -o out --resume model.vtu", "not a Lamina checkpoint");
+  refused("-q run -o out --resume none.lmck", "none.lmck: cannot open");
+  // The scene edited after the checkpoint: its tools would no longer match the saved state.
+  std::ofstream(dir.file("scene.json"))
+      << checkpoint_scene({{"stiffness_n_per_m", 4}}, {{"mode", "local"}});
+  refused("-q run -o out --resume part/checkpoint.lmck", "not that scene as it was");
+}
+
+// A load no integrator can carry (1e297 N): every step is rolled back, the run stops with exit 5
+// and one line saying what to lower, and what it did is written, with no NaN anywhere.
+TEST(LaminaRun, ALoadBeyondRecoveryStopsCleanlyWithExitFive) {
+  test::TempDir dir;
+  std::ofstream(dir.file("absurd.json"))
+      << R"({"model": {"build": {"skin_vertices": 400}},
+             "tools": [{"vertex": 0, "force_n": [0, 1e297, 0], "end_s": 1}],
+             "output": {"frame_interval_s": 0.05}})";
+  const RunResult r = run_lamina(dir, "-q run absurd.json -o out");
+  EXPECT_EQ(r.exit_code, 5) << r.err;
+  EXPECT_EQ(lines_of(r.err).size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("absurd.json: the simulation could not take a step"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("lower it"), std::string::npos) << r.err;
+  const json sum = json::parse(read_text(dir.path / "out" / "summary.json"));
+  EXPECT_TRUE(sum["unstable"].get<bool>());
+  EXPECT_FALSE(sum["converged"].get<bool>());
+  EXPECT_GT(sum["recoveries"].get<int>(), 0);
+  const std::string metrics = read_text(dir.path / "out" / "metrics.csv");
+  EXPECT_EQ(metrics.find("nan"), std::string::npos);
+  EXPECT_EQ(metrics.find("inf"), std::string::npos);
+  for (const auto& [t, file] : read_pvd(dir.path / "out" / "skin.pvd"))
+    EXPECT_TRUE(read_vtp_points(dir.path / "out" / file).allFinite()) << file;
+}
+
 }  // namespace
 }  // namespace lamina

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// The one exception type Lamina throws across its public API, and the process exit codes the
-/// CLI maps it to (documented in docs/architecture.md, "Errors").
+/// CLI maps it to (documented in docs/errors.md).
 
 #include <stdexcept>
 #include <string>
@@ -14,6 +14,7 @@ enum class ErrorKind : int {
   kInvalidInput = 2,  ///< the user's input (file, option, data) cannot be used
   kOutput = 3,        ///< an output file could not be written
   kUnavailable = 4,   ///< something the command needs is missing here (a display, EGL, gnuplot)
+  kUnstable = 5,      ///< the simulation blew up beyond recovery; what it did so far is written
 };
 
 /// An error with a message meant for a person: it names the file or option and the problem,

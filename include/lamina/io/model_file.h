@@ -3,6 +3,7 @@
 /// Saving and loading a built Model as a VTK XML UnstructuredGrid (.vtu) that ParaView opens
 /// directly. The layout is documented in docs/model_format.md.
 
+#include <cstdint>
 #include <string>
 
 #include "lamina/model/model.h"
@@ -27,7 +28,13 @@ void save_model(const Model& model, const std::string& path);
 ///   missing or truncated file, a file that is not a Lamina model or has an unsupported
 ///   format version, an array with the wrong type or number of values, an out-of-range index,
 ///   a spring whose kind disagrees with its cell type or its nodes' layers, a non-finite or
-///   non-positive mass, rest length or stiffness, or layer ranges that do not tile the points.
+///   non-positive mass, rest length or stiffness, layer ranges that do not tile the points, or
+///   contents that disagree with the stored `content_crc32` (an edited or damaged file).
 Model load_model(const std::string& path);
+
+/// A CRC-32 of everything about a model that the simulation reads: positions, masses, fixed
+/// flags, layers, faces and springs. save_model() stores it as `content_crc32`; load_model()
+/// checks it, and a checkpoint records it to refuse a resume on another model.
+uint32_t model_fingerprint(const Model& model);
 
 }  // namespace lamina::io

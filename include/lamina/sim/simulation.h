@@ -84,6 +84,9 @@ struct StepStats {
   int32_t cg_iterations = 0;         ///< implicit Euler only
   bool converged = false;            ///< max_move_mm < threshold
   bool recovered = false;            ///< a non-finite state was rolled back and the step redone
+  /// Not even backward Euler could take the step: the state was kept, the motion stopped, and
+  /// the step does not count as converged (a load or dt far beyond what the model can take).
+  bool failed = false;
 };
 
 /// The simulation: the model it runs on (not owned: it must outlive the simulation), its
@@ -202,10 +205,30 @@ void set_local_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 /// Puts every node back at rest (x = X, v = 0, time 0), keeping parameters and fixed nodes.
 void reset(Simulation& sim);
 
+/// Everything step() carries from one step to the next: restoring it into a simulation made
+/// with the same model, material and options continues the run bit for bit (a checkpoint).
+struct SimState {
+  Eigen::MatrixX3d x, v, f_ext;
+  Eigen::MatrixX3d dv;  ///< implicit Euler's warm start: the last step's velocity change
+  double time_s = 0.0;
+  int64_t steps = 0;
+  int64_t recoveries = 0;
+  std::vector<uint8_t> fixed, movable;
+};
+
+/// Copies the state of `sim` (for a checkpoint).
+SimState capture_state(const Simulation& sim);
+
+/// Puts a captured state back into `sim`, which must run the same model.
+/// \note Throws lamina::Error (kInvalidInput) naming the problem if the state's sizes disagree
+///   with the model, a value is not finite or a flag is not 0 or 1; `sim` is then unchanged.
+void restore_state(Simulation& sim, const SimState& state);
+
 /// Advances one time step: spring, damping, anchor, gravity and external forces; integrate
 /// (semi-implicit Euler in explicit_substeps() equal parts when dt is beyond its limit);
 /// check every value is finite (else roll back and redo the step with two half steps, then with
-/// implicit Euler); measure.
+/// implicit Euler; if that fails too, keep the state, stop the motion and report `failed`);
+/// measure.
 StepStats step(Simulation& sim);
 
 /// Steps until converged for `quiet_steps` consecutive steps, or options.max_steps. One quiet

@@ -1,0 +1,63 @@
+#pragma once
+/// \file
+/// Checkpoints of `lamina run`: the whole simulation state, the tools' state and the run's
+/// progress so far, in one binary file with a checksum, so that a run stopped at any step can be
+/// resumed and continue bit for bit. The layout is in docs/model_format.md ("Checkpoints").
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "lamina/interact/tools.h"
+#include "lamina/io/model_file.h"
+#include "lamina/model/model.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::io {
+
+/// One layer's VTK time series so far: (simulated time s, file relative to the output folder).
+using FrameList = std::vector<std::pair<double, std::string>>;
+
+/// What `lamina run` needs to continue where it stopped.
+struct RunCheckpoint {
+  // What the run was of; a resume refuses a scene or model that differs.
+  std::string scene_path;   ///< absolute; empty for the built-in default scene
+  uint32_t scene_crc = 0;   ///< CRC-32 of the scene file's bytes (0 for the default scene)
+  uint32_t model_crc = 0;   ///< model_fingerprint() of the model it ran
+  int32_t threads = 0;      ///< OpenMP threads it ran with (a sum's order depends on them)
+
+  sim::SimState state;
+
+  // interact::ToolDriver's state (its tools and routing come from the scene).
+  std::vector<uint8_t> tool_active;
+  std::vector<interact::ForceRoute> routes;
+  std::vector<int32_t> touched;
+  interact::Loads loads;
+
+  // The run loop's progress.
+  int64_t loop_step = 0;  ///< steps taken by the run loop
+  int64_t quiet_streak = 0;
+  int32_t frame = 0;  ///< frames written
+  double next_frame_s = 0.0;
+  double max_displacement_mm = 0.0;
+  double max_abs_volume_change_pct = 0.0;
+  double max_reaction_mn = 0.0;
+  std::string metrics_csv;          ///< metrics.csv so far
+  std::vector<FrameList> frames;    ///< per written layer
+};
+
+/// CRC-32 of a file's bytes.
+/// \note Throws lamina::Error (kInvalidInput) if the file cannot be read.
+uint32_t file_crc(const std::string& path);
+
+/// Writes `checkpoint` to `path` atomically (temporary file, then rename).
+/// \note Throws lamina::Error (kOutput) if it cannot be written.
+void save_checkpoint(const RunCheckpoint& checkpoint, const std::string& path);
+
+/// Reads a checkpoint written by save_checkpoint().
+/// \note Throws lamina::Error (kInvalidInput) with one line "PATH: problem" for a missing,
+///   truncated or corrupted file (checksum), another format version, or sizes that disagree.
+RunCheckpoint load_checkpoint(const std::string& path);
+
+}  // namespace lamina::io

@@ -1,0 +1,224 @@
+// Checkpoint files: a fixed header (magic, version, payload size, CRC-32 of the payload) and a
+// payload of little-endian fields written in one order and read back in the same order. Every
+// count is checked against the bytes that remain before anything is allocated, so a corrupt or
+// hostile file can neither crash the reader nor make it allocate more than the file's size.
+#include "lamina/io/checkpoint.h"
+
+#include <zlib.h>
+
+#include <bit>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <type_traits>
+
+#include "lamina/core/atomic_file.h"
+#include "lamina/core/error.h"
+
+namespace lamina::io {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "checkpoints are little-endian");
+
+constexpr char kMagic[8] = {'L', 'A', 'M', 'C', 'K', 'P', 'T', '\n'};
+constexpr uint32_t kVersion = 1;
+constexpr size_t kHeaderBytes = 8 + 4 + 8 + 4;
+
+uint32_t crc(uint32_t c, const void* data, size_t bytes) {
+  return static_cast<uint32_t>(crc32_z(c, static_cast<const Bytef*>(data), bytes));
+}
+
+struct Writer {
+  std::string out;
+  template <class T>
+  void pod(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  void bytes(const void* p, size_t n) { out.append(static_cast<const char*>(p), n); }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    pod<uint64_t>(v.size());
+    bytes(v.data(), v.size() * sizeof(T));
+  }
+  void str(const std::string& s) {
+    pod<uint64_t>(s.size());
+    bytes(s.data(), s.size());
+  }
+  void mat(const Eigen::MatrixX3d& m) {
+    pod<uint64_t>(static_cast<uint64_t>(m.rows()));
+    bytes(m.data(), static_cast<size_t>(m.size()) * sizeof(double));
+  }
+};
+
+struct Reader {
+  const std::string& path;
+  const char* p;
+  const char* end;
+  [[noreturn]] void truncated() const {
+    throw invalid_input(path, "checkpoint is truncated or corrupt (a field runs past its end)");
+  }
+  void take(void* dst, size_t n) {
+    if (static_cast<size_t>(end - p) < n) truncated();
+    std::memcpy(dst, p, n);
+    p += n;
+  }
+  template <class T>
+  T pod() {
+    T v;
+    take(&v, sizeof v);
+    return v;
+  }
+  // A count of elements of `size` bytes each, no more than the bytes that remain can hold.
+  size_t count(size_t size) {
+    const auto n = pod<uint64_t>();
+    if (n > static_cast<uint64_t>(end - p) / size) truncated();
+    return static_cast<size_t>(n);
+  }
+  template <class T>
+  std::vector<T> vec() {
+    std::vector<T> v(count(sizeof(T)));
+    take(v.data(), v.size() * sizeof(T));
+    return v;
+  }
+  std::string str() {
+    std::string s(count(1), '\0');
+    take(s.data(), s.size());
+    return s;
+  }
+  Eigen::MatrixX3d mat() {
+    Eigen::MatrixX3d m(static_cast<Eigen::Index>(count(3 * sizeof(double))), 3);
+    take(m.data(), static_cast<size_t>(m.size()) * sizeof(double));
+    return m;
+  }
+};
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw invalid_input(path, "cannot open the file for reading (does it exist?)");
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+}  // namespace
+
+uint32_t file_crc(const std::string& path) {
+  const std::string bytes = read_file(path);
+  return crc(0, bytes.data(), bytes.size());
+}
+
+void save_checkpoint(const RunCheckpoint& k, const std::string& path) {
+  Writer w;
+  w.str(k.scene_path);
+  w.pod(k.scene_crc);
+  w.pod(k.model_crc);
+  w.pod(k.threads);
+  const sim::SimState& s = k.state;
+  for (const Eigen::MatrixX3d* m : {&s.x, &s.v, &s.f_ext, &s.dv}) w.mat(*m);
+  w.pod(s.time_s);
+  w.pod(s.steps);
+  w.pod(s.recoveries);
+  w.vec(s.fixed);
+  w.vec(s.movable);
+  w.vec(k.tool_active);
+  w.pod<uint64_t>(k.routes.size());
+  for (const interact::ForceRoute& r : k.routes) {
+    w.pod(r.contact_node);
+    w.vec(r.crossings);
+    w.vec(r.nodes);
+    w.mat(r.forces);
+  }
+  w.vec(k.touched);
+  w.vec(k.loads.nodes);
+  w.pod<uint8_t>(k.loads.cleared ? 1 : 0);
+  w.pod(k.loop_step);
+  w.pod(k.quiet_streak);
+  w.pod(k.frame);
+  w.pod(k.next_frame_s);
+  w.pod(k.max_displacement_mm);
+  w.pod(k.max_abs_volume_change_pct);
+  w.pod(k.max_reaction_mn);
+  w.str(k.metrics_csv);
+  w.pod<uint64_t>(k.frames.size());
+  for (const FrameList& list : k.frames) {
+    w.pod<uint64_t>(list.size());
+    for (const auto& [time, file] : list) {
+      w.pod(time);
+      w.str(file);
+    }
+  }
+
+  Writer h;
+  h.bytes(kMagic, sizeof kMagic);
+  h.pod(kVersion);
+  h.pod<uint64_t>(w.out.size());
+  h.pod(crc(0, w.out.data(), w.out.size()));
+  write_file_atomically(
+      path, [&](std::ostream& f) { f << h.out << w.out; }, /*binary=*/true);
+}
+
+RunCheckpoint load_checkpoint(const std::string& path) {
+  const std::string file = read_file(path);
+  const auto bad = [&](const std::string& problem) { return invalid_input(path, problem); };
+  if (file.size() < kHeaderBytes || std::memcmp(file.data(), kMagic, sizeof kMagic) != 0)
+    throw bad("not a Lamina checkpoint (it does not start with the checkpoint header)");
+  Reader head{path, file.data() + sizeof kMagic, file.data() + kHeaderBytes};
+  const auto version = head.pod<uint32_t>();
+  const auto payload = head.pod<uint64_t>();
+  const auto sum = head.pod<uint32_t>();
+  if (version != kVersion)
+    throw bad("checkpoint format version " + std::to_string(version) + ", this build reads " +
+              std::to_string(kVersion) + ": resume it with the Lamina that wrote it");
+  if (payload != file.size() - kHeaderBytes)
+    throw bad("checkpoint is truncated: the header announces " + std::to_string(payload) +
+              " bytes of data, the file holds " + std::to_string(file.size() - kHeaderBytes));
+  const char* data = file.data() + kHeaderBytes;
+  if (crc(0, data, payload) != sum)
+    throw bad("checkpoint is corrupt: its checksum does not match its contents");
+
+  Reader r{path, data, data + payload};
+  RunCheckpoint k;
+  k.scene_path = r.str();
+  k.scene_crc = r.pod<uint32_t>();
+  k.model_crc = r.pod<uint32_t>();
+  k.threads = r.pod<int32_t>();
+  sim::SimState& s = k.state;
+  for (Eigen::MatrixX3d* m : {&s.x, &s.v, &s.f_ext, &s.dv}) *m = r.mat();
+  s.time_s = r.pod<double>();
+  s.steps = r.pod<int64_t>();
+  s.recoveries = r.pod<int64_t>();
+  s.fixed = r.vec<uint8_t>();
+  s.movable = r.vec<uint8_t>();
+  k.tool_active = r.vec<uint8_t>();
+  k.routes.resize(r.count(sizeof(int32_t) + 3 * sizeof(uint64_t)));
+  for (interact::ForceRoute& route : k.routes) {
+    route.contact_node = r.pod<int32_t>();
+    route.crossings = r.vec<interact::Crossing>();
+    route.nodes = r.vec<int32_t>();
+    route.forces = r.mat();
+    if (route.forces.rows() != static_cast<Eigen::Index>(route.nodes.size()))
+      throw bad("checkpoint is inconsistent: a tool's force rows differ from its nodes");
+  }
+  k.touched = r.vec<int32_t>();
+  k.loads.nodes = r.vec<int32_t>();
+  k.loads.cleared = r.pod<uint8_t>() != 0;
+  k.loop_step = r.pod<int64_t>();
+  k.quiet_streak = r.pod<int64_t>();
+  k.frame = r.pod<int32_t>();
+  k.next_frame_s = r.pod<double>();
+  k.max_displacement_mm = r.pod<double>();
+  k.max_abs_volume_change_pct = r.pod<double>();
+  k.max_reaction_mn = r.pod<double>();
+  k.metrics_csv = r.str();
+  k.frames.resize(r.count(sizeof(uint64_t)));
+  for (FrameList& list : k.frames) {
+    list.resize(r.count(sizeof(double) + sizeof(uint64_t)));
+    for (auto& [time, name] : list) {
+      time = r.pod<double>();
+      name = r.str();
+    }
+  }
+  if (r.p != r.end) throw bad("checkpoint is inconsistent: data left over after its last field");
+  return k;
+}
+
+}  // namespace lamina::io
