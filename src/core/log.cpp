@@ -16,7 +16,8 @@ spdlog::logger& logger() {
 }
 
 void set_verbosity(int level) {
-  logger().set_level(level <= 0   ? spdlog::level::warn
+  logger().set_level(level < 0    ? spdlog::level::err
+                     : level == 0 ? spdlog::level::warn
                      : level == 1 ? spdlog::level::info
                                   : spdlog::level::debug);
 }

@@ -14,6 +14,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -163,6 +164,27 @@ void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
                                   " bytes but the file holds " + std::to_string(total));
 }
 
+// MetaIO (ITK 5.2) divides by zero, killing the process with SIGFPE, when a MetaImage's
+// ElementDataFile is a slice-file pattern ("name%03d.raw MIN MAX STEP") it cannot parse; such
+// patterns and LIST are multi-file layouts, never used for a segmentation. Found by fuzz_volume
+// (docs/testing.md). Only the header line is read here; ITK still parses everything.
+void check_metaimage_data_file(const std::string& path, itk::ImageIOBase* io) {
+  if (std::string(io->GetNameOfClass()) != "MetaImageIO") return;
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  for (int n = 0; n < 200 && std::getline(in, line); ++n) {
+    const size_t key = line.find("ElementDataFile");
+    if (key == std::string::npos) continue;
+    const size_t eq = line.find('=', key);
+    std::string value = eq == std::string::npos ? "" : line.substr(eq + 1);
+    value.erase(0, value.find_first_not_of(" \t"));
+    if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
+      throw invalid_input(path, "ElementDataFile is a multi-file pattern or LIST, which Lamina "
+                                "does not read: save the mask as one .mha, .nii.gz or .nrrd file");
+    return;
+  }
+}
+
 LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
   itk::ImageIOBase::Pointer io = itk::ImageIOFactory::CreateImageIO(
       path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
@@ -178,6 +200,7 @@ LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
   }
   check_header(path, io, opt);
   check_nifti_complete(path, io);
+  check_metaimage_data_file(path, io);
 
   LabelVolume out;
   out.source = path;

@@ -333,6 +333,17 @@ std::vector<BadCase> bad_cases() {
                },
                {"--layer", "-1"},
                {"e.stl"}});
+  // Found by fuzz_volume: ITK 5.2's MetaIO dies of SIGFPE (exit 136) on a slice-file pattern
+  // whose step is 0. Lamina refuses such patterns before ITK reads the data.
+  c.push_back({"MetaImageFilePatternThatKilledItk",
+               [](const TempDir& d) {
+                 write_file(d.work / "pattern.mha",
+                            "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\n"
+                            "ElementType = MET_UCHAR\nElementSpacing = 1 1 1\n"
+                            "ElementDataFile = slice%03d.raw 1 4 0\n");
+                 return build_args(d, "pattern.mha");
+               },
+               {"pattern.mha", "ElementDataFile"}});
   c.push_back({"VolumeOverTheConfiguredVoxelBudget",
                [](const TempDir& d) {
                  write_small_phantom(d, "p.nii.gz");

@@ -12,7 +12,7 @@ namespace lamina::log {
 /// The library's logger (stderr), created on first use. Embedders may add sinks to it.
 spdlog::logger& logger();
 
-/// Sets the verbosity: 0 = warnings and errors, 1 = info (default), 2 = debug.
+/// Sets the verbosity: -1 = errors only, 0 = warnings and errors, 1 = info (default), 2 = debug.
 void set_verbosity(int level);
 
 template <class... Args>

@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (CMake preset "fuzz", clang + ASan + UBSan) and runs each one for
+# SECONDS (default 30) on a seed corpus generated here by the release `lamina` (docs/testing.md).
+#   scripts/fuzz.sh [SECONDS] [TARGET...]     targets: volume model obj scene checkpoint
+# Findings go to build/fuzz/crashes/; the corpus grows in build/fuzz/corpus/ across runs.
+# Exits non-zero if any target crashed, leaked, hung or ran out of memory.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-30}
+shift || true
+targets=("$@")
+((${#targets[@]})) || targets=(volume model obj scene checkpoint)
+
+lamina=build/release/lamina
+if [ ! -x "$lamina" ]; then
+  cmake --preset release >/dev/null
+  cmake --build --preset release --target lamina_cli -j2
+fi
+cmake --preset fuzz >/dev/null
+cmake --build --preset fuzz -j2
+
+# Seeds: small valid inputs of every kind, made by the tool itself (nothing copied in).
+seeds=build/fuzz/seeds
+if [ ! -f "$seeds/.done" ]; then
+  rm -rf "$seeds"
+  mkdir -p "$seeds"/{volume,model,obj,scene,checkpoint}
+  work=$(mktemp -d)
+  trap 'rm -rf "$work"' EXIT
+  "$lamina" -q phantom --size 16,16,16 --spacing 12 -o "$work/p.nii"
+  "$lamina" -q phantom --size 12,12,12 --spacing 12 -o "$work/p.nii.gz"
+  "$lamina" -q phantom --size 12,12,12 --spacing 12 -o "$work/p.nrrd"
+  "$lamina" -q phantom --size 12,12,12 --spacing 12 -o "$work/p.mha"
+  # fuzz_volume's first byte picks the format: 0 .nii, 1 .nii.gz, 2 .nrrd, 3 .mha.
+  k=0
+  for ext in nii nii.gz nrrd mha; do
+    { printf "\\x0$k"; cat "$work/p.$ext"; } >"$seeds/volume/phantom_$k"
+    k=$((k + 1))
+  done
+  "$lamina" -q build "$work/p.nii" -o "$seeds/model/tiny.vtu" --skin-vertices 60 >/dev/null
+  "$lamina" -q export "$seeds/model/tiny.vtu" -o "$seeds/obj/tiny_skin.obj"
+  "$lamina" -q export "$seeds/model/tiny.vtu" -o "$seeds/obj/tiny_inner.obj" --layer 1
+  cp examples/*.json "$seeds/scene/"
+  cat >"$work/scene.json" <<'JSON'
+{"model": {"model": "tiny.vtu"}, "solver": {"mode": "local"},
+ "tools": [{"vertex": 0, "force_n": [0, 0.1, 0], "end_s": 0.5}]}
+JSON
+  cp "$seeds/model/tiny.vtu" "$work/tiny.vtu"
+  "$lamina" -q run "$work/scene.json" -o "$work/run" --stop-after 3 >/dev/null
+  cp "$work/run/checkpoint.lmck" "$seeds/checkpoint/stopped.lmck"
+  touch "$seeds/.done"
+fi
+
+# ITK 5.2's NrrdIO leaks on some error paths (tests/sanitizers/lsan.supp).
+export LSAN_OPTIONS="suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0"
+export UBSAN_OPTIONS="print_stacktrace=1"
+mkdir -p build/fuzz/crashes
+status=0
+for t in "${targets[@]}"; do
+  mkdir -p "build/fuzz/corpus/$t"
+  echo "fuzz_$t: ${seconds} s" >&2
+  if ! build/fuzz/fuzz/fuzz_"$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+      -max_len=65536 -print_final_stats=1 -artifact_prefix="build/fuzz/crashes/$t-" \
+      "build/fuzz/corpus/$t" "$seeds/$t" 2>"build/fuzz/$t.log"; then
+    echo "fuzz_$t FAILED: see build/fuzz/$t.log and build/fuzz/crashes/" >&2
+    tail -40 "build/fuzz/$t.log" >&2
+    status=1
+  else
+    grep -E "^stat::number_of_executed_units|^stat::new_units_added" "build/fuzz/$t.log" |
+      sed "s/^/  fuzz_$t /" >&2
+  fi
+done
+exit $status
