@@ -12,6 +12,7 @@
 #include <itkNrrdImageIOFactory.h>
 #include <zlib.h>
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -164,28 +165,54 @@ void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
                                   " bytes but the file holds " + std::to_string(total));
 }
 
-// MetaIO (ITK 5.2) divides by zero, killing the process with SIGFPE, when a MetaImage's
-// ElementDataFile is a slice-file pattern ("name%03d.raw MIN MAX STEP") it cannot parse; such
-// patterns and LIST are multi-file layouts, never used for a segmentation. Found by fuzz_volume
-// (docs/testing.md). Only the header line is read here; ITK still parses everything.
-void check_metaimage_data_file(const std::string& path, itk::ImageIOBase* io) {
-  if (std::string(io->GetNameOfClass()) != "MetaImageIO") return;
+// ITK 5.2's MetaIO trusts a MetaImage header and kills the process on some corrupt ones, which
+// fuzz_volume found (docs/testing.md): a "Key = Value" key longer than its 255-byte buffer aborts
+// in strcpy, and a slice-file pattern ElementDataFile ("name%03d.raw MIN MAX STEP") with a step
+// of 0 divides by zero (SIGFPE). So a .mha/.mhd header is checked here first: printable lines of
+// "Key = Value" with a short alphanumeric key, up to the ElementDataFile line, which must name
+// LOCAL or one data file. Every MetaImage that ITK, 3D Slicer or Lamina writes passes; the values
+// themselves are still ITK's to parse.
+void check_metaimage_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
+  if (!in) return;  // ITK reports a missing or unreadable file in its own words
+  const auto bad = [&](int line, const std::string& problem) {
+    return invalid_input(path, "MetaImage header line " + std::to_string(line) + ": " + problem);
+  };
   std::string line;
-  for (int n = 0; n < 200 && std::getline(in, line); ++n) {
-    const size_t key = line.find("ElementDataFile");
-    if (key == std::string::npos) continue;
-    const size_t eq = line.find('=', key);
-    std::string value = eq == std::string::npos ? "" : line.substr(eq + 1);
+  for (int n = 1; n <= 200 && std::getline(in, line); ++n) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find_first_not_of(" \t") == std::string::npos) continue;
+    for (const char c : line)
+      if (!(c == '\t' || (c >= 32 && c < 127)))
+        throw bad(n, "holds a byte that is not text (a corrupt header?)");
+    const size_t eq = line.find('=');
+    if (eq == std::string::npos) throw bad(n, "expected 'Key = Value'");
+    std::string key = line.substr(0, eq);
+    key.erase(key.find_last_not_of(" \t") + 1);
+    key.erase(0, key.find_first_not_of(" \t"));
+    if (key.empty() || key.size() > 64 ||
+        key.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_") !=
+            std::string::npos)
+      throw bad(n, "'" + key.substr(0, 40) + "' is not a MetaImage key");
+    if (key != "ElementDataFile") continue;
+    std::string value = line.substr(eq + 1);
     value.erase(0, value.find_first_not_of(" \t"));
     if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
-      throw invalid_input(path, "ElementDataFile is a multi-file pattern or LIST, which Lamina "
-                                "does not read: save the mask as one .mha, .nii.gz or .nrrd file");
-    return;
+      throw bad(n, "ElementDataFile is a multi-file pattern or LIST, which Lamina does not read: "
+                   "save the mask as one .mha, .nii.gz or .nrrd file");
+    return;  // the voxel data follows
   }
+  throw invalid_input(path, "MetaImage header has no ElementDataFile line in its first 200 lines");
+}
+
+bool has_metaimage_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".mha" || ext == ".mhd";
 }
 
 LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
+  if (has_metaimage_extension(path)) check_metaimage_header(path);
   itk::ImageIOBase::Pointer io = itk::ImageIOFactory::CreateImageIO(
       path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
   if (!io)
@@ -200,7 +227,6 @@ LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
   }
   check_header(path, io, opt);
   check_nifti_complete(path, io);
-  check_metaimage_data_file(path, io);
 
   LabelVolume out;
   out.source = path;
