@@ -13,6 +13,8 @@ pkgs=(
   # surfaceless (headless) and llvmpipe, Xvfb and xdotool (the viewer test), gnuplot (plots)
   libglfw3-dev libimgui-dev libepoxy-dev libstb-dev libgl-dev libegl-dev libegl-mesa0
   libgl1-mesa-dri xvfb xauth xdotool gnuplot-nox
+  # fuzzing (scripts/fuzz.sh): clang with libFuzzer and the sanitizer runtimes, and its OpenMP
+  clang-14 libclang-rt-14-dev libomp-14-dev
 )
 
 missing=()

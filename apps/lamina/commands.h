@@ -143,6 +143,19 @@ struct ValidateArgs {
 /// indentations (docs/validation.md).
 int run_validate(const ValidateArgs& args);
 
+struct SoakArgs {
+  std::string scene;  ///< model, material and solver (its tools are ignored); empty = physical phantom
+  std::string output;
+  int64_t steps = 1000000;
+  uint64_t seed = 1;
+  bool json = false;
+  bool no_plot = false;
+  bool verbose = false;
+};
+/// A long run under random tools, then release: memory flat, no NaN, volume drift bounded, back
+/// at rest (docs/testing.md). Exit 1 if any check fails.
+int run_soak(const SoakArgs& args);
+
 struct BenchArgs {
   bool json = false;
   bool quick = false;  ///< paper-size and 10k models only, shorter timings (under a minute)

@@ -157,6 +157,18 @@ int main(int argc, char** argv) {
                  "segmentation or DICOM folder (default: the built-in phantom)");
   fi->add_flag("--quick", figs.quick, "shorter runs and fewer localities (a CI smoke run)");
 
+  cli::SoakArgs soak;
+  auto* so = app.add_subcommand(
+      "soak", "a long run under random tools: memory flat, no NaN, volume kept, back to rest");
+  so->add_option("scene", soak.scene,
+                 "scene for the model, material and solver (default: a physical phantom liver)");
+  so->add_option("-o,--output", soak.output, "output folder: soak.csv, summary.json, soak.png")
+      ->required();
+  so->add_option("--steps", soak.steps, "steps to run (default 1000000)");
+  so->add_option("--seed", soak.seed, "random seed for the tools (default 1)");
+  so->add_flag("--json", soak.json, "print the summary as JSON on stdout");
+  so->add_flag("--no-plot", soak.no_plot, "skip soak.png (no gnuplot needed)");
+
   cli::BenchArgs bench;
   auto* be = app.add_subcommand("bench",
                                 "measure this machine: step times, poke to rest, bandwidth floor");
@@ -227,6 +239,10 @@ int main(int argc, char** argv) {
     if (*fi) {
       figs.verbose = verbosity == 2;
       return cli::run_figures(figs);
+    }
+    if (*so) {
+      soak.verbose = verbosity == 2;
+      return cli::run_soak(soak);
     }
     if (*ru) {
       run.quiet = verbosity == 0;

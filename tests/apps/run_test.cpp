@@ -554,5 +554,28 @@ TEST(LaminaRun, ALoadBeyondRecoveryStopsCleanlyWithExitFive) {
     EXPECT_TRUE(read_vtp_points(dir.path / "out" / file).allFinite()) << file;
 }
 
+// The soak test's short form (the long one, a million steps, is `lamina soak` itself:
+// docs/testing.md): random tools on a small physical phantom, then release.
+TEST(LaminaSoak, RandomToolsLeaveMemoryFlatNoNanAndTheModelBackAtRest) {
+  test::TempDir dir;
+  std::ofstream(dir.file("small.json")) << R"({"model": {"build": {"skin_vertices": 400}},
+      "material": {"young_modulus_kpa": 6.0, "poisson_ratio": 0.45, "density_g_per_cm3": 1.06,
+                   "damping_ratio": 1.0},
+      "solver": {"mode": "global"}})";
+  const RunResult r =
+      run_lamina(dir, "-q soak small.json -o out --steps 3000 --seed 7 --no-plot --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const json sum = json::parse(r.out);
+  EXPECT_TRUE(sum["passed"].get<bool>()) << r.out;
+  EXPECT_TRUE(sum["finite"].get<bool>());
+  EXPECT_EQ(sum["failed_steps"], 0);
+  EXPECT_GT(sum["tools_applied"].get<int>(), 20);
+  EXPECT_GT(sum["max_abs_volume_change_pct"].get<double>(), 0.0) << "the tools did deform it";
+  EXPECT_LE(sum["resident_mb_growth"].get<double>(), 2.0);
+  EXPECT_LE(std::abs(sum["rest_volume_change_pct"].get<double>()), 0.1);
+  EXPECT_LE(sum["rest_error_mm"].get<double>(), 0.05);
+  EXPECT_GT(lines_of(read_text(dir.path / "out" / "soak.csv")).size(), 100u);
+}
+
 }  // namespace
 }  // namespace lamina
