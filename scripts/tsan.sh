@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# ThreadSanitizer over the simulation thread and its viewer handoff (docs/testing.md): builds
+# tests/tsan/loop_handoff.cpp with the realtime loop's sources under -fsanitize=thread (preset
+# "tsan"), makes a small model with the release CLI, and runs it for SECONDS (default 10).
+# OMP_NUM_THREADS=1: GCC's libgomp is not instrumented; with one thread it starts no pool.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-10}
+lamina=build/release/lamina
+if [ ! -x "$lamina" ]; then
+  cmake --preset release >/dev/null
+  cmake --build --preset release --target lamina_cli -j2
+fi
+cmake --preset tsan >/dev/null
+cmake --build --preset tsan -j2
+model=build/tsan/handoff_model.vtu
+[ -f "$model" ] || "$lamina" -q build phantom -o "$model" --skin-vertices 400 >/dev/null
+OMP_NUM_THREADS=1 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+  build/tsan/tests/tsan/tsan_loop_handoff "$model" "$seconds"
