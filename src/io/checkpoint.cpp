@@ -35,7 +35,9 @@ struct Writer {
     static_assert(std::is_trivially_copyable_v<T>);
     out.append(reinterpret_cast<const char*>(&v), sizeof v);
   }
-  void bytes(const void* p, size_t n) { out.append(static_cast<const char*>(p), n); }
+  void bytes(const void* p, size_t n) {
+    if (n > 0) out.append(static_cast<const char*>(p), n);  // an empty vector's data() may be null
+  }
   template <class T>
   void vec(const std::vector<T>& v) {
     pod<uint64_t>(v.size());
@@ -59,6 +61,7 @@ struct Reader {
     throw invalid_input(path, "checkpoint is truncated or corrupt (a field runs past its end)");
   }
   void take(void* dst, size_t n) {
+    if (n == 0) return;  // an empty vector's data() may be null, which memcpy must not see
     if (static_cast<size_t>(end - p) < n) truncated();
     std::memcpy(dst, p, n);
     p += n;
