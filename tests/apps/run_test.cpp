@@ -571,7 +571,8 @@ TEST(LaminaSoak, RandomToolsLeaveMemoryFlatNoNanAndTheModelBackAtRest) {
   EXPECT_EQ(sum["failed_steps"], 0);
   EXPECT_GT(sum["tools_applied"].get<int>(), 20);
   EXPECT_GT(sum["max_abs_volume_change_pct"].get<double>(), 0.0) << "the tools did deform it";
-  EXPECT_LE(sum["resident_mb_growth"].get<double>(), 2.0);
+  if (sum["memory_checked"].get<bool>())  // not under ASan, whose quarantine keeps freed memory
+    EXPECT_LE(sum["resident_mb_growth"].get<double>(), 2.0);
   EXPECT_LE(std::abs(sum["rest_volume_change_pct"].get<double>()), 0.1);
   EXPECT_LE(sum["rest_error_mm"].get<double>(), 0.05);
   EXPECT_GT(lines_of(read_text(dir.path / "out" / "soak.csv")).size(), 100u);
