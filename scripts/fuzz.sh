@@ -2,10 +2,18 @@
 # Builds the libFuzzer targets (CMake preset "fuzz", clang + ASan + UBSan) and runs each one for
 # SECONDS (default 30) on a seed corpus generated here by the release `lamina` (docs/testing.md).
 #   scripts/fuzz.sh [SECONDS] [TARGET...]     targets: volume model obj scene checkpoint
+#   scripts/fuzz.sh --ci                      CI's run: 3000 inputs per target from seed 1 on a
+#                                             fresh corpus
 # Findings go to build/fuzz/crashes/; the corpus grows in build/fuzz/corpus/ across runs.
 # Exits non-zero if any target crashed, leaked, hung or ran out of memory.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+ci=0
+if [ "${1:-}" = "--ci" ]; then
+  ci=1
+  shift
+  set -- 0 "$@"
+fi
 seconds=${1:-30}
 shift || true
 targets=("$@")
@@ -56,11 +64,20 @@ export UBSAN_OPTIONS="print_stacktrace=1"
 mkdir -p build/fuzz/crashes
 status=0
 for t in "${targets[@]}"; do
-  mkdir -p "build/fuzz/corpus/$t"
-  echo "fuzz_$t: ${seconds} s" >&2
-  if ! build/fuzz/fuzz/fuzz_"$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  corpus="build/fuzz/corpus/$t"
+  budget=(-max_total_time="$seconds")
+  if ((ci)); then
+    # A fixed seed and number of inputs from an empty corpus instead of a time budget, which
+    # would explore more on a faster machine: CI repeats the run developers checked.
+    corpus="build/fuzz/ci_corpus/$t"
+    rm -rf "$corpus"
+    budget=(-seed=1 -runs=3000)
+  fi
+  mkdir -p "$corpus"
+  echo "fuzz_$t: ${budget[*]}" >&2
+  if ! build/fuzz/fuzz/fuzz_"$t" "${budget[@]}" -timeout=10 -rss_limit_mb=2048 \
       -max_len=65536 -print_final_stats=1 -artifact_prefix="build/fuzz/crashes/$t-" \
-      "build/fuzz/corpus/$t" "$seeds/$t" 2>"build/fuzz/$t.log"; then
+      "$corpus" "$seeds/$t" 2>"build/fuzz/$t.log"; then
     echo "fuzz_$t FAILED: see build/fuzz/$t.log and build/fuzz/crashes/" >&2
     tail -40 "build/fuzz/$t.log" >&2
     status=1

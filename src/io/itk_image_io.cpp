@@ -168,7 +168,7 @@ void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
 // ITK 5.2's MetaIO trusts a MetaImage header and kills the process on some corrupt ones, which
 // fuzz_volume found (docs/testing.md): a "Key = Value" key longer than its 255-byte buffer aborts
 // in strcpy, and a slice-file pattern ElementDataFile ("name%03d.raw MIN MAX STEP") with a step
-// of 0 divides by zero (SIGFPE). So a .mha/.mhd header is checked here first: printable lines of
+// of 0 divides by zero (SIGFPE), and a negative NDims hangs it. So a .mha/.mhd header is checked here first: printable lines of
 // "Key = Value" with a short alphanumeric key, up to the ElementDataFile line, which must name
 // LOCAL or one data file. Every MetaImage that ITK, 3D Slicer or Lamina writes passes; the values
 // themselves are still ITK's to parse.
@@ -194,9 +194,21 @@ void check_metaimage_header(const std::string& path) {
         key.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_") !=
             std::string::npos)
       throw bad(n, "'" + key.substr(0, 40) + "' is not a MetaImage key");
-    if (key != "ElementDataFile") continue;
     std::string value = line.substr(eq + 1);
     value.erase(0, value.find_first_not_of(" \t"));
+    // MetaIO loops without end on a negative NDims or DimSize (fuzz_volume): sizes must be
+    // positive integers.
+    if (key == "NDims" || key == "DimSize") {
+      std::istringstream values(value);
+      int count = 0;
+      for (std::string token; values >> token; ++count)
+        if (token.find_first_not_of("0123456789") != std::string::npos || token.size() > 9 ||
+            std::stol(token) < 1)
+          throw bad(n, key + " must be positive whole numbers, got '" + value.substr(0, 40) + "'");
+      if (count == 0) throw bad(n, key + " has no value");
+      continue;
+    }
+    if (key != "ElementDataFile") continue;
     if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
       throw bad(n, "ElementDataFile is a multi-file pattern or LIST, which Lamina does not read: "
                    "save the mask as one .mha, .nii.gz or .nrrd file");
