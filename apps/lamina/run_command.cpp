@@ -98,7 +98,6 @@ double max_rest_distance(const sim::Simulation& s) {
   return std::sqrt((s.x - s.model->X).rowwise().squaredNorm().maxCoeff());
 }
 
-
 // Puts a checkpoint's state back, after checking that every index in it fits this model and
 // scene (the file's checksum already vouches for its bytes, not for what they refer to).
 void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simulation& s,
@@ -116,7 +115,8 @@ void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simul
     return std::all_of(v.begin(), v.end(), node_ok);
   };
   for (const interact::ForceRoute& r : k.routes) {
-    bool ok = all_ok(r.nodes) && r.forces.allFinite() && (r.nodes.empty() || node_ok(r.contact_node));
+    bool ok =
+        all_ok(r.nodes) && r.forces.allFinite() && (r.nodes.empty() || node_ok(r.contact_node));
     for (const interact::Crossing& c : r.crossings)
       ok = ok && node_ok(c.node) && c.layer >= 0 && c.layer < m.layer_count();
     if (!ok) throw bad("a tool's force route names a node outside the model");
@@ -126,7 +126,7 @@ void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simul
       std::any_of(k.frames.begin(), k.frames.end(), [](const auto& f) { return f.empty(); }))
     throw bad("lists frames of " + std::to_string(k.frames.size()) + " layers, the scene writes " +
               std::to_string(series.size()));
-  if (k.loop_step < 0 || k.frame < 1 || !std::isfinite(k.next_frame_s))
+  if (k.progress.loop_step < 0 || k.progress.frame < 1 || !std::isfinite(k.progress.next_frame_s))
     throw bad("its progress counters are out of range");
   sim::restore_state(s, k.state);
   driver.active = k.tool_active;
@@ -147,18 +147,17 @@ int run_run(const RunArgs& a) {
   // A resumed run reads its checkpoint first: it names the scene when none is given.
   std::optional<io::RunCheckpoint> resume;
   if (!a.resume.empty()) resume = io::load_checkpoint(a.resume);
-  const std::string scene_path =
-      !a.scene.empty() ? a.scene : resume ? resume->scene_path : std::string();
+  const std::string scene_path = !a.scene.empty() ? a.scene
+                                 : resume         ? resume->scene_path
+                                                  : std::string();
   io::Scene scene = scene_path.empty() ? io::Scene{} : io::load_scene(scene_path);
   const uint32_t scene_crc = scene_path.empty() ? 0 : io::file_crc(scene_path);
-  if (resume && scene_crc != resume->scene_crc)
-    throw invalid_input(a.resume, "was written for " +
-                                      (resume->scene_path.empty() ? std::string("the default scene")
-                                                                  : resume->scene_path) +
-                                      ", and " +
-                                      (scene_path.empty() ? std::string("the default scene")
-                                                          : scene_path) +
+  if (resume && scene_crc != resume->scene_crc) {
+    const auto name = [](const std::string& p) { return p.empty() ? "the default scene" : p; };
+    throw invalid_input(a.resume, "was written for " + name(resume->scene_path) + ", and " +
+                                      name(scene_path) +
                                       " is not that scene as it was: resume with the same scene");
+  }
   check_output_folder(a.output);
   const bool tty = ::isatty(2);
   const ProgressFn progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose);
@@ -190,7 +189,7 @@ int run_run(const RunArgs& a) {
   // 2. Outputs.
   const fs::path out(a.output);
   create_folder(out / "frames");
-  remove_stale_frames(out / "frames", resume ? resume->frame : 0);
+  remove_stale_frames(out / "frames", resume ? resume->progress.frame : 0);
   std::vector<Series> series;
   for (int32_t k = 0; k < (scene.output.all_layers ? m.layer_count() : 1); ++k) {
     Series& se = series.emplace_back();
@@ -198,10 +197,13 @@ int run_run(const RunArgs& a) {
     se.layer = k;
     se.mesh = model::layer_mesh(m, k);
   }
-  int32_t frame = 0;
+  // Everything the loop accumulates, which a checkpoint saves and a resume restores whole.
+  io::RunProgress so_far;
+  so_far.metrics_csv = kMetricsHeader;
+  so_far.next_frame_s = scene.output.frame_interval_s;
   auto write_frames = [&] {
-    for (Series& se : series) write_frame(se, s, out, frame, scene.output.obj);
-    ++frame;
+    for (Series& se : series) write_frame(se, s, out, so_far.frame, scene.output.obj);
+    ++so_far.frame;
   };
 
   // 3. Step until every tool has let go and the model is at rest. A tool that never ends is
@@ -215,13 +217,10 @@ int run_run(const RunArgs& a) {
   const int64_t settle_steps =
       std::max<int64_t>(3, static_cast<int64_t>(std::ceil(0.1 / scene.solver.dt_s - 1e-9)));
   const double interval = scene.output.frame_interval_s;
-  double next_frame_s = interval;
 
-  std::string csv = kMetricsHeader;
   std::vector<double> step_us;
   step_us.reserve(static_cast<size_t>(std::min<int64_t>(scene.solver.max_steps, 1 << 20)));
-  double max_displacement = 0.0, max_abs_volume = 0.0, first_settle_move = 0.0;
-  int64_t streak = 0;
+  double first_settle_move = 0.0;
   bool converged = false;
   sim::StepStats st;
   auto last_report = Clock::now();
@@ -232,22 +231,14 @@ int run_run(const RunArgs& a) {
   const auto loop_start = Clock::now();
   std::vector<double> lateness_us;
   if (a.realtime) lateness_us.reserve(step_us.capacity());
-  double max_reaction_mn = 0.0;
-  int64_t first_step = 0;
   if (resume) {
     restore_run(*resume, a.resume, s, driver, series);
-    first_step = resume->loop_step;
-    streak = resume->quiet_streak;
-    frame = resume->frame;
-    next_frame_s = resume->next_frame_s;
-    max_displacement = resume->max_displacement_mm;
-    max_abs_volume = resume->max_abs_volume_change_pct;
-    max_reaction_mn = resume->max_reaction_mn;
-    csv = resume->metrics_csv;
+    so_far = resume->progress;
     if (resume->threads != omp_get_max_threads())
-      log::warn("{}: written with {} threads, resumed with {}: sums may round differently; set "
-                "OMP_NUM_THREADS={} to continue bit for bit",
-                a.resume, resume->threads, omp_get_max_threads(), resume->threads);
+      log::warn(
+          "{}: written with {} threads, resumed with {}: sums may round differently; set "
+          "OMP_NUM_THREADS={} to continue bit for bit",
+          a.resume, resume->threads, omp_get_max_threads(), resume->threads);
   } else {
     write_frames();
   }
@@ -264,14 +255,8 @@ int run_run(const RunArgs& a) {
     ck.routes = driver.routes;
     ck.touched = driver.touched;
     ck.loads = driver.loads;
-    ck.loop_step = loop_step;
-    ck.quiet_streak = streak;
-    ck.frame = frame;
-    ck.next_frame_s = next_frame_s;
-    ck.max_displacement_mm = max_displacement;
-    ck.max_abs_volume_change_pct = max_abs_volume;
-    ck.max_reaction_mn = max_reaction_mn;
-    ck.metrics_csv = csv;
+    ck.progress = so_far;
+    ck.progress.loop_step = loop_step;
     for (const Series& se : series) ck.frames.push_back(se.files);
     io::save_checkpoint(ck, checkpoint_path);
   };
@@ -281,6 +266,7 @@ int run_run(const RunArgs& a) {
   constexpr int64_t kMaxFailedSteps = 10;
   int64_t failed_streak = 0;
   bool unstable = false;
+  const int64_t first_step = so_far.loop_step;
   for (int64_t k = first_step; k < scene.solver.max_steps; ++k) {
     const bool settling = s.time_s >= settle_from;
     const auto t0 = Clock::now();
@@ -289,7 +275,7 @@ int run_run(const RunArgs& a) {
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     step_us.push_back(us);
     const Eigen::Vector3d reaction = interact::reaction_force(s, driver.loads);
-    max_reaction_mn = std::max(max_reaction_mn, reaction.norm());
+    so_far.max_reaction_mn = std::max(so_far.max_reaction_mn, reaction.norm());
     if (a.realtime) {
       // A haptic loop: the next step starts at its tick, not as soon as this one ends. Lateness
       // is measured against the tick; a loop that falls far behind restarts its schedule.
@@ -300,19 +286,20 @@ int run_run(const RunArgs& a) {
       lateness_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - tick).count());
     }
     const int active = static_cast<int>(std::count(driver.active.begin(), driver.active.end(), 1));
-    max_displacement = std::max(max_displacement, st.max_displacement_mm);
-    max_abs_volume = std::max(max_abs_volume, std::abs(st.volume_change_pct));
-    streak = settling && st.converged ? streak + 1 : 0;
-    converged = streak >= settle_steps;
+    so_far.max_displacement_mm = std::max(so_far.max_displacement_mm, st.max_displacement_mm);
+    so_far.max_abs_volume_change_pct =
+        std::max(so_far.max_abs_volume_change_pct, std::abs(st.volume_change_pct));
+    so_far.quiet_streak = settling && st.converged ? so_far.quiet_streak + 1 : 0;
+    converged = so_far.quiet_streak >= settle_steps;
 
-    const bool frame_due = interval > 0.0 && s.time_s >= next_frame_s - 1e-9 * interval;
+    const bool frame_due = interval > 0.0 && s.time_s >= so_far.next_frame_s - 1e-9 * interval;
     if (frame_due) {
       write_frames();
-      while (next_frame_s <= s.time_s + 1e-9 * interval) next_frame_s += interval;
+      while (so_far.next_frame_s <= s.time_s + 1e-9 * interval) so_far.next_frame_s += interval;
     }
     if (scene.output.metrics_every_step || frame_due || converged ||
         k + 1 == scene.solver.max_steps)
-      append_metrics(csv, s.time_s, st, us, active, reaction);
+      append_metrics(so_far.metrics_csv, s.time_s, st, us, active, reaction);
     if (converged) break;
     failed_streak = st.failed ? failed_streak + 1 : 0;
     if (failed_streak >= kMaxFailedSteps) {
@@ -349,15 +336,17 @@ int run_run(const RunArgs& a) {
   if (!stopped && series.front().files.back().first != s.time_s) write_frames();  // final state
   report_progress(progress, fmt::format("simulated {:.2f} s in {} steps", s.time_s, s.steps), 1.0);
   if (stopped)
-    log::info("stopped after {} steps as asked (--stop-after); continue with: lamina run "
-              "--resume {} -o {}",
-              a.stop_after_steps, checkpoint_path, a.output);
+    log::info(
+        "stopped after {} steps as asked (--stop-after); continue with: lamina run "
+        "--resume {} -o {}",
+        a.stop_after_steps, checkpoint_path, a.output);
   else if (!converged && !unstable)
     log::warn("{}: not at rest after solver.max_steps = {} steps ({:.2f} s simulated)",
               scene.source, scene.solver.max_steps, s.time_s);
 
   // 4. Results.
-  write_file_atomically((out / "metrics.csv").string(), [&](std::ostream& f) { f << csv; });
+  write_file_atomically((out / "metrics.csv").string(),
+                        [&](std::ostream& f) { f << so_far.metrics_csv; });
   for (const Series& se : series) write_pvd(se, out);
   io::RunSummary sum;
   sum.scene = scene.source;
@@ -369,8 +358,8 @@ int run_run(const RunArgs& a) {
   sum.steps = s.steps;
   sum.sim_seconds = s.time_s;
   sum.model_seconds = model_seconds;
-  sum.max_displacement_mm = max_displacement;
-  sum.max_abs_volume_change_pct = max_abs_volume;
+  sum.max_displacement_mm = so_far.max_displacement_mm;
+  sum.max_abs_volume_change_pct = so_far.max_abs_volume_change_pct;
   sum.final_rest_error_mm = max_rest_distance(s);
   sum.final_volume_change_pct = st.volume_change_pct;
   sum.recoveries = s.recoveries;
@@ -391,8 +380,8 @@ int run_run(const RunArgs& a) {
     std::nth_element(step_us.begin(), mid, step_us.end());
     sum.median_step_us = *mid;
   }
-  sum.frames = frame;
-  sum.max_reaction_n = max_reaction_mn / 1000.0;
+  sum.frames = so_far.frame;
+  sum.max_reaction_n = so_far.max_reaction_mn / 1000.0;
   if (a.realtime) {
     sum.realtime = true;
     sum.rate_hz = a.rate_hz;
@@ -411,13 +400,14 @@ int run_run(const RunArgs& a) {
   if (unstable) {
     double largest_n = 0.0;
     for (const interact::Tool& t : scene.tools) largest_n = std::max(largest_n, t.force_mn.norm());
-    throw Error(ErrorKind::kUnstable,
-                fmt::format("{}: the simulation could not take a step at t = {:.3g} s even after "
-                            "rolling back to backward Euler ({} steps in a row): a tool force "
-                            "(largest {:.3g} N) or dt = {:.3g} s is beyond what this model can take; "
-                            "lower it (the run until then is in {})",
-                            scene.source, s.time_s, kMaxFailedSteps, largest_n / 1000.0,
-                            scene.solver.dt_s, a.output));
+    throw Error(
+        ErrorKind::kUnstable,
+        fmt::format("{}: the simulation could not take a step at t = {:.3g} s even after "
+                    "rolling back to backward Euler ({} steps in a row): a tool force "
+                    "(largest {:.3g} N) or dt = {:.3g} s is beyond what this model can take; "
+                    "lower it (the run until then is in {})",
+                    scene.source, s.time_s, kMaxFailedSteps, largest_n / 1000.0, scene.solver.dt_s,
+                    a.output));
   }
   if (a.json) {
     std::cout << json << "\n";
@@ -428,9 +418,12 @@ int run_run(const RunArgs& a) {
         "  max displacement {:.3g} mm, max |volume change| {:.3g}%, final rest error {:.3g} mm\n"
         "  wrote {}: metrics.csv, summary.json, {}.pvd ({} frames)\n",
         scene.source, built.source, sum.nodes, sum.layers,
-        converged ? "converged" : stopped ? "stopped for a resume" : "NOT converged", sum.steps, sum.sim_seconds, sum.wall_seconds,
-        sum.steps_per_second, sum.max_displacement_mm, sum.max_abs_volume_change_pct,
-        sum.final_rest_error_mm, a.output, series.size() > 1 ? "skin.pvd, layer*" : "skin", frame);
+        converged ? "converged"
+        : stopped ? "stopped for a resume"
+                  : "NOT converged",
+        sum.steps, sum.sim_seconds, sum.wall_seconds, sum.steps_per_second, sum.max_displacement_mm,
+        sum.max_abs_volume_change_pct, sum.final_rest_error_mm, a.output,
+        series.size() > 1 ? "skin.pvd, layer*" : "skin", so_far.frame);
     if (sum.realtime)
       std::cout << fmt::format(
           "  realtime: {:.0f} steps/s achieved of {:.0f}; step start late by {:.0f} us at worst, "

@@ -5,6 +5,7 @@
 // return to rest. Pass: every state finite, memory flat after warm-up, volume drift bounded,
 // back at rest. A failure exits with code 1 after writing its report (docs/testing.md).
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <cmath>
@@ -140,18 +141,26 @@ int run_soak(const SoakArgs& a) {
   const std::filesystem::path out(a.output);
   create_folder(out);
   write_text(out / "soak.csv", csv);
-  const std::string json = fmt::format(
-      "{{\n  \"passed\": {},\n  \"steps\": {},\n  \"sim_seconds\": {:.6g},\n  \"seed\": {},\n"
-      "  \"nodes\": {},\n  \"integrator\": \"{}\",\n  \"tools_applied\": {},\n"
-      "  \"finite\": {},\n  \"recoveries\": {},\n  \"failed_steps\": {},\n"
-      "  \"resident_mb_after_warmup\": {:.2f},\n  \"resident_mb_growth\": {:.2f},\n"
-      "  \"memory_checked\": {},\n  \"memory_flat\": {},\n"
-      "  \"max_abs_volume_change_pct\": {:.6g},\n"
-      "  \"rest_volume_change_pct\": {:.6g},\n  \"rest_error_mm\": {:.6g},\n"
-      "  \"returned_to_rest\": {}\n}}",
-      passed, a.steps, s.time_s, a.seed, m.node_count(), io::integrator_name(scene.solver.integrator),
-      tools_applied, finite, s.recoveries, failed_steps, rss_after_warmup, rss_growth, memory_checked, memory_flat,
-      max_abs_volume, rest.volume_change_pct, rest_error, at_rest);
+  nlohmann::ordered_json j;  // the same JSON library as every other summary the CLI writes
+  j["passed"] = passed;
+  j["steps"] = a.steps;
+  j["sim_seconds"] = s.time_s;
+  j["seed"] = a.seed;
+  j["nodes"] = m.node_count();
+  j["integrator"] = io::integrator_name(scene.solver.integrator);
+  j["tools_applied"] = tools_applied;
+  j["finite"] = finite;
+  j["recoveries"] = s.recoveries;
+  j["failed_steps"] = failed_steps;
+  j["resident_mb_after_warmup"] = rss_after_warmup;
+  j["resident_mb_growth"] = rss_growth;
+  j["memory_checked"] = memory_checked;
+  j["memory_flat"] = memory_flat;
+  j["max_abs_volume_change_pct"] = max_abs_volume;
+  j["rest_volume_change_pct"] = rest.volume_change_pct;
+  j["rest_error_mm"] = rest_error;
+  j["returned_to_rest"] = at_rest;
+  const std::string json = j.dump(2);
   write_text(out / "summary.json", json + "\n");
   if (!a.no_plot) {
     const std::string gnuplot = find_gnuplot();

@@ -8,12 +8,11 @@
 
 #include <bit>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <type_traits>
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
+#include "read_file.h"
 
 namespace lamina::io {
 namespace {
@@ -96,16 +95,10 @@ struct Reader {
   }
 };
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw invalid_input(path, "cannot open the file for reading (does it exist?)");
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 }  // namespace
 
 uint32_t file_crc(const std::string& path) {
-  const std::string bytes = read_file(path);
+  const std::string bytes = detail::read_whole_file(path);
   return crc(0, bytes.data(), bytes.size());
 }
 
@@ -133,14 +126,14 @@ void save_checkpoint(const RunCheckpoint& k, const std::string& path) {
   w.vec(k.touched);
   w.vec(k.loads.nodes);
   w.pod<uint8_t>(k.loads.cleared ? 1 : 0);
-  w.pod(k.loop_step);
-  w.pod(k.quiet_streak);
-  w.pod(k.frame);
-  w.pod(k.next_frame_s);
-  w.pod(k.max_displacement_mm);
-  w.pod(k.max_abs_volume_change_pct);
-  w.pod(k.max_reaction_mn);
-  w.str(k.metrics_csv);
+  w.pod(k.progress.loop_step);
+  w.pod(k.progress.quiet_streak);
+  w.pod(k.progress.frame);
+  w.pod(k.progress.next_frame_s);
+  w.pod(k.progress.max_displacement_mm);
+  w.pod(k.progress.max_abs_volume_change_pct);
+  w.pod(k.progress.max_reaction_mn);
+  w.str(k.progress.metrics_csv);
   w.pod<uint64_t>(k.frames.size());
   for (const FrameList& list : k.frames) {
     w.pod<uint64_t>(list.size());
@@ -160,7 +153,7 @@ void save_checkpoint(const RunCheckpoint& k, const std::string& path) {
 }
 
 RunCheckpoint load_checkpoint(const std::string& path) {
-  const std::string file = read_file(path);
+  const std::string file = detail::read_whole_file(path);
   const auto bad = [&](const std::string& problem) { return invalid_input(path, problem); };
   if (file.size() < kHeaderBytes || std::memcmp(file.data(), kMagic, sizeof kMagic) != 0)
     throw bad("not a Lamina checkpoint (it does not start with the checkpoint header)");
@@ -204,14 +197,14 @@ RunCheckpoint load_checkpoint(const std::string& path) {
   k.touched = r.vec<int32_t>();
   k.loads.nodes = r.vec<int32_t>();
   k.loads.cleared = r.pod<uint8_t>() != 0;
-  k.loop_step = r.pod<int64_t>();
-  k.quiet_streak = r.pod<int64_t>();
-  k.frame = r.pod<int32_t>();
-  k.next_frame_s = r.pod<double>();
-  k.max_displacement_mm = r.pod<double>();
-  k.max_abs_volume_change_pct = r.pod<double>();
-  k.max_reaction_mn = r.pod<double>();
-  k.metrics_csv = r.str();
+  k.progress.loop_step = r.pod<int64_t>();
+  k.progress.quiet_streak = r.pod<int64_t>();
+  k.progress.frame = r.pod<int32_t>();
+  k.progress.next_frame_s = r.pod<double>();
+  k.progress.max_displacement_mm = r.pod<double>();
+  k.progress.max_abs_volume_change_pct = r.pod<double>();
+  k.progress.max_reaction_mn = r.pod<double>();
+  k.progress.metrics_csv = r.str();
   k.frames.resize(r.count(sizeof(uint64_t)));
   for (FrameList& list : k.frames) {
     list.resize(r.count(sizeof(double) + sizeof(uint64_t)));

@@ -167,10 +167,10 @@ void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
 
 // ITK 5.2's MetaIO trusts a MetaImage header and kills the process on some corrupt ones, which
 // fuzz_volume found (docs/testing.md): a "Key = Value" key longer than its 255-byte buffer aborts
-// in strcpy, and a slice-file pattern ElementDataFile ("name%03d.raw MIN MAX STEP") with a step
-// of 0 divides by zero (SIGFPE), and a negative NDims hangs it. So a .mha/.mhd header is checked here first: printable lines of
-// "Key = Value" with a short alphanumeric key, up to the ElementDataFile line, which must name
-// LOCAL or one data file. Every MetaImage that ITK, 3D Slicer or Lamina writes passes; the values
+// in strcpy, a slice-file pattern ElementDataFile ("name%03d.raw MIN MAX STEP") with a step of 0
+// divides by zero (SIGFPE), and a negative NDims hangs it. So a .mha/.mhd header is checked here
+// first: printable lines of "Key = Value" with a short alphanumeric key, positive NDims and
+// DimSize, up to the ElementDataFile line, which must name LOCAL or one data file. Every MetaImage that ITK, 3D Slicer or Lamina writes passes; the values
 // themselves are still ITK's to parse.
 void check_metaimage_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -19,6 +19,7 @@
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
+#include "read_file.h"
 
 namespace lamina::io {
 namespace {
@@ -136,14 +137,6 @@ Attributes parse_attributes(std::string_view tag) {
     at = close + 1;
   }
   return attributes;
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw invalid_input(path, std::filesystem::exists(path) ? "cannot open the file for reading"
-                                                            : "file not found");
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 // Finds the DataArrays of `s` (the text of `path`); the result points into `s`.
@@ -357,7 +350,7 @@ void save_model(const Model& m, const std::string& path) {
 }
 
 Model load_model(const std::string& path) {
-  const std::string text = read_text(path);
+  const std::string text = detail::read_whole_file(path);
   const VtuFile f = scan_vtu(path, text);
   const auto bad = [&](const std::string& problem) { return invalid_input(path, problem); };
 
@@ -510,8 +503,9 @@ Model load_model(const std::string& path) {
   if (f.arrays.contains("FieldData/content_crc32")) {
     const int64_t stored = read_values<int64_t>(path, f, "FieldData/content_crc32", 1)[0];
     if (stored != static_cast<int64_t>(model_fingerprint(m)))
-      throw bad("contents do not match their checksum (content_crc32): the file was edited or "
-                "damaged; rebuild it with lamina build");
+      throw bad(
+          "contents do not match their checksum (content_crc32): the file was edited or "
+          "damaged; rebuild it with lamina build");
   }
   return m;
 }
@@ -530,7 +524,5 @@ uint32_t model_fingerprint(const Model& m) {
   c = crc(c, s.stiffness_n_per_m.data(), s.stiffness_n_per_m.size() * sizeof(double));
   return c;
 }
-
-
 
 }  // namespace lamina::io

@@ -522,7 +522,7 @@ TEST(LaminaRun, ABadCheckpointOrAChangedSceneIsRefused) {
   refused("-q run -o out --resume short.lmck", "short.lmck: checkpoint is truncated");
   std::ofstream(dir.file("model.vtu")) << "<VTKFile/>";
   refused("-q run -o out --resume model.vtu", "not a Lamina checkpoint");
-  refused("-q run -o out --resume none.lmck", "none.lmck: cannot open");
+  refused("-q run -o out --resume none.lmck", "none.lmck: file not found");
   // The scene edited after the checkpoint: its tools would no longer match the saved state.
   std::ofstream(dir.file("scene.json"))
       << checkpoint_scene({{"stiffness_n_per_m", 4}}, {{"mode", "local"}});

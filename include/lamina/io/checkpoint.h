@@ -19,13 +19,25 @@ namespace lamina::io {
 /// One layer's VTK time series so far: (simulated time s, file relative to the output folder).
 using FrameList = std::vector<std::pair<double, std::string>>;
 
+/// The run loop's progress (`lamina run`), one piece so that a checkpoint holds it whole.
+struct RunProgress {
+  int64_t loop_step = 0;  ///< steps taken by the run loop
+  int64_t quiet_streak = 0;
+  int32_t frame = 0;  ///< frames written
+  double next_frame_s = 0.0;
+  double max_displacement_mm = 0.0;
+  double max_abs_volume_change_pct = 0.0;
+  double max_reaction_mn = 0.0;
+  std::string metrics_csv;  ///< metrics.csv so far
+};
+
 /// What `lamina run` needs to continue where it stopped.
 struct RunCheckpoint {
   // What the run was of; a resume refuses a scene or model that differs.
-  std::string scene_path;   ///< absolute; empty for the built-in default scene
-  uint32_t scene_crc = 0;   ///< CRC-32 of the scene file's bytes (0 for the default scene)
-  uint32_t model_crc = 0;   ///< model_fingerprint() of the model it ran
-  int32_t threads = 0;      ///< OpenMP threads it ran with (a sum's order depends on them)
+  std::string scene_path;  ///< absolute; empty for the built-in default scene
+  uint32_t scene_crc = 0;  ///< CRC-32 of the scene file's bytes (0 for the default scene)
+  uint32_t model_crc = 0;  ///< model_fingerprint() of the model it ran
+  int32_t threads = 0;     ///< OpenMP threads it ran with (a sum's order depends on them)
 
   sim::SimState state;
 
@@ -35,16 +47,8 @@ struct RunCheckpoint {
   std::vector<int32_t> touched;
   interact::Loads loads;
 
-  // The run loop's progress.
-  int64_t loop_step = 0;  ///< steps taken by the run loop
-  int64_t quiet_streak = 0;
-  int32_t frame = 0;  ///< frames written
-  double next_frame_s = 0.0;
-  double max_displacement_mm = 0.0;
-  double max_abs_volume_change_pct = 0.0;
-  double max_reaction_mn = 0.0;
-  std::string metrics_csv;          ///< metrics.csv so far
-  std::vector<FrameList> frames;    ///< per written layer
+  RunProgress progress;
+  std::vector<FrameList> frames;  ///< per written layer
 };
 
 /// CRC-32 of a file's bytes.
