@@ -164,12 +164,16 @@ int run_soak(const SoakArgs& a) {
   write_text(out / "summary.json", json + "\n");
   if (!a.no_plot) {
     const std::string gnuplot = find_gnuplot();
-    draw_plot(gnuplot, out, "soak", kPlotStyle,
-              fmt::format("set multiplot layout 2,1\nset xlabel 'simulated time (s)'\n"
+    // Three stacked panels need a taller page than the common style's.
+    draw_plot(gnuplot, out, "soak",
+              std::string(kPlotStyle) + "set terminal pngcairo size 1000,1000\n",
+              fmt::format("set multiplot layout 3,1\nset xlabel 'simulated time (s)'\n"
                           "set ylabel 'resident memory (MB)'\nset yrange [0:*]\n"
                           "plot {0} using 2:3 with lines lw 2 title 'resident memory'\n"
                           "set ylabel 'skin volume change (%)'\nset autoscale y\n"
                           "plot {0} using 2:4 with lines title 'volume change'\n"
+                          "set ylabel 'largest displacement (mm)'\nset yrange [0:*]\n"
+                          "plot {0} using 2:5 with lines title 'largest node displacement'\n"
                           "unset multiplot\n",
                           quote(out / "soak.csv")));
   }
