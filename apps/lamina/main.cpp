@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "commands.h"
@@ -58,7 +59,10 @@ int main(int argc, char** argv) {
                  "refuse a volume with more voxels than this before reading it (default 2^31; "
                  "a corrupt header can claim terabytes)")
       ->envname("LAMINA_MAX_VOXELS")
-      ->check(CLI::PositiveNumber);
+      ->check([](const std::string& v) {
+        return std::strtoll(v.c_str(), nullptr, 10) > 0 ? std::string()
+                                                        : "must be a positive number of voxels";
+      });
 
   cli::PhantomArgs phantom;
   std::string spacing = "1.5", size;

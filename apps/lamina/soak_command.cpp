@@ -62,6 +62,9 @@ int run_soak(const SoakArgs& a) {
   const Model& m = built.model;
   sim::Simulation s = sim::make_simulation(m, scene.material, scene.solver);
   sim::fix_nodes(s, fixed);
+  // The folder now, not after an hour of stepping: a path that cannot be made fails at once.
+  const std::filesystem::path out(a.output);
+  create_folder(out);
 
   // Random tools: a new one every 0.05-0.5 s (at most three at once) on a random skin node,
   // 0.05-0.5 N pushing or pulling in a random direction, held 0.1-1 s.
@@ -138,8 +141,6 @@ int run_soak(const SoakArgs& a) {
   const bool at_rest = rest.converged && rest_error <= 0.05;
   const bool passed = finite && failed_steps == 0 && memory_flat && volume_ok && at_rest;
 
-  const std::filesystem::path out(a.output);
-  create_folder(out);
   write_text(out / "soak.csv", csv);
   nlohmann::ordered_json j;  // the same JSON library as every other summary the CLI writes
   j["passed"] = passed;
