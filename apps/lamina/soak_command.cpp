@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -76,10 +77,13 @@ int run_soak(const SoakArgs& a) {
   interact::Loads loads;
   double next_tool_s = 0.0;
   int64_t tools_applied = 0;
+  const bool local = s.options.mode == sim::Mode::kLocal;
+  std::vector<int32_t> touched;
 
   std::string csv = "step,time_s,resident_mb,volume_change_pct,max_displacement_mm,recoveries,"
                     "failed_steps,active_tools\n";
-  double rss_after_warmup = 0.0, rss_max_after_warmup = 0.0, max_abs_volume = 0.0;
+  double rss_after_warmup = 0.0, rss_max_after_warmup = 0.0, max_abs_volume = 0.0,
+         max_displacement = 0.0;
   int64_t failed_steps = 0;
   bool finite = true;
   const int64_t sample = std::max<int64_t>(1, a.steps / 2000);
@@ -91,6 +95,14 @@ int run_soak(const SoakArgs& a) {
       ActiveTool t;
       t.route = interact::route_force(m, s.x, node(rng), 1000.0 * newtons(rng) * dir, scene.routing);
       t.end_s = s.time_s + hold(rng);
+      if (local) {
+        // Local mode moves only the nodes set movable: every node a tool has loaded stays
+        // movable (as apps/lamina's tool driver does), or the tools would push on held nodes.
+        touched.insert(touched.end(), t.route.nodes.begin(), t.route.nodes.end());
+        std::sort(touched.begin(), touched.end());
+        touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+        sim::set_local_nodes(s, touched);
+      }
       tools.push_back(std::move(t));
       next_tool_s = s.time_s + gap(rng);
       ++tools_applied;
@@ -102,6 +114,7 @@ int run_soak(const SoakArgs& a) {
     failed_steps += st.failed ? 1 : 0;
     finite = finite && std::isfinite(st.volume_change_pct) && std::isfinite(st.max_displacement_mm);
     max_abs_volume = std::max(max_abs_volume, std::abs(st.volume_change_pct));
+    max_displacement = std::max(max_displacement, st.max_displacement_mm);
     if (k % sample == 0 || k + 1 == a.steps) {
       const double rss = resident_mb();
       if (k >= warmup) {
@@ -139,7 +152,10 @@ int run_soak(const SoakArgs& a) {
   const bool memory_flat = !memory_checked || rss_growth <= 2.0;
   const bool volume_ok = std::abs(rest.volume_change_pct) <= 0.1;
   const bool at_rest = rest.converged && rest_error <= 0.05;
-  const bool passed = finite && failed_steps == 0 && memory_flat && volume_ok && at_rest;
+  // A soak whose tools moved nothing tested nothing (a model held everywhere, say).
+  const bool deformed = max_displacement > 0.0;
+  const bool passed =
+      finite && failed_steps == 0 && memory_flat && volume_ok && at_rest && deformed;
 
   write_text(out / "soak.csv", csv);
   nlohmann::ordered_json j;  // the same JSON library as every other summary the CLI writes
@@ -157,6 +173,8 @@ int run_soak(const SoakArgs& a) {
   j["resident_mb_growth"] = rss_growth;
   j["memory_checked"] = memory_checked;
   j["memory_flat"] = memory_flat;
+  j["max_displacement_mm"] = max_displacement;
+  j["deformed"] = deformed;
   j["max_abs_volume_change_pct"] = max_abs_volume;
   j["rest_volume_change_pct"] = rest.volume_change_pct;
   j["rest_error_mm"] = rest_error;
@@ -185,19 +203,21 @@ int run_soak(const SoakArgs& a) {
     std::cout << fmt::format(
         "lamina soak: {} steps ({:.0f} s simulated) on {} nodes, {} random tools: {}\n"
         "  finite {}, failed steps {}, recoveries {}; memory {:.1f} MB, +{:.2f} MB after "
-        "warm-up; |volume change| up to {:.3g}%, {:.3g}% at rest; rest error {:.3g} mm\n"
+        "warm-up; displacement up to {:.3g} mm; |volume change| up to {:.3g}%, {:.3g}% at rest; "
+        "rest error {:.3g} mm\n"
         "  wrote {}: soak.csv, summary.json{}\n",
         a.steps, s.time_s, m.node_count(), tools_applied, passed ? "PASSED" : "FAILED",
         finite ? "yes" : "NO", failed_steps, s.recoveries, rss_after_warmup, rss_growth,
-        max_abs_volume, rest.volume_change_pct, rest_error, a.output,
+        max_displacement, max_abs_volume, rest.volume_change_pct, rest_error, a.output,
         a.no_plot ? "" : ", soak.png");
   }
   if (!passed)
     throw Error(ErrorKind::kInternal,
-                fmt::format("soak: FAILED (finite {}, failed steps {}, memory +{:.2f} MB, rest "
-                            "volume {:.3g}%, rest error {:.3g} mm): see {}/summary.json",
-                            finite, failed_steps, rss_growth, rest.volume_change_pct, rest_error,
-                            a.output));
+                fmt::format("soak: FAILED (finite {}, failed steps {}, memory +{:.2f} MB, "
+                            "displacement up to {:.3g} mm, rest volume {:.3g}%, rest error {:.3g} "
+                            "mm): see {}/summary.json",
+                            finite, failed_steps, rss_growth, max_displacement,
+                            rest.volume_change_pct, rest_error, a.output));
   return 0;
 }
 
