@@ -40,10 +40,17 @@ find_package(Imath REQUIRED)
 # need but which stops GCC vectorising any loop with a sqrt (and slowed the simulation's spring
 # pass 3x): so only the sources listed with lamina_cgal_sources() get CGAL's compile flags, and
 # targets link CGAL with $<LINK_ONLY:CGAL::CGAL>.
+# Under ASan + UBSan (preset asan) these sources are compiled uninstrumented, like the Debian-built
+# libraries (ITK, OpenVDB, VTK, GMP) every sanitizer build links: they hold CGAL's header-only
+# templates and the conversions to and from them, and instrumenting CGAL's Mesh_3 and polygon
+# mesh processing took 23% of the sanitizer build's compile time (docs/testing.md).
 find_package(CGAL 5.5 REQUIRED)
 function(lamina_cgal_sources)
   set_property(SOURCE ${ARGN} APPEND PROPERTY COMPILE_OPTIONS -frounding-math)
   set_property(SOURCE ${ARGN} APPEND PROPERTY COMPILE_DEFINITIONS CGAL_USE_GMPXX=1)
+  if(LAMINA_SANITIZE)
+    set_property(SOURCE ${ARGN} APPEND PROPERTY COMPILE_OPTIONS -fno-sanitize=all)
+  endif()
 endfunction()
 
 if(LAMINA_BUILD_TESTS)
