@@ -77,8 +77,7 @@ int run_soak(const SoakArgs& a) {
   interact::Loads loads;
   double next_tool_s = 0.0;
   int64_t tools_applied = 0;
-  const bool local = s.options.mode == sim::Mode::kLocal;
-  std::vector<int32_t> touched;
+  std::vector<int32_t> touched;  // local mode: every node a tool has loaded stays movable
 
   std::string csv = "step,time_s,resident_mb,volume_change_pct,max_displacement_mm,recoveries,"
                     "failed_steps,active_tools\n";
@@ -95,14 +94,8 @@ int run_soak(const SoakArgs& a) {
       ActiveTool t;
       t.route = interact::route_force(m, s.x, node(rng), 1000.0 * newtons(rng) * dir, scene.routing);
       t.end_s = s.time_s + hold(rng);
-      if (local) {
-        // Local mode moves only the nodes set movable: every node a tool has loaded stays
-        // movable (as apps/lamina's tool driver does), or the tools would push on held nodes.
-        touched.insert(touched.end(), t.route.nodes.begin(), t.route.nodes.end());
-        std::sort(touched.begin(), touched.end());
-        touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-        sim::set_local_nodes(s, touched);
-      }
+      touched.insert(touched.end(), t.route.nodes.begin(), t.route.nodes.end());
+      interact::keep_touched_movable(s, touched);
       tools.push_back(std::move(t));
       next_tool_s = s.time_s + gap(rng);
       ++tools_applied;

@@ -157,11 +157,7 @@ void RealtimeLoop::route_forces() {
     routes_.push_back(route_force(m, sim_.x, f.node, f.force_mn, routing_));
     touched_.insert(touched_.end(), routes_.back().nodes.begin(), routes_.back().nodes.end());
   }
-  if (sim_.options.mode == sim::Mode::kLocal) {
-    std::sort(touched_.begin(), touched_.end());
-    touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
-    sim::set_local_nodes(sim_, touched_);
-  }
+  keep_touched_movable(sim_, touched_);
 }
 
 void RealtimeLoop::one_step() {
@@ -185,9 +181,7 @@ void RealtimeLoop::one_step() {
       add_load(sim_, tip_route, loads_);
       if (node != tip_contact_ && sim_.options.mode == sim::Mode::kLocal) {
         touched_.insert(touched_.end(), tip_route.nodes.begin(), tip_route.nodes.end());
-        std::sort(touched_.begin(), touched_.end());
-        touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
-        sim::set_local_nodes(sim_, touched_);
+        keep_touched_movable(sim_, touched_);
       }
     }
     tip_contact_ = node;

@@ -173,12 +173,14 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
   clear_loads(s, d.loads);
   for (size_t t = 0; t < n; ++t)
     if (d.active[t]) add_load(s, d.routes[t], d.loads);
-  if (changed && s.options.mode == sim::Mode::kLocal) {
-    std::sort(d.touched.begin(), d.touched.end());
-    d.touched.erase(std::unique(d.touched.begin(), d.touched.end()), d.touched.end());
-    sim::set_local_nodes(s, d.touched);
-  }
+  if (changed && s.options.mode == sim::Mode::kLocal) keep_touched_movable(s, d.touched);
   return any;
+}
+
+void keep_touched_movable(sim::Simulation& s, std::vector<int32_t>& touched) {
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  if (s.options.mode == sim::Mode::kLocal) sim::set_local_nodes(s, touched);
 }
 
 void clear_loads(sim::Simulation& s, Loads& loads) {

@@ -87,6 +87,12 @@ void clear_loads(sim::Simulation& sim, Loads& loads);
 /// Adds a route's forces to f_ext and records its nodes.
 void add_load(sim::Simulation& sim, const ForceRoute& route, Loads& loads);
 
+/// The paper's local mode moves only the nodes made movable; every node a force has loaded
+/// (`touched`) stays movable, so that a released region can return to rest. Sorts `touched` and
+/// drops repeats; in local mode, makes exactly those nodes movable (nothing more in global mode,
+/// where every free node moves). Shared by the tool driver, the realtime loop and the soak.
+void keep_touched_movable(sim::Simulation& sim, std::vector<int32_t>& touched);
+
 struct ToolDriver {
   std::vector<Tool> tools;
   RoutingOptions routing;
