@@ -103,7 +103,7 @@ void BM_CgIteration(benchmark::State& state) {
   const Eigen::MatrixX3d p = Eigen::MatrixX3d::Random(m.node_count(), 3);
   Eigen::MatrixX3d y = Eigen::MatrixX3d::Zero(m.node_count(), 3);
   for (auto _ : state) {
-    sim::implicit_system_product(s, s.options.dt_s, p, y);
+    sim::implicit_system_product(s, s.options().dt_s, p, y);
     benchmark::ClobberMemory();
   }
   label(state, m);

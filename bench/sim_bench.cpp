@@ -9,6 +9,7 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/interact/pick.h"
 #include "lamina/interact/tools.h"
+#include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
 
@@ -16,18 +17,57 @@ namespace {
 
 using namespace lamina;
 
-const Model& phantom_model(int32_t skin_vertices) {
-  static std::map<int32_t, Model> cache;
-  auto it = cache.find(skin_vertices);
+// The phantom at a skin size: the paper's network (links) unless `tets`.
+const Model& phantom_model(int32_t skin_vertices, bool tets = false) {
+  static std::map<std::pair<int32_t, bool>, Model> cache;
+  auto it = cache.find({skin_vertices, tets});
   if (it == cache.end())
     it = cache
-             .emplace(skin_vertices,
+             .emplace(std::make_pair(skin_vertices, tets),
                       model::build_model(geometry::make_phantom(),
-                                         {.skin_vertices = skin_vertices, .locality = 6})
+                                         {.structure = tets ? model::Structure::kTetrahedra
+                                                            : model::Structure::kLinks,
+                                          .skin_vertices = skin_vertices,
+                                          .locality = 6})
                           .model)
              .first;
   return it->second;
 }
+
+// The physical liver (the default scene: tetrahedra, E = 6 kPa, nu = 0.45, critical damping,
+// posterior support, implicit Euler) on the phantom at a skin size and dt, one step under a
+// held 0.4 N poke: the step a haptic loop takes. Counters: CG iterations and the stages.
+void BM_PhysicalLiverStep(benchmark::State& state) {
+  const int32_t skin = static_cast<int32_t>(state.range(0));
+  Model m = phantom_model(skin, true);
+  io::Scene scene;
+  scene.solver.dt_s = static_cast<double>(state.range(1)) * 1e-3;
+  const io::SceneSetup setup = io::prepare_scene(scene, m);
+  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
+  interact::ToolDriver d;
+  d.tools = scene.tools;
+  d.tools.front().end_s = 1e9;  // held
+  interact::apply_tools(s, d);
+  for (int k = 0; k < 50; ++k) sim::step(s);  // into the motion
+  double cg = 0.0, forces = 0.0, integrate = 0.0;
+  for (auto _ : state) {
+    const sim::StepStats st = sim::step(s);
+    cg += st.cg_iterations, forces += st.profile.forces_us, integrate += st.profile.integrate_us;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["nodes"] = m.node_count();
+  state.counters["tets"] = static_cast<double>(m.tets.size());
+  state.counters["cg_iterations"] = cg / n;
+  state.counters["forces_us"] = forces / n;
+  state.counters["integrate_us"] = integrate / n;
+  state.counters["steps_per_s"] =
+      benchmark::Counter(n, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_PhysicalLiverStep)
+    ->ArgsProduct({{1284}, {1, 10}})
+    ->Args({10000, 10})
+    ->ArgNames({"skin_vertices", "dt_ms"})
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_Step(benchmark::State& state) {
   const Model& m = phantom_model(static_cast<int32_t>(state.range(0)));
@@ -61,7 +101,7 @@ void BM_PokeToConvergence(benchmark::State& state) {
   int64_t steps = 0;
   for (auto _ : state) {
     sim::Simulation s =
-        sim::make_simulation(m, {}, {.threshold_mm = threshold, .mode = sim::Mode::kLocal});
+        sim::make_simulation(m, {}, {.rest_speed_mm_per_s = threshold / 0.01, .mode = sim::Mode::kLocal});
     interact::ToolDriver d;
     d.routing.locality = locality;
     d.tools.push_back({.vertex = interact::most_anterior_skin_node(m), .force_mn = Eigen::Vector3d(0, 400, 0)});

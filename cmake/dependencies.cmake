@@ -53,6 +53,11 @@ function(lamina_cgal_sources)
   endif()
 endfunction()
 
+# TetGen 1.5 (Debian's libtet1.5-dev): no CMake package, so header and library by name. Its one
+# user, src/geometry/tetrahedralize_shells.cpp, defines TETLIBRARY before including tetgen.h.
+find_path(TETGEN_INCLUDE_DIR tetgen.h REQUIRED)
+find_library(TETGEN_LIBRARY tet REQUIRED)
+
 if(LAMINA_BUILD_TESTS)
   find_package(GTest 1.12 REQUIRED CONFIG)
   include(GoogleTest)

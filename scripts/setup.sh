@@ -7,7 +7,7 @@ pkgs=(
   cmake g++ make pkg-config ninja-build
   libeigen3-dev libinsighttoolkit5-dev libcgal-dev libopenvdb-dev libtbb-dev libimath-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
-  libnanoflann-dev libmeshoptimizer-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libnanoflann-dev libmeshoptimizer-dev libtet1.5-dev libgtest-dev libgmock-dev libbenchmark-dev
   zlib1g-dev
   # render module, viewer and figures: GLFW + libepoxy + Dear ImGui + stb, Mesa's EGL
   # surfaceless (headless) and llvmpipe, Xvfb and xdotool (the viewer test), gnuplot (plots)

@@ -121,6 +121,7 @@ int run_bench(const BenchArgs& a) {
     report_progress(progress, fmt::format("bench: building the {} model", z.name),
                     0.05 + 0.9 * k / sizes.size());
     model::BuildOptions bo;
+    bo.structure = model::Structure::kLinks;  // the paper's network, as earlier benches ran it
     bo.skin_vertices = z.skin_vertices;
     bo.layers = z.layers;
     const model::BuildResult built = model::build_model(phantom, bo);
@@ -133,7 +134,7 @@ int run_bench(const BenchArgs& a) {
     r.springs = static_cast<int64_t>(m.springs.size());
     r.build_s = built.report.build_seconds;
 
-    io::Scene scene;  // the default poke and boundary, resolved on this model
+    io::Scene scene = io::paper_scene();  // the paper's poke and boundary, on this model
     io::resolve_scene_defaults(scene, m);
     const std::vector<int32_t> fixed = io::fixed_scene_nodes(scene, m);
     const interact::Tool& tool = scene.tools.front();

@@ -47,6 +47,7 @@ int run_figures(const FiguresArgs& a) {
 
   // Models: the paper's two layers, and a skin-only one for the volume comparison.
   io::Scene scene = scene_for(a.input);
+  scene.build.structure = model::Structure::kLinks;  // the paper's network
   scene.build.layers = 2;
   scene.build.locality = 6;  // figure 5 sweeps N = 1..6
   report_progress(progress, "figures: building the 2-layer model", 0.0);
@@ -105,7 +106,7 @@ int run_figures(const FiguresArgs& a) {
     for (double threshold : {1e-3, 1e-4}) {
       Setup s = base;
       s.routing.locality = n;
-      s.solver.threshold_mm = threshold;
+      s.solver.rest_speed_mm_per_s = threshold / s.solver.dt_s;  // the paper's move per step
       s.solver.max_steps = 100000;
       std::vector<double> ms;
       RunStats r;

@@ -9,7 +9,7 @@ namespace lamina::cli {
 using Clock = std::chrono::steady_clock;
 
 Setup paper_setup(const Model& m) {
-  io::Scene scene;  // the default scene: the paper's poke (0.4 N, 0-1 s) and boundary
+  io::Scene scene = io::paper_scene();  // the paper's poke (0.4 N, 0-1 s) and boundary
   io::resolve_scene_defaults(scene, m);
   Setup s;
   s.model = &m;
@@ -30,13 +30,14 @@ RunStats simulate(const Setup& setup, double t_end_s, bool stop_at_rest,
   const double release = interact::last_tool_end(driver);
   RunStats r;
   int64_t quiet = 0;
+  const int64_t needed = sim::quiet_steps(s);
   const auto t0 = Clock::now();
   while (s.time_s < t_end_s - 1e-9) {
     interact::apply_tools(s, driver);
     const sim::StepStats st = sim::step(s);
     if (per_step) per_step(s, driver, st);
-    quiet = s.time_s > release && st.converged ? quiet + 1 : 0;
-    if (stop_at_rest && quiet >= 10) {
+    quiet = s.time_s > release && sim::at_rest(st) ? quiet + 1 : 0;
+    if (stop_at_rest && quiet >= needed) {
       r.converged = true;
       break;
     }

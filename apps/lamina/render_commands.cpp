@@ -24,19 +24,18 @@ namespace {
 struct Prepared {
   io::Scene scene;
   SceneModel built;
-  std::vector<int32_t> fixed;
+  io::SceneSetup setup;
+  io::Scene original;  ///< as parsed, before prepare_scene() resolved it against the model
   bool from_scene_file = false;
 };
 
 Prepared prepare(const std::string& what, const ProgressFn& progress) {
   Prepared p;
   p.scene = scene_for(what);
+  p.original = p.scene;
   p.from_scene_file = has_suffix(what, ".json");
   p.built = make_scene_model(p.scene, progress);
-  io::resolve_scene_defaults(p.scene, p.built.model);
-  io::check_scene_against_model(p.scene, p.built.model);
-  p.fixed = io::fixed_scene_nodes(p.scene, p.built.model);
-  io::resolve_material(p.scene, p.built.model, p.fixed);
+  p.setup = io::prepare_scene(p.scene, p.built.model);
   return p;
 }
 
@@ -88,7 +87,8 @@ int run_view(const ViewArgs& a) {
   o.report = a.report;
   render::ViewerModel vm;
   vm.source = p.built.source;
-  vm.fixed = p.fixed;
+  vm.fixed = p.setup.fixed;
+  vm.support = p.setup.support;
   // A scene file's tools act from the start, pinned; on a bare model the default poke's node is
   // only watched (plotted), and the user pushes.
   for (const interact::Tool& t : p.scene.tools) {
@@ -103,19 +103,20 @@ int run_view(const ViewArgs& a) {
   vm.model = std::move(p.built.model);
   if (!p.scene.input.empty()) {
     // Rebuilding re-reads the segmentation with the scene's options and its boundary rule.
-    o.rebuild = [scene = p.scene](int32_t layers, int32_t skin_vertices, const ProgressFn& pr) {
+    // The same preparation as the first model's (prepare_scene): fixed and supported nodes,
+    // and the material resolved again, whose damping follows the new model's slowest vibration.
+    o.rebuild = [scene = p.original](int32_t layers, int32_t skin_vertices, const ProgressFn& pr) {
       io::Scene s = scene;
       s.build.layers = layers;
       s.build.skin_vertices = skin_vertices;
       SceneModel b = make_scene_model(s, pr);
-      s.default_fixed = scene.default_fixed;
       s.default_tool = true;
       s.tools.clear();
-      io::resolve_scene_defaults(s, b.model);
+      const io::SceneSetup setup = io::prepare_scene(s, b.model);
       render::ViewerModel out;
-      out.fixed = io::fixed_scene_nodes(s, b.model);
-      // A physical material's spring constants belong to the model: identify them again.
-      if (s.elastic) model::identify_springs(b.model, s.elastic_material, b.model.springs.stiffness_n_per_m);
+      out.fixed = setup.fixed;
+      out.support = setup.support;
+      out.material = s.material;
       out.source = b.source;
       out.model = std::move(b.model);
       return out;
@@ -157,8 +158,7 @@ int run_render(const RenderArgs& a) {
 
   Prepared p = prepare(a.what, stderr_progress(a.verbose));
   const Model& m = p.built.model;
-  sim::Simulation s = sim::make_simulation(m, p.scene.material, p.scene.solver);
-  sim::fix_nodes(s, p.fixed);
+  sim::Simulation s = io::make_scene_simulation(p.scene, m, p.setup);
   interact::ToolDriver driver;
   driver.tools = p.scene.tools;
   driver.routing = p.scene.routing;

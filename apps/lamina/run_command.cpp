@@ -60,7 +60,7 @@ struct Series {
 
 void write_frame(Series& series, const sim::Simulation& s, const fs::path& out, int32_t index,
                  bool obj) {
-  const ModelLayer& layer = s.model->layers[static_cast<size_t>(series.layer)];
+  const ModelLayer& layer = s.model().layers[static_cast<size_t>(series.layer)];
   series.mesh.V = s.x.middleRows(layer.first_node, layer.node_count);
   const std::string stem = fmt::format("frames/{}_{:06d}", series.name, index);
   io::write_mesh(series.mesh, (out / (stem + ".vtp")).string());
@@ -95,14 +95,14 @@ void append_metrics(std::string& csv, double time_s, const sim::StepStats& st, d
 }
 
 double max_rest_distance(const sim::Simulation& s) {
-  return std::sqrt((s.x - s.model->X).rowwise().squaredNorm().maxCoeff());
+  return std::sqrt((s.x - s.model().X).rowwise().squaredNorm().maxCoeff());
 }
 
 // Puts a checkpoint's state back, after checking that every index in it fits this model and
 // scene (the file's checksum already vouches for its bytes, not for what they refer to).
 void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simulation& s,
                  interact::ToolDriver& driver, std::vector<Series>& series) {
-  const Model& m = *s.model;
+  const Model& m = s.model();
   const auto bad = [&](const std::string& problem) {
     return invalid_input(path, problem + ": resume with the scene and model it was written for");
   };
@@ -165,22 +165,20 @@ int run_run(const RunArgs& a) {
   // 1. The model, and the scene checked against it, before anything is written.
   SceneModel built = make_scene_model(scene, progress);
   const double model_seconds = seconds_since(t_start);
-  io::resolve_scene_defaults(scene, built.model);
-  io::check_scene_against_model(scene, built.model);
-  const std::vector<int32_t> fixed = io::fixed_scene_nodes(scene, built.model);
-  const io::MaterialReport material = io::resolve_material(scene, built.model, fixed);
+  const io::SceneSetup setup = io::prepare_scene(scene, built.model);
+  const std::vector<int32_t>& fixed = setup.fixed;
+  const io::MaterialReport& material = setup.material;
   const Model& m = built.model;
   const uint32_t model_crc = io::model_fingerprint(m);
   if (resume && model_crc != resume->model_crc)
     throw invalid_input(a.resume, "was written for another model than the one " + built.source +
                                       " gives now (its fingerprint differs)");
-  sim::Simulation s = sim::make_simulation(m, scene.material, scene.solver);
-  sim::fix_nodes(s, fixed);
-  if (fixed.empty() && scene.material.anchor_stiffness_n_per_m == 0.0 &&
-      scene.solver.mode == sim::Mode::kGlobal)
+  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
+  if (fixed.empty() && setup.support.nodes.empty() &&
+      scene.material.anchor_stiffness_n_per_m == 0.0 && scene.solver.mode == sim::Mode::kGlobal)
     log::warn(
-        "{}: no fixed nodes and no anchor springs: a pushed model drifts as a rigid body "
-        "and may not come back to rest",
+        "{}: no fixed nodes, no support and no anchor springs: a pushed model drifts as a rigid "
+        "body and may not come back to rest",
         scene.source);
   interact::ToolDriver driver;
   driver.tools = scene.tools;
@@ -209,18 +207,17 @@ int run_run(const RunArgs& a) {
   // 3. Step until every tool has let go and the model is at rest. A tool that never ends is
   // followed until the model rests under its load. One quiet step is not enough: velocities
   // pass through zero when a tool is released and at the turning points of an oscillation, so
-  // the test must hold for a settling window (0.1 s, at least 3 steps).
+  // the test must hold for a settling window (sim::quiet_steps: 0.1 s, at least 3 steps).
   const double tools_end = interact::last_tool_end(driver);
   double last_start = 0.0;
   for (const interact::Tool& t : scene.tools) last_start = std::max(last_start, t.start_s);
   const double settle_from = std::isfinite(tools_end) ? tools_end : last_start;
-  const int64_t settle_steps =
-      std::max<int64_t>(3, static_cast<int64_t>(std::ceil(0.1 / scene.solver.dt_s - 1e-9)));
+  const int64_t settle_steps = sim::quiet_steps(s);
   const double interval = scene.output.frame_interval_s;
 
   std::vector<double> step_us;
   step_us.reserve(static_cast<size_t>(std::min<int64_t>(scene.solver.max_steps, 1 << 20)));
-  double first_settle_move = 0.0;
+  double first_settle_speed = 0.0;
   bool converged = false;
   sim::StepStats st;
   auto last_report = Clock::now();
@@ -289,7 +286,7 @@ int run_run(const RunArgs& a) {
     so_far.max_displacement_mm = std::max(so_far.max_displacement_mm, st.max_displacement_mm);
     so_far.max_abs_volume_change_pct =
         std::max(so_far.max_abs_volume_change_pct, std::abs(st.volume_change_pct));
-    so_far.quiet_streak = settling && st.converged ? so_far.quiet_streak + 1 : 0;
+    so_far.quiet_streak = settling && sim::at_rest(st) ? so_far.quiet_streak + 1 : 0;
     converged = so_far.quiet_streak >= settle_steps;
 
     const bool frame_due = interval > 0.0 && s.time_s >= so_far.next_frame_s - 1e-9 * interval;
@@ -316,20 +313,20 @@ int run_run(const RunArgs& a) {
     if (progress && seconds_since(last_report) >= report_every_s) {
       last_report = Clock::now();
       // Before release: time towards the last release. After: orders of magnitude of the
-      // largest move still to lose before the threshold.
+      // largest speed still to lose before the rest speed.
       double fraction = 0.0;
       if (!settling) {
         fraction =
             std::isfinite(settle_from) && settle_from > 0.0 ? 0.5 * s.time_s / settle_from : 0.0;
       } else {
-        if (first_settle_move == 0.0) first_settle_move = std::max(st.max_move_mm, 1e-300);
-        const double span = std::log(first_settle_move / scene.solver.threshold_mm);
-        const double done = std::log(first_settle_move / std::max(st.max_move_mm, 1e-300));
+        if (first_settle_speed == 0.0) first_settle_speed = std::max(st.max_speed_mm_per_s, 1e-300);
+        const double span = std::log(first_settle_speed / scene.solver.rest_speed_mm_per_s);
+        const double done = std::log(first_settle_speed / std::max(st.max_speed_mm_per_s, 1e-300));
         fraction = 0.5 + 0.5 * (span > 0.0 ? std::clamp(done / span, 0.0, 0.99) : 0.99);
       }
       report_progress(progress,
-                      fmt::format("simulating: t = {:.2f} s, step {}, largest move {:.2g} mm",
-                                  s.time_s, s.steps, st.max_move_mm),
+                      fmt::format("simulating: t = {:.2f} s, step {}, fastest node {:.2g} mm/s",
+                                  s.time_s, s.steps, st.max_speed_mm_per_s),
                       std::min(fraction, 0.99));
     }
   }

@@ -44,25 +44,16 @@ struct ActiveTool {
 int run_soak(const SoakArgs& a) {
   if (a.steps < 1000) throw invalid_input("--steps", "must be at least 1000");
   check_output_folder(a.output);
-  // The default: a physical liver (E, nu, density, critical damping: implicit Euler) on the
-  // paper-size phantom, posterior 10 mm held; a scene can name any other model and material.
-  io::Scene scene;
-  if (!a.scene.empty()) {
-    scene = io::load_scene(a.scene);
-  } else {
-    scene = io::parse_scene(R"({"material": {"young_modulus_kpa": 6.0, "poisson_ratio": 0.45,
-        "density_g_per_cm3": 1.06, "damping_ratio": 1.0}, "solver": {"mode": "global"}})",
-                            "default soak scene");
-  }
+  // The default scene: the physical liver (tetrahedra; E, nu, density, critical damping;
+  // implicit Euler at 1 ms; its posterior surface supported); a scene can name any other model
+  // and material.
+  io::Scene scene = a.scene.empty() ? io::Scene{} : io::load_scene(a.scene);
   const ProgressFn progress = stderr_progress(a.verbose);
   report_progress(progress, "soak: building the model", 0.0);
   SceneModel built = make_scene_model(scene, {});
-  io::resolve_scene_defaults(scene, built.model);
-  const std::vector<int32_t> fixed = io::fixed_scene_nodes(scene, built.model);
-  io::resolve_material(scene, built.model, fixed);
+  const io::SceneSetup setup = io::prepare_scene(scene, built.model);
   const Model& m = built.model;
-  sim::Simulation s = sim::make_simulation(m, scene.material, scene.solver);
-  sim::fix_nodes(s, fixed);
+  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
   // The folder now, not after an hour of stepping: a path that cannot be made fails at once.
   const std::filesystem::path out(a.output);
   create_folder(out);

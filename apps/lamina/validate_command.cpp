@@ -166,7 +166,7 @@ int run_validate(const ValidateArgs& a) {
   }
   sim::SolverOptions solver = scene.solver;
   solver.integrator = sim::Integrator::kImplicitEuler;
-  solver.threshold_mm = 1e-4;
+  solver.rest_speed_mm_per_s = 0.01;
   solver.max_steps = 20000;
   sim::Material with_volume = scene.material, layers_only = scene.material;
   layers_only.volume_stiffness_kpa = 0.0;

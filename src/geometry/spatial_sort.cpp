@@ -8,14 +8,21 @@
 
 namespace lamina::geometry {
 
-void spatial_sort(const SurfaceMesh& in, SurfaceMesh& out) {
-  const auto n = static_cast<size_t>(in.V.rows());
+std::vector<int32_t> spatial_order(const Eigen::MatrixX3d& points) {
+  const auto n = static_cast<size_t>(points.rows());
   // meshoptimizer takes float xyz triples; single precision is ample to order points.
   std::vector<float> xyz(3 * n);
   for (size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) xyz[3 * i + c] = static_cast<float>(in.V(static_cast<Eigen::Index>(i), c));
+    for (int c = 0; c < 3; ++c)
+      xyz[3 * i + c] = static_cast<float>(points(static_cast<Eigen::Index>(i), c));
   std::vector<unsigned int> remap(n);  // old index -> new index
   if (n > 0) meshopt_spatialSortRemap(remap.data(), xyz.data(), n, 3 * sizeof(float));
+  return {remap.begin(), remap.end()};
+}
+
+void spatial_sort(const SurfaceMesh& in, SurfaceMesh& out) {
+  const auto n = static_cast<size_t>(in.V.rows());
+  const std::vector<int32_t> remap = spatial_order(in.V);  // old index -> new index
 
   SurfaceMesh sorted;
   sorted.V.resize(in.V.rows(), 3);

@@ -36,7 +36,6 @@ int32_t deepest_inside(const Model& m, const Eigen::MatrixX3d& x, const ToolTip&
 RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
                            const LoopOptions& options)
     : sim_(std::move(sim)), routing_(routing), options_(options), rate_hz_(options.rate_hz) {
-  if (!sim_.model) throw Error(ErrorKind::kInternal, "RealtimeLoop: simulation has no model");
   window_start_s_ = now_s();
   publish(true);
 }
@@ -77,8 +76,8 @@ void RealtimeLoop::set_tool_tip(const ToolTip& tip) {
 void RealtimeLoop::set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
                                   const RoutingOptions& routing) {
   // Validate now, on the caller's thread, so that the error reaches the caller.
-  if (routing.locality < 1 || routing.locality > sim_.model->rings.locality)
-    throw invalid_input("locality", "must be 1.." + std::to_string(sim_.model->rings.locality) +
+  if (routing.locality < 1 || routing.locality > sim_.model().rings.locality)
+    throw invalid_input("locality", "must be 1.." + std::to_string(sim_.model().rings.locality) +
                                         " (the rings precomputed in the model)");
   if (routing.penetration_depth < 1) throw invalid_input("penetration depth", "must be >= 1");
   sim::check_parameters(material, solver);  // throws, naming the bad parameter
@@ -150,7 +149,7 @@ void RealtimeLoop::apply_pending() {
 // Live forces are routed on the shape at the moment they change (as the paper routes a tool
 // when it touches down), not every step: the contact and crossings of a held drag stay put.
 void RealtimeLoop::route_forces() {
-  const Model& m = *sim_.model;
+  const Model& m = sim_.model();
   routes_.clear();
   for (const LiveForce& f : forces_) {
     if (f.node < 0 || f.node >= m.layers[0].node_count || !f.force_mn.allFinite()) continue;
@@ -161,7 +160,7 @@ void RealtimeLoop::route_forces() {
 }
 
 void RealtimeLoop::one_step() {
-  const Model& m = *sim_.model;
+  const Model& m = sim_.model();
   const double t0 = now_s();
   clear_loads(sim_, loads_);
   for (const ForceRoute& r : routes_) add_load(sim_, r, loads_);
@@ -179,7 +178,7 @@ void RealtimeLoop::one_step() {
       tip_force_ = tip_.stiffness_n_per_m * (tip_.radius_mm - distance) * dir;
       tip_route = route_force(m, sim_.x, node, tip_force_, routing_);
       add_load(sim_, tip_route, loads_);
-      if (node != tip_contact_ && sim_.options.mode == sim::Mode::kLocal) {
+      if (node != tip_contact_ && sim_.options().mode == sim::Mode::kLocal) {
         touched_.insert(touched_.end(), tip_route.nodes.begin(), tip_route.nodes.end());
         keep_touched_movable(sim_, touched_);
       }

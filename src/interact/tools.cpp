@@ -139,7 +139,7 @@ int32_t nearest_skin_node(const Model& model, const Eigen::MatrixX3d& x,
 }
 
 bool apply_tools(sim::Simulation& s, ToolDriver& d) {
-  const Model& m = *s.model;
+  const Model& m = s.model();
   const size_t n = d.tools.size();
   d.routes.resize(n);
   d.active.resize(n, 0);
@@ -173,14 +173,14 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
   clear_loads(s, d.loads);
   for (size_t t = 0; t < n; ++t)
     if (d.active[t]) add_load(s, d.routes[t], d.loads);
-  if (changed && s.options.mode == sim::Mode::kLocal) keep_touched_movable(s, d.touched);
+  if (changed && s.options().mode == sim::Mode::kLocal) keep_touched_movable(s, d.touched);
   return any;
 }
 
 void keep_touched_movable(sim::Simulation& s, std::vector<int32_t>& touched) {
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  if (s.options.mode == sim::Mode::kLocal) sim::set_local_nodes(s, touched);
+  if (s.options().mode == sim::Mode::kLocal) sim::set_local_nodes(s, touched);
 }
 
 void clear_loads(sim::Simulation& s, Loads& loads) {
@@ -198,34 +198,17 @@ void add_load(sim::Simulation& s, const ForceRoute& r, Loads& loads) {
   loads.nodes.insert(loads.nodes.end(), r.nodes.begin(), r.nodes.end());
 }
 
-namespace {
-
-// The spring and anchor forces on free node i (its share of the reaction).
-Eigen::Vector3d node_reaction(const sim::Simulation& s, int32_t i) {
-  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
-  for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-    const int32_t j = s.adj_other[a], e = s.adj_spring[a];
-    const Eigen::Vector3d d = s.x.row(j) - s.x.row(i);
-    const double len = d.norm();
-    if (len > 1e-12)
-      reaction += s.stiffness_n_per_m[e] * (len - s.model->springs.rest_length_mm[e]) * (d / len);
-  }
-  reaction -= s.material.anchor_stiffness_n_per_m * (s.x.row(i) - s.model->X.row(i)).transpose();
-  return reaction;
-}
-
-}  // namespace
-
 Eigen::Vector3d reaction_force(const sim::Simulation& s, const Loads& loads) {
   // A node can be loaded by several routes: count it once, in ascending order.
   thread_local std::vector<int32_t> nodes;
   nodes.assign(loads.nodes.begin(), loads.nodes.end());
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
-  for (int32_t i : nodes)
-    if (!s.fixed[i] && !s.f_ext.row(i).isZero()) reaction += node_reaction(s, i);
-  return reaction;
+  // Free nodes that carry a load: what the tissue pushes back with there.
+  nodes.erase(std::remove_if(nodes.begin(), nodes.end(),
+                             [&](int32_t i) { return s.fixed()[i] || s.f_ext.row(i).isZero(); }),
+              nodes.end());
+  return sim::internal_force_on(s, nodes);
 }
 
 double last_tool_end(const ToolDriver& d) {

@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "read_file.h"
@@ -32,10 +34,14 @@ uint32_t crc(uint32_t c, const void* data, size_t bytes) {
 
 namespace {
 
-constexpr int32_t kFormatVersion = 1;
+// Version 2 added interior nodes (layer -1, after the layers) and tetrahedra (VTK_TETRA cells
+// after the springs, counted by tet_count). Version 1 files (layers joined by links) still load.
+constexpr int32_t kFormatVersion = 2;
 constexpr uint8_t kVtkLine = 3;
 constexpr uint8_t kVtkTriangle = 5;
+constexpr uint8_t kVtkTetra = 10;
 constexpr uint8_t kCellKindTriangle = 0;  // springs are 1 + SpringKind
+constexpr uint8_t kCellKindTetra = 4;
 constexpr size_t kValuesPerLine = 12;     // a multiple of 3, so point rows stay whole
 
 template <class T>
@@ -88,8 +94,11 @@ void check_savable(const Model& m, const std::string& path) {
   const Springs& s = m.springs;
   bool ok = m.mass_kg.size() == n && m.layer_of.size() == n && m.fixed.size() == n &&
             s.j.size() == s.size() && s.rest_length_mm.size() == s.size() &&
-            s.stiffness_n_per_m.size() == s.size() && s.kind.size() == s.size();
+            s.stiffness_n_per_m.size() == s.size() && s.kind.size() == s.size() &&
+            m.tets.region.size() == static_cast<size_t>(m.tets.size());
   for (size_t k = 0; ok && k < s.size(); ++k) ok = s.i[k] >= 0 && static_cast<size_t>(s.i[k]) < n;
+  for (size_t k = 0; ok && k < m.layer_of.size(); ++k) ok = m.layer_of[k] >= kInteriorNode;
+  ok = ok && (m.tets.size() == 0 || (m.tets.T.minCoeff() >= 0 && m.tets.T.maxCoeff() < static_cast<int>(n)));
   if (!ok)
     throw Error(ErrorKind::kInternal,
                 path + ": cannot save: the model's arrays disagree in size or index range");
@@ -308,6 +317,12 @@ void save_model(const Model& m, const std::string& path) {
     end_cell(kVtkLine, static_cast<uint8_t>(1 + static_cast<int>(s.kind[k])), m.layer_of[s.i[k]],
              s.rest_length_mm[k], s.stiffness_n_per_m[k]);
   }
+  // Tetrahedra last; their cell `layer` is their region (the shell just inside that layer).
+  for (Eigen::Index t = 0; t < m.tets.T.rows(); ++t) {
+    connectivity.insert(connectivity.end(),
+                        {m.tets.T(t, 0), m.tets.T(t, 1), m.tets.T(t, 2), m.tets.T(t, 3)});
+    end_cell(kVtkTetra, kCellKindTetra, m.tets.region[static_cast<size_t>(t)], 0.0, 0.0);
+  }
   const std::vector<uint8_t> source(m.source.begin(), m.source.end());
 
   write_file_atomically(path, [&](std::ostream& out) {
@@ -325,6 +340,7 @@ void save_model(const Model& m, const std::string& path) {
     write_array(out, field, "layer_first_node", first_node, 1, true);
     write_array(out, field, "layer_node_count", node_count, 1, true);
     write_array(out, field, "layer_face_count", face_count, 1, true);
+    write_array(out, field, "tet_count", std::vector<int64_t>{m.tets.size()}, 1, true);
     write_array(out, field, "source", source, 1, true);
     write_array(out, field, "content_crc32",
                 std::vector<int64_t>{static_cast<int64_t>(model_fingerprint(m))}, 1, true);
@@ -358,9 +374,9 @@ Model load_model(const std::string& path) {
   if (!f.arrays.contains("FieldData/lamina_format_version"))
     throw bad("not a Lamina model (no lamina_format_version field)");
   const int32_t version = read_values<int32_t>(path, f, "FieldData/lamina_format_version", 1)[0];
-  if (version != kFormatVersion)
+  if (version != 1 && version != kFormatVersion)
     throw bad("unsupported Lamina model format version " + std::to_string(version) +
-              " (this build reads version " + std::to_string(kFormatVersion) + ")");
+              " (this build reads versions 1 and " + std::to_string(kFormatVersion) + ")");
   if (f.type != "UnstructuredGrid" || f.pieces != 1)
     throw bad("expected a VTK UnstructuredGrid with exactly one Piece");
   const auto piece_count = [&](const char* name, int64_t max) {
@@ -401,12 +417,18 @@ Model load_model(const std::string& path) {
     next_node += count[l];
     triangles += faces[l];
   }
-  if (next_node != n)
+  // Version 2: nodes after the layers are interior nodes of the tetrahedra.
+  if (next_node > n || (version == 1 && next_node != n))
     throw bad("the layers hold " + std::to_string(next_node) + " nodes but the file has " +
               std::to_string(n) + " points");
-  if (triangles > cells)
-    throw bad("layer_face_count adds up to " + std::to_string(triangles) +
-              " triangles but the file has only " + std::to_string(cells) + " cells");
+  const int64_t tet_count =
+      version == 1 ? 0 : read_values<int64_t>(path, f, "FieldData/tet_count", 1)[0];
+  if (tet_count < 0 || triangles + tet_count > cells)
+    throw bad("layer_face_count and tet_count add up to " + std::to_string(triangles + tet_count) +
+              " cells but the file has only " + std::to_string(cells));
+  if (next_node != n && tet_count == 0)
+    throw bad("the file has " + std::to_string(n - next_node) +
+              " node(s) on no layer but no tetrahedra to hold them");
 
   const auto points = read_values<double>(path, f, "Points/Points", 3 * n, 3);
   m.layer_of = read_values<int32_t>(path, f, "PointData/layer", n);
@@ -414,21 +436,22 @@ Model load_model(const std::string& path) {
   m.fixed = read_values<uint8_t>(path, f, "PointData/fixed", n);
   m.X.resize(n, 3);
   for (int32_t v = 0, l = 0; v < n; ++v) {
-    while (v >= first[l] + count[l]) ++l;
+    while (l < layer_count && v >= first[l] + count[l]) ++l;
+    const int32_t expected = l < layer_count ? l : kInteriorNode;
     const std::string node = "node " + std::to_string(v) + ": ";
     for (int c = 0; c < 3; ++c) m.X(v, c) = points[3 * static_cast<size_t>(v) + c];
     if (!m.X.row(v).allFinite()) throw bad(node + "position is not finite");
-    if (m.layer_of[v] != l)
+    if (m.layer_of[v] != expected)
       throw bad(node + "layer is " + std::to_string(m.layer_of[v]) +
-                " but the layer ranges put it in layer " + std::to_string(l));
+                " but the layer ranges put it in layer " + std::to_string(expected));
     if (!positive_finite(m.mass_kg[v]))
       throw bad(node + "mass_kg is " + str(m.mass_kg[v]) + ", must be finite and > 0");
     if (m.fixed[v] > 1) throw bad(node + "fixed must be 0 or 1");
   }
 
-  const int64_t spring_count = cells - triangles;
-  const auto connectivity =
-      read_values<int64_t>(path, f, "Cells/connectivity", 3 * triangles + 2 * spring_count);
+  const int64_t spring_count = cells - triangles - tet_count;
+  const auto connectivity = read_values<int64_t>(
+      path, f, "Cells/connectivity", 3 * triangles + 2 * spring_count + 4 * tet_count);
   const auto offsets = read_values<int64_t>(path, f, "Cells/offsets", cells);
   const auto types = read_values<uint8_t>(path, f, "Cells/types", cells);
   const auto kinds = read_values<uint8_t>(path, f, "CellData/cell_kind", cells);
@@ -438,10 +461,12 @@ Model load_model(const std::string& path) {
 
   // Walks the cells in order, checking each one's type, kind and offset; returns its first node.
   int64_t cell = 0, at = 0;
-  const auto next_cell = [&](bool spring, int64_t size, const std::string& expected) {
+  const auto next_cell = [&](int64_t size, const std::string& expected) {
     const int type = types[cell], kind = kinds[cell];
-    if (spring ? (type != kVtkLine || kind < 1 || kind > 2)
-               : (type != kVtkTriangle || kind != kCellKindTriangle))
+    const bool ok = size == 2   ? type == kVtkLine && kind >= 1 && kind <= 3
+                    : size == 3 ? type == kVtkTriangle && kind == kCellKindTriangle
+                                : type == kVtkTetra && kind == kCellKindTetra;
+    if (!ok)
       throw bad("cell " + std::to_string(cell) + ": VTK cell type " + std::to_string(type) +
                 " with cell_kind " + std::to_string(kind) + " does not agree with the expected " +
                 expected);
@@ -456,7 +481,7 @@ Model load_model(const std::string& path) {
     layer.F.resize(faces[l], 3);
     const std::string expected = "triangle of layer " + std::to_string(l) + " (type 5, kind 0)";
     for (int32_t t = 0; t < faces[l]; ++t, ++cell) {
-      const int64_t* corner = next_cell(false, 3, expected);
+      const int64_t* corner = next_cell(3, expected);
       for (int c = 0; c < 3; ++c) {
         if (corner[c] < layer.first_node || corner[c] >= layer.first_node + layer.node_count)
           throw bad("triangle " + std::to_string(t) + " of layer " + std::to_string(l) +
@@ -473,16 +498,23 @@ Model load_model(const std::string& path) {
 
   Springs& s = m.springs;
   for (int64_t k = 0; k < spring_count; ++k, ++cell) {
-    const int64_t* node = next_cell(true, 2, "spring (type 3, kind 1 or 2)");
+    const int64_t* node = next_cell(2, "spring (type 3, kind 1, 2 or 3)");
     const std::string spring = "spring " + std::to_string(k) + ": ";
     if (node[0] < 0 || node[0] >= node[1] || node[1] >= n)
       throw bad(spring + "joins nodes " + std::to_string(node[0]) + " and " +
                 std::to_string(node[1]) + "; expected 0 <= i < j < " + std::to_string(n));
     const auto i = static_cast<int32_t>(node[0]), j = static_cast<int32_t>(node[1]);
     const auto kind = static_cast<SpringKind>(kinds[cell] - 1);
-    if ((kind == SpringKind::kIntraLayer) != (m.layer_of[i] == m.layer_of[j]))
-      throw bad(spring + (kind == SpringKind::kIntraLayer ? "intra" : "inter") +
-                "-layer spring joins nodes of layers " + std::to_string(m.layer_of[i]) + " and " +
+    const bool same_layer = m.layer_of[i] == m.layer_of[j] && m.layer_of[i] != kInteriorNode;
+    if ((kind == SpringKind::kIntraLayer && !same_layer) ||
+        (kind == SpringKind::kInterLayer &&
+         (m.layer_of[i] == m.layer_of[j] || m.layer_of[i] == kInteriorNode ||
+          m.layer_of[j] == kInteriorNode)) ||
+        (kind == SpringKind::kVolume && tet_count == 0))
+      throw bad(spring + (kind == SpringKind::kIntraLayer   ? "an intra-layer spring"
+                          : kind == SpringKind::kInterLayer ? "an inter-layer spring"
+                                                            : "a tetrahedron-edge spring") +
+                " joins nodes of layers " + std::to_string(m.layer_of[i]) + " and " +
                 std::to_string(m.layer_of[j]));
     if (cell_layer[cell] != m.layer_of[i])
       throw bad(spring + "layer is " + std::to_string(cell_layer[cell]) + ", but node " +
@@ -497,6 +529,26 @@ Model load_model(const std::string& path) {
     s.rest_length_mm.push_back(rest[cell]);
     s.stiffness_n_per_m.push_back(stiffness[cell]);
     s.kind.push_back(kind);
+  }
+
+  // Tetrahedra: four distinct nodes, positive volume at rest, a region that is a layer.
+  m.tets.T.resize(tet_count, 4);
+  m.tets.region.resize(static_cast<size_t>(tet_count));
+  for (int64_t t = 0; t < tet_count; ++t, ++cell) {
+    const int64_t* node = next_cell(4, "tetrahedron (type 10, kind 4)");
+    const std::string tet = "tetrahedron " + std::to_string(t) + ": ";
+    for (int c = 0; c < 4; ++c) {
+      if (node[c] < 0 || node[c] >= n)
+        throw bad(tet + "node " + std::to_string(node[c]) + " is not in the model");
+      m.tets.T(t, c) = static_cast<int>(node[c]);
+    }
+    const Eigen::Vector3d p0 = m.X.row(m.tets.T(t, 0)), p1 = m.X.row(m.tets.T(t, 1)),
+                          p2 = m.X.row(m.tets.T(t, 2)), p3 = m.X.row(m.tets.T(t, 3));
+    if (!((p1 - p0).cross(p2 - p0).dot(p3 - p0) > 0.0))
+      throw bad(tet + "is flat or inverted at rest (its volume must be positive)");
+    if (cell_layer[cell] < 0 || cell_layer[cell] >= layer_count)
+      throw bad(tet + "region " + std::to_string(cell_layer[cell]) + " is not a layer");
+    m.tets.region[static_cast<size_t>(t)] = cell_layer[cell];
   }
   // Every value above passed its own check; the checksum catches one changed to another valid
   // value (an edited position or stiffness). Files written before it existed have none.
@@ -522,6 +574,11 @@ uint32_t model_fingerprint(const Model& m) {
   c = crc(c, s.j.data(), s.j.size() * sizeof(int32_t));
   c = crc(c, s.rest_length_mm.data(), s.rest_length_mm.size() * sizeof(double));
   c = crc(c, s.stiffness_n_per_m.data(), s.stiffness_n_per_m.size() * sizeof(double));
+  // Models without tetrahedra keep the checksum version 1 gave them.
+  if (m.tets.size() > 0) {
+    c = crc(c, m.tets.T.data(), static_cast<size_t>(m.tets.T.size()) * sizeof(int));
+    c = crc(c, m.tets.region.data(), m.tets.region.size() * sizeof(int32_t));
+  }
   return c;
 }
 

@@ -214,8 +214,12 @@ void read_model(const Reader& r, const json& j, Scene& s) {
     log::warn("{}: {}: ignored: the model is loaded from \"{}\", not built", s.source, bp,
               s.model_path);
   r.warn_unknown(*b, bp,
-                 {"layers", "skin_vertices", "layer_depth_mm", "label", "locality", "links"});
+                 {"structure", "layers", "skin_vertices", "layer_depth_mm", "label", "locality",
+                  "links"});
   model::BuildOptions& o = s.build;
+  s.structure_given = b->contains("structure");
+  read_choice(r, *b, bp, "structure", o.structure,
+              {{"tets", model::Structure::kTetrahedra}, {"links", model::Structure::kLinks}});
   // Ranges are build_model's (check_build_options), checked here so messages name the key.
   read_integer(r, *b, bp, "layers", o.layers, 1, 16);
   read_integer(r, *b, bp, "skin_vertices", o.skin_vertices, 50, 5'000'000);
@@ -233,8 +237,9 @@ void read_material(const Reader& r, const json& j, Scene& s) {
                  {"stiffness_n_per_m", "damping_kg_per_s", "node_mass_kg",
                   "anchor_stiffness_n_per_m", "gravity_mm_per_s2", "density_g_per_cm3", "density",
                   "mass_damping_per_s", "volume_stiffness_kpa", "young_modulus_kpa",
-                  "poisson_ratio", "damping_ratio"});
+                  "poisson_ratio", "damping_ratio", "tet_elasticity"});
   sim::Material& m = s.material;
+  const bool paper = j.contains("stiffness_n_per_m") || j.contains("node_mass_kg");
   if (j.contains("young_modulus_kpa")) {
     // A physical tissue: the spring constants and masses follow from E, nu and the density, so
     // the paper's raw constants cannot be given beside them.
@@ -243,8 +248,20 @@ void read_material(const Reader& r, const json& j, Scene& s) {
         r.fail(path + "." + raw,
                "cannot be given with young_modulus_kpa (springs and masses then follow from "
                "E, nu and the density); remove one of them");
-    use_elastic_material(s);  // damping keys, read below, may still set gamma
+  } else if (paper) {
+    // The paper's constants: the rest of the material, the solver and the structure take the
+    // paper's values unless the file says otherwise (the solver and model keys come later or
+    // were read before: an explicit structure stays).
+    const Scene p = paper_scene();
+    s.elastic = false;
+    m = p.material;
+    s.solver.integrator = p.solver.integrator;
+    s.solver.dt_s = p.solver.dt_s;
+    if (!s.structure_given) s.build.structure = p.build.structure;
   }
+  read_choice(r, j, path, "tet_elasticity", s.tet_elasticity,
+              {{"coupled", model::TetElasticity::kCoupled},
+               {"springs", model::TetElasticity::kSprings}});
   if (j.contains("poisson_ratio") && !s.elastic)
     r.fail(path + ".poisson_ratio", "needs young_modulus_kpa beside it");
   read_number(r, j, path, "young_modulus_kpa", s.elastic_material.young_modulus_kpa, kPositive,
@@ -260,6 +277,9 @@ void read_material(const Reader& r, const json& j, Scene& s) {
               "must be >= 0 (0 = no volume term)");
   s.volume_stiffness_given = j.contains("volume_stiffness_kpa");
   s.damping_given = j.contains("damping_kg_per_s") || j.contains("mass_damping_per_s");
+  if (!s.elastic && j.contains("damping_ratio"))
+    r.fail(path + ".damping_ratio",
+           "needs a physical material (young_modulus_kpa), not the paper's raw constants");
   if (s.damping_given && s.damping_ratio >= 0.0)
     r.fail(path + ".damping_ratio",
            "cannot be given with damping_kg_per_s or mass_damping_per_s; remove one of them");
@@ -287,7 +307,8 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
   const std::string path = "solver";
   r.require_object(j, path);
   r.warn_unknown(j, path,
-                 {"integrator", "dt_s", "threshold_mm", "max_steps", "mode", "locality",
+                 {"integrator", "dt_s", "rest_speed_mm_per_s", "threshold_mm", "max_steps", "mode",
+                  "locality",
                   "penetration_depth", "ring_attenuation", "crossing_attenuation",
                   "contact_threshold_mm", "cg_max_iterations", "cg_tolerance",
                   "projective_iterations"});
@@ -298,7 +319,17 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
                {"implicit_euler", sim::Integrator::kImplicitEuler},
                {"projective", sim::Integrator::kProjective}});
   read_number(r, j, path, "dt_s", o.dt_s, kPositive, "must be > 0");
-  read_number(r, j, path, "threshold_mm", o.threshold_mm, kPositive, "must be > 0");
+  // "At rest" is a speed, so that it does not depend on dt. The paper's threshold is a move per
+  // step: the same test at the scene's dt (exactly: a step moves a node by dt times its new
+  // velocity in every integrator).
+  if (j.contains("rest_speed_mm_per_s") && j.contains("threshold_mm"))
+    r.fail(path + ".threshold_mm",
+           "give either rest_speed_mm_per_s or the paper's threshold_mm (a move per step), not "
+           "both");
+  read_number(r, j, path, "rest_speed_mm_per_s", o.rest_speed_mm_per_s, kPositive, "must be > 0");
+  double threshold_mm = 0.0;
+  read_number(r, j, path, "threshold_mm", threshold_mm, kPositive, "must be > 0");
+  if (threshold_mm > 0.0) o.rest_speed_mm_per_s = threshold_mm / o.dt_s;
   read_integer(r, j, path, "max_steps", o.max_steps, 1, std::numeric_limits<int64_t>::max());
   read_choice(r, j, path, "mode", o.mode,
               {{"global", sim::Mode::kGlobal}, {"local", sim::Mode::kLocal}});
@@ -369,8 +400,30 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
 void read_boundary(const Reader& r, const json& j, Scene& s) {
   const std::string path = "boundary";
   r.require_object(j, path);
-  r.warn_unknown(j, path, {"fixed"});
+  r.warn_unknown(j, path, {"fixed", "support"});
   s.default_fixed = false;
+  if (const auto sup = j.find("support"); sup != j.end()) {
+    if (!sup->is_array())
+      r.fail("boundary.support",
+             "expected an array of supported surfaces [...], got " + Reader::describe(*sup));
+    for (size_t k = 0; k < sup->size(); ++k) {
+      const std::string sp = "boundary.support[" + std::to_string(k) + "]";
+      const json& reg = (*sup)[k];
+      r.require_object(reg, sp);
+      r.warn_unknown(reg, sp, {"direction", "max_angle_deg", "stiffness_kpa_per_mm"});
+      model::SurfaceSupportOptions o;
+      if (reg.contains("direction")) {
+        o.direction = r.vec3(reg["direction"], sp + ".direction");
+        if (!(o.direction.norm() > 0.0)) r.fail(sp + ".direction", "must not be zero");
+      }
+      read_number(r, reg, sp, "max_angle_deg", o.max_angle_deg,
+                  [](double v) { return v >= 0.0 && v <= 180.0; },
+                  "must be between 0 and 180 degrees");
+      read_number(r, reg, sp, "stiffness_kpa_per_mm", o.stiffness_kpa_per_mm, kNonNegative,
+                  "must be >= 0 kPa/mm");
+      s.support.push_back(o);
+    }
+  }
   const auto f = j.find("fixed");
   if (f == j.end()) return;
   if (!f->is_array())
@@ -472,6 +525,16 @@ Scene load_scene(const std::string& path) {
   return s;
 }
 
+Scene paper_scene() {
+  Scene s;
+  s.source = "the paper's scene";
+  s.build.structure = model::Structure::kLinks;
+  s.elastic = false;
+  s.material = sim::Material{};  // K = 3 N/m, gamma = 3 kg/s, unit masses
+  s.solver = sim::SolverOptions{};  // semi-implicit Euler, dt = 0.01 s, 1e-3 mm per step
+  return s;
+}
+
 void use_elastic_material(Scene& s) {
   s.elastic = true;
   s.material.stiffness_n_per_m = 0.0;
@@ -489,8 +552,14 @@ void resolve_scene_defaults(Scene& s, const Model& m) {
                        .end_s = 1.0});
     s.default_tool = false;
   }
+  if (s.default_fixed && s.elastic) {
+    // Held at the back, where the liver rests against the diaphragm and the posterior wall, by
+    // tissue rather than a clamp: a push dents it where it is pushed.
+    s.support.push_back({});
+    s.default_fixed = false;
+  }
   if (s.default_fixed) {
-    // Held at the back, where the liver rests against the diaphragm and the posterior wall.
+    // The paper's: the posterior 10 mm held in place.
     const double back = m.X.col(1).maxCoeff();
     s.fixed.push_back({.has_plane = true,
                        .plane_point_mm = Eigen::Vector3d(0.0, back, 0.0),
@@ -596,9 +665,18 @@ std::string run_summary_json(const RunSummary& s) {
     if (m.elastic) {
       mj["young_modulus_kpa"] = m.elastic_material.young_modulus_kpa;
       mj["poisson_ratio"] = m.elastic_material.poisson_ratio;
-      mj["shear_modulus_kpa"] = m.identification.shear_modulus_kpa;
-      mj["spring_fit_residual"] = m.identification.fit_residual;
+      mj["structure"] = m.tets ? "tets" : "links";
+      if (m.tets) {
+        mj["tet_elasticity"] =
+            m.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "springs";
+        mj["tet_volume_modulus_kpa"] = m.tet_volume_modulus_kpa;
+      } else {
+        mj["shear_modulus_kpa"] = m.identification.shear_modulus_kpa;
+        mj["spring_fit_residual"] = m.identification.fit_residual;
+      }
     }
+    mj["supported_nodes"] = m.supported_nodes;
+    mj["supported_area_mm2"] = m.supported_area_mm2;
     mj["volume_stiffness_kpa"] = m.volume_stiffness_kpa;
     mj["mass_damping_per_s"] = m.mass_damping_per_s;
     if (m.damping_ratio >= 0.0) {

@@ -1,5 +1,6 @@
-// A scene's material resolved against its model: spring constants from E and nu, the volume
-// term, the integrator a physical tissue needs, and damping from a damping ratio.
+// A scene resolved against its model: the material (E and nu into the tetrahedra or into the
+// springs, the volume term, the integrator a physical tissue needs, damping from a damping ratio)
+// and the one preparation every command shares (prepare_scene).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -12,34 +13,59 @@
 
 namespace lamina::io {
 
-MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed) {
+MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed,
+                                const model::SurfaceSupport& support) {
   MaterialReport rep;
   sim::Material& mat = scene.material;
   if (scene.elastic) {
     rep.elastic = true;
     rep.elastic_material = scene.elastic_material;
-    rep.identification =
-        model::identify_springs(model, scene.elastic_material, model.springs.stiffness_n_per_m);
-    use_elastic_material(scene);  // the identified constants, the lumped masses
-    if (!scene.volume_stiffness_given)
-      mat.volume_stiffness_kpa = rep.identification.volume_stiffness_kpa;
+    model::check_elastic_material(scene.elastic_material);
+    use_elastic_material(scene);  // the model's lumped masses, no raw spring constant
+    if (model.has_tets()) {
+      // The tetrahedral network carries E and nu itself (its springs, their coupling and each
+      // tetrahedron's volume); the volume term between layers is not needed.
+      rep.tets = true;
+      rep.tet_elasticity = scene.tet_elasticity;
+      mat.young_modulus_kpa = scene.elastic_material.young_modulus_kpa;
+      mat.poisson_ratio = scene.elastic_material.poisson_ratio;
+      mat.tet_elasticity = scene.tet_elasticity;
+      const double mu = mat.young_modulus_kpa / (2.0 * (1.0 + mat.poisson_ratio));
+      const double lambda = mat.young_modulus_kpa * mat.poisson_ratio /
+                            ((1.0 + mat.poisson_ratio) * (1.0 - 2.0 * mat.poisson_ratio));
+      rep.tet_volume_modulus_kpa = scene.tet_elasticity == model::TetElasticity::kCoupled
+                                       ? lambda
+                                       : std::max(0.0, lambda - mu);
+      log::info("{}: E = {:.3g} kPa, nu = {:.3g} in {} tetrahedra ({} springs; shear modulus "
+                "{:.3g} kPa, volume term {:.3g} kPa per tetrahedron)",
+                scene.source, mat.young_modulus_kpa, mat.poisson_ratio, model.tets.size(),
+                scene.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "independent",
+                mu, rep.tet_volume_modulus_kpa);
+    } else {
+      rep.identification =
+          model::identify_springs(model, scene.elastic_material, model.springs.stiffness_n_per_m);
+      if (!scene.volume_stiffness_given)
+        mat.volume_stiffness_kpa = rep.identification.volume_stiffness_kpa;
+      log::info(
+          "{}: E = {:.3g} kPa, nu = {:.3g}: shear modulus {:.3g} kPa in the springs (fit residual "
+          "{:.2f}), volume term {:.3g} kPa",
+          scene.source, scene.elastic_material.young_modulus_kpa,
+          scene.elastic_material.poisson_ratio, rep.identification.shear_modulus_kpa,
+          rep.identification.fit_residual, mat.volume_stiffness_kpa);
+    }
     if (!scene.integrator_given) scene.solver.integrator = sim::Integrator::kImplicitEuler;
     if (!scene.damping_given && scene.damping_ratio < 0.0) scene.damping_ratio = 1.0;
-    log::info(
-        "{}: E = {:.3g} kPa, nu = {:.3g}: shear modulus {:.3g} kPa in the springs (fit residual "
-        "{:.2f}), volume term {:.3g} kPa",
-        scene.source, scene.elastic_material.young_modulus_kpa,
-        scene.elastic_material.poisson_ratio, rep.identification.shear_modulus_kpa,
-        rep.identification.fit_residual, mat.volume_stiffness_kpa);
   }
-  if (scene.damping_ratio >= 0.0 && fixed.empty() && mat.anchor_stiffness_n_per_m == 0.0)
+  if (scene.damping_ratio >= 0.0 && fixed.empty() && support.nodes.empty() &&
+      mat.anchor_stiffness_n_per_m == 0.0)
     throw invalid_input(scene.source,
                         "material.damping_ratio: the model is held nowhere (no fixed nodes, no "
-                        "anchor springs), so its slowest motion is a free drift; fix a region "
-                        "or give damping_kg_per_s");
+                        "support, no anchor springs), so its slowest motion is a free drift; fix "
+                        "or support a region or give damping_kg_per_s");
   // The material as a simulation resolves it (constants, masses), held as the scene holds it.
   sim::Simulation probe = sim::make_simulation(model, mat, scene.solver);
   sim::fix_nodes(probe, fixed);
+  sim::support_nodes(probe, support.nodes, support.stiffness_n_per_m);
   if (scene.damping_ratio >= 0.0) {
     const double omega = sim::lowest_angular_frequency(probe);
     mat.mass_damping_per_s = 2.0 * scene.damping_ratio * omega;
@@ -51,6 +77,9 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
   }
   rep.volume_stiffness_kpa = mat.volume_stiffness_kpa;
   rep.mass_damping_per_s = mat.mass_damping_per_s;
+  rep.supported_nodes = static_cast<int32_t>(support.nodes.size());
+  rep.supported_area_mm2 = support.area_mm2;
+  sim::set_parameters(probe, mat, scene.solver);
   rep.explicit_dt_limit_s = sim::explicit_dt_limit(probe);
   if (scene.solver.integrator == sim::Integrator::kSemiImplicitEuler &&
       scene.solver.dt_s > rep.explicit_dt_limit_s)
@@ -61,6 +90,36 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
         scene.source, scene.solver.dt_s, rep.explicit_dt_limit_s,
         sim::explicit_substeps(scene.solver.dt_s, rep.explicit_dt_limit_s));
   return rep;
+}
+
+SceneSetup prepare_scene(Scene& scene, Model& model) {
+  resolve_scene_defaults(scene, model);
+  check_scene_against_model(scene, model);
+  SceneSetup setup;
+  setup.fixed = fixed_scene_nodes(scene, model);
+  // Every supported region adds its springs; a node both fixed and supported is simply fixed.
+  for (const model::SurfaceSupportOptions& o : scene.support) {
+    const model::SurfaceSupport part = model::surface_support(model, o);
+    setup.support.nodes.insert(setup.support.nodes.end(), part.nodes.begin(), part.nodes.end());
+    setup.support.stiffness_n_per_m.insert(setup.support.stiffness_n_per_m.end(),
+                                           part.stiffness_n_per_m.begin(),
+                                           part.stiffness_n_per_m.end());
+    setup.support.area_mm2 += part.area_mm2;
+  }
+  if (!scene.support.empty() && setup.support.nodes.empty())
+    throw invalid_input(scene.source,
+                        "boundary.support: no skin faces the given direction within its angle; "
+                        "widen max_angle_deg or change the direction");
+  setup.material = resolve_material(scene, model, setup.fixed, setup.support);
+  return setup;
+}
+
+sim::Simulation make_scene_simulation(const Scene& scene, const Model& model,
+                                      const SceneSetup& setup) {
+  sim::Simulation s = sim::make_simulation(model, scene.material, scene.solver);
+  sim::fix_nodes(s, setup.fixed);
+  sim::support_nodes(s, setup.support.nodes, setup.support.stiffness_n_per_m);
+  return s;
 }
 
 }  // namespace lamina::io

@@ -16,9 +16,23 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
   j["springs"] = {{"total", s.springs},
                   {"intra_layer", s.intra_layer_springs},
                   {"inter_layer", s.inter_layer_springs},
+                  {"tet_edges", s.volume_springs},
                   {"connected_components", s.spring_components},
                   {"min_rest_length_mm", s.min_rest_length_mm},
                   {"max_rest_length_mm", s.max_rest_length_mm}};
+  j["interior_nodes"] = s.interior_nodes;
+  j["structure"] = s.tets.count > 0 ? "tets" : "links";
+  if (s.tets.count > 0)
+    j["tets"] = {{"count", s.tets.count},
+                 {"min_dihedral_deg", s.tets.min_dihedral_deg},
+                 {"mean_dihedral_deg", s.tets.mean_dihedral_deg},
+                 {"max_dihedral_deg", s.tets.max_dihedral_deg},
+                 {"inverted", s.tets.inverted},
+                 {"slivers", s.tets.slivers},
+                 {"sliver_below_deg", geometry::TetQuality::kSliverDeg},
+                 {"below_10_deg", s.tets.below_10_deg},
+                 {"min_volume_mm3", s.tets.min_volume_mm3},
+                 {"volume_ml", s.tets.volume_mm3 / 1000.0}};
   j["total_mass_kg"] = s.total_mass_kg;
   j["rings"] = {{"locality", s.locality}, {"entries", s.ring_entries}};
   json layers = json::array();
@@ -81,12 +95,26 @@ std::string summary_table(const model::ModelSummary& s, const model::BuildReport
                                              b->mask.dropped_voxels, b->mask.components - 1)
                                : "",
         b->mask.touches_scan_border ? ", touches the scan edge" : "", b->skin_volume_error_pct);
-  out += fmt::format(
-      "  {} nodes, {} springs ({} in layers, {} between layers), {} connected body, mass {:.3f} "
-      "kg\n",
-      s.nodes, s.springs, s.intra_layer_springs, s.inter_layer_springs,
-      s.spring_components == 1 ? "one" : fmt::format("{}-part", s.spring_components),
-      s.total_mass_kg);
+  const std::string body =
+      s.spring_components == 1 ? "one" : fmt::format("{}-part", s.spring_components);
+  if (s.tets.count > 0) {
+    out += fmt::format(
+        "  {} nodes ({} inside the layers), {} springs ({} in layers, {} through the volume), {} "
+        "connected body, mass {:.3f} kg\n",
+        s.nodes, s.interior_nodes, s.springs, s.intra_layer_springs, s.volume_springs, body,
+        s.total_mass_kg);
+    out += fmt::format(
+        "  {} tetrahedra: dihedral angles {:.1f} to {:.1f} deg (mean {:.1f}), {} inverted, {} "
+        "slivers (under {:.0f} deg), volume {:.1f} mL\n",
+        s.tets.count, s.tets.min_dihedral_deg, s.tets.max_dihedral_deg, s.tets.mean_dihedral_deg,
+        s.tets.inverted, s.tets.slivers, geometry::TetQuality::kSliverDeg,
+        s.tets.volume_mm3 / 1000.0);
+  } else {
+    out += fmt::format(
+        "  {} nodes, {} springs ({} in layers, {} between layers), {} connected body, mass "
+        "{:.3f} kg\n",
+        s.nodes, s.springs, s.intra_layer_springs, s.inter_layer_springs, body, s.total_mass_kg);
+  }
   out += fmt::format("  rings 0..{} per node: {} entries\n", s.locality - 1, s.ring_entries);
   out +=
       "  layer  depth_mm  vertices  faces  volume_ml  mean_edge_mm  min_angle  parts  closed  "

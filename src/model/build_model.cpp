@@ -17,6 +17,7 @@
 #include "lamina/geometry/remesh.h"
 #include "lamina/geometry/spatial_sort.h"
 #include "lamina/model/compute_rings.h"
+#include "lamina/model/fill_tetrahedra.h"
 #include "lamina/model/link_layers.h"
 
 namespace lamina::model {
@@ -119,6 +120,12 @@ void check_build_options(const BuildOptions& o) {
     throw invalid_input("--density", "must be positive");
   if (!(o.stiffness_n_per_m > 0.0) || !std::isfinite(o.stiffness_n_per_m))
     throw invalid_input("--stiffness", "must be positive");
+  if (o.structure != Structure::kTetrahedra && o.structure != Structure::kLinks)
+    throw invalid_input("--structure", "must be tets or links");
+  if (!(o.tet_radius_edge_ratio >= 1.2 && o.tet_radius_edge_ratio <= 10.0))
+    throw invalid_input("tet_radius_edge_ratio", "must be between 1.2 and 10");
+  if (!(o.tet_min_dihedral_deg >= 0.0 && o.tet_min_dihedral_deg <= 18.0))
+    throw invalid_input("tet_min_dihedral_deg", "must be between 0 and 18 degrees");
 }
 
 BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
@@ -305,37 +312,50 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
     m.layers.push_back(std::move(ml));
     first += static_cast<int32_t>(l.V.rows());
   }
-  auto add_spring = [&](int32_t a, int32_t b, SpringKind kind) {
-    const double len = (m.X.row(a) - m.X.row(b)).norm();
-    m.springs.i.push_back(a);
-    m.springs.j.push_back(b);
-    m.springs.rest_length_mm.push_back(len);
-    m.springs.stiffness_n_per_m.push_back(opt.stiffness_n_per_m);
-    m.springs.kind.push_back(kind);
-  };
-  for (const auto& l : m.layers)
-    for (const auto& [a, b] : geometry::mesh_edges(l.F)) add_spring(a, b, SpringKind::kIntraLayer);
-  for (const auto& [a, b] : link_layers(m, opt.inter_layer_links))
-    add_spring(a, b, SpringKind::kInterLayer);
-  sort_springs(m.springs);
-
-  // Lumped masses: each shell between layers k and k+1 gives half its mass to each of them, the
-  // core inside the deepest layer all to it; within a layer, mass follows vertex area. The total
-  // is exactly density x skin volume.
   std::vector<double> enclosed(layers.size());
   for (size_t k = 0; k < layers.size(); ++k) enclosed[k] = geometry::enclosed_volume(layers[k]);
-  m.mass_kg.assign(static_cast<size_t>(total), 0.0);
-  for (size_t k = 0; k < layers.size(); ++k) {
-    const bool deepest = k + 1 == layers.size();
-    double share = deepest ? enclosed[k] : 0.5 * (enclosed[k] - enclosed[k + 1]);
-    if (k > 0) share += 0.5 * (enclosed[k - 1] - enclosed[k]);
-    const std::vector<double> va = vertex_areas(layers[k]);
-    double area = 0.0;
-    for (double a : va) area += a;
-    for (size_t v = 0; v < va.size(); ++v)
-      m.mass_kg[m.layers[k].first_node + v] = opt.density_kg_per_mm3 * share * va[v] / area;
+  if (opt.structure == Structure::kTetrahedra) {
+    // The volume between the layers: tetrahedra whose faces on the layers are the layers'
+    // triangles; their edges are the springs, their volumes the masses.
+    report_progress(progress, "tetrahedra", 0.8);
+    rep.tets = fill_tetrahedra({.max_radius_edge_ratio = opt.tet_radius_edge_ratio,
+                                .min_dihedral_deg = opt.tet_min_dihedral_deg},
+                               m);
+    rep.interior_nodes = m.node_count() - static_cast<int32_t>(total);
+    std::fill(m.springs.stiffness_n_per_m.begin(), m.springs.stiffness_n_per_m.end(),
+              opt.stiffness_n_per_m);
+    timer.done("tetrahedra");
+  } else {
+    auto add_spring = [&](int32_t a, int32_t b, SpringKind kind) {
+      const double len = (m.X.row(a) - m.X.row(b)).norm();
+      m.springs.i.push_back(a);
+      m.springs.j.push_back(b);
+      m.springs.rest_length_mm.push_back(len);
+      m.springs.stiffness_n_per_m.push_back(opt.stiffness_n_per_m);
+      m.springs.kind.push_back(kind);
+    };
+    for (const auto& l : m.layers)
+      for (const auto& [a, b] : geometry::mesh_edges(l.F)) add_spring(a, b, SpringKind::kIntraLayer);
+    for (const auto& [a, b] : link_layers(m, opt.inter_layer_links))
+      add_spring(a, b, SpringKind::kInterLayer);
+    sort_springs(m.springs);
+
+    // Lumped masses: each shell between layers k and k+1 gives half its mass to each of them, the
+    // core inside the deepest layer all to it; within a layer, mass follows vertex area. The total
+    // is exactly density x skin volume.
+    m.mass_kg.assign(static_cast<size_t>(total), 0.0);
+    for (size_t k = 0; k < layers.size(); ++k) {
+      const bool deepest = k + 1 == layers.size();
+      double share = deepest ? enclosed[k] : 0.5 * (enclosed[k] - enclosed[k + 1]);
+      if (k > 0) share += 0.5 * (enclosed[k - 1] - enclosed[k]);
+      const std::vector<double> va = vertex_areas(layers[k]);
+      double area = 0.0;
+      for (double a : va) area += a;
+      for (size_t v = 0; v < va.size(); ++v)
+        m.mass_kg[m.layers[k].first_node + v] = opt.density_kg_per_mm3 * share * va[v] / area;
+    }
+    timer.done("springs and masses");
   }
-  timer.done("springs and masses");
 
   report_progress(progress, "rings", 0.95);
   m.rings = compute_rings(m, opt.locality);

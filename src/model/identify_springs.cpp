@@ -7,23 +7,15 @@
 
 #include "lamina/core/error.h"
 #include "lamina/model/summarize_model.h"
+#include "mandel.h"
 
 namespace lamina::model {
 namespace {
 
-// Elasticity tensors as 6x6 matrices in Mandel form (strains e11, e22, e33, sqrt2 e23,
-// sqrt2 e13, sqrt2 e12): unlike Mandel's, its Frobenius norm is the tensor's own, so the
-// least-squares fit does not depend on the frame, and projecting onto the isotropic tensors is
-// the same as averaging over all orientations (what a curved organ does to its layers' frames).
-using Mandel = Eigen::Matrix<double, 6, 6>;
-
-// The isotropic elasticity tensor.
-Mandel isotropic(double lambda, double mu) {
-  Mandel c = Mandel::Zero();
-  c.topLeftCorner<3, 3>().setConstant(lambda);
-  for (int a = 0; a < 3; ++a) c(a, a) += 2.0 * mu, c(a + 3, a + 3) = 2.0 * mu;
-  return c;
-}
+// Projecting onto the isotropic tensors (in Mandel form, mandel.h) is the same as averaging
+// over all orientations (what a curved organ does to its layers' frames).
+using detail::Mandel;
+inline Mandel isotropic(double lambda, double mu) { return detail::isotropic_tensor(lambda, mu); }
 
 // A spring along d contributes k l^2 D D^T to the network's tensor (times 1 / V), D = (d1^2,
 // d2^2, d3^2, sqrt2 d2 d3, sqrt2 d1 d3, sqrt2 d1 d2): its energy is 1/2 k (l d.eps.d)^2. In the node's frame

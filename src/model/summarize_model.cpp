@@ -41,7 +41,11 @@ ModelSummary summarize_model(const Model& model, const BuildReport* build) {
   s.nodes = model.node_count();
   s.springs = static_cast<int64_t>(model.springs.size());
   for (SpringKind k : model.springs.kind)
-    (k == SpringKind::kIntraLayer ? s.intra_layer_springs : s.inter_layer_springs)++;
+    (k == SpringKind::kIntraLayer   ? s.intra_layer_springs
+     : k == SpringKind::kInterLayer ? s.inter_layer_springs
+                                    : s.volume_springs)++;
+  s.interior_nodes = model.node_count() - model.surface_node_count();
+  if (model.has_tets()) s.tets = geometry::measure_tets(model.X, model.tets.T);
   s.total_mass_kg = std::accumulate(model.mass_kg.begin(), model.mass_kg.end(), 0.0);
   s.locality = model.rings.locality;
   s.ring_entries = static_cast<int64_t>(model.rings.members.size());

@@ -144,6 +144,7 @@ struct Viewer::Impl {
     routing.locality = std::min(routing.locality, vm->model.rings.locality);
     sim::Simulation s = sim::make_simulation(vm->model, material, solver);
     sim::fix_nodes(s, vm->fixed);
+    sim::support_nodes(s, vm->support.nodes, vm->support.stiffness_n_per_m);
     interact::LoopOptions lo;
     lo.rate_hz = rate_hz;
     loop = std::make_unique<interact::RealtimeLoop>(std::move(s), routing, lo);
@@ -450,7 +451,7 @@ struct Viewer::Impl {
         changed = true;
       }
       changed |= ImGui::InputDouble("dt s", &solver.dt_s, 0.001, 0.01, "%.4f");
-      changed |= ImGui::InputDouble("threshold mm", &solver.threshold_mm, 0.0, 0.0, "%.1e");
+      changed |= ImGui::InputDouble("rest speed mm/s", &solver.rest_speed_mm_per_s, 0.0, 0.0, "%.2g");
       changed |= ImGui::InputInt("CG iterations", &solver.cg_max_iterations);
       changed |= ImGui::InputInt("projective iterations", &solver.projective_iterations);
       changed |= ImGui::InputDouble("rate Hz (0 = max)", &rate_hz, 100, 1000, "%.0f");
@@ -586,6 +587,7 @@ struct Viewer::Impl {
     loop.reset();  // the loop points into the old model: stop it before replacing the model
     renderer->forget_model();
     vm = std::move(next);
+    if (vm->material) material = *vm->material;
     gesture = Gesture::kNone;
     start_loop();
     ++rebuilds;

@@ -8,32 +8,36 @@
 
 #include "lamina/core/error.h"
 #include "lamina/sim/simulation.h"
+#include "solver.h"
 
 namespace lamina::sim {
 
-double lowest_angular_frequency(const Simulation& s, int32_t max_iterations) {
+double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
+  const detail::Solver& s = sim.solver();
   const Model& m = *s.model;
-  const double anchor = s.material.anchor_stiffness_n_per_m;
+  bool supported = false;
+  for (double k : s.support.stiffness_n_per_m) supported = supported || k > 0.0;
   std::vector<int32_t> row(static_cast<size_t>(m.node_count()), -1);
   int32_t n = 0;
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (!s.fixed[i]) row[i] = n++;
   if (n == 0) throw invalid_input("damping ratio", "every node is held: nothing can vibrate");
-  if (n == m.node_count() && anchor == 0.0)
+  if (n == m.node_count() && !supported)
     throw invalid_input("damping ratio",
                         "the model is held nowhere (no fixed nodes, no anchor springs), so its "
                         "slowest motion is a free drift; fix a region or use damping_kg_per_s");
 
   // Stiffness at rest: k u u^T per spring (the rest length is the length, so no geometric
-  // term), anchors on the diagonal. The volume term is left out: the slowest modes of a held
-  // organ bend it, which barely changes its volume.
+  // term), the tetrahedra's coupling and volume, support and anchors on the diagonal. The volume
+  // term between layers is left out: the slowest modes of a held organ bend it, which barely
+  // changes the volume of a region.
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(36 * m.springs.size() + 3 * static_cast<size_t>(n));
   const Springs& sp = m.springs;
-  for (size_t e = 0; e < sp.size(); ++e) {
+  for (size_t e = 0; !s.tets.on && e < sp.size(); ++e) {  // else inside the tetrahedra
     const int32_t a = row[sp.i[e]], b = row[sp.j[e]];
     const Eigen::Vector3d u = (m.X.row(sp.j[e]) - m.X.row(sp.i[e])).normalized();
-    const Eigen::Matrix3d k = s.stiffness_n_per_m[e] * u * u.transpose();
+    const Eigen::Matrix3d k = s.springs.stiffness_n_per_m[e] * u * u.transpose();
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) {
         if (a >= 0) t.emplace_back(3 * a + r, 3 * a + c, k(r, c));
@@ -44,7 +48,10 @@ double lowest_angular_frequency(const Simulation& s, int32_t max_iterations) {
         }
       }
   }
-  for (int32_t q = 0; q < 3 * n; ++q) t.emplace_back(q, q, anchor);
+  detail::add_tet_stiffness_triplets(s, row, t);
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (row[i] >= 0)
+      for (int c = 0; c < 3; ++c) t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
   Eigen::SparseMatrix<double> K(3 * n, 3 * n);
   K.setFromTriplets(t.begin(), t.end());
   Eigen::VectorXd mass(3 * n);

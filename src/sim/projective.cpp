@@ -1,6 +1,6 @@
 // Projective dynamics for mass-spring systems: the "fast mass-spring" method of Liu, Bargteil,
 // O'Brien and Kavan (2013). Backward Euler's nonlinear system,
-//   (M + h gamma + h^2 L) x1 = M (x0 + h v0) + h gamma x0 + h^2 (J d + f_ext + M g + anchor X),
+//   (M + h gamma + h^2 L) x1 = M (x0 + h v0) + h gamma x0 + h^2 (J d + f_ext + M g + support X),
 // is solved by alternating a local step (each spring's vector projected to its rest length,
 // d_e = L_e (x_i - x_j) / |x_i - x_j|) and a global step (one solve with the constant matrix,
 // factored once by Eigen's sparse LDLT and reused while dt, the material and the movable nodes
@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "lamina/core/error.h"
-#include "step_parts.h"
+#include <chrono>
+
+#include "solver.h"
 
 namespace lamina::sim::detail {
 
@@ -31,7 +33,7 @@ struct ProjectiveSolver {
 
 namespace {
 
-void factor(const Simulation& s, ProjectiveSolver& p, double h) {
+void factor(const Solver& s, ProjectiveSolver& p, double h) {
   const Model& m = *s.model;
   const auto n = static_cast<Eigen::Index>(s.active_nodes.size());
   p.row_of.assign(static_cast<size_t>(m.node_count()), -1);
@@ -39,14 +41,14 @@ void factor(const Simulation& s, ProjectiveSolver& p, double h) {
   const double h2 = h * h, damp = h * s.material.damping_kg_per_s;
   const double mass_damp = h * s.material.mass_damping_per_s;
   std::vector<Eigen::Triplet<double>> t;
-  t.reserve(static_cast<size_t>(n) + s.adj_other.size());
+  t.reserve(static_cast<size_t>(n) + s.springs.adj_other.size());
   for (Eigen::Index q = 0; q < n; ++q) {
     const int32_t i = s.active_nodes[q];
-    double diag = s.mass_kg[i] * (1.0 + mass_damp) + damp + h2 * s.material.anchor_stiffness_n_per_m;
-    for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-      const double k = s.stiffness_n_per_m[s.adj_spring[a]];
+    double diag = s.mass_kg[i] * (1.0 + mass_damp) + damp + h2 * s.support.stiffness_n_per_m[i];
+    for (int32_t a = s.springs.adj_offsets[i]; a < s.springs.adj_offsets[i + 1]; ++a) {
+      const double k = s.springs.stiffness_n_per_m[s.springs.adj_spring[a]];
       diag += h2 * k;
-      const int32_t r = p.row_of[s.adj_other[a]];
+      const int32_t r = p.row_of[s.springs.adj_other[a]];
       if (r >= 0) t.emplace_back(q, r, -h2 * k);
     }
     t.emplace_back(q, q, diag);
@@ -74,7 +76,7 @@ void factor(const Simulation& s, ProjectiveSolver& p, double h) {
 // factor: x = A^-1 r - Z S^-1 G^T A^-1 r, Z = A^-1 G, S = C^-1 + G^T Z (regions x regions).
 // Explicit pressure alone made a 30% indentation at dt = 0.1 s blow up (the stability suite).
 // Expects update_volume_term() at x0 done (the gradients) and -grad E(x0) in p.base.
-void add_volume_term(const Simulation& s, ProjectiveSolver& p, double h) {
+void add_volume_term(const Solver& s, const Eigen::MatrixX3d& x, ProjectiveSolver& p, double h) {
   const Model& m = *s.model;
   const auto n = static_cast<Eigen::Index>(s.active_nodes.size());
   const size_t regions = m.layers.size();
@@ -84,8 +86,9 @@ void add_volume_term(const Simulation& s, ProjectiveSolver& p, double h) {
   // Node i of layer k bounds region k from outside (+) and region k - 1 from inside (-).
   for (Eigen::Index q = 0; q < n; ++q) {
     const int32_t i = s.active_nodes[q], k = m.layer_of[i];
-    p.G[k].row(q) += s.volume_gradient.row(i);
-    if (k > 0) p.G[k - 1].row(q) -= s.volume_gradient.row(i);
+    if (k < 0) continue;  // interior nodes bound no region
+    p.G[k].row(q) += s.volume.gradient.row(i);
+    if (k > 0) p.G[k - 1].row(q) -= s.volume.gradient.row(i);
   }
   const auto r = static_cast<Eigen::Index>(regions);
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(r, r);
@@ -95,7 +98,7 @@ void add_volume_term(const Simulation& s, ProjectiveSolver& p, double h) {
     p.Z[a] = p.ldlt.solve(p.G[a]);
     // h^2 c G (G^T x0): the Gauss-Newton term's share of the right side.
     double g_x0 = 0.0;
-    for (Eigen::Index q = 0; q < n; ++q) g_x0 += p.G[a].row(q).dot(s.x.row(s.active_nodes[q]));
+    for (Eigen::Index q = 0; q < n; ++q) g_x0 += p.G[a].row(q).dot(x.row(s.active_nodes[q]));
     p.base += (h2 * c * g_x0) * p.G[a];
     S(a, a) = 1.0 / (h2 * c);
   }
@@ -115,7 +118,10 @@ void correct_for_volume_term(ProjectiveSolver& p) {
 
 }  // namespace
 
-Measured projective_step(Simulation& s, double h, bool save) {
+Measured projective_step(Simulation& sim, double h, bool save, StepProfile& profile) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  Solver& s = sim.solver();
   if (!s.projective) s.projective = std::make_shared<ProjectiveSolver>();
   ProjectiveSolver& p = *s.projective;
   if (!p.factored || p.version != s.setup_version || p.h != h) factor(s, p, h);
@@ -126,7 +132,7 @@ Measured projective_step(Simulation& s, double h, bool save) {
   const int T = threads_for(s);
   const double h2 = h * h;
   const bool volume = mat.volume_stiffness_kpa > 0.0;
-  if (volume) update_volume_term(s, s.x, T);  // -grad E(x0) enters base below
+  if (volume) update_volume_term(s, sim.x, T);  // -grad E(x0) enters base below
 
   // The inertial and constant parts of the right side, and the first iterate x0 + h v0.
   for_slices(n, T, [&](int64_t begin, int64_t end, int) {
@@ -134,21 +140,24 @@ Measured projective_step(Simulation& s, double h, bool save) {
       const int32_t i = s.active_nodes[q];
       const double mi = s.mass_kg[i];
       const double damp = h * (mat.damping_kg_per_s + mat.mass_damping_per_s * mi);
-      const double jump = volume ? s.pressure_jump_kpa[m.layer_of[i]] : 0.0;
+      const double jump =
+          volume && m.layer_of[i] >= 0 ? s.volume.pressure_jump_kpa[m.layer_of[i]] : 0.0;
       for (int c = 0; c < 3; ++c) {
-        const double predicted = s.x(i, c) + h * s.v(i, c);
-        const double pressure = volume ? -jump * s.volume_gradient(i, c) : 0.0;
-        p.base(q, c) = mi * predicted + damp * s.x(i, c) +
-                       h2 * (s.f_ext(i, c) + mi * mat.gravity_mm_per_s2[c] +
-                             mat.anchor_stiffness_n_per_m * m.X(i, c) + pressure);
+        const double predicted = sim.x(i, c) + h * sim.v(i, c);
+        const double pressure = volume ? -jump * s.volume.gradient(i, c) : 0.0;
+        p.base(q, c) = mi * predicted + damp * sim.x(i, c) +
+                       h2 * (sim.f_ext(i, c) + mi * mat.gravity_mm_per_s2[c] +
+                             s.support.stiffness_n_per_m[i] * m.X(i, c) + pressure);
         p.sol(q, c) = predicted;
       }
     }
   });
-  if (volume) add_volume_term(s, p, h);
+  if (volume) add_volume_term(s, sim.x, p, h);
+  const auto t1 = Clock::now();  // the right side's constant part and the factor are ready
+  profile.forces_us += std::chrono::duration<double, std::micro>(t1 - t0).count();
   auto position = [&](int32_t node, int c) {
     const int32_t r = p.row_of[node];
-    return r >= 0 ? p.sol(r, c) : s.x(node, c);
+    return r >= 0 ? p.sol(r, c) : sim.x(node, c);
   };
   const auto springs = static_cast<int64_t>(s.active_springs.size());
   for (int32_t it = 0; it < s.options.projective_iterations; ++it) {
@@ -172,12 +181,12 @@ Measured projective_step(Simulation& s, double h, bool save) {
       for (int64_t q = begin; q < end; ++q) {
         const int32_t i = s.active_nodes[q];
         double r[3] = {p.base(q, 0), p.base(q, 1), p.base(q, 2)};
-        for (int32_t a = s.adj_offsets[i]; a < s.adj_offsets[i + 1]; ++a) {
-          const int32_t c = s.adj_signed[a], e = spring_of(c), j = s.adj_other[a];
-          const double k = s.stiffness_n_per_m[e], sign = end_sign(c);
+        for (int32_t a = s.springs.adj_offsets[i]; a < s.springs.adj_offsets[i + 1]; ++a) {
+          const int32_t c = s.springs.adj_signed[a], e = spring_of(c), j = s.springs.adj_other[a];
+          const double k = s.springs.stiffness_n_per_m[e], sign = end_sign(c);
           const bool held = p.row_of[j] < 0;
           for (int ax = 0; ax < 3; ++ax)
-            r[ax] += h2 * k * (sign * p.d(e, ax) + (held ? s.x(j, ax) : 0.0));
+            r[ax] += h2 * k * (sign * p.d(e, ax) + (held ? sim.x(j, ax) : 0.0));
         }
         for (int ax = 0; ax < 3; ++ax) p.rhs(q, ax) = r[ax];
       }
@@ -187,17 +196,18 @@ Measured projective_step(Simulation& s, double h, bool save) {
   }
 
   // The new velocity (x1 - x0) / h; each node's end of step as the other integrators'.
-  NodeState state(s);
+  NodeState state(sim, s);
   Partials part;
   for_slices(n, T, [&](int64_t begin, int64_t end, int t) {
     Partial acc;
     for (int64_t q = begin; q < end; ++q) {
       const int32_t i = s.active_nodes[q];
-      finish_node(s, state, i, h, save, (p.sol(q, 0) - s.x(i, 0)) / h,
-                  (p.sol(q, 1) - s.x(i, 1)) / h, (p.sol(q, 2) - s.x(i, 2)) / h, acc);
+      finish_node(s, state, i, h, save, (p.sol(q, 0) - sim.x(i, 0)) / h,
+                  (p.sol(q, 1) - sim.x(i, 1)) / h, (p.sol(q, 2) - sim.x(i, 2)) / h, acc);
     }
     part[t] = acc;
   });
+  profile.integrate_us += std::chrono::duration<double, std::micro>(Clock::now() - t1).count();
   return combine(part, T);
 }
 

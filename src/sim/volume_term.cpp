@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <array>
 
-#include "step_parts.h"
+#include "solver.h"
 
 namespace lamina::sim::detail {
 namespace {
@@ -15,7 +15,7 @@ namespace {
 double region_volume(const double* layer_volume, size_t layers, size_t r) {
   return r + 1 < layers ? layer_volume[r] - layer_volume[r + 1] : layer_volume[r];
 }
-double rest_region_volume(const Simulation& s, size_t r) {
+double rest_region_volume(const Solver& s, size_t r) {
   return region_volume(s.rest_layer_volume_mm3.data(), s.rest_layer_volume_mm3.size(), r);
 }
 
@@ -41,7 +41,7 @@ double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& xm, const int3
   return sum;
 }
 
-double layer_volume_now(const Simulation& s, const Eigen::MatrixX3d& x, size_t k, int threads) {
+double layer_volume_now(const Solver& s, const Eigen::MatrixX3d& x, size_t k, int threads) {
   const Eigen::MatrixX3i& F = s.model->layers[k].F;
   const std::vector<int32_t>& tris = s.layer_triangles[k];
   const auto n = static_cast<int64_t>(tris.size());
@@ -51,36 +51,36 @@ double layer_volume_now(const Simulation& s, const Eigen::MatrixX3d& x, size_t k
          6.0;
 }
 
-double region_stiffness(const Simulation& s, size_t r) {
+double region_stiffness(const Solver& s, size_t r) {
   return s.material.volume_stiffness_kpa / rest_region_volume(s, r);
 }
 
-void setup_volume_term(Simulation& s) {
+void setup_volume_term(Solver& s) {
   const Model& m = *s.model;
   const int32_t n = m.node_count();
-  s.corner_offsets.assign(static_cast<size_t>(n) + 1, 0);
+  s.volume.corner_offsets.assign(static_cast<size_t>(n) + 1, 0);
   for (const ModelLayer& l : m.layers)
     for (Eigen::Index t = 0; t < l.F.rows(); ++t)
-      for (int c = 0; c < 3; ++c) ++s.corner_offsets[l.F(t, c) + 1];
-  for (int32_t i = 0; i < n; ++i) s.corner_offsets[i + 1] += s.corner_offsets[i];
-  s.corner_pairs.resize(2 * static_cast<size_t>(s.corner_offsets[n]));
-  std::vector<int32_t> fill(s.corner_offsets.begin(), s.corner_offsets.end() - 1);
+      for (int c = 0; c < 3; ++c) ++s.volume.corner_offsets[l.F(t, c) + 1];
+  for (int32_t i = 0; i < n; ++i) s.volume.corner_offsets[i + 1] += s.volume.corner_offsets[i];
+  s.volume.corner_pairs.resize(2 * static_cast<size_t>(s.volume.corner_offsets[n]));
+  std::vector<int32_t> fill(s.volume.corner_offsets.begin(), s.volume.corner_offsets.end() - 1);
   for (const ModelLayer& l : m.layers)
     for (Eigen::Index t = 0; t < l.F.rows(); ++t)
       for (int c = 0; c < 3; ++c) {
         const int32_t i = l.F(t, c), at = 2 * fill[i]++;
-        s.corner_pairs[at] = l.F(t, (c + 1) % 3);
-        s.corner_pairs[at + 1] = l.F(t, (c + 2) % 3);
+        s.volume.corner_pairs[at] = l.F(t, (c + 1) % 3);
+        s.volume.corner_pairs[at + 1] = l.F(t, (c + 2) % 3);
       }
-  s.pressure_jump_kpa.assign(m.layers.size(), 0.0);
-  s.volume_gradient = Eigen::MatrixX3d::Zero(n, 3);
+  s.volume.pressure_jump_kpa.assign(m.layers.size(), 0.0);
+  s.volume.gradient = Eigen::MatrixX3d::Zero(n, 3);
 }
 
-void layer_volume_gradient(const Simulation& s, const ConstCols& x, int32_t i, double& gx,
+void layer_volume_gradient(const Solver& s, const ConstCols& x, int32_t i, double& gx,
                            double& gy, double& gz) {
   double ax = 0.0, ay = 0.0, az = 0.0;
-  for (int32_t a = s.corner_offsets[i]; a < s.corner_offsets[i + 1]; ++a) {
-    const int32_t b = s.corner_pairs[2 * a], c = s.corner_pairs[2 * a + 1];
+  for (int32_t a = s.volume.corner_offsets[i]; a < s.volume.corner_offsets[i + 1]; ++a) {
+    const int32_t b = s.volume.corner_pairs[2 * a], c = s.volume.corner_pairs[2 * a + 1];
     ax += x.y[b] * x.z[c] - x.z[b] * x.y[c];
     ay += x.z[b] * x.x[c] - x.x[b] * x.z[c];
     az += x.x[b] * x.y[c] - x.y[b] * x.x[c];
@@ -89,24 +89,24 @@ void layer_volume_gradient(const Simulation& s, const ConstCols& x, int32_t i, d
 }
 
 // Each layer's pressure jump from the layers' enclosed volumes now.
-void set_pressures(Simulation& s, const double* now) {
+void set_pressures(Solver& s, const double* now) {
   const size_t layers = s.model->layers.size();
   double outside = 0.0;  // pressure of the region outside the layer: none outside the organ
   for (size_t k = 0; k < layers; ++k) {
     const double rest = rest_region_volume(s, k);
     const double p =
         s.material.volume_stiffness_kpa * (region_volume(now, layers, k) - rest) / rest;
-    s.pressure_jump_kpa[k] = p - outside;
+    s.volume.pressure_jump_kpa[k] = p - outside;
     outside = p;
   }
 }
 
-void update_volume_term(Simulation& s, const Eigen::MatrixX3d& xm, int threads) {
+void update_volume_term(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
   std::array<double, kMaxLayers> now{};
   for (size_t k = 0; k < s.model->layers.size(); ++k) now[k] = layer_volume_now(s, xm, k, threads);
   set_pressures(s, now.data());
   const ConstCols x(xm);
-  Cols g(s.volume_gradient);
+  Cols g(s.volume.gradient);
   for_slices(static_cast<int64_t>(s.active_nodes.size()), threads,
              [&](int64_t begin, int64_t end, int) {
                for (int64_t q = begin; q < end; ++q) {
@@ -116,10 +116,10 @@ void update_volume_term(Simulation& s, const Eigen::MatrixX3d& xm, int threads) 
              });
 }
 
-void volume_multipliers(const Simulation& s, const Eigen::MatrixX3d& pm, int threads,
+void volume_multipliers(const Solver& s, const Eigen::MatrixX3d& pm, int threads,
                         double* multiplier) {
   const size_t layers = s.model->layers.size();
-  const ConstCols p(pm), g(s.volume_gradient);
+  const ConstCols p(pm), g(s.volume.gradient);
   const int32_t* layer_of = s.model->layer_of.data();
   struct alignas(64) Dots {
     std::array<double, kMaxLayers> d{};
@@ -130,6 +130,7 @@ void volume_multipliers(const Simulation& s, const Eigen::MatrixX3d& pm, int thr
                Dots acc;
                for (int64_t q = begin; q < end; ++q) {
                  const int32_t i = s.active_nodes[q];
+                 if (layer_of[i] < 0) continue;  // interior nodes bound no region
                  acc.d[layer_of[i]] += g.x[i] * p.x[i] + g.y[i] * p.y[i] + g.z[i] * p.z[i];
                }
                part[t] = acc;
@@ -146,13 +147,13 @@ void volume_multipliers(const Simulation& s, const Eigen::MatrixX3d& pm, int thr
   }
 }
 
-void add_volume_stiffness_rows(const Simulation& s, std::vector<double>& row) {
+void add_volume_stiffness_rows(const Solver& s, std::vector<double>& row) {
   const Model& m = *s.model;
   const size_t layers = m.layers.size();
   const ConstCols x(m.X);
   std::vector<double> g_max(static_cast<size_t>(m.node_count()));
   std::vector<double> layer_l1(layers, 0.0);  // ||g||_1 over each layer's nodes
-  for (int32_t i = 0; i < m.node_count(); ++i) {
+  for (int32_t i = 0; i < m.surface_node_count(); ++i) {
     double gx, gy, gz;
     layer_volume_gradient(s, x, i, gx, gy, gz);
     g_max[i] = std::max({std::abs(gx), std::abs(gy), std::abs(gz)});
@@ -162,13 +163,14 @@ void add_volume_stiffness_rows(const Simulation& s, std::vector<double>& row) {
   std::vector<double> region(layers);
   for (size_t r = 0; r < layers; ++r)
     region[r] = region_stiffness(s, r) * (layer_l1[r] + (r + 1 < layers ? layer_l1[r + 1] : 0.0));
-  for (int32_t i = 0; i < m.node_count(); ++i) {
+  for (int32_t i = 0; i < m.surface_node_count(); ++i) {
     const auto k = static_cast<size_t>(m.layer_of[i]);
     row[i] += g_max[i] * (region[k] + (k > 0 ? region[k - 1] : 0.0));
   }
 }
 
-double volume_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
+double volume_energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
+  if (!(s.material.volume_stiffness_kpa > 0.0)) return 0.0;
   const Model& m = *s.model;
   std::vector<double> now(m.layers.size());
   for (size_t k = 0; k < m.layers.size(); ++k) now[k] = layer_volume(m, x, static_cast<int32_t>(k));
@@ -181,23 +183,26 @@ double volume_energy(const Simulation& s, const Eigen::MatrixX3d& x) {
   return e;
 }
 
-}  // namespace lamina::sim::detail
-
-namespace lamina::sim {
-
-void volume_forces(Simulation& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
+void volume_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
   if (!(s.material.volume_stiffness_kpa > 0.0)) return;
   const Model& m = *s.model;
-  std::array<double, detail::kMaxLayers> now{};
-  for (size_t k = 0; k < m.layers.size(); ++k) now[k] = layer_volume(m, xm, static_cast<int32_t>(k));
-  detail::set_pressures(s, now.data());
-  const detail::ConstCols x(xm);
-  for (int32_t i = 0; i < m.node_count(); ++i) {
+  const size_t layers = m.layers.size();
+  std::array<double, kMaxLayers> now{}, jump{};
+  for (size_t k = 0; k < layers; ++k) now[k] = layer_volume(m, xm, static_cast<int32_t>(k));
+  double outside = 0.0;
+  for (size_t k = 0; k < layers; ++k) {
+    const double rest = rest_region_volume(s, k);
+    const double p = s.material.volume_stiffness_kpa * (region_volume(now.data(), layers, k) - rest) / rest;
+    jump[k] = p - outside;
+    outside = p;
+  }
+  const ConstCols x(xm);
+  for (int32_t i = 0; i < m.surface_node_count(); ++i) {
     double gx, gy, gz;
-    detail::layer_volume_gradient(s, x, i, gx, gy, gz);
-    const double jump = s.pressure_jump_kpa[m.layer_of[i]];
-    f(i, 0) -= jump * gx, f(i, 1) -= jump * gy, f(i, 2) -= jump * gz;
+    layer_volume_gradient(s, x, i, gx, gy, gz);
+    const double j = jump[static_cast<size_t>(m.layer_of[i])];
+    f(i, 0) -= j * gx, f(i, 1) -= j * gy, f(i, 2) -= j * gz;
   }
 }
 
-}  // namespace lamina::sim
+}  // namespace lamina::sim::detail

@@ -155,15 +155,13 @@ IndentResult indent_mass_spring(const Model& m, const sim::Material& material,
     for (size_t q = 0; q < patch.size(); ++q)
       at.row(static_cast<Eigen::Index>(q)) = m.X.row(patch[q]) + d * dir;
     sim::hold_nodes(s, patch, at);
-    const sim::StepStats st = sim::run_to_convergence(s, 10);
+    const sim::StepStats st = sim::run_to_convergence(s);
     r.converged = r.converged && st.converged;
   }
   r.steps = s.steps;
   // The indenter holds the patch against the tissue's internal forces on it.
   Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
-  sim::spring_forces(s, s.x, f);
-  sim::volume_forces(s, s.x, f);
-  f -= material.anchor_stiffness_n_per_m * (s.x - m.X);
+  sim::internal_forces(s, s.x, f);
   double push = 0.0;
   for (int32_t i : patch) push -= f.row(i).dot(dir);
   r.force_n = push / 1000.0;  // mN -> N

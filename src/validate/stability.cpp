@@ -19,14 +19,16 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // The layer order at x, folded into the result's worst.
+// The layer order (and inverted tetrahedra) at x, folded into the result's worst.
 void record_layer_order(const Model& m, const Eigen::MatrixX3d& x, StabilityResult& r) {
   ++r.order_checks;
   const LayerOrder o = check_layer_order(m, x);
   r.order.outside_nodes = std::max(r.order.outside_nodes, o.outside_nodes);
   r.order.surfaces_cross = r.order.surfaces_cross || o.surfaces_cross;
+  r.order.inverted_tets = std::max(r.order.inverted_tets, o.inverted_tets);
 }
 
-// One stage: steps until the model has been at rest for 10 steps (or the budget runs out),
+// One stage: steps until the model has been at rest for o.rest_window_s (or the budget runs out),
 // checking each state. After the release it also follows the energy.
 struct Stage {
   sim::Simulation& s;
@@ -54,24 +56,25 @@ struct Stage {
       r.energy_trace.emplace_back(s.time_s - release_s, e);
     }
     if (s.time_s >= next_check_s) {
-      record_layer_order(*s.model, s.x, r);
+      record_layer_order(s.model(), s.x, r);
       next_check_s = s.time_s + o.check_interval_s;
     }
     return true;
   }
 
-  // Steps until the model has been at rest for 10 steps. False if it never was (or went
-  // non-finite) within the step budget.
+  // Steps until the model has been at rest for o.rest_window_s. False if it never was (or
+  // went non-finite) within the step budget.
   bool run() {
     int64_t quiet = 0;
+    const int64_t needed = sim::quiet_steps(s, o.rest_window_s);
     sim::StepStats st;
     bool rested = false;
     for (int64_t k = 0; k < o.max_steps_per_stage && !rested; ++k) {
       if (!advance(st)) return false;
-      quiet = st.converged ? quiet + 1 : 0;
-      rested = quiet >= 10;
+      quiet = sim::at_rest(st) ? quiet + 1 : 0;
+      rested = quiet >= needed;
     }
-    record_layer_order(*s.model, s.x, r);
+    record_layer_order(s.model(), s.x, r);
     return rested;
   }
 
@@ -144,6 +147,7 @@ LayerOrder check_layer_order(const Model& m, const Eigen::MatrixX3d& x) {
     order.surfaces_cross = order.surfaces_cross || n.surfaces_intersect;
     outer = std::move(inner);
   }
+  order.inverted_tets = sim::inverted_tets(m, x);
   return order;
 }
 
@@ -202,7 +206,7 @@ StabilityResult run_stability_case(const Model& m, const sim::Material& material
   opt.mode = sim::Mode::kGlobal;
   opt.integrator = c.integrator;
   opt.dt_s = c.dt_s;
-  opt.threshold_mm = o.threshold_mm;
+  opt.rest_speed_mm_per_s = o.rest_speed_mm_per_s;
   sim::Simulation s = sim::make_simulation(m, mat, opt);
   const std::vector<int32_t> held =
       sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
@@ -220,7 +224,7 @@ StabilityResult run_stability_case(const Model& m, const sim::Material& material
     stage.tools = &driver;
     loaded = stage.run();
   } else {
-    patch = indenter_patch(m, ind, s.fixed);
+    patch = indenter_patch(m, ind, s.fixed());
     const double sign = c.kind == LoadKind::kPull ? -1.0 : 1.0;
     const Eigen::RowVector3d step =
         sign * c.depth_fraction * ind.organ_depth_mm * ind.direction.normalized().transpose();

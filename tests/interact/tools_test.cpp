@@ -106,7 +106,7 @@ TEST(ApplyTools, ActOnlyBetweenStartAndEndAndDriveLocalMode) {
   EXPECT_TRUE(interact::apply_tools(s, d));
   EXPECT_GT(s.f_ext.squaredNorm(), 0.0);
   int movable = 0;
-  for (uint8_t b : s.movable) movable += b;
+  for (uint8_t b : s.movable()) movable += b;
   EXPECT_EQ(movable, static_cast<int>(d.touched.size()));
   s.time_s = 0.1;
   EXPECT_FALSE(interact::apply_tools(s, d));

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <functional>
 #include <limits>
 #include <sstream>
@@ -64,6 +65,43 @@ Model make_test_model() {
   return m;
 }
 
+// One layer, the octahedron of make_test_model(), filled with eight tetrahedra around an
+// interior node at its centre: springs are the tetrahedra's edges.
+Model make_tet_model() {
+  Model m;
+  m.X.resize(7, 3);
+  m.X << 2, 0, 0, -2, 0, 0, 0, 2, 0, 0, -2, 0, 0, 0, 2, 0, 0, -2, 0.1, -0.2, 0.3;
+  m.layers.resize(1);
+  m.layers[0] = {0, 6, {}};
+  m.layers[0].F.resize(8, 3);
+  m.layers[0].F << 0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5;
+  m.layer_of = {0, 0, 0, 0, 0, 0, kInteriorNode};
+  m.fixed.assign(7, 0);
+  m.tets.T.resize(8, 4);
+  for (int f = 0; f < 8; ++f)  // the centre lies behind each outward face
+    m.tets.T.row(f) << m.layers[0].F(f, 0), m.layers[0].F(f, 2), m.layers[0].F(f, 1), 6;
+  m.tets.region.assign(8, 0);
+  std::vector<std::pair<int32_t, int32_t>> edges;
+  for (int f = 0; f < 8; ++f)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        edges.emplace_back(std::min(m.tets.T(f, a), m.tets.T(f, b)),
+                           std::max(m.tets.T(f, a), m.tets.T(f, b)));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  for (const auto& [i, j] : edges) {
+    m.springs.i.push_back(i);
+    m.springs.j.push_back(j);
+    m.springs.rest_length_mm.push_back((m.X.row(i) - m.X.row(j)).norm());
+    m.springs.stiffness_n_per_m.push_back(3.0);
+    m.springs.kind.push_back(j == 6 ? SpringKind::kVolume : SpringKind::kIntraLayer);
+  }
+  m.mass_kg.assign(7, 1e-6);
+  m.rings.locality = 2;
+  m.source = "tets";
+  return m;
+}
+
 uint64_t bits(double x) {
   return std::bit_cast<uint64_t>(x);
 }
@@ -96,6 +134,8 @@ void expect_same_model(const Model& a, const Model& b) {
   EXPECT_EQ(bits(a.density_kg_per_mm3), bits(b.density_kg_per_mm3));
   EXPECT_EQ(a.source, b.source);
   EXPECT_EQ(a.rings.locality, b.rings.locality);
+  EXPECT_EQ(a.tets.T, b.tets.T);
+  EXPECT_EQ(a.tets.region, b.tets.region);
 }
 
 std::string read_text(const std::string& path) {
@@ -178,8 +218,54 @@ TEST(ModelFile, WrongVersionThrows) {
   const TempDir dir;
   const std::string path = dir.file("model.vtu");
   save_model(make_test_model(), path);
-  write_text(path, replace_values(read_text(path), "lamina_format_version", "2"));
-  expect_load_error(path, "version 2 (this build reads version 1)");
+  write_text(path, replace_values(read_text(path), "lamina_format_version", "3"));
+  expect_load_error(path, "version 3 (this build reads versions 1 and 2)");
+}
+
+TEST(ModelFile, TetrahedraRoundTripBitExactly) {
+  const TempDir dir;
+  const Model model = make_tet_model();
+  const std::string path = dir.file("tets.vtu");
+  save_model(model, path);
+  expect_same_model(model, load_model(path));
+  // ParaView sees the volume: VTK_TETRA cells after the triangles and springs.
+  const std::string text = read_text(path);
+  EXPECT_NE(text.find("<Piece NumberOfPoints=\"7\" NumberOfCells=\"" +
+                      std::to_string(8 + model.springs.size() + 8) + "\">"),
+            std::string::npos);
+}
+
+TEST(ModelFile, VersionOneFilesStillLoad) {
+  // A model saved before tetrahedra existed: the same arrays, version 1, no tet_count.
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  const Model model = make_test_model();
+  save_model(model, path);
+  std::string text = replace_values(read_text(path), "lamina_format_version", "1");
+  const size_t at = text.find("<DataArray type=\"Int64\" Name=\"tet_count\"");
+  ASSERT_NE(at, std::string::npos);
+  text.erase(at, text.find("</DataArray>", at) + 13 - at);
+  write_text(path, text);
+  expect_same_model(model, load_model(path));
+}
+
+TEST(ModelFile, InvalidTetrahedraAreRejectedOnLoad) {
+  const TempDir dir;
+  const std::string path = dir.file("tets.vtu");
+  const std::vector<std::pair<std::function<void(Model&)>, std::string>> cases = {
+      {[](Model& m) { std::swap(m.tets.T(2, 0), m.tets.T(2, 1)); },
+       "tetrahedron 2: is flat or inverted at rest"},
+      {[](Model& m) { m.tets.region[1] = 3; }, "tetrahedron 1: region 3 is not a layer"},
+      {[](Model& m) { m.layer_of[6] = 0; }, "node 6: layer is 0 but the layer ranges put it in layer -1"},
+      {[](Model& m) { m.springs.kind.back() = SpringKind::kInterLayer; },
+       "an inter-layer spring joins nodes of layers 0 and -1"},
+  };
+  for (const auto& [corrupt, expected] : cases) {
+    Model model = make_tet_model();
+    corrupt(model);
+    save_model(model, path);
+    expect_load_error(path, expected);
+  }
 }
 
 TEST(ModelFile, FileWithoutVersionIsNotALaminaModel) {
@@ -232,13 +318,13 @@ TEST(ModelFile, InvalidModelsAreRejectedOnLoad) {
       {[](Model& m) { m.layers[1].F(0, 0) = 0; }, "uses node 0, outside the layer's nodes"},
       {[](Model& m) { m.springs.j[0] = 10; }, "spring 0: joins nodes 0 and 10"},
       {[](Model& m) { m.springs.kind[4] = SpringKind::kIntraLayer; },
-       "spring 4: intra-layer spring joins nodes of layers 0 and 1"},
+       "spring 4: an intra-layer spring joins nodes of layers 0 and 1"},
       {[](Model& m) { m.springs.stiffness_n_per_m[1] = -1.0; }, "stiffness_n_per_m is -1"},
       {[](Model& m) { m.springs.rest_length_mm[2] = 0.0; }, "rest_length_mm is 0"},
       {[](Model& m) { m.springs.rest_length_mm[3] = std::nan(""); }, "rest_length_mm is nan"},
       {[](Model& m) { m.mass_kg[5] = 0.0; }, "node 5: mass_kg is 0"},
       {[](Model& m) { m.mass_kg[5] = INFINITY; }, "node 5: mass_kg is inf"},
-      {[](Model& m) { m.layers[1].node_count = 3; }, "the layers hold 9 nodes"},
+      {[](Model& m) { m.layers[1].node_count = 3; }, "1 node(s) on no layer but no tetrahedra"},
       {[](Model& m) { m.layers[1].first_node = 5; }, "layer 1 starts at node 5"},
   };
   for (const auto& [corrupt, expected] : cases) {

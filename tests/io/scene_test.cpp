@@ -97,7 +97,7 @@ TEST(ParseScene, EmptySceneTakesThePapersDefaults) {
   EXPECT_FALSE(s.density_given);
   EXPECT_EQ(s.solver.integrator, sim::Integrator::kSemiImplicitEuler);
   EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.01);
-  EXPECT_DOUBLE_EQ(s.solver.threshold_mm, 1e-3);
+  EXPECT_DOUBLE_EQ(s.solver.rest_speed_mm_per_s, 0.1);  // the paper's 1e-3 mm per 0.01 s step
   EXPECT_EQ(s.solver.max_steps, 100000);
   EXPECT_EQ(s.solver.mode, sim::Mode::kGlobal);
   EXPECT_EQ(s.routing.locality, 4);           // N
@@ -158,7 +158,7 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_DOUBLE_EQ(s.build.density_kg_per_mm3, 1.1e-6);  // g/cm^3 -> kg/mm^3
   EXPECT_EQ(s.solver.integrator, sim::Integrator::kImplicitEuler);
   EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.1);
-  EXPECT_DOUBLE_EQ(s.solver.threshold_mm, 1e-4);
+  EXPECT_DOUBLE_EQ(s.solver.rest_speed_mm_per_s, 1e-3);  // threshold_mm 1e-4 at dt 0.1 s
   EXPECT_EQ(s.solver.max_steps, 100000);
   EXPECT_EQ(s.solver.mode, sim::Mode::kLocal);
   EXPECT_EQ(s.solver.cg_max_iterations, 50);

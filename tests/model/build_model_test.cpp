@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <array>
 #include <map>
+#include <set>
 #include <numeric>
 
 #include "lamina/core/error.h"
@@ -87,12 +89,85 @@ TEST_P(BuildOnOrgan, SkinHasAboutThePapersVertexCount) {
   EXPECT_NEAR(s.layers[1].quality.mean_edge_mm / s.layers[0].quality.mean_edge_mm, 1.0, 0.15);
 }
 
-TEST_P(BuildOnOrgan, SpringsMakeOneConnectedBody) {
+TEST_P(BuildOnOrgan, SpringsAreTheTetrahedraEdgesAndMakeOneBody) {
   const Model& m = built(GetParam()).model;
   const model::ModelSummary s = model::summarize_model(m);
   EXPECT_EQ(s.spring_components, 1);
+  ASSERT_GT(s.volume_springs, 0);
+  // The springs are exactly the tetrahedra's edges; a layer's triangle edges are kIntraLayer.
+  std::set<std::pair<int32_t, int32_t>> edges, layer_edges;
+  for (Eigen::Index t = 0; t < m.tets.size(); ++t)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        edges.emplace(std::min(m.tets.T(t, a), m.tets.T(t, b)),
+                      std::max(m.tets.T(t, a), m.tets.T(t, b)));
+  for (const ModelLayer& l : m.layers)
+    for (Eigen::Index f = 0; f < l.F.rows(); ++f)
+      for (int c = 0; c < 3; ++c)
+        layer_edges.emplace(std::min(l.F(f, c), l.F(f, (c + 1) % 3)),
+                            std::max(l.F(f, c), l.F(f, (c + 1) % 3)));
+  ASSERT_EQ(edges.size(), m.springs.size());
+  for (size_t e = 0; e < m.springs.size(); ++e) {
+    const std::pair<int32_t, int32_t> ij{m.springs.i[e], m.springs.j[e]};
+    ASSERT_TRUE(edges.contains(ij));
+    EXPECT_EQ(m.springs.kind[e] == SpringKind::kIntraLayer, layer_edges.contains(ij));
+  }
+  // Every node is a corner of a tetrahedron; interior nodes come after the layers.
+  std::vector<int> used(static_cast<size_t>(m.node_count()), 0);
+  for (Eigen::Index t = 0; t < m.tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) used[m.tets.T(t, c)] = 1;
+  EXPECT_EQ(std::accumulate(used.begin(), used.end(), 0), m.node_count());
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    EXPECT_EQ(m.layer_of[i] == kInteriorNode, i >= m.surface_node_count());
+}
+
+TEST_P(BuildOnOrgan, TetrahedraFillTheShellsConformingToTheLayers) {
+  const auto& b = built(GetParam());
+  const Model& m = b.model;
+  // Good tetrahedra: none inverted, no sliver, volumes summing to the volume inside the skin.
+  const geometry::TetQuality q = b.report.tets;
+  EXPECT_EQ(q.count, m.tets.size());
+  EXPECT_EQ(q.inverted, 0);
+  EXPECT_EQ(q.slivers, 0);
+  EXPECT_GT(q.min_dihedral_deg, 5.0);
+  EXPECT_GT(q.mean_dihedral_deg, 60.0);
+  const double skin_mm3 = model::summarize_model(m).layers[0].quality.volume_mm3;
+  EXPECT_NEAR(q.volume_mm3 / skin_mm3, 1.0, 1e-9);
+  // Conforming: each layer triangle is a face of one tetrahedron of the region just inside its
+  // layer and, for an inner layer, of one of the region outside it; the skin's of one only.
+  std::map<std::array<int, 3>, std::vector<Eigen::Index>> owners;
+  for (Eigen::Index t = 0; t < m.tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) {
+      std::array<int, 3> f{m.tets.T(t, (c + 1) % 4), m.tets.T(t, (c + 2) % 4),
+                           m.tets.T(t, (c + 3) % 4)};
+      std::sort(f.begin(), f.end());
+      owners[f].push_back(t);
+    }
+  for (int32_t k = 0; k < m.layer_count(); ++k)
+    for (Eigen::Index f = 0; f < m.layers[k].F.rows(); ++f) {
+      std::array<int, 3> key{m.layers[k].F(f, 0), m.layers[k].F(f, 1), m.layers[k].F(f, 2)};
+      std::sort(key.begin(), key.end());
+      const auto it = owners.find(key);
+      ASSERT_NE(it, owners.end()) << "layer " << k << " triangle " << f;
+      ASSERT_EQ(it->second.size(), k == 0 ? 1u : 2u);
+      std::vector<int32_t> regions;
+      for (Eigen::Index t : it->second) regions.push_back(m.tets.region[static_cast<size_t>(t)]);
+      std::sort(regions.begin(), regions.end());
+      EXPECT_EQ(regions.back(), k);
+      if (k > 0) EXPECT_EQ(regions.front(), k - 1);
+    }
+}
+
+TEST(BuildModel, LinksJoinEveryNodeToANeighbouringLayer) {
+  // The paper's structure, one choice away: nearest-node links between the layers.
+  const Model m =
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
+                         {.structure = model::Structure::kLinks, .skin_vertices = 400})
+          .model;
+  EXPECT_FALSE(m.has_tets());
+  const model::ModelSummary s = model::summarize_model(m);
+  EXPECT_EQ(s.spring_components, 1);
   EXPECT_GT(s.inter_layer_springs, 0);
-  // Every node of every layer is linked to a neighbouring layer.
   std::vector<int> linked(static_cast<size_t>(m.node_count()), 0);
   for (size_t e = 0; e < m.springs.size(); ++e)
     if (m.springs.kind[e] == SpringKind::kInterLayer) {

@@ -41,7 +41,7 @@ Energies strain_energies(const Model& m, const model::ElasticMaterial& mat,
 TEST(IdentifySprings, TheModelStoresTheContinuumsEnergyUnderHomogeneousStrain) {
   // The spring constants are right if a uniform strain stores what the tissue would: checked
   // for stretch, shear and dilation (which the volume term carries for nu > 1/4).
-  const Model& m = test::sphere_model();
+  const Model& m = test::sphere_links_model();
   const model::ElasticMaterial mat{.young_modulus_kpa = 6.0, .poisson_ratio = 0.45};
   const double e = 1e-3;
   const std::pair<const char*, Eigen::Matrix3d> strains[] = {
@@ -60,7 +60,7 @@ TEST(IdentifySprings, TheModelStoresTheContinuumsEnergyUnderHomogeneousStrain) {
 }
 
 TEST(IdentifySprings, FitsTheLayeredNetworkAndSaysWhenItCannot) {
-  const Model& m = test::sphere_model();
+  const Model& m = test::sphere_links_model();
   std::vector<double> k;
   const model::SpringIdentification id =
       model::identify_springs(m, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45}, k);
@@ -83,7 +83,8 @@ TEST(IdentifySprings, FitsTheLayeredNetworkAndSaysWhenItCannot) {
 
   // A skin-only model cannot resist stretch along its normal: the fit says so.
   const Model skin = model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
-                                        {.layers = 1, .skin_vertices = 400})
+                                        {.structure = model::Structure::kLinks, .layers = 1,
+                                         .skin_vertices = 400})
                          .model;
   std::vector<double> ks;
   const model::SpringIdentification only =
@@ -93,7 +94,7 @@ TEST(IdentifySprings, FitsTheLayeredNetworkAndSaysWhenItCannot) {
 
 TEST(IdentifySprings, RejectsImpossibleMaterials) {
   std::vector<double> k;
-  const Model& m = test::sphere_model();
+  const Model& m = test::sphere_links_model();
   EXPECT_THROW(model::identify_springs(m, {.young_modulus_kpa = 0.0}, k), Error);
   EXPECT_THROW(model::identify_springs(m, {.young_modulus_kpa = -3.0}, k), Error);
   EXPECT_THROW(model::identify_springs(m, {.poisson_ratio = 0.5}, k), Error);

@@ -93,7 +93,7 @@ class RealtimeLoop {
   /// fixed-step tools that want the same physics without a thread.
   void run_steps(int64_t steps);
 
-  const Model& model() const { return *sim_.model; }
+  const Model& model() const { return sim_.model(); }
 
  private:
   void thread_main();

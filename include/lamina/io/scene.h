@@ -12,7 +12,9 @@
 #include "lamina/interact/tools.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/identify_springs.h"
+#include "lamina/model/identify_tets.h"
 #include "lamina/model/model.h"
+#include "lamina/model/surface_support.h"
 #include "lamina/sim/simulation.h"
 
 namespace lamina::io {
@@ -40,7 +42,16 @@ struct SceneOutput {
   bool metrics_every_step = true;
 };
 
-/// A parsed scene. Default-constructed, it is the default scene: the paper's poke on the phantom.
+/// The physical liver's material as a sim::Material: E and nu carry the stiffness, masses are
+/// the model's lumped ones, damping comes from a damping ratio (no per-node gamma).
+inline sim::Material physical_material() {
+  return {.stiffness_n_per_m = 0.0, .damping_kg_per_s = 0.0, .node_mass_kg = 0.0};
+}
+
+/// A parsed scene. Default-constructed, it is the default scene: the physical liver (the
+/// phantom filled with tetrahedra; E = 6 kPa, nu = 0.45, critically damped; its posterior
+/// surface supported elastically) poked by the paper's tool, stepped at 1 ms by implicit Euler
+/// (real time at a haptic device's 1 kHz). paper_scene() is the reference paper's setup.
 struct Scene {
   std::string source = "default scene";  ///< the file it came from (names it in messages)
 
@@ -53,30 +64,46 @@ struct Scene {
   /// to it (they are proportional to the density they were lumped with).
   bool density_given = false;
 
-  sim::Material material;
-  /// material.young_modulus_kpa given: the tissue is physical. Spring constants come from E and
-  /// nu (model::identify_springs), node masses from the density, the volume term from the
-  /// bulk stiffness the springs cannot carry, and damping from `damping_ratio`
-  /// (resolve_elastic_material(); docs/physics.md).
-  bool elastic = false;
+  sim::Material material = physical_material();
+  /// The tissue is physical (the default, and whenever the file gives young_modulus_kpa or no
+  /// raw spring constant): on a model with tetrahedra, E and nu go to the tetrahedral network
+  /// (sim::Material::young_modulus_kpa; model::identify_tets); on a model built with links,
+  /// the springs' constants are identified per kind (model::identify_springs) and the volume
+  /// term carries the bulk stiffness they cannot. Masses come from the density, damping from
+  /// `damping_ratio` (resolve_material(); docs/physics.md). False: the paper's constants
+  /// (stiffness_n_per_m, node_mass_kg and damping_kg_per_s as given).
+  bool elastic = true;
   model::ElasticMaterial elastic_material;
+  model::TetElasticity tet_elasticity = model::TetElasticity::kCoupled;
   /// >= 0: mass-proportional damping that damps the slowest mode at this ratio (1 = critical).
   /// Unset (< 0) with an elastic material and no damping key: 1.
   double damping_ratio = -1.0;
   bool volume_stiffness_given = false;  ///< material.volume_stiffness_kpa was in the file
   bool damping_given = false;           ///< damping_kg_per_s or mass_damping_per_s was
   bool integrator_given = false;        ///< solver.integrator was
-  sim::SolverOptions solver;
+  bool structure_given = false;         ///< model.build.structure was
+  /// The physical default: implicit Euler at 1 ms (a haptic loop's step; the paper's model
+  /// takes the paper's semi-implicit Euler at 10 ms).
+  sim::SolverOptions solver = {
+      .integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001, .cg_tolerance = 1e-3};
   interact::RoutingOptions routing;
   std::vector<interact::Tool> tools;  ///< forces in mN (the file gives newtons)
   std::vector<FixedRegion> fixed;
+  /// Elastic support of parts of the skin (zero-length springs to rest, per unit area).
+  std::vector<model::SurfaceSupportOptions> support;
   SceneOutput output;
 
   /// The file has no "tools" key: resolve_scene_defaults() adds the paper's poke.
   bool default_tool = true;
-  /// The file has no "boundary" key: resolve_scene_defaults() fixes the posterior 10 mm.
+  /// The file has no "boundary" key: resolve_scene_defaults() supports the posterior surface
+  /// elastically (a physical material) or fixes the posterior 10 mm (the paper's).
   bool default_fixed = true;
 };
+
+/// The reference paper's setup: the phantom's two layers joined by nearest-node links, K = 3 N/m,
+/// gamma = 3 kg/s, unit masses, semi-implicit Euler at dt = 0.01 s, the posterior 10 mm fixed,
+/// the paper's poke ("lamina run --paper", the paper's examples, `lamina figures`).
+Scene paper_scene();
 
 /// Parses and validates a scene.
 /// @param[in] json_text    the scene, JSON (comments allowed)
@@ -97,8 +124,10 @@ Scene load_scene(const std::string& path);
 
 /// Replaces the defaults that depend on the model with concrete values: without "tools", one
 /// tool at the skin node with the smallest y (the anterior surface in LPS) pushing +y
-/// (posteriorly) with 0.4 N from 0 to 1 s; without "boundary", the nodes within 10 mm of the
-/// plane through the largest y, normal +y (the posterior side), fixed.
+/// (posteriorly) with 0.4 N from 0 to 1 s; without "boundary", the posterior surface supported
+/// elastically (a physical material: model::SurfaceSupportOptions' defaults) or the nodes
+/// within 10 mm of the plane through the largest y, normal +y (the posterior side), fixed (the
+/// paper's constants).
 /// @param[in,out] scene  a parsed scene; default_tool and default_fixed are false afterwards
 /// @param[in]     model  the model the scene runs on
 void resolve_scene_defaults(Scene& scene, const Model& model);
@@ -120,13 +149,18 @@ void use_elastic_material(Scene& scene);
 /// What resolve_material() decided, for logs and the run summary.
 struct MaterialReport {
   bool elastic = false;                 ///< spring constants came from E and nu
+  bool tets = false;                    ///< ... through the tetrahedra (else per spring kind)
   model::ElasticMaterial elastic_material;
-  model::SpringIdentification identification;  ///< valid when elastic
+  model::SpringIdentification identification;  ///< valid when elastic without tetrahedra
+  model::TetElasticity tet_elasticity = model::TetElasticity::kCoupled;  ///< with tetrahedra
+  double tet_volume_modulus_kpa = 0.0;  ///< the tetrahedra's volume term k_v (with tetrahedra)
   double volume_stiffness_kpa = 0.0;    ///< the volume term in use (0 = off)
   double damping_ratio = -1.0;          ///< the ratio damping was set from (< 0: none)
   double lowest_frequency_hz = 0.0;     ///< omega_1 / 2 pi, when a damping ratio was used
   double mass_damping_per_s = 0.0;      ///< alpha in use
   double explicit_dt_limit_s = 0.0;     ///< semi-implicit Euler is unstable above about this dt
+  int32_t supported_nodes = 0;          ///< skin nodes held by the elastic support
+  double supported_area_mm2 = 0.0;
 };
 
 /// What a scene run measured: the content of `lamina run`'s summary.json.
@@ -177,7 +211,25 @@ struct RunSummary {
 /// dt is beyond its stability limit.
 /// \note Throws lamina::Error (kInvalidInput) naming the scene for a damping ratio on a model
 ///   held nowhere.
-MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed);
+MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed,
+                                const model::SurfaceSupport& support = {});
+
+/// Everything a scene decides about its model before a simulation starts.
+struct SceneSetup {
+  std::vector<int32_t> fixed;      ///< fixed nodes, sorted and unique
+  model::SurfaceSupport support;   ///< supported nodes and their stiffness (all regions)
+  MaterialReport material;
+};
+
+/// The one preparation of a scene against its model that every command, the viewer, the soak
+/// and validation share: resolve_scene_defaults(), check_scene_against_model(), the fixed and
+/// supported nodes, resolve_material().
+/// \note Throws lamina::Error (kInvalidInput) as those do.
+SceneSetup prepare_scene(Scene& scene, Model& model);
+
+/// A simulation of a prepared scene: its material and solver, its nodes fixed and supported.
+sim::Simulation make_scene_simulation(const Scene& scene, const Model& model,
+                                      const SceneSetup& setup);
 
 /// One JSON object with every field of `summary` (keys as the field names; nan_detected =
 /// recoveries > 0; integrator and mode as the scene file spells them).

@@ -7,13 +7,27 @@
 
 #include "lamina/core/grid.h"
 #include "lamina/core/progress.h"
+#include "lamina/geometry/measure_tets.h"
 #include "lamina/geometry/prepare_mask.h"
 #include "lamina/model/model.h"
 
 namespace lamina::model {
 
-/// Options for build_model(). Defaults reproduce the reference paper's setup.
+/// What fills the organ between the layers.
+enum class Structure : uint8_t {
+  /// Tetrahedra fill every shell between neighbouring layers and the core (conforming to the
+  /// layers); the springs are their edges. The organ is a volume: it resists a change of side
+  /// as well as of length.
+  kTetrahedra,
+  /// The reference paper's network: each node linked to its nearest nodes on the neighbouring
+  /// layers (`inter_layer_links`), nothing between the surfaces.
+  kLinks,
+};
+
+/// Options for build_model(). Defaults reproduce the reference paper's layers, filled with
+/// tetrahedra.
 struct BuildOptions {
+  Structure structure = Structure::kTetrahedra;  ///< what joins the layers
   int32_t label = 0;             ///< label to model; 0 = any non-zero voxel
   int32_t layers = 2;            ///< S: layer 0 is the skin, 1..S-1 nested inside; 1..16
   int32_t skin_vertices = 1284;  ///< target skin vertex count (the paper's model size)
@@ -24,6 +38,9 @@ struct BuildOptions {
   double density_kg_per_mm3 = 1.06e-6;  ///< tissue density (liver 1.06 g/cm^3 = 1.06e-6 kg/mm^3)
   double stiffness_n_per_m = 3.0;       ///< Hooke constant of every spring (the paper's K = 3)
   int32_t min_component_vertices = 12;  ///< smaller pieces of an inner layer are dropped
+  /// Tetrahedra: TetGen's radius-edge bound and dihedral-angle goal, degrees.
+  double tet_radius_edge_ratio = 2.0;
+  double tet_min_dihedral_deg = 10.0;
 };
 
 /// One layer as built.
@@ -47,6 +64,8 @@ struct BuildReport {
   std::vector<std::string> warnings;   ///< vanished/split layers, dropped pieces
   double mask_volume_ml = 0.0;         ///< voxel volume of the prepared mask
   double skin_volume_error_pct = 0.0;  ///< (skin volume - mask volume) / mask volume
+  geometry::TetQuality tets;           ///< the tetrahedra at rest (count 0 for kLinks)
+  int32_t interior_nodes = 0;          ///< nodes the tetrahedral mesher added (on no layer)
   double build_seconds = 0.0;          ///< wall time of build_model (no file reading)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< per stage, in order
 };
@@ -61,8 +80,9 @@ struct BuildResult {
 void check_build_options(const BuildOptions& options);
 
 /// Runs the pipeline: prepare the mask, signed distance field, one isosurface per layer,
-/// isotropic remeshing to the skin's target density, springs (layer edges + links between
-/// neighbouring layers), lumped masses, BFS rings.
+/// isotropic remeshing to the skin's target density, tetrahedra filling the shells and the core
+/// (or, with Structure::kLinks, links between neighbouring layers), springs (the tetrahedra's
+/// edges, or layer edges and links), lumped masses, BFS rings.
 /// @param[in] volume    the segmentation (volume.source names it in messages)
 /// @param[in] options   see BuildOptions
 /// @param[in] progress  optional progress callback

@@ -14,7 +14,12 @@ namespace lamina {
 enum class SpringKind : uint8_t {
   kIntraLayer = 0,  ///< an edge of one layer's triangle mesh
   kInterLayer = 1,  ///< a link between a vertex and a near vertex on the neighbouring layer
+  kVolume = 2,      ///< an edge of the tetrahedra inside the organ that is no layer's edge
 };
+
+/// Model::layer_of of a node that lies on no layer: a point the tetrahedral mesher added inside
+/// a shell or the core.
+inline constexpr int32_t kInteriorNode = -1;
 
 /// All springs, structure-of-arrays (the simulation streams through these).
 struct Springs {
@@ -31,6 +36,16 @@ struct ModelLayer {
   int32_t first_node = 0;
   int32_t node_count = 0;
   Eigen::MatrixX3i F;  ///< #F by 3 triangles in GLOBAL node indices, outward winding
+};
+
+/// The tetrahedra that fill the organ: each shell between neighbouring layers and the core
+/// inside the deepest layer. Conforming: every layer triangle is a face of a tetrahedron, and the
+/// tetrahedra's edges are the model's springs.
+struct Tets {
+  Eigen::MatrixX4i T;           ///< #T by 4 node indices, positively oriented at rest
+  std::vector<int32_t> region;  ///< #T: k = the shell just inside layer k (the core for the deepest)
+
+  int64_t size() const { return T.rows(); }
 };
 
 /// The paper's hierarchical neighbourhood matrix, stored as CSR: for node v and ring r in
@@ -52,20 +67,27 @@ struct Rings {
   }
 };
 
-/// The model. Nodes are ordered by layer: layer 0 (the skin) first.
+/// The model. Nodes are ordered by layer: layer 0 (the skin) first; the interior nodes of the
+/// tetrahedra (on no layer) come last.
 struct Model {
   Eigen::MatrixX3d X;              ///< #nodes by 3 rest positions, mm (column-major = SoA)
   std::vector<double> mass_kg;     ///< #nodes lumped masses, kg, > 0
-  std::vector<int32_t> layer_of;   ///< #nodes layer index of each node
+  std::vector<int32_t> layer_of;   ///< #nodes layer index of each node, or kInteriorNode
   std::vector<uint8_t> fixed;      ///< #nodes, 1 = held in place (boundary condition)
   std::vector<ModelLayer> layers;  ///< layer 0 = skin, then inward
   Springs springs;
+  Tets tets;                       ///< empty for a model whose layers are joined by links only
   Rings rings;
   double density_kg_per_mm3 = 1.06e-6;  ///< used to lump the masses (liver: 1.06 g/cm^3)
   std::string source;                   ///< what it was built from (path or "built-in phantom")
 
   int32_t node_count() const { return static_cast<int32_t>(X.rows()); }
   int32_t layer_count() const { return static_cast<int32_t>(layers.size()); }
+  /// Nodes on a layer: [0, surface_node_count()); interior nodes follow.
+  int32_t surface_node_count() const {
+    return layers.empty() ? 0 : layers.back().first_node + layers.back().node_count;
+  }
+  bool has_tets() const { return tets.size() > 0; }
 };
 
 }  // namespace lamina

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "lamina/geometry/measure_tets.h"
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/model.h"
@@ -24,6 +25,9 @@ struct LayerSummary {
 struct ModelSummary {
   int64_t nodes = 0;
   int64_t springs = 0, intra_layer_springs = 0, inter_layer_springs = 0;
+  int64_t volume_springs = 0;  ///< tetrahedron edges that are no layer's edge
+  int64_t interior_nodes = 0;  ///< nodes on no layer (inside the tetrahedra)
+  geometry::TetQuality tets;   ///< count 0 when the layers are joined by links
   int32_t spring_components = 0;  ///< connected components of the spring network (1 = one body)
   double total_mass_kg = 0.0;
   int32_t locality = 0;
@@ -42,7 +46,7 @@ SurfaceMesh layer_mesh(const Model& model, int32_t layer, const Eigen::MatrixX3d
 Eigen::MatrixX3d layer_normals(const Model& model);
 
 /// Measures a model: per-layer mesh quality (with CGAL self-intersection and nesting checks),
-/// spring counts and connectivity, mass.
+/// spring counts and connectivity, tetrahedron quality, mass.
 /// @param[in] model  the model
 /// @param[in] build  the report of the build that made `model`, or nullptr. build_model() has
 ///   already checked self-intersection and nesting (it fails otherwise), so with a report those

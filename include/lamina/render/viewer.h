@@ -18,12 +18,14 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "lamina/core/progress.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/model.h"
+#include "lamina/model/surface_support.h"
 #include "lamina/sim/simulation.h"
 
 namespace lamina::render {
@@ -31,7 +33,11 @@ namespace lamina::render {
 /// A model to view, with what the viewer cannot guess.
 struct ViewerModel {
   Model model;
-  std::vector<int32_t> fixed;  ///< nodes held at rest (the boundary)
+  std::vector<int32_t> fixed;     ///< nodes held at rest (the boundary)
+  model::SurfaceSupport support;  ///< nodes held elastically (the body around the organ)
+  /// The material as resolved for this model (a rebuilt model's damping follows its own slowest
+  /// vibration); unset: the viewer keeps the one it has.
+  std::optional<sim::Material> material;
   std::string source;          ///< shown in the title bar and panels
   /// Forces acting from the start (pinned), e.g. a scene's tools: skin node and force in mN.
   std::vector<std::pair<int32_t, Eigen::Vector3d>> pinned;

@@ -1,6 +1,7 @@
 #pragma once
 /// \file
-/// Mass-spring dynamics of a Model: m x'' + gamma x' + f_springs(x) = f_ext (the paper's eq. 4).
+/// Dynamics of a Model: m x'' + gamma x' + f_internal(x) = f_ext (the paper's eq. 4), with
+/// f_internal from the springs, the tetrahedra, the volume term and the support.
 /// Plain structs and one step() call, in the manner of Box2D: make_simulation() once, step()
 /// every frame. Units: mm, kg, s; forces in mN (kg mm / s^2), stiffness in N/m (= mN/mm).
 
@@ -10,21 +11,24 @@
 #include <memory>
 #include <vector>
 
+#include "lamina/model/identify_tets.h"
 #include "lamina/model/model.h"
 
 namespace lamina::sim {
 namespace detail {
-struct ProjectiveSolver;  // projective.cpp: the prefactored system, reused across steps
+struct Solver;  // solver.h: the simulation's caches and workspace, private to module sim
 }
 
 /// Time integrators.
 enum class Integrator : uint8_t {
   kSemiImplicitEuler,  ///< the paper's: v += dt a(x, v); x += dt v. Cheap; stable only for small dt
-  kImplicitEuler,      ///< backward Euler, one linearised solve by conjugate gradients per step
+  /// backward Euler, one linearised solve by conjugate gradients per step (at most
+  /// SolverOptions::cg_max_iterations products: a bounded cost), stable at any dt
+  kImplicitEuler,
   /// projective dynamics, the "fast mass-spring" method of Liu et al. 2013: backward Euler's
   /// nonlinear system by a fixed number of local (project each spring to its rest length) and
-  /// global (one prefactored sparse solve) iterations. The factor is reused while dt, the
-  /// material and the movable nodes stay the same.
+  /// global (one prefactored sparse solve) iterations. Springs and the volume term between
+  /// layers only: not for the tetrahedra's elasticity.
   kProjective,
 };
 
@@ -36,34 +40,44 @@ enum class Mode : uint8_t {
 
 /// Tissue parameters. Defaults are the reference paper's (K = 3, gamma = 3, unit node masses).
 struct Material {
-  /// > 0: every spring gets this Hooke constant (the paper's K), N/m. 0: keep the model's.
+  /// > 0: every spring gets this Hooke constant (the paper's K), N/m. 0: keep the model's (or,
+  /// with young_modulus_kpa, the tetrahedra's identified constants).
   double stiffness_n_per_m = 3.0;
   /// gamma: viscous damping per node, kg/s (force = -gamma v, mN for v in mm/s).
   double damping_kg_per_s = 3.0;
   /// alpha: mass-proportional damping, 1/s: each node also feels -alpha m v (the mass term of
   /// Rayleigh damping). With physical lumped masses, which differ from node to node, this damps
-  /// every node at the same rate; model::damping_for_ratio() derives it from a damping ratio.
+  /// every node at the same rate; lowest_angular_frequency() derives it from a damping ratio.
   double mass_damping_per_s = 0.0;
   /// > 0: every node has this mass, kg (the paper uses unit masses). 0: the model's lumped
   /// masses from density and volume.
   double node_mass_kg = 1.0;
-  /// > 0: every free node is tied to its rest position by a spring of this stiffness, N/m
-  /// (support from the surrounding tissue).
+  /// > 0: every free node is tied to its rest position by a spring of this stiffness, N/m.
   double anchor_stiffness_n_per_m = 0.0;
-  /// K_v > 0 turns the volume term on: each region between neighbouring layers (and the core
-  /// inside the deepest layer) resists a change of its volume as a fluid of bulk modulus K_v,
-  /// kPa (= mN/mm^2): energy K_v (V - V0)^2 / (2 V0), pressure K_v (V - V0) / V0 on the layers
-  /// that bound it (after Teschner et al. 2004; docs/physics.md). 0 = off (the paper's model).
+  /// K_v > 0 turns the volume term between layers on: each region between neighbouring layers
+  /// (and the core inside the deepest layer) resists a change of its volume as a fluid of bulk
+  /// modulus K_v, kPa (= mN/mm^2): energy K_v (V - V0)^2 / (2 V0) (after Teschner et al. 2004;
+  /// docs/physics.md). 0 = off (the paper's model). The tetrahedra carry their own.
   double volume_stiffness_kpa = 0.0;
+  /// E > 0, kPa, on a model with tetrahedra: the tissue's elasticity in the tetrahedral network.
+  /// The springs (the tetrahedra's edges) get constants identified from E and nu, coupled within
+  /// each tetrahedron, and each tetrahedron resists a change of its signed volume, inverted
+  /// ones included (model::identify_tets; docs/physics.md). 0 = off (the springs' own K).
+  double young_modulus_kpa = 0.0;
+  double poisson_ratio = 0.45;  ///< nu in [0, 0.5), with young_modulus_kpa
+  model::TetElasticity tet_elasticity = model::TetElasticity::kCoupled;
   /// Gravity, mm/s^2 (Earth: 9810 along -z in LPS for a supine patient is (0, 9810, 0)).
   Eigen::Vector3d gravity_mm_per_s2 = Eigen::Vector3d::Zero();
 };
 
-/// Solver parameters. Defaults are the paper's (dt = 0.01 s, threshold 1e-3 mm).
+/// Solver parameters. Defaults are the paper's (dt = 0.01 s, and at rest when no node moves
+/// more than 1e-3 mm in a 0.01 s step).
 struct SolverOptions {
   Integrator integrator = Integrator::kSemiImplicitEuler;
-  double dt_s = 0.01;          ///< time step, s, > 0
-  double threshold_mm = 1e-3;  ///< converged when no node moves more than this in one step
+  double dt_s = 0.01;  ///< time step, s, > 0
+  /// At rest when no node moves faster than this, mm/s: a speed, so that "at rest" does not
+  /// depend on dt (the paper's 1e-3 mm per 0.01 s step is 0.1 mm/s).
+  double rest_speed_mm_per_s = 0.1;
   int64_t max_steps = 100000;  ///< run_to_convergence() gives up after this many steps
   Mode mode = Mode::kGlobal;
   int32_t cg_max_iterations = 100;  ///< implicit Euler: CG iterations per step at most
@@ -73,33 +87,53 @@ struct SolverOptions {
   int32_t projective_iterations = 10;  ///< projective dynamics: local/global iterations per step
 };
 
+/// Where a step's time went, microseconds (Box2D's b2Profile).
+struct StepProfile {
+  double forces_us = 0.0;     ///< spring, tetrahedron and volume passes (and linearisation)
+  double integrate_us = 0.0;  ///< node pass or linear solve, update, finite check
+  double recover_us = 0.0;    ///< rollback and redone steps (0 unless a step failed)
+  double measure_us = 0.0;    ///< skin volume and the other measurements
+};
+
 /// What one step measured. Valid until the next step.
 struct StepStats {
-  double max_move_mm = 0.0;          ///< largest node move in this step (the convergence test)
+  double max_move_mm = 0.0;          ///< largest node move in this step
+  double max_speed_mm_per_s = 0.0;   ///< largest node speed after the step (the rest test)
   double max_displacement_mm = 0.0;  ///< largest distance of a node from its rest position
   double skin_volume_mm3 = 0.0;      ///< volume enclosed by the deformed skin (layer 0)
   double volume_change_pct = 0.0;    ///< 100 (V - V_rest) / V_rest
   double kinetic_energy_j = 0.0;     ///< 1/2 sum m v^2, joules
   double step_us = 0.0;              ///< wall time of the step, microseconds
-  int32_t cg_iterations = 0;         ///< implicit Euler only
-  bool converged = false;            ///< max_move_mm < threshold
-  bool recovered = false;            ///< a non-finite state was rolled back and the step redone
+  StepProfile profile;
+  int32_t cg_iterations = 0;  ///< implicit Euler only
+  bool converged = false;     ///< max_speed_mm_per_s < SolverOptions::rest_speed_mm_per_s
+  bool recovered = false;     ///< a non-finite state was rolled back and the step redone
   /// Not even backward Euler could take the step: the state was kept, the motion stopped, and
   /// the step does not count as converged (a load or dt far beyond what the model can take).
   bool failed = false;
 };
 
-/// The simulation: the model it runs on (not owned: it must outlive the simulation), its
-/// parameters, and structure-of-arrays state and workspace. Create with make_simulation().
+/// A simulation of a Model (not owned: it must outlive the simulation). Create with
+/// make_simulation().
 ///
-/// A step costs in proportion to the movable nodes and their springs, not to the model: in local
-/// mode a poke on a 100k-node model steps only the nodes it reaches. Nodes that do not move keep
-/// their positions; write them only through make_simulation(), fix_nodes(), set_local_nodes(),
-/// set_parameters() or reset(), which also refresh what the measurements cache about them.
-struct Simulation {
-  const Model* model = nullptr;
-  Material material;
-  SolverOptions options;
+/// The state is what callers touch: positions x, velocities v, external forces f_ext (mN, set
+/// before step()), and the clock. Write x and v of movable nodes between steps as you like; the
+/// nodes that do not move (fixed, held, or outside local mode's set) change only through
+/// fix_nodes(), hold_nodes(), release_nodes(), set_local_nodes() or reset(), which also refresh
+/// what the measurements cache about them. Everything else (parameters as resolved, per-node
+/// tables, force-term buffers, solver workspace) is private; read the parameters through the
+/// accessors and change them with set_parameters().
+///
+/// A step costs in proportion to the movable nodes and their springs and tetrahedra, not to the
+/// model: in local mode a poke on a 100k-node model steps only the nodes it reaches.
+class Simulation {
+ public:
+  Simulation();
+  ~Simulation();
+  Simulation(const Simulation& other);
+  Simulation(Simulation&& other) noexcept;
+  Simulation& operator=(const Simulation& other);
+  Simulation& operator=(Simulation&& other) noexcept;
 
   // State (#nodes by 3, column-major: x, y, z each contiguous).
   Eigen::MatrixX3d x;      ///< positions, mm
@@ -109,78 +143,60 @@ struct Simulation {
   int64_t steps = 0;
   int64_t recoveries = 0;  ///< steps that hit a non-finite state and were redone
 
-  // Per node.
-  std::vector<double> mass_kg;
-  std::vector<uint8_t> fixed;    ///< 1 = held at its rest position (boundary condition)
-  std::vector<uint8_t> movable;  ///< 1 = integrated this step (not fixed, and local when kLocal)
+  const Model& model() const;
+  const Material& material() const;
+  const SolverOptions& options() const;
+  const std::vector<double>& mass_kg() const;   ///< per node, kg, as the material resolves it
+  const std::vector<uint8_t>& fixed() const;    ///< per node: 1 = held where it is
+  const std::vector<uint8_t>& movable() const;  ///< per node: 1 = integrated by step()
+  /// Per spring, N/m, as the material resolves it (the paper's K, the model's, or identified
+  /// from E and nu).
+  const std::vector<double>& spring_stiffness_n_per_m() const;
+  /// The tetrahedra's identified constants (empty unless Material::young_modulus_kpa > 0).
+  const model::TetIdentification& tet_identification() const;
 
-  // Springs gathered per node (CSR), so each thread writes only its own nodes' forces.
-  std::vector<int32_t> adj_offsets;       ///< #nodes + 1
-  std::vector<int32_t> adj_other;         ///< the node at the other end
-  std::vector<int32_t> adj_spring;        ///< the spring index
-  std::vector<int32_t> adj_signed;        ///< e where the node is spring e's first end, ~e else
-  std::vector<double> stiffness_n_per_m;  ///< per spring, after Material::stiffness_n_per_m
-  double rest_skin_volume_mm3 = 0.0;
-  std::vector<double> rest_layer_volume_mm3;  ///< per layer: the volume it encloses at rest
-  /// A node this far from its rest position (100 model sizes) counts as a blow-up.
-  double blowup_limit_mm = 0.0;
+  /// The module's own access to what it keeps (an opaque type everywhere else).
+  detail::Solver& solver() { return *solver_; }
+  const detail::Solver& solver() const { return *solver_; }
 
-  /// Counts changes of what a prefactored solve depends on (movable nodes, material, dt).
-  uint64_t setup_version = 0;
-  /// explicit_dt_limit(), cached for the setup_version it was computed at (0 = not yet).
-  double explicit_limit_s = 0.0;
-  uint64_t explicit_limit_version = 0;
-  std::shared_ptr<detail::ProjectiveSolver> projective;  ///< made on the first projective step
-
-  // What a step visits: the movable nodes (ascending) and every spring with a movable end.
-  std::vector<int32_t> active_nodes;
-  std::vector<int32_t> active_springs;
-  // What the nodes that do not move add to the measurements, cached when the lists change.
-  double frozen_max_displacement_mm = 0.0;
-  /// Per layer: its triangles with a movable corner, and 6 x the signed volume of the others.
-  std::vector<std::vector<int32_t>> layer_triangles;
-  std::vector<double> frozen_layer_volume6_mm3;
-
-  // Volume term (Material::volume_stiffness_kpa > 0). Each node's layer triangles as the two
-  // corners that follow it (CSR, 2 per triangle): the gradient of its layer's volume is
-  // 1/6 sum x_b x x_c over them.
-  std::vector<int32_t> corner_offsets;  ///< #nodes + 1
-  std::vector<int32_t> corner_pairs;
-  std::vector<double> pressure_jump_kpa;  ///< per layer: pressure inside minus outside it
-  Eigen::MatrixX3d volume_gradient;       ///< per movable node: d(its layer's volume)/dx, mm^2
-
-  // Workspace, sized once (no allocation per step). Rows of nodes that do not move stay zero in
-  // r, z, p, dv: the implicit solve treats them as held.
-  Eigen::MatrixX3d spring_force;     ///< per spring: its Hooke force on its first node, mN
-  Eigen::MatrixX3d x_prev, v_prev;   ///< the movable nodes' state before the step (rollback)
-  Eigen::MatrixX3d r, p, z, y, dv;   ///< implicit Euler: conjugate gradients; dv warm-starts
-  Eigen::MatrixX3d diag;             ///< Jacobi preconditioner (per node, per axis)
-  /// Per spring, for implicit Euler's stiffness matrix: unit direction and max(0, 1 - L/l), in
-  /// single precision (it only steers the solve; docs/benchmarks.md has the measurement).
-  Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor> dir;
+ private:
+  std::unique_ptr<detail::Solver> solver_;
 };
 
 /// Checks material and solver parameters (make_simulation() and set_parameters() call it).
-/// \note Throws lamina::Error (kInvalidInput) naming the parameter: non-positive dt or
-///   threshold, negative stiffness, damping, mass or anchor, non-finite gravity, and so on.
+/// \note Throws lamina::Error (kInvalidInput) naming the parameter and the value it got:
+///   non-positive dt or rest speed, negative stiffness, damping, mass or anchor, non-finite
+///   gravity, E with K, and so on.
 void check_parameters(const Material& material, const SolverOptions& options);
 
 /// Sets up a simulation of `model` at rest.
-/// \note Throws lamina::Error (kInvalidInput) naming the parameter for non-positive dt,
-///   negative stiffness or damping, and so on.
+/// \note Throws lamina::Error (kInvalidInput) as check_parameters(), and for E on a model
+///   without tetrahedra or projective dynamics with the tetrahedra's elasticity.
 Simulation make_simulation(const Model& model, const Material& material = {},
                            const SolverOptions& options = {});
 
 /// Changes material and solver parameters of a running simulation, keeping its state (positions,
-/// velocities, time, fixed nodes). Switching to global mode makes every free node movable;
-/// switching to local mode keeps only the currently movable ones (set_local_nodes() adds more).
+/// velocities, time, fixed nodes, support). Switching to global mode makes every free node
+/// movable; switching to local mode keeps only the currently movable ones (set_local_nodes()
+/// adds more).
 /// \note Throws lamina::Error (kInvalidInput) as make_simulation(); `sim` is then unchanged.
 void set_parameters(Simulation& sim, const Material& material, const SolverOptions& options);
 
 /// Holds these nodes at their rest positions from now on (a region of the skin attached to
-/// surrounding anatomy). Without fixed nodes or anchor springs a pushed model drifts as a rigid
-/// body and cannot return to rest.
+/// surrounding anatomy). Without fixed nodes, support or anchors a pushed model drifts as a
+/// rigid body and cannot return to rest.
+/// \note Throws lamina::Error (kInvalidInput) for a node outside the model.
 void fix_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
+
+/// Elastic support: ties each of these nodes to its rest position by a zero-length spring of the
+/// given stiffness (N/m = mN/mm), as the tissue and organs around a liver hold it: a push dents
+/// the organ where it is pushed instead of swinging it about a clamp. Replaces any earlier
+/// support; an empty list removes it. model::surface_support() gives nodes and stiffness for a
+/// surface held per unit area.
+/// \note Throws lamina::Error (kInvalidInput) for a node outside the model, a count that differs
+///   from the node count, or a stiffness that is negative or not finite.
+void support_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
+                   const std::vector<double>& stiffness_n_per_m);
 
 /// Holds these nodes at the given positions from now on (a displacement-controlled indenter, a
 /// clamp that has moved them): like fix_nodes(), but at `positions` (one row per node, mm)
@@ -200,9 +216,11 @@ std::vector<int32_t> nodes_near_plane(const Model& model, const Eigen::Vector3d&
                                       const Eigen::Vector3d& normal, double distance_mm);
 
 /// Local mode: only these nodes move (besides being free); every other node is held where it is.
+/// \note Throws lamina::Error (kInvalidInput) for a node outside the model, like fix_nodes().
 void set_local_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 
-/// Puts every node back at rest (x = X, v = 0, time 0), keeping parameters and fixed nodes.
+/// Puts every node back at rest (x = X, v = 0, time 0), keeping parameters, fixed nodes and
+/// support.
 void reset(Simulation& sim);
 
 /// Everything step() carries from one step to the next: restoring it into a simulation made
@@ -224,36 +242,55 @@ SimState capture_state(const Simulation& sim);
 ///   with the model, a value is not finite or a flag is not 0 or 1; `sim` is then unchanged.
 void restore_state(Simulation& sim, const SimState& state);
 
-/// Advances one time step: spring, damping, anchor, gravity and external forces; integrate
-/// (semi-implicit Euler in explicit_substeps() equal parts when dt is beyond its limit);
-/// check every value is finite (else roll back and redo the step with two half steps, then with
-/// implicit Euler; if that fails too, keep the state, stop the motion and report `failed`);
-/// measure.
+/// Advances one time step, in named and timed stages (StepStats::profile): the force terms
+/// (springs, tetrahedra, volume, support, gravity, tools), integration (semi-implicit Euler in
+/// explicit_substeps() equal parts when dt is beyond its limit), the finite check (else roll
+/// back and redo the step with two half steps, then with implicit Euler; if that fails too,
+/// keep the state, stop the motion and report `failed`), and the measurements.
 StepStats step(Simulation& sim);
 
-/// Steps until converged for `quiet_steps` consecutive steps, or options.max_steps. One quiet
-/// step is not enough: a model just poked moves less than the threshold in its first steps, and
+/// True when no node moves faster than the rest speed (StepStats::converged): the single
+/// definition of "at rest" every command uses.
+inline bool at_rest(const StepStats& stats) { return stats.converged; }
+
+/// How long a model must stay at rest to count as settled, s (0.1 s: ten of the paper's steps).
+inline constexpr double kQuietSeconds = 0.1;
+
+/// Steps until at rest for `quiet_s` seconds of simulated time in a row, or options.max_steps.
+/// One quiet step is not enough: a model just poked moves slowly in its first steps, and
 /// velocities pass through zero at every turn of an oscillation.
 /// @return the stats of the last step (converged is true only if the quiet window was reached)
-StepStats run_to_convergence(Simulation& sim, int64_t quiet_steps = 10);
+StepStats run_to_convergence(Simulation& sim, double quiet_s = kQuietSeconds);
+
+/// Steps in `quiet_s` seconds at sim's dt (at least 3: a velocity passes through zero at every
+/// turn of an oscillation).
+int64_t quiet_steps(const Simulation& sim, double quiet_s = kQuietSeconds);
 
 /// Adds the spring forces at positions x (#nodes by 3, mm) to f (mN): the step's own two passes
 /// (each spring once, then each node sums its springs) over every spring, with sim's workspace.
 /// Forces sum to zero (Newton's third law).
 void spring_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
 
+/// Adds every internal force at positions x to f (mN): springs, the tetrahedra's coupling and
+/// volume, the volume term between layers, support and anchors (not damping, gravity or tools).
+void internal_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+
+/// The sum of the internal forces (internal_forces()) on the listed nodes at the current
+/// positions, mN: what the tissue pushes back with where it is loaded.
+Eigen::Vector3d internal_force_on(const Simulation& sim, const std::vector<int32_t>& nodes);
+
 /// The implicit system's product y = (M + h gamma + h^2 K) p on the movable nodes (rows of other
 /// nodes get 0), with K linearised by the last implicit step (one conjugate-gradient iteration's
 /// main cost; public for benchmarks).
-void implicit_system_product(const Simulation& sim, double h, const Eigen::MatrixX3d& p,
+void implicit_system_product(Simulation& sim, double h, const Eigen::MatrixX3d& p,
                              Eigen::MatrixX3d& y);
 
 /// Volume enclosed by layer `layer` of the model at positions x, mm^3.
 double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer = 0);
 
 /// omega_1, rad/s: the slowest natural frequency of the model about its rest shape, with its
-/// held nodes and anchors and the current masses and stiffness (inverse iteration on a sparse
-/// factorization; the volume term is left out). Mass-proportional damping
+/// held nodes, support and anchors and the current masses and stiffness (inverse iteration on a
+/// sparse factorization; the volume terms are left out). Mass-proportional damping
 /// Material::mass_damping_per_s = 2 zeta omega_1 damps that mode at damping ratio zeta.
 /// \note Throws lamina::Error (kInvalidInput) if the model is held nowhere (its slowest motion
 ///   is a free drift) or everywhere.
@@ -261,8 +298,8 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations = 
 
 /// Semi-implicit Euler's stability limit for this simulation's masses, stiffness and damping,
 /// s: the largest dt with h^2 w^2 + 2 h c < 4 at every node, w^2 Gershgorin's bound on the
-/// node's row of M^-1 K (springs, anchor and the volume term's rank-one stiffness at rest) and
-/// c its damping rate. A safe (low) estimate: Gershgorin bounds w from above. step() splits a
+/// node's row of M^-1 K (springs, tetrahedra, support and the volume term at rest) and c its
+/// damping rate. A safe (low) estimate: Gershgorin bounds w from above. step() splits a
 /// semi-implicit Euler step longer than 0.9 of it into equal substeps, so a physical material
 /// at a large dt costs more steps instead of blowing up.
 double explicit_dt_limit(const Simulation& sim);
@@ -276,11 +313,11 @@ inline int64_t explicit_substeps(double dt_s, double limit_s) {
 /// Total elastic energy of the springs at positions x, joules.
 double spring_energy(const Simulation& sim, const Eigen::MatrixX3d& x);
 
-/// Every stored energy at positions x, joules: springs, anchor springs and the volume term.
+/// Every stored energy at positions x, joules: springs, tetrahedra, support and anchors, and the
+/// volume term.
 double elastic_energy(const Simulation& sim, const Eigen::MatrixX3d& x);
 
-/// The volume term's forces at positions x added to f (mN), for every node (zero when the term
-/// is off): minus the gradient of its energy.
-void volume_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+/// Signed volumes of the model's tetrahedra at x, mm^3, and how many are inverted (volume <= 0).
+int64_t inverted_tets(const Model& model, const Eigen::MatrixX3d& x);
 
 }  // namespace lamina::sim

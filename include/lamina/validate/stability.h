@@ -16,14 +16,16 @@
 
 namespace lamina::validate {
 
-/// Whether the layers are still nested at positions x.
+/// Whether the layers are still nested, and the tetrahedra upright, at positions x.
 struct LayerOrder {
   int64_t outside_nodes = 0;    ///< nodes of inner layers on or outside the layer around them
   bool surfaces_cross = false;  ///< some layer's surface crosses the one around it
-  bool ordered() const { return outside_nodes == 0 && !surfaces_cross; }
+  int64_t inverted_tets = 0;    ///< tetrahedra with volume <= 0
+  bool ordered() const { return outside_nodes == 0 && !surfaces_cross && inverted_tets == 0; }
 };
 /// Checks each layer against the one around it at positions x (#nodes by 3, mm), as
-/// model::build_model() checks them at rest (CGAL: point in mesh, surface intersection).
+/// model::build_model() checks them at rest (CGAL: point in mesh, surface intersection), and
+/// counts inverted tetrahedra.
 LayerOrder check_layer_order(const Model& model, const Eigen::MatrixX3d& x);
 
 /// How a case loads the model.
@@ -51,7 +53,8 @@ struct StabilityOptions {
   /// most (a symplectic integrator's energy wobbles within a step; it must not grow).
   double energy_rise_tolerance = 0.02;
   double final_energy_fraction = 1e-3;  ///< ... and must end below this fraction of it
-  double threshold_mm = 1e-4;           ///< rest: no node moves more than this in one step
+  double rest_speed_mm_per_s = 0.01;    ///< at rest: no node faster than this
+  double rest_window_s = 0.1;           ///< ... for this long
   double check_interval_s = 0.05;       ///< layer order checked this often (and at each stage)
   double ramp_s = 2.0;  ///< an indentation or pull moves in at a steady speed over this time
   int64_t max_steps_per_stage = 20000;  ///< a stage that has not come to rest by then fails

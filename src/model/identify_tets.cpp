@@ -1,0 +1,117 @@
+#include "lamina/model/identify_tets.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "mandel.h"
+
+namespace lamina::model {
+namespace {
+
+using Mat6 = detail::Mandel;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+// The spring between a and b, found in the springs sorted by (i, j).
+int32_t find_spring(const Springs& sp, int32_t a, int32_t b) {
+  const int32_t i = std::min(a, b), j = std::max(a, b);
+  auto lo = std::lower_bound(sp.i.begin(), sp.i.end(), i);
+  auto hi = std::upper_bound(lo, sp.i.end(), i);
+  const auto first = static_cast<size_t>(lo - sp.i.begin());
+  for (size_t e = first; e < static_cast<size_t>(hi - sp.i.begin()); ++e)
+    if (sp.j[e] == j) return static_cast<int32_t>(e);
+  return -1;
+}
+
+}  // namespace
+
+TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
+                                TetElasticity elasticity) {
+  check_elastic_material(material);
+  if (!m.has_tets())
+    throw invalid_input(m.source.empty() ? std::string("model") : m.source,
+                        "has no tetrahedra (built with --structure links): its springs are "
+                        "identified per spring kind instead");
+  const double E = material.young_modulus_kpa, nu = material.poisson_ratio;
+  TetIdentification out;
+  out.elasticity = elasticity;
+  out.shear_modulus_kpa = E / (2.0 * (1.0 + nu));
+  out.lame_lambda_kpa = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+  const double mu = out.shear_modulus_kpa, lambda = out.lame_lambda_kpa;
+  // Coupled: the springs carry mu alone and the volume term all of lambda, which makes it as
+  // strong an inversion guard as the tissue allows (lambda = 9 mu at nu = 0.45). Independent
+  // springs obey the Cauchy relation lambda = mu: they take mu, the volume term the rest.
+  const bool coupled = elasticity == TetElasticity::kCoupled;
+  out.volume_modulus_kpa = coupled ? lambda : std::max(0.0, lambda - mu);
+  const Mat6 C = detail::isotropic_tensor(coupled ? 0.0 : std::min(lambda, mu), mu);
+
+  const Springs& sp = m.springs;
+  const Eigen::Index nt = m.tets.size();
+  out.spring_n_per_m.assign(sp.size(), 0.0);
+  out.tet_springs.resize(nt, 6);
+  out.q_n_per_m = Eigen::Matrix<double, Eigen::Dynamic, 21, Eigen::RowMajor>::Zero(nt, 21);
+  out.rest_volume_mm3.resize(static_cast<size_t>(nt));
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    Eigen::Vector3d p[4];
+    for (int c = 0; c < 4; ++c) p[c] = m.X.row(m.tets.T(t, c)).transpose();
+    const double volume = (p[1] - p[0]).cross(p[2] - p[0]).dot(p[3] - p[0]) / 6.0;
+    out.rest_volume_mm3[static_cast<size_t>(t)] = volume;
+    // A: dl_k = L_k d_k.eps.d_k = A_k . eps (Mandel).
+    Mat6 A;
+    Eigen::Vector3d w[6];
+    for (int k = 0; k < 6; ++k) {
+      const int a = m.tets.T(t, kTetEdge[k][0]), b = m.tets.T(t, kTetEdge[k][1]);
+      const int32_t e = find_spring(sp, a, b);
+      if (e < 0)
+        throw invalid_input(m.source, "tetrahedron " + std::to_string(t) + ": edge " +
+                                          std::to_string(a) + "-" + std::to_string(b) +
+                                          " is not a spring of the model");
+      out.tet_springs(t, k) = e;
+      const Eigen::Vector3d edge = p[kTetEdge[k][1]] - p[kTetEdge[k][0]];
+      const double L = edge.norm();
+      const Eigen::Vector3d d = edge / L;
+      w[k] = d;
+      A.row(k) << L * d.x() * d.x(), L * d.y() * d.y(), L * d.z() * d.z(),
+          L * std::sqrt(2.0) * d.y() * d.z(), L * std::sqrt(2.0) * d.x() * d.z(),
+          L * std::sqrt(2.0) * d.x() * d.y();
+    }
+    // Q = V A^-T C A^-1: the tetrahedron's energy 1/2 dl^T Q dl. A positive tetrahedron has
+    // independent edge directions in this sense, so A is invertible.
+    const Mat6 Ainv = A.partialPivLu().inverse();
+    const Mat6 Q = volume * Ainv.transpose() * C * Ainv;
+    if (coupled) {
+      for (int k = 0, at = 0; k < 6; ++k) {
+        out.spring_n_per_m[static_cast<size_t>(out.tet_springs(t, k))] += Q(k, k);
+        for (int j = k; j < 6; ++j) out.q_n_per_m(t, at++) = Q(k, j);
+      }
+      continue;
+    }
+    // Independent springs (Lloyd et al. 2007): the six constants whose stiffness matrix
+    // sum_k s_k J_k^T J_k is closest, in the Frobenius norm, to the element's J^T Q J (J the
+    // 6 x 12 Jacobian of the stretches). In edge space: G s = diag(P Q P) with P = J J^T (P_km
+    // = J_k . J_m, the overlap of two edges' 12-vectors) and G = P .* P.
+    Mat6 P = Mat6::Zero();
+    for (int k = 0; k < 6; ++k)
+      for (int j = 0; j < 6; ++j) {
+        double overlap = 0.0;
+        for (int ck = 0; ck < 2; ++ck)
+          for (int cj = 0; cj < 2; ++cj)
+            if (kTetEdge[k][ck] == kTetEdge[j][cj])
+              overlap += (ck == 0 ? -1.0 : 1.0) * (cj == 0 ? -1.0 : 1.0) * w[k].dot(w[j]);
+        P(k, j) = overlap;
+      }
+    const Mat6 G = P.cwiseProduct(P);
+    const Vec6 rhs = (P * Q * P).diagonal();
+    const Vec6 s = G.ldlt().solve(rhs);
+    // A constant the fit drives negative (a flat-ish element) is left at zero: the edge's other
+    // tetrahedra still hold it.
+    for (int k = 0, at = 0; k < 6; at += 6 - k, ++k) {
+      out.q_n_per_m(t, at) = std::max(s[k], 0.0);
+      out.spring_n_per_m[static_cast<size_t>(out.tet_springs(t, k))] += out.q_n_per_m(t, at);
+    }
+  }
+  return out;
+}
+
+}  // namespace lamina::model

@@ -1,0 +1,239 @@
+// Backward Euler, linearised once per step (Baraff-Witkin), solved for the new velocity:
+//   (M + h gamma + h^2 K) v1 = M v0 + h f0(x0),   x1 = x0 + h v1,
+// f0 every force but damping, K the stiffness of the springs, the tetrahedra, the support and
+// the volume term at x0. The springs' geometric term is clamped at max(0, 1 - L/l), and the
+// volume terms keep only their Gauss-Newton part, so the matrix stays positive definite under
+// any deformation and conjugate gradients apply. Jacobi-preconditioned, warm-started from v0
+// plus the last step's change (a smooth motion changes its velocity by about the same each
+// step). The cost is bounded: one product for the start residual and one per CG iteration, at
+// most SolverOptions::cg_max_iterations.
+#include <array>
+#include <chrono>
+
+#include "solver.h"
+
+namespace lamina::sim::detail {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// (K p)_i of the support, the springs and (from tets.product, filled by tet_product_pass) the
+// tetrahedra; the volume term between layers from its per-layer multipliers.
+inline void stiffness_product(const Solver& s, int32_t i, const ConstCols& p, const double* vm,
+                              double& kx, double& ky, double& kz) {
+  const double k = s.support.stiffness_n_per_m[i];
+  kx = k * p.x[i], ky = k * p.y[i], kz = k * p.z[i];
+  if (s.tets.on)
+    gather_tets(s, s.tets.product, i, kx, ky, kz);  // the springs are the tetrahedra's edges
+  else
+    spring_product(s, i, p, kx, ky, kz);
+  if (vm) {
+    const int32_t layer = s.model->layer_of[i];
+    if (layer >= 0) {
+      const double c = vm[layer];
+      kx += c * s.volume.gradient(i, 0), ky += c * s.volume.gradient(i, 1),
+          kz += c * s.volume.gradient(i, 2);
+    }
+  }
+}
+
+}  // namespace
+
+// y = (M + h gamma + h^2 K) p on the movable nodes. Returns p . y (CG's curvature) summed in
+// thread order.
+double system_product(Solver& s, double h, const Eigen::MatrixX3d& pm, Eigen::MatrixX3d& ym,
+                      int T) {
+  const double h2 = h * h;
+  const double damp = h * s.material.damping_kg_per_s, mass_damp = h * s.material.mass_damping_per_s;
+  const bool volume = s.material.volume_stiffness_kpa > 0.0;
+  std::array<double, kMaxLayers> vm{};
+  if (volume) volume_multipliers(s, pm, T, vm.data());
+  if (s.tets.on) tet_product_pass(s, pm, T);
+  const ConstCols p(pm);
+  Cols y(ym);
+  Partials part;
+  for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
+             [&](int64_t begin, int64_t end, int t) {
+               double pap = 0.0;
+               for (int64_t q = begin; q < end; ++q) {
+                 const int32_t i = s.active_nodes[q];
+                 double kx, ky, kz;
+                 stiffness_product(s, i, p, volume ? vm.data() : nullptr, kx, ky, kz);
+                 const double md = s.mass_kg[i] * (1.0 + mass_damp) + damp;
+                 const double yx = md * p.x[i] + h2 * kx, yy = md * p.y[i] + h2 * ky,
+                              yz = md * p.z[i] + h2 * kz;
+                 y.x[i] = yx, y.y[i] = yy, y.z[i] = yz;
+                 pap += p.x[i] * yx + p.y[i] * yy + p.z[i] * yz;
+               }
+               part[t].a = pap;
+             });
+  double sum = 0.0;
+  for (int t = 0; t < T; ++t) sum += part[t].a;
+  return sum;
+}
+
+Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
+                        StepProfile& profile) {
+  Solver& s = sim.solver();
+  const int T = threads_for(s);
+  const Material& mat = s.material;
+  const double h2 = h * h, damp_h = h * mat.damping_kg_per_s;
+  const double mass_damp_h = h * mat.mass_damping_per_s;
+  const auto nodes = static_cast<int64_t>(s.active_nodes.size());
+  const bool volume = mat.volume_stiffness_kpa > 0.0;
+  const auto t0 = Clock::now();
+
+  // 1. Forces at x0 and the linearisation: springs (direction, 1 - L/l), tetrahedra (volume
+  //    gradients), the volume term between layers.
+  if (volume) update_volume_term(s, sim.x, T);
+  if (s.tets.on)
+    tet_pass(s, sim.x, /*linearise=*/true, T);
+  else
+    spring_linearise(s, sim.x, T);
+
+  // 2. The warm start w = v0 + (last step's v1 - v0), into dv (which holds the solution from
+  //    here on; rows of held nodes stay 0 there and in v).
+  {
+    Cols w(s.dv);
+    const ConstCols v(sim.v);
+    for_slices(nodes, T, [&](int64_t begin, int64_t end, int) {
+      for (int64_t q = begin; q < end; ++q) {
+        const int32_t i = s.active_nodes[q];
+        w.x[i] += v.x[i], w.y[i] += v.y[i], w.z[i] += v.z[i];
+      }
+    });
+  }
+  const auto t1 = Clock::now();
+  profile.forces_us += std::chrono::duration<double, std::micro>(t1 - t0).count();
+
+  // 3. Per node: b = M v0 + h f0, r = b - A w, the Jacobi diagonal, z = r / diag, p = z.
+  Partials part;
+  std::array<double, kMaxLayers> vm{}, vd{};  // the volume term along w; its diagonal factor
+  if (volume) {
+    volume_multipliers(s, s.dv, T, vm.data());
+    for (size_t k = 0; k < s.model->layers.size(); ++k)
+      vd[k] = region_stiffness(s, k) + (k > 0 ? region_stiffness(s, k - 1) : 0.0);
+  }
+  if (s.tets.on) tet_product_pass(s, s.dv, T);
+  {
+    const ConstCols v(sim.v), w(s.dv);
+    Cols r(s.r), z(s.z), pp(s.p), dg(s.diag);
+    for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
+      Partial acc;  // a: |b|^2, b: r.z, c: |r|^2
+      for (int64_t q = begin; q < end; ++q) {
+        const int32_t i = s.active_nodes[q];
+        const double m = s.mass_kg[i];
+        double fx, fy, fz;
+        node_force(s, sim, i, /*damped=*/false, fx, fy, fz);
+        double kx, ky, kz;
+        stiffness_product(s, i, w, volume ? vm.data() : nullptr, kx, ky, kz);
+        const double k = s.support.stiffness_n_per_m[i];
+        double d0 = k, d1 = k, d2 = k;
+        if (s.tets.on)
+          gather_tets(s, s.tets.diag, i, d0, d1, d2);
+        else
+          spring_diagonal(s, i, d0, d1, d2);
+        if (volume) {
+          const int32_t layer = s.model->layer_of[i];
+          if (layer >= 0) {
+            const double gx = s.volume.gradient(i, 0), gy = s.volume.gradient(i, 1),
+                         gz = s.volume.gradient(i, 2);
+            d0 += vd[layer] * gx * gx, d1 += vd[layer] * gy * gy, d2 += vd[layer] * gz * gz;
+          }
+        }
+        const double md = m * (1.0 + mass_damp_h) + damp_h;
+        const double bx = m * v.x[i] + h * fx, by = m * v.y[i] + h * fy, bz = m * v.z[i] + h * fz;
+        const double rx = bx - md * w.x[i] - h2 * kx, ry = by - md * w.y[i] - h2 * ky,
+                     rz = bz - md * w.z[i] - h2 * kz;
+        const double gx = md + h2 * d0, gy = md + h2 * d1, gz = md + h2 * d2;
+        dg.x[i] = gx, dg.y[i] = gy, dg.z[i] = gz;
+        r.x[i] = rx, r.y[i] = ry, r.z[i] = rz;
+        const double zx = rx / gx, zy = ry / gy, zz = rz / gz;
+        z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+        pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
+        acc.a += bx * bx + by * by + bz * bz;
+        acc.b += rx * zx + ry * zy + rz * zz;
+        acc.c += rx * rx + ry * ry + rz * rz;
+      }
+      part[t] = acc;
+    });
+  }
+  double b2 = 0.0, rz = 0.0, r2 = 0.0;
+  for (int t = 0; t < T; ++t) b2 += part[t].a, rz += part[t].b, r2 += part[t].c;
+  // A load so large that |b|^2 overflows would stop CG before its first iteration and pass for
+  // "no motion": it is a failed step (nothing has been written yet).
+  if (!std::isfinite(b2) || !std::isfinite(rz)) {
+    Measured failed;
+    failed.ok = false;
+    return failed;
+  }
+
+  // 4. Conjugate gradients on v1 (in dv).
+  const double stop2 = s.options.cg_tolerance * s.options.cg_tolerance * b2;
+  int32_t it = 0;
+  if (b2 == 0.0) {
+    // No force and no motion: the answer is v1 = 0, whatever the warm start said.
+    for (int32_t i : s.active_nodes) s.dv.row(i).setZero();
+  } else {
+    for (; it < s.options.cg_max_iterations && r2 > stop2; ++it) {
+      const double pap = system_product(s, h, s.p, s.y, T);
+      if (!(pap > 0.0)) break;
+      const double alpha = rz / pap;
+      Cols dv(s.dv), r(s.r), z(s.z);
+      const ConstCols pp(s.p), y(s.y), dg(s.diag);
+      for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
+        Partial acc;  // b: r.z, c: |r|^2
+        for (int64_t q = begin; q < end; ++q) {
+          const int32_t i = s.active_nodes[q];
+          dv.x[i] += alpha * pp.x[i], dv.y[i] += alpha * pp.y[i], dv.z[i] += alpha * pp.z[i];
+          const double rx = r.x[i] - alpha * y.x[i], ry = r.y[i] - alpha * y.y[i],
+                       rz_ = r.z[i] - alpha * y.z[i];
+          r.x[i] = rx, r.y[i] = ry, r.z[i] = rz_;
+          const double zx = rx / dg.x[i], zy = ry / dg.y[i], zz = rz_ / dg.z[i];
+          z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+          acc.b += rx * zx + ry * zy + rz_ * zz;
+          acc.c += rx * rx + ry * ry + rz_ * rz_;
+        }
+        part[t] = acc;
+      });
+      double rz_new = 0.0;
+      r2 = 0.0;
+      for (int t = 0; t < T; ++t) rz_new += part[t].b, r2 += part[t].c;
+      const double beta = rz_new / rz;
+      rz = rz_new;
+      if (r2 <= stop2) {
+        ++it;
+        break;
+      }
+      Cols pw(s.p);
+      const ConstCols zc(s.z);
+      for_slices(nodes, T, [&](int64_t begin, int64_t end, int) {
+        for (int64_t q = begin; q < end; ++q) {
+          const int32_t i = s.active_nodes[q];
+          pw.x[i] = zc.x[i] + beta * pw.x[i], pw.y[i] = zc.y[i] + beta * pw.y[i],
+          pw.z[i] = zc.z[i] + beta * pw.z[i];
+        }
+      });
+    }
+  }
+  iterations = it;
+
+  // 5. Update, check and measure; dv keeps this step's change for the next warm start.
+  NodeState state(sim, s);
+  Cols dv(s.dv);
+  const ConstCols v(sim.v);
+  for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
+    Partial acc;
+    for (int64_t q = begin; q < end; ++q) {
+      const int32_t i = s.active_nodes[q];
+      const double vx = dv.x[i], vy = dv.y[i], vz = dv.z[i];
+      dv.x[i] = vx - v.x[i], dv.y[i] = vy - v.y[i], dv.z[i] = vz - v.z[i];
+      finish_node(s, state, i, h, save, vx, vy, vz, acc);
+    }
+    part[t] = acc;
+  });
+  profile.integrate_us += std::chrono::duration<double, std::micro>(Clock::now() - t1).count();
+  return combine(part, T);
+}
+
+}  // namespace lamina::sim::detail

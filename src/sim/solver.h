@@ -1,0 +1,401 @@
+#pragma once
+// What a Simulation keeps besides the state callers touch (internal to module sim): the
+// parameters as resolved, per-node tables, each force term's tables and per-step buffers, the
+// lists of what a step visits, the caches of what stays put, and the integrators' workspace.
+// Callers see only the opaque detail::Solver, as Box2D keeps its solver sets behind ids.
+//
+// Also the pieces every pass shares: fixed per-thread slices, per-thread partial sums, column
+// pointers.
+
+#include <omp.h>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "lamina/model/identify_tets.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::sim::detail {
+
+// Below this many springs a step runs on one thread: a parallel region costs a few microseconds,
+// and on the paper-size model (10k springs) two threads gained only about 10%
+// (docs/benchmarks.md). On a machine busy with other work, every one of a step's parallel
+// regions (a dozen per implicit step with its CG iterations) can also wait for a time slice:
+// a 13k-spring implicit run took 18x longer on two threads than on one beside a compiler.
+constexpr int64_t kParallelSprings = 16384;
+constexpr int kMaxThreads = 64;
+constexpr size_t kMaxLayers = 16;  // BuildOptions::layers is at most 16
+
+inline int threads_for_springs(int64_t springs) {
+  return springs >= kParallelSprings ? std::clamp(omp_get_max_threads(), 1, kMaxThreads) : 1;
+}
+
+// Runs body(begin, end, thread) on `threads` threads, each over its own fixed slice of [0, n).
+// Fixed slices and per-thread partial results summed in thread order keep every result the same
+// from run to run (an OpenMP reduction may add the partials in any order).
+template <class Body>
+inline void for_slices(int64_t n, int threads, Body&& body) {
+  if (threads <= 1) {
+    body(int64_t{0}, n, 0);
+    return;
+  }
+#pragma omp parallel num_threads(threads)
+  {
+    const int t = omp_get_thread_num(), T = omp_get_num_threads();
+    body(n * t / T, n * (t + 1) / T, t);
+  }
+}
+
+// An entry of SpringTerm::adj_signed: e where the node is spring e's first end, ~e where its
+// second. The spring, and the sign its stored force (on the first end) takes at this node.
+inline int32_t spring_of(int32_t signed_spring) {
+  return signed_spring < 0 ? ~signed_spring : signed_spring;
+}
+inline double end_sign(int32_t signed_spring) { return signed_spring < 0 ? -1.0 : 1.0; }
+
+// Per-thread partial results, one cache line each so that threads never share one.
+struct alignas(64) Partial {
+  double a = 0.0, b = 0.0, c = 0.0, d = 0.0;
+  bool ok = true;
+};
+using Partials = std::array<Partial, kMaxThreads>;
+
+// Column pointers of an #n by 3 column-major matrix.
+struct Cols {
+  double *x, *y, *z;
+  explicit Cols(Eigen::MatrixX3d& m) : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
+};
+struct ConstCols {
+  const double *x, *y, *z;
+  explicit ConstCols(const Eigen::MatrixX3d& m)
+      : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
+};
+
+using TetRows = Eigen::Matrix<double, Eigen::Dynamic, 12, Eigen::RowMajor>;
+
+/// The springs (spring_term.cpp): the paper's, and the tetrahedra's edges.
+struct SpringTerm {
+  std::vector<double> stiffness_n_per_m;  ///< per spring, as the material resolves it
+  // Springs gathered per node (CSR), so each thread writes only its own nodes' forces.
+  std::vector<int32_t> adj_offsets;  ///< #nodes + 1
+  std::vector<int32_t> adj_other;    ///< the node at the other end
+  std::vector<int32_t> adj_spring;   ///< the spring index
+  std::vector<int32_t> adj_signed;   ///< e where the node is spring e's first end, ~e else
+  Eigen::MatrixX3d force;            ///< per spring: its Hooke force on its first node, mN
+  /// Per spring, for implicit Euler's stiffness matrix: unit direction and max(0, 1 - L/l), in
+  /// single precision (it only steers the solve; docs/benchmarks.md has the measurement).
+  Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor> dir;
+};
+
+/// One tetrahedron's constants, packed for the passes (one cache-friendly record each).
+struct TetRecord {
+  double rest_length_mm[6];  ///< its edges' rest lengths (edge order model::kTetEdge)
+  double rest_volume_mm3;
+  double volume_stiffness;  ///< k_v / V0, kPa / mm^3
+  float q[21];              ///< Q's upper triangle, N/m (model::TetIdentification::q_n_per_m)
+  int32_t node[4];
+};
+
+/// Per tetrahedron, what implicit Euler's linearisation keeps for its products.
+struct TetLinear {
+  float w[18];    ///< unit edge directions (corner kTetEdge[k][0] to [1])
+  float geo[6];   ///< the geometric stiffness of each edge, max(0, tension) / length, N/m per mm
+  float grad[12]; ///< dV/dx of each corner, mm^2
+};
+
+/// The tetrahedra (tet_term.cpp): each carries its share of its six edge springs, their
+/// coupling, and resists a change of its signed volume (docs/physics.md). When on, the springs
+/// (all tetrahedron edges) are carried here and the spring passes are skipped.
+struct TetTerm {
+  bool on = false;  ///< Material::young_modulus_kpa > 0 on a model with tetrahedra
+  model::TetIdentification id;
+  std::vector<TetRecord> record;  ///< per tet
+  std::vector<TetLinear> linear;  ///< per tet (implicit Euler)
+  TetRows force;    ///< per tet and corner: the force on it, mN
+  TetRows product;  ///< per tet and corner: its share of (K p), implicit Euler's CG
+  TetRows diag;     ///< per tet and corner: its share of K's diagonal, N/m (Jacobi)
+  // Each node's tetrahedron corners (CSR of t * 4 + c), for the node pass to gather.
+  std::vector<int32_t> corner_offsets;  ///< #nodes + 1
+  std::vector<int32_t> corners;
+};
+
+/// The volume term between layers (volume_term.cpp; Material::volume_stiffness_kpa).
+struct VolumeTerm {
+  // Each node's layer triangles as the two corners that follow it (CSR, 2 per triangle): the
+  // gradient of its layer's volume is 1/6 sum x_b x x_c over them.
+  std::vector<int32_t> corner_offsets;  ///< #nodes + 1
+  std::vector<int32_t> corner_pairs;
+  std::vector<double> pressure_jump_kpa;  ///< per layer: pressure inside minus outside it
+  Eigen::MatrixX3d gradient;              ///< per movable node: d(its layer's volume)/dx, mm^2
+};
+
+/// What holds the organ besides fixed nodes (support_term.cpp): per node a zero-length spring
+/// to its rest position, from Material::anchor_stiffness_n_per_m and support_nodes().
+struct SupportTerm {
+  std::vector<double> support_n_per_m;  ///< per node, from support_nodes() (0 elsewhere)
+  std::vector<double> stiffness_n_per_m;  ///< per node: anchor + support
+};
+
+struct ProjectiveSolver;  // projective.cpp: the prefactored system, reused across steps
+
+struct Solver {
+  const Model* model = nullptr;
+  Material material;
+  SolverOptions options;
+
+  std::vector<double> mass_kg;
+  std::vector<uint8_t> fixed;    ///< 1 = held (at its rest position, or where hold_nodes put it)
+  std::vector<uint8_t> movable;  ///< 1 = integrated this step (not fixed, and local when kLocal)
+
+  SpringTerm springs;
+  TetTerm tets;
+  VolumeTerm volume;
+  SupportTerm support;
+
+  double rest_skin_volume_mm3 = 0.0;
+  std::vector<double> rest_layer_volume_mm3;  ///< per layer: the volume it encloses at rest
+  /// A node this far from its rest position (100 model sizes) counts as a blow-up.
+  double blowup_limit_mm = 0.0;
+
+  /// Counts changes of what a prefactored solve depends on (movable nodes, material, dt).
+  uint64_t setup_version = 0;
+  /// explicit_dt_limit(), cached for the setup_version it was computed at (0 = not yet).
+  double explicit_limit_s = 0.0;
+  uint64_t explicit_limit_version = 0;
+  std::shared_ptr<ProjectiveSolver> projective;  ///< made on the first projective step
+
+  // What a step visits: the movable nodes (ascending), every spring and tetrahedron with a
+  // movable corner.
+  std::vector<int32_t> active_nodes;
+  std::vector<int32_t> active_springs;
+  std::vector<int32_t> active_tets;
+  // What the nodes that do not move add to the measurements, cached when the lists change.
+  double frozen_max_displacement_mm = 0.0;
+  /// Per layer: its triangles with a movable corner, and 6 x the signed volume of the others.
+  std::vector<std::vector<int32_t>> layer_triangles;
+  std::vector<double> frozen_layer_volume6_mm3;
+
+  // Workspace, sized once (no allocation per step). Rows of nodes that do not move stay zero in
+  // r, z, p, dv: the implicit solve treats them as held.
+  Eigen::MatrixX3d x_prev, v_prev;  ///< the movable nodes' state before the step (rollback)
+  Eigen::MatrixX3d r, p, z, y, dv;  ///< implicit Euler: conjugate gradients; dv warm-starts
+  Eigen::MatrixX3d diag;            ///< Jacobi preconditioner (per node, per axis)
+};
+
+/// Threads for a step: by the springs it visits.
+inline int threads_for(const Solver& s) {
+  return threads_for_springs(static_cast<int64_t>(s.active_springs.size() + s.active_tets.size()));
+}
+
+// Everything a step measures about the movable nodes, from their state before (x_prev) and after.
+struct Measured {
+  double move2 = 0.0, disp2 = 0.0, ke = 0.0, speed2 = 0.0;
+  bool ok = true;
+};
+
+inline Measured combine(const Partials& part, int threads) {
+  Measured m;
+  for (int t = 0; t < std::max(threads, 1); ++t) {
+    m.move2 = std::max(m.move2, part[t].a);
+    m.disp2 = std::max(m.disp2, part[t].b);
+    m.ke += part[t].c;
+    m.speed2 = std::max(m.speed2, part[t].d);
+    m.ok = m.ok && part[t].ok;
+  }
+  return m;
+}
+
+// One node's end-of-step bookkeeping: the finite and bounded check (a blow-up can stay finite for
+// a few steps while growing without bound) and the measurements.
+inline void account(const Solver& s, const Eigen::MatrixX3d& X, int32_t i, double x0, double y0,
+                    double z0, double nx, double ny, double nz, double vx, double vy, double vz,
+                    Partial& out) {
+  const double ex = nx - X(i, 0), ey = ny - X(i, 1), ez = nz - X(i, 2);
+  const double lim = s.blowup_limit_mm;
+  out.ok = out.ok && std::abs(ex) < lim && std::abs(ey) < lim && std::abs(ez) < lim &&
+           std::isfinite(vx + vy + vz);  // NaN fails every comparison; inf - inf is NaN
+  const double mx = nx - x0, my = ny - y0, mz = nz - z0;
+  const double v2 = vx * vx + vy * vy + vz * vz;
+  out.a = std::max(out.a, mx * mx + my * my + mz * mz);
+  out.b = std::max(out.b, ex * ex + ey * ey + ez * ez);
+  out.c += 0.5 * s.mass_kg[i] * v2;
+  out.d = std::max(out.d, v2);
+}
+
+// The state a step writes, as column pointers.
+struct NodeState {
+  Cols x, v, xp, vp;
+  NodeState(Simulation& sim, Solver& s) : x(sim.x), v(sim.v), xp(s.x_prev), vp(s.v_prev) {}
+};
+
+// A movable node's end of step: its old state saved for rollback (with save), the new velocity
+// and the position it leads to stored, the node checked and measured.
+inline void finish_node(const Solver& s, NodeState& st, int32_t i, double h, bool save,
+                        double vx, double vy, double vz, Partial& acc) {
+  const double x0 = st.x.x[i], y0 = st.x.y[i], z0 = st.x.z[i];
+  if (save) {
+    st.xp.x[i] = x0, st.xp.y[i] = y0, st.xp.z[i] = z0;
+    st.vp.x[i] = st.v.x[i], st.vp.y[i] = st.v.y[i], st.vp.z[i] = st.v.z[i];
+  }
+  const double nx = x0 + h * vx, ny = y0 + h * vy, nz = z0 + h * vz;
+  st.v.x[i] = vx, st.v.y[i] = vy, st.v.z[i] = vz;
+  st.x.x[i] = nx, st.x.y[i] = ny, st.x.z[i] = nz;
+  account(s, s.model->X, i, x0, y0, z0, nx, ny, nz, vx, vy, vz, acc);
+}
+
+// --- The springs (spring_term.cpp). ---
+void setup_springs(Solver& s);
+/// Each active spring's force at x into springs.force.
+void spring_pass(Solver& s, const Eigen::MatrixX3d& x, int threads);
+/// As spring_pass, plus implicit Euler's linearisation (springs.dir).
+void spring_linearise(Solver& s, const Eigen::MatrixX3d& x, int threads);
+/// The spring force on node i gathered from springs.force, added to f (below).
+inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, double& fz);
+/// (K p)_i of the springs linearised by spring_linearise, and its Jacobi diagonal.
+void spring_product(const Solver& s, int32_t i, const ConstCols& p, double& kx, double& ky,
+                    double& kz);
+void spring_diagonal(const Solver& s, int32_t i, double& d0, double& d1, double& d2);
+double spring_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);  ///< mN mm = 1e-6 J
+
+// --- The tetrahedra (tet_term.cpp). ---
+void setup_tets(Solver& s);
+/// Each active tetrahedron's corner forces at x into tets.force. With `linearise`, also what
+/// implicit Euler's products need (tets.linear) and its Jacobi diagonal (tets.diag).
+void tet_pass(Solver& s, const Eigen::MatrixX3d& x, bool linearise, int threads);
+/// Each active tetrahedron's share of (K p) at its corners into tets.product (springs and
+/// coupling along the linearised directions, clamped geometric term, the volume term's
+/// Gauss-Newton part).
+void tet_product_pass(Solver& s, const Eigen::MatrixX3d& p, int threads);
+/// Node i's corners of a per-tetrahedron buffer (tets.force, product or diag) added to f (below).
+inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
+                        double& fz);
+double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
+/// One tetrahedron's corner forces at any x (not the hot path).
+Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& x,
+                                               int64_t t);
+/// The tetrahedra's forces at any x over the whole model, added to f (not the hot path).
+void tet_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+/// Each node's Gershgorin row sum of the tetrahedra's stiffness at rest, added to row (N/m).
+void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row);
+/// The tetrahedra's stiffness at rest as 3x3 blocks between rows row_of[node] (-1: held).
+void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row_of,
+                                std::vector<Eigen::Triplet<double>>& out);
+
+// --- The volume term between layers (volume_term.cpp). ---
+/// 6 x the signed volume of the listed triangles of F (all of F when list is null).
+double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x, const int32_t* list,
+               int64_t count, int threads);
+/// Volume enclosed by layer k at x, from the cached part of the nodes that do not move.
+double layer_volume_now(const Solver& s, const Eigen::MatrixX3d& x, size_t k, int threads);
+/// Sizes the volume term's tables (make_simulation).
+void setup_volume_term(Solver& s);
+/// At x: each layer's pressure jump and each movable node's volume gradient (start of a step).
+void update_volume_term(Solver& s, const Eigen::MatrixX3d& x, int threads);
+/// K_v / V0 of region r (between layers r and r + 1, or the core).
+double region_stiffness(const Solver& s, size_t r);
+/// The volume term's stiffness along p: (H p)_i = multiplier[layer of i] * gradient_i.
+void volume_multipliers(const Solver& s, const Eigen::MatrixX3d& p, int threads,
+                        double* multiplier);
+/// Adds to each node's Gershgorin row sum (N/m) the volume term's (explicit_dt_limit()).
+void add_volume_stiffness_rows(const Solver& s, std::vector<double>& row);
+/// The volume term's energy at x, mN mm (kPa mm^3).
+double volume_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
+/// The volume term's forces at any x over the whole model, added to f (not the hot path).
+void volume_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+/// The volume term's force on node i (from update_volume_term), added to f.
+inline void add_volume_force(const Solver& s, int32_t i, double& fx, double& fy, double& fz) {
+  const int32_t layer = s.model->layer_of[i];
+  if (layer < 0) return;  // an interior node bounds no region
+  const double jump = s.volume.pressure_jump_kpa[static_cast<size_t>(layer)];
+  fx -= jump * s.volume.gradient(i, 0), fy -= jump * s.volume.gradient(i, 1),
+      fz -= jump * s.volume.gradient(i, 2);
+}
+
+// --- Support: anchors and the elastic support (support_term.cpp). ---
+void setup_support(Solver& s);
+double support_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
+
+// --- Integrators (one file each). ---
+/// y = (M + h gamma + h^2 K) p on the movable nodes, K as the last implicit step linearised it;
+/// returns p . y (implicit_euler.cpp).
+double system_product(Solver& s, double h, const Eigen::MatrixX3d& p, Eigen::MatrixX3d& y,
+                      int threads);
+/// What an integrator's stages took, microseconds (StepStats::profile).
+Measured semi_implicit_euler(Simulation& sim, double h, bool save, StepProfile& profile);
+Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
+                        StepProfile& profile);
+Measured projective_step(Simulation& sim, double h, bool save, StepProfile& profile);
+
+/// Rebuilds what a step visits and what it caches about the nodes that stay put.
+void refresh(Simulation& sim);
+
+// The spring force on node i: its springs' forces, + where it is the first node, - where the
+// second. adj_signed holds e for the first and ~e (negative) for the second, so one load gives
+// both. Two sets of sums halve the chain of dependent additions (a node has about ten springs).
+inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, double& fz) {
+  const SpringTerm& t = s.springs;
+  const int32_t* __restrict signed_spring = t.adj_signed.data();
+  const double* __restrict gx = t.force.data();
+  const double* __restrict gy = gx + t.force.rows();
+  const double* __restrict gz = gy + t.force.rows();
+  double ax = 0.0, ay = 0.0, az = 0.0, bx = 0.0, by = 0.0, bz = 0.0;
+  int32_t a = t.adj_offsets[i];
+  const int32_t end = t.adj_offsets[i + 1];
+  for (; a + 1 < end; a += 2) {
+    const int32_t c0 = signed_spring[a], c1 = signed_spring[a + 1];
+    const int32_t e0 = spring_of(c0), e1 = spring_of(c1);
+    const double s0 = end_sign(c0), s1 = end_sign(c1);
+    ax += s0 * gx[e0], ay += s0 * gy[e0], az += s0 * gz[e0];
+    bx += s1 * gx[e1], by += s1 * gy[e1], bz += s1 * gz[e1];
+  }
+  if (a < end) {
+    const int32_t c = signed_spring[a], e = spring_of(c);
+    const double sg = end_sign(c);
+    ax += sg * gx[e], ay += sg * gy[e], az += sg * gz[e];
+  }
+  fx += ax + bx, fy += ay + by, fz += az + bz;
+}
+
+inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
+                        double& fz) {
+  const TetTerm& t = s.tets;
+  const double* __restrict data = rows.data();
+  double ax = 0.0, ay = 0.0, az = 0.0;
+  for (int32_t a = t.corner_offsets[i]; a < t.corner_offsets[i + 1]; ++a) {
+    const double* f = data + 3 * static_cast<int64_t>(t.corners[a]);  // row 12 t + 3 c
+    ax += f[0], ay += f[1], az += f[2];
+  }
+  fx += ax, fy += ay, fz += az;
+}
+
+// The force on movable node i (mN): its springs' and tetrahedra's (gathered from their passes),
+// the tool's, gravity, its support and anchor, the volume term's pressure (from
+// update_volume_term) and, if damped, -(gamma + alpha m) v. Backward Euler puts the damping
+// into its matrix instead.
+inline void node_force(const Solver& s, const Simulation& sim, int32_t i, bool damped,
+                       double& fx, double& fy, double& fz) {
+  const Material& mat = s.material;
+  const Eigen::MatrixX3d& X = s.model->X;
+  const double m = s.mass_kg[i], k = s.support.stiffness_n_per_m[i];
+  const Eigen::Vector3d& g = mat.gravity_mm_per_s2;
+  fx = sim.f_ext(i, 0) + m * g.x() - k * (sim.x(i, 0) - X(i, 0));
+  fy = sim.f_ext(i, 1) + m * g.y() - k * (sim.x(i, 1) - X(i, 1));
+  fz = sim.f_ext(i, 2) + m * g.z() - k * (sim.x(i, 2) - X(i, 2));
+  if (damped) {
+    const double damp = mat.damping_kg_per_s + mat.mass_damping_per_s * m;
+    fx -= damp * sim.v(i, 0), fy -= damp * sim.v(i, 1), fz -= damp * sim.v(i, 2);
+  }
+  if (mat.volume_stiffness_kpa > 0.0) add_volume_force(s, i, fx, fy, fz);
+  if (s.tets.on)
+    gather_tets(s, s.tets.force, i, fx, fy, fz);  // the springs are the tetrahedra's edges
+  else
+    gather_springs(s, i, fx, fy, fz);
+}
+
+}  // namespace lamina::sim::detail
