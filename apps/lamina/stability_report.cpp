@@ -34,14 +34,14 @@ std::string kind_name(validate::LoadKind k) {
 std::string csv_of(const std::vector<StabilityResult>& rows, const validate::StabilityOptions& o) {
   std::string csv =
       "case,kind,integrator,dt_s,passed,finite,recoveries,outside_nodes,surfaces_cross,"
-      "peak_displacement_mm,peak_volume_change_pct,loaded_at_rest,energy_rise,final_energy_ratio,"
+      "inverted_tets,peak_displacement_mm,peak_volume_change_pct,loaded_at_rest,energy_rise,final_energy_ratio,"
       "returned_at_rest,rest_error_mm,steps,seconds\n";
   for (const StabilityResult& r : rows) {
     const double e0 = r.release_energy_j > 0 ? r.release_energy_j : 1.0;  // the final ratio's
-    csv += fmt::format("{},{},{},{:g},{},{},{},{},{},{:.6g},{:.6g},{},{:.6g},{:.6g},{},{:.6g},{},{:.3f}\n",
+    csv += fmt::format("{},{},{},{:g},{},{},{},{},{},{},{:.6g},{:.6g},{},{:.6g},{:.6g},{},{:.6g},{},{:.3f}\n",
                        r.c.name, kind_name(r.c.kind), io::integrator_name(r.c.integrator),
                        r.c.dt_s, r.passed(o) ? 1 : 0, r.finite ? 1 : 0, r.recoveries,
-                       r.order.outside_nodes, r.order.surfaces_cross ? 1 : 0,
+                       r.order.outside_nodes, r.order.surfaces_cross ? 1 : 0, r.order.inverted_tets,
                        r.peak_displacement_mm, r.peak_volume_change_pct, r.loaded_at_rest ? 1 : 0,
                        r.energy_rise(), r.final_energy_j / e0,
                        r.returned_at_rest ? 1 : 0, r.rest_error_mm, r.steps, r.seconds);
@@ -122,12 +122,18 @@ void draw_plots(const fs::path& out, const std::vector<StabilityResult>& rows, d
 
 }  // namespace
 
+// The dt the sweep scales: the paper's step.
+constexpr double kStabilityBaseDt = 0.01;
+
 int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model& m,
                      const validate::Indentation& ind) {
   const ProgressFn progress = stderr_progress(a.verbose);
   const validate::StabilityOptions options;
+  // The sweep is about the paper's step (0.01 s): 1 ms to 0.1 s, the haptic loop's step among
+  // them. Projective dynamics does not carry the tetrahedra's elasticity.
+  const double dt = kStabilityBaseDt;
   const std::vector<validate::StabilityCase> cases =
-      validate::stability_cases(scene.solver.dt_s, a.quick);
+      validate::stability_cases(dt, a.quick, scene.material.young_modulus_kpa == 0.0);
   std::vector<StabilityResult> rows;
   for (size_t k = 0; k < cases.size(); ++k) {
     const validate::StabilityCase& c = cases[k];
@@ -140,17 +146,20 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
   }
   report_progress(progress, "done", 1.0);
 
-  fmt::print(stderr, "{:>14} {:>19} {:>7} {:>9} {:>8} {:>7} {:>5} {:>9} {:>9} {:>6} {:>5}\n",
-             "case", "integrator", "dt s", "peak mm", "vol %", "outside", "recov", "E rise",
-             "rest mm", "steps", "pass");
+  fmt::print(stderr,
+             "{:>14} {:>19} {:>7} {:>9} {:>8} {:>7} {:>8} {:>5} {:>9} {:>9} {:>6} {:>5}\n",
+             "case", "integrator", "dt s", "peak mm", "vol %", "outside", "inverted", "recov",
+             "E rise", "rest mm", "steps", "pass");
   int passed = 0;
   for (const StabilityResult& r : rows) {
     const bool ok = r.passed(options);
     passed += ok;
-    fmt::print(stderr, "{:>14} {:>19} {:>7g} {:>9.2f} {:>8.3f} {:>7} {:>5} {:>8.2f}% {:>9.4f} {:>6} {:>5}\n",
+    fmt::print(stderr,
+               "{:>14} {:>19} {:>7g} {:>9.2f} {:>8.3f} {:>7} {:>8} {:>5} {:>8.2f}% {:>9.4f} {:>6} "
+               "{:>5}\n",
                r.c.name, io::integrator_name(r.c.integrator), r.c.dt_s, r.peak_displacement_mm,
-               r.peak_volume_change_pct, r.order.outside_nodes, r.recoveries,
-               100.0 * r.energy_rise(), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
+               r.peak_volume_change_pct, r.order.outside_nodes, r.order.inverted_tets,
+               r.recoveries, 100.0 * r.energy_rise(), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
   }
   const std::string verdict =
       fmt::format("stability: {} of {} cases passed (organ depth {:.1f} mm, rest tolerance {:g} mm)",
@@ -167,6 +176,8 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
   j["organ_depth_mm"] = ind.organ_depth_mm;
   j["indenter_radius_mm"] = ind.radius_mm;
   j["rest_tolerance_mm"] = options.rest_tolerance_mm;
+  j["base_dt_s"] = dt;
+  j["tets"] = m.tets.size();
   j["cases_passed"] = passed;
   j["all_passed"] = passed == static_cast<int>(rows.size());
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
@@ -181,6 +192,9 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
     o["recoveries"] = r.recoveries;
     o["outside_nodes"] = r.order.outside_nodes;
     o["surfaces_cross"] = r.order.surfaces_cross;
+    o["inverted_tets"] = r.order.inverted_tets;
+    o["inverted_tets_in_motion"] = r.order_in_motion.inverted_tets;
+    o["outside_nodes_in_motion"] = r.order_in_motion.outside_nodes;
     o["order_checks"] = r.order_checks;
     o["peak_displacement_mm"] = r.peak_displacement_mm;
     o["peak_volume_change_pct"] = r.peak_volume_change_pct;
@@ -202,7 +216,7 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
     write_text(out / "stability.csv", csv_of(rows, options));
     write_text(out / "stability_energy.csv", energy_csv_of(rows));
     write_text(out / "summary.json", j.dump(2) + "\n");
-    draw_plots(out, rows, scene.solver.dt_s, options);
+    draw_plots(out, rows, dt, options);
     log::info("wrote {}: stability.csv, stability_energy.csv, summary.json, "
               "stability_energy.png, stability_dt.png",
               out.string());

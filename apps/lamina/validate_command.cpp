@@ -29,7 +29,7 @@ using Clock = std::chrono::steady_clock;
 // One row of the comparison: a solver's answer to one indentation depth.
 struct Row {
   double depth_pct = 0.0, depth_mm = 0.0;
-  std::string solver;  // fem_corotational, fem_linear, ms_volume, ms_layers, ms_skin
+  std::string solver;  // fem_corotational, fem_linear, ms_tets, ms_tet_springs, ms_links, ms_skin
   validate::IndentResult result;
   validate::FieldError error;  // against fem_corotational at the same depth
 };
@@ -72,10 +72,18 @@ std::string csv_of(const std::vector<Row>& rows) {
 std::string label_of(const std::string& solver) {
   if (solver == "fem_corotational") return "FEM, corotational (reference)";
   if (solver == "fem_linear") return "FEM, linear";
-  if (solver == "ms_volume") return "mass-spring, layers + volume term";
-  if (solver == "ms_layers") return "mass-spring, layers (as the paper)";
+  if (solver == "ms_tets") return "tetrahedral springs, coupled, + volume (the physical liver)";
+  if (solver == "ms_tet_springs") return "tetrahedral springs, independent, + volume";
+  if (solver == "ms_links") return "layers and links (as the paper) + volume term";
   return "mass-spring, skin only";
 }
+
+// One mass-spring model the validation runs: its name, model and material.
+struct Variant {
+  std::string name;
+  const Model* model = nullptr;
+  sim::Material material;
+};
 
 void draw_plots(const fs::path& out, const std::vector<std::string>& solvers,
                 const std::vector<double>& depths) {
@@ -125,7 +133,9 @@ int run_validate(const ValidateArgs& a) {
   make_elastic(scene);
   const ProgressFn progress = stderr_progress(a.verbose);
 
-  // 1. The mass-spring models: the scene's (layers, volume term) and a skin-only one.
+  // 1. The mass-spring models: the scene's (the tetrahedra, unless the scene builds links), its
+  //    tetrahedra with independent springs, the paper's layers and links with the volume term,
+  //    and a skin-only one, each with its material identified from the same E and nu.
   SceneModel built = make_scene_model(scene, progress);
   Model& m = built.model;
   const double edge = median_intra_length(m);
@@ -134,13 +144,37 @@ int run_validate(const ValidateArgs& a) {
                                               : validate::paper_indentation(m, radius);
   const std::vector<int32_t> held =
       sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
+  const io::Scene parsed = scene;  // before resolve_material() fills in the material
   const io::MaterialReport material = io::resolve_material(scene, m, held);
   if (a.stability) return report_stability(a, scene, m, ind);
-  io::Scene skin_scene = scene;
+  // The same organ and E, nu in the other structures. Their damping does not matter here (every
+  // run is taken to rest): the scene's is used throughout.
+  auto resolved = [&](io::Scene s, Model& model) {
+    s.damping_ratio = -1.0;
+    s.damping_given = true;
+    s.material.mass_damping_per_s = scene.material.mass_damping_per_s;
+    io::resolve_material(s, model, sim::nodes_near_plane(model, ind.held_point_mm, ind.held_normal,
+                                                         ind.held_distance_mm));
+    s.material.mass_damping_per_s = scene.material.mass_damping_per_s;
+    return s.material;
+  };
+  io::Scene links_scene = parsed;
+  links_scene.build.structure = model::Structure::kLinks;
+  SceneModel links_built = make_scene_model(links_scene, {});
+  io::Scene skin_scene = links_scene;
   skin_scene.build.layers = 1;
   SceneModel skin_built = make_scene_model(skin_scene, {});
-  Model& skin = skin_built.model;
-  model::identify_springs(skin, scene.elastic_material, skin.springs.stiffness_n_per_m);
+  std::vector<Variant> variants;
+  if (m.has_tets()) {
+    variants.push_back({"ms_tets", &m, scene.material});
+    io::Scene springs_scene = parsed;
+    springs_scene.tet_elasticity = model::TetElasticity::kSprings;
+    variants.push_back({"ms_tet_springs", &m, resolved(springs_scene, m)});
+  }
+  variants.push_back({"ms_links", &links_built.model, resolved(links_scene, links_built.model)});
+  sim::Material skin_material = resolved(skin_scene, skin_built.model);
+  skin_material.volume_stiffness_kpa = 0.0;  // a shell has no volume between layers to keep
+  variants.push_back({"ms_skin", &skin_built.model, skin_material});
   log::info("validate: {} ({} nodes, {} layers), indenter radius {:.1f} mm at ({:.1f}, {:.1f}, "
             "{:.1f}) mm, organ depth {:.1f} mm along +y",
             built.source, m.node_count(), m.layer_count(), ind.radius_mm, ind.contact_mm.x(),
@@ -168,32 +202,33 @@ int run_validate(const ValidateArgs& a) {
   solver.integrator = sim::Integrator::kImplicitEuler;
   solver.rest_speed_mm_per_s = 0.01;
   solver.max_steps = 20000;
-  sim::Material with_volume = scene.material, layers_only = scene.material;
-  layers_only.volume_stiffness_kpa = 0.0;
   // Large indentations invert elements near the tip unless the load comes on gradually.
   const validate::FemOptions fem_options{.load_steps = 20, .max_newton_iterations = 50};
   const validate::FemMaterial fem_material{scene.elastic_material.young_modulus_kpa,
                                            scene.elastic_material.poisson_ratio};
-  const ModelLayer& layer0 = m.layers[0];
-  const Eigen::MatrixX3d samples = m.X.middleRows(layer0.first_node, layer0.node_count);
-  const Eigen::MatrixX3d skin_samples = skin.X.middleRows(0, skin.layers[0].node_count);
   std::vector<Row> rows;
   for (double pct : depths) {
     const double d = pct / 100.0 * ind.organ_depth_mm;
     report_progress(progress, fmt::format("indentation {:.0f}%", pct),
                     static_cast<double>(&pct - depths.data()) / depths.size());
+    const Eigen::MatrixX3d samples = m.X.middleRows(m.layers[0].first_node, m.layers[0].node_count);
     Row co{pct, d, "fem_corotational",
            validate::indent_fem(mesh, fem_material, ind, d, true, samples, fem_options), {}};
-    const Eigen::MatrixX3d skin_reference =
-        validate::sample_on_boundary(mesh, co.result.u, skin_samples);
-    Row li{pct, d, "fem_linear", validate::indent_fem(mesh, fem_material, ind, d, false, samples), {}};
-    Row mv{pct, d, "ms_volume", validate::indent_mass_spring(m, with_volume, solver, ind, d), {}};
-    Row ml{pct, d, "ms_layers", validate::indent_mass_spring(m, layers_only, solver, ind, d), {}};
-    Row ms{pct, d, "ms_skin", validate::indent_mass_spring(skin, layers_only, solver, ind, d), {}};
-    for (Row* r : {&li, &mv, &ml}) r->error = validate::field_error(r->result.skin_u, co.result.skin_u);
-    ms.error = validate::field_error(ms.result.skin_u, skin_reference);
     co.error.reference_max_mm = co.result.skin_u.rowwise().norm().maxCoeff();
-    for (Row* r : {&co, &li, &mv, &ml, &ms}) rows.push_back(*r);
+    Row li{pct, d, "fem_linear", validate::indent_fem(mesh, fem_material, ind, d, false, samples), {}};
+    li.error = validate::field_error(li.result.skin_u, co.result.skin_u);
+    rows.push_back(co);
+    rows.push_back(li);
+    for (const Variant& v : variants) {
+      // Each model's skin has its own nodes: the reference is sampled at them.
+      const ModelLayer& skin = v.model->layers[0];
+      const Eigen::MatrixX3d at = v.model->X.middleRows(skin.first_node, skin.node_count);
+      const Eigen::MatrixX3d reference =
+          v.model == &m ? co.result.skin_u : validate::sample_on_boundary(mesh, co.result.u, at);
+      Row r{pct, d, v.name, validate::indent_mass_spring(*v.model, v.material, solver, ind, d), {}};
+      r.error = validate::field_error(r.result.skin_u, reference);
+      rows.push_back(r);
+    }
   }
   report_progress(progress, "done", 1.0);
 
@@ -202,8 +237,8 @@ int run_validate(const ValidateArgs& a) {
   j["input"] = built.source;
   j["young_modulus_kpa"] = scene.elastic_material.young_modulus_kpa;
   j["poisson_ratio"] = scene.elastic_material.poisson_ratio;
-  j["volume_stiffness_kpa"] = material.volume_stiffness_kpa;
-  j["spring_fit_residual"] = material.identification.fit_residual;
+  j["structure"] = material.tets ? "tets" : "links";
+  j["tets"] = m.tets.size();
   j["nodes"] = m.node_count();
   j["layers"] = m.layer_count();
   j["fem_vertices"] = mesh.V.rows();
@@ -241,8 +276,9 @@ int run_validate(const ValidateArgs& a) {
     create_folder(out);
     write_text(out / "validation.csv", csv_of(rows));
     write_text(out / "summary.json", j.dump(2) + "\n");
-    draw_plots(out, {"fem_corotational", "fem_linear", "ms_volume", "ms_layers", "ms_skin"},
-               depths);
+    std::vector<std::string> solvers = {"fem_corotational", "fem_linear"};
+    for (const Variant& v : variants) solvers.push_back(v.name);
+    draw_plots(out, solvers, depths);
     log::info("wrote {}: validation.csv, summary.json, force_depth.png, skin_error.png, "
               "volume_change.png",
               out.string());

@@ -107,6 +107,7 @@ struct TetLinear {
   float w[18];    ///< unit edge directions (corner kTetEdge[k][0] to [1])
   float geo[6];   ///< the geometric stiffness of each edge, max(0, tension) / length, N/m per mm
   float grad[12]; ///< dV/dx of each corner, mm^2
+  float volume_stiffness;  ///< d(pressure)/dV: k_v / V0, plus the guard's when it acts
 };
 
 /// The tetrahedra (tet_term.cpp): each carries its share of its six edge springs, their

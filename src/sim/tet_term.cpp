@@ -6,6 +6,12 @@
 // inverted tetrahedron (V < 0) is pushed back towards positive volume whatever its edge lengths,
 // which a mirror image of it shares.
 //
+// Below a quarter of its rest volume a tetrahedron also meets a guard, (k_g / 2 V0)
+// (V0 / 4 - V)^2 with k_g = 20 k_v: tissue is not compressed to nothing, and a tetrahedron
+// pinned flat between an indenter's rim and the layer under it must still be pushed back to
+// positive volume (the stability suite's 50% indentation left ten inverted without it). C1 at
+// the threshold; its Gauss-Newton part joins the volume term's.
+//
 // Everything a tetrahedron needs is in one record (its nodes, rest lengths, Q, volume), so a
 // pass streams the records and gathers four positions each. Like the springs, each pass writes
 // only its own tetrahedron's row (12 values, one per corner and axis) and each node gathers its
@@ -20,6 +26,22 @@ namespace lamina::sim::detail {
 using model::kTetEdge;
 
 namespace {
+
+constexpr double kGuardFraction = 0.25;   // the guard acts below this fraction of V0
+constexpr double kGuardStiffness = 20.0;  // k_g / k_v
+
+// The volume terms' pressure P (the force on corner c is -P dV/dx_c) and its derivative dP/dV.
+inline double volume_pressure(const TetRecord& r, double volume, double& dp_dv) {
+  double p = r.volume_stiffness * (volume - r.rest_volume_mm3);
+  dp_dv = r.volume_stiffness;
+  const double guard = kGuardFraction * r.rest_volume_mm3 - volume;
+  if (guard > 0.0) {
+    const double k = kGuardStiffness * r.volume_stiffness;
+    p -= k * guard;
+    dp_dv += k;
+  }
+  return p;
+}
 
 // Q's upper-triangle storage: row k starts at kRow[k] (its diagonal).
 constexpr int kRow[6] = {0, 6, 11, 15, 18, 20};
@@ -70,8 +92,8 @@ inline void tet_forces_at(const TetRecord& r, const double p[12], double f[12], 
   }
   double t[6];  // each edge's tension, mN
   multiply_q(r.q, dl, t);
-  double g[12];
-  const double pressure = r.volume_stiffness * (volume_gradient(p, g) - r.rest_volume_mm3);
+  double g[12], dp_dv;
+  const double pressure = volume_pressure(r, volume_gradient(p, g), dp_dv);
   for (int v = 0; v < 12; ++v) f[v] = -pressure * g[v];
   for (int k = 0; k < 6; ++k) {
     const int a = 3 * kTetEdge[k][0], b = 3 * kTetEdge[k][1];
@@ -81,9 +103,10 @@ inline void tet_forces_at(const TetRecord& r, const double p[12], double f[12], 
     }
   }
   if (!lin) return;
+  lin->volume_stiffness = static_cast<float>(dp_dv);
   for (int v = 0; v < 12; ++v) {
     lin->grad[v] = static_cast<float>(g[v]);
-    diag[v] = r.volume_stiffness * g[v] * g[v];
+    diag[v] = dp_dv * g[v] * g[v];
   }
   for (int k = 0; k < 6; ++k) {
     // The geometric term t/l (I - w w^T), clamped at zero under compression so the matrix stays
@@ -174,7 +197,7 @@ void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
                  load_corners(p, r.node, pc);
                  double along = 0.0;
                  for (int v = 0; v < 12; ++v) along += l.grad[v] * pc[v];
-                 along *= r.volume_stiffness;
+                 along *= l.volume_stiffness;
                  double* y = tt.product.data() + 12 * t;
                  for (int v = 0; v < 12; ++v) y[v] = along * l.grad[v];
                  double d[6][3], a[6];
@@ -222,8 +245,10 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
   for (const TetRecord& r : s.tets.record) {
     double p[12], g[12], dl[6], t[6];
     load_corners(x, r.node, p);
-    const double dv = volume_gradient(p, g) - r.rest_volume_mm3;
+    const double volume = volume_gradient(p, g), dv = volume - r.rest_volume_mm3;
     e += 0.5 * r.volume_stiffness * dv * dv;  // kPa mm^3 = 1e-6 J
+    const double guard = kGuardFraction * r.rest_volume_mm3 - volume;
+    if (guard > 0.0) e += 0.5 * kGuardStiffness * r.volume_stiffness * guard * guard;
     for (int k = 0; k < 6; ++k) {
       const int a = 3 * kTetEdge[k][0], b = 3 * kTetEdge[k][1];
       dl[k] = std::sqrt((p[b] - p[a]) * (p[b] - p[a]) + (p[b + 1] - p[a + 1]) * (p[b + 1] - p[a + 1]) +

@@ -491,9 +491,18 @@ TEST(CliWorkflow, PhantomBuildInfoExport) {
   EXPECT_GT(built.at("build_seconds").get<double>(), 0.0);
   const int64_t nodes = built.at("nodes");
   const json& springs = built.at("springs");
-  EXPECT_EQ(springs.at("total").get<int64_t>(),
-            springs.at("intra_layer").get<int64_t>() + springs.at("inter_layer").get<int64_t>());
-  EXPECT_GT(springs.at("inter_layer").get<int64_t>(), 0) << "the layers are not linked";
+  EXPECT_EQ(springs.at("total").get<int64_t>(), springs.at("intra_layer").get<int64_t>() +
+                                                    springs.at("inter_layer").get<int64_t>() +
+                                                    springs.at("tet_edges").get<int64_t>());
+  EXPECT_GT(springs.at("tet_edges").get<int64_t>(), 0) << "nothing fills the layers";
+  // The tetrahedra: good ones, none inverted, filling the skin.
+  EXPECT_EQ(built.at("structure"), "tets");
+  const json& tets = built.at("tets");
+  EXPECT_GT(tets.at("count").get<int64_t>(), 0);
+  EXPECT_EQ(tets.at("inverted"), 0);
+  EXPECT_EQ(tets.at("slivers"), 0);
+  EXPECT_GT(tets.at("min_dihedral_deg").get<double>(), 5.0);
+  EXPECT_GT(tets.at("mean_dihedral_deg").get<double>(), 60.0);
   const json& layers = built.at("layers");
   ASSERT_EQ(layers.size(), 2u) << "default is two layers";
   int64_t vertices = 0;
@@ -514,7 +523,9 @@ TEST(CliWorkflow, PhantomBuildInfoExport) {
     EXPECT_GT(l.at("min_angle_deg").get<double>(), 0.0);
     vertices += l.at("vertices").get<int64_t>();
   }
-  EXPECT_EQ(vertices, nodes) << "every node belongs to exactly one layer";
+  EXPECT_EQ(vertices + built.at("interior_nodes").get<int64_t>(), nodes)
+      << "every node belongs to exactly one layer or is an interior node";
+  EXPECT_NEAR(tets.at("volume_ml").get<double>(), layers[0].at("volume_ml").get<double>(), 1e-6);
   EXPECT_LT(layers[1].at("volume_ml").get<double>(), layers[0].at("volume_ml").get<double>());
 
   // The saved model reads back as the same model.
@@ -526,6 +537,7 @@ TEST(CliWorkflow, PhantomBuildInfoExport) {
   EXPECT_EQ(info.at("springs").at("total"), springs.at("total"));
   EXPECT_EQ(info.at("springs").at("intra_layer"), springs.at("intra_layer"));
   EXPECT_EQ(info.at("springs").at("inter_layer"), springs.at("inter_layer"));
+  EXPECT_EQ(info.at("tets").at("count"), tets.at("count"));
   ASSERT_EQ(info.at("layers").size(), layers.size());
   for (size_t k = 0; k < layers.size(); ++k) {
     EXPECT_EQ(info.at("layers")[k].at("vertices"), layers[k].at("vertices"));

@@ -104,8 +104,8 @@ TEST(RealtimeLoop, ToolTipPushesTheSkinOutOfTheSphere) {
   const int32_t node = front_node(m);
   interact::ToolTip tip;
   tip.active = true;
-  tip.radius_mm = 6.0;
-  // The tip comes from outside (-y): its surface reaches 3 mm past the skin.
+  tip.radius_mm = 8.0;
+  // The tip comes from outside (-y): its surface reaches 5 mm past the skin.
   tip.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 3.0, 0);
   loop.set_tool_tip(tip);
   loop.run_steps(2000);

@@ -81,23 +81,29 @@ Model octahedron() {
   return m;
 }
 
-TEST(ParseScene, EmptySceneTakesThePapersDefaults) {
+TEST(ParseScene, EmptySceneIsThePhysicalLiver) {
   const Scene s = parse_scene("{}", "scene.json");
   EXPECT_EQ(s.source, "scene.json");
   EXPECT_EQ(s.input, kScenePhantom);
   EXPECT_TRUE(s.model_path.empty());
+  EXPECT_EQ(s.build.structure, model::Structure::kTetrahedra);
   EXPECT_EQ(s.build.layers, 2);
   EXPECT_EQ(s.build.skin_vertices, 1284);
   EXPECT_EQ(s.build.locality, 4);
-  EXPECT_DOUBLE_EQ(s.material.stiffness_n_per_m, 3.0);  // K
-  EXPECT_DOUBLE_EQ(s.material.damping_kg_per_s, 3.0);   // gamma
-  EXPECT_DOUBLE_EQ(s.material.node_mass_kg, 1.0);       // unit masses
+  EXPECT_TRUE(s.elastic);  // E and nu carry the stiffness
+  EXPECT_DOUBLE_EQ(s.elastic_material.young_modulus_kpa, 6.0);
+  EXPECT_DOUBLE_EQ(s.elastic_material.poisson_ratio, 0.45);
+  EXPECT_EQ(s.tet_elasticity, model::TetElasticity::kCoupled);
+  EXPECT_DOUBLE_EQ(s.material.stiffness_n_per_m, 0.0);  // no raw K
+  EXPECT_DOUBLE_EQ(s.material.damping_kg_per_s, 0.0);   // damping from a ratio
+  EXPECT_DOUBLE_EQ(s.material.node_mass_kg, 0.0);       // lumped masses
   EXPECT_DOUBLE_EQ(s.material.anchor_stiffness_n_per_m, 0.0);
   EXPECT_EQ(s.material.gravity_mm_per_s2, Eigen::Vector3d::Zero());
   EXPECT_FALSE(s.density_given);
-  EXPECT_EQ(s.solver.integrator, sim::Integrator::kSemiImplicitEuler);
-  EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.01);
-  EXPECT_DOUBLE_EQ(s.solver.rest_speed_mm_per_s, 0.1);  // the paper's 1e-3 mm per 0.01 s step
+  EXPECT_EQ(s.solver.integrator, sim::Integrator::kImplicitEuler);
+  EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.001);  // real time at a haptic loop's 1 kHz
+  EXPECT_DOUBLE_EQ(s.solver.rest_speed_mm_per_s, 0.1);
+  EXPECT_DOUBLE_EQ(s.solver.cg_tolerance, 1e-3);
   EXPECT_EQ(s.solver.max_steps, 100000);
   EXPECT_EQ(s.solver.mode, sim::Mode::kGlobal);
   EXPECT_EQ(s.routing.locality, 4);           // N
@@ -108,6 +114,7 @@ TEST(ParseScene, EmptySceneTakesThePapersDefaults) {
   EXPECT_TRUE(s.tools.empty());
   EXPECT_TRUE(s.default_tool);
   EXPECT_TRUE(s.fixed.empty());
+  EXPECT_TRUE(s.support.empty());
   EXPECT_TRUE(s.default_fixed);
   EXPECT_DOUBLE_EQ(s.output.frame_interval_s, 0.05);
   EXPECT_FALSE(s.output.all_layers);
@@ -265,7 +272,7 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
        "material.young_modulus_kpa: must be > 0 (healthy liver: about 6 kPa), got 0"},
       {R"({"material": {"young_modulus_kpa": 6, "poisson_ratio": 0.5}})",
        "material.poisson_ratio: must be in [0, 0.5)"},
-      {R"({"material": {"poisson_ratio": 0.45}})",
+      {R"({"material": {"stiffness_n_per_m": 3, "poisson_ratio": 0.45}})",
        "material.poisson_ratio: needs young_modulus_kpa beside it"},
       {R"({"material": {"young_modulus_kpa": 6, "stiffness_n_per_m": 3}})",
        "material.stiffness_n_per_m: cannot be given with young_modulus_kpa"},
@@ -309,6 +316,31 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
   }
 }
 
+TEST(ParseScene, ThePapersConstantsBringThePapersSetup) {
+  // Raw spring constants are the paper's model: its structure, solver and material, one key away.
+  const Scene s = parse_scene(
+      R"({"material": {"stiffness_n_per_m": 3, "damping_kg_per_s": 3, "node_mass_kg": 1}})",
+      "scene.json");
+  EXPECT_FALSE(s.elastic);
+  EXPECT_EQ(s.build.structure, model::Structure::kLinks);
+  EXPECT_DOUBLE_EQ(s.material.stiffness_n_per_m, 3.0);
+  EXPECT_DOUBLE_EQ(s.material.damping_kg_per_s, 3.0);
+  EXPECT_DOUBLE_EQ(s.material.node_mass_kg, 1.0);
+  EXPECT_EQ(s.solver.integrator, sim::Integrator::kSemiImplicitEuler);
+  EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.01);
+  // An explicit structure stays; paper_scene() is the same setup.
+  const Scene t = parse_scene(R"({"model": {"build": {"structure": "tets"}},
+                                  "material": {"stiffness_n_per_m": 3}})",
+                              "scene.json");
+  EXPECT_EQ(t.build.structure, model::Structure::kTetrahedra);
+  const Scene p = paper_scene();
+  EXPECT_FALSE(p.elastic);
+  EXPECT_EQ(p.build.structure, model::Structure::kLinks);
+  EXPECT_DOUBLE_EQ(p.material.stiffness_n_per_m, 3.0);
+  EXPECT_DOUBLE_EQ(p.solver.dt_s, 0.01);
+  EXPECT_DOUBLE_EQ(p.solver.rest_speed_mm_per_s, 0.1);  // the paper's 1e-3 mm per 0.01 s step
+}
+
 TEST(ParseScene, AnElasticMaterialReplacesThePapersConstants) {
   const Scene s = parse_scene(R"({"material": {"young_modulus_kpa": 4.5, "poisson_ratio": 0.49,
                                                "density": 1.05}})",
@@ -322,7 +354,8 @@ TEST(ParseScene, AnElasticMaterialReplacesThePapersConstants) {
   EXPECT_EQ(s.material.damping_kg_per_s, 0.0);   // damping comes from a ratio instead
   EXPECT_FALSE(s.volume_stiffness_given);
   EXPECT_FALSE(s.integrator_given);
-  const Scene p = parse_scene(R"({"material": {"volume_stiffness_kpa": 2, "mass_damping_per_s": 4},
+  const Scene p = parse_scene(R"({"material": {"stiffness_n_per_m": 3, "volume_stiffness_kpa": 2,
+                                               "mass_damping_per_s": 4},
                                   "solver": {"integrator": "projective"}})",
                               "scene.json");
   EXPECT_FALSE(p.elastic);
@@ -331,15 +364,17 @@ TEST(ParseScene, AnElasticMaterialReplacesThePapersConstants) {
   EXPECT_TRUE(p.volume_stiffness_given && p.damping_given && p.integrator_given);
 }
 
-TEST(ResolveMaterial, IdentifiesSpringsTurnsOnTheVolumeTermAndDampsFromTheRatio) {
-  Model m = test::sphere_model();
-  Scene s = parse_scene(R"({"material": {"young_modulus_kpa": 6, "poisson_ratio": 0.45}})",
+TEST(ResolveMaterial, LinksIdentifiesSpringsTurnsOnTheVolumeTermAndDampsFromTheRatio) {
+  Model m = test::sphere_links_model();
+  Scene s = parse_scene(R"({"material": {"young_modulus_kpa": 6, "poisson_ratio": 0.45},
+                           "solver": {"dt_s": 0.01}})",
                         "scene.json");
-  resolve_scene_defaults(s, m);
-  const std::vector<int32_t> fixed = fixed_scene_nodes(s, m);
-  const MaterialReport r = resolve_material(s, m, fixed);
+  const SceneSetup setup = prepare_scene(s, m);
+  const MaterialReport& r = setup.material;
   EXPECT_TRUE(r.elastic);
-  EXPECT_NE(m.springs.stiffness_n_per_m, test::sphere_model().springs.stiffness_n_per_m);
+  EXPECT_FALSE(r.tets);
+  EXPECT_GT(r.supported_nodes, 0);  // the posterior surface, held by the body around it
+  EXPECT_NE(m.springs.stiffness_n_per_m, test::sphere_links_model().springs.stiffness_n_per_m);
   EXPECT_NEAR(s.material.volume_stiffness_kpa, r.identification.lame_lambda_kpa -
                                                    r.identification.shear_modulus_kpa, 1e-12);
   EXPECT_EQ(s.solver.integrator, sim::Integrator::kImplicitEuler);
@@ -349,14 +384,29 @@ TEST(ResolveMaterial, IdentifiesSpringsTurnsOnTheVolumeTermAndDampsFromTheRatio)
               1e-9 * s.material.mass_damping_per_s);
   // Physical tissue against its node masses: the explicit limit is far below the paper's dt.
   EXPECT_LT(r.explicit_dt_limit_s, 0.01);
+}
 
-  // A damping ratio on a model held nowhere is refused, naming the scene.
+TEST(ResolveMaterial, TetrahedraCarryEAndNuThemselves) {
+  Model m = test::sphere_model();
+  Scene s = parse_scene("{}", "scene.json");
+  const SceneSetup setup = prepare_scene(s, m);
+  EXPECT_TRUE(setup.material.tets);
+  EXPECT_DOUBLE_EQ(s.material.young_modulus_kpa, 6.0);
+  EXPECT_DOUBLE_EQ(s.material.poisson_ratio, 0.45);
+  EXPECT_DOUBLE_EQ(s.material.volume_stiffness_kpa, 0.0);  // the tetrahedra keep the volume
+  EXPECT_NEAR(setup.material.tet_volume_modulus_kpa, 6.0 * 0.45 / (1.45 * 0.1), 1e-9);  // lambda
+  EXPECT_EQ(m.springs.stiffness_n_per_m, test::sphere_model().springs.stiffness_n_per_m);
+  EXPECT_GT(s.material.mass_damping_per_s, 0.0);
+  const sim::Simulation sim = make_scene_simulation(s, m, setup);
+  EXPECT_GT(sim.tet_identification().spring_n_per_m.size(), 0u);
+}
+
+TEST(ResolveMaterial, ADampingRatioOnAModelHeldNowhereIsRefused) {
   Model free = test::sphere_model();
   Scene f = parse_scene(R"({"material": {"damping_ratio": 0.5}, "boundary": {"fixed": []}})",
                         "free.json");
-  resolve_scene_defaults(f, free);
   try {
-    resolve_material(f, free, fixed_scene_nodes(f, free));
+    prepare_scene(f, free);
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()).rfind("free.json: material.damping_ratio: ", 0), 0u) << e.what();
@@ -424,9 +474,9 @@ TEST(LoadScene, EveryShippedExampleParsesWithoutWarnings) {
   EXPECT_GE(count, 7);
 }
 
-TEST(ResolveSceneDefaults, ThePapersPokeOnTheAnteriorSkinAndTheBackHeld) {
+TEST(ResolveSceneDefaults, ThePapersPokeAndThePosteriorSurfaceSupported) {
   const Model m = octahedron();
-  Scene s;  // the default scene
+  Scene s;  // the default scene: the physical liver
   resolve_scene_defaults(s, m);
   EXPECT_FALSE(s.default_tool);
   EXPECT_FALSE(s.default_fixed);
@@ -436,16 +486,53 @@ TEST(ResolveSceneDefaults, ThePapersPokeOnTheAnteriorSkinAndTheBackHeld) {
   EXPECT_EQ(s.tools[0].force_mn, Eigen::Vector3d(0, 400, 0));  // 0.4 N posteriorly
   EXPECT_DOUBLE_EQ(s.tools[0].start_s, 0.0);
   EXPECT_DOUBLE_EQ(s.tools[0].end_s, 1.0);
-  ASSERT_EQ(s.fixed.size(), 1u);
-  EXPECT_EQ(s.fixed[0].plane_point_mm.y(), 2.0);  // through the largest y
-  EXPECT_EQ(s.fixed[0].plane_normal, Eigen::Vector3d::UnitY());
-  EXPECT_DOUBLE_EQ(s.fixed[0].distance_mm, 10.0);
+  EXPECT_TRUE(s.fixed.empty());
+  ASSERT_EQ(s.support.size(), 1u);
+  EXPECT_EQ(s.support[0].direction, Eigen::Vector3d::UnitY());  // posterior
+  const model::SurfaceSupport sup = model::surface_support(m, s.support[0]);
+  EXPECT_EQ(sup.nodes, (std::vector<int32_t>{2}));  // (0, 2, 0): the one facing +y
+
+  // The paper's constants: the posterior 10 mm held.
+  Scene p = paper_scene();
+  resolve_scene_defaults(p, m);
+  ASSERT_EQ(p.fixed.size(), 1u);
+  EXPECT_TRUE(p.support.empty());
+  EXPECT_EQ(p.fixed[0].plane_point_mm.y(), 2.0);  // through the largest y
+  EXPECT_EQ(p.fixed[0].plane_normal, Eigen::Vector3d::UnitY());
+  EXPECT_DOUBLE_EQ(p.fixed[0].distance_mm, 10.0);
 
   // Explicit tools and boundary are kept as they are.
   Scene t = parse_scene(R"({"tools": [], "boundary": {}})", "s.json");
   resolve_scene_defaults(t, m);
   EXPECT_TRUE(t.tools.empty());
   EXPECT_TRUE(t.fixed.empty());
+  EXPECT_TRUE(t.support.empty());
+}
+
+TEST(ParseScene, SupportRegionsAreReadAndChecked) {
+  const Scene s = parse_scene(R"({"boundary": {"support": [{"direction": [0, 0, -1],
+                                  "max_angle_deg": 45, "stiffness_kpa_per_mm": 0.25}]}})",
+                              "s.json");
+  ASSERT_EQ(s.support.size(), 1u);
+  EXPECT_EQ(s.support[0].direction, Eigen::Vector3d(0, 0, -1));
+  EXPECT_DOUBLE_EQ(s.support[0].max_angle_deg, 45.0);
+  EXPECT_DOUBLE_EQ(s.support[0].stiffness_kpa_per_mm, 0.25);
+  EXPECT_TRUE(s.fixed.empty());
+  for (const auto& [scene, message] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"boundary": {"support": [{"direction": [0, 0, 0]}]}})",
+            "s.json: boundary.support[0].direction: must not be zero"},
+           {R"({"boundary": {"support": [{"max_angle_deg": 200}]}})",
+            "s.json: boundary.support[0].max_angle_deg: must be between 0 and 180 degrees"},
+           {R"({"boundary": {"support": [{"stiffness_kpa_per_mm": -1}]}})",
+            "s.json: boundary.support[0].stiffness_kpa_per_mm: must be >= 0 kPa/mm"},
+           {R"({"boundary": {"support": {}}})", "s.json: boundary.support: expected an array"}}) {
+    try {
+      parse_scene(scene, "s.json");
+      ADD_FAILURE() << scene;
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(message, 0), 0u) << e.what();
+    }
+  }
 }
 
 TEST(FixedSceneNodes, UnionOfPlanesAndListsSortedAndUnique) {
