@@ -77,8 +77,10 @@ void refresh(Simulation& sim) {
   if (s.tets.on)
     for (Eigen::Index t = 0; t < m.tets.size(); ++t)
       if (s.movable[m.tets.T(t, 0)] || s.movable[m.tets.T(t, 1)] || s.movable[m.tets.T(t, 2)] ||
-          s.movable[m.tets.T(t, 3)])
-        s.active_tets.push_back(static_cast<int32_t>(t));
+          s.movable[m.tets.T(t, 3)]) {
+        const auto block = static_cast<int32_t>(t / kTetLanes);
+        if (s.active_tets.empty() || s.active_tets.back() != block) s.active_tets.push_back(block);
+      }
   s.layer_triangles.resize(m.layers.size());
   s.frozen_layer_volume6_mm3.resize(m.layers.size());
   std::vector<int32_t> frozen;

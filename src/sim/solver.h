@@ -77,8 +77,6 @@ struct ConstCols {
       : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
 };
 
-using TetRows = Eigen::Matrix<double, Eigen::Dynamic, 12, Eigen::RowMajor>;
-
 /// The springs (spring_term.cpp): the paper's, and the tetrahedra's edges.
 struct SpringTerm {
   std::vector<double> stiffness_n_per_m;  ///< per spring, as the material resolves it
@@ -93,21 +91,32 @@ struct SpringTerm {
   Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor> dir;
 };
 
-/// One tetrahedron's constants, packed for the passes (one cache-friendly record each).
-struct TetRecord {
-  double rest_length_mm[6];  ///< its edges' rest lengths (edge order model::kTetEdge)
-  double rest_volume_mm3;
-  double volume_stiffness;  ///< k_v / V0, kPa / mm^3
-  float q[21];              ///< Q's upper triangle, N/m (model::TetIdentification::q_n_per_m)
-  int32_t node[4];
+/// The tetrahedra are processed eight at a time, one per SIMD lane (AVX-512 holds eight
+/// doubles): each block of eight keeps every field as an array over its lanes, so the passes'
+/// arithmetic runs across tetrahedra with no shuffling (docs/architecture.md).
+constexpr int kTetLanes = 8;
+
+/// Eight tetrahedra's constants (a block; unused lanes have zero stiffness).
+struct alignas(64) TetBlock {
+  double rest_length_mm[6][kTetLanes];  ///< edge rest lengths (edge order model::kTetEdge)
+  double rest_volume_mm3[kTetLanes];
+  double volume_stiffness[kTetLanes];   ///< k_v / V0, kPa / mm^3
+  float q[21][kTetLanes];               ///< Q's upper triangle, N/m (TetIdentification::q_n_per_m)
+  int32_t node[4][kTetLanes];
 };
 
-/// Per tetrahedron, what implicit Euler's linearisation keeps for its products.
-struct TetLinear {
-  float w[18];    ///< unit edge directions (corner kTetEdge[k][0] to [1])
-  float geo[6];   ///< the geometric stiffness of each edge, max(0, tension) / length, N/m per mm
-  float grad[12]; ///< dV/dx of each corner, mm^2
-  float volume_stiffness;  ///< d(pressure)/dV: k_v / V0, plus the guard's when it acts
+/// Eight tetrahedra's linearisation at the step's start (implicit Euler's products).
+struct alignas(64) TetBlockLinear {
+  float w[18][kTetLanes];    ///< unit edge directions (corner kTetEdge[k][0] to [1])
+  float geo[6][kTetLanes];   ///< each edge's geometric stiffness, max(0, tension) / length
+  float grad[12][kTetLanes]; ///< dV/dx of each corner, mm^2
+  float volume_stiffness[kTetLanes];  ///< d(pressure)/dV (the guard's included when it acts)
+};
+
+/// Twelve values per tetrahedron of a block (a vector on its corners: force, product, diagonal):
+/// corner c, axis d of lane l at v[3 c + d][l].
+struct alignas(64) TetBlockRows {
+  double v[12][kTetLanes];
 };
 
 /// The tetrahedra (tet_term.cpp): each carries its share of its six edge springs, their
@@ -116,11 +125,11 @@ struct TetLinear {
 struct TetTerm {
   bool on = false;  ///< Material::young_modulus_kpa > 0 on a model with tetrahedra
   model::TetIdentification id;
-  std::vector<TetRecord> record;  ///< per tet
-  std::vector<TetLinear> linear;  ///< per tet (implicit Euler)
-  TetRows force;    ///< per tet and corner: the force on it, mN
-  TetRows product;  ///< per tet and corner: its share of (K p), implicit Euler's CG
-  TetRows diag;     ///< per tet and corner: its share of K's diagonal, N/m (Jacobi)
+  std::vector<TetBlock> block;          ///< tetrahedron t is lane t % 8 of block t / 8
+  std::vector<TetBlockLinear> linear;   ///< per block (implicit Euler)
+  std::vector<TetBlockRows> force;      ///< per block: each corner's force, mN
+  std::vector<TetBlockRows> product;    ///< per block: each corner's share of (K p) (CG)
+  std::vector<TetBlockRows> diag;       ///< per block: each corner's share of K's diagonal, N/m
   // Each node's tetrahedron corners (CSR of t * 4 + c), for the node pass to gather.
   std::vector<int32_t> corner_offsets;  ///< #nodes + 1
   std::vector<int32_t> corners;
@@ -171,11 +180,11 @@ struct Solver {
   uint64_t explicit_limit_version = 0;
   std::shared_ptr<ProjectiveSolver> projective;  ///< made on the first projective step
 
-  // What a step visits: the movable nodes (ascending), every spring and tetrahedron with a
-  // movable corner.
+  // What a step visits: the movable nodes (ascending), every spring with a movable end, every
+  // block of tetrahedra with a movable corner.
   std::vector<int32_t> active_nodes;
   std::vector<int32_t> active_springs;
-  std::vector<int32_t> active_tets;
+  std::vector<int32_t> active_tets;  ///< blocks (TetTerm::block), not single tetrahedra
   // What the nodes that do not move add to the measurements, cached when the lists change.
   double frozen_max_displacement_mm = 0.0;
   /// Per layer: its triangles with a movable corner, and 6 x the signed volume of the others.
@@ -189,9 +198,10 @@ struct Solver {
   Eigen::MatrixX3d diag;            ///< Jacobi preconditioner (per node, per axis)
 };
 
-/// Threads for a step: by the springs it visits.
+/// Threads for a step: by the springs it visits (a block of tetrahedra counts as its 48 edges).
 inline int threads_for(const Solver& s) {
-  return threads_for_springs(static_cast<int64_t>(s.active_springs.size() + s.active_tets.size()));
+  return threads_for_springs(static_cast<int64_t>(s.active_springs.size()) +
+                             48 * static_cast<int64_t>(s.active_tets.size()));
 }
 
 // Everything a step measures about the movable nodes, from their state before (x_prev) and after.
@@ -273,9 +283,9 @@ void tet_pass(Solver& s, const Eigen::MatrixX3d& x, bool linearise, int threads)
 /// coupling along the linearised directions, clamped geometric term, the volume term's
 /// Gauss-Newton part).
 void tet_product_pass(Solver& s, const Eigen::MatrixX3d& p, int threads);
-/// Node i's corners of a per-tetrahedron buffer (tets.force, product or diag) added to f (below).
-inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
-                        double& fz);
+/// Node i's corners of a per-block buffer (tets.force, product or diag) added to f (below).
+inline void gather_tets(const Solver& s, const std::vector<TetBlockRows>& rows, int32_t i,
+                        double& fx, double& fy, double& fz);
 double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
 /// One tetrahedron's corner forces at any x (not the hot path).
 Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& x,
@@ -363,14 +373,16 @@ inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, d
   fx += ax + bx, fy += ay + by, fz += az + bz;
 }
 
-inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
-                        double& fz) {
+inline void gather_tets(const Solver& s, const std::vector<TetBlockRows>& rows, int32_t i,
+                        double& fx, double& fy, double& fz) {
   const TetTerm& t = s.tets;
-  const double* __restrict data = rows.data();
+  const TetBlockRows* __restrict data = rows.data();
   double ax = 0.0, ay = 0.0, az = 0.0;
   for (int32_t a = t.corner_offsets[i]; a < t.corner_offsets[i + 1]; ++a) {
-    const double* f = data + 3 * static_cast<int64_t>(t.corners[a]);  // row 12 t + 3 c
-    ax += f[0], ay += f[1], az += f[2];
+    const int32_t slot = t.corners[a], tet = slot >> 2, c = slot & 3;
+    const double(&v)[12][kTetLanes] = data[tet / kTetLanes].v;
+    const int lane = tet % kTetLanes;
+    ax += v[3 * c][lane], ay += v[3 * c + 1][lane], az += v[3 * c + 2][lane];
   }
   fx += ax, fy += ay, fz += az;
 }

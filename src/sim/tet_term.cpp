@@ -12,10 +12,11 @@
 // positive volume (the stability suite's 50% indentation left ten inverted without it). C1 at
 // the threshold; its Gauss-Newton part joins the volume term's.
 //
-// Everything a tetrahedron needs is in one record (its nodes, rest lengths, Q, volume), so a
-// pass streams the records and gathers four positions each. Like the springs, each pass writes
-// only its own tetrahedron's row (12 values, one per corner and axis) and each node gathers its
-// corners: no two threads write the same value, and the forces of a tetrahedron sum to zero.
+// The passes run over blocks of eight tetrahedra, one per SIMD lane: every loop below over
+// `l < kTetLanes` is the same arithmetic on eight tetrahedra, which the compiler turns into
+// vector instructions (gathers for the corners' positions). Each pass writes only its own
+// block's rows and each node gathers its corners: no two threads write the same value, and the
+// forces of a tetrahedron sum to zero.
 #include <Eigen/Geometry>
 #include <Eigen/SparseCore>
 
@@ -27,99 +28,186 @@ using model::kTetEdge;
 
 namespace {
 
+constexpr int L = kTetLanes;
 constexpr double kGuardFraction = 0.25;   // the guard acts below this fraction of V0
 constexpr double kGuardStiffness = 20.0;  // k_g / k_v
 
-// The volume terms' pressure P (the force on corner c is -P dV/dx_c) and its derivative dP/dV.
-inline double volume_pressure(const TetRecord& r, double volume, double& dp_dv) {
-  double p = r.volume_stiffness * (volume - r.rest_volume_mm3);
-  dp_dv = r.volume_stiffness;
-  const double guard = kGuardFraction * r.rest_volume_mm3 - volume;
-  if (guard > 0.0) {
-    const double k = kGuardStiffness * r.volume_stiffness;
-    p -= k * guard;
-    dp_dv += k;
-  }
-  return p;
-}
-
 // Q's upper-triangle storage: row k starts at kRow[k] (its diagonal).
 constexpr int kRow[6] = {0, 6, 11, 15, 18, 20};
-inline int qi(int k, int m) { return k <= m ? kRow[k] + m - k : kRow[m] + k - m; }
+constexpr int qi(int k, int m) { return k <= m ? kRow[k] + m - k : kRow[m] + k - m; }
 
-// t = Q a for a symmetric 6x6 Q stored as its upper triangle.
-inline void multiply_q(const float* q, const double a[6], double t[6]) {
-  t[0] = q[0] * a[0] + q[1] * a[1] + q[2] * a[2] + q[3] * a[3] + q[4] * a[4] + q[5] * a[5];
-  t[1] = q[1] * a[0] + q[6] * a[1] + q[7] * a[2] + q[8] * a[3] + q[9] * a[4] + q[10] * a[5];
-  t[2] = q[2] * a[0] + q[7] * a[1] + q[11] * a[2] + q[12] * a[3] + q[13] * a[4] + q[14] * a[5];
-  t[3] = q[3] * a[0] + q[8] * a[1] + q[12] * a[2] + q[15] * a[3] + q[16] * a[4] + q[17] * a[5];
-  t[4] = q[4] * a[0] + q[9] * a[1] + q[13] * a[2] + q[16] * a[3] + q[18] * a[4] + q[19] * a[5];
-  t[5] = q[5] * a[0] + q[10] * a[1] + q[14] * a[2] + q[17] * a[3] + q[19] * a[4] + q[20] * a[5];
-}
+// Every helper below keeps the loop over a block's lanes innermost and free of branches, so
+// that the compiler turns it into one vector instruction per statement (checked with
+// -fopt-info-vec: docs/architecture.md).
 
-// A tetrahedron's corners at x (12 values: corner c, axis d at 3c + d).
-inline void load_corners(const ConstCols& x, const int32_t node[4], double p[12]) {
+// The corners' values (positions, or a CG direction) of a block, corner c and axis d at
+// p[3 c + d][lane].
+inline void load_corners(const TetBlock& b, const ConstCols& x, double p[12][L]) {
   for (int c = 0; c < 4; ++c) {
-    const int32_t i = node[c];
-    p[3 * c] = x.x[i], p[3 * c + 1] = x.y[i], p[3 * c + 2] = x.z[i];
+    const int32_t* node = b.node[c];
+    for (int l = 0; l < L; ++l) p[3 * c][l] = x.x[node[l]];
+    for (int l = 0; l < L; ++l) p[3 * c + 1][l] = x.y[node[l]];
+    for (int l = 0; l < L; ++l) p[3 * c + 2][l] = x.z[node[l]];
   }
 }
 
-// dV/dx of each corner (12 values) and the signed volume, from the corners.
-inline double volume_gradient(const double p[12], double g[12]) {
-  const double ax = p[3] - p[0], ay = p[4] - p[1], az = p[5] - p[2];
-  const double bx = p[6] - p[0], by = p[7] - p[1], bz = p[8] - p[2];
-  const double cx = p[9] - p[0], cy = p[10] - p[1], cz = p[11] - p[2];
-  // dV/dx1 = (b x c) / 6, dV/dx2 = (c x a) / 6, dV/dx3 = (a x b) / 6, dV/dx0 = -(their sum).
-  g[3] = (by * cz - bz * cy) / 6.0, g[4] = (bz * cx - bx * cz) / 6.0, g[5] = (bx * cy - by * cx) / 6.0;
-  g[6] = (cy * az - cz * ay) / 6.0, g[7] = (cz * ax - cx * az) / 6.0, g[8] = (cx * ay - cy * ax) / 6.0;
-  g[9] = (ay * bz - az * by) / 6.0, g[10] = (az * bx - ax * bz) / 6.0, g[11] = (ax * by - ay * bx) / 6.0;
-  for (int d = 0; d < 3; ++d) g[d] = -(g[3 + d] + g[6 + d] + g[9 + d]);
-  return ax * g[3] + ay * g[4] + az * g[5];
+// The volume terms (with the guard): each lane's pressure P (corner c feels -P dV/dx_c), its
+// derivative dP/dV, the gradient dV/dx and the volume.
+struct VolumeParts {
+  double g[12][L];
+  double volume[L], pressure[L], dp_dv[L];
+};
+
+inline void volume_parts(const TetBlock& b, const double p[12][L], VolumeParts& o) {
+  constexpr double s = 1.0 / 6.0;
+  for (int l = 0; l < L; ++l) {
+    const double ax = p[3][l] - p[0][l], ay = p[4][l] - p[1][l], az = p[5][l] - p[2][l];
+    const double bx = p[6][l] - p[0][l], by = p[7][l] - p[1][l], bz = p[8][l] - p[2][l];
+    const double cx = p[9][l] - p[0][l], cy = p[10][l] - p[1][l], cz = p[11][l] - p[2][l];
+    // dV/dx1 = (b x c) / 6, dV/dx2 = (c x a) / 6, dV/dx3 = (a x b) / 6, dV/dx0 = -(their sum).
+    const double g1x = s * (by * cz - bz * cy), g1y = s * (bz * cx - bx * cz),
+                 g1z = s * (bx * cy - by * cx);
+    const double g2x = s * (cy * az - cz * ay), g2y = s * (cz * ax - cx * az),
+                 g2z = s * (cx * ay - cy * ax);
+    const double g3x = s * (ay * bz - az * by), g3y = s * (az * bx - ax * bz),
+                 g3z = s * (ax * by - ay * bx);
+    o.g[0][l] = -(g1x + g2x + g3x), o.g[1][l] = -(g1y + g2y + g3y), o.g[2][l] = -(g1z + g2z + g3z);
+    o.g[3][l] = g1x, o.g[4][l] = g1y, o.g[5][l] = g1z;
+    o.g[6][l] = g2x, o.g[7][l] = g2y, o.g[8][l] = g2z;
+    o.g[9][l] = g3x, o.g[10][l] = g3y, o.g[11][l] = g3z;
+    const double v = ax * g1x + ay * g1y + az * g1z;
+    const double k = b.volume_stiffness[l], v0 = b.rest_volume_mm3[l];
+    const double below = kGuardFraction * v0 - v;
+    const bool guarded = below > 0.0;
+    o.volume[l] = v;
+    o.pressure[l] = k * (v - v0) - (guarded ? kGuardStiffness * k * below : 0.0);
+    o.dp_dv[l] = guarded ? (1.0 + kGuardStiffness) * k : k;
+  }
 }
 
-// The corner forces of one tetrahedron at corners p (12 values out). With lin, also its
-// linearisation and its diagonal share (12 values).
-inline void tet_forces_at(const TetRecord& r, const double p[12], double f[12], TetLinear* lin,
-                          double* diag) {
-  double w[6][3], len[6], dl[6];
+// The edges of a block at corners p: unit directions w, lengths and stretches.
+struct EdgeParts {
+  double w[6][3][L];
+  double length[6][L], stretch[6][L];
+};
+
+inline void edge_parts(const TetBlock& b, const double p[12][L], EdgeParts& o) {
   for (int k = 0; k < 6; ++k) {
-    const int a = 3 * kTetEdge[k][0], b = 3 * kTetEdge[k][1];
-    const double ex = p[b] - p[a], ey = p[b + 1] - p[a + 1], ez = p[b + 2] - p[a + 2];
-    len[k] = std::max(std::sqrt(ex * ex + ey * ey + ez * ez), 1e-12);
-    w[k][0] = ex / len[k], w[k][1] = ey / len[k], w[k][2] = ez / len[k];
-    dl[k] = len[k] - r.rest_length_mm[k];
-  }
-  double t[6];  // each edge's tension, mN
-  multiply_q(r.q, dl, t);
-  double g[12], dp_dv;
-  const double pressure = volume_pressure(r, volume_gradient(p, g), dp_dv);
-  for (int v = 0; v < 12; ++v) f[v] = -pressure * g[v];
-  for (int k = 0; k < 6; ++k) {
-    const int a = 3 * kTetEdge[k][0], b = 3 * kTetEdge[k][1];
-    for (int d = 0; d < 3; ++d) {
-      const double fd = t[k] * w[k][d];  // a stretched edge pulls its ends together
-      f[a + d] += fd, f[b + d] -= fd;
+    const double* ax = p[3 * kTetEdge[k][0]];
+    const double* ay = p[3 * kTetEdge[k][0] + 1];
+    const double* az = p[3 * kTetEdge[k][0] + 2];
+    const double* bx = p[3 * kTetEdge[k][1]];
+    const double* by = p[3 * kTetEdge[k][1] + 1];
+    const double* bz = p[3 * kTetEdge[k][1] + 2];
+    for (int l = 0; l < L; ++l) {
+      const double ex = bx[l] - ax[l], ey = by[l] - ay[l], ez = bz[l] - az[l];
+      const double raw = std::sqrt(ex * ex + ey * ey + ez * ez);
+      const double len = raw > 1e-12 ? raw : 1e-12;  // a collapsed edge has no direction
+      const double inv = 1.0 / len;
+      o.w[k][0][l] = ex * inv, o.w[k][1][l] = ey * inv, o.w[k][2][l] = ez * inv;
+      o.length[k][l] = len;
+      o.stretch[k][l] = len - b.rest_length_mm[k][l];
     }
   }
-  if (!lin) return;
-  lin->volume_stiffness = static_cast<float>(dp_dv);
-  for (int v = 0; v < 12; ++v) {
-    lin->grad[v] = static_cast<float>(g[v]);
-    diag[v] = dp_dv * g[v] * g[v];
+}
+
+// t = Q a on every lane (Q symmetric, its upper triangle stored).
+inline void multiply_q(const TetBlock& b, const double a[6][L], double t[6][L]) {
+  for (int k = 0; k < 6; ++k) {
+    double sum[L];
+    for (int l = 0; l < L; ++l) sum[l] = b.q[qi(k, 0)][l] * a[0][l];
+    for (int m = 1; m < 6; ++m)
+      for (int l = 0; l < L; ++l) sum[l] += b.q[qi(k, m)][l] * a[m][l];
+    for (int l = 0; l < L; ++l) t[k][l] = sum[l];
   }
+}
+
+// The corner forces of a block at corners p; with lin, also its linearisation and diagonal.
+void block_forces(const TetBlock& b, const double p[12][L], double f[12][L],
+                  TetBlockLinear* lin, double diag[12][L]) {
+  EdgeParts e;
+  edge_parts(b, p, e);
+  VolumeParts vol;
+  volume_parts(b, p, vol);
+  double t[6][L];  // each edge's tension, mN
+  multiply_q(b, e.stretch, t);
+  for (int v = 0; v < 12; ++v)
+    for (int l = 0; l < L; ++l) f[v][l] = -vol.pressure[l] * vol.g[v][l];
+  for (int k = 0; k < 6; ++k)
+    for (int d = 0; d < 3; ++d) {
+      double* fa = f[3 * kTetEdge[k][0] + d];
+      double* fb = f[3 * kTetEdge[k][1] + d];
+      for (int l = 0; l < L; ++l) {
+        const double fd = t[k][l] * e.w[k][d][l];  // a stretched edge pulls its ends together
+        fa[l] += fd, fb[l] -= fd;
+      }
+    }
+  if (!lin) return;
+  for (int l = 0; l < L; ++l) lin->volume_stiffness[l] = static_cast<float>(vol.dp_dv[l]);
+  for (int v = 0; v < 12; ++v)
+    for (int l = 0; l < L; ++l) {
+      lin->grad[v][l] = static_cast<float>(vol.g[v][l]);
+      diag[v][l] = vol.dp_dv[l] * vol.g[v][l] * vol.g[v][l];
+    }
   for (int k = 0; k < 6; ++k) {
     // The geometric term t/l (I - w w^T), clamped at zero under compression so the matrix stays
     // positive definite (as for the springs).
-    const double geo = std::max(0.0, t[k]) / len[k], qk = r.q[kRow[k]];
-    lin->geo[k] = static_cast<float>(geo);
-    const int a = 3 * kTetEdge[k][0], b = 3 * kTetEdge[k][1];
+    double geo[L];
+    for (int l = 0; l < L; ++l) {
+      geo[l] = (t[k][l] > 0.0 ? t[k][l] : 0.0) / e.length[k][l];
+      lin->geo[k][l] = static_cast<float>(geo[l]);
+    }
+    const float* qk = b.q[kRow[k]];
     for (int d = 0; d < 3; ++d) {
-      lin->w[3 * k + d] = static_cast<float>(w[k][d]);
-      const double kd = qk * w[k][d] * w[k][d] + geo * (1.0 - w[k][d] * w[k][d]);
-      diag[a + d] += kd, diag[b + d] += kd;
+      double* da = diag[3 * kTetEdge[k][0] + d];
+      double* db = diag[3 * kTetEdge[k][1] + d];
+      for (int l = 0; l < L; ++l) {
+        const double w = e.w[k][d][l];
+        lin->w[3 * k + d][l] = static_cast<float>(w);
+        const double kd = qk[l] * w * w + geo[l] * (1.0 - w * w);
+        da[l] += kd, db[l] += kd;
+      }
     }
   }
+}
+
+// (K p) of a block at its corners, K as linearised: per edge k, with d_k = p_b - p_a and
+// a_k = w_k . d_k, the springs and coupling (Q a)_k w_k and the geometric term
+// geo_k (d_k - a_k w_k) act along the edge; the volume terms add dP/dV g (g . p). Their
+// pressure-times-curvature part is left out, as for the volume term between layers: it is
+// indefinite, and the matrix must stay positive definite for CG.
+void block_product(const TetBlock& b, const TetBlockLinear& lin, const double p[12][L],
+                   double y[12][L]) {
+  double along[L];
+  for (int l = 0; l < L; ++l) along[l] = lin.grad[0][l] * p[0][l];
+  for (int v = 1; v < 12; ++v)
+    for (int l = 0; l < L; ++l) along[l] += lin.grad[v][l] * p[v][l];
+  for (int l = 0; l < L; ++l) along[l] *= lin.volume_stiffness[l];
+  for (int v = 0; v < 12; ++v)
+    for (int l = 0; l < L; ++l) y[v][l] = along[l] * lin.grad[v][l];
+  double d[6][3][L], a[6][L];
+  for (int k = 0; k < 6; ++k) {
+    for (int e = 0; e < 3; ++e) {
+      const double* pa = p[3 * kTetEdge[k][0] + e];
+      const double* pb = p[3 * kTetEdge[k][1] + e];
+      for (int l = 0; l < L; ++l) d[k][e][l] = pb[l] - pa[l];
+    }
+    for (int l = 0; l < L; ++l)
+      a[k][l] = lin.w[3 * k][l] * d[k][0][l] + lin.w[3 * k + 1][l] * d[k][1][l] +
+                lin.w[3 * k + 2][l] * d[k][2][l];
+  }
+  double c[6][L];
+  multiply_q(b, a, c);
+  for (int k = 0; k < 6; ++k)
+    for (int e = 0; e < 3; ++e) {
+      double* ya = y[3 * kTetEdge[k][0] + e];
+      double* yb = y[3 * kTetEdge[k][1] + e];
+      const float* w = lin.w[3 * k + e];
+      for (int l = 0; l < L; ++l) {
+        const double kp = c[k][l] * w[l] + lin.geo[k][l] * (d[k][e][l] - a[k][l] * w[l]);
+        ya[l] -= kp, yb[l] += kp;
+      }
+    }
 }
 
 }  // namespace
@@ -137,20 +225,27 @@ void setup_tets(Solver& s) {
           .poisson_ratio = s.material.poisson_ratio},
       s.material.tet_elasticity);
   const Eigen::Index nt = m.tets.size();
-  t.record.resize(static_cast<size_t>(nt));
-  t.linear.assign(static_cast<size_t>(nt), TetLinear{});
+  const size_t blocks = static_cast<size_t>((nt + L - 1) / L);
+  // Unused lanes of the last block: every corner node 0, no stiffness, a unit rest volume (no
+  // force, and no node gathers them).
+  TetBlock empty{};
+  for (int l = 0; l < L; ++l) empty.rest_volume_mm3[l] = 1.0;
+  t.block.assign(blocks, empty);
   for (Eigen::Index q = 0; q < nt; ++q) {
-    TetRecord& r = t.record[static_cast<size_t>(q)];
-    for (int c = 0; c < 4; ++c) r.node[c] = m.tets.T(q, c);
+    TetBlock& b = t.block[static_cast<size_t>(q / L)];
+    const int l = static_cast<int>(q % L);
+    for (int c = 0; c < 4; ++c) b.node[c][l] = m.tets.T(q, c);
     for (int k = 0; k < 6; ++k)
-      r.rest_length_mm[k] = m.springs.rest_length_mm[static_cast<size_t>(t.id.tet_springs(q, k))];
-    for (int v = 0; v < 21; ++v) r.q[v] = static_cast<float>(t.id.q_n_per_m(q, v));
-    r.rest_volume_mm3 = t.id.rest_volume_mm3[static_cast<size_t>(q)];
-    r.volume_stiffness = t.id.volume_modulus_kpa / r.rest_volume_mm3;
+      b.rest_length_mm[k][l] =
+          m.springs.rest_length_mm[static_cast<size_t>(t.id.tet_springs(q, k))];
+    for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(t.id.q_n_per_m(q, v));
+    b.rest_volume_mm3[l] = t.id.rest_volume_mm3[static_cast<size_t>(q)];
+    b.volume_stiffness[l] = t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
   }
-  t.force = TetRows::Zero(nt, 12);
-  t.product = TetRows::Zero(nt, 12);
-  t.diag = TetRows::Zero(nt, 12);
+  t.linear.assign(blocks, TetBlockLinear{});
+  t.force.assign(blocks, TetBlockRows{});
+  t.product.assign(blocks, TetBlockRows{});
+  t.diag.assign(blocks, TetBlockRows{});
   const int32_t n = m.node_count();
   t.corner_offsets.assign(static_cast<size_t>(n) + 1, 0);
   for (Eigen::Index q = 0; q < nt; ++q)
@@ -168,73 +263,50 @@ void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
              [&](int64_t begin, int64_t end, int) {
                for (int64_t q = begin; q < end; ++q) {
-                 const int64_t t = s.active_tets[q];
-                 const TetRecord& r = tt.record[static_cast<size_t>(t)];
-                 double p[12];
-                 load_corners(x, r.node, p);
-                 tet_forces_at(r, p, tt.force.data() + 12 * t,
-                               linearise ? &tt.linear[static_cast<size_t>(t)] : nullptr,
-                               tt.diag.data() + 12 * t);
+                 const auto k = static_cast<size_t>(s.active_tets[q]);
+                 double p[12][L];
+                 load_corners(tt.block[k], x, p);
+                 block_forces(tt.block[k], p, tt.force[k].v, linearise ? &tt.linear[k] : nullptr,
+                              tt.diag[k].v);
                }
              });
 }
 
-// (K p) of one tetrahedron at its corners, K as linearised: per edge k, with d_k = p_b - p_a
-// and a_k = w_k . d_k, the springs and coupling (Q a)_k w_k and the geometric term
-// geo_k (d_k - a_k w_k) pull a towards b and b towards a; the volume term adds
-// (k_v / V0) g (g . p). Its pressure-times-curvature part is left out, as for the volume term
-// between layers: it is indefinite, and the matrix must stay positive definite for CG.
 void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
   TetTerm& tt = s.tets;
   const ConstCols p(pm);
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
              [&](int64_t begin, int64_t end, int) {
                for (int64_t q = begin; q < end; ++q) {
-                 const int64_t t = s.active_tets[q];
-                 const TetRecord& r = tt.record[static_cast<size_t>(t)];
-                 const TetLinear& l = tt.linear[static_cast<size_t>(t)];
-                 double pc[12];
-                 load_corners(p, r.node, pc);
-                 double along = 0.0;
-                 for (int v = 0; v < 12; ++v) along += l.grad[v] * pc[v];
-                 along *= l.volume_stiffness;
-                 double* y = tt.product.data() + 12 * t;
-                 for (int v = 0; v < 12; ++v) y[v] = along * l.grad[v];
-                 double d[6][3], a[6];
-                 for (int k = 0; k < 6; ++k) {
-                   const int ca = 3 * kTetEdge[k][0], cb = 3 * kTetEdge[k][1];
-                   for (int e = 0; e < 3; ++e) d[k][e] = pc[cb + e] - pc[ca + e];
-                   a[k] = l.w[3 * k] * d[k][0] + l.w[3 * k + 1] * d[k][1] + l.w[3 * k + 2] * d[k][2];
-                 }
-                 double c[6];
-                 multiply_q(r.q, a, c);
-                 for (int k = 0; k < 6; ++k) {
-                   const int ca = 3 * kTetEdge[k][0], cb = 3 * kTetEdge[k][1];
-                   for (int e = 0; e < 3; ++e) {
-                     const double kp = c[k] * l.w[3 * k + e] + l.geo[k] * (d[k][e] - a[k] * l.w[3 * k + e]);
-                     y[ca + e] -= kp, y[cb + e] += kp;
-                   }
-                 }
+                 const auto k = static_cast<size_t>(s.active_tets[q]);
+                 double pc[12][L];
+                 load_corners(tt.block[k], p, pc);
+                 block_product(tt.block[k], tt.linear[k], pc, tt.product[k].v);
                }
              });
 }
 
 Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& xm,
                                                int64_t t) {
-  const TetRecord& r = s.tets.record[static_cast<size_t>(t)];
-  double p[12];
-  load_corners(ConstCols(xm), r.node, p);
-  Eigen::Matrix<double, 1, 12> f;
-  tet_forces_at(r, p, f.data(), nullptr, nullptr);
-  return f;
+  const TetBlock& b = s.tets.block[static_cast<size_t>(t / L)];
+  double p[12][L], f[12][L];
+  load_corners(b, ConstCols(xm), p);
+  block_forces(b, p, f, nullptr, nullptr);
+  Eigen::Matrix<double, 1, 12> out;
+  for (int v = 0; v < 12; ++v) out[v] = f[v][t % L];
+  return out;
 }
 
 void tet_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
   if (!s.tets.on) return;
-  for (size_t t = 0; t < s.tets.record.size(); ++t) {
-    const Eigen::Matrix<double, 1, 12> fc = tet_corner_forces(s, xm, static_cast<int64_t>(t));
+  const ConstCols x(xm);
+  for (const TetBlock& b : s.tets.block) {
+    double p[12][L], fc[12][L];
+    load_corners(b, x, p);
+    block_forces(b, p, fc, nullptr, nullptr);
     for (int c = 0; c < 4; ++c)
-      for (int d = 0; d < 3; ++d) f(s.tets.record[t].node[c], d) += fc[3 * c + d];
+      for (int l = 0; l < L; ++l)
+        for (int d = 0; d < 3; ++d) f(b.node[c][l], d) += fc[3 * c + d][l];
   }
 }
 
@@ -242,21 +314,21 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
   if (!s.tets.on) return 0.0;
   const ConstCols x(xm);
   double e = 0.0;
-  for (const TetRecord& r : s.tets.record) {
-    double p[12], g[12], dl[6], t[6];
-    load_corners(x, r.node, p);
-    const double volume = volume_gradient(p, g), dv = volume - r.rest_volume_mm3;
-    e += 0.5 * r.volume_stiffness * dv * dv;  // kPa mm^3 = 1e-6 J
-    const double guard = kGuardFraction * r.rest_volume_mm3 - volume;
-    if (guard > 0.0) e += 0.5 * kGuardStiffness * r.volume_stiffness * guard * guard;
-    for (int k = 0; k < 6; ++k) {
-      const int a = 3 * kTetEdge[k][0], b = 3 * kTetEdge[k][1];
-      dl[k] = std::sqrt((p[b] - p[a]) * (p[b] - p[a]) + (p[b + 1] - p[a + 1]) * (p[b + 1] - p[a + 1]) +
-                        (p[b + 2] - p[a + 2]) * (p[b + 2] - p[a + 2])) -
-              r.rest_length_mm[k];
+  for (const TetBlock& b : s.tets.block) {
+    double p[12][L], t[6][L];
+    load_corners(b, x, p);
+    EdgeParts edges;
+    edge_parts(b, p, edges);
+    VolumeParts vol;
+    volume_parts(b, p, vol);
+    multiply_q(b, edges.stretch, t);
+    for (int l = 0; l < L; ++l) {
+      const double dv = vol.volume[l] - b.rest_volume_mm3[l];
+      const double guard = std::max(0.0, kGuardFraction * b.rest_volume_mm3[l] - vol.volume[l]);
+      // kPa mm^3 = N/m mm^2 = 1e-6 J
+      e += 0.5 * b.volume_stiffness[l] * (dv * dv + kGuardStiffness * guard * guard);
+      for (int k = 0; k < 6; ++k) e += 0.5 * edges.stretch[k][l] * t[k][l];
     }
-    multiply_q(r.q, dl, t);
-    for (int k = 0; k < 6; ++k) e += 0.5 * dl[k] * t[k];  // N/m mm^2 = 1e-6 J
   }
   return e;
 }
@@ -264,25 +336,28 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
 void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
   if (!s.tets.on) return;
   const ConstCols x(s.model->X);
-  for (const TetRecord& r : s.tets.record) {
-    double p[12], g[12];
-    load_corners(x, r.node, p);
-    volume_gradient(p, g);
-    // Volume: row a of k g g^T is bounded by |k g_a|_max sum_b |g_b|_1.
-    double l1 = 0.0;
-    for (double v : g) l1 += std::abs(v);
-    for (int c = 0; c < 4; ++c) {
-      const double gmax =
-          std::max({std::abs(g[3 * c]), std::abs(g[3 * c + 1]), std::abs(g[3 * c + 2])});
-      row[r.node[c]] += r.volume_stiffness * gmax * l1;
-    }
-    // Springs and coupling: corner a's row of J^T |Q| J, each 3x3 block w_k w_m^T bounded by
-    // its largest row sum (<= sqrt 3): 2 sqrt 3 sum over a's edges k and all m of |Q_km|.
-    for (int k = 0; k < 6; ++k) {
-      double qsum = 0.0;
-      for (int m = 0; m < 6; ++m) qsum += std::abs(r.q[qi(k, m)]);
-      for (int end = 0; end < 2; ++end)
-        row[r.node[kTetEdge[k][end]]] += 2.0 * std::sqrt(3.0) * qsum;
+  for (const TetBlock& b : s.tets.block) {
+    double p[12][L];
+    load_corners(b, x, p);
+    VolumeParts vol;
+    volume_parts(b, p, vol);
+    for (int l = 0; l < L; ++l) {
+      // Volume: row a of k g g^T is bounded by |k g_a|_max sum_b |g_b|_1.
+      double l1 = 0.0;
+      for (int v = 0; v < 12; ++v) l1 += std::abs(vol.g[v][l]);
+      for (int c = 0; c < 4; ++c) {
+        const double gmax = std::max({std::abs(vol.g[3 * c][l]), std::abs(vol.g[3 * c + 1][l]),
+                                      std::abs(vol.g[3 * c + 2][l])});
+        row[b.node[c][l]] += b.volume_stiffness[l] * gmax * l1;
+      }
+      // Springs and coupling: corner a's row of J^T |Q| J, each 3x3 block w_k w_m^T bounded
+      // by its largest row sum (<= sqrt 3): 2 sqrt 3 sum over a's edges k and all m of |Q_km|.
+      for (int k = 0; k < 6; ++k) {
+        double qsum = 0.0;
+        for (int m = 0; m < 6; ++m) qsum += std::abs(b.q[qi(k, m)][l]);
+        for (int end = 0; end < 2; ++end)
+          row[b.node[kTetEdge[k][end]][l]] += 2.0 * std::sqrt(3.0) * qsum;
+      }
     }
   }
 }
@@ -291,35 +366,43 @@ void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row
                                 std::vector<Eigen::Triplet<double>>& out) {
   if (!s.tets.on) return;
   const Eigen::MatrixX3d& X = s.model->X;
-  const auto add_block = [&](int32_t na, int32_t nb, const Eigen::Matrix3d& b) {
+  const auto add_block = [&](int32_t na, int32_t nb, const Eigen::Matrix3d& m) {
     const int32_t r = row_of[na], c = row_of[nb];
     if (r < 0 || c < 0) return;
     for (int a = 0; a < 3; ++a)
-      for (int d = 0; d < 3; ++d) out.emplace_back(3 * r + a, 3 * c + d, b(a, d));
+      for (int d = 0; d < 3; ++d) out.emplace_back(3 * r + a, 3 * c + d, m(a, d));
   };
-  for (const TetRecord& r : s.tets.record) {
-    double p[12], g[12];
-    load_corners(ConstCols(X), r.node, p);
-    volume_gradient(p, g);
-    // The volume term at rest: (k_v / V0) g g^T (its curvature part vanishes at V = V0).
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b)
-        add_block(r.node[a], r.node[b],
-                  r.volume_stiffness * Eigen::Vector3d(g[3 * a], g[3 * a + 1], g[3 * a + 2]) *
-                      Eigen::RowVector3d(g[3 * b], g[3 * b + 1], g[3 * b + 2]));
-    // Springs and coupling: J_k is -w_k at corner a, +w_k at corner b; K = J^T Q J (at rest the
-    // edges are at their rest lengths: no geometric term).
-    Eigen::Vector3d w[6];
-    for (int k = 0; k < 6; ++k)
-      w[k] = (X.row(r.node[kTetEdge[k][1]]) - X.row(r.node[kTetEdge[k][0]])).normalized().transpose();
-    for (int k = 0; k < 6; ++k)
-      for (int m = 0; m < 6; ++m)
-        for (int ek = 0; ek < 2; ++ek)
-          for (int em = 0; em < 2; ++em) {
-            const double sign = (ek == 0 ? -1.0 : 1.0) * (em == 0 ? -1.0 : 1.0) * r.q[qi(k, m)];
-            add_block(r.node[kTetEdge[k][ek]], r.node[kTetEdge[m][em]],
-                      sign * w[k] * w[m].transpose());
-          }
+  for (const TetBlock& b : s.tets.block) {
+    double p[12][L];
+    load_corners(b, ConstCols(X), p);
+    VolumeParts vol;
+    volume_parts(b, p, vol);
+    for (int l = 0; l < L; ++l) {
+      if (b.volume_stiffness[l] == 0.0) continue;  // an unused lane
+      // The volume term at rest: (k_v / V0) g g^T (its curvature part vanishes at V = V0).
+      for (int a = 0; a < 4; ++a)
+        for (int c = 0; c < 4; ++c)
+          add_block(b.node[a][l], b.node[c][l],
+                    b.volume_stiffness[l] *
+                        Eigen::Vector3d(vol.g[3 * a][l], vol.g[3 * a + 1][l], vol.g[3 * a + 2][l]) *
+                        Eigen::RowVector3d(vol.g[3 * c][l], vol.g[3 * c + 1][l], vol.g[3 * c + 2][l]));
+      // Springs and coupling: J_k is -w_k at corner a, +w_k at corner b; K = J^T Q J (at rest
+      // the edges are at their rest lengths: no geometric term).
+      Eigen::Vector3d w[6];
+      for (int k = 0; k < 6; ++k)
+        w[k] = (X.row(b.node[kTetEdge[k][1]][l]) - X.row(b.node[kTetEdge[k][0]][l]))
+                   .normalized()
+                   .transpose();
+      for (int k = 0; k < 6; ++k)
+        for (int m = 0; m < 6; ++m)
+          for (int ek = 0; ek < 2; ++ek)
+            for (int em = 0; em < 2; ++em) {
+              const double sign =
+                  (ek == 0 ? -1.0 : 1.0) * (em == 0 ? -1.0 : 1.0) * b.q[qi(k, m)][l];
+              add_block(b.node[kTetEdge[k][ek]][l], b.node[kTetEdge[m][em]][l],
+                        sign * w[k] * w[m].transpose());
+            }
+    }
   }
 }
 
