@@ -165,6 +165,12 @@ int run_run(const RunArgs& a) {
   // 1. The model, and the scene checked against it, before anything is written.
   SceneModel built = make_scene_model(scene, progress);
   const double model_seconds = seconds_since(t_start);
+  if (a.realtime && scene.solver.dt_s != 1.0 / a.rate_hz) {
+    // Real time: the simulated clock follows the wall clock, one step of 1 / rate per tick.
+    log::info("{}: --realtime at {:g} Hz steps dt = {:g} s (the scene says {:g} s)", scene.source,
+              a.rate_hz, 1.0 / a.rate_hz, scene.solver.dt_s);
+    scene.solver.dt_s = 1.0 / a.rate_hz;
+  }
   const io::SceneSetup setup = io::prepare_scene(scene, built.model);
   const std::vector<int32_t>& fixed = setup.fixed;
   const io::MaterialReport& material = setup.material;
@@ -264,6 +270,8 @@ int run_run(const RunArgs& a) {
   int64_t failed_streak = 0;
   bool unstable = false;
   const int64_t first_step = so_far.loop_step;
+  const int64_t steps_at_start = s.steps;  // after a resume: this run's share is what counts
+  const double start_time_s = s.time_s;
   for (int64_t k = first_step; k < scene.solver.max_steps; ++k) {
     const bool settling = s.time_s >= settle_from;
     const auto t0 = Clock::now();
@@ -382,7 +390,15 @@ int run_run(const RunArgs& a) {
   if (a.realtime) {
     sum.realtime = true;
     sum.rate_hz = a.rate_hz;
-    sum.achieved_rate_hz = static_cast<double>(s.steps) / std::max(seconds_since(loop_start), 1e-9);
+    const double wall = std::max(seconds_since(loop_start), 1e-9);
+    sum.achieved_rate_hz = static_cast<double>(s.steps - steps_at_start) / wall;
+    sum.real_time_factor = (s.time_s - start_time_s) / wall;
+    sum.kept_up = sum.real_time_factor >= 0.95;
+    if (!sum.kept_up)
+      log::warn("{}: the machine did not keep up with real time: {:.2f} simulated seconds per "
+                "wall second ({:.0f} of {:.0f} steps/s); a smaller model or a lower --rate keeps "
+                "up",
+                scene.source, sum.real_time_factor, sum.achieved_rate_hz, a.rate_hz);
     if (!lateness_us.empty()) {
       std::sort(lateness_us.begin(), lateness_us.end());
       sum.worst_jitter_us = lateness_us.back();
@@ -423,9 +439,10 @@ int run_run(const RunArgs& a) {
         series.size() > 1 ? "skin.pvd, layer*" : "skin", so_far.frame);
     if (sum.realtime)
       std::cout << fmt::format(
-          "  realtime: {:.0f} steps/s achieved of {:.0f}; step start late by {:.0f} us at worst, "
-          "{:.0f} us at the 99th percentile\n",
-          sum.achieved_rate_hz, sum.rate_hz, sum.worst_jitter_us, sum.p99_jitter_us);
+          "  realtime: {:.0f} steps/s achieved of {:.0f} ({:.2f}x real time{}); step start late by "
+          "{:.0f} us at worst, {:.0f} us at the 99th percentile\n",
+          sum.achieved_rate_hz, sum.rate_hz, sum.real_time_factor,
+          sum.kept_up ? "" : ", BEHIND", sum.worst_jitter_us, sum.p99_jitter_us);
   }
   return 0;
 }

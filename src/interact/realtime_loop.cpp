@@ -1,5 +1,7 @@
 #include "lamina/interact/realtime_loop.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -36,8 +38,22 @@ int32_t deepest_inside(const Model& m, const Eigen::MatrixX3d& x, const ToolTip&
 RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
                            const LoopOptions& options)
     : sim_(std::move(sim)), routing_(routing), options_(options), rate_hz_(options.rate_hz) {
+  follow_the_clock(rate_hz_);
   window_start_s_ = now_s();
+  window_sim_start_s_ = sim_.time_s;
   publish(true);
+}
+
+// Real time: one step is 1 / rate of simulated time, so that the simulated clock follows the
+// wall clock whatever the scene's dt was (the viewer once stepped 10 ms at 1 kHz: ten simulated
+// seconds per second).
+void RealtimeLoop::follow_the_clock(double rate_hz) {
+  if (!options_.real_time || !(rate_hz > 0.0)) return;
+  const double dt = 1.0 / rate_hz;
+  if (sim_.options().dt_s == dt) return;
+  sim::SolverOptions o = sim_.options();
+  o.dt_s = dt;
+  sim::set_parameters(sim_, sim_.material(), o);
 }
 
 RealtimeLoop::~RealtimeLoop() {
@@ -124,6 +140,7 @@ void RealtimeLoop::apply_pending() {
   bool reroute = false;
   if (reset_requested_) {
     sim::reset(sim_);
+    window_sim_start_s_ = sim_.time_s;
     reset_requested_ = false;
     reroute = true;
   }
@@ -133,6 +150,7 @@ void RealtimeLoop::apply_pending() {
     new_params_.reset();
     reroute = true;
   }
+  follow_the_clock(rate_hz_);
   if (new_forces_) {
     forces_ = std::move(*new_forces_);
     new_forces_.reset();
@@ -197,6 +215,10 @@ void RealtimeLoop::one_step() {
   worst_jitter_us_ = std::max(worst_jitter_us_, late_us_);
   if (t1 - window_start_s_ >= 1.0) {
     achieved_rate_hz_ = static_cast<double>(window_steps_) / (t1 - window_start_s_);
+    real_time_factor_ = (sim_.time_s - window_sim_start_s_) / (t1 - window_start_s_);
+    window_sim_start_s_ = sim_.time_s;
+    // Behind: real time was asked for and the simulated clock fell more than 5% behind.
+    keeping_up_ = !(options_.real_time && rate_hz_ > 0.0) || real_time_factor_ >= 0.95;
     mean_step_us_ = window_step_sum_us_ / static_cast<double>(window_steps_);
     published_worst_jitter_ = worst_jitter_us_;
     window_step_sum_us_ = 0.0;
@@ -221,6 +243,9 @@ void RealtimeLoop::publish(bool force) {
   s.steps = sim_.steps;
   s.recoveries = sim_.recoveries;
   s.achieved_rate_hz = achieved_rate_hz_;
+  s.dt_s = sim_.options().dt_s;
+  s.real_time_factor = real_time_factor_;
+  s.keeping_up = keeping_up_;
   s.mean_step_us = mean_step_us_;
   s.worst_jitter_us = published_worst_jitter_;
   s.reaction_mn = reaction;
@@ -232,6 +257,7 @@ void RealtimeLoop::publish(bool force) {
 }
 
 void RealtimeLoop::thread_main() {
+  if (options_.threads > 0) omp_set_num_threads(options_.threads);  // this thread's own setting
   auto next = Clock::now();
   std::unique_lock lock(mutex_);
   while (!stop_requested_) {

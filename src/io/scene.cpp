@@ -690,6 +690,8 @@ std::string run_summary_json(const RunSummary& s) {
   if (s.realtime) {
     j["rate_hz"] = s.rate_hz;
     j["achieved_rate_hz"] = s.achieved_rate_hz;
+    j["real_time_factor"] = s.real_time_factor;
+    j["kept_up"] = s.kept_up;
     j["worst_jitter_us"] = s.worst_jitter_us;
     j["p99_jitter_us"] = s.p99_jitter_us;
   }

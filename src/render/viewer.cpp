@@ -131,6 +131,14 @@ struct Viewer::Impl {
   int64_t frames = 0;
   double max_displacement_mm = 0.0, frame_seconds = 0.0;
   int64_t drags = 0, rebuilds = 0;
+  // What the report says about real time and about the last drag: where the organ dented
+  // most while it was dragged, and how far it was from rest 3 s (wall time) after the release.
+  double min_real_time_factor = 0.0;  // over the run after its first second; 0 = not yet
+  bool behind_seen = false;
+  double drag_peak_mm = 0.0;
+  int32_t drag_peak_node = -1, last_drag_node = -1;
+  double released_at_s = -1.0, settle_3s_mm = -1.0;
+  Clock::time_point start_time = Clock::now();  // show()'s clock, which scripts also follow
   std::vector<std::string> screenshots;
   std::string status;
   std::string window_shot;  // taken after the panels are drawn, before the buffers swap
@@ -147,6 +155,7 @@ struct Viewer::Impl {
     sim::support_nodes(s, vm->support.nodes, vm->support.stiffness_n_per_m);
     interact::LoopOptions lo;
     lo.rate_hz = rate_hz;
+    lo.threads = 1;  // the window draws on the other core (llvmpipe renders on the CPU)
     loop = std::make_unique<interact::RealtimeLoop>(std::move(s), routing, lo);
     pinned.clear();
     for (const auto& [node, force] : vm->pinned) pinned.push_back({node, force});
@@ -284,6 +293,11 @@ struct Viewer::Impl {
           grab_point = snap.x.row(hit.node).transpose();
           drag_force.setZero();
           watched = hit.node;
+          last_drag_node = hit.node;
+          drag_peak_mm = 0.0;
+          drag_peak_node = -1;
+          released_at_s = -1.0;
+          settle_3s_mm = -1.0;
           ++drags;
         } else {
           gesture = Gesture::kOrbit;
@@ -312,6 +326,7 @@ struct Viewer::Impl {
           if (in.shift && drag_force.norm() > 0.0) pinned.push_back({drag_node, drag_force});
           gesture = Gesture::kNone;
           drag_force.setZero();
+          released_at_s = seconds_since(start_time);
         }
         update_forces();
         break;
@@ -385,6 +400,18 @@ struct Viewer::Impl {
     ImGui::Text("rate %.0f Hz (target %s), step %.0f us, jitter %.0f us", snap.achieved_rate_hz,
                 rate_hz > 0 ? fmt::format("{:.0f}", rate_hz).c_str() : "max", snap.mean_step_us,
                 snap.worst_jitter_us);
+    // Real time or not, always in view: a slow machine shows a slow-motion organ, and says so.
+    if (rate_hz <= 0.0)
+      ImGui::TextColored(ImVec4(0.8f, 0.8f, 0.8f, 1), "as fast as possible: %.2fx real time",
+                         snap.real_time_factor);
+    else if (snap.keeping_up)
+      ImGui::TextColored(ImVec4(0.4f, 0.9f, 0.4f, 1), "real time: %.3g ms steps, %.2fx",
+                         1000.0 * snap.dt_s, snap.real_time_factor);
+    else
+      ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.3f, 1),
+                         "BEHIND real time: %.2fx (slow motion); lower the rate or the model "
+                         "size to keep up",
+                         snap.real_time_factor);
     ImGui::Text("max displacement %.2f mm, volume change %+.3f %%", snap.stats.max_displacement_mm,
                 snap.stats.volume_change_pct);
     ImGui::Text("reaction (%.0f, %.0f, %.0f) mN", snap.reaction_mn.x(), snap.reaction_mn.y(),
@@ -595,6 +622,23 @@ struct Viewer::Impl {
                          vm->model.layer_count());
   }
 
+  // The report's record of real time and of the last drag (see their fields).
+  void watch_real_time_and_drag(double t) {
+    if (t > 1.5 && snap.real_time_factor > 0.0 && !paused) {
+      min_real_time_factor = min_real_time_factor > 0.0
+                                 ? std::min(min_real_time_factor, snap.real_time_factor)
+                                 : snap.real_time_factor;
+      behind_seen = behind_seen || !snap.keeping_up;
+    }
+    if (gesture == Gesture::kDrag && snap.x.rows() == vm->model.node_count()) {
+      Eigen::Index node = 0;
+      const double peak = (snap.x - vm->model.X).rowwise().norm().maxCoeff(&node);
+      if (peak > drag_peak_mm) drag_peak_mm = peak, drag_peak_node = static_cast<int32_t>(node);
+    }
+    if (released_at_s >= 0.0 && settle_3s_mm < 0.0 && t >= released_at_s + 3.0)
+      settle_3s_mm = snap.stats.max_displacement_mm;
+  }
+
   void write_report() {
     if (options.report.empty()) return;
     nlohmann::json j;
@@ -603,6 +647,17 @@ struct Viewer::Impl {
     j["sim_steps"] = snap.steps;
     j["sim_time_s"] = snap.time_s;
     j["achieved_rate_hz"] = snap.achieved_rate_hz;
+    j["dt_s"] = snap.dt_s;
+    j["real_time_factor"] = snap.real_time_factor;
+    j["min_real_time_factor"] = min_real_time_factor;
+    j["fell_behind"] = behind_seen;
+    j["drag_node"] = last_drag_node;
+    j["drag_peak_displacement_mm"] = drag_peak_mm;
+    j["drag_peak_node"] = drag_peak_node;
+    if (drag_peak_node >= 0 && last_drag_node >= 0)
+      j["drag_peak_distance_from_drag_mm"] =
+          (vm->model.X.row(drag_peak_node) - vm->model.X.row(last_drag_node)).norm();
+    j["max_displacement_3s_after_release_mm"] = settle_3s_mm;
     j["max_displacement_mm"] = max_displacement_mm;
     j["final_max_displacement_mm"] = snap.stats.max_displacement_mm;
     j["final_volume_change_pct"] = snap.stats.volume_change_pct;
@@ -719,6 +774,7 @@ int Viewer::show() {
   v.camera = fit_camera(v.vm->model);
   v.start_loop();
   const auto t0 = Clock::now();
+  v.start_time = t0;
   Input prev;
   bool s_was_down = false;
   while (!glfwWindowShouldClose(v.window) && !v.quit) {
@@ -733,6 +789,7 @@ int Viewer::show() {
     }
     v.loop->latest(v.snap);
     v.max_displacement_mm = std::max(v.max_displacement_mm, v.snap.stats.max_displacement_mm);
+    v.watch_real_time_and_drag(t);
     v.record_plots();
     v.adopt_rebuilt();
 

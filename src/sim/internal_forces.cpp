@@ -62,17 +62,18 @@ Eigen::Vector3d internal_force_on(const Simulation& sim, const std::vector<int32
       sum += Eigen::Vector3d(fx, fy, fz);
     }
   }
-  if (s.tets.on && !nodes.empty()) {
-    // Each tetrahedron at a listed node, evaluated whole: a few dozen per node.
+  if (s.tets.on) {
+    // The tetrahedra's forces of the last step (at its start): one gather per node instead of
+    // evaluating each incident tetrahedron again, which a haptic loop asking every few steps
+    // could not afford. Before any step, at rest, they are zero.
     std::vector<int32_t> sorted(nodes);
     std::sort(sorted.begin(), sorted.end());
     sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
-    for (int32_t i : sorted)
-      for (int32_t a = s.tets.corner_offsets[i]; a < s.tets.corner_offsets[i + 1]; ++a) {
-        const int32_t t = s.tets.corners[a] / 4, c = s.tets.corners[a] % 4;
-        const Eigen::Matrix<double, 1, 12> row = tet_corner_forces(s, x, t);
-        sum += row.segment<3>(3 * c).transpose();
-      }
+    for (int32_t i : sorted) {
+      double fx = 0.0, fy = 0.0, fz = 0.0;
+      gather_tets(s, s.tets.force, i, fx, fy, fz);
+      sum += Eigen::Vector3d(fx, fy, fz);
+    }
   }
   return sum;
 }

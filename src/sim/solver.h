@@ -113,11 +113,13 @@ struct alignas(64) TetBlockLinear {
   float volume_stiffness[kTetLanes];  ///< d(pressure)/dV (the guard's included when it acts)
 };
 
-/// Twelve values per tetrahedron of a block (a vector on its corners: force, product, diagonal):
-/// corner c, axis d of lane l at v[3 c + d][l].
-struct alignas(64) TetBlockRows {
-  double v[12][kTetLanes];
-};
+/// Twelve values per tetrahedron (a vector on its corners: force, product, diagonal), tetrahedron
+/// by tetrahedron: corner c, axis d of tetrahedron t at [12 t + 3 c + d]. A block's pass writes
+/// its eight rows together; a node gathers each of its corners from one cache line (a block's
+/// lane-major layout would cost it three). Single precision: the node passes' gathers are the
+/// step's largest memory traffic, and a force rounded to 1e-7 of itself is far below what the
+/// solve resolves (its tolerance is 1e-3); zero at rest stays exactly zero.
+using TetRows = std::vector<float>;
 
 /// The tetrahedra (tet_term.cpp): each carries its share of its six edge springs, their
 /// coupling, and resists a change of its signed volume (docs/physics.md). When on, the springs
@@ -127,9 +129,9 @@ struct TetTerm {
   model::TetIdentification id;
   std::vector<TetBlock> block;          ///< tetrahedron t is lane t % 8 of block t / 8
   std::vector<TetBlockLinear> linear;   ///< per block (implicit Euler)
-  std::vector<TetBlockRows> force;      ///< per block: each corner's force, mN
-  std::vector<TetBlockRows> product;    ///< per block: each corner's share of (K p) (CG)
-  std::vector<TetBlockRows> diag;       ///< per block: each corner's share of K's diagonal, N/m
+  TetRows force;    ///< each corner's force, mN
+  TetRows product;  ///< each corner's share of (K p) (implicit Euler's CG)
+  TetRows diag;     ///< each corner's share of K's diagonal, N/m (Jacobi)
   // Each node's tetrahedron corners (CSR of t * 4 + c), for the node pass to gather.
   std::vector<int32_t> corner_offsets;  ///< #nodes + 1
   std::vector<int32_t> corners;
@@ -277,15 +279,18 @@ double spring_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);  ///< mN mm
 // --- The tetrahedra (tet_term.cpp). ---
 void setup_tets(Solver& s);
 /// Each active tetrahedron's corner forces at x into tets.force. With `linearise`, also what
-/// implicit Euler's products need (tets.linear) and its Jacobi diagonal (tets.diag).
-void tet_pass(Solver& s, const Eigen::MatrixX3d& x, bool linearise, int threads);
+/// implicit Euler's products need (tets.linear) and its Jacobi diagonal (tets.diag), and with
+/// `product_of` (linearise only) the first product K p into tets.product in the same sweep,
+/// while the block's constants are in cache (tet_product_pass()).
+void tet_pass(Solver& s, const Eigen::MatrixX3d& x, bool linearise, int threads,
+              const Eigen::MatrixX3d* product_of = nullptr);
 /// Each active tetrahedron's share of (K p) at its corners into tets.product (springs and
 /// coupling along the linearised directions, clamped geometric term, the volume term's
 /// Gauss-Newton part).
 void tet_product_pass(Solver& s, const Eigen::MatrixX3d& p, int threads);
-/// Node i's corners of a per-block buffer (tets.force, product or diag) added to f (below).
-inline void gather_tets(const Solver& s, const std::vector<TetBlockRows>& rows, int32_t i,
-                        double& fx, double& fy, double& fz);
+/// Node i's corners of a per-tetrahedron buffer (tets.force, product or diag) added to f (below).
+inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
+                        double& fz);
 double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
 /// One tetrahedron's corner forces at any x (not the hot path).
 Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& x,
@@ -373,16 +378,14 @@ inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, d
   fx += ax + bx, fy += ay + by, fz += az + bz;
 }
 
-inline void gather_tets(const Solver& s, const std::vector<TetBlockRows>& rows, int32_t i,
-                        double& fx, double& fy, double& fz) {
+inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
+                        double& fz) {
   const TetTerm& t = s.tets;
-  const TetBlockRows* __restrict data = rows.data();
+  const float* __restrict data = rows.data();
   double ax = 0.0, ay = 0.0, az = 0.0;
   for (int32_t a = t.corner_offsets[i]; a < t.corner_offsets[i + 1]; ++a) {
-    const int32_t slot = t.corners[a], tet = slot >> 2, c = slot & 3;
-    const double(&v)[12][kTetLanes] = data[tet / kTetLanes].v;
-    const int lane = tet % kTetLanes;
-    ax += v[3 * c][lane], ay += v[3 * c + 1][lane], az += v[3 * c + 2][lane];
+    const float* f = data + 3 * static_cast<int64_t>(t.corners[a]);  // 12 t + 3 c
+    ax += f[0], ay += f[1], az += f[2];
   }
   fx += ax, fy += ay, fz += az;
 }

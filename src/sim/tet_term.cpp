@@ -36,137 +36,137 @@ constexpr double kGuardStiffness = 20.0;  // k_g / k_v
 constexpr int kRow[6] = {0, 6, 11, 15, 18, 20};
 constexpr int qi(int k, int m) { return k <= m ? kRow[k] + m - k : kRow[m] + k - m; }
 
-// Every helper below keeps the loop over a block's lanes innermost and free of branches, so
-// that the compiler turns it into one vector instruction per statement (checked with
-// -fopt-info-vec: docs/architecture.md).
+// The eight lanes of a block as one value: GCC's and Clang's vector extensions, which compile to
+// one AVX-512 instruction per operation here (two AVX2 ones elsewhere). Written out rather than
+// left to the auto-vectoriser, which vectorised these loops only in part (-fopt-info-vec:
+// docs/architecture.md has the measurement).
+typedef double Lanes __attribute__((vector_size(8 * L)));
+typedef float LanesF __attribute__((vector_size(4 * L)));
 
-// The corners' values (positions, or a CG direction) of a block, corner c and axis d at
-// p[3 c + d][lane].
-inline void load_corners(const TetBlock& b, const ConstCols& x, double p[12][L]) {
+inline Lanes lanes(const double* p) {
+  Lanes v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+inline Lanes lanes(const float* p) {
+  LanesF v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return __builtin_convertvector(v, Lanes);
+}
+inline void store(Lanes v, double* p) { __builtin_memcpy(p, &v, sizeof v); }
+inline void store(Lanes v, float* p) {
+  const LanesF f = __builtin_convertvector(v, LanesF);
+  __builtin_memcpy(p, &f, sizeof f);
+}
+inline Lanes splat(double x) { return Lanes{} + x; }
+inline Lanes sqrt(Lanes v) {
+  Lanes r;
+  for (int l = 0; l < L; ++l) r[l] = std::sqrt(v[l]);  // one vsqrtpd
+  return r;
+}
+inline Lanes max(Lanes a, Lanes b) { return a > b ? a : b; }
+
+// The corners' values (positions, or a CG direction) of a block: corner c, axis d at p[3 c + d].
+inline void load_corners(const TetBlock& b, const ConstCols& x, Lanes p[12]) {
   for (int c = 0; c < 4; ++c) {
-    const int32_t* node = b.node[c];
-    for (int l = 0; l < L; ++l) p[3 * c][l] = x.x[node[l]];
-    for (int l = 0; l < L; ++l) p[3 * c + 1][l] = x.y[node[l]];
-    for (int l = 0; l < L; ++l) p[3 * c + 2][l] = x.z[node[l]];
+    const int32_t* n = b.node[c];
+    for (int d = 0; d < 3; ++d) {
+      const double* col = d == 0 ? x.x : d == 1 ? x.y : x.z;
+      Lanes v;
+      for (int l = 0; l < L; ++l) v[l] = col[n[l]];
+      p[3 * c + d] = v;
+    }
   }
 }
 
 // The volume terms (with the guard): each lane's pressure P (corner c feels -P dV/dx_c), its
 // derivative dP/dV, the gradient dV/dx and the volume.
 struct VolumeParts {
-  double g[12][L];
-  double volume[L], pressure[L], dp_dv[L];
+  Lanes g[12];
+  Lanes volume, pressure, dp_dv;
 };
 
-inline void volume_parts(const TetBlock& b, const double p[12][L], VolumeParts& o) {
-  constexpr double s = 1.0 / 6.0;
-  for (int l = 0; l < L; ++l) {
-    const double ax = p[3][l] - p[0][l], ay = p[4][l] - p[1][l], az = p[5][l] - p[2][l];
-    const double bx = p[6][l] - p[0][l], by = p[7][l] - p[1][l], bz = p[8][l] - p[2][l];
-    const double cx = p[9][l] - p[0][l], cy = p[10][l] - p[1][l], cz = p[11][l] - p[2][l];
-    // dV/dx1 = (b x c) / 6, dV/dx2 = (c x a) / 6, dV/dx3 = (a x b) / 6, dV/dx0 = -(their sum).
-    const double g1x = s * (by * cz - bz * cy), g1y = s * (bz * cx - bx * cz),
-                 g1z = s * (bx * cy - by * cx);
-    const double g2x = s * (cy * az - cz * ay), g2y = s * (cz * ax - cx * az),
-                 g2z = s * (cx * ay - cy * ax);
-    const double g3x = s * (ay * bz - az * by), g3y = s * (az * bx - ax * bz),
-                 g3z = s * (ax * by - ay * bx);
-    o.g[0][l] = -(g1x + g2x + g3x), o.g[1][l] = -(g1y + g2y + g3y), o.g[2][l] = -(g1z + g2z + g3z);
-    o.g[3][l] = g1x, o.g[4][l] = g1y, o.g[5][l] = g1z;
-    o.g[6][l] = g2x, o.g[7][l] = g2y, o.g[8][l] = g2z;
-    o.g[9][l] = g3x, o.g[10][l] = g3y, o.g[11][l] = g3z;
-    const double v = ax * g1x + ay * g1y + az * g1z;
-    const double k = b.volume_stiffness[l], v0 = b.rest_volume_mm3[l];
-    const double below = kGuardFraction * v0 - v;
-    const bool guarded = below > 0.0;
-    o.volume[l] = v;
-    o.pressure[l] = k * (v - v0) - (guarded ? kGuardStiffness * k * below : 0.0);
-    o.dp_dv[l] = guarded ? (1.0 + kGuardStiffness) * k : k;
-  }
+inline void volume_parts(const TetBlock& b, const Lanes p[12], VolumeParts& o) {
+  const Lanes ax = p[3] - p[0], ay = p[4] - p[1], az = p[5] - p[2];
+  const Lanes bx = p[6] - p[0], by = p[7] - p[1], bz = p[8] - p[2];
+  const Lanes cx = p[9] - p[0], cy = p[10] - p[1], cz = p[11] - p[2];
+  // dV/dx1 = (b x c) / 6, dV/dx2 = (c x a) / 6, dV/dx3 = (a x b) / 6, dV/dx0 = -(their sum).
+  const double s = 1.0 / 6.0;
+  o.g[3] = s * (by * cz - bz * cy), o.g[4] = s * (bz * cx - bx * cz), o.g[5] = s * (bx * cy - by * cx);
+  o.g[6] = s * (cy * az - cz * ay), o.g[7] = s * (cz * ax - cx * az), o.g[8] = s * (cx * ay - cy * ax);
+  o.g[9] = s * (ay * bz - az * by), o.g[10] = s * (az * bx - ax * bz), o.g[11] = s * (ax * by - ay * bx);
+  for (int d = 0; d < 3; ++d) o.g[d] = -(o.g[3 + d] + o.g[6 + d] + o.g[9 + d]);
+  o.volume = ax * o.g[3] + ay * o.g[4] + az * o.g[5];
+  const Lanes k = lanes(b.volume_stiffness), v0 = lanes(b.rest_volume_mm3);
+  const Lanes below = max(kGuardFraction * v0 - o.volume, Lanes{});
+  o.pressure = k * (o.volume - v0) - kGuardStiffness * k * below;
+  o.dp_dv = below > 0.0 ? (1.0 + kGuardStiffness) * k : k;
 }
 
 // The edges of a block at corners p: unit directions w, lengths and stretches.
 struct EdgeParts {
-  double w[6][3][L];
-  double length[6][L], stretch[6][L];
+  Lanes w[6][3];
+  Lanes length[6], stretch[6];
 };
 
-inline void edge_parts(const TetBlock& b, const double p[12][L], EdgeParts& o) {
+inline void edge_parts(const TetBlock& b, const Lanes p[12], EdgeParts& o) {
   for (int k = 0; k < 6; ++k) {
-    const double* ax = p[3 * kTetEdge[k][0]];
-    const double* ay = p[3 * kTetEdge[k][0] + 1];
-    const double* az = p[3 * kTetEdge[k][0] + 2];
-    const double* bx = p[3 * kTetEdge[k][1]];
-    const double* by = p[3 * kTetEdge[k][1] + 1];
-    const double* bz = p[3 * kTetEdge[k][1] + 2];
-    for (int l = 0; l < L; ++l) {
-      const double ex = bx[l] - ax[l], ey = by[l] - ay[l], ez = bz[l] - az[l];
-      const double raw = std::sqrt(ex * ex + ey * ey + ez * ez);
-      const double len = raw > 1e-12 ? raw : 1e-12;  // a collapsed edge has no direction
-      const double inv = 1.0 / len;
-      o.w[k][0][l] = ex * inv, o.w[k][1][l] = ey * inv, o.w[k][2][l] = ez * inv;
-      o.length[k][l] = len;
-      o.stretch[k][l] = len - b.rest_length_mm[k][l];
-    }
+    const int a = 3 * kTetEdge[k][0], c = 3 * kTetEdge[k][1];
+    const Lanes ex = p[c] - p[a], ey = p[c + 1] - p[a + 1], ez = p[c + 2] - p[a + 2];
+    const Lanes len = max(sqrt(ex * ex + ey * ey + ez * ez), splat(1e-12));  // collapsed: no direction
+    const Lanes inv = 1.0 / len;
+    o.w[k][0] = ex * inv, o.w[k][1] = ey * inv, o.w[k][2] = ez * inv;
+    o.length[k] = len;
+    o.stretch[k] = len - lanes(b.rest_length_mm[k]);
   }
 }
 
 // t = Q a on every lane (Q symmetric, its upper triangle stored).
-inline void multiply_q(const TetBlock& b, const double a[6][L], double t[6][L]) {
+inline void multiply_q(const TetBlock& b, const Lanes a[6], Lanes t[6]) {
+  Lanes q[21];
+  for (int v = 0; v < 21; ++v) q[v] = lanes(b.q[v]);
   for (int k = 0; k < 6; ++k) {
-    double sum[L];
-    for (int l = 0; l < L; ++l) sum[l] = b.q[qi(k, 0)][l] * a[0][l];
-    for (int m = 1; m < 6; ++m)
-      for (int l = 0; l < L; ++l) sum[l] += b.q[qi(k, m)][l] * a[m][l];
-    for (int l = 0; l < L; ++l) t[k][l] = sum[l];
+    Lanes sum = q[qi(k, 0)] * a[0];
+    for (int m = 1; m < 6; ++m) sum += q[qi(k, m)] * a[m];
+    t[k] = sum;
   }
 }
 
 // The corner forces of a block at corners p; with lin, also its linearisation and diagonal.
-void block_forces(const TetBlock& b, const double p[12][L], double f[12][L],
-                  TetBlockLinear* lin, double diag[12][L]) {
+void block_forces(const TetBlock& b, const Lanes p[12], Lanes f[12], TetBlockLinear* lin,
+                  Lanes diag[12]) {
   EdgeParts e;
   edge_parts(b, p, e);
   VolumeParts vol;
   volume_parts(b, p, vol);
-  double t[6][L];  // each edge's tension, mN
+  Lanes t[6];  // each edge's tension, mN
   multiply_q(b, e.stretch, t);
-  for (int v = 0; v < 12; ++v)
-    for (int l = 0; l < L; ++l) f[v][l] = -vol.pressure[l] * vol.g[v][l];
-  for (int k = 0; k < 6; ++k)
+  for (int v = 0; v < 12; ++v) f[v] = -vol.pressure * vol.g[v];
+  for (int k = 0; k < 6; ++k) {
+    const int a = 3 * kTetEdge[k][0], c = 3 * kTetEdge[k][1];
     for (int d = 0; d < 3; ++d) {
-      double* fa = f[3 * kTetEdge[k][0] + d];
-      double* fb = f[3 * kTetEdge[k][1] + d];
-      for (int l = 0; l < L; ++l) {
-        const double fd = t[k][l] * e.w[k][d][l];  // a stretched edge pulls its ends together
-        fa[l] += fd, fb[l] -= fd;
-      }
+      const Lanes fd = t[k] * e.w[k][d];  // a stretched edge pulls its ends together
+      f[a + d] += fd, f[c + d] -= fd;
     }
+  }
   if (!lin) return;
-  for (int l = 0; l < L; ++l) lin->volume_stiffness[l] = static_cast<float>(vol.dp_dv[l]);
-  for (int v = 0; v < 12; ++v)
-    for (int l = 0; l < L; ++l) {
-      lin->grad[v][l] = static_cast<float>(vol.g[v][l]);
-      diag[v][l] = vol.dp_dv[l] * vol.g[v][l] * vol.g[v][l];
-    }
+  store(vol.dp_dv, lin->volume_stiffness);
+  for (int v = 0; v < 12; ++v) {
+    store(vol.g[v], lin->grad[v]);
+    diag[v] = vol.dp_dv * vol.g[v] * vol.g[v];
+  }
   for (int k = 0; k < 6; ++k) {
     // The geometric term t/l (I - w w^T), clamped at zero under compression so the matrix stays
     // positive definite (as for the springs).
-    double geo[L];
-    for (int l = 0; l < L; ++l) {
-      geo[l] = (t[k][l] > 0.0 ? t[k][l] : 0.0) / e.length[k][l];
-      lin->geo[k][l] = static_cast<float>(geo[l]);
-    }
-    const float* qk = b.q[kRow[k]];
+    const Lanes geo = max(t[k], Lanes{}) / e.length[k];
+    store(geo, lin->geo[k]);
+    const Lanes qk = lanes(b.q[kRow[k]]);
+    const int a = 3 * kTetEdge[k][0], c = 3 * kTetEdge[k][1];
     for (int d = 0; d < 3; ++d) {
-      double* da = diag[3 * kTetEdge[k][0] + d];
-      double* db = diag[3 * kTetEdge[k][1] + d];
-      for (int l = 0; l < L; ++l) {
-        const double w = e.w[k][d][l];
-        lin->w[3 * k + d][l] = static_cast<float>(w);
-        const double kd = qk[l] * w * w + geo[l] * (1.0 - w * w);
-        da[l] += kd, db[l] += kd;
-      }
+      const Lanes w = e.w[k][d];
+      store(w, lin->w[3 * k + d]);
+      const Lanes kd = qk * w * w + geo * (1.0 - w * w);
+      diag[a + d] += kd, diag[c + d] += kd;
     }
   }
 }
@@ -176,38 +176,42 @@ void block_forces(const TetBlock& b, const double p[12][L], double f[12][L],
 // geo_k (d_k - a_k w_k) act along the edge; the volume terms add dP/dV g (g . p). Their
 // pressure-times-curvature part is left out, as for the volume term between layers: it is
 // indefinite, and the matrix must stay positive definite for CG.
-void block_product(const TetBlock& b, const TetBlockLinear& lin, const double p[12][L],
-                   double y[12][L]) {
-  double along[L];
-  for (int l = 0; l < L; ++l) along[l] = lin.grad[0][l] * p[0][l];
-  for (int v = 1; v < 12; ++v)
-    for (int l = 0; l < L; ++l) along[l] += lin.grad[v][l] * p[v][l];
-  for (int l = 0; l < L; ++l) along[l] *= lin.volume_stiffness[l];
-  for (int v = 0; v < 12; ++v)
-    for (int l = 0; l < L; ++l) y[v][l] = along[l] * lin.grad[v][l];
-  double d[6][3][L], a[6][L];
-  for (int k = 0; k < 6; ++k) {
-    for (int e = 0; e < 3; ++e) {
-      const double* pa = p[3 * kTetEdge[k][0] + e];
-      const double* pb = p[3 * kTetEdge[k][1] + e];
-      for (int l = 0; l < L; ++l) d[k][e][l] = pb[l] - pa[l];
-    }
-    for (int l = 0; l < L; ++l)
-      a[k][l] = lin.w[3 * k][l] * d[k][0][l] + lin.w[3 * k + 1][l] * d[k][1][l] +
-                lin.w[3 * k + 2][l] * d[k][2][l];
+void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[12],
+                   Lanes y[12]) {
+  Lanes g[12];
+  Lanes along = Lanes{};
+  for (int v = 0; v < 12; ++v) {
+    g[v] = lanes(lin.grad[v]);
+    along += g[v] * p[v];
   }
-  double c[6][L];
-  multiply_q(b, a, c);
-  for (int k = 0; k < 6; ++k)
+  along *= lanes(lin.volume_stiffness);
+  for (int v = 0; v < 12; ++v) y[v] = along * g[v];
+  Lanes d[6][3], w[6][3], a[6];
+  for (int k = 0; k < 6; ++k) {
+    const int ca = 3 * kTetEdge[k][0], cb = 3 * kTetEdge[k][1];
+    a[k] = Lanes{};
     for (int e = 0; e < 3; ++e) {
-      double* ya = y[3 * kTetEdge[k][0] + e];
-      double* yb = y[3 * kTetEdge[k][1] + e];
-      const float* w = lin.w[3 * k + e];
-      for (int l = 0; l < L; ++l) {
-        const double kp = c[k][l] * w[l] + lin.geo[k][l] * (d[k][e][l] - a[k][l] * w[l]);
-        ya[l] -= kp, yb[l] += kp;
-      }
+      d[k][e] = p[cb + e] - p[ca + e];
+      w[k][e] = lanes(lin.w[3 * k + e]);
+      a[k] += w[k][e] * d[k][e];
     }
+  }
+  Lanes c[6];
+  multiply_q(b, a, c);
+  for (int k = 0; k < 6; ++k) {
+    const int ca = 3 * kTetEdge[k][0], cb = 3 * kTetEdge[k][1];
+    const Lanes geo = lanes(lin.geo[k]);
+    for (int e = 0; e < 3; ++e) {
+      const Lanes kp = c[k] * w[k][e] + geo * (d[k][e] - a[k] * w[k][e]);
+      y[ca + e] -= kp, y[cb + e] += kp;
+    }
+  }
+}
+
+// A block's lane-major values into the eight tetrahedra's rows (12 t + 3 c + d).
+inline void store_rows(const Lanes v[12], float* rows) {
+  for (int l = 0; l < L; ++l)
+    for (int k = 0; k < 12; ++k) rows[12 * l + k] = static_cast<float>(v[k][l]);
 }
 
 }  // namespace
@@ -243,9 +247,8 @@ void setup_tets(Solver& s) {
     b.volume_stiffness[l] = t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
   }
   t.linear.assign(blocks, TetBlockLinear{});
-  t.force.assign(blocks, TetBlockRows{});
-  t.product.assign(blocks, TetBlockRows{});
-  t.diag.assign(blocks, TetBlockRows{});
+  // Rows for every lane of every block (the unused lanes' are written and never read).
+  for (TetRows* rows : {&t.force, &t.product, &t.diag}) rows->assign(12 * L * blocks, 0.0f);
   const int32_t n = m.node_count();
   t.corner_offsets.assign(static_cast<size_t>(n) + 1, 0);
   for (Eigen::Index q = 0; q < nt; ++q)
@@ -257,17 +260,25 @@ void setup_tets(Solver& s) {
     for (int c = 0; c < 4; ++c) t.corners[fill[m.tets.T(q, c)]++] = static_cast<int32_t>(4 * q + c);
 }
 
-void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads) {
+void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads,
+              const Eigen::MatrixX3d* product_of) {
   TetTerm& tt = s.tets;
   const ConstCols x(xm);
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
              [&](int64_t begin, int64_t end, int) {
                for (int64_t q = begin; q < end; ++q) {
                  const auto k = static_cast<size_t>(s.active_tets[q]);
-                 double p[12][L];
+                 Lanes p[12], f[12], d[12];
                  load_corners(tt.block[k], x, p);
-                 block_forces(tt.block[k], p, tt.force[k].v, linearise ? &tt.linear[k] : nullptr,
-                              tt.diag[k].v);
+                 block_forces(tt.block[k], p, f, linearise ? &tt.linear[k] : nullptr, d);
+                 store_rows(f, tt.force.data() + 12 * L * k);
+                 if (!linearise) continue;
+                 store_rows(d, tt.diag.data() + 12 * L * k);
+                 if (!product_of) continue;
+                 // The first CG product while the block's constants are in cache.
+                 load_corners(tt.block[k], ConstCols(*product_of), p);
+                 block_product(tt.block[k], tt.linear[k], p, f);
+                 store_rows(f, tt.product.data() + 12 * L * k);
                }
              });
 }
@@ -279,9 +290,10 @@ void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
              [&](int64_t begin, int64_t end, int) {
                for (int64_t q = begin; q < end; ++q) {
                  const auto k = static_cast<size_t>(s.active_tets[q]);
-                 double pc[12][L];
+                 Lanes pc[12], y[12];
                  load_corners(tt.block[k], p, pc);
-                 block_product(tt.block[k], tt.linear[k], pc, tt.product[k].v);
+                 block_product(tt.block[k], tt.linear[k], pc, y);
+                 store_rows(y, tt.product.data() + 12 * L * k);
                }
              });
 }
@@ -289,7 +301,7 @@ void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
 Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& xm,
                                                int64_t t) {
   const TetBlock& b = s.tets.block[static_cast<size_t>(t / L)];
-  double p[12][L], f[12][L];
+  Lanes p[12], f[12];
   load_corners(b, ConstCols(xm), p);
   block_forces(b, p, f, nullptr, nullptr);
   Eigen::Matrix<double, 1, 12> out;
@@ -301,7 +313,7 @@ void tet_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f
   if (!s.tets.on) return;
   const ConstCols x(xm);
   for (const TetBlock& b : s.tets.block) {
-    double p[12][L], fc[12][L];
+    Lanes p[12], fc[12];
     load_corners(b, x, p);
     block_forces(b, p, fc, nullptr, nullptr);
     for (int c = 0; c < 4; ++c)
@@ -315,7 +327,7 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
   const ConstCols x(xm);
   double e = 0.0;
   for (const TetBlock& b : s.tets.block) {
-    double p[12][L], t[6][L];
+    Lanes p[12], t[6];
     load_corners(b, x, p);
     EdgeParts edges;
     edge_parts(b, p, edges);
@@ -337,7 +349,7 @@ void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
   if (!s.tets.on) return;
   const ConstCols x(s.model->X);
   for (const TetBlock& b : s.tets.block) {
-    double p[12][L];
+    Lanes p[12];
     load_corners(b, x, p);
     VolumeParts vol;
     volume_parts(b, p, vol);
@@ -373,7 +385,7 @@ void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row
       for (int d = 0; d < 3; ++d) out.emplace_back(3 * r + a, 3 * c + d, m(a, d));
   };
   for (const TetBlock& b : s.tets.block) {
-    double p[12][L];
+    Lanes p[12];
     load_corners(b, ConstCols(X), p);
     VolumeParts vol;
     volume_parts(b, p, vol);

@@ -195,6 +195,9 @@ struct RunSummary {
   bool realtime = false;
   double rate_hz = 0.0;           ///< the target rate (realtime only)
   double achieved_rate_hz = 0.0;  ///< steps / wall time of the stepping loop (realtime only)
+  /// Simulated seconds per wall second of the stepping loop (realtime only): 1 in real time.
+  double real_time_factor = 0.0;
+  bool kept_up = true;  ///< realtime: real_time_factor >= 0.95 (else a warning says so)
   double worst_jitter_us = 0.0;   ///< latest start of a step after its tick (realtime only)
   double p99_jitter_us = 0.0;     ///< 99th percentile of that lateness (realtime only)
   double max_reaction_n = 0.0;    ///< largest |reaction force| of the tissue on the tools, N

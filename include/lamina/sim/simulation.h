@@ -275,8 +275,10 @@ void spring_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d&
 /// volume, the volume term between layers, support and anchors (not damping, gravity or tools).
 void internal_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
 
-/// The sum of the internal forces (internal_forces()) on the listed nodes at the current
-/// positions, mN: what the tissue pushes back with where it is loaded.
+/// The sum of the internal forces (internal_forces()) on the listed nodes, mN: what the tissue
+/// pushes back with where it is loaded. Springs, support and anchors at the current positions;
+/// the tetrahedra's as the last step computed them (at its start: one step old, which a haptic
+/// loop reading it every few steps does not notice, and exact at rest).
 Eigen::Vector3d internal_force_on(const Simulation& sim, const std::vector<int32_t>& nodes);
 
 /// The implicit system's product y = (M + h gamma + h^2 K) p on the movable nodes (rows of other
