@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
+#include <limits>
+#include <string>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -96,6 +99,59 @@ double time_steps(const Model& m, const std::vector<int32_t>& fixed, const inter
   return median(us);
 }
 
+// The physical liver (the default scene: tetrahedra, E and nu, support, implicit Euler) at
+// a skin size and dt, under the scene's poke held: median microseconds per step over batches.
+struct PhysicalResult {
+  std::string name;
+  int32_t nodes = 0, skin_vertices = 0;
+  int64_t tets = 0;
+  double dt_s = 0.0, build_s = 0.0, us_per_step = 0.0, cg_iterations = 0.0;
+  double target_steps_per_second = 0.0;
+};
+
+PhysicalResult time_physical(const std::string& name, int32_t skin_vertices, double dt_s,
+                             int steps, int batches, double target) {
+  PhysicalResult r;
+  r.name = name;
+  r.dt_s = dt_s;
+  r.target_steps_per_second = target;
+  io::Scene scene;
+  scene.build.skin_vertices = skin_vertices;
+  scene.solver.dt_s = dt_s;
+  const auto t0 = Clock::now();
+  Model m = model::build_model(geometry::make_phantom(), scene.build).model;
+  r.build_s = seconds_since(t0);
+  const io::SceneSetup setup = io::prepare_scene(scene, m);
+  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
+  interact::ToolDriver d;
+  d.tools = scene.tools;
+  d.tools.front().end_s = std::numeric_limits<double>::infinity();
+  interact::apply_tools(s, d);
+  for (int k = 0; k < 20; ++k) sim::step(s);  // into the motion
+  std::vector<double> us;
+  int64_t iterations = 0;
+  for (int b = 0; b < batches; ++b) {
+    const auto tb = Clock::now();
+    for (int k = 0; k < steps; ++k) iterations += sim::step(s).cg_iterations;
+    us.push_back(1e6 * seconds_since(tb) / steps);
+  }
+  r.nodes = m.node_count();
+  r.skin_vertices = m.layers[0].node_count;
+  r.tets = m.tets.size();
+  r.us_per_step = median(us);
+  r.cg_iterations = static_cast<double>(iterations) / (steps * batches);
+  return r;
+}
+
+// The process's peak resident memory so far (VmHWM), MB.
+double peak_rss_mb() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return 0.0;
+}
+
 }  // namespace
 
 int run_bench(const BenchArgs& a) {
@@ -103,7 +159,33 @@ int run_bench(const BenchArgs& a) {
   const ProgressFn progress = stderr_progress(a.verbose);
   const int threads = omp_get_max_threads();
 
-  report_progress(progress, "bench: memory bandwidth (STREAM triad)", 0.0);
+  // Building a model with tetrahedra from a clinical-size mask (512x512x130 at 0.6x0.6x1.6 mm,
+  // generated in memory: file reading excluded), first, so that the peak memory is its own.
+  double clinical_build_s = 0.0, clinical_peak_mb = 0.0;
+  int64_t clinical_tets = 0;
+  if (!a.quick) {
+    report_progress(progress, "bench: a model from a clinical-size mask", 0.0);
+    const LabelVolume clinical =
+        geometry::make_phantom({.spacing_mm = {0.6, 0.6, 1.6}, .size = {512, 512, 130}});
+    const auto t0 = Clock::now();
+    const model::BuildResult built = model::build_model(clinical, {});
+    clinical_build_s = seconds_since(t0);
+    clinical_tets = built.model.tets.size();
+    clinical_peak_mb = peak_rss_mb();
+  }
+
+  // The physical liver in real time: paper size at a haptic loop's 1 ms, and about 20k nodes at
+  // 10 ms (the targets: 1,000 and 100 steps/s).
+  std::vector<PhysicalResult> physical;
+  report_progress(progress, "bench: the physical liver, paper size, dt = 1 ms", 0.02);
+  physical.push_back(
+      time_physical("physical_paper", 1284, 0.001, a.quick ? 50 : 200, a.quick ? 3 : 5, 1000.0));
+  if (!a.quick) {
+    report_progress(progress, "bench: the physical liver, about 20k nodes, dt = 10 ms", 0.04);
+    physical.push_back(time_physical("physical_20k", 10000, 0.01, 10, 3, 100.0));
+  }
+
+  report_progress(progress, "bench: memory bandwidth (STREAM triad)", 0.05);
   const double bandwidth =
       measure_bandwidth_gb_s(a.quick ? (size_t{1} << 23) : (size_t{1} << 25), a.quick ? 5 : 10);
 
@@ -177,6 +259,24 @@ int run_bench(const BenchArgs& a) {
   j["quick"] = a.quick;
   j["memory_bandwidth_gb_s"] = bandwidth;
   j["wall_seconds"] = seconds_since(t_start);
+  for (const PhysicalResult& r : physical)
+    j["physical"].push_back({{"name", r.name},
+                             {"nodes", r.nodes},
+                             {"skin_vertices", r.skin_vertices},
+                             {"tets", r.tets},
+                             {"dt_s", r.dt_s},
+                             {"build_seconds", r.build_s},
+                             {"us_per_step", r.us_per_step},
+                             {"steps_per_second", 1e6 / r.us_per_step},
+                             {"cg_iterations", r.cg_iterations},
+                             {"target_steps_per_second", r.target_steps_per_second},
+                             {"real_time", 1e6 / r.us_per_step * r.dt_s >= 1.0}});
+  if (!a.quick)
+    j["clinical_build"] = {{"seconds", clinical_build_s},
+                           {"tets", clinical_tets},
+                           {"peak_rss_mb", clinical_peak_mb},
+                           {"target_seconds", 2.0},
+                           {"target_peak_mb", 2048.0}};
   for (const SizeResult& r : results) {
     nlohmann::json m;
     m["name"] = r.name;
@@ -209,10 +309,21 @@ int run_bench(const BenchArgs& a) {
     return 0;
   }
   std::cout << fmt::format(
-      "lamina bench: {} thread(s), memory bandwidth {:.1f} GB/s (STREAM triad), {:.0f} s\n"
-      "  model   nodes  springs  build_s  explicit_us  steps/s  ns/spring  floor_ns  "
-      "of_floor  implicit_us  projective_us  poke_to_rest_ms\n",
+      "lamina bench: {} thread(s), memory bandwidth {:.1f} GB/s (STREAM triad), {:.0f} s\n",
       threads, bandwidth, seconds_since(t_start));
+  std::cout << "  physical liver (tetrahedra, E = 6 kPa, nu = 0.45, implicit Euler, held poke):\n"
+               "  model           nodes    tets  dt_ms  us_per_step  steps/s  target  cg_iters\n";
+  for (const PhysicalResult& r : physical)
+    std::cout << fmt::format("  {:14} {:6} {:7} {:6.1f} {:12.1f} {:8.0f} {:7.0f} {:9.2f}\n", r.name,
+                             r.nodes, r.tets, 1000.0 * r.dt_s, r.us_per_step, 1e6 / r.us_per_step,
+                             r.target_steps_per_second, r.cg_iterations);
+  if (!a.quick)
+    std::cout << fmt::format(
+        "  clinical mask 512x512x130 -> model with tetrahedra: {:.2f} s, {} tets, peak {:.0f} MB\n",
+        clinical_build_s, clinical_tets, clinical_peak_mb);
+  std::cout << "  the paper's network (links), the paper's constants:\n"
+               "  model   nodes  springs  build_s  explicit_us  steps/s  ns/spring  floor_ns  "
+               "of_floor  implicit_us  projective_us  poke_to_rest_ms\n";
   for (const SizeResult& r : results) {
     const double ns = 1000.0 * r.explicit_us / static_cast<double>(r.springs);
     std::cout << fmt::format(

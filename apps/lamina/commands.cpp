@@ -183,9 +183,15 @@ SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress) 
   return out;
 }
 
-io::Scene scene_for(const std::string& what) {
-  if (has_suffix(what, ".json")) return io::load_scene(what);
-  io::Scene scene;
+io::Scene scene_for(const std::string& what, bool paper) {
+  if (has_suffix(what, ".json")) {
+    if (paper)
+      throw invalid_input("--paper",
+                          "cannot be given with a scene file (" + what +
+                              "): the scene sets the model and material; see examples/paper_*.json");
+    return io::load_scene(what);
+  }
+  io::Scene scene = paper ? io::paper_scene() : io::Scene{};
   scene.source = what;
   if (has_suffix(what, ".vtu")) {
     scene.input.clear();

@@ -45,7 +45,7 @@ LabelVolume read_input(const std::string& input);
 
 /// What a positional argument names, as a scene: SCENE.json is loaded; a .vtu model, a mask
 /// file, a DICOM folder or "phantom" becomes the default scene on that model.
-io::Scene scene_for(const std::string& what);
+io::Scene scene_for(const std::string& what, bool paper = false);
 
 struct PhantomArgs {
   std::string output;
@@ -77,7 +77,8 @@ struct ExportArgs {
 int run_export(const ExportArgs& args);
 
 struct RunArgs {
-  std::string scene;   ///< scene file; empty = the default scene (the paper's poke on the phantom)
+  std::string scene;   ///< scene file; empty = the default scene (the physical liver, poked)
+  bool paper = false;  ///< no scene file: the reference paper's setup (io::paper_scene())
   std::string output;  ///< output folder, created if missing
   bool json = false;
   bool quiet = false;
@@ -94,6 +95,7 @@ int run_run(const RunArgs& args);
 
 struct ViewArgs {
   std::string what = io::kScenePhantom;  ///< model, input or scene
+  bool paper = false;                    ///< the reference paper's model and constants
   std::string script;                    ///< scripted input (docs/viewer.md)
   std::string report;                    ///< JSON report written at exit
   double rate_hz = 1000.0;

@@ -29,9 +29,9 @@ struct Prepared {
   bool from_scene_file = false;
 };
 
-Prepared prepare(const std::string& what, const ProgressFn& progress) {
+Prepared prepare(const std::string& what, const ProgressFn& progress, bool paper = false) {
   Prepared p;
-  p.scene = scene_for(what);
+  p.scene = scene_for(what, paper);
   p.original = p.scene;
   p.from_scene_file = has_suffix(what, ".json");
   p.built = make_scene_model(p.scene, progress);
@@ -73,7 +73,7 @@ int run_view(const ViewArgs& a) {
   if (!a.script.empty()) render::check_viewer_script(a.script);
   render::check_display();
   const ProgressFn progress = stderr_progress(a.verbose);
-  Prepared p = prepare(a.what, progress);
+  Prepared p = prepare(a.what, progress, a.paper);
 
   render::ViewerOptions o;
   o.width = a.size[0];

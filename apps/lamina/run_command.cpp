@@ -150,7 +150,11 @@ int run_run(const RunArgs& a) {
   const std::string scene_path = !a.scene.empty() ? a.scene
                                  : resume         ? resume->scene_path
                                                   : std::string();
-  io::Scene scene = scene_path.empty() ? io::Scene{} : io::load_scene(scene_path);
+  if (a.paper && !a.scene.empty())
+    throw invalid_input("--paper", "cannot be given with a scene file (" + a.scene +
+                                       "): the scene sets the model and material");
+  io::Scene scene = scene_path.empty() ? (a.paper ? io::paper_scene() : io::Scene{})
+                                       : io::load_scene(scene_path);
   const uint32_t scene_crc = scene_path.empty() ? 0 : io::file_crc(scene_path);
   if (resume && scene_crc != resume->scene_crc) {
     const auto name = [](const std::string& p) { return p.empty() ? "the default scene" : p; };

@@ -68,6 +68,22 @@ ShellTets tetrahedralize_shells(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
     in.facetmarkerlist[f] = surface[static_cast<size_t>(f)] + 1;
   }
 
+  // TetGen assumes its input does not intersect itself (and crashes on crossing surfaces): -d
+  // first checks, listing the intersecting facets. build_model() has checked the layers with
+  // CGAL already; this keeps the function safe on its own.
+  {
+    tetgenio check;
+    std::string detect = "dQ";
+    try {
+      tetrahedralize(detect.data(), &in, &check);
+    } catch (int code) {
+      throw failed(fmt::format("TetGen's intersection check stopped with code {}", code));
+    }
+    if (check.numberoftrifaces > 0)
+      throw failed(fmt::format("{} triangles of the layers intersect each other",
+                               check.numberoftrifaces));
+  }
+
   // -p: the input is a piecewise linear complex; -Y: no Steiner point on its facets, so the
   // layers stay exactly as they are; -q: radius-edge and dihedral bounds; -A: one attribute per
   // region enclosed by facets; -Q: quiet.

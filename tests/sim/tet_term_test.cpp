@@ -1,0 +1,167 @@
+// The tetrahedra's elasticity (src/sim/tet_term.cpp): forces are minus the energy's gradient and
+// sum to zero, a homogeneous small strain stores exactly the continuum's energy, the implicit
+// product is the forces' derivative, an inverted tetrahedron is pushed back, and a step gives the
+// same result on one thread and on two.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/model/build_model.h"
+#include "lamina/sim/simulation.h"
+#include "sim/solver.h"  // white-box: the implicit product
+
+namespace {
+
+using namespace lamina;
+
+// A small two-layer phantom filled with tetrahedra (about 700 nodes), built once.
+const Model& tet_model() {
+  static const Model m =
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400})
+          .model;
+  return m;
+}
+
+const sim::Material kLiver{.stiffness_n_per_m = 0.0, .damping_kg_per_s = 0.0, .node_mass_kg = 0.0,
+                           .young_modulus_kpa = 6.0, .poisson_ratio = 0.45};
+
+Eigen::MatrixX3d jiggle(const Eigen::MatrixX3d& X, double amplitude, unsigned seed = 3) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-amplitude, amplitude);
+  Eigen::MatrixX3d x = X;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += u(rng);
+  return x;
+}
+
+TEST(TetTerm, ForcesSumToZeroVanishAtRestAndAreMinusTheEnergyGradient) {
+  const Model& m = tet_model();
+  ASSERT_TRUE(m.has_tets());
+  for (auto elasticity : {model::TetElasticity::kCoupled, model::TetElasticity::kSprings}) {
+    sim::Material mat = kLiver;
+    mat.tet_elasticity = elasticity;
+    sim::Simulation s = sim::make_simulation(m, mat);
+    Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
+    sim::internal_forces(s, m.X, f);
+    EXPECT_LT(f.cwiseAbs().maxCoeff(), 1e-9) << "rest is an equilibrium";
+    const Eigen::MatrixX3d x = jiggle(m.X, 2.0);
+    f.setZero();
+    sim::internal_forces(s, x, f);
+    const double scale = f.cwiseAbs().maxCoeff();
+    ASSERT_GT(scale, 0.0);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(f.col(c).sum() / scale, 0.0, 1e-6) << "axis " << c;
+    for (int node : {0, 21, m.surface_node_count() - 1, m.node_count() - 1})
+      for (int c = 0; c < 3; ++c) {
+        Eigen::MatrixX3d xp = x, xm = x;
+        const double h = 1e-5;
+        xp(node, c) += h;
+        xm(node, c) -= h;
+        const double grad =
+            (sim::elastic_energy(s, xp) - sim::elastic_energy(s, xm)) / (2 * h) * 1e6;
+        EXPECT_NEAR(f(node, c), -grad, 1e-5 * scale) << "node " << node << " axis " << c;
+      }
+  }
+}
+
+TEST(TetTerm, ASmallHomogeneousStrainStoresTheContinuumsEnergy) {
+  // Coupled springs plus the volume term are linear elasticity at small strain: under
+  // x = (I + eps) X the model stores V (mu eps:eps + lambda/2 tr(eps)^2), V the organ's volume.
+  const Model& m = tet_model();
+  sim::Simulation s = sim::make_simulation(m, kLiver);
+  const double mu = 6.0 / 2.9, lambda = 6.0 * 0.45 / (1.45 * 0.1);
+  double volume = 0.0;
+  for (double v : s.tet_identification().rest_volume_mm3) volume += v;
+  Eigen::Matrix3d shear = Eigen::Matrix3d::Zero();
+  shear(0, 1) = shear(1, 0) = 1e-4;
+  for (const Eigen::Matrix3d& eps :
+       {Eigen::Matrix3d(Eigen::Vector3d(1e-4, 0, 0).asDiagonal()), Eigen::Matrix3d(1e-4 * Eigen::Matrix3d::Identity()), shear}) {
+    const Eigen::MatrixX3d x = m.X * (Eigen::Matrix3d::Identity() + eps).transpose();
+    const double continuum = volume * (mu * eps.squaredNorm() + 0.5 * lambda * eps.trace() * eps.trace());
+    EXPECT_NEAR(sim::elastic_energy(s, x) * 1e6 / continuum, 1.0, 1e-3);  // J -> mN mm
+  }
+}
+
+TEST(TetTerm, ImplicitProductIsTheForcesDerivative) {
+  // At rest (no geometric term, V = V0) K p is minus the directional derivative of the forces.
+  const Model& m = tet_model();
+  sim::Simulation s = sim::make_simulation(m, kLiver, {.integrator = sim::Integrator::kImplicitEuler});
+  sim::step(s);  // linearises at rest (nothing moves: no force)
+  const Eigen::MatrixX3d p = jiggle(Eigen::MatrixX3d::Zero(m.node_count(), 3), 1.0, 9);
+  const double h = 0.1;
+  Eigen::MatrixX3d y = Eigen::MatrixX3d::Zero(m.node_count(), 3);
+  sim::implicit_system_product(s, h, p, y);
+  // y = (M + h^2 K) p here (no damping given): K p = (y - M p) / h^2.
+  Eigen::MatrixX3d kp = y;
+  for (int32_t i = 0; i < m.node_count(); ++i) kp.row(i) = (y.row(i) - s.mass_kg()[i] * p.row(i)) / (h * h);
+  const double e = 1e-6;
+  Eigen::MatrixX3d fp = Eigen::MatrixX3d::Zero(m.node_count(), 3), fm = fp;
+  sim::internal_forces(s, m.X + e * p, fp);
+  sim::internal_forces(s, m.X - e * p, fm);
+  const Eigen::MatrixX3d derivative = -(fp - fm) / (2 * e);
+  EXPECT_LT((kp - derivative).cwiseAbs().maxCoeff(), 1e-3 * derivative.cwiseAbs().maxCoeff());
+}
+
+TEST(TetTerm, AnInvertedTetrahedronIsPushedBack) {
+  // Mirror an interior node through the face opposite it: its tetrahedra invert, yet their edge
+  // lengths barely change; the signed volume term must bring them back.
+  const Model& m = tet_model();
+  sim::Simulation s = sim::make_simulation(
+      m, {.stiffness_n_per_m = 0.0, .damping_kg_per_s = 0.0, .mass_damping_per_s = 30.0,
+          .node_mass_kg = 0.0, .young_modulus_kpa = 6.0, .poisson_ratio = 0.45},
+      {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.005, .cg_tolerance = 1e-4});
+  Eigen::Index t = 0;
+  while (m.tets.T.row(t).maxCoeff() < m.surface_node_count()) ++t;
+  int c = 0;
+  while (m.tets.T(t, c) < m.surface_node_count()) ++c;
+  const int32_t node = m.tets.T(t, c);
+  Eigen::RowVector3d centroid = Eigen::RowVector3d::Zero();
+  for (int k = 0; k < 4; ++k)
+    if (k != c) centroid += m.X.row(m.tets.T(t, k)) / 3.0;
+  s.x.row(node) = 2.0 * centroid - m.X.row(node);
+  ASSERT_GT(sim::inverted_tets(m, s.x), 0);
+  for (int k = 0; k < 400; ++k) sim::step(s);
+  EXPECT_EQ(sim::inverted_tets(m, s.x), 0);
+  EXPECT_LT((s.x - m.X).rowwise().norm().maxCoeff(), 0.5);
+}
+
+TEST(TetTerm, BitForBitForAThreadCountAndToRoundOffAcrossThem) {
+  // Every pass writes its own rows and sums per-thread partials in thread order: a run repeats
+  // bit for bit with the same thread count; another count adds the partials of a dot product
+  // in another grouping, which moves the solution by round-off only.
+  static const Model big =
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 2000}).model;
+  auto run = [](int threads) {
+    omp_set_num_threads(threads);
+    sim::Simulation s = sim::make_simulation(big, kLiver, {.integrator = sim::Integrator::kImplicitEuler,
+                                                           .dt_s = 0.001});
+    sim::fix_nodes(s, {0, 1, 2, 3});
+    s.f_ext.row(big.node_count() / 2) << 10.0, -5.0, 2.0;
+    s.f_ext.row(7) << 0.0, 30.0, 0.0;
+    for (int k = 0; k < 5; ++k) sim::step(s);
+    return s.x;
+  };
+  const Eigen::MatrixX3d a = run(1), b = run(2), c = run(2);
+  omp_set_num_threads(omp_get_num_procs());
+  const double moved = (a - big.X).cwiseAbs().maxCoeff();
+  EXPECT_GT(moved, 0.0);
+  EXPECT_EQ(b, c);
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * moved);
+}
+
+TEST(TetTerm, NeedsAModelWithTetrahedraAndNoProjectiveDynamics) {
+  const Model links =
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
+                         {.structure = model::Structure::kLinks, .skin_vertices = 200})
+          .model;
+  EXPECT_THROW(sim::make_simulation(links, kLiver), Error);
+  EXPECT_THROW(sim::make_simulation(tet_model(), kLiver, {.integrator = sim::Integrator::kProjective}),
+               Error);
+  sim::Material both = kLiver;
+  both.stiffness_n_per_m = 3.0;
+  EXPECT_THROW(sim::make_simulation(tet_model(), both), Error);
+}
+
+}  // namespace
