@@ -139,6 +139,9 @@ struct ValidateArgs {
   std::vector<double> depths;  ///< indentation depths, % of the organ's depth; empty = default
   bool deepest = false;  ///< indent where the organ is deepest, not at its most anterior point
   bool stability = false;  ///< the stability suite instead of the finite-element comparison
+  /// Diagnostic: the finite elements on the model's own tetrahedra instead of an independent
+  /// mesh (separates the model's error from the discretisation's).
+  bool fem_on_model = false;
   bool verbose = false;
 };
 /// The mass-spring model against linear and corotational finite elements on the same

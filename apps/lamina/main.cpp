@@ -211,6 +211,9 @@ int main(int argc, char** argv) {
                  "indentation depths, % of the organ's depth, comma-separated (default 5,10,20,30)")
       ->delimiter(',')
       ->check(CLI::Range(0.5, 60.0));
+  va->add_flag("--fem-on-model", val.fem_on_model,
+               "diagnostic: solve the finite elements on the model's own tetrahedra instead of an "
+               "independent mesh (the model's error without the meshes' difference)");
   va->add_flag("--deepest", val.deepest,
                "indent where the organ is deepest along +y instead of at its most anterior point "
                "(the paper's, which can be a thin edge)");

@@ -186,8 +186,13 @@ int run_validate(const ValidateArgs& a) {
   const geometry::PreparedMask prepared =
       geometry::prepare_mask(volume, {.label = scene.build.label});
   const auto t_mesh = Clock::now();
-  const validate::TetMesh mesh =
+  validate::TetMesh mesh =
       validate::mesh_mask_tets(prepared.mask, {.cell_size_mm = edge});
+  if (a.fem_on_model) {
+    if (!m.has_tets())
+      throw invalid_input("--fem-on-model", "the model has no tetrahedra (built with links)");
+    mesh = {m.X, m.tets.T};
+  }
   log::info("validate: finite-element mesh {} vertices, {} tets ({:.1f} s)", mesh.V.rows(),
             mesh.T.rows(), std::chrono::duration<double>(Clock::now() - t_mesh).count());
 

@@ -215,7 +215,7 @@ void read_model(const Reader& r, const json& j, Scene& s) {
               s.model_path);
   r.warn_unknown(*b, bp,
                  {"structure", "layers", "skin_vertices", "layer_depth_mm", "label", "locality",
-                  "links"});
+                  "links", "tet_radius_edge_ratio", "tet_min_dihedral_deg"});
   model::BuildOptions& o = s.build;
   s.structure_given = b->contains("structure");
   read_choice(r, *b, bp, "structure", o.structure,
@@ -228,6 +228,10 @@ void read_model(const Reader& r, const json& j, Scene& s) {
   read_integer(r, *b, bp, "label", o.label, 0, std::numeric_limits<int32_t>::max());
   read_integer(r, *b, bp, "locality", o.locality, 1, 64);
   read_integer(r, *b, bp, "links", o.inter_layer_links, 1, 16);
+  read_number(r, *b, bp, "tet_radius_edge_ratio", o.tet_radius_edge_ratio,
+              [](double v) { return v >= 1.2 && v <= 10.0; }, "must be between 1.2 and 10");
+  read_number(r, *b, bp, "tet_min_dihedral_deg", o.tet_min_dihedral_deg,
+              [](double v) { return v >= 0.0 && v <= 18.0; }, "must be between 0 and 18 degrees");
 }
 
 void read_material(const Reader& r, const json& j, Scene& s) {

@@ -34,7 +34,7 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
       const double lambda = mat.young_modulus_kpa * mat.poisson_ratio /
                             ((1.0 + mat.poisson_ratio) * (1.0 - 2.0 * mat.poisson_ratio));
       rep.tet_volume_modulus_kpa = scene.tet_elasticity == model::TetElasticity::kCoupled
-                                       ? lambda
+                                       ? model::kVolumeShare * lambda
                                        : std::max(0.0, lambda - mu);
       log::info("{}: E = {:.3g} kPa, nu = {:.3g} in {} tetrahedra ({} springs; shear modulus "
                 "{:.3g} kPa, volume term {:.3g} kPa per tetrahedron)",

@@ -101,6 +101,7 @@ struct alignas(64) TetBlock {
   double rest_length_mm[6][kTetLanes];  ///< edge rest lengths (edge order model::kTetEdge)
   double rest_volume_mm3[kTetLanes];
   double volume_stiffness[kTetLanes];   ///< k_v / V0, kPa / mm^3
+  double guard_stiffness[kTetLanes];    ///< k_g / V0, kPa / mm^3 (the inversion guard)
   float q[21][kTetLanes];               ///< Q's upper triangle, N/m (TetIdentification::q_n_per_m)
   int32_t node[4][kTetLanes];
 };

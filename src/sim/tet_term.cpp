@@ -6,8 +6,8 @@
 // inverted tetrahedron (V < 0) is pushed back towards positive volume whatever its edge lengths,
 // which a mirror image of it shares.
 //
-// Below a quarter of its rest volume a tetrahedron also meets a guard, (k_g / 2 V0)
-// (V0 / 4 - V)^2 with k_g = 20 k_v: tissue is not compressed to nothing, and a tetrahedron
+// Below a tenth of its rest volume a tetrahedron also meets a guard, (k_g / 2 V0)
+// (V0 / 10 - V)^2 with k_g = 20 (lambda + 2 mu): tissue is not compressed to nothing, and a tetrahedron
 // pinned flat between an indenter's rim and the layer under it must still be pushed back to
 // positive volume (the stability suite's 50% indentation left ten inverted without it). C1 at
 // the threshold; its Gauss-Newton part joins the volume term's.
@@ -29,8 +29,7 @@ using model::kTetEdge;
 namespace {
 
 constexpr int L = kTetLanes;
-constexpr double kGuardFraction = 0.25;   // the guard acts below this fraction of V0
-constexpr double kGuardStiffness = 20.0;  // k_g / k_v
+constexpr double kGuardFraction = 0.1;  // the guard acts below this fraction of V0
 
 // Q's upper-triangle storage: row k starts at kRow[k] (its diagonal).
 constexpr int kRow[6] = {0, 6, 11, 15, 18, 20};
@@ -97,10 +96,11 @@ inline void volume_parts(const TetBlock& b, const Lanes p[12], VolumeParts& o) {
   o.g[9] = s * (ay * bz - az * by), o.g[10] = s * (az * bx - ax * bz), o.g[11] = s * (ax * by - ay * bx);
   for (int d = 0; d < 3; ++d) o.g[d] = -(o.g[3 + d] + o.g[6 + d] + o.g[9 + d]);
   o.volume = ax * o.g[3] + ay * o.g[4] + az * o.g[5];
-  const Lanes k = lanes(b.volume_stiffness), v0 = lanes(b.rest_volume_mm3);
+  const Lanes k = lanes(b.volume_stiffness), kg = lanes(b.guard_stiffness);
+  const Lanes v0 = lanes(b.rest_volume_mm3);
   const Lanes below = max(kGuardFraction * v0 - o.volume, Lanes{});
-  o.pressure = k * (o.volume - v0) - kGuardStiffness * k * below;
-  o.dp_dv = below > 0.0 ? (1.0 + kGuardStiffness) * k : k;
+  o.pressure = k * (o.volume - v0) - kg * below;
+  o.dp_dv = below > 0.0 ? k + kg : k;
 }
 
 // The edges of a block at corners p: unit directions w, lengths and stretches.
@@ -245,6 +245,7 @@ void setup_tets(Solver& s) {
     for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(t.id.q_n_per_m(q, v));
     b.rest_volume_mm3[l] = t.id.rest_volume_mm3[static_cast<size_t>(q)];
     b.volume_stiffness[l] = t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
+    b.guard_stiffness[l] = t.id.guard_modulus_kpa / b.rest_volume_mm3[l];
   }
   t.linear.assign(blocks, TetBlockLinear{});
   // Rows for every lane of every block (the unused lanes' are written and never read).
@@ -338,7 +339,7 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
       const double dv = vol.volume[l] - b.rest_volume_mm3[l];
       const double guard = std::max(0.0, kGuardFraction * b.rest_volume_mm3[l] - vol.volume[l]);
       // kPa mm^3 = N/m mm^2 = 1e-6 J
-      e += 0.5 * b.volume_stiffness[l] * (dv * dv + kGuardStiffness * guard * guard);
+      e += 0.5 * (b.volume_stiffness[l] * dv * dv + b.guard_stiffness[l] * guard * guard);
       for (int k = 0; k < 6; ++k) e += 0.5 * edges.stretch[k][l] * t[k][l];
     }
   }

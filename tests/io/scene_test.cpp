@@ -394,7 +394,8 @@ TEST(ResolveMaterial, TetrahedraCarryEAndNuThemselves) {
   EXPECT_DOUBLE_EQ(s.material.young_modulus_kpa, 6.0);
   EXPECT_DOUBLE_EQ(s.material.poisson_ratio, 0.45);
   EXPECT_DOUBLE_EQ(s.material.volume_stiffness_kpa, 0.0);  // the tetrahedra keep the volume
-  EXPECT_NEAR(setup.material.tet_volume_modulus_kpa, 6.0 * 0.45 / (1.45 * 0.1), 1e-9);  // lambda
+  EXPECT_NEAR(setup.material.tet_volume_modulus_kpa,
+              model::kVolumeShare * 6.0 * 0.45 / (1.45 * 0.1), 1e-9);  // its share of lambda
   EXPECT_EQ(m.springs.stiffness_n_per_m, test::sphere_model().springs.stiffness_n_per_m);
   EXPECT_GT(s.material.mass_damping_per_s, 0.0);
   const sim::Simulation sim = make_scene_simulation(s, m, setup);

@@ -27,9 +27,11 @@ TEST(IdentifyTets, CoupledQIsLinearElasticityInEdgeStretches) {
   const model::TetIdentification id = model::identify_tets(m, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45});
   const double mu = 6.0 / 2.9, lambda = 6.0 * 0.45 / (1.45 * 0.1);
   EXPECT_NEAR(id.shear_modulus_kpa, mu, 1e-12);
-  EXPECT_NEAR(id.volume_modulus_kpa, lambda, 1e-12);  // all of lambda in the volume term
+  EXPECT_NEAR(id.volume_modulus_kpa, model::kVolumeShare * lambda, 1e-12);
+  EXPECT_NEAR(id.guard_modulus_kpa, model::kGuardModulus * (lambda + 2.0 * mu), 1e-12);
+  const double lambda_q = (1.0 - model::kVolumeShare) * lambda;  // the springs' share
   // For every tetrahedron: Q positive definite, and under a small homogeneous strain eps the
-  // energy 1/2 dl^T Q dl is V mu eps:eps (Q carries mu; the volume term lambda).
+  // energy 1/2 dl^T Q dl is V (mu eps:eps + lambda_q / 2 tr(eps)^2).
   Eigen::Matrix3d eps;
   eps << 1e-4, 3e-5, -2e-5, 3e-5, -5e-5, 4e-5, -2e-5, 4e-5, 2e-5;
   for (Eigen::Index t = 0; t < m.tets.size(); t += 97) {
@@ -44,7 +46,9 @@ TEST(IdentifyTets, CoupledQIsLinearElasticityInEdgeStretches) {
       dl[k] = e.dot(eps * e) / e.norm();  // L d.eps.d
     }
     const double volume = id.rest_volume_mm3[static_cast<size_t>(t)];
-    EXPECT_NEAR(0.5 * dl.dot(q * dl) / (volume * mu * eps.squaredNorm()), 1.0, 1e-9) << t;
+    const double continuum =
+        volume * (mu * eps.squaredNorm() + 0.5 * lambda_q * eps.trace() * eps.trace());
+    EXPECT_NEAR(0.5 * dl.dot(q * dl) / continuum, 1.0, 1e-9) << t;
   }
   // Each spring's constant is its tetrahedra's diagonal shares, all positive.
   ASSERT_EQ(id.spring_n_per_m.size(), m.springs.size());

@@ -130,7 +130,8 @@ TEST(TetTerm, AnInvertedTetrahedronIsPushedBack) {
 TEST(TetTerm, BitForBitForAThreadCountAndToRoundOffAcrossThem) {
   // Every pass writes its own rows and sums per-thread partials in thread order: a run repeats
   // bit for bit with the same thread count; another count adds the partials of a dot product
-  // in another grouping, which moves the solution by round-off only.
+  // in another grouping, which moves the solution by round-off, amplified at most to the solve's
+  // tolerance (1e-6 here) when an iteration count changes.
   static const Model big =
       model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 2000}).model;
   auto run = [](int threads) {
@@ -138,9 +139,9 @@ TEST(TetTerm, BitForBitForAThreadCountAndToRoundOffAcrossThem) {
     sim::Simulation s = sim::make_simulation(big, kLiver, {.integrator = sim::Integrator::kImplicitEuler,
                                                            .dt_s = 0.001});
     sim::fix_nodes(s, {0, 1, 2, 3});
-    s.f_ext.row(big.node_count() / 2) << 10.0, -5.0, 2.0;
-    s.f_ext.row(7) << 0.0, 30.0, 0.0;
-    for (int k = 0; k < 5; ++k) sim::step(s);
+    s.f_ext.row(big.node_count() / 2) << 100.0, -50.0, 20.0;
+    s.f_ext.row(7) << 0.0, 300.0, 0.0;
+    for (int k = 0; k < 20; ++k) sim::step(s);
     return s.x;
   };
   const Eigen::MatrixX3d a = run(1), b = run(2), c = run(2);
@@ -148,7 +149,7 @@ TEST(TetTerm, BitForBitForAThreadCountAndToRoundOffAcrossThem) {
   const double moved = (a - big.X).cwiseAbs().maxCoeff();
   EXPECT_GT(moved, 0.0);
   EXPECT_EQ(b, c);
-  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * moved);
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-5 * moved);
 }
 
 TEST(TetTerm, NeedsAModelWithTetrahedraAndNoProjectiveDynamics) {

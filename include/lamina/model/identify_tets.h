@@ -23,14 +23,19 @@ namespace lamina::model {
 
 /// How a model's tetrahedra carry the tissue's elasticity.
 enum class TetElasticity : uint8_t {
-  /// Edge springs (Q's diagonal) coupled within each tetrahedron (Q's off-diagonal) carry the
-  /// shear modulus mu; the per-tetrahedron volume term carries all of lambda. Exact linear
-  /// elasticity at small strain.
+  /// Edge springs (Q's diagonal) coupled within each tetrahedron (Q's off-diagonal) carry mu and
+  /// most of lambda; the per-tetrahedron signed-volume term carries kVolumeShare of lambda.
+  /// Exact linear elasticity at small strain.
   kCoupled,
   /// Independent edge springs fitted per tetrahedron to its stiffness with lambda = mu (what
   /// central springs can represent; Lloyd et al. 2007); the volume term carries lambda - mu.
   kSprings,
 };
+
+/// The share of lambda the coupled form's signed-volume term carries (the springs carry the rest).
+inline constexpr double kVolumeShare = 0.1;
+/// The inversion guard's modulus over the P-wave modulus lambda + 2 mu.
+inline constexpr double kGuardModulus = 20.0;
 
 /// Edge k of a tetrahedron runs from corner kTetEdge[k][0] to corner kTetEdge[k][1].
 inline constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
@@ -44,6 +49,9 @@ struct TetIdentification {
   /// k_v / 2 tr(eps)^2 V0: a share k_v of lambda. Signed V: an inverted tetrahedron is pushed
   /// back towards positive volume.
   double volume_modulus_kpa = 0.0;
+  /// k_g, kPa: below a tenth of its rest volume a tetrahedron also stores
+  /// k_g (V0/10 - V)^2 / (2 V0), kGuardModulus x (lambda + 2 mu).
+  double guard_modulus_kpa = 0.0;
   /// #springs: each spring's constant, N/m (= mN/mm): its tetrahedra's shares (Q's diagonal)
   /// summed over the tetrahedra that share the edge.
   std::vector<double> spring_n_per_m;
