@@ -134,6 +134,7 @@ struct Viewer::Impl {
   // What the report says about real time and about the last drag: where the organ dented
   // most while it was dragged, and how far it was from rest 3 s (wall time) after the release.
   double min_real_time_factor = 0.0;  // over the run after its first second; 0 = not yet
+  int frame_interval_us = 16667;      // the frame pacing: 60 Hz, slower while the loop is behind
   bool behind_seen = false;
   double drag_peak_mm = 0.0;
   int32_t drag_peak_node = -1, last_drag_node = -1;
@@ -443,7 +444,22 @@ struct Viewer::Impl {
         tip.stiffness_n_per_m = k;
     }
     if (ImGui::CollapsingHeader("Material", ImGuiTreeNodeFlags_DefaultOpen)) {
-      changed |= ImGui::InputDouble("stiffness K N/m", &material.stiffness_n_per_m, 0.5, 5, "%.3f");
+      if (material.young_modulus_kpa > 0.0) {
+        // The physical tissue in the tetrahedra: E and nu identify every spring and volume term
+        // again when they change (a few milliseconds on the paper-size liver).
+        changed |= ImGui::InputDouble("Young's modulus E kPa", &material.young_modulus_kpa, 0.5, 2,
+                                      "%.3g");
+        changed |= ImGui::InputDouble("Poisson's ratio nu", &material.poisson_ratio, 0.01, 0.05,
+                                      "%.3f");
+        int coupled = material.tet_elasticity == model::TetElasticity::kCoupled ? 0 : 1;
+        if (ImGui::Combo("tetrahedra", &coupled, "coupled springs\0independent springs\0")) {
+          material.tet_elasticity =
+              coupled == 0 ? model::TetElasticity::kCoupled : model::TetElasticity::kSprings;
+          changed = true;
+        }
+      } else {
+        changed |= ImGui::InputDouble("stiffness K N/m", &material.stiffness_n_per_m, 0.5, 5, "%.3f");
+      }
       changed |=
           ImGui::InputDouble("damping gamma kg/s", &material.damping_kg_per_s, 0.5, 5, "%.3f");
       changed |=
@@ -832,12 +848,22 @@ int Viewer::show() {
     ++v.frames;
     v.frame_seconds += seconds_since(frame_start);
     // At most 60 frames a second even where the display has no vertical sync (Xvfb): the
-    // simulation thread needs the other core more than the screen needs more frames.
-    std::this_thread::sleep_until(frame_start + std::chrono::microseconds(16667));
+    // simulation thread needs the other core more than the screen needs more frames. When the
+    // simulation falls behind real time anyway (software GL drawing on the cores the physics
+    // needs), the screen gives way: down to 15 frames a second until the loop keeps up again.
+    v.frame_interval_us = v.snap.keeping_up ? std::max(16667, v.frame_interval_us * 9 / 10)
+                                            : std::min(66667, v.frame_interval_us * 5 / 4);
+    std::this_thread::sleep_until(frame_start + std::chrono::microseconds(v.frame_interval_us));
   }
   v.loop->stop();
   v.loop->latest(v.snap);
   v.write_report();
+  // Said in the window while it happened; said again here, where a log keeps it.
+  if (v.behind_seen)
+    fmt::print(stderr,
+               "lamina view: the simulation fell behind real time (down to {:.2f}x); lower the "
+               "rate or the model size, or close other programs\n",
+               v.min_real_time_factor);
   return 0;
 }
 

@@ -160,13 +160,34 @@ void block_forces(const TetBlock& b, const Lanes p[12], Lanes f[12], TetBlockLin
     // positive definite (as for the springs).
     const Lanes geo = max(t[k], Lanes{}) / e.length[k];
     store(geo, lin->geo[k]);
-    const Lanes qk = lanes(b.q[kRow[k]]);
     const int a = 3 * kTetEdge[k][0], c = 3 * kTetEdge[k][1];
     for (int d = 0; d < 3; ++d) {
       const Lanes w = e.w[k][d];
       store(w, lin->w[3 * k + d]);
-      const Lanes kd = qk * w * w + geo * (1.0 - w * w);
+      const Lanes kd = geo * (1.0 - w * w);
       diag[a + d] += kd, diag[c + d] += kd;
+    }
+  }
+  // The springs' and coupling's diagonal, exactly: at corner n and direction d, u^T Q u over the
+  // three edges meeting at n, u_k = -w_k,d or +w_k,d as n is the edge's first or second end.
+  // Q's off-diagonal terms (lambda's coupling) enter it; Q_kk w^2 alone missed them, and with
+  // 90% of lambda in Q the Jacobi preconditioner then took twice the CG iterations
+  // (docs/architecture.md).
+  Lanes q[21];
+  for (int v = 0; v < 21; ++v) q[v] = lanes(b.q[v]);
+  for (int n = 0; n < 4; ++n) {
+    int edge[3], count = 0;
+    double sign[3];
+    for (int k = 0; k < 6; ++k)
+      if (kTetEdge[k][0] == n || kTetEdge[k][1] == n)
+        sign[count] = kTetEdge[k][0] == n ? -1.0 : 1.0, edge[count++] = k;
+    for (int d = 0; d < 3; ++d) {
+      Lanes u[3];
+      for (int j = 0; j < 3; ++j) u[j] = sign[j] * e.w[edge[j]][d];
+      Lanes sum = Lanes{};
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) sum += q[qi(edge[j], edge[i])] * u[j] * u[i];
+      diag[3 * n + d] += sum;
     }
   }
 }
