@@ -7,9 +7,10 @@
 // which a mirror image of it shares.
 //
 // Below a tenth of its rest volume a tetrahedron also meets a guard, (k_g / 2 V0)
-// (V0 / 10 - V)^2 with k_g = 20 (lambda + 2 mu): tissue is not compressed to nothing, and a tetrahedron
-// pinned flat between an indenter's rim and the layer under it must still be pushed back to
-// positive volume (the stability suite's 50% indentation left ten inverted without it). C1 at
+// (V0 / 10 - V)^2 with k_g = 100 (lambda + 2 mu): tissue is not compressed to nothing, and a
+// tetrahedron pinned flat between an indenter's rim and the layer under it must still be pushed
+// back to positive volume (the stability suite's 50% indentation left seven inverted with a
+// fifth of that guard, ten without one; docs/physics.md). C1 at
 // the threshold; its Gauss-Newton part joins the volume term's.
 //
 // The passes run over blocks of eight tetrahedra, one per SIMD lane: every loop below over

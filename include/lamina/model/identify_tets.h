@@ -35,7 +35,7 @@ enum class TetElasticity : uint8_t {
 /// The share of lambda the coupled form's signed-volume term carries (the springs carry the rest).
 inline constexpr double kVolumeShare = 0.1;
 /// The inversion guard's modulus over the P-wave modulus lambda + 2 mu.
-inline constexpr double kGuardModulus = 20.0;
+inline constexpr double kGuardModulus = 100.0;
 
 /// Edge k of a tetrahedron runs from corner kTetEdge[k][0] to corner kTetEdge[k][1].
 inline constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
