@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Quick start on a fresh Debian 12 machine: install the dependencies, build Lamina, and run the
-# main job on the built-in phantom (phantom -> multi-layer model -> summary -> exported meshes ->
-# rendered pictures, no display needed).
+# main job on the built-in phantom (phantom -> multi-layer model -> the physical liver poked and
+# back at rest -> exported meshes -> rendered pictures, no display needed).
 # Outputs go to ./out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,6 +14,7 @@ lamina=./build/release/lamina
 mkdir -p out
 "$lamina" phantom -o out/liver_phantom.nii.gz
 "$lamina" build out/liver_phantom.nii.gz -o out/liver_model.vtu
+"$lamina" run -o out/poke
 "$lamina" export out/liver_model.vtu -o out/liver_skin.obj
 "$lamina" export out/liver_model.vtu --layer 1 -o out/liver_layer1.obj
 "$lamina" render out/liver_model.vtu --inner wireframe -o out/liver_model.png

@@ -94,7 +94,8 @@ int main(int argc, char** argv) {
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, model::Structure>{{"tets", model::Structure::kTetrahedra},
                                                   {"links", model::Structure::kLinks}},
-          CLI::ignore_case));
+          CLI::ignore_case)
+                     .description("{tets,links}"));  // not the enum's bytes (uint8_t prints as a char)
   bu->add_option("--links", bo.inter_layer_links,
                  "with --structure links: nearest nodes linked on each neighbour layer (default 3)");
   bu->add_option("--density", density_g_cm3, "tissue density in g/cm^3 (default 1.06, liver)");

@@ -464,6 +464,24 @@ TEST(CliOptions, OptionErrorsComeBeforeReadingTheInput) {
   }
 }
 
+// Every subcommand's --help is text a terminal shows as written: printable ASCII and line
+// breaks (an enum option once printed its values' raw bytes), exit 0.
+TEST(CliOptions, EveryHelpIsPrintableText) {
+  TempDir dir;
+  for (const std::string sub : {"", "phantom", "build", "info", "export", "run", "view", "render",
+                                "figures", "validate", "bench", "soak"}) {
+    SCOPED_TRACE(sub);
+    const RunResult r = run_lamina(dir, sub + " --help");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_GT(r.out.size(), 100u);
+    const auto bad = std::find_if(r.out.begin(), r.out.end(), [](unsigned char c) {
+      return c != '\n' && (c < 0x20 || c > 0x7e);
+    });
+    EXPECT_EQ(bad, r.out.end()) << "byte " << static_cast<int>(static_cast<unsigned char>(*bad))
+                                << " at " << (bad - r.out.begin());
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // The documented workflow: phantom -> build -> info -> export.
 
