@@ -46,7 +46,25 @@ std::array<int, 2> parse_image_size(const std::string& s, const char* option) {
 
 }  // namespace
 
+namespace {
+
+// OpenMP threads that wait at a barrier spin for GOMP_SPINCOUNT iterations (libgomp's default
+// 300,000) before they sleep. One lamina alone gains nothing from the long spin, but two on a
+// 2-core machine (a sweep run in parallel, ctest -j2) spin on the cores the other needs: the
+// default poke took 46 s each instead of 1.7 s. A spin of 3,000 keeps the single run's time
+// (1.67 s either way) and makes two at once 4.4 s (docs/architecture.md). libgomp reads the
+// variable when it loads, before main, so lamina sets it and runs itself again, once; a user's
+// own GOMP_SPINCOUNT or OMP_WAIT_POLICY is left alone.
+void bound_openmp_spin(char** argv) {
+  if (std::getenv("GOMP_SPINCOUNT") || std::getenv("OMP_WAIT_POLICY")) return;
+  if (setenv("GOMP_SPINCOUNT", "3000", 0) != 0) return;
+  execv("/proc/self/exe", argv);  // returns only on failure: then run with libgomp's default
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  bound_openmp_spin(argv);
   using namespace lamina;
   CLI::App app{"Lamina: multi-layer volumetric mass-spring models of organs from segmentations"};
   app.require_subcommand(1);
