@@ -6,7 +6,7 @@
 #include <numbers>
 
 #include "lamina/core/error.h"
-#include "lamina/model/summarize_model.h"
+#include "lamina/model/layer_normals.h"
 #include "mandel.h"
 
 namespace lamina::model {

@@ -8,7 +8,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/interact/tools.h"
-#include "lamina/model/summarize_model.h"
+#include "lamina/model/layer_normals.h"
 
 namespace lamina::validate {
 namespace {

@@ -8,6 +8,7 @@
 #include "lamina/geometry/measure_tets.h"
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/layer_normals.h"
 #include "lamina/model/model.h"
 
 namespace lamina::model {
@@ -40,10 +41,6 @@ struct ModelSummary {
 /// (#nodes by 3, mm).
 SurfaceMesh layer_mesh(const Model& model, int32_t layer);
 SurfaceMesh layer_mesh(const Model& model, int32_t layer, const Eigen::MatrixX3d& x);
-
-/// Each node's outward unit normal on its own layer at rest (area-weighted face normals;
-/// #nodes by 3).
-Eigen::MatrixX3d layer_normals(const Model& model);
 
 /// Measures a model: per-layer mesh quality (with CGAL self-intersection and nesting checks),
 /// spring counts and connectivity, tetrahedron quality, mass.
