@@ -36,6 +36,20 @@ constexpr double kGuardFraction = 0.1;  // the guard acts below this fraction of
 constexpr int kRow[6] = {0, 6, 11, 15, 18, 20};
 constexpr int qi(int k, int m) { return k <= m ? kRow[k] + m - k : kRow[m] + k - m; }
 
+// The three edges meeting at each corner (from kTetEdge), and -1 or +1 as the corner is the
+// edge's first or second end.
+constexpr int kCornerEdge[4][3] = {{0, 1, 2}, {0, 3, 4}, {1, 3, 5}, {2, 4, 5}};
+constexpr double kCornerSign[4][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {1, 1, 1}};
+constexpr bool corner_table_matches_edges() {
+  for (int n = 0; n < 4; ++n)
+    for (int j = 0; j < 3; ++j) {
+      const int k = kCornerEdge[n][j];
+      if (kTetEdge[k][kCornerSign[n][j] < 0 ? 0 : 1] != n) return false;
+    }
+  return true;
+}
+static_assert(corner_table_matches_edges());
+
 // The eight lanes of a block as one value: GCC's and Clang's vector extensions, which compile to
 // one AVX-512 instruction per operation here (two AVX2 ones elsewhere). Written out rather than
 // left to the auto-vectoriser, which vectorised these loops only in part (-fopt-info-vec:
@@ -122,10 +136,13 @@ inline void edge_parts(const TetBlock& b, const Lanes p[12], EdgeParts& o) {
   }
 }
 
-// t = Q a on every lane (Q symmetric, its upper triangle stored).
-inline void multiply_q(const TetBlock& b, const Lanes a[6], Lanes t[6]) {
-  Lanes q[21];
+// A block's Q, its upper triangle, widened to double lanes.
+inline void load_q(const TetBlock& b, Lanes q[21]) {
   for (int v = 0; v < 21; ++v) q[v] = lanes(b.q[v]);
+}
+
+// t = Q a on every lane (Q symmetric, its upper triangle stored).
+inline void multiply_q(const Lanes q[21], const Lanes a[6], Lanes t[6]) {
   for (int k = 0; k < 6; ++k) {
     Lanes sum = q[qi(k, 0)] * a[0];
     for (int m = 1; m < 6; ++m) sum += q[qi(k, m)] * a[m];
@@ -140,8 +157,10 @@ void block_forces(const TetBlock& b, const Lanes p[12], Lanes f[12], TetBlockLin
   edge_parts(b, p, e);
   VolumeParts vol;
   volume_parts(b, p, vol);
+  Lanes q[21];
+  load_q(b, q);
   Lanes t[6];  // each edge's tension, mN
-  multiply_q(b, e.stretch, t);
+  multiply_q(q, e.stretch, t);
   for (int v = 0; v < 12; ++v) f[v] = -vol.pressure * vol.g[v];
   for (int k = 0; k < 6; ++k) {
     const int a = 3 * kTetEdge[k][0], c = 3 * kTetEdge[k][1];
@@ -174,23 +193,15 @@ void block_forces(const TetBlock& b, const Lanes p[12], Lanes f[12], TetBlockLin
   // Q's off-diagonal terms (lambda's coupling) enter it; Q_kk w^2 alone missed them, and with
   // 90% of lambda in Q the Jacobi preconditioner then took twice the CG iterations
   // (docs/architecture.md).
-  Lanes q[21];
-  for (int v = 0; v < 21; ++v) q[v] = lanes(b.q[v]);
-  for (int n = 0; n < 4; ++n) {
-    int edge[3], count = 0;
-    double sign[3];
-    for (int k = 0; k < 6; ++k)
-      if (kTetEdge[k][0] == n || kTetEdge[k][1] == n)
-        sign[count] = kTetEdge[k][0] == n ? -1.0 : 1.0, edge[count++] = k;
+  for (int n = 0; n < 4; ++n)
     for (int d = 0; d < 3; ++d) {
       Lanes u[3];
-      for (int j = 0; j < 3; ++j) u[j] = sign[j] * e.w[edge[j]][d];
+      for (int j = 0; j < 3; ++j) u[j] = kCornerSign[n][j] * e.w[kCornerEdge[n][j]][d];
       Lanes sum = Lanes{};
       for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 3; ++i) sum += q[qi(edge[j], edge[i])] * u[j] * u[i];
+        for (int i = 0; i < 3; ++i) sum += q[qi(kCornerEdge[n][j], kCornerEdge[n][i])] * u[j] * u[i];
       diag[3 * n + d] += sum;
     }
-  }
 }
 
 // (K p) of a block at its corners, K as linearised: per edge k, with d_k = p_b - p_a and
@@ -218,8 +229,9 @@ void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[1
       a[k] += w[k][e] * d[k][e];
     }
   }
-  Lanes c[6];
-  multiply_q(b, a, c);
+  Lanes q[21], c[6];
+  load_q(b, q);
+  multiply_q(q, a, c);
   for (int k = 0; k < 6; ++k) {
     const int ca = 3 * kTetEdge[k][0], cb = 3 * kTetEdge[k][1];
     const Lanes geo = lanes(lin.geo[k]);
@@ -356,7 +368,9 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
     edge_parts(b, p, edges);
     VolumeParts vol;
     volume_parts(b, p, vol);
-    multiply_q(b, edges.stretch, t);
+    Lanes q[21];
+    load_q(b, q);
+    multiply_q(q, edges.stretch, t);
     for (int l = 0; l < L; ++l) {
       const double dv = vol.volume[l] - b.rest_volume_mm3[l];
       const double guard = std::max(0.0, kGuardFraction * b.rest_volume_mm3[l] - vol.volume[l]);
