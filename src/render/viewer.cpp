@@ -857,6 +857,7 @@ int Viewer::show() {
   }
   v.loop->stop();
   v.loop->latest(v.snap);
+  v.watch_real_time_and_drag(seconds_since(t0));  // the last window counts in the report too
   v.write_report();
   // Said in the window while it happened; said again here, where a log keeps it.
   if (v.behind_seen)
