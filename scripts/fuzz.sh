@@ -44,6 +44,15 @@ if [ ! -f "$seeds/.done" ]; then
     { printf "\\x0$k"; cat "$work/p.$ext"; } >"$seeds/volume/phantom_$k"
     k=$((k + 1))
   done
+  # Text headers with every geometry field the raw header checks read (src/io/header_checks.h).
+  { printf '\x02NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\n'
+    printf 'space directions: (2,0,0) (0,2,0) (0,0,2)\nspace origin: (1,2,3)\n'
+    printf 'space units: "mm" "mm" "mm"\nencoding: raw\n\n'
+    head -c 64 /dev/zero; } >"$seeds/volume/nrrd_geometry"
+  { printf '\x03ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n'
+    printf 'ElementSpacing = 2 2 2\nOffset = 1 2 3\nTransformMatrix = 0 1 0 1 0 0 0 0 -1\n'
+    printf 'ElementDataFile = LOCAL\n'
+    head -c 64 /dev/zero; } >"$seeds/volume/mha_geometry"
   "$lamina" -q build "$work/p.nii" -o "$seeds/model/tiny.vtu" --skin-vertices 60 >/dev/null
   "$lamina" -q export "$seeds/model/tiny.vtu" -o "$seeds/obj/tiny_skin.obj"
   "$lamina" -q export "$seeds/model/tiny.vtu" -o "$seeds/obj/tiny_inner.obj" --layer 1

@@ -7,6 +7,7 @@
 #include <itkImageFileWriter.h>
 #include <itkImageIOFactory.h>
 #include <itkImageSeriesReader.h>
+#include <itkMetaDataObject.h>
 #include <itkMetaImageIOFactory.h>
 #include <itkNiftiImageIOFactory.h>
 #include <itkNrrdImageIOFactory.h>
@@ -21,6 +22,7 @@
 #include <sstream>
 
 #include "core/itk_frame.h"
+#include "header_checks.h"
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "lamina/io/label_volume_io.h"
@@ -137,86 +139,6 @@ void run_reader(const std::string& path, Reader* reader) {
                         "cannot read image data (truncated or corrupt?): " + capture.first_line());
 }
 
-// ITK's NIfTI reader accepts a file shorter than its header says (plain or gzipped) and leaves
-// the missing voxels zero: half a liver would build silently. Count the bytes that are really
-// there (gzread reads plain files too) against the header's claim.
-void check_nifti_complete(const std::string& path, itk::ImageIOBase* io) {
-  const std::string name = io->GetNameOfClass();
-  if (name != "NiftiImageIO" || fs::path(path).extension() == ".hdr" ||
-      fs::path(path).extension() == ".img")
-    return;
-  constexpr uint64_t kMinHeaderBytes = 352;  // NIfTI-1 header (348) + extension flag (4)
-  const uint64_t expected = kMinHeaderBytes + io->GetImageSizeInBytes();
-  gzFile f = gzopen(path.c_str(), "rb");
-  if (!f) throw invalid_input(path, "cannot open the file");
-  std::vector<char> buf(1 << 20);
-  uint64_t total = 0;
-  int n = 0;
-  while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0)
-    total += static_cast<uint64_t>(n);
-  int err = Z_OK;
-  std::string msg = gzerror(f, &err);  // copied: the text dies with gzclose
-  gzclose(f);
-  if (msg.rfind(path + ": ", 0) == 0) msg.erase(0, path.size() + 2);  // zlib prefixes the path
-  if (n < 0 || (err != Z_OK && err != Z_STREAM_END))
-    throw invalid_input(path, "the compressed data is corrupt or truncated (" + msg + ")");
-  if (total < expected)
-    throw invalid_input(path, "is truncated: the header describes " + std::to_string(expected) +
-                                  " bytes but the file holds " + std::to_string(total));
-}
-
-// ITK 5.2's MetaIO trusts a MetaImage header and kills the process on some corrupt ones, which
-// fuzz_volume found (docs/testing.md): a "Key = Value" key longer than its 255-byte buffer aborts
-// in strcpy, a slice-file pattern ElementDataFile ("name%03d.raw MIN MAX STEP") with a step of 0
-// divides by zero (SIGFPE), and a negative NDims hangs it. So a .mha/.mhd header is checked here
-// first: printable lines of "Key = Value" with a short alphanumeric key, positive NDims and
-// DimSize, up to the ElementDataFile line, which must name LOCAL or one data file. Every MetaImage that ITK, 3D Slicer or Lamina writes passes; the values
-// themselves are still ITK's to parse.
-void check_metaimage_header(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return;  // ITK reports a missing or unreadable file in its own words
-  const auto bad = [&](int line, const std::string& problem) {
-    return invalid_input(path, "MetaImage header line " + std::to_string(line) + ": " + problem);
-  };
-  std::string line;
-  for (int n = 1; n <= 200 && std::getline(in, line); ++n) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.find_first_not_of(" \t") == std::string::npos) continue;
-    for (const char c : line)
-      if (!(c == '\t' || (c >= 32 && c < 127)))
-        throw bad(n, "holds a byte that is not text (a corrupt header?)");
-    const size_t eq = line.find('=');
-    if (eq == std::string::npos) throw bad(n, "expected 'Key = Value'");
-    std::string key = line.substr(0, eq);
-    key.erase(key.find_last_not_of(" \t") + 1);
-    key.erase(0, key.find_first_not_of(" \t"));
-    if (key.empty() || key.size() > 64 ||
-        key.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_") !=
-            std::string::npos)
-      throw bad(n, "'" + key.substr(0, 40) + "' is not a MetaImage key");
-    std::string value = line.substr(eq + 1);
-    value.erase(0, value.find_first_not_of(" \t"));
-    // MetaIO loops without end on a negative NDims or DimSize (fuzz_volume): sizes must be
-    // positive integers.
-    if (key == "NDims" || key == "DimSize") {
-      std::istringstream values(value);
-      int count = 0;
-      for (std::string token; values >> token; ++count)
-        if (token.find_first_not_of("0123456789") != std::string::npos || token.size() > 9 ||
-            std::stol(token) < 1)
-          throw bad(n, key + " must be positive whole numbers, got '" + value.substr(0, 40) + "'");
-      if (count == 0) throw bad(n, key + " has no value");
-      continue;
-    }
-    if (key != "ElementDataFile") continue;
-    if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
-      throw bad(n, "ElementDataFile is a multi-file pattern or LIST, which Lamina does not read: "
-                   "save the mask as one .mha, .nii.gz or .nrrd file");
-    return;  // the voxel data follows
-  }
-  throw invalid_input(path, "MetaImage header has no ElementDataFile line in its first 200 lines");
-}
-
 bool has_metaimage_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -224,13 +146,20 @@ bool has_metaimage_extension(const std::string& path) {
 }
 
 LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
-  if (has_metaimage_extension(path)) check_metaimage_header(path);
+  // A format's raw header is checked before ITK reads it (src/io/header_checks.h); MetaImage's
+  // before ITK even opens it, as MetaIO can crash on a corrupt one.
+  if (has_metaimage_extension(path)) detail::check_metaimage_header(path, opt.max_voxels);
   itk::ImageIOBase::Pointer io = itk::ImageIOFactory::CreateImageIO(
       path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
   if (!io)
     throw invalid_input(path,
                         "not a readable NIfTI (.nii/.nii.gz), NRRD (.nrrd), MetaImage "
                         "(.mha/.mhd) file or DICOM folder");
+  const std::string format = io->GetNameOfClass();
+  if (format == "NiftiImageIO") detail::check_nifti_header(path, opt.max_voxels);
+  if (format == "NrrdImageIO") detail::check_nrrd_header(path, opt.max_voxels);
+  if (format == "MetaImageIO" && !has_metaimage_extension(path))
+    detail::check_metaimage_header(path, opt.max_voxels);
   try {
     io->SetFileName(path);
     io->ReadImageInformation();
@@ -238,7 +167,6 @@ LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
     throw invalid_input(path, "cannot read the image header: " + one_line(e));
   }
   check_header(path, io, opt);
-  check_nifti_complete(path, io);
 
   LabelVolume out;
   out.source = path;
@@ -279,6 +207,9 @@ LabelVolume read_file(const std::string& path, const ReadVolumeOptions& opt) {
 LabelVolume read_dicom_folder(const std::string& path, const ReadVolumeOptions& opt) {
   auto names = itk::GDCMSeriesFileNames::New();
   std::vector<std::string> files;
+  // GDCM reports what it cannot sort (a slice without a position) on std::cerr; the slices'
+  // tags are checked below and refused in one line instead.
+  CerrCapture gdcm_chatter;
   try {
     names->SetUseSeriesDetails(true);
     names->SetDirectory(path);
@@ -311,9 +242,23 @@ LabelVolume read_dicom_folder(const std::string& path, const ReadVolumeOptions& 
   if (static_cast<int64_t>(size[0] * size[1] * size[2]) > opt.max_voxels)
     throw invalid_input(path, "DICOM series is larger than the voxel limit");
   run_reader(path, reader.GetPointer());
+  // Each slice's own geometry, from the tags the reader kept (a tag it did not find is absent
+  // from the slice's dictionary, where GDCM's own reading would have put a default).
+  std::vector<detail::DicomSliceTags> tags(files.size());
+  const auto* dictionaries = reader->GetMetaDataDictionaryArray();
+  for (size_t k = 0; k < files.size() && dictionaries && k < dictionaries->size(); ++k) {
+    const itk::MetaDataDictionary& d = *(*dictionaries)[k];
+    tags[k].file = files[k];
+    itk::ExposeMetaData<std::string>(d, "0020|0032", tags[k].position);
+    itk::ExposeMetaData<std::string>(d, "0020|0037", tags[k].orientation);
+    itk::ExposeMetaData<std::string>(d, "0028|0030", tags[k].pixel_spacing);
+  }
+  const detail::DicomGrid grid = detail::check_dicom_slices(path, tags);
   LabelVolume out;
   out.source = path;
   out.frame = frame_of(reader->GetOutput());
+  detail::check_dicom_grid(path, grid, out.frame.spacing_mm, out.frame.origin_mm,
+                           out.frame.direction);
   const int32_t* p = reader->GetOutput()->GetBufferPointer();
   out.labels.assign(p, p + out.frame.voxel_count());
   return out;

@@ -25,6 +25,7 @@
 #include "lamina/core/grid.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/label_volume_io.h"
+#include "support/refusal.h"
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
 
@@ -59,20 +60,6 @@ void write_file(const fs::path& path, const std::string& bytes) {
 // Runs `lamina ARGS` with `dir` as working directory.
 RunResult run_lamina(const TempDir& dir, const std::string& args) {
   return test::run_cli(LAMINA_CLI, dir.work, dir.root, args);
-}
-
-std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return s;
-}
-
-// Files the tool left behind whose names start with "." (its temporary files do).
-std::vector<std::string> hidden_files(const fs::path& dir) {
-  std::vector<std::string> found;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.path().filename().string().starts_with(".")) found.push_back(e.path().string());
-  return found;
 }
 
 // A MetaImage file: a text header, then the raw voxels ("ElementDataFile = LOCAL").
@@ -426,25 +413,9 @@ TEST_P(BadInput, FailsWithOneLineExitTwoAndNoFiles) {
   const std::string args = bad.setup(dir);
   const RunResult r = run_lamina(dir, args);
 
-  std::vector<std::string> problems;
-  if (r.exit_code != 2) problems.push_back("exit code " + std::to_string(r.exit_code) + ", not 2");
-  // Exactly one line: a script shows stderr to the user, and progress or library chatter
-  // around the error would bury it.
-  const auto lines = std::count(r.err.begin(), r.err.end(), '\n');
-  if (lines != 1 || !r.err.ends_with("\n"))
-    problems.push_back("stderr has " + std::to_string(lines) + " lines, not exactly one");
-  if (r.err.find("lamina: error: ") != 0)
-    problems.push_back("stderr does not start with 'lamina: error: '");
-  for (const std::string& word : bad.message_has)
-    if (lower(r.err).find(lower(word)) == std::string::npos)
-      problems.push_back("the message does not mention '" + word + "'");
-  for (const std::string& name : bad.no_output)
-    if (fs::exists(dir.work / name)) problems.push_back(name + " was written");
-  for (const std::string& file : hidden_files(dir.work))
-    problems.push_back("temporary file left behind: " + file);
-
-  std::string report;
-  for (const std::string& p : problems) report += "  - " + p + "\n";
+  const std::vector<std::string> problems =
+      test::refusal_problems(r, bad.message_has, bad.no_output, dir.work);
+  const std::string report = test::as_list(problems);
   EXPECT_TRUE(problems.empty()) << "lamina " << args << "\n" << report << "stderr was:\n" << r.err;
 }
 
@@ -589,7 +560,7 @@ TEST(CliWorkflow, PhantomBuildInfoExport) {
   EXPECT_EQ(triangles, layers[1].at("faces").get<uint32_t>());
   EXPECT_EQ(stl.size(), 84u + 50u * triangles);
 
-  EXPECT_EQ(hidden_files(dir.work), std::vector<std::string>{}) << "temporary files left behind";
+  EXPECT_EQ(test::hidden_files(dir.work), std::vector<std::string>{}) << "temporary files left behind";
 }
 
 // Without an input the tool builds the built-in phantom, so a fresh machine needs no data.
@@ -600,9 +571,9 @@ TEST(CliWorkflow, BuildWithoutInputUsesThePhantom) {
   EXPECT_TRUE(fs::exists(dir.work / "M.vtu"));
   json built;
   ASSERT_NO_THROW(built = json::parse(r.out)) << r.out;
-  EXPECT_NE(lower(built.at("input").get<std::string>()).find("phantom"), std::string::npos);
+  EXPECT_NE(test::lowercase(built.at("input").get<std::string>()).find("phantom"), std::string::npos);
   EXPECT_GT(built.at("nodes").get<int64_t>(), 300);
-  EXPECT_EQ(hidden_files(dir.work), std::vector<std::string>{});
+  EXPECT_EQ(test::hidden_files(dir.work), std::vector<std::string>{});
 }
 
 }  // namespace

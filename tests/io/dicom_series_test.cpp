@@ -9,11 +9,15 @@
 #include <itkNumericSeriesFileNames.h>
 #include <unistd.h>
 
+#include <gdcmReader.h>
+#include <gdcmWriter.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -21,6 +25,8 @@
 #include "lamina/core/error.h"
 #include "lamina/core/grid.h"
 #include "lamina/io/label_volume_io.h"
+#include "support/refusal.h"
+#include "support/run_cli.h"
 #include "support/temp_dir.h"
 
 namespace lamina::io {
@@ -43,9 +49,13 @@ uint16_t label_at(int64_t i, int64_t j, int64_t k) {
 // per-slice geometry and identity tags a scanner would write (as ITK's example
 // Examples/IO/ImageReadDicomSeriesWrite.cxx does). Identity direction. With
 // `reverse_file_names`, the first file holds the last slice, as some exporters name them.
+// `position_of(k, ipp)` may move slice k's Image Position (Patient), x\\y\\z; with
+// `secondary_capture`, the SOP class carries no geometry tags at all.
+using PositionEdit = std::function<void(int64_t k, std::array<double, 3>& position)>;
 void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
                   const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
-                  bool reverse_file_names = false) {
+                  bool reverse_file_names = false, const PositionEdit& position_of = {},
+                  bool secondary_capture = false) {
   auto image = Volume::New();
   Volume::RegionType region;
   Volume::SpacingType sp;
@@ -78,7 +88,9 @@ void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
     position.precision(17);
     pixel_spacing.precision(17);
     thickness.precision(17);
-    position << origin[0] << "\\" << origin[1] << "\\" << origin[2] + spacing[2] * k;
+    std::array<double, 3> at{origin[0], origin[1], origin[2] + spacing[2] * k};
+    if (position_of) position_of(k, at);
+    position << at[0] << "\\" << at[1] << "\\" << at[2];
     pixel_spacing << spacing[1] << "\\" << spacing[0];  // row spacing (along j) first
     thickness << spacing[2];
     number << k + 1;
@@ -87,7 +99,7 @@ void write_series(const fs::path& dir, const std::array<int64_t, 3>& size,
     set("0008|0008", "DERIVED\\SECONDARY");  // Image Type
     // SOP Class UID: CT Image Storage. Without it GDCM writes Secondary Capture, which has no
     // Image Position/Orientation (the series then reads back at origin 0 with 1 mm slices).
-    set("0008|0016", "1.2.840.10008.5.1.4.1.1.2");
+    if (!secondary_capture) set("0008|0016", "1.2.840.10008.5.1.4.1.1.2");
     // Photometric Interpretation; without it GDCM warns on stderr for every slice.
     set("0028|0004", "MONOCHROME2");
     set("0020|000d", study);                // Study Instance UID
@@ -164,6 +176,98 @@ TEST(DicomSingleSlice, IsRejectedAsTwoDimensional) {
     EXPECT_NE(std::string(e.what()).find("2-D"), std::string::npos) << e.what();
   }
 }
+
+// ----- Series whose slices do not make one grid: `lamina build` refuses each by name, with the
+// slice and the tag, exit code 2 and no output (docs/errors.md, "Volume headers"). ITK's series
+// reader would stack them at the first two slices' spacing without a word.
+
+// Removes tag (group, element) from one written slice, as an exporter that lost it would.
+void remove_tag(const fs::path& file, uint16_t group, uint16_t element) {
+  gdcm::Reader reader;
+  reader.SetFileName(file.string().c_str());
+  ASSERT_TRUE(reader.Read()) << file;
+  reader.GetFile().GetDataSet().Remove(gdcm::Tag(group, element));
+  gdcm::Writer writer;
+  writer.SetFile(reader.GetFile());
+  writer.SetFileName(file.string().c_str());
+  ASSERT_TRUE(writer.Write()) << file;
+}
+
+struct SeriesCase {
+  std::string name;
+  std::function<void(const fs::path& dir)> write;
+  std::vector<std::string> message_has;
+};
+
+std::vector<SeriesCase> series_cases() {
+  const std::array<int64_t, 3> size{8, 8, 6};
+  const std::array<double, 3> spacing{1.0, 1.0, 2.5}, origin{0.0, 0.0, 0.0};
+  std::vector<SeriesCase> c;
+  // GDCM writes the positions but reads a Secondary Capture series at 1 mm slices from 0.
+  c.push_back({"SecondaryCaptureReadWithoutItsGeometry",
+               [=](const fs::path& d) {
+                 write_series(d, size, spacing, origin, false, {}, /*secondary_capture=*/true);
+               },
+               {"tags say", "x 2.5 mm", "Secondary Capture"}});
+  c.push_back({"OneSliceWithoutPosition",
+               [=](const fs::path& d) {
+                 write_series(d, size, spacing, origin);
+                 remove_tag(d / "slice004.dcm", 0x0020, 0x0032);
+               },
+               {"slice004.dcm", "Image Position (Patient)"}});
+  c.push_back({"MissingSlice",
+               [=](const fs::path& d) {
+                 write_series(d, size, spacing, origin, false, [](int64_t k, auto& p) {
+                   if (k >= 3) p[2] += 2.5;  // the slice at 7.5 mm is not there
+                 });
+               },
+               {"uneven slice positions", "5.000 mm", "2.500 mm"}});
+  c.push_back({"TwoSlicesAtOnePosition",
+               [=](const fs::path& d) {
+                 write_series(d, size, spacing, origin, false, [](int64_t k, auto& p) {
+                   if (k == 2) p[2] = 2.5;  // the same place as slice 2
+                 });
+               },
+               {"same position"}});
+  c.push_back({"TiltedGantry",
+               [=](const fs::path& d) {
+                 write_series(d, size, spacing, origin, false,
+                              [](int64_t k, auto& p) { p[1] += 0.8 * static_cast<double>(k); });
+               },
+               {"shifted in their own plane", "tilted gantry"}});
+  c.push_back({"OneSliceWithoutPixelSpacing",
+               [=](const fs::path& d) {
+                 write_series(d, size, spacing, origin);
+                 remove_tag(d / "slice002.dcm", 0x0028, 0x0030);
+               },
+               {"slice002.dcm", "Pixel Spacing"}});
+  return c;
+}
+
+void PrintTo(const SeriesCase& c, std::ostream* os) {
+  *os << c.name;
+}
+
+class BadSeries : public ::testing::TestWithParam<SeriesCase> {};
+
+TEST_P(BadSeries, IsRefusedByNameWithExitTwoAndNoOutput) {
+  TempDir dir;
+  const fs::path work = dir.path / "work", scans = work / "scans";
+  fs::create_directories(scans);
+  ASSERT_NO_FATAL_FAILURE(GetParam().write(scans));
+  const std::string args = "build " + test::quoted(scans.string()) + " -o " +
+                           test::quoted((work / "OUT.vtu").string());
+  const test::RunResult r = test::run_cli(LAMINA_CLI, work, dir.path, args);
+  std::vector<std::string> words = GetParam().message_has;
+  words.push_back("scans");
+  const auto problems = test::refusal_problems(r, words, {"OUT.vtu"}, work);
+  EXPECT_TRUE(problems.empty()) << "lamina " << args << "\n"
+                                << test::as_list(problems) << "stderr was:\n"
+                                << r.err;
+}
+
+INSTANTIATE_TEST_SUITE_P(Cli, BadSeries, ::testing::ValuesIn(series_cases()),
+                         [](const auto& info) { return info.param.name; });
 
 }  // namespace
 }  // namespace lamina::io
