@@ -186,6 +186,16 @@ int run_validate(const ValidateArgs& a) {
   const geometry::PreparedMask prepared =
       geometry::prepare_mask(volume, {.label = scene.build.label});
   const auto t_mesh = Clock::now();
+  // What the run is waiting for, with the time spent so far: the longest stages (the mesh, a
+  // corotational solve, a run to rest) each take tens of seconds on a clinical mask.
+  const auto elapsed = [&] {
+    return fmt::format("{:.0f} s", std::chrono::duration<double>(Clock::now() - t0).count());
+  };
+  report_progress(progress,
+                  fmt::format("meshing the finite-element reference (CGAL Mesh_3, {:.1f} mm cells), "
+                              "{} so far",
+                              edge, elapsed()),
+                  0.0);
   validate::TetMesh mesh =
       validate::mesh_mask_tets(prepared.mask, {.cell_size_mm = edge});
   if (a.fem_on_model) {
@@ -212,14 +222,23 @@ int run_validate(const ValidateArgs& a) {
   const validate::FemMaterial fem_material{scene.elastic_material.young_modulus_kpa,
                                            scene.elastic_material.poisson_ratio};
   std::vector<Row> rows;
+  // Progress: the mesh counts as one job, then each solver at each depth.
+  const double jobs = 1.0 + static_cast<double>(depths.size() * (2 + variants.size()));
+  double job = 1.0;
+  const auto next = [&](double pct, const std::string& what) {
+    report_progress(progress, fmt::format("{:.0f}% indentation: {}, {} so far", pct, what,
+                                          elapsed()),
+                    job++ / jobs);
+  };
   for (double pct : depths) {
     const double d = pct / 100.0 * ind.organ_depth_mm;
-    report_progress(progress, fmt::format("indentation {:.0f}%", pct),
-                    static_cast<double>(&pct - depths.data()) / depths.size());
     const Eigen::MatrixX3d samples = m.X.middleRows(m.layers[0].first_node, m.layers[0].node_count);
+    next(pct, fmt::format("corotational FEM on {} tets, {} load steps", mesh.T.rows(),
+                          fem_options.load_steps));
     Row co{pct, d, "fem_corotational",
            validate::indent_fem(mesh, fem_material, ind, d, true, samples, fem_options), {}};
     co.error.reference_max_mm = co.result.skin_u.rowwise().norm().maxCoeff();
+    next(pct, "linear FEM");
     Row li{pct, d, "fem_linear", validate::indent_fem(mesh, fem_material, ind, d, false, samples), {}};
     li.error = validate::field_error(li.result.skin_u, co.result.skin_u);
     rows.push_back(co);
@@ -230,6 +249,7 @@ int run_validate(const ValidateArgs& a) {
       const Eigen::MatrixX3d at = v.model->X.middleRows(skin.first_node, skin.node_count);
       const Eigen::MatrixX3d reference =
           v.model == &m ? co.result.skin_u : validate::sample_on_boundary(mesh, co.result.u, at);
+      next(pct, fmt::format("{} ({} nodes) run to rest", v.name, v.model->node_count()));
       Row r{pct, d, v.name, validate::indent_mass_spring(*v.model, v.material, solver, ind, d), {}};
       r.error = validate::field_error(r.result.skin_u, reference);
       rows.push_back(r);

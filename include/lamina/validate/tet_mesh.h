@@ -24,8 +24,8 @@ struct TetMeshOptions {
   /// extent / 15 (about 2.7 mm on a 40 mm organ), but never below the largest voxel spacing.
   double cell_size_mm = 0.0;
   /// Largest distance between a boundary triangle and the mask's surface, mm (how closely the
-  /// mesh follows curvature). 0 = half the smallest voxel spacing: a tighter bound would chase
-  /// the voxel staircase.
+  /// mesh follows curvature). 0 = half the largest voxel spacing: a tighter bound would chase
+  /// the voxel staircase, which is as deep as the coarsest axis.
   double facet_distance_mm = 0.0;
   /// Smallest angle of a boundary triangle, degrees (CGAL guarantees termination up to 30).
   double facet_angle_deg = 25.0;
