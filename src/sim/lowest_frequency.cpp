@@ -12,25 +12,16 @@
 
 namespace lamina::sim {
 
-double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
-  const detail::Solver& s = sim.solver();
-  const Model& m = *s.model;
-  bool supported = false;
-  for (double k : s.support.stiffness_n_per_m) supported = supported || k > 0.0;
-  std::vector<int32_t> row(static_cast<size_t>(m.node_count()), -1);
-  int32_t n = 0;
-  for (int32_t i = 0; i < m.node_count(); ++i)
-    if (!s.fixed[i]) row[i] = n++;
-  if (n == 0) throw invalid_input("damping ratio", "every node is held: nothing can vibrate");
-  if (n == m.node_count() && !supported)
-    throw invalid_input("damping ratio",
-                        "the model is held nowhere (no fixed nodes, no anchor springs), so its "
-                        "slowest motion is a free drift; fix a region or use damping_kg_per_s");
+namespace {
 
-  // Stiffness at rest: k u u^T per spring (the rest length is the length, so no geometric
-  // term), the tetrahedra's coupling and volume, support and anchors on the diagonal. The volume
-  // term between layers is left out: the slowest modes of a held organ bend it, which barely
-  // changes the volume of a region.
+// The stiffness at rest over the free nodes (row[i] >= 0 numbers them): k u u^T per spring
+// (the rest length is the length, so no geometric term), the tetrahedra's coupling and volume,
+// support and anchors on the diagonal; and the lumped masses. The volume term between layers is
+// left out (lowest_angular_frequency: the slowest modes bend the organ, which barely changes a
+// region's volume; explicit_dt_limit adds its Gershgorin bound instead).
+void rest_stiffness(const detail::Solver& s, const std::vector<int32_t>& row, int32_t n,
+                    Eigen::SparseMatrix<double>& K, Eigen::VectorXd& mass) {
+  const Model& m = *s.model;
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(36 * m.springs.size() + 3 * static_cast<size_t>(n));
   const Springs& sp = m.springs;
@@ -51,12 +42,34 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
   detail::add_tet_stiffness_triplets(s, row, t);
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (row[i] >= 0)
-      for (int c = 0; c < 3; ++c) t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
-  Eigen::SparseMatrix<double> K(3 * n, 3 * n);
+      for (int c = 0; c < 3; ++c)
+        t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
+  K.resize(3 * n, 3 * n);
   K.setFromTriplets(t.begin(), t.end());
-  Eigen::VectorXd mass(3 * n);
+  mass.resize(3 * n);
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (row[i] >= 0) mass.segment<3>(3 * row[i]).setConstant(s.mass_kg[i]);
+}
+
+}  // namespace
+
+double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
+  const detail::Solver& s = sim.solver();
+  const Model& m = *s.model;
+  bool supported = false;
+  for (double k : s.support.stiffness_n_per_m) supported = supported || k > 0.0;
+  std::vector<int32_t> row(static_cast<size_t>(m.node_count()), -1);
+  int32_t n = 0;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (!s.fixed[i]) row[i] = n++;
+  if (n == 0) throw invalid_input("damping ratio", "every node is held: nothing can vibrate");
+  if (n == m.node_count() && !supported)
+    throw invalid_input("damping ratio",
+                        "the model is held nowhere (no fixed nodes, no anchor springs), so its "
+                        "slowest motion is a free drift; fix a region or use damping_kg_per_s");
+  Eigen::SparseMatrix<double> K;
+  Eigen::VectorXd mass;
+  rest_stiffness(s, row, n, K, mass);
 
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(K);
   if (ldlt.info() != Eigen::Success)
@@ -77,6 +90,41 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
     if (settled) break;
   }
   return std::sqrt(omega2);
+}
+
+double highest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
+  const detail::Solver& s = sim.solver();
+  const Model& m = *s.model;
+  // Every node free: holding nodes removes rows and columns of the symmetric M^-1/2 K M^-1/2,
+  // which cannot raise its largest eigenvalue (Cauchy interlacing), so the answer bounds every
+  // held set and need not be redone when the held nodes change (an indenter's, each step).
+  const int32_t n = m.node_count();
+  if (n == 0) return 0.0;
+  std::vector<int32_t> row(static_cast<size_t>(n));
+  for (int32_t i = 0; i < n; ++i) row[i] = i;
+  Eigen::SparseMatrix<double> K;
+  Eigen::VectorXd mass;
+  rest_stiffness(s, row, n, K, mass);
+  // Power iteration on the symmetric M^-1/2 K M^-1/2 (same eigenvalues as M^-1 K). A rough
+  // start (alternating signs, node by node) leans on the fast modes. The Rayleigh quotient
+  // rises to omega_max^2 from below; the caller keeps a margin for what is not yet converged.
+  const Eigen::VectorXd inv_sqrt_m = mass.cwiseSqrt().cwiseInverse();
+  Eigen::VectorXd x(3 * n);
+  for (Eigen::Index k = 0; k < x.size(); ++k) x[k] = ((k / 3) % 2 ? 1.0 : -1.0) * (1.0 + 0.1 * (k % 3));
+  x.normalize();
+  Eigen::VectorXd y;
+  double omega2 = 0.0;
+  for (int32_t it = 0; it < max_iterations; ++it) {
+    y = inv_sqrt_m.cwiseProduct(K * inv_sqrt_m.cwiseProduct(x));
+    const double next = x.dot(y);
+    const double norm = y.norm();
+    if (!(norm > 0.0) || !std::isfinite(norm)) return std::isfinite(omega2) ? std::sqrt(omega2) : 0.0;
+    x = y / norm;
+    const bool settled = std::abs(next - omega2) <= 1e-6 * next;
+    omega2 = next;
+    if (settled) break;
+  }
+  return std::sqrt(std::max(omega2, 0.0));
 }
 
 }  // namespace lamina::sim

@@ -240,6 +240,7 @@ void set_parameters(Simulation& sim, const Material& material, const SolverOptio
       material.anchor_stiffness_n_per_m != old.anchor_stiffness_n_per_m)
     resolve(s, tets_changed);
   ++s.setup_version;
+  ++s.stiffness_version;
   refresh(sim);  // the active tetrahedra depend on the material; the lists on the mode
 }
 
@@ -274,6 +275,7 @@ void support_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
     s.support.support_n_per_m[static_cast<size_t>(nodes[k])] += stiffness_n_per_m[k];
   setup_support(s);
   ++s.setup_version;  // the prefactored and stability-limit caches depend on it
+  ++s.stiffness_version;
 }
 
 void hold_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
