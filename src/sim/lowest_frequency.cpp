@@ -92,39 +92,4 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
   return std::sqrt(omega2);
 }
 
-double highest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
-  const detail::Solver& s = sim.solver();
-  const Model& m = *s.model;
-  // Every node free: holding nodes removes rows and columns of the symmetric M^-1/2 K M^-1/2,
-  // which cannot raise its largest eigenvalue (Cauchy interlacing), so the answer bounds every
-  // held set and need not be redone when the held nodes change (an indenter's, each step).
-  const int32_t n = m.node_count();
-  if (n == 0) return 0.0;
-  std::vector<int32_t> row(static_cast<size_t>(n));
-  for (int32_t i = 0; i < n; ++i) row[i] = i;
-  Eigen::SparseMatrix<double> K;
-  Eigen::VectorXd mass;
-  rest_stiffness(s, row, n, K, mass);
-  // Power iteration on the symmetric M^-1/2 K M^-1/2 (same eigenvalues as M^-1 K). A rough
-  // start (alternating signs, node by node) leans on the fast modes. The Rayleigh quotient
-  // rises to omega_max^2 from below; the caller keeps a margin for what is not yet converged.
-  const Eigen::VectorXd inv_sqrt_m = mass.cwiseSqrt().cwiseInverse();
-  Eigen::VectorXd x(3 * n);
-  for (Eigen::Index k = 0; k < x.size(); ++k) x[k] = ((k / 3) % 2 ? 1.0 : -1.0) * (1.0 + 0.1 * (k % 3));
-  x.normalize();
-  Eigen::VectorXd y;
-  double omega2 = 0.0;
-  for (int32_t it = 0; it < max_iterations; ++it) {
-    y = inv_sqrt_m.cwiseProduct(K * inv_sqrt_m.cwiseProduct(x));
-    const double next = x.dot(y);
-    const double norm = y.norm();
-    if (!(norm > 0.0) || !std::isfinite(norm)) return std::isfinite(omega2) ? std::sqrt(omega2) : 0.0;
-    x = y / norm;
-    const bool settled = std::abs(next - omega2) <= 1e-6 * next;
-    omega2 = next;
-    if (settled) break;
-  }
-  return std::sqrt(std::max(omega2, 0.0));
-}
-
 }  // namespace lamina::sim

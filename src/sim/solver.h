@@ -182,11 +182,10 @@ struct Solver {
   double explicit_limit_s = 0.0;
   uint64_t explicit_limit_version = 0;
   /// Counts changes of what the rest stiffness and the masses depend on (material, support),
-  /// not of which nodes are held: the largest eigenvalue explicit_dt_limit() takes is computed
-  /// with every node free, an upper bound for any held set, and cached for this version.
+  /// not of which nodes are held: explicit_dt_limit()'s per-node limits are cached for it.
   uint64_t stiffness_version = 1;
-  mutable double omega_max2 = 0.0;  // a cache: explicit_dt_limit() takes a const Simulation
-  mutable uint64_t omega_max2_version = 0;
+  mutable std::vector<double> row_limit_s;  // a cache: explicit_dt_limit() is const
+  mutable uint64_t row_limit_version = 0;
   std::shared_ptr<ProjectiveSolver> projective;  ///< made on the first projective step
 
   // What a step visits: the movable nodes (ascending), every spring with a movable end, every

@@ -67,16 +67,15 @@ TEST(TetTerm, ForcesSumToZeroVanishAtRestAndAreMinusTheEnergyGradient) {
   }
 }
 
-// Semi-implicit Euler's limit (explicit_dt_limit) against the truth: the largest eigenvalue of
-// M^-1 K, K the forces' derivative at rest by central differences (every term the step uses,
-// the volume term between layers included), in a dense eigensolve. The limit must be safe
-// (below the true one) and not wastefully low: the all-Gershgorin bound it replaced was 17x
-// below on the TotalSegmentator liver, which made explicit runs of the physical liver 17x
-// longer than they need be.
-TEST(ExplicitLimit, IsSafeAndWithinTwiceOfTheTrueLimitOfThePhysicalLiver) {
+// Semi-implicit Euler's limit (explicit_dt_limit) against the truth at rest: the largest
+// eigenvalue of M^-1 K, K the forces' derivative by central differences (every term the step
+// uses, the volume term between layers included), in a dense eigensolve. The limit must be
+// below it. (It is far below, and must be: a limit from this eigenvalue with a 1.5 margin blew
+// up the stability suite's 30% indentation, where compressed tetrahedra stiffen.)
+TEST(ExplicitLimit, IsBelowTheTrueLimitAtRestOfThePhysicalLiver) {
   const Model& m = tet_model();
   sim::Material mat = kLiver;
-  mat.mass_damping_per_s = 4.0;  // as critical damping of the slowest mode gives, about
+  mat.mass_damping_per_s = 4.0;  // about what critical damping of the slowest mode gives
   sim::Simulation s = sim::make_simulation(m, mat);
   const Eigen::Index n = m.node_count();
   Eigen::MatrixXd K(3 * n, 3 * n);
@@ -99,21 +98,12 @@ TEST(ExplicitLimit, IsSafeAndWithinTwiceOfTheTrueLimitOfThePhysicalLiver) {
   const Eigen::MatrixXd A = inv_sqrt_m.asDiagonal() * (0.5 * (K + K.transpose())) *
                             inv_sqrt_m.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(A, Eigen::EigenvaluesOnly);
-  const double w2 = eig.eigenvalues().maxCoeff();
-  double c = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i) c = std::max(c, mat.mass_damping_per_s);
+  const double w2 = eig.eigenvalues().maxCoeff(), c = mat.mass_damping_per_s;
   const double truth = (std::sqrt(c * c + 4.0 * w2) - c) / w2;  // h^2 w^2 + 2 h c = 4
   const double limit = sim::explicit_dt_limit(s);
-  EXPECT_LT(limit, truth) << "unsafe: beyond the true limit";
-  EXPECT_GT(limit, 0.5 * truth) << "more than twice too conservative";
-  // The power iteration's omega_max approaches the truth from below (the volume term left out).
-  const double w = sim::highest_angular_frequency(s);
-  EXPECT_LE(w, std::sqrt(w2) * 1.0001);
-  EXPECT_GT(w, 0.9 * std::sqrt(w2));
-  RecordProperty("true_limit_us", std::to_string(truth * 1e6));
-  RecordProperty("limit_us", std::to_string(limit * 1e6));
-  std::printf("explicit limit %.1f us, true %.1f us; omega_max %.1f of %.1f rad/s\n", limit * 1e6,
-              truth * 1e6, w, std::sqrt(w2));
+  EXPECT_GT(limit, 0.0);
+  EXPECT_LT(limit, truth) << "unsafe: beyond the true limit at rest";
+  std::printf("explicit limit %.1f us, true limit at rest %.1f us\n", limit * 1e6, truth * 1e6);
 }
 
 TEST(TetTerm, ASmallHomogeneousStrainStoresTheContinuumsEnergy) {

@@ -298,18 +298,13 @@ double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer
 ///   is a free drift) or everywhere.
 double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations = 300);
 
-/// omega_max, rad/s: the fastest natural frequency about the rest shape with every node free
-/// (power iteration on M^-1/2 K M^-1/2 with the rest stiffness of lowest_angular_frequency();
-/// the Rayleigh quotient approaches it from below). Holding nodes cannot raise it (eigenvalue
-/// interlacing), so it bounds the held model too.
-double highest_angular_frequency(const Simulation& sim, int32_t max_iterations = 300);
-
 /// Semi-implicit Euler's stability limit for this simulation's masses, stiffness and damping,
-/// s: the largest dt with h^2 w^2 + 2 h c < 4, w^2 = 1.5 highest_angular_frequency()^2 plus the
-/// volume term's Gershgorin bound, c the largest damping rate; never below the all-Gershgorin
-/// estimate (each node's row of M^-1 K: safe, but 5-10x low on physical tetrahedra). step()
-/// splits a semi-implicit Euler step longer than 0.9 of it into equal substeps, so a physical
-/// material at a large dt costs more steps instead of blowing up.
+/// s: the largest dt with h^2 w^2 + 2 h c < 4 at every free node, w^2 Gershgorin's bound on the
+/// node's row of M^-1 K (springs, tetrahedra, support and the volume term at rest) and c its
+/// damping rate. A low estimate at rest (17x below the largest eigenvalue's on a liver), and
+/// that slack is needed: compressed tetrahedra stiffen (docs/physics.md). step() splits a
+/// semi-implicit Euler step longer than 0.9 of it into equal substeps, so a physical material
+/// at a large dt costs more steps instead of blowing up.
 double explicit_dt_limit(const Simulation& sim);
 
 /// How many substeps step() splits a semi-implicit Euler step of dt_s into, given the limit.
