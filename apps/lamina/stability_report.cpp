@@ -149,13 +149,22 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
   const unsigned workers =
       std::max(1u, std::min<unsigned>(static_cast<unsigned>(omp_get_num_procs()),
                                       static_cast<unsigned>(cases.size())));
+  // Longest first, so the two cores finish together: semi-implicit Euler on a physical
+  // material runs as substeps below its (conservative) limit, several times an implicit case's
+  // time (58 s against 5-13 s on a clinical liver).
+  std::vector<size_t> order(cases.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_partition(order.begin(), order.end(), [&](size_t k) {
+    return cases[k].integrator == sim::Integrator::kSemiImplicitEuler;
+  });
   std::atomic<size_t> next{0};
   size_t done = 0;
   std::mutex report;
   std::exception_ptr failure;
   auto work = [&] {
     omp_set_num_threads(1);
-    for (size_t k = next++; k < cases.size(); k = next++) {
+    for (size_t q = next++; q < cases.size(); q = next++) {
+      const size_t k = order[q];
       const validate::StabilityCase& c = cases[k];
       try {
         rows[k] = validate::run_stability_case(m, scene.material, scene.solver, ind, c, options);

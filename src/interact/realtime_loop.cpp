@@ -38,6 +38,7 @@ int32_t deepest_inside(const Model& m, const Eigen::MatrixX3d& x, const ToolTip&
 RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
                            const LoopOptions& options)
     : sim_(std::move(sim)), routing_(routing), options_(options), rate_hz_(options.rate_hz) {
+  stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
   window_start_s_ = now_s();
   window_sim_start_s_ = sim_.time_s;
@@ -150,6 +151,7 @@ void RealtimeLoop::apply_pending() {
     new_params_.reset();
     reroute = true;
   }
+  stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
   if (new_forces_) {
     forces_ = std::move(*new_forces_);
@@ -218,7 +220,7 @@ void RealtimeLoop::one_step() {
     real_time_factor_ = (sim_.time_s - window_sim_start_s_) / (t1 - window_start_s_);
     window_sim_start_s_ = sim_.time_s;
     // Behind: real time was asked for and the simulated clock fell more than 5% behind.
-    keeping_up_ = !(options_.real_time && rate_hz_ > 0.0) || real_time_factor_ >= 0.95;
+    keeping_up_ = !(options_.real_time && stepping_rate_hz_ > 0.0) || real_time_factor_ >= 0.95;
     mean_step_us_ = window_step_sum_us_ / static_cast<double>(window_steps_);
     published_worst_jitter_ = worst_jitter_us_;
     window_step_sum_us_ = 0.0;

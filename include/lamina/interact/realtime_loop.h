@@ -139,6 +139,9 @@ class RealtimeLoop {
   double rate_hz_ = 1000.0;
 
   // Owned by the stepping thread.
+  // The rate it steps at: rate_hz_ as last taken under mutex_ (apply_pending); the real-time
+  // check once read rate_hz_ itself, unlocked (found by TSan in CI's run).
+  double stepping_rate_hz_ = 1000.0;
   std::vector<LiveForce> forces_;
   ToolTip tip_;
   std::vector<ForceRoute> routes_;
