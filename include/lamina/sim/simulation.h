@@ -301,7 +301,7 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations = 
 /// Semi-implicit Euler's stability limit for this simulation's masses, stiffness and damping,
 /// s: the largest dt with h^2 w^2 + 2 h c < 4 at every free node, w^2 Gershgorin's bound on the
 /// node's row of M^-1 K (springs, tetrahedra, support and the volume term at rest) and c its
-/// damping rate. A low estimate at rest (17x below the largest eigenvalue's on a liver), and
+/// damping rate. A low estimate at rest (13x below the largest eigenvalue's on a liver), and
 /// that slack is needed: compressed tetrahedra stiffen (docs/physics.md). step() splits a
 /// semi-implicit Euler step longer than 0.9 of it into equal substeps, so a physical material
 /// at a large dt costs more steps instead of blowing up.
