@@ -75,7 +75,20 @@ void check_metaimage_header(const std::string& path, int64_t max_voxels) {
     std::string value = line.substr(eq + 1);
     value.erase(0, value.find_first_not_of(" \t"));
     value.erase(value.find_last_not_of(" \t") + 1);
+    // MetaIO misreads the rest of a header after an empty value ("DimSize required and not
+    // defined" on stderr) and takes the last of repeated keys: neither occurs in a header any
+    // writer makes (fuzz_volume).
+    if (value.empty()) throw bad(n, "'" + key + "' has no value");
+    if (field.count(key)) throw bad(n, "'" + key + "' appears a second time");
     field[key] = {value, n};
+    // A CompressedDataSize that is not the compressed data's size makes MetaIO hang in inflate,
+    // allocate without bound (negative) or inflate part of the data and leave the rest zero
+    // (fuzz_volume): a positive whole number, checked against the data below.
+    if (key == "CompressedDataSize" &&
+        (value.find_first_not_of("0123456789") != std::string::npos || value.size() > 15 ||
+         std::stoll(value) < 1))
+      throw bad(n, "CompressedDataSize must be a positive whole number of bytes, got '" +
+                       value.substr(0, 40) + "'");
     // MetaIO loops without end on a negative NDims or DimSize (fuzz_volume): sizes must be
     // positive integers.
     if (key == "NDims" || key == "DimSize") {
@@ -140,18 +153,9 @@ void check_metaimage_header(const std::string& path, int64_t max_voxels) {
     check_origin(path, "MetaImage " + origin_key, {o[0], o[1], o[2]});
   }
 
-  // Uncompressed data must all be there (MetaIO reads what there is and leaves the rest).
-  const int bytes = element_bytes(value("ElementType"));
-  const std::string compressed = value("CompressedData");
-  if (bytes == 0 || compressed == "True" || compressed == "true" || field.count("HeaderSize"))
-    return;
-  if (size[0] * size[1] * size[2] > static_cast<double>(max_voxels)) return;
-  const std::vector<double> channels = numbers(value("ElementNumberOfChannels"));
-  const uint64_t expected = static_cast<uint64_t>(size[0]) * static_cast<uint64_t>(size[1]) *
-                            static_cast<uint64_t>(size[2]) * static_cast<uint64_t>(bytes) *
-                            (channels.size() == 1 && channels[0] >= 1.0
-                                 ? static_cast<uint64_t>(channels[0])
-                                 : 1u);
+  // Uncompressed data must all be there (MetaIO reads what there is and leaves the rest), and
+  // compressed data must be as long as CompressedDataSize says.
+  if (field.count("HeaderSize")) return;  // an explicit skip: MetaIO's to judge
   std::string data_path = path;
   uint64_t offset = data_start < 0 ? 0 : static_cast<uint64_t>(data_start);
   if (value("ElementDataFile") != "LOCAL") {
@@ -163,13 +167,39 @@ void check_metaimage_header(const std::string& path, int64_t max_voxels) {
                                             "exist",
                                             value("ElementDataFile")));
   }
-  const uint64_t held = data_start < 0 && data_path == path
-                            ? 0
-                            : count_data_bytes(data_path, offset, /*gzip=*/false);
-  if (held < expected)
+  // The header ran to the end of the file without a newline after ElementDataFile: no data.
+  const auto held = [&] {
+    return data_start < 0 && data_path == path ? uint64_t{0}
+                                               : count_data_bytes(data_path, offset, false);
+  };
+  const std::string compressed = value("CompressedData");
+  if (compressed == "True" || compressed == "true") {
+    if (!field.count("CompressedDataSize")) return;  // MetaIO takes the rest of the file
+    const uint64_t said = std::stoull(value("CompressedDataSize")), there = held();
+    if (there != said)
+      throw invalid_input(data_path, fmt::format("MetaImage CompressedDataSize is {} bytes but "
+                                                 "the compressed data holds {} (truncated or "
+                                                 "edited?)",
+                                                 said, there));
+    return;
+  }
+  const int bytes = element_bytes(value("ElementType"));
+  if (bytes == 0 || size[0] * size[1] * size[2] > static_cast<double>(max_voxels)) return;
+  const std::vector<double> channels = numbers(value("ElementNumberOfChannels"));
+  // Sizes were checked above as whole numbers of at most nine digits; channels are ITK's to
+  // refuse (a label image has one), so only a plausible count is multiplied in.
+  const uint64_t per_voxel =
+      channels.size() == 1 && channels[0] >= 1.0 && channels[0] <= 1024.0
+          ? static_cast<uint64_t>(channels[0])
+          : 1u;
+  uint64_t expected = static_cast<uint64_t>(bytes) * per_voxel;
+  for (int a = 0; a < 3; ++a)
+    expected = saturating_product(expected, static_cast<uint64_t>(size[a]));
+  const uint64_t there = held();
+  if (there < expected)
     throw invalid_input(data_path, fmt::format("is truncated: the MetaImage header describes {} "
                                                "bytes of data but there are {}",
-                                               expected, held));
+                                               expected, there));
 }
 
 }  // namespace lamina::io::detail

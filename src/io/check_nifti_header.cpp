@@ -138,7 +138,7 @@ void check_nifti_header(const std::string& path, int64_t max_voxels) {
     const int n = h.i16(kDim + 2 * d);
     if (n < 1)
       throw invalid_input(header_path, fmt::format("dim[{}] must be at least 1, got {}", d, n));
-    voxels *= static_cast<uint64_t>(n);
+    voxels = saturating_product(voxels, static_cast<uint64_t>(n));
   }
   const int datatype = h.i16(kDatatype), bitpix = h.i16(kBitpix);
   const int bits = scalar_bits(datatype);
@@ -159,7 +159,7 @@ void check_nifti_header(const std::string& path, int64_t max_voxels) {
   // Where the data starts, and how its values are scaled.
   const double vox_offset = h.f32(kVoxOffset);
   if (!std::isfinite(vox_offset) || vox_offset < 0.0 || (!pair && vox_offset < 352.0) ||
-      vox_offset != std::floor(vox_offset))
+      vox_offset != std::floor(vox_offset) || vox_offset > 1e15)
     throw invalid_input(header_path, fmt::format("vox_offset {:g} is not where voxel data can "
                                                  "start (a whole number, at least 352 in a .nii "
                                                  "file)",
@@ -242,7 +242,7 @@ void check_nifti_header(const std::string& path, int64_t max_voxels) {
   // The data the header describes must all be there (ITK would leave the missing voxels zero:
   // half a liver would build silently).
   if (voxels > static_cast<uint64_t>(max_voxels)) return;
-  const uint64_t data = voxels * static_cast<uint64_t>(bits / 8);
+  const uint64_t data = saturating_product(voxels, static_cast<uint64_t>(bits / 8));
   if (pair) {
     const std::string image_path = fs::path(header_path).replace_extension(".img").string();
     const uint64_t held = count_data_bytes(image_path, 0, /*gzip=*/false);

@@ -120,7 +120,11 @@ void check_nrrd_header(const std::string& path, int64_t max_voxels) {
   const auto has = [&](const char* f) { return field.count(f) > 0; };
 
   if (!has("dimension") || !has("sizes") || !has("type")) return;  // ITK says what is missing
-  const int dims = static_cast<int>(number(path, "dimension", field["dimension"]));
+  const double dimension = number(path, "dimension", field["dimension"]);
+  if (!(dimension >= 1.0 && dimension <= 16.0) || dimension != std::floor(dimension))
+    throw invalid_input(path, fmt::format("NRRD 'dimension' must be a whole number 1..16, got '{}'",
+                                          field["dimension"].substr(0, 40)));
+  const int dims = static_cast<int>(dimension);
   const std::vector<std::string> sizes = tokens(field["sizes"]);
   if (static_cast<int>(sizes.size()) != dims)
     throw invalid_input(path, fmt::format("NRRD 'sizes' has {} values for dimension {}",
@@ -131,7 +135,7 @@ void check_nrrd_header(const std::string& path, int64_t max_voxels) {
     if (!(v >= 1.0) || v != std::floor(v) || v > 1e9)
       throw invalid_input(path, fmt::format("NRRD 'sizes' must be whole numbers >= 1, got '{}'",
                                             field["sizes"].substr(0, 60)));
-    voxels *= static_cast<uint64_t>(v);
+    voxels = saturating_product(voxels, static_cast<uint64_t>(v));
   }
 
   // Voxel size and direction: from "space directions" (a vector per axis, "none" for a
@@ -200,10 +204,11 @@ void check_nrrd_header(const std::string& path, int64_t max_voxels) {
   if (has("byte skip")) {
     const double skip = number(path, "byte skip", field["byte skip"]);
     if (skip == -1.0) return;  // data at the end of the file: nothing to count
-    if (!(skip >= 0.0)) throw invalid_input(path, "NRRD 'byte skip' must be -1 or >= 0");
+    if (!(skip >= 0.0 && skip <= 1e15) || skip != std::floor(skip))
+      throw invalid_input(path, "NRRD 'byte skip' must be -1 or a whole number of bytes");
     if (!gzip) offset += static_cast<uint64_t>(skip);
   }
-  const uint64_t expected = voxels * static_cast<uint64_t>(bytes);
+  const uint64_t expected = saturating_product(voxels, static_cast<uint64_t>(bytes));
   const uint64_t held = count_data_bytes(data_path, offset, gzip);
   if (held < expected)
     throw invalid_input(data_path, fmt::format("is truncated: the NRRD header describes {} bytes "

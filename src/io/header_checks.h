@@ -75,6 +75,11 @@ void check_dicom_grid(const std::string& folder, const DicomGrid& tags,
                       const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
                       const std::array<double, 9>& direction);
 
+/// a * b, or UINT64_MAX when that overflows (a corrupt header's sizes can multiply past 2^64).
+inline uint64_t saturating_product(uint64_t a, uint64_t b) {
+  return b != 0 && a > UINT64_MAX / b ? UINT64_MAX : a * b;
+}
+
 /// Bytes of a file from `offset` on, inflated when `gzip` (a truncated or corrupt stream is an
 /// error naming the file). Counts without keeping the data.
 uint64_t count_data_bytes(const std::string& path, uint64_t offset, bool gzip);

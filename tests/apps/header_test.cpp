@@ -203,6 +203,27 @@ std::vector<HeaderCase> header_cases() {
   text("MetaImageOffsetInfinite", "mask.mha",
        [] { return mha("ElementSpacing = 2 2 2\nOffset = 0 -inf 0\n"); },
        {"Offset", "not finite"});
+  // Compressed MetaImage as Lamina (ITK) writes it, its CompressedDataSize line replaced: a
+  // wrong size made MetaIO hang in inflate, allocate without bound or fill the rest with zeros.
+  const auto compressed = [&](const std::string& name, const std::string& size_line,
+                              std::vector<std::string> words) {
+    c.push_back({name,
+                 [=](const Dir& d) {
+                   io::write_label_volume(small_cube(), d.file("mask.mha"));
+                   std::string bytes = read_bytes(d.work / "mask.mha");
+                   const size_t at = bytes.find("CompressedDataSize = ");
+                   bytes.replace(at, bytes.find('\n', at) - at, size_line);
+                   write_bytes(d.work / "mask.mha", bytes);
+                   return std::string("mask.mha");
+                 },
+                 words});
+  };
+  compressed("MetaImageCompressedDataSizeTooSmall", "CompressedDataSize = 10",
+             {"CompressedDataSize", "10 bytes"});
+  compressed("MetaImageCompressedDataSizeNegative", "CompressedDataSize = -5",
+             {"CompressedDataSize", "-5"});
+  compressed("MetaImageEmptyValue", "CompressedDataSize = ", {"CompressedDataSize", "no value"});
+  compressed("MetaImageRepeatedKey", "NDims = 3", {"NDims", "second time"});
   return c;
 }
 
