@@ -12,16 +12,25 @@
 
 namespace lamina::sim {
 
-namespace {
-
-// The stiffness at rest over the free nodes (row[i] >= 0 numbers them): k u u^T per spring
-// (the rest length is the length, so no geometric term), the tetrahedra's coupling and volume,
-// support and anchors on the diagonal; and the lumped masses. The volume term between layers is
-// left out (lowest_angular_frequency: the slowest modes bend the organ, which barely changes a
-// region's volume; explicit_dt_limit adds its Gershgorin bound instead).
-void rest_stiffness(const detail::Solver& s, const std::vector<int32_t>& row, int32_t n,
-                    Eigen::SparseMatrix<double>& K, Eigen::VectorXd& mass) {
+double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
+  const detail::Solver& s = sim.solver();
   const Model& m = *s.model;
+  bool supported = false;
+  for (double k : s.support.stiffness_n_per_m) supported = supported || k > 0.0;
+  std::vector<int32_t> row(static_cast<size_t>(m.node_count()), -1);
+  int32_t n = 0;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (!s.fixed[i]) row[i] = n++;
+  if (n == 0) throw invalid_input("damping ratio", "every node is held: nothing can vibrate");
+  if (n == m.node_count() && !supported)
+    throw invalid_input("damping ratio",
+                        "the model is held nowhere (no fixed nodes, no anchor springs), so its "
+                        "slowest motion is a free drift; fix a region or use damping_kg_per_s");
+
+  // Stiffness at rest: k u u^T per spring (the rest length is the length, so no geometric
+  // term), the tetrahedra's coupling and volume, support and anchors on the diagonal. The volume
+  // term between layers is left out: the slowest modes of a held organ bend it, which barely
+  // changes the volume of a region.
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(36 * m.springs.size() + 3 * static_cast<size_t>(n));
   const Springs& sp = m.springs;
@@ -42,34 +51,12 @@ void rest_stiffness(const detail::Solver& s, const std::vector<int32_t>& row, in
   detail::add_tet_stiffness_triplets(s, row, t);
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (row[i] >= 0)
-      for (int c = 0; c < 3; ++c)
-        t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
-  K.resize(3 * n, 3 * n);
+      for (int c = 0; c < 3; ++c) t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
+  Eigen::SparseMatrix<double> K(3 * n, 3 * n);
   K.setFromTriplets(t.begin(), t.end());
-  mass.resize(3 * n);
+  Eigen::VectorXd mass(3 * n);
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (row[i] >= 0) mass.segment<3>(3 * row[i]).setConstant(s.mass_kg[i]);
-}
-
-}  // namespace
-
-double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
-  const detail::Solver& s = sim.solver();
-  const Model& m = *s.model;
-  bool supported = false;
-  for (double k : s.support.stiffness_n_per_m) supported = supported || k > 0.0;
-  std::vector<int32_t> row(static_cast<size_t>(m.node_count()), -1);
-  int32_t n = 0;
-  for (int32_t i = 0; i < m.node_count(); ++i)
-    if (!s.fixed[i]) row[i] = n++;
-  if (n == 0) throw invalid_input("damping ratio", "every node is held: nothing can vibrate");
-  if (n == m.node_count() && !supported)
-    throw invalid_input("damping ratio",
-                        "the model is held nowhere (no fixed nodes, no anchor springs), so its "
-                        "slowest motion is a free drift; fix a region or use damping_kg_per_s");
-  Eigen::SparseMatrix<double> K;
-  Eigen::VectorXd mass;
-  rest_stiffness(s, row, n, K, mass);
 
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(K);
   if (ldlt.info() != Eigen::Success)
