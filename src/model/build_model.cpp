@@ -151,10 +151,8 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   // clinical 0.6 mm scans), coarser input is used as is.
   const double area0 = estimate_surface_area(prepared.mask);
   double edge = edge_for_vertex_count(area0, opt.skin_vertices);
-  std::array<int, 3> factors{};
-  for (int a = 0; a < 3; ++a)
-    factors[a] =
-        std::max(1, static_cast<int>(std::floor(edge / 4.0 / prepared.mask.frame.spacing_mm[a])));
+  const std::array<int, 3> factors =
+      geometry::working_grid_factors(prepared.mask.frame.spacing_mm, edge);
   Mask work = geometry::downsample_mask(prepared.mask, factors);
   prepared.mask = {};
   work = geometry::pad_mask(work, 2);

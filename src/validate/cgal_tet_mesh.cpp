@@ -81,10 +81,6 @@ void check_mask(const Mask& mask, const TetMeshOptions& o) {
                         fmt::format("must be >= 2, got {}", o.cell_radius_edge_ratio));
 }
 
-}  // namespace
-
-namespace {
-
 // Bounding box of the inside voxels; hi[0] < 0 when there is none.
 void inside_box(const Mask& mask, std::array<int64_t, 3>& lo, std::array<int64_t, 3>& hi) {
   const GridFrame& frame = mask.frame;
@@ -117,13 +113,10 @@ TetMesh mesh_mask_tets(const Mask& input, const TetMeshOptions& options) {
   const double cell_size = options.cell_size_mm > 0.0 ? options.cell_size_mm
                                                       : std::max(extent / 15.0, input_max_spacing);
 
-  // About four voxels per cell is enough for the surface to be found well within a cell; a finer
-  // mask (a clinical 0.57 mm scan under 8 mm cells) is box-filtered down first, as the model
-  // builder does: CGAL's image oracle over 9.5 million voxels took minutes (docs/validation.md).
-  std::array<int, 3> factors{};
-  for (int a = 0; a < 3; ++a)
-    factors[a] = std::max(1, static_cast<int>(std::floor(cell_size / 4.0 /
-                                                         input.frame.spacing_mm[a])));
+  // A mask finer than about four voxels per cell (a clinical 0.57 mm scan under 8 mm cells) is
+  // box-filtered down first, as the model builder does: CGAL's image oracle over 9.5 million
+  // voxels took minutes (docs/validation.md).
+  const std::array<int, 3> factors = geometry::working_grid_factors(input.frame.spacing_mm, cell_size);
   Mask coarse;
   const bool downsample = factors[0] > 1 || factors[1] > 1 || factors[2] > 1;
   if (downsample) {
