@@ -57,18 +57,14 @@ std::string one_line(const itk::ExceptionObject& e) {
   return d.empty() ? std::string("ITK error") : d;
 }
 
+// The frame ITK read, whatever the format: the same geometry checks as the raw headers'.
 void check_frame(const std::string& path, const GridFrame& f) {
-  for (int a = 0; a < 3; ++a) {
-    if (!(f.spacing_mm[a] > 0.0) || !std::isfinite(f.spacing_mm[a])) {
-      std::ostringstream m;
-      m << "voxel spacing must be positive, got " << f.spacing_mm[0] << " x " << f.spacing_mm[1]
-        << " x " << f.spacing_mm[2] << " mm (fix the header's spacing/pixdim)";
-      throw invalid_input(path, m.str());
-    }
-    if (!std::isfinite(f.origin_mm[a])) throw invalid_input(path, "origin is not finite");
-  }
-  for (double d : f.direction)
-    if (!std::isfinite(d)) throw invalid_input(path, "direction matrix is not finite");
+  detail::check_spacing(path, "voxel spacing", f.spacing_mm);
+  detail::check_origin(path, "origin", f.origin_mm);
+  std::array<std::array<double, 3>, 3> columns{};  // column c: index axis c's direction
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) columns[c][r] = f.direction[3 * r + c];
+  detail::check_direction(path, "direction matrix", columns, /*scaled=*/false);
 }
 
 // Reads header information and rejects what we cannot use before any voxel is allocated.
@@ -96,13 +92,8 @@ void check_header(const std::string& path, itk::ImageIOBase* io, const ReadVolum
       throw invalid_input(path, "has a zero dimension (" + shape.str() + ")");
   // Checked here, on the header's own values: ITK's reader later turns a negative spacing into a
   // positive one with a mirrored direction, which would hide a broken header.
-  for (unsigned d = 0; d < 3; ++d)
-    if (!(io->GetSpacing(d) > 0.0) || !std::isfinite(io->GetSpacing(d))) {
-      std::ostringstream m;
-      m << "voxel spacing must be positive, got " << io->GetSpacing(0) << " x " << io->GetSpacing(1)
-        << " x " << io->GetSpacing(2) << " mm (fix the header's spacing/pixdim)";
-      throw invalid_input(path, m.str());
-    }
+  detail::check_spacing(path, "voxel spacing",
+                        {io->GetSpacing(0), io->GetSpacing(1), io->GetSpacing(2)});
   if (voxels > opt.max_voxels)
     throw invalid_input(path, "has " + std::to_string(voxels) + " voxels, more than the limit of " +
                                   std::to_string(opt.max_voxels) +
