@@ -74,3 +74,19 @@ find_package(PkgConfig REQUIRED)
 pkg_check_modules(EPOXY REQUIRED IMPORTED_TARGET epoxy)
 pkg_check_modules(IMGUI REQUIRED IMPORTED_TARGET imgui)
 pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
+
+# Embedding (docs/embedding.md). The Python module is built for Debian's own Python 3.11, whose
+# numpy and pytest come from Debian's packages: not for whatever `python3` is first on PATH (a
+# pyenv one here), which has neither. pybind11 2.10 finds the interpreter it is given.
+option(LAMINA_PYTHON "Build the Python module (pybind11; docs/python.md)" ON)
+if(LAMINA_PYTHON)
+  if(NOT DEFINED Python3_EXECUTABLE AND EXISTS /usr/bin/python3)
+    set(Python3_EXECUTABLE /usr/bin/python3 CACHE FILEPATH "The Python the module is built for")
+  endif()
+  find_package(Python3 3.9 REQUIRED COMPONENTS Interpreter Development.Module NumPy)
+  set(PYBIND11_FINDPYTHON ON)
+  find_package(pybind11 2.10 REQUIRED CONFIG)
+endif()
+# OpenIGTLink 1.11 (`lamina serve`, docs/openigtlink.md): Debian installs its package outside
+# CMake's search path.
+find_package(OpenIGTLink REQUIRED PATHS /usr/lib/openigtlink NO_DEFAULT_PATH)

@@ -13,6 +13,10 @@ pkgs=(
   # surfaceless (headless) and llvmpipe, Xvfb and xdotool (the viewer test), gnuplot (plots)
   libglfw3-dev libimgui-dev libepoxy-dev libstb-dev libgl-dev libegl-dev libegl-mesa0
   libgl1-mesa-dri xvfb xauth xdotool gnuplot-nox
+  # embedding (docs/embedding.md, python.md, openigtlink.md): the Python module and its tests,
+  # sweeps on a dask cluster, the OpenIGTLink server and the protocol's example clients
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed python3-dask
+  libopenigtlink-dev openigtlink-examples
   # fuzzing (scripts/fuzz.sh): clang with libFuzzer and the sanitizer runtimes, and its OpenMP
   clang-14 libclang-rt-14-dev libomp-14-dev
 )

@@ -17,6 +17,7 @@
 #include "lamina/io/mesh_file.h"
 #include "lamina/io/model_file.h"
 #include "lamina/io/scene.h"
+#include "lamina/io/scene_model.h"
 #include "lamina/io/summary_json.h"
 #include "lamina/model/compute_rings.h"
 #include "lamina/model/summarize_model.h"
@@ -64,8 +65,7 @@ ProgressFn stderr_progress(bool verbose) {
 io::ReadVolumeOptions volume_read_options;
 
 LabelVolume read_input(const std::string& input) {
-  return input == io::kScenePhantom ? geometry::make_phantom()
-                                    : io::read_label_volume(input, volume_read_options);
+  return io::read_input(input, volume_read_options);
 }
 
 namespace {
@@ -160,46 +160,10 @@ void create_folder(const fs::path& dir) {
 
 
 SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress) {
-  SceneModel out;
-  // Rings must reach as far as the routing spreads force (RoutingOptions::locality).
-  const int32_t locality = std::max(scene.build.locality, scene.routing.locality);
-  if (!scene.model_path.empty()) {
-    out.source = scene.model_path;
-    out.model = io::load_model(scene.model_path);
-    if (scene.density_given) {
-      // Lumped masses are proportional to the density they were computed with.
-      const double scale = scene.build.density_kg_per_mm3 / out.model.density_kg_per_mm3;
-      for (double& m : out.model.mass_kg) m *= scale;
-      out.model.density_kg_per_mm3 = scene.build.density_kg_per_mm3;
-    }
-    out.model.rings = model::compute_rings(out.model, std::max(out.model.rings.locality, locality));
-    return out;
-  }
-  const LabelVolume volume = read_input(scene.input);
-  out.source = volume.source;
-  model::BuildOptions options = scene.build;
-  options.locality = locality;
-  out.model = model::build_model(volume, options, progress).model;
-  return out;
+  io::SceneModel made = io::make_scene_model(scene, volume_read_options, progress);
+  return {std::move(made.model), std::move(made.source)};
 }
 
-io::Scene scene_for(const std::string& what, bool paper) {
-  if (has_suffix(what, ".json")) {
-    if (paper)
-      throw invalid_input("--paper",
-                          "cannot be given with a scene file (" + what +
-                              "): the scene sets the model and material; see examples/paper_*.json");
-    return io::load_scene(what);
-  }
-  io::Scene scene = paper ? io::paper_scene() : io::Scene{};
-  scene.source = what;
-  if (has_suffix(what, ".vtu")) {
-    scene.input.clear();
-    scene.model_path = what;
-  } else {
-    scene.input = what;
-  }
-  return scene;
-}
+io::Scene scene_for(const std::string& what, bool paper) { return io::scene_for(what, paper); }
 
 }  // namespace lamina::cli

@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "lamina/interact/run_tools.h"
 #include "lamina/io/scene.h"
 
 namespace lamina::cli {
@@ -27,21 +28,9 @@ RunStats simulate(const Setup& setup, double t_end_s, bool stop_at_rest,
   interact::ToolDriver driver;
   driver.tools = setup.tools;
   driver.routing = setup.routing;
-  const double release = interact::last_tool_end(driver);
   RunStats r;
-  int64_t quiet = 0;
-  const int64_t needed = sim::quiet_steps(s);
   const auto t0 = Clock::now();
-  while (s.time_s < t_end_s - 1e-9) {
-    interact::apply_tools(s, driver);
-    const sim::StepStats st = sim::step(s);
-    if (per_step) per_step(s, driver, st);
-    quiet = s.time_s > release && sim::at_rest(st) ? quiet + 1 : 0;
-    if (stop_at_rest && quiet >= needed) {
-      r.converged = true;
-      break;
-    }
-  }
+  r.converged = interact::run_tools(s, driver, t_end_s, stop_at_rest, per_step).converged;
   r.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
   r.steps = s.steps;
   return r;

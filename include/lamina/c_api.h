@@ -1,0 +1,146 @@
+/* Lamina's C API: opaque handles, status codes and a last-error message, for a game engine's
+ * plugin or any language with a C foreign-function interface (docs/embedding.md).
+ *
+ * No C++ exception crosses it: every function that can fail returns a lamina_status, and
+ * lamina_last_error() then gives the same one-line message the command-line tool prints.
+ * Units as everywhere in Lamina: mm, kg, s; forces in mN (1 N = 1000 mN), stiffness in N/m.
+ * Arrays of points are interleaved: x0 y0 z0 x1 y1 z1 ... (a vertex buffer's layout).
+ *
+ * A simulation steps on the calling thread, when asked (lamina_sim_step): a game engine calls it
+ * from its physics tick. Handles are not shared between threads without a lock. */
+#ifndef LAMINA_C_API_H
+#define LAMINA_C_API_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* What a call did. The non-zero values are the command-line tool's exit codes (docs/errors.md). */
+typedef enum lamina_status {
+  LAMINA_OK = 0,
+  LAMINA_ERROR_INTERNAL = 1,      /* a bug or an unexpected library failure */
+  LAMINA_ERROR_INVALID_INPUT = 2, /* a file, scene, value or handle that cannot be used */
+  LAMINA_ERROR_OUTPUT = 3,        /* a file could not be written */
+  LAMINA_ERROR_UNAVAILABLE = 4,   /* something needed is missing on this machine */
+  LAMINA_ERROR_UNSTABLE = 5       /* the simulation failed beyond recovery */
+} lamina_status;
+
+typedef struct lamina_model lamina_model; /* a multi-layer mass-spring model */
+typedef struct lamina_sim lamina_sim;     /* a simulation of a model (owns a reference to it) */
+
+/* The last error on this thread, one line ("" after a success). Valid until the next call. */
+const char* lamina_last_error(void);
+/* "MAJOR.MINOR.PATCH" */
+const char* lamina_version(void);
+
+/* ---- models ---------------------------------------------------------------------------- */
+
+/* Builds a model from a segmentation (a NIfTI, NRRD or MetaImage mask, a DICOM folder) or the
+ * built-in phantom ("phantom"), with the default options: the reference paper's two layers and
+ * 1284 skin nodes, joined by tetrahedra. Takes a few seconds. */
+lamina_status lamina_model_build(const char* input, lamina_model** out);
+/* Loads a model saved by `lamina build` or lamina_model_save (.vtu). */
+lamina_status lamina_model_load(const char* path, lamina_model** out);
+/* Saves a model (.vtu); the file is complete or not there at all. */
+lamina_status lamina_model_save(const lamina_model* model, const char* path);
+/* Frees a model; a simulation made from it keeps its own reference. NULL is ignored. */
+void lamina_model_free(lamina_model* model);
+
+int32_t lamina_model_node_count(const lamina_model* model);
+int32_t lamina_model_layer_count(const lamina_model* model);
+/* Nodes 0 .. skin_node_count - 1 are the skin (layer 0); the skin's triangles index them. */
+int32_t lamina_model_skin_node_count(const lamina_model* model);
+int32_t lamina_model_skin_triangle_count(const lamina_model* model);
+/* Copies the skin's triangles, 3 node indices each, outward winding, into `indices`, which
+ * holds `capacity` values (at least 3 * skin_triangle_count). */
+lamina_status lamina_model_skin_triangles(const lamina_model* model, int32_t* indices,
+                                          int64_t capacity);
+/* Copies the rest positions, mm, interleaved, into `xyz` (capacity >= 3 * node_count). */
+lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz,
+                                          int64_t capacity);
+
+/* ---- simulations ----------------------------------------------------------------------- */
+
+/* Tissue parameters; lamina_material_defaults() gives the reference paper's (K = 3 N/m,
+ * gamma = 3 kg/s, unit masses). young_modulus_kpa > 0 makes the tissue elastic (E, nu) through
+ * the model's tetrahedra, with stiffness_n_per_m = 0 and node_mass_kg = 0 (lumped masses). */
+typedef struct lamina_material {
+  double stiffness_n_per_m; /* every spring's constant, N/m; 0 = the model's */
+  double damping_kg_per_s;  /* viscous damping per node, kg/s */
+  double node_mass_kg;      /* every node's mass, kg; 0 = lumped from density and volume */
+  double young_modulus_kpa; /* E, kPa; 0 = off */
+  double poisson_ratio;     /* nu in [0, 0.5) */
+  double volume_stiffness_kpa; /* bulk modulus of the volume term between layers; 0 = off */
+} lamina_material;
+
+typedef enum lamina_integrator {
+  LAMINA_SEMI_IMPLICIT_EULER = 0, /* the paper's; cheap, stable only for small dt */
+  LAMINA_IMPLICIT_EULER = 1,      /* backward Euler, stable at any dt */
+  LAMINA_PROJECTIVE = 2           /* projective dynamics (springs and volume term only) */
+} lamina_integrator;
+
+typedef struct lamina_solver {
+  int32_t integrator;          /* a lamina_integrator */
+  double dt_s;                 /* time step, s */
+  double rest_speed_mm_per_s;  /* at rest when no node moves faster */
+} lamina_solver;
+
+void lamina_material_defaults(lamina_material* material);
+void lamina_solver_defaults(lamina_solver* solver);
+
+/* A simulation of `model` at rest; NULL material or solver = the defaults. `fixed_nodes` (count
+ * `fixed_count`, may be 0) are held at their rest positions: without them the organ drifts
+ * away as a whole when pushed. */
+lamina_status lamina_sim_create(const lamina_model* model, const lamina_material* material,
+                                const lamina_solver* solver, const int32_t* fixed_nodes,
+                                int32_t fixed_count, lamina_sim** out);
+/* A simulation of what a scene describes (a scene .json, a .vtu model, a mask, or "phantom"):
+ * its model, material, solver and boundary, as `lamina run` sets them up; the default scene's
+ * physical liver for "phantom". The scene's own scripted tools are not applied: the caller's
+ * tools push (lamina_sim_set_tool_tip, lamina_sim_set_forces). */
+lamina_status lamina_sim_create_from_scene(const char* scene, lamina_sim** out);
+void lamina_sim_free(lamina_sim* sim);
+
+/* A spherical tool tip at `center_mm` (a game engine's instrument): skin nodes inside it are
+ * pushed out by a penalty force (stiffness N/m per mm of penetration, on the deepest node),
+ * spread over its rings and the layers behind it the paper's way. Call it every frame with the
+ * instrument's pose; lamina_sim_clear_tool_tip lifts it off. */
+lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3],
+                                      double radius_mm, double stiffness_n_per_m);
+lamina_status lamina_sim_clear_tool_tip(lamina_sim* sim);
+/* Replaces every force held on skin nodes (count 0 releases them): forces_mn holds 3 * count
+ * values, mN, each routed the paper's way from its node. */
+lamina_status lamina_sim_set_forces(lamina_sim* sim, const int32_t* skin_nodes,
+                                    const double* forces_mn, int32_t count);
+
+/* What the last step measured. */
+typedef struct lamina_step_stats {
+  double time_s;                /* simulated time after the step */
+  int64_t steps;                /* steps since the start */
+  double max_displacement_mm;   /* largest node distance from rest */
+  double volume_change_pct;     /* skin volume change, % */
+  double reaction_mn[3];        /* the tissue's push back on the tools and forces, mN */
+  int32_t at_rest;              /* 1 when no node moves faster than the rest speed */
+  int32_t tool_tip_touching;    /* 1 when the tool tip touches the skin */
+  int64_t recoveries;           /* steps redone after a non-finite state */
+} lamina_step_stats;
+
+/* Takes `steps` steps of the solver's dt on the calling thread; `stats` (may be NULL) gets the
+ * last one's measurements. */
+lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats* stats);
+/* Puts every node back at rest (time 0); tool tip and forces are kept. */
+lamina_status lamina_sim_reset(lamina_sim* sim);
+
+int32_t lamina_sim_node_count(const lamina_sim* sim);
+/* The simulation's model (owned by the simulation: do not free). */
+const lamina_model* lamina_sim_model(const lamina_sim* sim);
+/* Copies the current positions, mm, interleaved, into `xyz` (capacity >= 3 * node_count). */
+lamina_status lamina_sim_positions(const lamina_sim* sim, double* xyz, int64_t capacity);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* LAMINA_C_API_H */

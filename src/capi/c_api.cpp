@@ -1,0 +1,343 @@
+// The C API (include/lamina/c_api.h): thin handles over the C++ library. Every entry point
+// catches what the library throws and turns it into a status and the thread's last error, so
+// no exception crosses into C.
+#include "lamina/c_api.h"
+
+#include <cmath>
+#include <exception>
+#include <memory>
+#include <new>
+#include <string>
+
+#include "lamina/core/error.h"
+#include "lamina/interact/realtime_loop.h"
+#include "lamina/io/model_file.h"
+#include "lamina/io/scene.h"
+#include "lamina/io/scene_model.h"
+#include "lamina/model/build_model.h"
+#include "lamina/sim/simulation.h"
+
+struct lamina_model {
+  std::shared_ptr<const lamina::Model> model;
+};
+
+struct lamina_sim {
+  lamina_model model;  // the simulation's own reference (lamina_sim_model hands it out)
+  std::unique_ptr<lamina::interact::RealtimeLoop> loop;
+  lamina::interact::LoopSnapshot snapshot;  // the state after the last call that stepped
+};
+
+namespace {
+
+using lamina::Error;
+using lamina::ErrorKind;
+
+std::string& last_error() {
+  thread_local std::string message;
+  return message;
+}
+
+// Runs `body`, mapping whatever it throws to a status and a one-line message.
+template <class Body>
+lamina_status guarded(Body&& body) {
+  try {
+    body();
+    last_error().clear();
+    return LAMINA_OK;
+  } catch (const Error& e) {
+    last_error() = e.what();
+    return static_cast<lamina_status>(e.exit_code());
+  } catch (const std::bad_alloc&) {
+    last_error() = "out of memory";
+  } catch (const std::exception& e) {
+    last_error() = e.what();
+  } catch (...) {
+    last_error() = "unknown error";
+  }
+  return LAMINA_ERROR_INTERNAL;
+}
+
+template <class T>
+T& need(T* handle, const char* what) {
+  if (handle == nullptr) throw lamina::invalid_input(what, "is NULL");
+  return *handle;
+}
+
+std::string need_text(const char* text, const char* what) {
+  if (text == nullptr) throw lamina::invalid_input(what, "is NULL");
+  return text;
+}
+
+void need_capacity(int64_t capacity, int64_t needed, const char* what) {
+  if (capacity < needed)
+    throw lamina::invalid_input(what, "holds " + std::to_string(capacity) + " values; " +
+                                          std::to_string(needed) + " are needed");
+}
+
+void need_finite(const double* v, int n, const char* what) {
+  for (int k = 0; k < n; ++k)
+    if (!std::isfinite(v[k])) throw lamina::invalid_input(what, "is not finite");
+}
+
+void copy_points(const Eigen::MatrixX3d& p, double* xyz) {
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (int c = 0; c < 3; ++c) xyz[3 * i + c] = p(i, c);
+}
+
+lamina::sim::Material to_material(const lamina_material& m) {
+  lamina::sim::Material out;
+  out.stiffness_n_per_m = m.stiffness_n_per_m;
+  out.damping_kg_per_s = m.damping_kg_per_s;
+  out.node_mass_kg = m.node_mass_kg;
+  out.young_modulus_kpa = m.young_modulus_kpa;
+  out.poisson_ratio = m.poisson_ratio;
+  out.volume_stiffness_kpa = m.volume_stiffness_kpa;
+  return out;
+}
+
+lamina::sim::SolverOptions to_solver(const lamina_solver& s) {
+  if (s.integrator < LAMINA_SEMI_IMPLICIT_EULER || s.integrator > LAMINA_PROJECTIVE)
+    throw lamina::invalid_input("lamina_solver.integrator",
+                                "is " + std::to_string(s.integrator) + "; 0, 1 or 2 expected");
+  lamina::sim::SolverOptions out;
+  out.integrator = static_cast<lamina::sim::Integrator>(s.integrator);
+  out.dt_s = s.dt_s;
+  out.rest_speed_mm_per_s = s.rest_speed_mm_per_s;
+  return out;
+}
+
+// A simulation stepped on the caller's thread: the realtime loop's forces, tool tip and
+// reaction, without its thread or its clock (steps of the solver's own dt).
+lamina_sim* wrap(std::shared_ptr<const lamina::Model> model, lamina::sim::Simulation sim,
+                 const lamina::interact::RoutingOptions& routing) {
+  auto out = std::make_unique<lamina_sim>();
+  out->model.model = std::move(model);
+  lamina::interact::LoopOptions options;
+  options.rate_hz = 0.0;
+  options.real_time = false;
+  out->loop = std::make_unique<lamina::interact::RealtimeLoop>(std::move(sim), routing, options);
+  out->loop->run_steps(0);  // publishes the state at rest
+  out->loop->latest(out->snapshot);
+  return out.release();
+}
+
+}  // namespace
+
+extern "C" {
+
+const char* lamina_last_error(void) { return last_error().c_str(); }
+
+const char* lamina_version(void) { return LAMINA_VERSION; }
+
+lamina_status lamina_model_build(const char* input, lamina_model** out) {
+  return guarded([&] {
+    need(out, "lamina_model_build: out") = nullptr;
+    const std::string what = need_text(input, "lamina_model_build: input");
+    const lamina::LabelVolume volume = lamina::io::read_input(what);
+    auto model = std::make_shared<lamina::Model>(
+        lamina::model::build_model(volume, lamina::model::BuildOptions{}).model);
+    *out = new lamina_model{std::move(model)};
+  });
+}
+
+lamina_status lamina_model_load(const char* path, lamina_model** out) {
+  return guarded([&] {
+    need(out, "lamina_model_load: out") = nullptr;
+    auto model = std::make_shared<lamina::Model>(
+        lamina::io::load_model(need_text(path, "lamina_model_load: path")));
+    *out = new lamina_model{std::move(model)};
+  });
+}
+
+lamina_status lamina_model_save(const lamina_model* model, const char* path) {
+  return guarded([&] {
+    lamina::io::save_model(*need(model, "lamina_model_save: model").model,
+                           need_text(path, "lamina_model_save: path"));
+  });
+}
+
+void lamina_model_free(lamina_model* model) { delete model; }
+
+int32_t lamina_model_node_count(const lamina_model* model) {
+  return model ? model->model->node_count() : 0;
+}
+int32_t lamina_model_layer_count(const lamina_model* model) {
+  return model ? model->model->layer_count() : 0;
+}
+int32_t lamina_model_skin_node_count(const lamina_model* model) {
+  return model && !model->model->layers.empty() ? model->model->layers[0].node_count : 0;
+}
+int32_t lamina_model_skin_triangle_count(const lamina_model* model) {
+  return model && !model->model->layers.empty()
+             ? static_cast<int32_t>(model->model->layers[0].F.rows())
+             : 0;
+}
+
+lamina_status lamina_model_skin_triangles(const lamina_model* model, int32_t* indices,
+                                          int64_t capacity) {
+  return guarded([&] {
+    const Eigen::MatrixX3i& f = need(model, "lamina_model_skin_triangles: model").model->layers[0].F;
+    need(indices, "lamina_model_skin_triangles: indices");
+    need_capacity(capacity, 3 * f.rows(), "lamina_model_skin_triangles: indices");
+    for (Eigen::Index t = 0; t < f.rows(); ++t)
+      for (int c = 0; c < 3; ++c) indices[3 * t + c] = f(t, c);
+  });
+}
+
+lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz,
+                                          int64_t capacity) {
+  return guarded([&] {
+    const lamina::Model& m = *need(model, "lamina_model_rest_positions: model").model;
+    need(xyz, "lamina_model_rest_positions: xyz");
+    need_capacity(capacity, 3 * int64_t{m.node_count()}, "lamina_model_rest_positions: xyz");
+    copy_points(m.X, xyz);
+  });
+}
+
+void lamina_material_defaults(lamina_material* material) {
+  if (material == nullptr) return;
+  const lamina::sim::Material d;
+  *material = {d.stiffness_n_per_m, d.damping_kg_per_s,  d.node_mass_kg,
+               d.young_modulus_kpa, d.poisson_ratio,     d.volume_stiffness_kpa};
+}
+
+void lamina_solver_defaults(lamina_solver* solver) {
+  if (solver == nullptr) return;
+  const lamina::sim::SolverOptions d;
+  *solver = {static_cast<int32_t>(d.integrator), d.dt_s, d.rest_speed_mm_per_s};
+}
+
+lamina_status lamina_sim_create(const lamina_model* model, const lamina_material* material,
+                                const lamina_solver* solver, const int32_t* fixed_nodes,
+                                int32_t fixed_count, lamina_sim** out) {
+  return guarded([&] {
+    need(out, "lamina_sim_create: out") = nullptr;
+    const auto& shared = need(model, "lamina_sim_create: model").model;
+    lamina_material m;
+    lamina_material_defaults(&m);
+    lamina_solver s;
+    lamina_solver_defaults(&s);
+    lamina::sim::Simulation sim = lamina::sim::make_simulation(
+        *shared, to_material(material ? *material : m), to_solver(solver ? *solver : s));
+    if (fixed_count < 0) throw lamina::invalid_input("lamina_sim_create: fixed_count", "is negative");
+    if (fixed_count > 0) {
+      need(fixed_nodes, "lamina_sim_create: fixed_nodes");
+      lamina::sim::fix_nodes(sim, std::vector<int32_t>(fixed_nodes, fixed_nodes + fixed_count));
+    }
+    *out = wrap(shared, std::move(sim), {});
+  });
+}
+
+lamina_status lamina_sim_create_from_scene(const char* scene, lamina_sim** out) {
+  return guarded([&] {
+    need(out, "lamina_sim_create_from_scene: out") = nullptr;
+    lamina::io::Scene s = lamina::io::scene_for(need_text(scene, "lamina_sim_create_from_scene: scene"));
+    auto model = std::make_shared<lamina::Model>(lamina::io::make_scene_model(s).model);
+    const lamina::io::SceneSetup setup = lamina::io::prepare_scene(s, *model);
+    lamina::sim::Simulation sim = lamina::io::make_scene_simulation(s, *model, setup);
+    *out = wrap(std::move(model), std::move(sim), s.routing);
+  });
+}
+
+void lamina_sim_free(lamina_sim* sim) { delete sim; }
+
+lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3],
+                                      double radius_mm, double stiffness_n_per_m) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_set_tool_tip: sim");
+    need(center_mm, "lamina_sim_set_tool_tip: center_mm");
+    need_finite(center_mm, 3, "lamina_sim_set_tool_tip: center_mm");
+    if (!(radius_mm > 0.0) || !std::isfinite(radius_mm))
+      throw lamina::invalid_input("lamina_sim_set_tool_tip: radius_mm",
+                                  "is " + std::to_string(radius_mm) + "; a positive size expected");
+    if (!(stiffness_n_per_m >= 0.0) || !std::isfinite(stiffness_n_per_m))
+      throw lamina::invalid_input("lamina_sim_set_tool_tip: stiffness_n_per_m",
+                                  "is " + std::to_string(stiffness_n_per_m) +
+                                      "; zero or positive expected");
+    lamina::interact::ToolTip tip;
+    tip.active = true;
+    tip.center_mm = Eigen::Vector3d(center_mm[0], center_mm[1], center_mm[2]);
+    tip.radius_mm = radius_mm;
+    tip.stiffness_n_per_m = stiffness_n_per_m;
+    s.loop->set_tool_tip(tip);
+  });
+}
+
+lamina_status lamina_sim_clear_tool_tip(lamina_sim* sim) {
+  return guarded([&] { need(sim, "lamina_sim_clear_tool_tip: sim").loop->set_tool_tip({}); });
+}
+
+lamina_status lamina_sim_set_forces(lamina_sim* sim, const int32_t* skin_nodes,
+                                    const double* forces_mn, int32_t count) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_set_forces: sim");
+    if (count < 0) throw lamina::invalid_input("lamina_sim_set_forces: count", "is negative");
+    if (count > 0) {
+      need(skin_nodes, "lamina_sim_set_forces: skin_nodes");
+      need(forces_mn, "lamina_sim_set_forces: forces_mn");
+      need_finite(forces_mn, 3 * count, "lamina_sim_set_forces: forces_mn");
+    }
+    const int32_t skin = lamina_model_skin_node_count(&s.model);
+    std::vector<lamina::interact::LiveForce> forces(count);
+    for (int32_t k = 0; k < count; ++k) {
+      if (skin_nodes[k] < 0 || skin_nodes[k] >= skin)
+        throw lamina::invalid_input("lamina_sim_set_forces: skin_nodes[" + std::to_string(k) + "]",
+                                    "is " + std::to_string(skin_nodes[k]) +
+                                        "; a skin node (0.." + std::to_string(skin - 1) +
+                                        ") expected");
+      forces[k].node = skin_nodes[k];
+      forces[k].force_mn = Eigen::Vector3d(forces_mn[3 * k], forces_mn[3 * k + 1], forces_mn[3 * k + 2]);
+    }
+    s.loop->set_forces(std::move(forces));
+  });
+}
+
+lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats* stats) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_step: sim");
+    if (steps < 0) throw lamina::invalid_input("lamina_sim_step: steps", "is negative");
+    s.loop->run_steps(steps);
+    s.loop->latest(s.snapshot);
+    if (s.snapshot.stats.failed)
+      throw Error(ErrorKind::kUnstable,
+                  "lamina_sim_step: the step failed even with backward Euler at t = " +
+                      std::to_string(s.snapshot.time_s) +
+                      " s; the state was kept (a load or dt beyond what the model can take)");
+    if (stats == nullptr) return;
+    const lamina::interact::LoopSnapshot& p = s.snapshot;
+    stats->time_s = p.time_s;
+    stats->steps = p.steps;
+    stats->max_displacement_mm = p.stats.max_displacement_mm;
+    stats->volume_change_pct = p.stats.volume_change_pct;
+    for (int c = 0; c < 3; ++c) stats->reaction_mn[c] = p.reaction_mn[c];
+    stats->at_rest = lamina::sim::at_rest(p.stats) ? 1 : 0;
+    stats->tool_tip_touching = p.tool_tip_touching ? 1 : 0;
+    stats->recoveries = p.recoveries;
+  });
+}
+
+lamina_status lamina_sim_reset(lamina_sim* sim) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_reset: sim");
+    s.loop->reset();
+    s.loop->run_steps(0);
+    s.loop->latest(s.snapshot);
+  });
+}
+
+int32_t lamina_sim_node_count(const lamina_sim* sim) {
+  return sim ? sim->model.model->node_count() : 0;
+}
+
+const lamina_model* lamina_sim_model(const lamina_sim* sim) { return sim ? &sim->model : nullptr; }
+
+lamina_status lamina_sim_positions(const lamina_sim* sim, double* xyz, int64_t capacity) {
+  return guarded([&] {
+    const lamina_sim& s = need(sim, "lamina_sim_positions: sim");
+    need(xyz, "lamina_sim_positions: xyz");
+    need_capacity(capacity, 3 * s.snapshot.x.rows(), "lamina_sim_positions: xyz");
+    copy_points(s.snapshot.x, xyz);
+  });
+}
+
+}  // extern "C"

@@ -1,0 +1,68 @@
+#include "lamina/io/scene_model.h"
+
+#include <algorithm>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/io/model_file.h"
+#include "lamina/model/build_model.h"
+#include "lamina/model/compute_rings.h"
+
+namespace lamina::io {
+namespace {
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+LabelVolume read_input(const std::string& input, const ReadVolumeOptions& options) {
+  return input == kScenePhantom ? geometry::make_phantom() : read_label_volume(input, options);
+}
+
+SceneModel make_scene_model(const Scene& scene, const ReadVolumeOptions& read_options,
+                            const ProgressFn& progress) {
+  SceneModel out;
+  // Rings must reach as far as the routing spreads force (RoutingOptions::locality).
+  const int32_t locality = std::max(scene.build.locality, scene.routing.locality);
+  if (!scene.model_path.empty()) {
+    out.source = scene.model_path;
+    out.model = load_model(scene.model_path);
+    if (scene.density_given) {
+      // Lumped masses are proportional to the density they were computed with.
+      const double scale = scene.build.density_kg_per_mm3 / out.model.density_kg_per_mm3;
+      for (double& m : out.model.mass_kg) m *= scale;
+      out.model.density_kg_per_mm3 = scene.build.density_kg_per_mm3;
+    }
+    out.model.rings = model::compute_rings(out.model, std::max(out.model.rings.locality, locality));
+    return out;
+  }
+  const LabelVolume volume = read_input(scene.input, read_options);
+  out.source = volume.source;
+  model::BuildOptions options = scene.build;
+  options.locality = locality;
+  out.model = model::build_model(volume, options, progress).model;
+  return out;
+}
+
+Scene scene_for(const std::string& what, bool paper) {
+  if (ends_with(what, ".json")) {
+    if (paper)
+      throw invalid_input("--paper",
+                          "cannot be given with a scene file (" + what +
+                              "): the scene sets the model and material; see examples/paper_*.json");
+    return load_scene(what);
+  }
+  Scene scene = paper ? paper_scene() : Scene{};
+  scene.source = what;
+  if (ends_with(what, ".vtu")) {
+    scene.input.clear();
+    scene.model_path = what;
+  } else {
+    scene.input = what;
+  }
+  return scene;
+}
+
+}  // namespace lamina::io
