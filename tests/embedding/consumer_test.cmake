@@ -1,0 +1,30 @@
+# cmake -DBUILD=<lamina build dir> -DSOURCE=<this folder> -DWORK=<scratch folder> -P consumer_test.cmake
+# Installs the build into a fresh prefix, then configures, builds and runs tests/embedding/consumer
+# against it, as another project would: only CMAKE_PREFIX_PATH is given.
+function(run)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    list(JOIN ARGN " " cmd)
+    message(FATAL_ERROR "failed (${rc}): ${cmd}")
+  endif()
+endfunction()
+
+file(REMOVE_RECURSE ${WORK})
+set(prefix ${WORK}/prefix)
+run(${CMAKE_COMMAND} --install ${BUILD} --prefix ${prefix})
+foreach(f bin/lamina include/lamina/c_api.h lib/cmake/lamina/laminaConfig.cmake)
+  if(NOT EXISTS ${prefix}/${f})
+    message(FATAL_ERROR "the install lacks ${f}")
+  endif()
+endforeach()
+# The installed tool finds its libraries from where it is (RPATH $ORIGIN/../lib).
+run(${prefix}/bin/lamina --version)
+run(${CMAKE_COMMAND} -S ${SOURCE}/consumer -B ${WORK}/build -G Ninja -DCMAKE_BUILD_TYPE=Release
+    -DCMAKE_PREFIX_PATH=${prefix})
+run(${CMAKE_COMMAND} --build ${WORK}/build)
+run(${WORK}/build/poke ${WORK}/poke.png)
+file(SIZE ${WORK}/poke.png png_bytes)
+if(png_bytes LESS 10000)
+  message(FATAL_ERROR "poke.png is only ${png_bytes} bytes")
+endif()
+message(STATUS "consumer built against ${prefix}, ran, and wrote poke.png (${png_bytes} bytes)")
