@@ -161,6 +161,28 @@ struct SoakArgs {
 /// at rest (docs/testing.md). Exit 1 if any check fails.
 int run_soak(const SoakArgs& args);
 
+struct ServeArgs {
+  std::string what = io::kScenePhantom;  ///< model, input or scene, as `lamina view` takes it
+  bool paper = false;                    ///< the reference paper's model and constants
+  std::string host = "127.0.0.1";        ///< address to listen on (0.0.0.0: every interface)
+  int port = 18944;                      ///< OpenIGTLink's (and 3D Slicer's) default; 0 = any
+  double send_hz = 30.0;      ///< POLYDATA and reaction messages per second; 0 = only on request
+  bool all_layers = false;    ///< stream every layer, not only the skin
+  double rate_hz = 1000.0;    ///< simulation steps per wall second, each 1 / rate of simulated time
+  double duration_s = 0.0;    ///< > 0: stop after this many wall seconds
+  std::string frame = "ras";  ///< coordinates on the wire: ras (3D Slicer's) or lps (the model's)
+  std::string tool_device;    ///< only poses with this device name move the tool; empty = any
+  double tip_radius_mm = 5.0;           ///< the tool tip's sphere (the viewer's default)
+  double tip_stiffness_n_per_m = 20.0;  ///< its push per mm inside the skin, N/m = mN/mm
+  double max_message_mb = 4.0;          ///< larger incoming messages drop their client
+  double stall_timeout_s = 5.0;         ///< a client silent this long mid-message is dropped
+  int max_clients = 16;
+  bool verbose = false;
+};
+/// Runs the simulation as an OpenIGTLink server (docs/openigtlink.md): tool poses in, the
+/// deformed skin and the reaction force out, in real time, until --duration or Ctrl-C.
+int run_serve(const ServeArgs& args);
+
 struct BenchArgs {
   bool json = false;
   bool quick = false;  ///< paper-size and 10k models only, shorter timings (under a minute)

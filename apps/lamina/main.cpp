@@ -1,5 +1,5 @@
 // `lamina`: one command-line tool with subcommands (phantom, build, info, export, run, view,
-// render, figures).
+// render, figures, serve, ...).
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -208,6 +208,42 @@ int main(int argc, char** argv) {
   so->add_flag("--json", soak.json, "print the summary as JSON on stdout");
   so->add_flag("--no-plot", soak.no_plot, "skip soak.png (no gnuplot needed)");
 
+  cli::ServeArgs serve;
+  auto* se = app.add_subcommand(
+      "serve",
+      "run the simulation as an OpenIGTLink server for 3D Slicer: tool poses in, the deformed "
+      "skin and the reaction force out (docs/openigtlink.md)");
+  se->add_option("input", serve.what,
+                 "model (.vtu), segmentation, DICOM folder, scene (.json) or 'phantom' (default)");
+  se->add_flag("--paper", serve.paper,
+               "the reference paper's model and constants instead of the physical liver");
+  se->add_option("--host", serve.host,
+                 "address to listen on (default 127.0.0.1; 0.0.0.0 = every interface)");
+  se->add_option("--port", serve.port, "TCP port (default 18944; 0 = any free one, logged)");
+  se->add_option("--send-hz", serve.send_hz,
+                 "POLYDATA and reaction-force messages per second to every client (default 30; "
+                 "0 = only in answer to GET_POLYDATA and GET_TRANS)");
+  se->add_flag("--all-layers", serve.all_layers,
+               "stream every layer (LaminaLayer1, ...), not only the skin (LaminaSkin)");
+  se->add_option(
+      "--rate", serve.rate_hz,
+      "simulation steps per wall second, each 1/rate s of simulated time (default 1000)");
+  se->add_option("--duration", serve.duration_s,
+                 "stop after this many seconds of wall time (default: run until Ctrl-C)");
+  se->add_option("--frame", serve.frame,
+                 "coordinates on the wire: ras (default, 3D Slicer's) or lps (the model's own)");
+  se->add_option("--tool-device", serve.tool_device,
+                 "only TRANSFORM/POSITION messages of this device name move the tool (default: "
+                 "any)");
+  se->add_option("--tip-radius", serve.tip_radius_mm, "tool tip sphere radius, mm (default 5)");
+  se->add_option("--tip-stiffness", serve.tip_stiffness_n_per_m,
+                 "tool tip push per mm of skin inside the sphere, N/m = mN/mm (default 20)");
+  se->add_option("--max-message-mb", serve.max_message_mb,
+                 "a client sending a larger message is dropped, MB (default 4)");
+  se->add_option("--stall-timeout", serve.stall_timeout_s,
+                 "a client silent this long in the middle of a message is dropped, s (default 5)");
+  se->add_option("--max-clients", serve.max_clients, "connections served at once (default 16)");
+
   cli::BenchArgs bench;
   auto* be = app.add_subcommand("bench",
                                 "measure this machine: step times, poke to rest, bandwidth floor");
@@ -285,6 +321,10 @@ int main(int argc, char** argv) {
     if (*so) {
       soak.verbose = verbosity == 2;
       return cli::run_soak(soak);
+    }
+    if (*se) {
+      serve.verbose = verbosity == 2;
+      return cli::run_serve(serve);
     }
     if (*ru) {
       run.quiet = verbosity == 0;

@@ -1,0 +1,267 @@
+// `lamina serve`: the simulation as an OpenIGTLink server, the way 3D Slicer's OpenIGTLinkIF
+// connects to one (docs/openigtlink.md). The simulation steps in its own thread in real time
+// (interact::RealtimeLoop, as in the viewer); this thread only talks to the network: tool poses
+// in, the deformed surfaces and the tissue's reaction force out. A client that misbehaves is
+// dropped with a log line and never holds up a step.
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <set>
+
+#include "commands.h"
+#include "igtl_server.h"
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/interact/realtime_loop.h"
+#include "lamina/io/scene.h"
+#include "lamina/sim/simulation.h"
+
+namespace lamina::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::atomic<bool> stop_requested{false};
+void request_stop(int) {
+  stop_requested = true;
+}
+
+double seconds(Clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+void check_args(const ServeArgs& a) {
+  if (!(a.send_hz >= 0.0 && a.send_hz <= 1000.0))
+    throw invalid_input("--send-hz", "must be in [0, 1000] messages per second");
+  if (!(a.rate_hz > 0.0 && a.rate_hz <= 1e5))
+    throw invalid_input("--rate", "must be in (0, 1e5] steps per second");
+  if (!(a.duration_s >= 0.0)) throw invalid_input("--duration", "must be >= 0 s");
+  if (a.frame != "ras" && a.frame != "lps")
+    throw invalid_input("--frame", "must be ras or lps, got '" + a.frame + "'");
+  if (!(a.tip_radius_mm > 0.0 && a.tip_radius_mm <= 100.0))
+    throw invalid_input("--tip-radius", "must be in (0, 100] mm");
+  if (!(a.tip_stiffness_n_per_m > 0.0 && a.tip_stiffness_n_per_m <= 1e4))
+    throw invalid_input("--tip-stiffness", "must be in (0, 1e4] N/m");
+  if (!(a.max_message_mb > 0.0 && a.max_message_mb <= 1024.0))
+    throw invalid_input("--max-message-mb", "must be in (0, 1024] MB");
+  if (!(a.stall_timeout_s > 0.0)) throw invalid_input("--stall-timeout", "must be > 0 s");
+  if (a.max_clients < 1) throw invalid_input("--max-clients", "must be >= 1");
+}
+
+// The device name of layer k's POLYDATA: LaminaSkin for the skin, LaminaLayer1... inside.
+std::string layer_device(int32_t k) {
+  return k == 0 ? "LaminaSkin" : "LaminaLayer" + std::to_string(k);
+}
+
+// A GET_POLYDATA names a layer by its device name; any other name means the skin (the
+// protocol's example client asks as "Client").
+int32_t requested_layer(const std::string& device, int32_t layers) {
+  for (int32_t k = 1; k < layers; ++k)
+    if (device == layer_device(k)) return k;
+  return 0;
+}
+
+// Turns the simulation's snapshot into messages, packing each surface's triangles once.
+class Outgoing {
+ public:
+  Outgoing(const Model& m, net::Frame frame) : model_(m), frame_(frame) {
+    for (int32_t k = 0; k < m.layer_count(); ++k) {
+      const ModelLayer& layer = m.layers[static_cast<size_t>(k)];
+      // The model's triangles index every node; a message indexes its own points.
+      const Eigen::MatrixX3i F = layer.F.array() - layer.first_node;
+      packers_.emplace_back(layer_device(k), F, layer.node_count);
+    }
+  }
+
+  net::Packed surface(const interact::LoopSnapshot& snap, int32_t k) {
+    const ModelLayer& layer = model_.layers[static_cast<size_t>(k)];
+    points_.resize(layer.node_count, 3);
+    for (int32_t i = 0; i < layer.node_count; ++i)
+      points_.row(i) =
+          net::change_frame(snap.x.row(layer.first_node + i).transpose(), frame_).transpose();
+    return packers_[static_cast<size_t>(k)].pack(points_);
+  }
+
+  net::Packed reaction(const interact::LoopSnapshot& snap) const {
+    return net::pack_transform(kReactionDevice, net::change_frame(snap.reaction_mn, frame_));
+  }
+
+  static constexpr const char* kReactionDevice = "LaminaReaction";
+
+ private:
+  const Model& model_;
+  net::Frame frame_;
+  std::vector<net::PolyDataPacker> packers_;
+  Eigen::MatrixX3d points_;
+};
+
+}  // namespace
+
+int run_serve(const ServeArgs& a) {
+  check_args(a);
+  io::Scene scene = scene_for(a.what, a.paper);
+  // The tool comes over the network; a scene's own tools would push on their own.
+  if (!scene.tools.empty())
+    log::info("{}: its {} tools are not used: the tool is driven over OpenIGTLink", scene.source,
+              scene.tools.size());
+  scene.tools.clear();
+  scene.default_tool = false;
+  // Listening first: a port in use fails before the model is built. Clients that connect
+  // meanwhile wait in the listen queue.
+  net::ServerOptions so;
+  so.host = a.host;
+  so.port = a.port;
+  so.max_body_bytes = static_cast<uint64_t>(a.max_message_mb * (1 << 20));
+  so.stall_timeout_s = a.stall_timeout_s;
+  so.max_clients = a.max_clients;
+  net::Server server(so);
+  SceneModel built = make_scene_model(scene, stderr_progress(a.verbose));
+  const io::SceneSetup setup = io::prepare_scene(scene, built.model);
+  const Model& m = built.model;
+  interact::LoopOptions lo;
+  lo.rate_hz = a.rate_hz;  // real time: each step is 1 / rate of simulated time
+  interact::RealtimeLoop loop(io::make_scene_simulation(scene, m, setup), scene.routing, lo);
+  const net::Frame frame = a.frame == "lps" ? net::Frame::kLps : net::Frame::kRas;
+  Outgoing outgoing(m, frame);
+  const int32_t streamed_layers = a.all_layers ? m.layer_count() : 1;
+
+  interact::ToolTip tip;
+  tip.radius_mm = a.tip_radius_mm;
+  tip.stiffness_n_per_m = a.tip_stiffness_n_per_m;
+  int tool_client = -1;  // whose pose the tip follows
+  int64_t poses = 0;
+  std::set<std::pair<int, std::string>> noted;  // (client, type) already logged as skipped
+
+  const auto handle = [&](const net::Message& msg) {
+    const std::string& type = msg.header.type;
+    if (type == "TRANSFORM" || type == "POSITION") {
+      const Eigen::Vector3d p = net::read_position(type, msg.content, msg.size);
+      if (!a.tool_device.empty() && msg.header.device != a.tool_device) {
+        if (noted.insert({msg.client, type + msg.header.device}).second)
+          log::info("OpenIGTLink client {}: {} '{}' is not the tool (--tool-device {}); skipped",
+                    msg.peer, type, msg.header.device, a.tool_device);
+        return;
+      }
+      ++poses;
+      if (tool_client != msg.client)
+        log::info("OpenIGTLink client {}: {} '{}' drives the tool tip", msg.peer, type,
+                  msg.header.device);
+      tool_client = msg.client;
+      tip.center_mm = net::change_frame(p, frame);
+      tip.active = true;
+      loop.set_tool_tip(tip);
+    } else if (type == "GET_POLYDATA") {
+      interact::LoopSnapshot snap;
+      loop.latest(snap);
+      server.send(msg.client,
+                  outgoing.surface(snap, requested_layer(msg.header.device, m.layer_count())));
+    } else if (type == "GET_TRANS") {
+      interact::LoopSnapshot snap;
+      loop.latest(snap);
+      server.send(msg.client, outgoing.reaction(snap));
+    } else if (noted.insert({msg.client, type}).second) {
+      // The protocol: a receiver skips the types it does not use.
+      log::info(
+          "OpenIGTLink client {}: skipped {} '{}' (a type lamina serve does not use; "
+          "further ones are skipped silently)",
+          msg.peer, type, msg.header.device);
+    }
+  };
+  const auto closed = [&](int client) {
+    std::erase_if(noted, [&](const auto& n) { return n.first == client; });
+    if (client != tool_client) return;
+    tool_client = -1;
+    tip.active = false;
+    loop.set_tool_tip(tip);
+    log::info("the tool tip is released: its client has gone");
+  };
+
+  struct sigaction action {};
+  action.sa_handler = request_stop;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+
+  log::info(
+      "lamina serve: {} ({} nodes, skin {} nodes and {} triangles, {} layers), {} steps/s "
+      "in real time; OpenIGTLink on {}:{}{}",
+      built.source, m.node_count(), m.layers[0].node_count, m.layers[0].F.rows(), m.layer_count(),
+      a.rate_hz, a.host, server.port(),
+      a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
+  log::info("listening on {}:{}", a.host, server.port());
+  std::fflush(stderr);
+
+  // Sends at send_hz; with --send-hz 0 the snapshot is still watched (real time, reaction).
+  const double tick_s = 1.0 / (a.send_hz > 0.0 ? a.send_hz : 30.0);
+  const auto tick =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(tick_s));
+  const auto start = Clock::now();
+  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
+                                    std::chrono::duration<double>(a.duration_s));
+  auto next_tick = start;
+  auto next_behind_warning = start;
+  bool behind = false;
+  double max_reaction_mn = 0.0, behind_s = 0.0;
+  interact::LoopSnapshot snap;
+  uint64_t last_window = 0;
+  loop.start();
+  while (!stop_requested) {
+    const auto now = Clock::now();
+    if (a.duration_s > 0.0 && now >= deadline) break;
+    double wait_s = std::min(seconds(next_tick - now), 0.1);
+    if (a.duration_s > 0.0) wait_s = std::min(wait_s, seconds(deadline - now));
+    server.poll(wait_s, handle, closed);
+    if (Clock::now() < next_tick) continue;
+    next_tick += tick;
+    if (next_tick < Clock::now()) next_tick = Clock::now() + tick;  // no burst after a stall
+    loop.latest(snap);
+    max_reaction_mn = std::max(max_reaction_mn, snap.reaction_mn.norm());
+    if (a.send_hz > 0.0 && server.client_count() > 0) {
+      std::vector<net::Packed> batch;
+      for (int32_t k = 0; k < streamed_layers; ++k) batch.push_back(outgoing.surface(snap, k));
+      batch.push_back(outgoing.reaction(snap));
+      server.stream(batch);
+    }
+    // The loop measures real time over one-second windows; each new window is judged once.
+    const uint64_t window =
+        static_cast<uint64_t>(snap.steps > 0 ? seconds(Clock::now() - start) : 0);
+    if (window == last_window) continue;
+    last_window = window;
+    if (!snap.keeping_up) {
+      behind_s += 1.0;
+      if (!behind || Clock::now() >= next_behind_warning) {
+        log::warn(
+            "behind real time: {:.2f} simulated seconds per wall second ({:.0f} of {:.0f} "
+            "steps/s, {:.0f} us a step); a lower --rate or a smaller model keeps up",
+            snap.real_time_factor, snap.achieved_rate_hz, a.rate_hz, snap.mean_step_us);
+        next_behind_warning = Clock::now() + std::chrono::seconds(10);
+      }
+    } else if (behind) {
+      log::info("back in real time ({:.2f} simulated seconds per wall second)",
+                snap.real_time_factor);
+    }
+    behind = !snap.keeping_up;
+  }
+  loop.stop();
+  const double wall_s = seconds(Clock::now() - start);
+  loop.latest(snap);
+  const double rtf = wall_s > 0.0 ? snap.time_s / wall_s : 0.0;
+  if (rtf < 0.95)
+    log::warn(
+        "the simulation ran at {:.2f}x real time over the whole run; a lower --rate or a "
+        "smaller model keeps up",
+        rtf);
+  const net::ServerCounters& c = server.counters();
+  fmt::print(stderr,
+             "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "
+             "behind); {} clients, {} messages in ({} poses), {} out ({:.1f} MB, {} frames "
+             "skipped), {} connections dropped; max reaction {:.3g} mN\n",
+             snap.steps, snap.time_s, wall_s, rtf, behind_s, c.clients, c.messages_in, poses,
+             c.messages_out, static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped,
+             c.dropped, max_reaction_mn);
+  return 0;
+}
+
+}  // namespace lamina::cli

@@ -1,0 +1,319 @@
+// `lamina serve` as a client sees it, over real sockets on 127.0.0.1: the protocol's own example
+// clients (TrackerClient, PolyDataClient from Debian's openigtlink-examples), a client of ours
+// that pushes the skin, and clients that send what no client should.
+#include <gtest/gtest.h>
+#include <igtlPolyDataMessage.h>
+#include <igtl_position.h>
+
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "serve_support.h"
+#include "support/temp_dir.h"
+
+namespace lamina::test {
+namespace {
+
+// Every server is stopped by the test (SIGTERM) as soon as it has what it needs; --duration
+// only bounds a test that has gone wrong.
+const std::vector<std::string> kBounded = {"--duration", "25"};
+
+std::vector<std::string> with(std::vector<std::string> args) {
+  args.insert(args.end(), kBounded.begin(), kBounded.end());
+  return args;
+}
+
+// Stops the server as a user's Ctrl-C would and reads its exit summary.
+Summary stop(Server& server) {
+  server.process().terminate();
+  const std::optional<int> code = server.process().wait(20.0);
+  EXPECT_EQ(code, 0) << server.log();
+  const std::optional<Summary> s = parse_summary(server.log());
+  if (!s) ADD_FAILURE() << "no summary line in:\n" << server.log();
+  return s.value_or(Summary{});
+}
+
+// Translations of the matrices TrackerClient prints (igtl::PrintMatrix: four rows of four
+// numbers between lines of '=').
+std::vector<Eigen::Vector3d> printed_translations(const std::string& out) {
+  static const std::regex kRow(R"(^\s*([-0-9.e+]+), ([-0-9.e+]+), ([-0-9.e+]+), ([-0-9.e+]+)\s*$)");
+  std::vector<Eigen::Vector3d> poses;
+  std::vector<double> column;  // the fourth number of each row of the current matrix
+  std::istringstream lines(out);
+  std::smatch m;
+  for (std::string line; std::getline(lines, line);) {
+    if (!std::regex_match(line, m, kRow)) continue;
+    column.push_back(std::stod(m[4]));
+    if (column.size() == 4) {
+      poses.emplace_back(column[0], column[1], column[2]);
+      column.clear();
+    }
+  }
+  return poses;
+}
+
+// The last message of this type and device that arrives within wait_s (a client that has not
+// read for a while has older frames waiting).
+std::optional<Received> latest(Client& client, const std::string& type, const std::string& device,
+                               double wait_s) {
+  std::optional<Received> last;
+  const auto t0 = Clock::now();
+  for (double left = wait_s; left > 0.0; left = wait_s - seconds_since(t0)) {
+    auto m = client.receive(type, device, left);
+    if (!m) break;
+    last = std::move(m);
+  }
+  return last;
+}
+
+double distance_to(const Eigen::MatrixX3d& points, const Eigen::Vector3d& p) {
+  return std::sqrt((points.rowwise() - p.transpose()).rowwise().squaredNorm().minCoeff());
+}
+
+TEST(Serve, TheExampleTrackerClientDrivesTheToolTip) {
+  TempDir dir;
+  Server server(dir.path, with({"phantom"}));
+  // The skin at rest, as streamed (RAS), once the model is built.
+  Eigen::MatrixX3d rest;
+  {
+    Client watcher(server.port());
+    const auto skin = watcher.receive("POLYDATA", "LaminaSkin", 30.0);
+    ASSERT_TRUE(skin) << server.log();
+    rest = polydata_points(*skin);
+  }
+  // The example sends a TRANSFORM "Tracker" 25 times a second, moving along an ellipse 50 to
+  // 71 mm from the origin; stdbuf keeps its printout of each pose when it is killed.
+  Child tracker({"/usr/bin/stdbuf", "-oL", IGTL_TRACKER_CLIENT, "127.0.0.1",
+                 std::to_string(server.port()), "25"},
+                dir.path / "tracker_out.txt", dir.path / "tracker_err.txt");
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  tracker.terminate();
+  tracker.wait(5.0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // its last poses arrive
+  const Summary s = stop(server);
+  const std::vector<Eigen::Vector3d> sent = printed_translations(tracker.out());
+  ASSERT_GE(sent.size(), 40u) << tracker.out() << tracker.err();
+  // Every pose the example printed reached the server (it prints a pose before sending it).
+  EXPECT_GE(s.poses, static_cast<int64_t>(sent.size()) - 1);
+  EXPECT_LE(s.poses, static_cast<int64_t>(sent.size()));
+  EXPECT_NE(server.log().find("TRANSFORM 'Tracker' drives the tool tip"), std::string::npos);
+  // The tip (a 5 mm sphere) pushes only where a pose comes within 5 mm of the skin; the
+  // example's ellipse crosses the phantom's skin, so here it does, and the tissue pushes back.
+  bool touches = false;
+  for (const Eigen::Vector3d& p : sent) touches = touches || distance_to(rest, p) < 5.0;
+  EXPECT_TRUE(touches);
+  EXPECT_EQ(s.max_reaction_mn > 0.0, touches) << server.log();
+  EXPECT_EQ(s.clients, 2);
+  EXPECT_EQ(s.dropped, 0) << server.log();
+}
+
+// The first example of docs/openigtlink.md: the protocol's PolyDataClient asks ten times for a
+// POLYDATA and gets the skin, every node of it.
+TEST(Serve, TheExamplePolyDataClientGetsTheWholeSkin) {
+  TempDir dir;
+  // The skin's size, from the model builder on its own.
+  const RunResult built = run_cli(LAMINA_CLI, dir.path, dir.path,
+                                  "build phantom -o " + quoted(dir.file("model.vtu")) + " --json");
+  ASSERT_EQ(built.exit_code, 0) << built.err;
+  const nlohmann::json summary = nlohmann::json::parse(built.out);
+  const int64_t vertices = summary["layers"][0]["vertices"], faces = summary["layers"][0]["faces"];
+
+  // --send-hz 0: nothing is pushed, so each answer is the next message the client reads.
+  Server server(dir.path, with({"phantom", "--send-hz", "0"}));
+  Child client({IGTL_POLYDATA_CLIENT, "127.0.0.1", std::to_string(server.port())},
+               dir.path / "client_out.txt", dir.path / "client_err.txt");
+  ASSERT_EQ(client.wait(30.0), 0);
+  const Summary s = stop(server);
+  const std::string printed = client.err();
+  const auto count = [&](const std::string& what) {
+    int64_t n = 0;
+    for (size_t at = printed.find(what); at != std::string::npos; at = printed.find(what, at + 1))
+      ++n;
+    return n;
+  };
+  EXPECT_EQ(count("Receiving POLYDATA"), 10) << printed.substr(0, 2000);
+  EXPECT_EQ(count("  point["), 10 * vertices);
+  EXPECT_EQ(count("  cell["), 10 * faces);
+  EXPECT_EQ(count("Invalid response"), 0);
+  EXPECT_EQ(s.messages_in, 10);
+  EXPECT_EQ(s.messages_out, 10);
+  EXPECT_EQ(s.dropped, 0) << server.log();
+}
+
+// A client of ours puts the tool tip 3 mm in front of the most anterior skin node: the 5 mm
+// sphere holds that node 2 mm deep, the tissue gives way and pushes back, and a second client
+// watching the stream sees the dent. Then the tip leaves (as a POSITION message) and the push
+// stops; then it comes back as an OpenIGTLink 3 message (header version 2).
+TEST(Serve, APoseOnTheSkinPushesItAndTheReactionComesBackAgainstThePush) {
+  TempDir dir;
+  Server server(dir.path, with({"phantom", "--all-layers"}));
+  Client tool(server.port()), watcher(server.port());
+  const auto skin = tool.receive("POLYDATA", "LaminaSkin", 30.0);
+  ASSERT_TRUE(skin) << server.log();
+  const Eigen::MatrixX3d rest = polydata_points(*skin);
+  // RAS: anterior is +y, the most anterior node has the largest y.
+  Eigen::Index front = 0;
+  rest.col(1).maxCoeff(&front);
+  const Eigen::Vector3d node = rest.row(front).transpose();
+  const Eigen::Vector3d push_direction(0, -1, 0);
+  // The latest reaction streamed after wait_s (30 a second).
+  const auto reaction_after = [&](double wait_s) {
+    const auto m = latest(tool, "TRANSFORM", "LaminaReaction", wait_s);
+    return m ? transform_translation(*m) : Eigen::Vector3d::Constant(NAN);
+  };
+
+  tool.send_bytes(transform_bytes("Needle", node - 3.0 * push_direction));
+  const Eigen::Vector3d pushed = reaction_after(1.0);
+  // The tip's push is 20 N/m x (5 mm - distance to the node): at most 40 mN here, less as the
+  // node gives way. The paper's routing adds attenuated copies (0.95^k) where the force line
+  // crosses the layers, at most P = 4 in all, and the reaction sums all of them: at most 160 mN.
+  // It points back out of the organ.
+  EXPECT_GT(pushed.norm(), 5.0) << pushed.transpose();
+  EXPECT_LT(pushed.norm(), 4 * 40.0) << pushed.transpose();
+  EXPECT_LT(pushed.normalized().dot(push_direction), -0.7) << pushed.transpose();
+  const auto seen = latest(watcher, "POLYDATA", "LaminaSkin", 0.3);
+  ASSERT_TRUE(seen);
+  const Eigen::Vector3d moved = polydata_points(*seen).row(front).transpose() - node;
+  EXPECT_GT(moved.dot(push_direction), 0.1) << moved.transpose();
+  // --all-layers streams the inner layer too.
+  const auto inner = watcher.receive("POLYDATA", "LaminaLayer1", 2.0);
+  ASSERT_TRUE(inner);
+  EXPECT_GT(polydata_points(*inner).rows(), 100);
+
+  // Away from the organ: nothing pushes, nothing comes back. A POSITION with the position only
+  // (12 bytes), written by hand: OpenIGTLink 1.11's PositionMessage packs this form past the
+  // end of its buffer (it byte-swaps all 28 bytes of the long form).
+  igtl_position away{};
+  for (int i = 0; i < 3; ++i) away.position[i] = static_cast<float>(node[i] + (i == 1 ? 100 : 0));
+  igtl_position_convert_byte_order_position_only(&away);
+  std::vector<uint8_t> position(IGTL_POSITION_MESSAGE_POSITON_ONLY_SIZE);
+  std::memcpy(position.data(), &away, position.size());
+  tool.send_bytes(
+      concat(header_bytes(1, "POSITION", "Needle", position.size(), position), position));
+  EXPECT_EQ(reaction_after(0.5).norm(), 0.0);
+
+  // Header version 2: an extended header (12 bytes, no metadata) before the same content.
+  const std::vector<uint8_t> v1 = transform_bytes("Needle", node - 3.0 * push_direction);
+  std::vector<uint8_t> body = {0, 12, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  body.insert(body.end(), v1.begin() + IGTL_HEADER_SIZE, v1.end());
+  tool.send_bytes(concat(header_bytes(2, "TRANSFORM", "Needle", body.size(), body), body));
+  EXPECT_GT(reaction_after(0.5).norm(), 5.0);
+
+  const Summary s = stop(server);
+  EXPECT_EQ(s.poses, 3);
+  EXPECT_EQ(s.clients, 2);
+  EXPECT_EQ(s.dropped, 0) << server.log();
+  EXPECT_GT(s.max_reaction_mn, 5.0);
+}
+
+// Each bad client gets one log line naming it and its problem, and loses its connection; the
+// simulation keeps its pace and the next well-behaved client is served.
+TEST(Serve, BadClientsAreDroppedAndTheRestCarriesOn) {
+  TempDir dir;
+  Server server(dir.path, with({"phantom", "--rate", "500", "--stall-timeout", "1"}));
+  {
+    Client first(server.port());  // waits for the model: the server is up from here on
+    ASSERT_TRUE(first.receive("POLYDATA", "LaminaSkin", 30.0)) << server.log();
+  }
+  const auto t0 = Clock::now();
+  const std::vector<uint8_t> pose = transform_bytes("Tool", Eigen::Vector3d(0, 500, 0));
+  const std::vector<uint8_t> pose_body(pose.begin() + IGTL_HEADER_SIZE, pose.end());
+  struct Case {
+    std::string name;
+    std::vector<uint8_t> bytes;
+    bool hang_up;  // close right after sending
+    std::string logged;
+  };
+  const std::string http =
+      "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUser-Agent: test\r\nAccept: */*\r\n\r\n";
+  std::vector<uint8_t> bad_crc = pose;
+  bad_crc.back() ^= 0x40;
+  const std::vector<uint8_t> short_body(pose_body.begin(), pose_body.begin() + 40);
+  const std::vector<Case> cases = {
+      {"garbage", {http.begin(), http.end()}, false, "not an OpenIGTLink header (version 18245)"},
+      {"huge body", header_bytes(1, "TRANSFORM", "Tool", uint64_t{1} << 40, {}), false,
+       "TRANSFORM 'Tool' declares a body of 1099511627776 bytes, more than the limit"},
+      {"truncated",
+       {pose.begin(), pose.begin() + IGTL_HEADER_SIZE + 20},
+       true,
+       "closed the connection in the middle of a message, after 20 of the 48 body bytes of a "
+       "TRANSFORM 'Tool'"},
+      {"bad CRC", bad_crc, false, "bad CRC on TRANSFORM 'Tool' (48 bytes)"},
+      {"wrong size", concat(header_bytes(1, "TRANSFORM", "Tool", 40, short_body), short_body),
+       false, "a TRANSFORM has 48 bytes of content, this one 40"},
+      {"stalled",
+       {pose.begin(), pose.begin() + 10},
+       false,
+       "sent 10 of the 58 bytes of a header and then nothing for"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    Client bad(server.port());
+    const std::string peer = bad.peer();
+    bad.send_bytes(c.bytes);
+    if (c.hang_up) {
+      bad.close();
+    } else {
+      EXPECT_TRUE(bad.closed_by_server(3.0));
+    }
+    // One line, naming the client and the problem.
+    const auto logged = Clock::now();
+    while (server.log().find(peer + ": " + c.logged) == std::string::npos &&
+           seconds_since(logged) < 3.0)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_NE(server.log().find(peer + ": " + c.logged), std::string::npos) << server.log();
+    EXPECT_NE(server.log().find("; connection dropped"), std::string::npos);
+  }
+  // A type the server does not use is skipped, and the connection kept: the same client is then
+  // answered.
+  Client polite(server.port());
+  const std::vector<uint8_t> text = {0, 3, 0, 4, 'h', 'e', 'y', '!'};
+  polite.send_bytes(concat(header_bytes(1, "STRING", "Note", text.size(), text), text));
+  igtl::GetPolyDataMessage::Pointer get = igtl::GetPolyDataMessage::New();
+  get->SetDeviceName("LaminaSkin");
+  polite.send(*get);
+  const auto answer = polite.receive("POLYDATA", "LaminaSkin", 2.0);
+  ASSERT_TRUE(answer);
+  EXPECT_GT(polydata_points(*answer).rows(), 1000);
+  EXPECT_NE(server.log().find(polite.peer() + ": skipped STRING 'Note'"), std::string::npos);
+  const double busy_s = seconds_since(t0);
+
+  const Summary s = stop(server);
+  EXPECT_EQ(s.dropped, 6) << server.log();
+  EXPECT_EQ(s.clients, 8);
+  // The steps never waited for the network: real time (a loose bound on a shared machine).
+  EXPECT_GT(s.real_time_factor, 0.5) << server.log();
+  EXPECT_GT(s.simulated_s, 0.5 * busy_s);
+}
+
+TEST(Serve, BadOptionsAndABusyPortAreOneLineErrors) {
+  TempDir dir;
+  const RunResult hz = run_cli(LAMINA_CLI, dir.path, dir.path, "serve --send-hz -1");
+  EXPECT_EQ(hz.exit_code, 2);
+  EXPECT_NE(hz.err.find("--send-hz: must be in [0, 1000]"), std::string::npos) << hz.err;
+  const RunResult frame = run_cli(LAMINA_CLI, dir.path, dir.path, "serve --frame xyz");
+  EXPECT_EQ(frame.exit_code, 2);
+  EXPECT_NE(frame.err.find("--frame: must be ras or lps, got 'xyz'"), std::string::npos);
+  // A port someone else listens on: refused before any model is built.
+  const int busy = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(busy, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+  ASSERT_EQ(::listen(busy, 1), 0);
+  socklen_t len = sizeof(a);
+  ::getsockname(busy, reinterpret_cast<sockaddr*>(&a), &len);
+  const std::string port = std::to_string(ntohs(a.sin_port));
+  const auto t0 = Clock::now();
+  const RunResult taken = run_cli(LAMINA_CLI, dir.path, dir.path, "serve --port " + port);
+  ::close(busy);
+  EXPECT_EQ(taken.exit_code, 2);
+  EXPECT_NE(taken.err.find("--port: 127.0.0.1:" + port + ": cannot listen: in use"),
+            std::string::npos)
+      << taken.err;
+  EXPECT_LT(seconds_since(t0), 0.6);  // building the phantom alone takes about a second
+}
+
+}  // namespace
+}  // namespace lamina::test
