@@ -177,6 +177,7 @@ struct ServeArgs {
   double max_message_mb = 4.0;          ///< larger incoming messages drop their client
   double stall_timeout_s = 5.0;         ///< a client silent this long mid-message is dropped
   int max_clients = 16;
+  int threads = 0;  ///< threads per step; 0 = OpenMP's default
   bool verbose = false;
 };
 /// Runs the simulation as an OpenIGTLink server (docs/openigtlink.md): tool poses in, the

@@ -243,6 +243,9 @@ int main(int argc, char** argv) {
   se->add_option("--stall-timeout", serve.stall_timeout_s,
                  "a client silent this long in the middle of a message is dropped, s (default 5)");
   se->add_option("--max-clients", serve.max_clients, "connections served at once (default 16)");
+  se->add_option("--threads", serve.threads,
+                 "threads per simulation step (default: OpenMP's; 1 on a machine shared with "
+                 "other busy programs)");
 
   cli::BenchArgs bench;
   auto* be = app.add_subcommand("bench",

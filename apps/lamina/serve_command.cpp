@@ -49,6 +49,7 @@ void check_args(const ServeArgs& a) {
     throw invalid_input("--max-message-mb", "must be in (0, 1024] MB");
   if (!(a.stall_timeout_s > 0.0)) throw invalid_input("--stall-timeout", "must be > 0 s");
   if (a.max_clients < 1) throw invalid_input("--max-clients", "must be >= 1");
+  if (a.threads < 0) throw invalid_input("--threads", "must be >= 0 (0 = OpenMP's default)");
 }
 
 // The device name of layer k's POLYDATA: LaminaSkin for the skin, LaminaLayer1... inside.
@@ -123,6 +124,7 @@ int run_serve(const ServeArgs& a) {
   const Model& m = built.model;
   interact::LoopOptions lo;
   lo.rate_hz = a.rate_hz;  // real time: each step is 1 / rate of simulated time
+  lo.threads = a.threads;
   interact::RealtimeLoop loop(io::make_scene_simulation(scene, m, setup), scene.routing, lo);
   const net::Frame frame = a.frame == "lps" ? net::Frame::kLps : net::Frame::kRas;
   Outgoing outgoing(m, frame);
@@ -234,7 +236,8 @@ int run_serve(const ServeArgs& a) {
       if (!behind || Clock::now() >= next_behind_warning) {
         log::warn(
             "behind real time: {:.2f} simulated seconds per wall second ({:.0f} of {:.0f} "
-            "steps/s, {:.0f} us a step); a lower --rate or a smaller model keeps up",
+            "steps/s, {:.0f} us a step); a lower --rate, a smaller model or, on a busy machine, "
+            "--threads 1 keeps up",
             snap.real_time_factor, snap.achieved_rate_hz, a.rate_hz, snap.mean_step_us);
         next_behind_warning = Clock::now() + std::chrono::seconds(10);
       }
@@ -250,8 +253,8 @@ int run_serve(const ServeArgs& a) {
   const double rtf = wall_s > 0.0 ? snap.time_s / wall_s : 0.0;
   if (rtf < 0.95)
     log::warn(
-        "the simulation ran at {:.2f}x real time over the whole run; a lower --rate or a "
-        "smaller model keeps up",
+        "the simulation ran at {:.2f}x real time over the whole run; a lower --rate, a smaller "
+        "model or, on a busy machine, --threads 1 keeps up",
         rtf);
   const net::ServerCounters& c = server.counters();
   fmt::print(stderr,

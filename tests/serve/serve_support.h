@@ -200,17 +200,35 @@ class Client {
   }
 
   /// The next whole message, or nothing if none arrives within timeout_s or the server closes.
+  /// A message cut by the timeout stays buffered for the next call.
   std::optional<Received> receive(double timeout_s) {
-    Received r;
     const auto t0 = Clock::now();
-    if (!read_exactly(IGTL_HEADER_SIZE, r.header, t0, timeout_s)) return std::nullopt;
-    igtl_header h;
-    std::memcpy(&h, r.header.data(), IGTL_HEADER_SIZE);
-    igtl_header_convert_byte_order(&h);
-    r.type.assign(h.name, strnlen(h.name, IGTL_HEADER_TYPE_SIZE));
-    r.device.assign(h.device_name, strnlen(h.device_name, IGTL_HEADER_NAME_SIZE));
-    if (!read_exactly(static_cast<size_t>(h.body_size), r.body, t0, timeout_s)) return std::nullopt;
-    return r;
+    for (;;) {
+      if (pending_.size() >= IGTL_HEADER_SIZE) {
+        igtl_header h;
+        std::memcpy(&h, pending_.data(), IGTL_HEADER_SIZE);
+        igtl_header_convert_byte_order(&h);
+        if (h.body_size > (64u << 20)) throw std::runtime_error("out of step with the server");
+        const size_t whole = IGTL_HEADER_SIZE + static_cast<size_t>(h.body_size);
+        if (pending_.size() >= whole) {
+          Received r;
+          r.type.assign(h.name, strnlen(h.name, IGTL_HEADER_TYPE_SIZE));
+          r.device.assign(h.device_name, strnlen(h.device_name, IGTL_HEADER_NAME_SIZE));
+          r.header.assign(pending_.begin(), pending_.begin() + IGTL_HEADER_SIZE);
+          r.body.assign(pending_.begin() + IGTL_HEADER_SIZE, pending_.begin() + whole);
+          pending_.erase(pending_.begin(), pending_.begin() + whole);
+          return r;
+        }
+      }
+      const double left = timeout_s - seconds_since(t0);
+      if (left <= 0.0) return std::nullopt;
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, static_cast<int>(left * 1000.0) + 1) <= 0) continue;
+      uint8_t buffer[65536];
+      const ssize_t k = ::recv(fd_, buffer, sizeof(buffer), 0);
+      if (k <= 0) return std::nullopt;
+      pending_.insert(pending_.end(), buffer, buffer + k);
+    }
   }
   /// The next message of this type and device, skipping others.
   std::optional<Received> receive(const std::string& type, const std::string& device,
@@ -239,21 +257,7 @@ class Client {
   }
 
  private:
-  bool read_exactly(size_t n, std::vector<uint8_t>& out, Clock::time_point t0, double timeout_s) {
-    out.resize(n);
-    size_t got = 0;
-    while (got < n) {
-      const double left = timeout_s - seconds_since(t0);
-      if (left <= 0.0) return false;
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, static_cast<int>(left * 1000.0) + 1) <= 0) continue;
-      const ssize_t k = ::recv(fd_, out.data() + got, n - got, 0);
-      if (k <= 0) return false;
-      got += static_cast<size_t>(k);
-    }
-    return true;
-  }
-
+  std::vector<uint8_t> pending_;  // received, not yet a whole message
   int fd_ = -1;
   int local_port_ = 0;
 };
