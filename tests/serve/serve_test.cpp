@@ -71,7 +71,16 @@ double distance_to(const Eigen::MatrixX3d& points, const Eigen::Vector3d& p) {
   return std::sqrt((points.rowwise() - p.transpose()).rowwise().squaredNorm().minCoeff());
 }
 
+#if !defined(IGTL_TRACKER_CLIENT) || !defined(IGTL_POLYDATA_CLIENT)
+#define IGTL_TRACKER_CLIENT ""
+#define IGTL_POLYDATA_CLIENT ""
+#define SKIP_WITHOUT_EXAMPLES() GTEST_SKIP() << "openigtlink-examples is not installed"
+#else
+#define SKIP_WITHOUT_EXAMPLES()
+#endif
+
 TEST(Serve, TheExampleTrackerClientDrivesTheToolTip) {
+  SKIP_WITHOUT_EXAMPLES();
   TempDir dir;
   Server server(dir.path, with({"phantom"}));
   // The skin at rest, as streamed (RAS), once the model is built.
@@ -111,6 +120,7 @@ TEST(Serve, TheExampleTrackerClientDrivesTheToolTip) {
 // The first example of docs/openigtlink.md: the protocol's PolyDataClient asks ten times for a
 // POLYDATA and gets the skin, every node of it.
 TEST(Serve, TheExamplePolyDataClientGetsTheWholeSkin) {
+  SKIP_WITHOUT_EXAMPLES();
   TempDir dir;
   // The skin's size, from the model builder on its own.
   const RunResult built = run_cli(LAMINA_CLI, dir.path, dir.path,
@@ -312,7 +322,7 @@ TEST(Serve, BadOptionsAndABusyPortAreOneLineErrors) {
   EXPECT_NE(taken.err.find("--port: 127.0.0.1:" + port + ": cannot listen: in use"),
             std::string::npos)
       << taken.err;
-  EXPECT_LT(seconds_since(t0), 0.6);  // building the phantom alone takes about a second
+  EXPECT_LT(seconds_since(t0), 0.8);  // building the phantom alone takes about a second
 }
 
 }  // namespace
