@@ -119,6 +119,7 @@ int run_serve(const ServeArgs& a) {
   so.stall_timeout_s = a.stall_timeout_s;
   so.max_clients = a.max_clients;
   net::Server server(so);
+  log::info("listening on {}:{}", a.host, server.port());
   SceneModel built = make_scene_model(scene, stderr_progress(a.verbose));
   const io::SceneSetup setup = io::prepare_scene(scene, built.model);
   const Model& m = built.model;
@@ -192,8 +193,6 @@ int run_serve(const ServeArgs& a) {
       built.source, m.node_count(), m.layers[0].node_count, m.layers[0].F.rows(), m.layer_count(),
       a.rate_hz, a.host, server.port(),
       a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
-  log::info("listening on {}:{}", a.host, server.port());
-  std::fflush(stderr);
 
   // Sends at send_hz; with --send-hz 0 the snapshot is still watched (real time, reaction).
   const double tick_s = 1.0 / (a.send_hz > 0.0 ? a.send_hz : 30.0);
