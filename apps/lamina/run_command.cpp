@@ -17,6 +17,7 @@
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/run_tools.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/checkpoint.h"
 #include "lamina/io/mesh_file.h"
@@ -218,11 +219,8 @@ int run_run(const RunArgs& a) {
   // followed until the model rests under its load. One quiet step is not enough: velocities
   // pass through zero when a tool is released and at the turning points of an oscillation, so
   // the test must hold for a settling window (sim::quiet_steps: 0.1 s, at least 3 steps).
-  const double tools_end = interact::last_tool_end(driver);
-  double last_start = 0.0;
-  for (const interact::Tool& t : scene.tools) last_start = std::max(last_start, t.start_s);
-  const double settle_from = std::isfinite(tools_end) ? tools_end : last_start;
-  const int64_t settle_steps = sim::quiet_steps(s);
+  interact::RestWatch rest = interact::rest_watch(s, driver);
+  rest.streak = so_far.quiet_streak;  // resumed from a checkpoint
   const double interval = scene.output.frame_interval_s;
 
   std::vector<double> step_us;
@@ -277,7 +275,7 @@ int run_run(const RunArgs& a) {
   const int64_t steps_at_start = s.steps;  // after a resume: this run's share is what counts
   const double start_time_s = s.time_s;
   for (int64_t k = first_step; k < scene.solver.max_steps; ++k) {
-    const bool settling = s.time_s >= settle_from;
+    const double start_s = s.time_s;
     const auto t0 = Clock::now();
     interact::apply_tools(s, driver);
     st = sim::step(s);
@@ -298,8 +296,8 @@ int run_run(const RunArgs& a) {
     so_far.max_displacement_mm = std::max(so_far.max_displacement_mm, st.max_displacement_mm);
     so_far.max_abs_volume_change_pct =
         std::max(so_far.max_abs_volume_change_pct, std::abs(st.volume_change_pct));
-    so_far.quiet_streak = settling && sim::at_rest(st) ? so_far.quiet_streak + 1 : 0;
-    converged = so_far.quiet_streak >= settle_steps;
+    converged = rest.update(start_s, st);
+    so_far.quiet_streak = rest.streak;
 
     const bool frame_due = interval > 0.0 && s.time_s >= so_far.next_frame_s - 1e-9 * interval;
     if (frame_due) {
@@ -327,9 +325,9 @@ int run_run(const RunArgs& a) {
       // Before release: time towards the last release. After: orders of magnitude of the
       // largest speed still to lose before the rest speed.
       double fraction = 0.0;
-      if (!settling) {
-        fraction =
-            std::isfinite(settle_from) && settle_from > 0.0 ? 0.5 * s.time_s / settle_from : 0.0;
+      const double settle_from = rest.settle_from_s;
+      if (start_s < settle_from) {
+        fraction = settle_from > 0.0 ? 0.5 * s.time_s / settle_from : 0.0;
       } else {
         if (first_settle_speed == 0.0) first_settle_speed = std::max(st.max_speed_mm_per_s, 1e-300);
         const double span = std::log(first_settle_speed / scene.solver.rest_speed_mm_per_s);

@@ -170,7 +170,17 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
     d.active[t] = on;
     any |= on;
   }
-  clear_loads(s, d.loads);
+  if (d.held_forces.rows() == 0) {
+    clear_loads(s, d.loads);
+  } else {
+    if (d.held_forces.rows() != s.f_ext.rows() || !d.held_forces.allFinite())
+      throw invalid_input("held forces", "must be finite, one row per node (" +
+                                             std::to_string(s.f_ext.rows()) + "), got " +
+                                             std::to_string(d.held_forces.rows()) + " rows");
+    s.f_ext = d.held_forces;  // replaces clearing the last step's loads
+    d.loads.nodes.clear();
+    d.loads.cleared = true;
+  }
   for (size_t t = 0; t < n; ++t)
     if (d.active[t]) add_load(s, d.routes[t], d.loads);
   if (changed && s.options().mode == sim::Mode::kLocal) keep_touched_movable(s, d.touched);

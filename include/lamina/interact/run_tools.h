@@ -12,6 +12,26 @@
 
 namespace lamina::interact {
 
+/// When a scene's run is over: every tool has let go (or, for a tool that never lets go, the
+/// last one has started) and the model has been at rest (sim::at_rest) for sim::quiet_steps()
+/// steps in a row. One quiet step is not enough: velocities pass through zero when a tool is
+/// released and at every turn of an oscillation. `lamina run` and run_tools() share it.
+struct RestWatch {
+  double settle_from_s = 0.0;  ///< quiet steps count from this simulated time
+  int64_t needed = 3;          ///< quiet steps in a row that make a rest
+  int64_t streak = 0;          ///< quiet steps so far
+
+  /// Counts a step that started at `start_time_s` and measured `stats`.
+  /// @return true when the model has come to rest
+  bool update(double start_time_s, const sim::StepStats& stats) {
+    streak = start_time_s >= settle_from_s && sim::at_rest(stats) ? streak + 1 : 0;
+    return streak >= needed;
+  }
+};
+
+/// The rest test for `sim` driven by `driver`'s tools.
+RestWatch rest_watch(const sim::Simulation& sim, const ToolDriver& driver);
+
 /// What run_tools() did.
 struct ToolRun {
   int64_t steps = 0;       ///< steps taken by this call
@@ -23,9 +43,8 @@ struct ToolRun {
 using StepObserver =
     std::function<void(const sim::Simulation&, const ToolDriver&, const sim::StepStats&)>;
 
-/// Steps `sim` with `driver`'s tools until simulated time reaches `t_end_s`, or, if
-/// `stop_at_rest`, until every tool has ended and the model has been at rest (sim::at_rest) for
-/// sim::quiet_steps() steps in a row.
+/// Steps `sim` with `driver`'s tools until simulated time reaches `t_end_s` or the solver's
+/// max_steps, or, if `stop_at_rest`, until the model has come to rest (RestWatch).
 /// \note Throws lamina::Error (kInvalidInput) as apply_tools() for a tool that touches nothing.
 ToolRun run_tools(sim::Simulation& sim, ToolDriver& driver, double t_end_s, bool stop_at_rest,
                   const StepObserver& per_step = {});

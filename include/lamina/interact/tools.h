@@ -102,6 +102,10 @@ struct ToolDriver {
   /// released region can return to rest.
   std::vector<int32_t> touched;
   Loads loads;  ///< the nodes apply_tools() gave force
+  /// Forces held on nodes besides the tools', mN: #nodes by 3, or empty. When given,
+  /// apply_tools() starts f_ext from them each step instead of from zero (the Python module's
+  /// raw forces, which the tools add to).
+  Eigen::MatrixX3d held_forces;
 };
 
 /// Updates sim.f_ext (and, in local mode, the movable nodes) for time sim.time_s.

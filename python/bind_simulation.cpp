@@ -1,0 +1,290 @@
+// Simulations: made from a model with keyword arguments (the C++ defaults and units), or from a
+// scene as `lamina run` sets it up; stepped with tools and raw forces; state as numpy views.
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "bindings.h"
+#include "lamina/core/error.h"
+#include "lamina/interact/run_tools.h"
+#include "lamina/io/scene.h"
+#include "lamina/io/scene_model.h"
+
+namespace py = pybind11;
+
+namespace lamina::python {
+namespace {
+
+// What a Python Simulation holds: its model (shared with Python), the simulation, its tools
+// and the raw forces the caller holds on nodes (driver.held_forces, the tools add to them).
+struct PySimulation {
+  std::shared_ptr<Model> model;
+  sim::Simulation sim;
+  interact::ToolDriver driver;
+  sim::StepStats last;
+  std::string scene;  // the scene it came from, if any
+};
+
+sim::Integrator parse_integrator(const std::string& name) {
+  for (auto i : {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler,
+                 sim::Integrator::kProjective})
+    if (io::integrator_name(i) == name) return i;
+  throw invalid_input("integrator", "is '" + name +
+                                        "'; semi_implicit_euler, implicit_euler or projective expected");
+}
+
+sim::Mode parse_mode(const std::string& name) {
+  for (auto mode : {sim::Mode::kGlobal, sim::Mode::kLocal})
+    if (io::mode_name(mode) == name) return mode;
+  throw invalid_input("mode", "is '" + name + "'; global or local expected");
+}
+
+void wire(PySimulation& p) {
+  p.driver.held_forces = Eigen::MatrixX3d::Zero(p.model->node_count(), 3);
+}
+
+sim::StepStats step_n(PySimulation& p, int64_t steps) {
+  if (steps < 0) throw invalid_input("step: steps", "is " + std::to_string(steps) + "; >= 0 expected");
+  py::gil_scoped_release release;
+  for (int64_t k = 0; k < steps; ++k) {
+    interact::apply_tools(p.sim, p.driver);
+    p.last = sim::step(p.sim);
+  }
+  return p.last;
+}
+
+std::vector<int32_t> nodes_of(const std::vector<int64_t>& in) {
+  return {in.begin(), in.end()};
+}
+
+// The peaks over a run, which its last step does not show.
+struct Peaks {
+  double displacement_mm = 0.0, abs_volume_change_pct = 0.0, reaction_mn = 0.0;
+};
+
+py::dict run_dict(const PySimulation& p, const interact::ToolRun& run, const Peaks& peaks) {
+  py::dict d;
+  d["steps"] = run.steps;
+  d["converged"] = run.converged;
+  d["time_s"] = p.sim.time_s;
+  d["max_displacement_mm"] = run.last.max_displacement_mm;
+  d["volume_change_pct"] = run.last.volume_change_pct;
+  d["recoveries"] = p.sim.recoveries;
+  d["peak_displacement_mm"] = peaks.displacement_mm;
+  d["peak_abs_volume_change_pct"] = peaks.abs_volume_change_pct;
+  d["max_reaction_mn"] = peaks.reaction_mn;
+  return d;
+}
+
+}  // namespace
+
+void bind_simulation(py::module_& m) {
+  py::class_<sim::StepStats>(m, "StepStats", "What one step measured (mm, mm/s, J, us)")
+      .def_readonly("max_move_mm", &sim::StepStats::max_move_mm)
+      .def_readonly("max_speed_mm_per_s", &sim::StepStats::max_speed_mm_per_s)
+      .def_readonly("max_displacement_mm", &sim::StepStats::max_displacement_mm)
+      .def_readonly("skin_volume_mm3", &sim::StepStats::skin_volume_mm3)
+      .def_readonly("volume_change_pct", &sim::StepStats::volume_change_pct)
+      .def_readonly("kinetic_energy_j", &sim::StepStats::kinetic_energy_j)
+      .def_readonly("step_us", &sim::StepStats::step_us)
+      .def_readonly("cg_iterations", &sim::StepStats::cg_iterations)
+      .def_readonly("converged", &sim::StepStats::converged, "at rest: no node faster than the rest speed")
+      .def_readonly("recovered", &sim::StepStats::recovered)
+      .def_readonly("failed", &sim::StepStats::failed)
+      .def("__repr__", [](const sim::StepStats& s) {
+        return "<lamina.StepStats max_displacement_mm=" + std::to_string(s.max_displacement_mm) +
+               " volume_change_pct=" + std::to_string(s.volume_change_pct) +
+               (s.converged ? " at rest>" : ">");
+      });
+
+  py::class_<PySimulation>(m, "Simulation",
+                           "Dynamics of a model: m x'' + gamma x' + f_internal(x) = f_ext.\n"
+                           "x, v, f_ext are (nodes, 3) float64 numpy views of the simulation's own\n"
+                           "memory (no copy): write them between steps. f_ext holds raw forces, mN;\n"
+                           "tools add their routed forces to them during each step.")
+      .def(py::init([](std::shared_ptr<Model> model, double stiffness_n_per_m,
+                       double damping_kg_per_s, double mass_damping_per_s, double node_mass_kg,
+                       double anchor_stiffness_n_per_m, double volume_stiffness_kpa,
+                       double young_modulus_kpa, double poisson_ratio,
+                       const Eigen::Vector3d& gravity_mm_per_s2, const std::string& integrator,
+                       double dt_s, double rest_speed_mm_per_s, int64_t max_steps,
+                       const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
+                       int32_t locality, int32_t penetration_depth,
+                       double contact_threshold_mm, const std::vector<int64_t>& fixed) {
+             if (!model) throw invalid_input("Simulation: model", "is None");
+             sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
+                               .damping_kg_per_s = damping_kg_per_s,
+                               .mass_damping_per_s = mass_damping_per_s,
+                               .node_mass_kg = node_mass_kg,
+                               .anchor_stiffness_n_per_m = anchor_stiffness_n_per_m,
+                               .volume_stiffness_kpa = volume_stiffness_kpa,
+                               .young_modulus_kpa = young_modulus_kpa,
+                               .poisson_ratio = poisson_ratio,
+                               .gravity_mm_per_s2 = gravity_mm_per_s2};
+             sim::SolverOptions opt{.integrator = parse_integrator(integrator),
+                                    .dt_s = dt_s,
+                                    .rest_speed_mm_per_s = rest_speed_mm_per_s,
+                                    .max_steps = max_steps,
+                                    .mode = parse_mode(mode),
+                                    .cg_max_iterations = cg_max_iterations,
+                                    .cg_tolerance = cg_tolerance};
+             auto p = std::make_unique<PySimulation>(
+                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}});
+             p->driver.routing.locality = locality;
+             p->driver.routing.penetration_depth = penetration_depth;
+             p->driver.routing.contact_threshold_mm = contact_threshold_mm;
+             if (locality > model->rings.locality)
+               throw invalid_input("locality", "is " + std::to_string(locality) +
+                                                   "; the model's rings reach " +
+                                                   std::to_string(model->rings.locality));
+             sim::fix_nodes(p->sim, nodes_of(fixed));
+             wire(*p);
+             return p;
+           }),
+           py::arg("model"), py::kw_only(), py::arg("stiffness_n_per_m") = 3.0,
+           py::arg("damping_kg_per_s") = 3.0, py::arg("mass_damping_per_s") = 0.0,
+           py::arg("node_mass_kg") = 1.0, py::arg("anchor_stiffness_n_per_m") = 0.0,
+           py::arg("volume_stiffness_kpa") = 0.0, py::arg("young_modulus_kpa") = 0.0,
+           py::arg("poisson_ratio") = 0.45, py::arg("gravity_mm_per_s2") = Eigen::Vector3d::Zero(),
+           py::arg("integrator") = "semi_implicit_euler", py::arg("dt_s") = 0.01,
+           py::arg("rest_speed_mm_per_s") = 0.1, py::arg("max_steps") = 100000,
+           py::arg("mode") = "global", py::arg("cg_max_iterations") = 100,
+           py::arg("cg_tolerance") = 1e-6, py::arg("locality") = 4,
+           py::arg("penetration_depth") = 4, py::arg("contact_threshold_mm") = 10.0,
+           py::arg("fixed") = std::vector<int64_t>{},
+           "A simulation at rest. Defaults are the reference paper's (K = 3 N/m, gamma = 3 kg/s,\n"
+           "unit masses, semi-implicit Euler at dt = 0.01 s). young_modulus_kpa (E) > 0 with\n"
+           "stiffness_n_per_m = 0 and node_mass_kg = 0 makes the tissue elastic (E, nu) through\n"
+           "the tetrahedra. integrator: semi_implicit_euler, implicit_euler, projective.\n"
+           "fixed: node indices held at rest (without them a push moves the organ bodily).")
+      .def_property_readonly("model", [](const PySimulation& p) { return p.model; })
+      .def_property(
+          "x", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.sim.x; },
+          [](PySimulation& p, const Eigen::MatrixX3d& x) { p.sim.x = x; },
+          py::return_value_policy::reference_internal, "positions, (nodes, 3) mm, a view")
+      .def_property(
+          "v", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.sim.v; },
+          [](PySimulation& p, const Eigen::MatrixX3d& v) { p.sim.v = v; },
+          py::return_value_policy::reference_internal, "velocities, (nodes, 3) mm/s, a view")
+      .def_property(
+          "f_ext", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.driver.held_forces; },
+          [](PySimulation& p, const Eigen::MatrixX3d& f) { p.driver.held_forces = f; },
+          py::return_value_policy::reference_internal,
+          "raw external forces held on nodes, (nodes, 3) mN, a view; kept from step to step")
+      .def_property_readonly("time_s", [](const PySimulation& p) { return p.sim.time_s; })
+      .def_property_readonly("steps", [](const PySimulation& p) { return p.sim.steps; })
+      .def_property_readonly("recoveries", [](const PySimulation& p) { return p.sim.recoveries; })
+      .def_property_readonly("stats", [](const PySimulation& p) { return p.last; },
+                             "the last step's StepStats")
+      .def_property_readonly("dt_s", [](const PySimulation& p) { return p.sim.options().dt_s; })
+      .def_property_readonly("fixed", [](const PySimulation& p) {
+        std::vector<int32_t> out;
+        for (size_t i = 0; i < p.sim.fixed().size(); ++i)
+          if (p.sim.fixed()[i]) out.push_back(static_cast<int32_t>(i));
+        return out;
+      }, "indices of the nodes held where they are")
+      .def("fix_nodes", [](PySimulation& p, const std::vector<int64_t>& n) { sim::fix_nodes(p.sim, nodes_of(n)); },
+           py::arg("nodes"), "Holds these nodes at their rest positions from now on.")
+      .def("hold_nodes", [](PySimulation& p, const std::vector<int64_t>& n, const Eigen::MatrixX3d& x) {
+        sim::hold_nodes(p.sim, nodes_of(n), x);
+      }, py::arg("nodes"), py::arg("positions_mm"), "Holds these nodes at (len(nodes), 3) positions, mm.")
+      .def("release_nodes", [](PySimulation& p, const std::vector<int64_t>& n) { sim::release_nodes(p.sim, nodes_of(n)); },
+           py::arg("nodes"), "Lets held or fixed nodes move again.")
+      .def("support_nodes", [](PySimulation& p, const std::vector<int64_t>& n, const std::vector<double>& k) {
+        sim::support_nodes(p.sim, nodes_of(n), k);
+      }, py::arg("nodes"), py::arg("stiffness_n_per_m"), "Ties each node to its rest position by a spring, N/m.")
+      .def("add_tool", [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
+                          std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
+                          std::optional<double> start_s, double end_s) {
+        if (point_mm.has_value() == vertex.has_value())
+          throw invalid_input("add_tool", "give exactly one of point_mm and vertex");
+        if (!force_mn.allFinite()) throw invalid_input("add_tool: force_mn", "is not finite");
+        interact::Tool t;
+        t.by_point = point_mm.has_value();
+        if (point_mm) t.point_mm = *point_mm;
+        if (vertex) t.vertex = *vertex;
+        t.force_mn = force_mn;
+        t.start_s = start_s.value_or(p.sim.time_s);
+        t.end_s = end_s;
+        p.driver.tools.push_back(t);
+        return p.driver.tools.size() - 1;
+      }, py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
+         py::arg("force_mn"), py::arg("start_s") = py::none(),
+         py::arg("end_s") = std::numeric_limits<double>::infinity(),
+         "A tool: touches the skin node nearest point_mm (or skin node `vertex`) and pushes\n"
+         "with force_mn (mN, 3 values) from start_s (default: now) until end_s, routed over the\n"
+         "contact's rings and the layers behind it the paper's way. Returns its index.")
+      .def("clear_tools", [](PySimulation& p) {
+        p.driver.tools.clear();
+        p.driver.routes.clear();
+        p.driver.active.clear();
+      }, "Lifts every tool off.")
+      .def_property_readonly("tool_count", [](const PySimulation& p) { return p.driver.tools.size(); })
+      .def("step", &step_n, py::arg("steps") = 1,
+           "Takes `steps` steps with the tools and raw forces; returns the last StepStats.")
+      .def("run", [](PySimulation& p, double until_s, bool stop_at_rest) {
+        interact::ToolRun run;
+        Peaks peaks;
+        {
+          py::gil_scoped_release release;
+          run = interact::run_tools(p.sim, p.driver, until_s, stop_at_rest,
+                                    [&](const sim::Simulation& s, const interact::ToolDriver& d,
+                                        const sim::StepStats& st) {
+                                      peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
+                                      peaks.abs_volume_change_pct = std::max(
+                                          peaks.abs_volume_change_pct, std::abs(st.volume_change_pct));
+                                      peaks.reaction_mn = std::max(
+                                          peaks.reaction_mn, interact::reaction_force(s, d.loads).norm());
+                                    });
+        }
+        p.last = run.last;
+        return run_dict(p, run, peaks);
+      }, py::arg("until_s") = std::numeric_limits<double>::infinity(), py::arg("stop_at_rest") = true,
+         "Steps until every tool has ended and the model has rested for 0.1 s (stop_at_rest),\n"
+         "or until simulated time until_s or the solver's max_steps. Returns a dict: steps,\n"
+         "converged, time_s, max_displacement_mm and volume_change_pct (the last step's),\n"
+         "recoveries, and over the run peak_displacement_mm, peak_abs_volume_change_pct and\n"
+         "max_reaction_mn.")
+      .def("reaction_force_mn", [](const PySimulation& p) {
+        return Eigen::Vector3d(interact::reaction_force(p.sim, p.driver.loads));
+      }, "the tissue's push back on the tools in the last step, mN (3 values)")
+      .def("reset", [](PySimulation& p) { sim::reset(p.sim); },
+           "Every node back at rest, time 0; parameters, fixed nodes and tools kept.")
+      .def_property_readonly("scene", [](const PySimulation& p) { return p.scene; });
+
+  m.def("scene_simulation", [](const py::object& what, bool paper) {
+    // A dict is a scene file's content (docs/scenes.md), paths in it as the caller's.
+    io::Scene scene =
+        py::isinstance<py::dict>(what)
+            ? io::parse_scene(py::module_::import("json").attr("dumps")(what).cast<std::string>(),
+                              "scene dict")
+            : io::scene_for(what.cast<std::string>(), paper);
+    auto model = std::make_shared<Model>([&] {
+      py::gil_scoped_release release;
+      return io::make_scene_model(scene).model;
+    }());
+    const io::SceneSetup setup = io::prepare_scene(scene, *model);
+    auto p = std::make_unique<PySimulation>(
+        PySimulation{model, io::make_scene_simulation(scene, *model, setup), {}, {}, scene.source});
+    p->driver.tools = scene.tools;
+    p->driver.routing = scene.routing;
+    wire(*p);
+    return p;
+  }, py::arg("scene") = "phantom", py::kw_only(), py::arg("paper") = false,
+     "A simulation set up as `lamina run SCENE` sets it up: SCENE is a scene .json, a .vtu\n"
+     "model, a mask or 'phantom' (the default scene: the physical liver, held at its back,\n"
+     "one 0.4 N poke for 1 s), or a dict with a scene file's keys (docs/scenes.md). The\n"
+     "scene's tools are loaded; run() plays them.");
+
+  m.def("nodes_near_plane", [](const Model& model, const Eigen::Vector3d& point,
+                               const Eigen::Vector3d& normal, double distance_mm) {
+    return sim::nodes_near_plane(model, point, normal, distance_mm);
+  }, py::arg("model"), py::arg("point_mm"), py::arg("normal"), py::arg("distance_mm"),
+     "Nodes within distance_mm of the plane through point_mm with this normal.");
+}
+
+}  // namespace lamina::python

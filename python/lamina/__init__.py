@@ -1,0 +1,76 @@
+"""Lamina: real-time multi-layer mass-spring soft tissue for surgical simulation.
+
+Units everywhere: millimetres, kilograms, seconds; forces in mN, stiffness in N/m, E in kPa.
+Arrays are numpy views of the library's own memory (docs/python.md).
+
+    import lamina
+    model = lamina.build_model("phantom")                      # or a NIfTI/NRRD/MHA/DICOM path
+    sim = lamina.Simulation(model, fixed=lamina.nodes_near_plane(model, (0, 40, 0), (0, 1, 0), 10))
+    sim.add_tool(vertex=0, force_mn=(0, 300, 0), end_s=1.0)
+    print(sim.run())                                           # steps until the organ rests
+"""
+import json
+import os
+import shutil
+import subprocess
+
+from ._lamina import (Error, Mask, Model, Simulation, StepStats, __version__, build_model,
+                      load_model, nodes_near_plane, phantom, read_mask, scene_simulation)
+
+__all__ = ["Error", "Mask", "Model", "Simulation", "StepStats", "__version__", "build_model",
+           "load_model", "nodes_near_plane", "phantom", "read_mask", "scene_simulation",
+           "run_scene", "validate", "executable"]
+
+
+def run_scene(scene="phantom", *, paper=False, until_s=float("inf")):
+    """Runs a scene (a path, 'phantom', or a dict of a scene file's keys) in this process as
+    `lamina run` does, without its files: the same model, setup, steps and rest test. Returns
+    Simulation.run()'s dict with the scene's name and the total step count."""
+    sim = scene_simulation(scene, paper=paper)
+    result = sim.run(until_s=until_s)
+    result["scene"] = sim.scene
+    return result
+
+
+def executable():
+    """The `lamina` command-line tool beside this module: $LAMINA_EXECUTABLE, the install's
+    bin/lamina, the build tree's, or the first on PATH."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    candidates = [os.environ.get("LAMINA_EXECUTABLE", "")]
+    # installed: PREFIX/lib/pythonX.Y/dist-packages/lamina -> PREFIX/bin/lamina
+    candidates.append(os.path.join(here, "..", "..", "..", "..", "bin", "lamina"))
+    # build tree: BUILD/python/lamina -> BUILD/lamina
+    candidates.append(os.path.join(here, "..", "..", "lamina"))
+    for c in candidates:
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            return os.path.abspath(c)
+    found = shutil.which("lamina")
+    if found:
+        return found
+    raise Error("lamina: the command-line tool was not found; set LAMINA_EXECUTABLE")
+
+
+def validate(scene="phantom", *, quick=False, depths=None, deepest=False, stability=False,
+             output=None, timeout_s=None):
+    """`lamina validate` (the mass-spring model against finite elements, or the stability suite)
+    and its JSON summary as a dict. It runs the command-line tool: minutes of work, for which a
+    process start costs nothing. Raises lamina.Error with the tool's one-line message."""
+    cmd = [executable(), "validate", str(scene), "--json"]
+    if quick:
+        cmd.append("--quick")
+    if depths:
+        cmd += ["--depths", ",".join(str(d) for d in depths)]
+    if deepest:
+        cmd.append("--deepest")
+    if stability:
+        cmd.append("--stability")
+    if output:
+        cmd += ["-o", str(output)]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
+    if done.returncode != 0:
+        lines = [l for l in done.stderr.splitlines() if l.startswith("error")] or \
+            done.stderr.strip().splitlines()[-1:] or ["exit code %d" % done.returncode]
+        err = Error(lines[-1])
+        err.exit_code = done.returncode
+        raise err
+    return json.loads(done.stdout)

@@ -1,0 +1,156 @@
+"""The Python module against the library's own invariants and the command-line tool."""
+import json
+import re
+import subprocess
+
+import numpy as np
+import pytest
+
+import lamina
+from conftest import REPO, back_nodes, front_node
+
+
+def test_model_is_closed_layers_and_positive_tets(phantom_model):
+    m = phantom_model
+    assert m.node_count == m.X.shape[0] and m.X.shape[1] == 3 and m.X.dtype == np.float64
+    assert m.layer_count >= 2 and 0 < m.skin_node_count < m.node_count
+    f = m.triangles(0)
+    assert f.min() >= 0 and f.max() < m.skin_node_count
+    assert f.shape[0] == 2 * m.skin_node_count - 4  # closed genus-0 surface: Euler
+    # Every edge of the skin is shared by exactly two triangles (a closed 2-manifold).
+    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts == 2).all()
+    # Tetrahedra positively oriented at rest.
+    t = m.tets
+    a, b, c, d = (m.X[t[:, k]] for k in range(4))
+    vol = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6.0
+    assert t.shape[1] == 4 and (vol > 0).all()
+    # Lumped masses carry the tissue's density over the organ's volume (within the mesh's error).
+    assert abs(m.mass_kg.sum() / (vol.sum() * 1.06e-6) - 1.0) < 0.02
+    assert m.summary()["nodes"] == m.node_count
+
+
+def test_model_arrays_are_read_only_views(phantom_model):
+    x = phantom_model.X
+    assert not x.flags.writeable
+    with pytest.raises(ValueError):
+        x[0, 0] = 1.0
+    # A view of the model's memory, not a copy: two reads share it.
+    assert np.shares_memory(phantom_model.X, phantom_model.X)
+
+
+def test_state_views_follow_the_simulation(phantom_model):
+    sim = lamina.Simulation(phantom_model, fixed=back_nodes(phantom_model))
+    x, f = sim.x, sim.f_ext
+    assert x.shape == (phantom_model.node_count, 3) and x.flags.writeable
+    assert np.shares_memory(x, sim.x) and np.shares_memory(f, sim.f_ext)
+    node = front_node(phantom_model)
+    f[node] = (0.0, 100.0, 0.0)  # 0.1 N held on one node, written through the view
+    sim.step(50)
+    # The view taken before stepping sees the new positions: nothing was copied.
+    assert x[node, 1] > phantom_model.X[node, 1] + 0.1
+    assert np.array_equal(x, sim.x)
+    assert sim.steps == 50 and abs(sim.time_s - 0.5) < 1e-12
+    assert np.isfinite(sim.x).all()
+    # Raw forces are kept from step to step until changed; removed, the organ returns.
+    f[:] = 0.0
+    result = sim.run()
+    assert result["converged"]
+    assert np.abs(sim.x - phantom_model.X).max() < 1.0  # the paper's soft springs creep back
+
+
+def test_writing_positions_moves_the_state(phantom_model):
+    sim = lamina.Simulation(phantom_model, fixed=back_nodes(phantom_model))
+    sim.x[:, 0] += 1.0  # a rigid shift of the free nodes (the fixed ones stay held)
+    stats = sim.step()
+    assert stats.max_displacement_mm > 0.9
+
+
+def test_tool_push_and_reaction(phantom_model):
+    sim = lamina.Simulation(phantom_model, integrator="implicit_euler",
+                            fixed=back_nodes(phantom_model))
+    node = front_node(phantom_model)
+    assert sim.add_tool(vertex=node, force_mn=(0.0, 300.0, 0.0)) == 0
+    sim.step(100)
+    r = sim.reaction_force_mn()
+    assert r.shape == (3,)
+    # The tissue pushes back against the tool, mostly along the push.
+    assert r[1] < -10.0 and abs(r[0]) < abs(r[1]) and abs(r[2]) < abs(r[1])
+    assert sim.x[node, 1] > phantom_model.X[node, 1] + 0.5
+    sim.clear_tools()
+    sim.step()
+    assert np.allclose(sim.reaction_force_mn(), 0.0)
+
+
+def test_run_scene_matches_the_command_line(tmp_path, cli):
+    """lamina.run_scene() is `lamina run` without the files: the same steps, the same peaks."""
+    done = subprocess.run([cli, "-q", "run", "--json", "-o", str(tmp_path / "run")],
+                          capture_output=True, text=True, check=True)
+    ref = json.loads(done.stdout)
+    got = lamina.run_scene("phantom")
+    assert got["converged"] and ref["converged"]
+    assert got["steps"] == ref["steps"]
+    assert got["peak_displacement_mm"] == pytest.approx(ref["max_displacement_mm"], rel=1e-9)
+    assert got["max_displacement_mm"] == pytest.approx(ref["final_rest_error_mm"], rel=1e-6)
+    assert got["peak_abs_volume_change_pct"] == pytest.approx(ref["max_abs_volume_change_pct"], rel=1e-9)
+    assert got["max_reaction_mn"] == pytest.approx(1000.0 * ref["max_reaction_n"], rel=1e-9)
+
+
+def test_scene_from_a_dict():
+    sim = lamina.scene_simulation({"material": {"young_modulus_kpa": 12.0}})
+    stiff = sim.run(until_s=0.5)
+    soft = lamina.scene_simulation({"material": {"young_modulus_kpa": 3.0}}).run(until_s=0.5)
+    # Half the stiffness, about twice the dent under the same 0.4 N.
+    assert 1.5 < soft["peak_displacement_mm"] / stiff["peak_displacement_mm"] < 5.0
+
+
+def one_line(e):
+    return "\n" not in str(e) and len(str(e)) > 0
+
+
+def test_errors_carry_the_one_line_messages(phantom_model):
+    with pytest.raises(lamina.Error) as e:
+        lamina.read_mask("/nonexistent/liver.nii.gz")
+    assert "/nonexistent/liver.nii.gz" in str(e.value) and e.value.exit_code == 2
+    assert one_line(e.value)
+    with pytest.raises(lamina.Error, match=r"damping.*-1"):
+        lamina.Simulation(phantom_model, damping_kg_per_s=-1.0)
+    with pytest.raises(lamina.Error, match="semi_implicit_euler, implicit_euler or projective"):
+        lamina.Simulation(phantom_model, integrator="rk4")
+    with pytest.raises(lamina.Error, match="locality"):
+        lamina.Simulation(phantom_model, locality=99)
+    sim = lamina.Simulation(phantom_model)
+    with pytest.raises(lamina.Error, match="exactly one of point_mm and vertex"):
+        sim.add_tool(point_mm=(0, 0, 0), vertex=3, force_mn=(0, 1, 0))
+    sim.add_tool(point_mm=(1e4, 0, 0), force_mn=(0, 1, 0))
+    with pytest.raises(lamina.Error, match=r"tools\[0\].point: touches no skin node"):
+        sim.step()
+    with pytest.raises(lamina.Error, match="node"):
+        sim.fix_nodes([phantom_model.node_count + 3])
+    with pytest.raises(lamina.Error, match=re.escape("scene dict: solver.dt_s")):
+        lamina.scene_simulation({"solver": {"dt_s": -1}})
+    with pytest.raises(lamina.Error, match="held forces"):
+        sim.clear_tools()
+        sim.f_ext = np.zeros((3, 3))
+        sim.step()
+    assert isinstance(lamina.Error("x"), RuntimeError)
+
+
+def test_validate_quick(tmp_path):
+    summary = lamina.validate("phantom", quick=True, output=tmp_path / "v")
+    rows = {r["solver"]: r for r in summary["rows"]}
+    assert {"fem_corotational", "fem_linear"} <= set(rows)
+    assert {"ms_tets", "ms_links", "ms_skin"} <= set(rows)
+    # The model's force within 25% of corotational FEM at 10% depth (docs/validation.md: +8%).
+    assert abs(rows["ms_tets"]["force_n"] / rows["fem_corotational"]["force_n"] - 1.0) < 0.25
+    with pytest.raises(lamina.Error) as e:
+        lamina.validate("/nonexistent/mask.nii.gz", quick=True)
+    assert "/nonexistent/mask.nii.gz" in str(e.value) and e.value.exit_code == 2
+
+
+def test_docs_first_example_runs():
+    """docs/python.md's first example, as written."""
+    text = (REPO / "docs" / "python.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    exec(compile(code, "docs/python.md", "exec"), {})
