@@ -154,3 +154,10 @@ def test_docs_first_example_runs():
     text = (REPO / "docs" / "python.md").read_text()
     code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     exec(compile(code, "docs/python.md", "exec"), {})
+
+
+def test_readme_python_example_runs():
+    """The README's Python example, as written."""
+    text = (REPO / "README.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    exec(compile(code, "README.md", "exec"), {})
