@@ -166,7 +166,10 @@ struct ServeArgs {
   bool paper = false;                    ///< the reference paper's model and constants
   std::string host = "127.0.0.1";        ///< address to listen on (0.0.0.0: every interface)
   int port = 18944;                      ///< OpenIGTLink's (and 3D Slicer's) default; 0 = any
-  double send_hz = 30.0;      ///< POLYDATA and reaction messages per second; 0 = only on request
+  double send_hz = 30.0;      ///< POLYDATA messages per second; 0 = only on request
+  /// Reaction-force messages per second, at most one per step (1000: every step of the 1 kHz
+  /// loop, a haptic device's rate); 0 = one with each POLYDATA batch.
+  double reaction_hz = 1000.0;
   bool all_layers = false;    ///< stream every layer, not only the skin
   double rate_hz = 1000.0;    ///< simulation steps per wall second, each 1 / rate of simulated time
   double duration_s = 0.0;    ///< > 0: stop after this many wall seconds

@@ -221,8 +221,11 @@ int main(int argc, char** argv) {
                  "address to listen on (default 127.0.0.1; 0.0.0.0 = every interface)");
   se->add_option("--port", serve.port, "TCP port (default 18944; 0 = any free one, logged)");
   se->add_option("--send-hz", serve.send_hz,
-                 "POLYDATA and reaction-force messages per second to every client (default 30; "
-                 "0 = only in answer to GET_POLYDATA and GET_TRANS)");
+                 "POLYDATA messages per second to every client (default 30; 0 = only in answer "
+                 "to GET_POLYDATA)");
+  se->add_option("--reaction-hz", serve.reaction_hz,
+                 "reaction-force messages per second, at most one per step (default 1000: every "
+                 "step at 1 kHz; 0 = one with each POLYDATA batch)");
   se->add_flag("--all-layers", serve.all_layers,
                "stream every layer (LaminaLayer1, ...), not only the skin (LaminaSkin)");
   se->add_option(

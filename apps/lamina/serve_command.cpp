@@ -36,6 +36,8 @@ double seconds(Clock::duration d) {
 void check_args(const ServeArgs& a) {
   if (!(a.send_hz >= 0.0 && a.send_hz <= 1000.0))
     throw invalid_input("--send-hz", "must be in [0, 1000] messages per second");
+  if (!(a.reaction_hz >= 0.0 && a.reaction_hz <= 1e5))
+    throw invalid_input("--reaction-hz", "must be in [0, 1e5] messages per second");
   if (!(a.rate_hz > 0.0 && a.rate_hz <= 1e5))
     throw invalid_input("--rate", "must be in (0, 1e5] steps per second");
   if (!(a.duration_s >= 0.0)) throw invalid_input("--duration", "must be >= 0 s");
@@ -86,8 +88,8 @@ class Outgoing {
     return packers_[static_cast<size_t>(k)].pack(points_);
   }
 
-  net::Packed reaction(const interact::LoopSnapshot& snap) const {
-    return net::pack_transform(kReactionDevice, net::change_frame(snap.reaction_mn, frame_));
+  net::Packed reaction(const Eigen::Vector3d& reaction_mn) const {
+    return net::pack_transform(kReactionDevice, net::change_frame(reaction_mn, frame_));
   }
 
   static constexpr const char* kReactionDevice = "LaminaReaction";
@@ -164,7 +166,7 @@ int run_serve(const ServeArgs& a) {
     } else if (type == "GET_TRANS") {
       interact::LoopSnapshot snap;
       loop.latest(snap);
-      server.send(msg.client, outgoing.reaction(snap));
+      server.send(msg.client, outgoing.reaction(snap.reaction_mn));
     } else if (noted.insert({msg.client, type}).second) {
       // The protocol: a receiver skips the types it does not use.
       log::info(
@@ -201,6 +203,12 @@ int run_serve(const ServeArgs& a) {
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(a.duration_s));
+  // The reaction force streams on its own, every step by default (a haptic client's rate),
+  // from the loop's per-step sample: no positions are copied for it.
+  const auto reaction_tick = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / std::max(a.reaction_hz, 1e-3)));
+  auto next_reaction = start;
+  int64_t reaction_sent_step = -1;
   auto next_tick = start;
   auto next_behind_warning = start;
   bool behind = false;
@@ -212,8 +220,19 @@ int run_serve(const ServeArgs& a) {
     const auto now = Clock::now();
     if (a.duration_s > 0.0 && now >= deadline) break;
     double wait_s = std::min(seconds(next_tick - now), 0.1);
+    if (a.reaction_hz > 0.0) wait_s = std::min(wait_s, seconds(next_reaction - now));
     if (a.duration_s > 0.0) wait_s = std::min(wait_s, seconds(deadline - now));
-    server.poll(wait_s, handle, closed);
+    server.poll(std::max(wait_s, 0.0), handle, closed);
+    if (a.reaction_hz > 0.0 && Clock::now() >= next_reaction) {
+      next_reaction += reaction_tick;
+      if (next_reaction < Clock::now()) next_reaction = Clock::now() + reaction_tick;
+      const interact::ReactionSample r = loop.latest_reaction();
+      max_reaction_mn = std::max(max_reaction_mn, r.reaction_mn.norm());
+      if (r.steps != reaction_sent_step && server.client_count() > 0) {
+        server.stream({outgoing.reaction(r.reaction_mn)});
+        reaction_sent_step = r.steps;
+      }
+    }
     if (Clock::now() < next_tick) continue;
     next_tick += tick;
     if (next_tick < Clock::now()) next_tick = Clock::now() + tick;  // no burst after a stall
@@ -222,7 +241,7 @@ int run_serve(const ServeArgs& a) {
     if (a.send_hz > 0.0 && server.client_count() > 0) {
       std::vector<net::Packed> batch;
       for (int32_t k = 0; k < streamed_layers; ++k) batch.push_back(outgoing.surface(snap, k));
-      batch.push_back(outgoing.reaction(snap));
+      if (a.reaction_hz == 0.0) batch.push_back(outgoing.reaction(snap.reaction_mn));
       server.stream(batch);
     }
     // The loop measures real time over one-second windows; each new window is judged once.

@@ -210,6 +210,11 @@ void RealtimeLoop::one_step() {
 
   last_stats_ = sim::step(sim_);
   const double t1 = now_s();
+  {
+    const Eigen::Vector3d reaction = reaction_force(sim_, loads_);
+    std::lock_guard lock(reaction_mutex_);
+    reaction_ = {reaction, sim_.steps, sim_.time_s};
+  }
 
   // Rolling one-second window of rate, step time and jitter.
   window_step_sum_us_ += 1e6 * (t1 - t0);
@@ -228,6 +233,11 @@ void RealtimeLoop::one_step() {
     worst_jitter_us_ = 0.0;
     window_start_s_ = t1;
   }
+}
+
+ReactionSample RealtimeLoop::latest_reaction() const {
+  std::lock_guard lock(reaction_mutex_);
+  return reaction_;
 }
 
 void RealtimeLoop::publish(bool force) {

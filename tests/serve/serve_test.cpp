@@ -130,7 +130,7 @@ TEST(Serve, TheExamplePolyDataClientGetsTheWholeSkin) {
   const int64_t vertices = summary["layers"][0]["vertices"], faces = summary["layers"][0]["faces"];
 
   // --send-hz 0: nothing is pushed, so each answer is the next message the client reads.
-  Server server(dir.path, with({"phantom", "--send-hz", "0"}));
+  Server server(dir.path, with({"phantom", "--send-hz", "0", "--reaction-hz", "0"}));
   Child client({IGTL_POLYDATA_CLIENT, "127.0.0.1", std::to_string(server.port())},
                dir.path / "client_out.txt", dir.path / "client_err.txt");
   ASSERT_EQ(client.wait(30.0), 0);
@@ -219,6 +219,28 @@ TEST(Serve, APoseOnTheSkinPushesItAndTheReactionComesBackAgainstThePush) {
 
 // Each bad client gets one log line naming it and its problem, and loses its connection; the
 // simulation keeps its pace and the next well-behaved client is served.
+// The reaction force streams every step (a haptic client's 1 kHz), the surfaces at 30 Hz.
+TEST(Serve, TheReactionStreamsAtTheStepRateAndTheSkinAtItsOwn) {
+  TempDir dir;
+  Server server(dir.path, with({"phantom", "--threads", "1"}));
+  Client client(server.port());
+  ASSERT_TRUE(client.receive("POLYDATA", "LaminaSkin", 30.0)) << server.log();
+  int reactions = 0, skins = 0;
+  const auto t0 = Clock::now();
+  while (seconds_since(t0) < 1.0) {
+    const std::optional<Received> m = client.receive(0.2);
+    if (!m) continue;
+    reactions += m->type == "TRANSFORM" && m->device == "LaminaReaction";
+    skins += m->type == "POLYDATA" && m->device == "LaminaSkin";
+  }
+  // 1000 steps a second in real time; a loaded 2-core machine keeps less of it, never 30.
+  EXPECT_GT(reactions, 300) << server.log();
+  EXPECT_GE(skins, 20);
+  EXPECT_LE(skins, 40);
+  const Summary s = stop(server);
+  EXPECT_EQ(s.dropped, 0);
+}
+
 TEST(Serve, BadClientsAreDroppedAndTheRestCarriesOn) {
   TempDir dir;
   Server server(dir.path, with({"phantom", "--rate", "500", "--stall-timeout", "1"}));

@@ -77,6 +77,14 @@ struct LoopSnapshot {
   bool tool_tip_touching = false;
 };
 
+/// The tissue's push back on the tools after one step: updated every step, a haptic device's
+/// rate, without copying the state (RealtimeLoop::latest_reaction()).
+struct ReactionSample {
+  Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< mN
+  int64_t steps = 0;    ///< the step it follows
+  double time_s = 0.0;  ///< simulated time after that step
+};
+
 class RealtimeLoop {
  public:
   /// Takes over `sim` (its model must outlive the loop). Does not start stepping.
@@ -105,6 +113,9 @@ class RealtimeLoop {
   /// Copies the latest snapshot into `out` if it is newer than out.generation.
   /// @return true if `out` was updated
   bool latest(LoopSnapshot& out) const;
+
+  /// The reaction force after the last step (cheap: no positions are copied).
+  ReactionSample latest_reaction() const;
 
   /// Runs `steps` steps on the calling thread (the loop must not be running): for tests and
   /// fixed-step tools that want the same physics without a thread.
@@ -159,6 +170,11 @@ class RealtimeLoop {
   bool keeping_up_ = true;
   double published_worst_jitter_ = 0.0;
   double late_us_ = 0.0;  // how late the current step started, us
+
+  // The last step's reaction, guarded by reaction_mutex_ (a lock per step, held for a copy of
+  // five numbers: the snapshot's lock is held while positions are copied).
+  mutable std::mutex reaction_mutex_;
+  ReactionSample reaction_;
 
   // The published snapshot, guarded by snapshot_mutex_.
   mutable std::mutex snapshot_mutex_;
