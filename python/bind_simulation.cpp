@@ -226,9 +226,12 @@ void bind_simulation(py::module_& m) {
       .def_property_readonly("tool_count", [](const PySimulation& p) { return p.driver.tools.size(); })
       .def("step", &step_n, py::arg("steps") = 1,
            "Takes `steps` steps with the tools and raw forces; returns the last StepStats.")
-      .def("run", [](PySimulation& p, double until_s, bool stop_at_rest) {
+      .def("run", [](PySimulation& p, double until_s, bool stop_at_rest, bool record) {
         interact::ToolRun run;
         Peaks peaks;
+        // record: one row per step, gathered here and handed to numpy as arrays.
+        std::vector<double> t, disp, vol, energy;
+        std::vector<Eigen::Vector3d> reaction;
         {
           py::gil_scoped_release release;
           run = interact::run_tools(p.sim, p.driver, until_s, stop_at_rest,
@@ -237,18 +240,41 @@ void bind_simulation(py::module_& m) {
                                       peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
                                       peaks.abs_volume_change_pct = std::max(
                                           peaks.abs_volume_change_pct, std::abs(st.volume_change_pct));
-                                      peaks.reaction_mn = std::max(
-                                          peaks.reaction_mn, interact::reaction_force(s, d.loads).norm());
+                                      const Eigen::Vector3d r = interact::reaction_force(s, d.loads);
+                                      peaks.reaction_mn = std::max(peaks.reaction_mn, r.norm());
+                                      if (!record) return;
+                                      t.push_back(s.time_s);
+                                      disp.push_back(st.max_displacement_mm);
+                                      vol.push_back(st.volume_change_pct);
+                                      energy.push_back(st.kinetic_energy_j);
+                                      reaction.push_back(r);
                                     });
         }
         p.last = run.last;
-        return run_dict(p, run, peaks);
+        py::dict d = run_dict(p, run, peaks);
+        if (record) {
+          py::dict metrics;
+          metrics["time_s"] = py::array_t<double>(t.size(), t.data());
+          metrics["max_displacement_mm"] = py::array_t<double>(disp.size(), disp.data());
+          metrics["volume_change_pct"] = py::array_t<double>(vol.size(), vol.data());
+          metrics["kinetic_energy_j"] = py::array_t<double>(energy.size(), energy.data());
+          py::array_t<double> r({static_cast<py::ssize_t>(reaction.size()), py::ssize_t{3}});
+          auto rw = r.mutable_unchecked<2>();
+          for (size_t k = 0; k < reaction.size(); ++k)
+            for (int c = 0; c < 3; ++c) rw(k, c) = reaction[k][c];
+          metrics["reaction_mn"] = r;
+          d["metrics"] = metrics;
+        }
+        return d;
       }, py::arg("until_s") = std::numeric_limits<double>::infinity(), py::arg("stop_at_rest") = true,
+         py::arg("record") = false,
          "Steps until every tool has ended and the model has rested for 0.1 s (stop_at_rest),\n"
          "or until simulated time until_s or the solver's max_steps. Returns a dict: steps,\n"
          "converged, time_s, max_displacement_mm and volume_change_pct (the last step's),\n"
          "recoveries, and over the run peak_displacement_mm, peak_abs_volume_change_pct and\n"
-         "max_reaction_mn.")
+         "max_reaction_mn. record=True adds 'metrics': per-step numpy arrays time_s,\n"
+         "max_displacement_mm, volume_change_pct, kinetic_energy_j (steps,) and reaction_mn\n"
+         "(steps, 3), as lamina run's metrics.csv.")
       .def("reaction_force_mn", [](const PySimulation& p) {
         return Eigen::Vector3d(interact::reaction_force(p.sim, p.driver.loads));
       }, "the tissue's push back on the tools in the last step, mN (3 values)")

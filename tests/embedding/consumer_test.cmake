@@ -27,4 +27,15 @@ file(SIZE ${WORK}/poke.png png_bytes)
 if(png_bytes LESS 10000)
   message(FATAL_ERROR "poke.png is only ${png_bytes} bytes")
 endif()
+# The installed Python package imports from the prefix and finds the prefix's libraries.
+if(PYTHON)
+  file(GLOB site ${prefix}/lib/python*/dist-packages)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${site}
+                          ${PYTHON} -c "import lamina; m = lamina.build_model(); print(lamina.__file__, m)"
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+  if(NOT rc EQUAL 0 OR NOT out MATCHES "${prefix}")
+    message(FATAL_ERROR "the installed Python package did not import from ${site}: ${out}")
+  endif()
+  message(STATUS "installed Python package: ${out}")
+endif()
 message(STATUS "consumer built against ${prefix}, ran, and wrote poke.png (${png_bytes} bytes)")
