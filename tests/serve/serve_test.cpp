@@ -234,7 +234,12 @@ TEST(Serve, TheReactionStreamsAtTheStepRateAndTheSkinAtItsOwn) {
     skins += m->type == "POLYDATA" && m->device == "LaminaSkin";
   }
   // 1000 steps a second in real time; a loaded 2-core machine keeps less of it, never 30.
+  // Under ASan a step takes about 2.8 ms: some 350 steps a second.
+#ifdef LAMINA_SANITIZED
+  EXPECT_GT(reactions, 100) << server.log();
+#else
   EXPECT_GT(reactions, 300) << server.log();
+#endif
   EXPECT_GE(skins, 20);
   EXPECT_LE(skins, 40);
   const Summary s = stop(server);
