@@ -24,17 +24,13 @@
 #include "lamina/sim/simulation.h"
 
 namespace lamina::cli {
-bool has_suffix(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() &&
-         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 namespace {}  // namespace
 
 void check_output(const std::string& path, const std::vector<std::string>& extensions,
                   const char* what) {
   bool ok = false;
-  for (const auto& e : extensions) ok |= has_suffix(path, e);
+  for (const auto& e : extensions) ok |= path.ends_with(e);
   if (!ok) {
     std::string list;
     for (const auto& e : extensions) list += (list.empty() ? "" : ", ") + e;
@@ -159,11 +155,5 @@ void create_folder(const fs::path& dir) {
 }
 
 
-SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress) {
-  io::SceneModel made = io::make_scene_model(scene, volume_read_options, progress);
-  return {std::move(made.model), std::move(made.source)};
-}
-
-io::Scene scene_for(const std::string& what, bool paper) { return io::scene_for(what, paper); }
 
 }  // namespace lamina::cli

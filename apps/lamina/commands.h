@@ -10,6 +10,7 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene.h"
+#include "lamina/io/scene_model.h"
 #include "lamina/model/build_model.h"
 
 namespace lamina::cli {
@@ -17,9 +18,6 @@ namespace lamina::cli {
 /// Progress for long work on stderr: an in-place line on a terminal; on a pipe or file, one line
 /// per stage when `verbose`, nothing otherwise.
 ProgressFn stderr_progress(bool verbose);
-
-/// True if `s` ends with `suffix`.
-bool has_suffix(const std::string& s, const std::string& suffix);
 
 /// Checks an output file path before any long work (so a typo does not cost a whole build): the
 /// extension is one of `extensions` and the folder exists. Throws lamina::Error.
@@ -30,22 +28,12 @@ void check_output_folder(const std::string& dir);
 /// Creates `dir` (and its parents) or throws lamina::Error (kOutput).
 void create_folder(const std::filesystem::path& dir);
 
-/// A scene's model: built from its input (a mask or the phantom) or loaded from a saved .vtu,
-/// with rings as far as its routing needs.
-struct SceneModel {
-  Model model;
-  std::string source;
-};
-SceneModel make_scene_model(const io::Scene& scene, const ProgressFn& progress);
 
 /// The segmentation named by `input`: the built-in phantom for "phantom", else a file or folder.
-/// How every command reads a volume: main() sets the voxel budget (--max-voxels).
+/// How every command reads a volume (here and in io::make_scene_model): main() sets the voxel
+/// budget (--max-voxels).
 extern io::ReadVolumeOptions volume_read_options;
 LabelVolume read_input(const std::string& input);
-
-/// What a positional argument names, as a scene: SCENE.json is loaded; a .vtu model, a mask
-/// file, a DICOM folder or "phantom" becomes the default scene on that model.
-io::Scene scene_for(const std::string& what, bool paper = false);
 
 struct PhantomArgs {
   std::string output;

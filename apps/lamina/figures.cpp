@@ -46,15 +46,15 @@ int run_figures(const FiguresArgs& a) {
   const fs::path out = fs::absolute(a.output);
 
   // Models: the paper's two layers, and a skin-only one for the volume comparison.
-  io::Scene scene = scene_for(a.input);
+  io::Scene scene = io::scene_for(a.input);
   scene.build.structure = model::Structure::kLinks;  // the paper's network
   scene.build.layers = 2;
   scene.build.locality = 6;  // figure 5 sweeps N = 1..6
   report_progress(progress, "figures: building the 2-layer model", 0.0);
-  const SceneModel two = make_scene_model(scene, {});
+  const io::SceneModel two = io::make_scene_model(scene, volume_read_options, {});
   scene.build.layers = 1;
   report_progress(progress, "figures: building the skin-only model", 0.05);
-  const SceneModel one = make_scene_model(scene, {});
+  const io::SceneModel one = io::make_scene_model(scene, volume_read_options, {});
   create_folder(out);  // only once the input has been read and modelled
   const Setup base = paper_setup(two.model);
   const int32_t contact = base.tools.empty() ? 0 : base.tools[0].vertex;

@@ -23,7 +23,7 @@ namespace {
 // The scene named on the command line, its model built or loaded, its defaults resolved.
 struct Prepared {
   io::Scene scene;
-  SceneModel built;
+  io::SceneModel built;
   io::SceneSetup setup;
   io::Scene original;  ///< as parsed, before prepare_scene() resolved it against the model
   bool from_scene_file = false;
@@ -31,10 +31,10 @@ struct Prepared {
 
 Prepared prepare(const std::string& what, const ProgressFn& progress, bool paper = false) {
   Prepared p;
-  p.scene = scene_for(what, paper);
+  p.scene = io::scene_for(what, paper);
   p.original = p.scene;
-  p.from_scene_file = has_suffix(what, ".json");
-  p.built = make_scene_model(p.scene, progress);
+  p.from_scene_file = what.ends_with(".json");
+  p.built = io::make_scene_model(p.scene, volume_read_options, progress);
   p.setup = io::prepare_scene(p.scene, p.built.model);
   return p;
 }
@@ -109,7 +109,7 @@ int run_view(const ViewArgs& a) {
       io::Scene s = scene;
       s.build.layers = layers;
       s.build.skin_vertices = skin_vertices;
-      SceneModel b = make_scene_model(s, pr);
+      io::SceneModel b = io::make_scene_model(s, volume_read_options, pr);
       s.default_tool = true;
       s.tools.clear();
       const io::SceneSetup setup = io::prepare_scene(s, b.model);

@@ -168,7 +168,7 @@ int run_run(const RunArgs& a) {
   const ProgressFn progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose);
 
   // 1. The model, and the scene checked against it, before anything is written.
-  SceneModel built = make_scene_model(scene, progress);
+  io::SceneModel built = io::make_scene_model(scene, volume_read_options, progress);
   const double model_seconds = seconds_since(t_start);
   if (a.realtime && scene.solver.dt_s != 1.0 / a.rate_hz) {
     // Real time: the simulated clock follows the wall clock, one step of 1 / rate per tick.

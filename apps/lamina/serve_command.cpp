@@ -105,7 +105,7 @@ class Outgoing {
 
 int run_serve(const ServeArgs& a) {
   check_args(a);
-  io::Scene scene = scene_for(a.what, a.paper);
+  io::Scene scene = io::scene_for(a.what, a.paper);
   // The tool comes over the network; a scene's own tools would push on their own.
   if (!scene.tools.empty())
     log::info("{}: its {} tools are not used: the tool is driven over OpenIGTLink", scene.source,
@@ -122,7 +122,8 @@ int run_serve(const ServeArgs& a) {
   so.max_clients = a.max_clients;
   net::Server server(so);
   log::info("listening on {}:{}", a.host, server.port());
-  SceneModel built = make_scene_model(scene, stderr_progress(a.verbose));
+  io::SceneModel built =
+      io::make_scene_model(scene, volume_read_options, stderr_progress(a.verbose));
   const io::SceneSetup setup = io::prepare_scene(scene, built.model);
   const Model& m = built.model;
   interact::LoopOptions lo;

@@ -50,7 +50,7 @@ int run_soak(const SoakArgs& a) {
   io::Scene scene = a.scene.empty() ? io::Scene{} : io::load_scene(a.scene);
   const ProgressFn progress = stderr_progress(a.verbose);
   report_progress(progress, "soak: building the model", 0.0);
-  SceneModel built = make_scene_model(scene, {});
+  io::SceneModel built = io::make_scene_model(scene, volume_read_options, {});
   const io::SceneSetup setup = io::prepare_scene(scene, built.model);
   const Model& m = built.model;
   sim::Simulation s = io::make_scene_simulation(scene, m, setup);

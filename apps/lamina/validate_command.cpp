@@ -124,7 +124,7 @@ void draw_plots(const fs::path& out, const std::vector<std::string>& solvers,
 
 int run_validate(const ValidateArgs& a) {
   const auto t0 = Clock::now();
-  io::Scene scene = scene_for(a.what);
+  io::Scene scene = io::scene_for(a.what);
   if (!scene.model_path.empty())
     throw invalid_input(a.what,
                         "lamina validate meshes the segmentation for its finite elements: give "
@@ -136,7 +136,7 @@ int run_validate(const ValidateArgs& a) {
   // 1. The mass-spring models: the scene's (the tetrahedra, unless the scene builds links), its
   //    tetrahedra with independent springs, the paper's layers and links with the volume term,
   //    and a skin-only one, each with its material identified from the same E and nu.
-  SceneModel built = make_scene_model(scene, progress);
+  io::SceneModel built = io::make_scene_model(scene, volume_read_options, progress);
   Model& m = built.model;
   const double edge = median_intra_length(m);
   const double radius = std::max(8.0, 1.6 * edge);
@@ -160,10 +160,10 @@ int run_validate(const ValidateArgs& a) {
   };
   io::Scene links_scene = parsed;
   links_scene.build.structure = model::Structure::kLinks;
-  SceneModel links_built = make_scene_model(links_scene, {});
+  io::SceneModel links_built = io::make_scene_model(links_scene, volume_read_options, {});
   io::Scene skin_scene = links_scene;
   skin_scene.build.layers = 1;
-  SceneModel skin_built = make_scene_model(skin_scene, {});
+  io::SceneModel skin_built = io::make_scene_model(skin_scene, volume_read_options, {});
   std::vector<Variant> variants;
   if (m.has_tets()) {
     variants.push_back({"ms_tets", &m, scene.material});

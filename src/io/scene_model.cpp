@@ -9,14 +9,6 @@
 #include "lamina/model/compute_rings.h"
 
 namespace lamina::io {
-namespace {
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-}  // namespace
-
 LabelVolume read_input(const std::string& input, const ReadVolumeOptions& options) {
   return input == kScenePhantom ? geometry::make_phantom() : read_label_volume(input, options);
 }
@@ -47,7 +39,7 @@ SceneModel make_scene_model(const Scene& scene, const ReadVolumeOptions& read_op
 }
 
 Scene scene_for(const std::string& what, bool paper) {
-  if (ends_with(what, ".json")) {
+  if (what.ends_with(".json")) {
     if (paper)
       throw invalid_input("--paper",
                           "cannot be given with a scene file (" + what +
@@ -56,7 +48,7 @@ Scene scene_for(const std::string& what, bool paper) {
   }
   Scene scene = paper ? paper_scene() : Scene{};
   scene.source = what;
-  if (ends_with(what, ".vtu")) {
+  if (what.ends_with(".vtu")) {
     scene.input.clear();
     scene.model_path = what;
   } else {
