@@ -146,7 +146,10 @@ void bind_model(py::module_& m) {
      "locality: N, BFS rings per node; label: 0 = any non-zero voxel.\n"
      "progress: callable(stage: str, fraction: float), or None.");
   m.def("load_model", [](const std::string& path, int locality) {
-    io::Scene scene = io::scene_for(path);
+    // A saved model only: scene_for() would take any other path for a mask and build from it.
+    io::Scene scene;
+    scene.input.clear();
+    scene.model_path = path;
     scene.routing.locality = locality;
     return std::make_shared<Model>(io::make_scene_model(scene).model);
   }, py::arg("path"), py::kw_only(), py::arg("locality") = 4,

@@ -57,8 +57,17 @@ sim::StepStats step_n(PySimulation& p, int64_t steps) {
   return p.last;
 }
 
+// Node indices from Python ints. One past int32 would wrap to a real node: refused instead (the
+// library then checks the range against the model).
 std::vector<int32_t> nodes_of(const std::vector<int64_t>& in) {
-  return {in.begin(), in.end()};
+  std::vector<int32_t> out(in.size());
+  for (size_t k = 0; k < in.size(); ++k) {
+    if (in[k] < std::numeric_limits<int32_t>::min() || in[k] > std::numeric_limits<int32_t>::max())
+      throw invalid_input("nodes[" + std::to_string(k) + "]",
+                          "is " + std::to_string(in[k]) + ", not a node index");
+    out[k] = static_cast<int32_t>(in[k]);
+  }
+  return out;
 }
 
 // The peaks over a run, which its last step does not show.

@@ -144,6 +144,13 @@ def test_errors_carry_the_one_line_messages(phantom_model):
         sim.step()
     with pytest.raises(lamina.Error, match="node"):
         sim.fix_nodes([phantom_model.node_count + 3])
+    # 2**32 + 3 would wrap to node 3 in int32: refused, not fixed.
+    with pytest.raises(lamina.Error, match=r"nodes\[0\]: is 4294967299, not a node index"):
+        sim.fix_nodes([2**32 + 3])
+    assert sim.fixed == []
+    # A mask is not a saved model: load_model does not quietly build one from it.
+    with pytest.raises(lamina.Error, match="liver_totalseg_example_3mm.nii.gz"):
+        lamina.load_model(str(REPO.parent / "shared" / "data" / "liver_totalseg_example_3mm.nii.gz"))
     with pytest.raises(lamina.Error, match=re.escape("scene dict: solver.dt_s")):
         lamina.scene_simulation({"solver": {"dt_s": -1}})
     with pytest.raises(lamina.Error, match="held forces"):
