@@ -245,7 +245,8 @@ void RealtimeLoop::publish(bool force) {
   if (!force && t - last_publish_s_ < options_.publish_interval_s) return;
   last_publish_s_ = t;
 
-  const Eigen::Vector3d reaction = reaction_force(sim_, loads_);
+  // The last step's reaction (one_step computes it for latest_reaction()), not a second pass.
+  const Eigen::Vector3d reaction = latest_reaction().reaction_mn;
 
   std::lock_guard lock(snapshot_mutex_);
   LoopSnapshot& s = published_;
