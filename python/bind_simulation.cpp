@@ -298,15 +298,13 @@ void bind_simulation(py::module_& m) {
             ? io::parse_scene(py::module_::import("json").attr("dumps")(what).cast<std::string>(),
                               "scene dict")
             : io::scene_for(what.cast<std::string>(), paper);
-    auto model = std::make_shared<Model>([&] {
+    io::ReadyScene ready = [&] {
       py::gil_scoped_release release;
-      return io::make_scene_model(scene).model;
-    }());
-    const io::SceneSetup setup = io::prepare_scene(scene, *model);
-    auto p = std::make_unique<PySimulation>(
-        PySimulation{model, io::make_scene_simulation(scene, *model, setup), {}, {}, scene.source});
-    p->driver.tools = scene.tools;
-    p->driver.routing = scene.routing;
+      return io::make_ready_scene(scene);
+    }();
+    auto p = std::make_unique<PySimulation>(PySimulation{
+        ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source});
+    p->driver = io::make_tool_driver(ready.scene);
     wire(*p);
     return p;
   }, py::arg("scene") = "phantom", py::kw_only(), py::arg("paper") = false,

@@ -119,12 +119,13 @@ PhysicalResult time_physical(const std::string& name, int32_t skin_vertices, dou
   scene.build.skin_vertices = skin_vertices;
   scene.solver.dt_s = dt_s;
   const auto t0 = Clock::now();
-  Model m = model::build_model(geometry::make_phantom(), scene.build).model;
+  io::SceneModel built{model::build_model(geometry::make_phantom(), scene.build).model, "phantom"};
   r.build_s = seconds_since(t0);
-  const io::SceneSetup setup = io::prepare_scene(scene, m);
-  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
+  const io::ReadyScene ready = io::make_ready_scene(scene, std::move(built));
+  const Model& m = *ready.model;
+  sim::Simulation s = io::make_scene_simulation(ready);
   interact::ToolDriver d;
-  d.tools = scene.tools;
+  d.tools = ready.scene.tools;
   d.tools.front().end_s = std::numeric_limits<double>::infinity();
   interact::apply_tools(s, d);
   for (int k = 0; k < 20; ++k) sim::step(s);  // into the motion
@@ -216,10 +217,9 @@ int run_bench(const BenchArgs& a) {
     r.springs = static_cast<int64_t>(m.springs.size());
     r.build_s = built.report.build_seconds;
 
-    io::Scene scene = io::paper_scene();  // the paper's poke and boundary, on this model
-    io::resolve_scene_defaults(scene, m);
-    const std::vector<int32_t> fixed = io::fixed_scene_nodes(scene, m);
-    const interact::Tool& tool = scene.tools.front();
+    const Setup paper = paper_setup(m);  // the paper's poke and boundary, on this model
+    const std::vector<int32_t>& fixed = paper.fixed;
+    const interact::Tool& tool = paper.tools.front();
 
     report_progress(progress, fmt::format("bench: stepping the {} model", z.name),
                     0.05 + 0.9 * (k + 0.5) / sizes.size());
@@ -238,7 +238,7 @@ int run_bench(const BenchArgs& a) {
                    3, 2, nullptr, &r.projective_factor_s);
     if (k == 0 || !a.quick) {
       // The paper's poke (0.4 N for 1 s, local mode, N = P = 4) to rest at 1e-3 mm.
-      const RunStats run = simulate(paper_setup(m), 2000.0, /*stop_at_rest=*/true);
+      const RunStats run = simulate(paper, 2000.0, /*stop_at_rest=*/true);
       r.poke_to_rest_ms = 1000.0 * run.wall_s;
       r.poke_steps = run.steps;
       r.poke_converged = run.converged;

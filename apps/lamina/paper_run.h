@@ -33,8 +33,8 @@ struct RunStats {
   bool converged = false;
 };
 
-/// Steps `setup` until t_end_s, or (if stop_at_rest) until every tool has ended and no node moved
-/// more than the threshold for 10 consecutive steps. Calls per_step after each step with that
+/// Steps `setup` until t_end_s, or (if stop_at_rest) until every tool has ended and the model has
+/// come to rest (interact::run_tools, interact::RestWatch). Calls per_step after each step with that
 /// step's measurements.
 RunStats simulate(const Setup& setup, double t_end_s, bool stop_at_rest,
                   const std::function<void(const sim::Simulation&, const interact::ToolDriver&,

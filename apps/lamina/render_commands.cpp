@@ -20,23 +20,9 @@
 namespace lamina::cli {
 namespace {
 
-// The scene named on the command line, its model built or loaded, its defaults resolved.
-struct Prepared {
-  io::Scene scene;
-  io::SceneModel built;
-  io::SceneSetup setup;
-  io::Scene original;  ///< as parsed, before prepare_scene() resolved it against the model
-  bool from_scene_file = false;
-};
-
-Prepared prepare(const std::string& what, const ProgressFn& progress, bool paper = false) {
-  Prepared p;
-  p.scene = io::scene_for(what, paper);
-  p.original = p.scene;
-  p.from_scene_file = what.ends_with(".json");
-  p.built = io::make_scene_model(p.scene, volume_read_options, progress);
-  p.setup = io::prepare_scene(p.scene, p.built.model);
-  return p;
+// The scene named on the command line, ready: its model built or loaded, its defaults resolved.
+io::ReadyScene prepare(const std::string& what, const ProgressFn& progress, bool paper = false) {
+  return io::make_ready_scene(io::scene_for(what, paper), volume_read_options, progress);
 }
 
 // "AZ,EL" or "AZ,EL,DIST" (degrees, degrees, mm); distance 0 = fit the organ.
@@ -73,7 +59,8 @@ int run_view(const ViewArgs& a) {
   if (!a.script.empty()) render::check_viewer_script(a.script);
   render::check_display();
   const ProgressFn progress = stderr_progress(a.verbose);
-  Prepared p = prepare(a.what, progress, a.paper);
+  io::ReadyScene p = prepare(a.what, progress, a.paper);
+  const bool from_scene_file = a.what.ends_with(".json");
 
   render::ViewerOptions o;
   o.width = a.size[0];
@@ -86,7 +73,7 @@ int run_view(const ViewArgs& a) {
   o.script = a.script;
   o.report = a.report;
   render::ViewerModel vm;
-  vm.source = p.built.source;
+  vm.source = p.source;
   vm.fixed = p.setup.fixed;
   vm.support = p.setup.support;
   // A scene file's tools act from the start, pinned; on a bare model the default poke's node is
@@ -94,31 +81,26 @@ int run_view(const ViewArgs& a) {
   for (const interact::Tool& t : p.scene.tools) {
     int32_t node = t.vertex;
     if (t.by_point)
-      node = interact::nearest_skin_node(p.built.model, p.built.model.X, t.point_mm,
+      node = interact::nearest_skin_node(*p.model, p.model->X, t.point_mm,
                                          p.scene.routing.contact_threshold_mm);
     if (node < 0) continue;
-    if (p.from_scene_file) vm.pinned.emplace_back(node, t.force_mn);
+    if (from_scene_file) vm.pinned.emplace_back(node, t.force_mn);
     if (vm.watched_node < 0) vm.watched_node = node;
   }
-  vm.model = std::move(p.built.model);
+  vm.model = std::move(*p.model);
   if (!p.scene.input.empty()) {
     // Rebuilding re-reads the segmentation with the scene's options and its boundary rule.
     // The same preparation as the first model's (prepare_scene): fixed and supported nodes,
     // and the material resolved again, whose damping follows the new model's slowest vibration.
-    o.rebuild = [scene = p.original](int32_t layers, int32_t skin_vertices, const ProgressFn& pr) {
-      io::Scene s = scene;
-      s.build.layers = layers;
-      s.build.skin_vertices = skin_vertices;
-      io::SceneModel b = io::make_scene_model(s, volume_read_options, pr);
-      s.default_tool = true;
-      s.tools.clear();
-      const io::SceneSetup setup = io::prepare_scene(s, b.model);
+    o.rebuild = [scene = p.parsed](int32_t layers, int32_t skin_vertices, const ProgressFn& pr) {
+      const io::ReadyScene b =
+          io::rebuild_ready_scene(scene, layers, skin_vertices, volume_read_options, pr);
       render::ViewerModel out;
-      out.fixed = setup.fixed;
-      out.support = setup.support;
-      out.material = s.material;
+      out.fixed = b.setup.fixed;
+      out.support = b.setup.support;
+      out.material = b.scene.material;
       out.source = b.source;
-      out.model = std::move(b.model);
+      out.model = *b.model;
       return out;
     };
   }
@@ -156,12 +138,10 @@ int run_render(const RenderArgs& a) {
   render::HeadlessContext context;
   render::Renderer renderer;
 
-  Prepared p = prepare(a.what, stderr_progress(a.verbose));
-  const Model& m = p.built.model;
-  sim::Simulation s = io::make_scene_simulation(p.scene, m, p.setup);
-  interact::ToolDriver driver;
-  driver.tools = p.scene.tools;
-  driver.routing = p.scene.routing;
+  const io::ReadyScene p = prepare(a.what, stderr_progress(a.verbose));
+  const Model& m = *p.model;
+  sim::Simulation s = io::make_scene_simulation(p);
+  interact::ToolDriver driver = io::make_tool_driver(p.scene);
   while (s.time_s < a.at_s - 1e-9 * std::max(1.0, a.at_s)) {
     interact::apply_tools(s, driver);
     sim::step(s);

@@ -167,33 +167,32 @@ int run_run(const RunArgs& a) {
   const bool tty = ::isatty(2);
   const ProgressFn progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose);
 
-  // 1. The model, and the scene checked against it, before anything is written.
-  io::SceneModel built = io::make_scene_model(scene, volume_read_options, progress);
-  const double model_seconds = seconds_since(t_start);
   if (a.realtime && scene.solver.dt_s != 1.0 / a.rate_hz) {
     // Real time: the simulated clock follows the wall clock, one step of 1 / rate per tick.
     log::info("{}: --realtime at {:g} Hz steps dt = {:g} s (the scene says {:g} s)", scene.source,
               a.rate_hz, 1.0 / a.rate_hz, scene.solver.dt_s);
     scene.solver.dt_s = 1.0 / a.rate_hz;
   }
-  const io::SceneSetup setup = io::prepare_scene(scene, built.model);
-  const std::vector<int32_t>& fixed = setup.fixed;
+
+  // 1. The model, and the scene checked against it, before anything is written.
+  io::ReadyScene ready = io::make_ready_scene(scene, volume_read_options, progress);
+  const double model_seconds = seconds_since(t_start);
+  scene = ready.scene;
+  const io::SceneSetup& setup = ready.setup;
   const io::MaterialReport& material = setup.material;
-  const Model& m = built.model;
+  const Model& m = *ready.model;
   const uint32_t model_crc = io::model_fingerprint(m);
   if (resume && model_crc != resume->model_crc)
-    throw invalid_input(a.resume, "was written for another model than the one " + built.source +
+    throw invalid_input(a.resume, "was written for another model than the one " + ready.source +
                                       " gives now (its fingerprint differs)");
-  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
-  if (fixed.empty() && setup.support.nodes.empty() &&
+  sim::Simulation s = io::make_scene_simulation(ready);
+  if (setup.fixed.empty() && setup.support.nodes.empty() &&
       scene.material.anchor_stiffness_n_per_m == 0.0 && scene.solver.mode == sim::Mode::kGlobal)
     log::warn(
         "{}: no fixed nodes, no support and no anchor springs: a pushed model drifts as a rigid "
         "body and may not come back to rest",
         scene.source);
-  interact::ToolDriver driver;
-  driver.tools = scene.tools;
-  driver.routing = scene.routing;
+  interact::ToolDriver driver = io::make_tool_driver(scene);
 
   // 2. Outputs.
   const fs::path out(a.output);
@@ -220,7 +219,7 @@ int run_run(const RunArgs& a) {
   // pass through zero when a tool is released and at the turning points of an oscillation, so
   // the test must hold for a settling window (sim::quiet_steps: 0.1 s, at least 3 steps).
   interact::RestWatch rest = interact::rest_watch(s, driver);
-  rest.streak = so_far.quiet_streak;  // resumed from a checkpoint
+  rest.quiet.streak = so_far.quiet_streak;  // resumed from a checkpoint
   const double interval = scene.output.frame_interval_s;
 
   std::vector<double> step_us;
@@ -297,7 +296,7 @@ int run_run(const RunArgs& a) {
     so_far.max_abs_volume_change_pct =
         std::max(so_far.max_abs_volume_change_pct, std::abs(st.volume_change_pct));
     converged = rest.update(start_s, st);
-    so_far.quiet_streak = rest.streak;
+    so_far.quiet_streak = rest.quiet.streak;
 
     const bool frame_due = interval > 0.0 && s.time_s >= so_far.next_frame_s - 1e-9 * interval;
     if (frame_due) {
@@ -357,7 +356,7 @@ int run_run(const RunArgs& a) {
   for (const Series& se : series) write_pvd(se, out);
   io::RunSummary sum;
   sum.scene = scene.source;
-  sum.model = built.source;
+  sum.model = ready.source;
   sum.material = material;
   sum.converged = converged;
   sum.stopped = stopped;
@@ -376,7 +375,7 @@ int run_run(const RunArgs& a) {
   sum.nodes = m.node_count();
   sum.springs = static_cast<int64_t>(m.springs.size());
   sum.layers = m.layer_count();
-  sum.fixed_nodes = static_cast<int32_t>(fixed.size());
+  sum.fixed_nodes = static_cast<int32_t>(setup.fixed.size());
   sum.tools = static_cast<int32_t>(scene.tools.size());
   if (!step_us.empty()) {
     double total = 0.0;
@@ -432,7 +431,7 @@ int run_run(const RunArgs& a) {
         "  {} after {} steps ({:.2f} s simulated) in {:.2f} s; {:.0f} steps/s\n"
         "  max displacement {:.3g} mm, max |volume change| {:.3g}%, final rest error {:.3g} mm\n"
         "  wrote {}: metrics.csv, summary.json, {}.pvd ({} frames)\n",
-        scene.source, built.source, sum.nodes, sum.layers,
+        scene.source, ready.source, sum.nodes, sum.layers,
         converged ? "converged"
         : stopped ? "stopped for a resume"
                   : "NOT converged",

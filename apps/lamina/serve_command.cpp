@@ -122,14 +122,14 @@ int run_serve(const ServeArgs& a) {
   so.max_clients = a.max_clients;
   net::Server server(so);
   log::info("listening on {}:{}", a.host, server.port());
-  io::SceneModel built =
-      io::make_scene_model(scene, volume_read_options, stderr_progress(a.verbose));
-  const io::SceneSetup setup = io::prepare_scene(scene, built.model);
-  const Model& m = built.model;
+  const io::ReadyScene ready =
+      io::make_ready_scene(scene, volume_read_options, stderr_progress(a.verbose));
+  scene = ready.scene;
+  const Model& m = *ready.model;
   interact::LoopOptions lo;
   lo.rate_hz = a.rate_hz;  // real time: each step is 1 / rate of simulated time
   lo.threads = a.threads;
-  interact::RealtimeLoop loop(io::make_scene_simulation(scene, m, setup), scene.routing, lo);
+  interact::RealtimeLoop loop(io::make_scene_simulation(ready), scene.routing, lo);
   const net::Frame frame = a.frame == "lps" ? net::Frame::kLps : net::Frame::kRas;
   Outgoing outgoing(m, frame);
   const int32_t streamed_layers = a.all_layers ? m.layer_count() : 1;
@@ -193,7 +193,7 @@ int run_serve(const ServeArgs& a) {
   log::info(
       "lamina serve: {} ({} nodes, skin {} nodes and {} triangles, {} layers), {} steps/s "
       "in real time; OpenIGTLink on {}:{}{}",
-      built.source, m.node_count(), m.layers[0].node_count, m.layers[0].F.rows(), m.layer_count(),
+      ready.source, m.node_count(), m.layers[0].node_count, m.layers[0].F.rows(), m.layer_count(),
       a.rate_hz, a.host, server.port(),
       a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
 

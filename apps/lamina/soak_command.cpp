@@ -50,10 +50,10 @@ int run_soak(const SoakArgs& a) {
   io::Scene scene = a.scene.empty() ? io::Scene{} : io::load_scene(a.scene);
   const ProgressFn progress = stderr_progress(a.verbose);
   report_progress(progress, "soak: building the model", 0.0);
-  io::SceneModel built = io::make_scene_model(scene, volume_read_options, {});
-  const io::SceneSetup setup = io::prepare_scene(scene, built.model);
-  const Model& m = built.model;
-  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
+  const io::ReadyScene ready = io::make_ready_scene(scene, volume_read_options, {});
+  scene = ready.scene;
+  const Model& m = *ready.model;
+  sim::Simulation s = io::make_scene_simulation(ready);
   // The folder now, not after an hour of stepping: a path that cannot be made fails at once.
   const std::filesystem::path out(a.output);
   create_folder(out);

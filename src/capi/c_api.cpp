@@ -232,10 +232,9 @@ lamina_status lamina_sim_create_from_scene(const char* scene, lamina_sim** out) 
   return guarded([&] {
     need(out, "lamina_sim_create_from_scene: out") = nullptr;
     lamina::io::Scene s = lamina::io::scene_for(need_text(scene, "lamina_sim_create_from_scene: scene"));
-    auto model = std::make_shared<lamina::Model>(lamina::io::make_scene_model(s).model);
-    const lamina::io::SceneSetup setup = lamina::io::prepare_scene(s, *model);
-    lamina::sim::Simulation sim = lamina::io::make_scene_simulation(s, *model, setup);
-    *out = wrap(std::move(model), std::move(sim), s.routing);
+    lamina::io::ReadyScene ready = lamina::io::make_ready_scene(s);
+    lamina::sim::Simulation sim = lamina::io::make_scene_simulation(ready);
+    *out = wrap(std::move(ready.model), std::move(sim), ready.scene.routing);
   });
 }
 

@@ -11,7 +11,7 @@ RestWatch rest_watch(const sim::Simulation& sim, const ToolDriver& driver) {
   for (const Tool& t : driver.tools) last_start = std::max(last_start, t.start_s);
   // A tool that never lets go is followed until the model rests under its load.
   return {.settle_from_s = std::isfinite(tools_end) ? tools_end : last_start,
-          .needed = sim::quiet_steps(sim)};
+          .quiet = {.needed = sim::quiet_steps(sim)}};
 }
 
 ToolRun run_tools(sim::Simulation& sim, ToolDriver& driver, double t_end_s, bool stop_at_rest,

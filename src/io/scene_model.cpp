@@ -57,4 +57,42 @@ Scene scene_for(const std::string& what, bool paper) {
   return scene;
 }
 
+ReadyScene make_ready_scene(const Scene& scene, const ReadVolumeOptions& read_options,
+                            const ProgressFn& progress) {
+  return make_ready_scene(scene, make_scene_model(scene, read_options, progress));
+}
+
+ReadyScene make_ready_scene(const Scene& scene, SceneModel built) {
+  ReadyScene r;
+  r.parsed = scene;
+  r.scene = scene;
+  r.model = std::make_shared<Model>(std::move(built.model));
+  r.source = std::move(built.source);
+  r.setup = prepare_scene(r.scene, *r.model);
+  return r;
+}
+
+ReadyScene rebuild_ready_scene(const Scene& parsed, int32_t layers, int32_t skin_vertices,
+                               const ReadVolumeOptions& read_options, const ProgressFn& progress) {
+  Scene s = parsed;
+  s.build.layers = layers;
+  s.build.skin_vertices = skin_vertices;
+  s.default_tool = true;
+  s.tools.clear();
+  ReadyScene r = make_ready_scene(s, read_options, progress);
+  r.parsed = parsed;  // a later rebuild starts from the scene as given
+  return r;
+}
+
+sim::Simulation make_scene_simulation(const ReadyScene& ready) {
+  return make_scene_simulation(ready.scene, *ready.model, ready.setup);
+}
+
+interact::ToolDriver make_tool_driver(const Scene& scene) {
+  interact::ToolDriver driver;
+  driver.tools = scene.tools;
+  driver.routing = scene.routing;
+  return driver;
+}
+
 }  // namespace lamina::io

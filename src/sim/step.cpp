@@ -128,13 +128,11 @@ int64_t quiet_steps(const Simulation& sim, double quiet_s) {
 
 StepStats run_to_convergence(Simulation& sim, double quiet_s) {
   StepStats st;
-  int64_t quiet = 0;
-  const int64_t needed = quiet_steps(sim, quiet_s);
+  RestStreak rest{.needed = quiet_steps(sim, quiet_s)};
   for (int64_t k = 0; k < sim.options().max_steps; ++k) {
     st = step(sim);
     if (st.failed) break;  // held still by force, not at rest
-    quiet = at_rest(st) ? quiet + 1 : 0;
-    if (quiet >= needed) return st;
+    if (rest.update(st)) return st;
   }
   st.converged = false;
   return st;

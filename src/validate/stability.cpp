@@ -66,14 +66,12 @@ struct Stage {
   // Steps until the model has been at rest for o.rest_window_s. False if it never was (or
   // went non-finite) within the step budget.
   bool run() {
-    int64_t quiet = 0;
-    const int64_t needed = sim::quiet_steps(s, o.rest_window_s);
+    sim::RestStreak rest{.needed = sim::quiet_steps(s, o.rest_window_s)};
     sim::StepStats st;
     bool rested = false;
     for (int64_t k = 0; k < o.max_steps_per_stage && !rested; ++k) {
       if (!advance(st)) return false;
-      quiet = sim::at_rest(st) ? quiet + 1 : 0;
-      rested = quiet >= needed;
+      rested = rest.update(st);
     }
     record_layer_order(s.model(), s.x, /*at_rest=*/rested, r);
     return rested;

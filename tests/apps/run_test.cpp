@@ -594,6 +594,19 @@ TEST(LaminaSoak, RandomToolsLeaveMemoryFlatNoNanAndTheModelBackAtRest) {
   EXPECT_GT(lines_of(read_text(dir.path / "out" / "soak.csv")).size(), 100u);
 }
 
+// The soak prepares its scene as every command does: a scene that does not fit its model is
+// refused before anything runs (the soak once skipped that check and ran anyway).
+TEST(LaminaSoak, ASceneThatDoesNotFitItsModelIsRefusedBeforeAnyStep) {
+  test::TempDir dir;
+  std::ofstream(dir.file("bad.json")) << R"({"model": {"build": {"skin_vertices": 400}},
+      "tools": [{"vertex": 99999, "force_n": [0, 0.3, 0], "start_s": 0, "end_s": 0.5}]})";
+  const RunResult r = run_lamina(dir, "-q soak bad.json -o out --steps 1000 --no-plot --json");
+  EXPECT_EQ(r.exit_code, 2) << r.err << r.out;
+  EXPECT_NE(r.err.find("bad.json: tools[0].vertex"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path / "out")) << "a folder for a refused scene";
+}
+
 // The paper's local mode moves only the nodes made movable: the soak's random tools must make
 // the nodes they load movable, or they push on held nodes and the soak "passes" having moved
 // nothing (as it once did). The paper's springs alone (no volume term) need not come back to

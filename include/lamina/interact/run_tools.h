@@ -18,14 +18,16 @@ namespace lamina::interact {
 /// released and at every turn of an oscillation. `lamina run` and run_tools() share it.
 struct RestWatch {
   double settle_from_s = 0.0;  ///< quiet steps count from this simulated time
-  int64_t needed = 3;          ///< quiet steps in a row that make a rest
-  int64_t streak = 0;          ///< quiet steps so far
+  sim::RestStreak quiet;       ///< sim's settling test, counted from settle_from_s
 
   /// Counts a step that started at `start_time_s` and measured `stats`.
   /// @return true when the model has come to rest
   bool update(double start_time_s, const sim::StepStats& stats) {
-    streak = start_time_s >= settle_from_s && sim::at_rest(stats) ? streak + 1 : 0;
-    return streak >= needed;
+    if (start_time_s < settle_from_s) {
+      quiet.streak = 0;
+      return false;
+    }
+    return quiet.update(stats);
   }
 };
 

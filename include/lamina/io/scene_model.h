@@ -4,12 +4,15 @@
 /// the command-line tool, the Python module and the C API, so that a scene gives the same
 /// model wherever it is run.
 
+#include <memory>
 #include <string>
 
 #include "lamina/core/progress.h"
+#include "lamina/interact/tools.h"
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene.h"
 #include "lamina/model/model.h"
+#include "lamina/sim/simulation.h"
 
 namespace lamina::io {
 
@@ -37,5 +40,44 @@ SceneModel make_scene_model(const Scene& scene, const ReadVolumeOptions& read_op
 /// \note Throws lamina::Error (kInvalidInput) for a scene file together with `paper`, and as
 ///   load_scene().
 Scene scene_for(const std::string& what, bool paper = false);
+
+/// A scene made ready to simulate: its model made, the scene's defaults resolved against it and
+/// checked, its fixed and supported nodes found and its material resolved. The one setup every
+/// command, the viewer (and its rebuilds), the soak, the server and the bindings start from, so
+/// that a scene runs the same wherever it is run.
+struct ReadyScene {
+  Scene parsed;  ///< the scene as given, before it was resolved (a rebuild starts from it)
+  Scene scene;   ///< resolved: default tools and boundary made concrete, material decided
+  /// Shared, because simulations keep a reference to their model: it must outlive them.
+  /// resolve_material() may have replaced its spring constants.
+  std::shared_ptr<Model> model;
+  std::string source;  ///< what the model was built or loaded from
+  SceneSetup setup;    ///< fixed and supported nodes, what resolve_material() decided
+};
+
+/// make_scene_model(), then make_ready_scene() on the model.
+/// \note Throws lamina::Error (kInvalidInput) as make_scene_model() and prepare_scene().
+ReadyScene make_ready_scene(const Scene& scene, const ReadVolumeOptions& read_options = {},
+                            const ProgressFn& progress = {});
+
+/// Prepares `scene` against a model already made (prepare_scene()).
+/// \note Throws lamina::Error (kInvalidInput) as prepare_scene().
+ReadyScene make_ready_scene(const Scene& scene, SceneModel built);
+
+/// The scene `parsed` rebuilt at another resolution (the viewer's Model panel): `layers` layers
+/// and about `skin_vertices` skin vertices, prepared as make_ready_scene() prepares any scene, so
+/// the material is resolved again (a damping ratio follows the new model's slowest vibration).
+/// The scene's own tools are dropped for the default poke: their vertices were the old model's.
+/// \note Throws lamina::Error (kInvalidInput) as make_ready_scene().
+ReadyScene rebuild_ready_scene(const Scene& parsed, int32_t layers, int32_t skin_vertices,
+                               const ReadVolumeOptions& read_options = {},
+                               const ProgressFn& progress = {});
+
+/// A simulation of a ready scene at rest: its material and solver, its nodes fixed and
+/// supported. It refers to `ready.model`, which must outlive it.
+sim::Simulation make_scene_simulation(const ReadyScene& ready);
+
+/// A tool driver with the scene's tools and routing.
+interact::ToolDriver make_tool_driver(const Scene& scene);
 
 }  // namespace lamina::io

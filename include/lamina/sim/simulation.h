@@ -266,6 +266,21 @@ StepStats run_to_convergence(Simulation& sim, double quiet_s = kQuietSeconds);
 /// turn of an oscillation).
 int64_t quiet_steps(const Simulation& sim, double quiet_s = kQuietSeconds);
 
+/// The settling test every loop counts with: at rest (at_rest()) for `needed` steps in a row.
+/// run_to_convergence(), interact::RestWatch (lamina run, run_tools) and the stability suite
+/// share it.
+struct RestStreak {
+  int64_t needed = 3;  ///< quiet steps in a row that make a rest (quiet_steps())
+  int64_t streak = 0;  ///< quiet steps so far
+
+  /// Counts one step; a step that is not at rest starts the count again.
+  /// @return true when the model has come to rest
+  bool update(const StepStats& stats) {
+    streak = at_rest(stats) ? streak + 1 : 0;
+    return streak >= needed;
+  }
+};
+
 /// Adds the spring forces at positions x (#nodes by 3, mm) to f (mN): the step's own two passes
 /// (each spring once, then each node sums its springs) over every spring, with sim's workspace.
 /// Forces sum to zero (Newton's third law).
