@@ -171,10 +171,15 @@ void check_parameters(const Material& m, const SolverOptions& o) {
                               got(m.poisson_ratio));
     if (m.stiffness_n_per_m > 0.0)
       throw invalid_input("material.stiffness",
-                          "give either the springs' K or the tissue's E (young_modulus_kpa), "
-                          "not both: E identifies the springs");
+                          fmt::format("give either the springs' K or the tissue's E "
+                                      "(young_modulus_kpa), not both: E identifies the springs; "
+                                      "got K = {} N/m and E = {} kPa",
+                                      m.stiffness_n_per_m, m.young_modulus_kpa));
   }
-  if (!m.gravity_mm_per_s2.allFinite()) throw invalid_input("material.gravity", "must be finite");
+  if (!m.gravity_mm_per_s2.allFinite())
+    throw invalid_input("material.gravity",
+                        fmt::format("must be finite, got ({}, {}, {}) mm/s^2", m.gravity_mm_per_s2.x(),
+                                    m.gravity_mm_per_s2.y(), m.gravity_mm_per_s2.z()));
   if (!positive(o.dt_s)) throw invalid_input("solver.dt", "must be > 0 s" + got(o.dt_s));
   if (!positive(o.rest_speed_mm_per_s))
     throw invalid_input("solver.rest_speed", "must be > 0 mm/s" + got(o.rest_speed_mm_per_s));

@@ -437,4 +437,35 @@ TEST(Simulation, RejectsBadParameters) {
   EXPECT_THROW(sim::make_simulation(small_model(), {.volume_stiffness_kpa = -2.0}), Error);
 }
 
+// A refused parameter names itself and the value that arrived, so a user sees what to change.
+TEST(Simulation, ARefusedParameterNamesItselfAndTheValueItGot) {
+  const auto message = [](const sim::Material& m, const sim::SolverOptions& o) {
+    try {
+      sim::check_parameters(m, o);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(message({}, {.dt_s = -0.5}), "solver.dt: must be > 0 s, got -0.5");
+  EXPECT_EQ(message({.damping_kg_per_s = -1.0}, {}), "material.damping: must be >= 0 kg/s, got -1");
+  sim::Material g;
+  g.gravity_mm_per_s2 = {0.0, std::nan(""), 0.0};
+  EXPECT_NE(message(g, {}).find("material.gravity: must be finite, got (0, nan, 0)"),
+            std::string::npos)
+      << message(g, {});
+  const std::string both = message({.stiffness_n_per_m = 3.0, .young_modulus_kpa = 6.0}, {});
+  EXPECT_NE(both.find("got K = 3 N/m and E = 6 kPa"), std::string::npos) << both;
+  EXPECT_EQ(message({}, {.max_steps = 0}), "solver.max_steps: must be >= 1, got 0");
+}
+
+// Like fix_nodes, the local nodes are checked: a bad index is an error, never silently dropped.
+TEST(Simulation, BadLocalNodesAreRefusedLikeBadFixedNodes) {
+  const Model m = small_model();
+  sim::Simulation s = sim::make_simulation(m);
+  EXPECT_THROW(sim::set_local_nodes(s, {0, m.node_count()}), Error);
+  EXPECT_THROW(sim::set_local_nodes(s, {-1}), Error);
+  EXPECT_THROW(sim::fix_nodes(s, {m.node_count()}), Error);
+}
+
 }  // namespace

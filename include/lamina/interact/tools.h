@@ -72,8 +72,6 @@ struct Tool {
   double end_s = std::numeric_limits<double>::infinity();  ///< ...until this time, s
 };
 
-/// Drives a simulation with tools: activates and releases them by time, routes their forces into
-/// sim.f_ext, and in local mode makes exactly the ring nodes movable.
 /// External forces written sparsely: the nodes that were given force, so that clearing them
 /// costs in proportion to them and not to the model (a 1 kHz loop on a 100k-node model).
 struct Loads {
@@ -93,6 +91,8 @@ void add_load(sim::Simulation& sim, const ForceRoute& route, Loads& loads);
 /// where every free node moves). Shared by the tool driver, the realtime loop and the soak.
 void keep_touched_movable(sim::Simulation& sim, std::vector<int32_t>& touched);
 
+/// Drives a simulation with tools: activates and releases them by time, routes their forces into
+/// sim.f_ext, and in local mode makes exactly the ring nodes movable.
 struct ToolDriver {
   std::vector<Tool> tools;
   RoutingOptions routing;
