@@ -12,7 +12,7 @@ set(LAMINA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/lamina)
 set_target_properties(lamina_cli PROPERTIES INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
 set_target_properties(lamina_render PROPERTIES INSTALL_RPATH "$ORIGIN")
 
-install(TARGETS lamina lamina_render lamina_c EXPORT laminaTargets
+install(TARGETS lamina lamina_render lamina_capi EXPORT laminaTargets
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})

@@ -18,7 +18,7 @@
 #include "lamina/geometry/spatial_sort.h"
 #include "lamina/model/compute_rings.h"
 #include "lamina/model/fill_tetrahedra.h"
-#include "lamina/model/link_layers.h"
+#include "link_layers.h"
 
 namespace lamina::model {
 namespace {

@@ -1,4 +1,4 @@
-#include "lamina/model/link_layers.h"
+#include "link_layers.h"
 
 #include <algorithm>
 #include <nanoflann.hpp>

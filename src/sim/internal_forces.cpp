@@ -4,7 +4,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 
-#include "lamina/sim/spring_kernel.h"
+#include "spring_kernel.h"
 #include "solver.h"
 
 namespace lamina::sim {

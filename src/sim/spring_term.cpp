@@ -4,7 +4,7 @@
 // exactly opposite and no two threads ever write the same value.
 #include <Eigen/Geometry>
 
-#include "lamina/sim/spring_kernel.h"
+#include "spring_kernel.h"
 #include "solver.h"
 
 namespace lamina::sim::detail {
