@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <optional>
 #include <regex>
@@ -17,6 +18,7 @@
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/pacer.h"
 #include "lamina/interact/run_tools.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/checkpoint.h"
@@ -137,6 +139,234 @@ void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simul
   for (size_t l = 0; l < series.size(); ++l) series[l].files = k.frames[l];
 }
 
+// The scene a run is of: the file given, the one a checkpoint names, or the default (the
+// paper's with --paper). A resume must find the scene file as it was.
+struct RunScene {
+  io::Scene scene;
+  std::string path;        // empty for the built-in scenes
+  uint32_t file_crc = 0;   // CRC-32 of the scene file (0 for the built-in scenes)
+};
+
+RunScene load_run_scene(const RunArgs& a, const std::optional<io::RunCheckpoint>& resume) {
+  RunScene r;
+  r.path = !a.scene.empty() ? a.scene : resume ? resume->scene_path : std::string();
+  if (a.paper && !a.scene.empty())
+    throw invalid_input("--paper", "cannot be given with a scene file (" + a.scene +
+                                       "): the scene sets the model and material");
+  r.scene = r.path.empty() ? (a.paper ? io::paper_scene() : io::Scene{}) : io::load_scene(r.path);
+  r.file_crc = r.path.empty() ? 0 : io::file_crc(r.path);
+  if (resume && r.file_crc != resume->scene_crc) {
+    const auto name = [](const std::string& p) { return p.empty() ? "the default scene" : p; };
+    throw invalid_input(a.resume, "was written for " + name(resume->scene_path) + ", and " +
+                                      name(r.path) +
+                                      " is not that scene as it was: resume with the same scene");
+  }
+  if (a.realtime && r.scene.solver.dt_s != 1.0 / a.rate_hz) {
+    // Real time: the simulated clock follows the wall clock, one step of 1 / rate per tick.
+    log::info("{}: --realtime at {:g} Hz steps dt = {:g} s (the scene says {:g} s)",
+              r.scene.source, a.rate_hz, 1.0 / a.rate_hz, r.scene.solver.dt_s);
+    r.scene.solver.dt_s = 1.0 / a.rate_hz;
+  }
+  return r;
+}
+
+// What the run writes as it goes: a VTK series per layer, the metrics, checkpoints.
+struct RunOutputs {
+  fs::path out;
+  std::vector<Series> series;
+  bool obj = false;
+
+  RunOutputs(const fs::path& folder, const io::Scene& scene, const Model& m, int32_t keep_frames)
+      : out(folder), obj(scene.output.obj) {
+    create_folder(out / "frames");
+    remove_stale_frames(out / "frames", keep_frames);
+    for (int32_t k = 0; k < (scene.output.all_layers ? m.layer_count() : 1); ++k) {
+      Series& se = series.emplace_back();
+      se.name = k == 0 ? "skin" : "layer" + std::to_string(k);
+      se.layer = k;
+      se.mesh = model::layer_mesh(m, k);
+    }
+  }
+
+  void write_frames(const sim::Simulation& s, io::RunProgress& so_far) {
+    for (Series& se : series) write_frame(se, s, out, so_far.frame, obj);
+    ++so_far.frame;
+  }
+
+  bool frame_written_at(double time_s) const { return series.front().files.back().first == time_s; }
+
+  void write_results(const io::RunProgress& so_far) {
+    write_file_atomically((out / "metrics.csv").string(),
+                          [&](std::ostream& f) { f << so_far.metrics_csv; });
+    for (const Series& se : series) write_pvd(se, out);
+  }
+};
+
+// How the stepping loop ended and what it measured along the way.
+struct LoopResult {
+  bool converged = false;
+  bool stopped = false;   // --stop-after: a checkpoint to resume from was written
+  bool unstable = false;  // steps failed even after rollback, kMaxFailedSteps in a row
+  sim::StepStats last;
+  std::vector<double> step_us;      // each step's wall time, tool routing included
+  std::vector<double> lateness_us;  // --realtime: each step's start after its tick
+  double wall_s = 0.0;              // the loop's wall time
+  int64_t steps = 0;                // steps this run took (a resumed run's share)
+  double sim_s = 0.0;               // simulated time this run covered
+};
+
+// A step that not even backward Euler can take leaves the state as it was. A few in a row mean
+// the load or dt is beyond the model: stop, keep what was computed, and say so.
+constexpr int64_t kMaxFailedSteps = 10;
+
+// Progress towards the end of a run: before the last release, time towards it; after, the
+// orders of magnitude of the largest speed still to lose before the rest speed.
+struct RunProgressReport {
+  ProgressFn progress;
+  double every_s = 2.0;
+  Clock::time_point last = Clock::now();
+  double first_settle_speed = 0.0;
+
+  void update(const sim::Simulation& s, const sim::StepStats& st, double start_s,
+              double settle_from_s, double rest_speed) {
+    if (!progress || seconds_since(last) < every_s) return;
+    last = Clock::now();
+    double fraction = 0.0;
+    if (start_s < settle_from_s) {
+      fraction = settle_from_s > 0.0 ? 0.5 * s.time_s / settle_from_s : 0.0;
+    } else {
+      if (first_settle_speed == 0.0) first_settle_speed = std::max(st.max_speed_mm_per_s, 1e-300);
+      const double span = std::log(first_settle_speed / rest_speed);
+      const double done = std::log(first_settle_speed / std::max(st.max_speed_mm_per_s, 1e-300));
+      fraction = 0.5 + 0.5 * (span > 0.0 ? std::clamp(done / span, 0.0, 0.99) : 0.99);
+    }
+    report_progress(progress,
+                    fmt::format("simulating: t = {:.2f} s, step {}, fastest node {:.2g} mm/s",
+                                s.time_s, s.steps, st.max_speed_mm_per_s),
+                    std::min(fraction, 0.99));
+  }
+};
+
+// Steps until every tool has let go and the model is at rest (interact::RestWatch: a tool that
+// never ends is followed until the model rests under its load), or until max_steps, too many
+// failed steps, or --stop-after. Frames, metrics and checkpoints are written as it goes.
+LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s,
+                    interact::ToolDriver& driver, RunOutputs& outputs, io::RunProgress& so_far,
+                    const std::function<void(int64_t)>& write_checkpoint,
+                    RunProgressReport& report) {
+  LoopResult r;
+  interact::RestWatch rest = interact::rest_watch(s, driver);
+  rest.quiet.streak = so_far.quiet_streak;  // resumed from a checkpoint
+  const double interval = scene.output.frame_interval_s;
+  r.step_us.reserve(static_cast<size_t>(std::min<int64_t>(scene.solver.max_steps, 1 << 20)));
+  if (a.realtime) r.lateness_us.reserve(r.step_us.capacity());
+  // --realtime: a haptic loop, each step starting at its tick.
+  interact::Pacer pacer(a.realtime ? a.rate_hz : 0.0);
+  pacer.restart();
+  const auto loop_start = Clock::now();
+  const int64_t first_step = so_far.loop_step;
+  const int64_t steps_at_start = s.steps;
+  const double time_at_start = s.time_s;
+  int64_t failed_streak = 0;
+  for (int64_t k = first_step; k < scene.solver.max_steps; ++k) {
+    if (a.realtime) r.lateness_us.push_back(pacer.lateness_us());
+    const double start_s = s.time_s;
+    const auto t0 = Clock::now();
+    interact::apply_tools(s, driver);
+    r.last = sim::step(s);
+    const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
+    r.step_us.push_back(us);
+    const Eigen::Vector3d reaction = interact::reaction_force(s, driver.loads);
+    so_far.max_reaction_mn = std::max(so_far.max_reaction_mn, reaction.norm());
+    const int active = static_cast<int>(std::count(driver.active.begin(), driver.active.end(), 1));
+    so_far.max_displacement_mm = std::max(so_far.max_displacement_mm, r.last.max_displacement_mm);
+    so_far.max_abs_volume_change_pct =
+        std::max(so_far.max_abs_volume_change_pct, std::abs(r.last.volume_change_pct));
+    r.converged = rest.update(start_s, r.last);
+    so_far.quiet_streak = rest.quiet.streak;
+
+    const bool frame_due = interval > 0.0 && s.time_s >= so_far.next_frame_s - 1e-9 * interval;
+    if (frame_due) {
+      outputs.write_frames(s, so_far);
+      while (so_far.next_frame_s <= s.time_s + 1e-9 * interval) so_far.next_frame_s += interval;
+    }
+    if (scene.output.metrics_every_step || frame_due || r.converged ||
+        k + 1 == scene.solver.max_steps)
+      append_metrics(so_far.metrics_csv, s.time_s, r.last, us, active, reaction);
+    if (r.converged) break;
+    failed_streak = r.last.failed ? failed_streak + 1 : 0;
+    if (failed_streak >= kMaxFailedSteps) {
+      r.unstable = true;
+      break;
+    }
+    if (a.checkpoint_every > 0 && (k + 1) % a.checkpoint_every == 0) write_checkpoint(k + 1);
+    if (a.stop_after_steps > 0 && k + 1 - first_step >= a.stop_after_steps) {
+      if (a.checkpoint_every <= 0 || (k + 1) % a.checkpoint_every != 0) write_checkpoint(k + 1);
+      r.stopped = true;
+      break;
+    }
+    report.update(s, r.last, start_s, rest.settle_from_s, scene.solver.rest_speed_mm_per_s);
+    if (a.realtime) std::this_thread::sleep_until(pacer.advance());
+  }
+  r.wall_s = std::max(seconds_since(loop_start), 1e-9);
+  r.steps = s.steps - steps_at_start;
+  r.sim_s = s.time_s - time_at_start;
+  return r;
+}
+
+// Step times and, for --realtime, how well the loop kept to the wall clock.
+void summarize_timing(LoopResult& loop, const RunArgs& a, io::RunSummary& sum) {
+  if (!loop.step_us.empty()) {
+    double total = 0.0;
+    for (double u : loop.step_us) total += u;
+    sum.mean_step_us = total / static_cast<double>(loop.step_us.size());
+    sum.steps_per_second =
+        total > 0.0 ? 1e6 * static_cast<double>(loop.step_us.size()) / total : 0.0;
+    const auto mid = loop.step_us.begin() + static_cast<std::ptrdiff_t>(loop.step_us.size() / 2);
+    std::nth_element(loop.step_us.begin(), mid, loop.step_us.end());
+    sum.median_step_us = *mid;
+  }
+  if (!a.realtime) return;
+  sum.realtime = true;
+  sum.rate_hz = a.rate_hz;
+  sum.achieved_rate_hz = static_cast<double>(loop.steps) / loop.wall_s;
+  sum.real_time_factor = loop.sim_s / loop.wall_s;
+  sum.kept_up = sum.real_time_factor >= 0.95;
+  if (!sum.kept_up)
+    log::warn("{}: the machine did not keep up with real time: {:.2f} simulated seconds per "
+              "wall second ({:.0f} of {:.0f} steps/s); a smaller model or a lower --rate keeps "
+              "up",
+              sum.scene, sum.real_time_factor, sum.achieved_rate_hz, a.rate_hz);
+  if (!loop.lateness_us.empty()) {
+    std::sort(loop.lateness_us.begin(), loop.lateness_us.end());
+    sum.worst_jitter_us = loop.lateness_us.back();
+    sum.p99_jitter_us =
+        loop.lateness_us[static_cast<size_t>(0.99 * (loop.lateness_us.size() - 1))];
+  }
+}
+
+void print_run(const io::RunSummary& sum, const std::string& output, size_t series,
+               int32_t frames) {
+  std::cout << fmt::format(
+      "lamina run: {} on {} ({} nodes, {} layers)\n"
+      "  {} after {} steps ({:.2f} s simulated) in {:.2f} s; {:.0f} steps/s\n"
+      "  max displacement {:.3g} mm, max |volume change| {:.3g}%, final rest error {:.3g} mm\n"
+      "  wrote {}: metrics.csv, summary.json, {}.pvd ({} frames)\n",
+      sum.scene, sum.model, sum.nodes, sum.layers,
+      sum.converged ? "converged"
+      : sum.stopped ? "stopped for a resume"
+                    : "NOT converged",
+      sum.steps, sum.sim_seconds, sum.wall_seconds, sum.steps_per_second, sum.max_displacement_mm,
+      sum.max_abs_volume_change_pct, sum.final_rest_error_mm, output,
+      series > 1 ? "skin.pvd, layer*" : "skin", frames);
+  if (sum.realtime)
+    std::cout << fmt::format(
+        "  realtime: {:.0f} steps/s achieved of {:.0f} ({:.2f}x real time{}); step start late by "
+        "{:.0f} us at worst, {:.0f} us at the 99th percentile\n",
+        sum.achieved_rate_hz, sum.rate_hz, sum.real_time_factor, sum.kept_up ? "" : ", BEHIND",
+        sum.worst_jitter_us, sum.p99_jitter_us);
+}
+
 }  // namespace
 
 int run_run(const RunArgs& a) {
@@ -148,45 +378,23 @@ int run_run(const RunArgs& a) {
   // A resumed run reads its checkpoint first: it names the scene when none is given.
   std::optional<io::RunCheckpoint> resume;
   if (!a.resume.empty()) resume = io::load_checkpoint(a.resume);
-  const std::string scene_path = !a.scene.empty() ? a.scene
-                                 : resume         ? resume->scene_path
-                                                  : std::string();
-  if (a.paper && !a.scene.empty())
-    throw invalid_input("--paper", "cannot be given with a scene file (" + a.scene +
-                                       "): the scene sets the model and material");
-  io::Scene scene = scene_path.empty() ? (a.paper ? io::paper_scene() : io::Scene{})
-                                       : io::load_scene(scene_path);
-  const uint32_t scene_crc = scene_path.empty() ? 0 : io::file_crc(scene_path);
-  if (resume && scene_crc != resume->scene_crc) {
-    const auto name = [](const std::string& p) { return p.empty() ? "the default scene" : p; };
-    throw invalid_input(a.resume, "was written for " + name(resume->scene_path) + ", and " +
-                                      name(scene_path) +
-                                      " is not that scene as it was: resume with the same scene");
-  }
+  const RunScene run_scene = load_run_scene(a, resume);
   check_output_folder(a.output);
-  const bool tty = ::isatty(2);
-  const ProgressFn progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose);
-
-  if (a.realtime && scene.solver.dt_s != 1.0 / a.rate_hz) {
-    // Real time: the simulated clock follows the wall clock, one step of 1 / rate per tick.
-    log::info("{}: --realtime at {:g} Hz steps dt = {:g} s (the scene says {:g} s)", scene.source,
-              a.rate_hz, 1.0 / a.rate_hz, scene.solver.dt_s);
-    scene.solver.dt_s = 1.0 / a.rate_hz;
-  }
+  RunProgressReport report{.progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose),
+                           .every_s = ::isatty(2) ? 0.1 : 2.0};
 
   // 1. The model, and the scene checked against it, before anything is written.
-  io::ReadyScene ready = io::make_ready_scene(scene, volume_read_options, progress);
+  const io::ReadyScene ready = io::make_ready_scene(run_scene.scene, volume_read_options,
+                                                    report.progress);
   const double model_seconds = seconds_since(t_start);
-  scene = ready.scene;
-  const io::SceneSetup& setup = ready.setup;
-  const io::MaterialReport& material = setup.material;
+  const io::Scene& scene = ready.scene;
   const Model& m = *ready.model;
   const uint32_t model_crc = io::model_fingerprint(m);
   if (resume && model_crc != resume->model_crc)
     throw invalid_input(a.resume, "was written for another model than the one " + ready.source +
                                       " gives now (its fingerprint differs)");
   sim::Simulation s = io::make_scene_simulation(ready);
-  if (setup.fixed.empty() && setup.support.nodes.empty() &&
+  if (ready.setup.fixed.empty() && ready.setup.support.nodes.empty() &&
       scene.material.anchor_stiffness_n_per_m == 0.0 && scene.solver.mode == sim::Mode::kGlobal)
     log::warn(
         "{}: no fixed nodes, no support and no anchor springs: a pushed model drifts as a rigid "
@@ -194,49 +402,14 @@ int run_run(const RunArgs& a) {
         scene.source);
   interact::ToolDriver driver = io::make_tool_driver(scene);
 
-  // 2. Outputs.
-  const fs::path out(a.output);
-  create_folder(out / "frames");
-  remove_stale_frames(out / "frames", resume ? resume->progress.frame : 0);
-  std::vector<Series> series;
-  for (int32_t k = 0; k < (scene.output.all_layers ? m.layer_count() : 1); ++k) {
-    Series& se = series.emplace_back();
-    se.name = k == 0 ? "skin" : "layer" + std::to_string(k);
-    se.layer = k;
-    se.mesh = model::layer_mesh(m, k);
-  }
-  // Everything the loop accumulates, which a checkpoint saves and a resume restores whole.
+  // 2. Outputs, and the state a resume continues from. Everything the loop accumulates is in
+  // so_far, which a checkpoint saves and a resume restores whole.
+  RunOutputs outputs(a.output, scene, m, resume ? resume->progress.frame : 0);
   io::RunProgress so_far;
   so_far.metrics_csv = kMetricsHeader;
   so_far.next_frame_s = scene.output.frame_interval_s;
-  auto write_frames = [&] {
-    for (Series& se : series) write_frame(se, s, out, so_far.frame, scene.output.obj);
-    ++so_far.frame;
-  };
-
-  // 3. Step until every tool has let go and the model is at rest. A tool that never ends is
-  // followed until the model rests under its load. One quiet step is not enough: velocities
-  // pass through zero when a tool is released and at the turning points of an oscillation, so
-  // the test must hold for a settling window (sim::quiet_steps: 0.1 s, at least 3 steps).
-  interact::RestWatch rest = interact::rest_watch(s, driver);
-  rest.quiet.streak = so_far.quiet_streak;  // resumed from a checkpoint
-  const double interval = scene.output.frame_interval_s;
-
-  std::vector<double> step_us;
-  step_us.reserve(static_cast<size_t>(std::min<int64_t>(scene.solver.max_steps, 1 << 20)));
-  double first_settle_speed = 0.0;
-  bool converged = false;
-  sim::StepStats st;
-  auto last_report = Clock::now();
-  const double report_every_s = tty ? 0.1 : 2.0;
-  const auto period = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(a.realtime ? 1.0 / a.rate_hz : 0.0));
-  auto tick = Clock::now();
-  const auto loop_start = Clock::now();
-  std::vector<double> lateness_us;
-  if (a.realtime) lateness_us.reserve(step_us.capacity());
   if (resume) {
-    restore_run(*resume, a.resume, s, driver, series);
+    restore_run(*resume, a.resume, s, driver, outputs.series);
     so_far = resume->progress;
     if (resume->threads != omp_get_max_threads())
       log::warn(
@@ -244,14 +417,14 @@ int run_run(const RunArgs& a) {
           "OMP_NUM_THREADS={} to continue bit for bit",
           a.resume, resume->threads, omp_get_max_threads(), resume->threads);
   } else {
-    write_frames();
+    outputs.write_frames(s, so_far);
   }
   // The checkpoint: the whole state after the step just taken, replaced atomically each time.
-  const std::string checkpoint_path = (out / "checkpoint.lmck").string();
-  auto write_checkpoint = [&](int64_t loop_step) {
+  const std::string checkpoint_path = (outputs.out / "checkpoint.lmck").string();
+  const auto write_checkpoint = [&](int64_t loop_step) {
     io::RunCheckpoint ck;
-    ck.scene_path = scene_path.empty() ? "" : fs::absolute(scene_path).string();
-    ck.scene_crc = scene_crc;
+    ck.scene_path = run_scene.path.empty() ? "" : fs::absolute(run_scene.path).string();
+    ck.scene_crc = run_scene.file_crc;
     ck.model_crc = model_crc;
     ck.threads = omp_get_max_threads();
     ck.state = sim::capture_state(s);
@@ -261,113 +434,41 @@ int run_run(const RunArgs& a) {
     ck.loads = driver.loads;
     ck.progress = so_far;
     ck.progress.loop_step = loop_step;
-    for (const Series& se : series) ck.frames.push_back(se.files);
+    for (const Series& se : outputs.series) ck.frames.push_back(se.files);
     io::save_checkpoint(ck, checkpoint_path);
   };
-  bool stopped = false;
-  // A step that not even backward Euler can take leaves the state as it was. A few in a row mean
-  // the load or dt is beyond the model: stop, keep what was computed, and say so.
-  constexpr int64_t kMaxFailedSteps = 10;
-  int64_t failed_streak = 0;
-  bool unstable = false;
-  const int64_t first_step = so_far.loop_step;
-  const int64_t steps_at_start = s.steps;  // after a resume: this run's share is what counts
-  const double start_time_s = s.time_s;
-  for (int64_t k = first_step; k < scene.solver.max_steps; ++k) {
-    const double start_s = s.time_s;
-    const auto t0 = Clock::now();
-    interact::apply_tools(s, driver);
-    st = sim::step(s);
-    const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
-    step_us.push_back(us);
-    const Eigen::Vector3d reaction = interact::reaction_force(s, driver.loads);
-    so_far.max_reaction_mn = std::max(so_far.max_reaction_mn, reaction.norm());
-    if (a.realtime) {
-      // A haptic loop: the next step starts at its tick, not as soon as this one ends. Lateness
-      // is measured against the tick; a loop that falls far behind restarts its schedule.
-      tick += period;
-      const auto now = Clock::now();
-      if (now - tick > 50 * period) tick = now;
-      std::this_thread::sleep_until(tick);
-      lateness_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - tick).count());
-    }
-    const int active = static_cast<int>(std::count(driver.active.begin(), driver.active.end(), 1));
-    so_far.max_displacement_mm = std::max(so_far.max_displacement_mm, st.max_displacement_mm);
-    so_far.max_abs_volume_change_pct =
-        std::max(so_far.max_abs_volume_change_pct, std::abs(st.volume_change_pct));
-    converged = rest.update(start_s, st);
-    so_far.quiet_streak = rest.quiet.streak;
 
-    const bool frame_due = interval > 0.0 && s.time_s >= so_far.next_frame_s - 1e-9 * interval;
-    if (frame_due) {
-      write_frames();
-      while (so_far.next_frame_s <= s.time_s + 1e-9 * interval) so_far.next_frame_s += interval;
-    }
-    if (scene.output.metrics_every_step || frame_due || converged ||
-        k + 1 == scene.solver.max_steps)
-      append_metrics(so_far.metrics_csv, s.time_s, st, us, active, reaction);
-    if (converged) break;
-    failed_streak = st.failed ? failed_streak + 1 : 0;
-    if (failed_streak >= kMaxFailedSteps) {
-      unstable = true;
-      break;
-    }
-    if (a.checkpoint_every > 0 && (k + 1) % a.checkpoint_every == 0) write_checkpoint(k + 1);
-    if (a.stop_after_steps > 0 && k + 1 - first_step >= a.stop_after_steps) {
-      if (a.checkpoint_every <= 0 || (k + 1) % a.checkpoint_every != 0) write_checkpoint(k + 1);
-      stopped = true;
-      break;
-    }
-
-    if (progress && seconds_since(last_report) >= report_every_s) {
-      last_report = Clock::now();
-      // Before release: time towards the last release. After: orders of magnitude of the
-      // largest speed still to lose before the rest speed.
-      double fraction = 0.0;
-      const double settle_from = rest.settle_from_s;
-      if (start_s < settle_from) {
-        fraction = settle_from > 0.0 ? 0.5 * s.time_s / settle_from : 0.0;
-      } else {
-        if (first_settle_speed == 0.0) first_settle_speed = std::max(st.max_speed_mm_per_s, 1e-300);
-        const double span = std::log(first_settle_speed / scene.solver.rest_speed_mm_per_s);
-        const double done = std::log(first_settle_speed / std::max(st.max_speed_mm_per_s, 1e-300));
-        fraction = 0.5 + 0.5 * (span > 0.0 ? std::clamp(done / span, 0.0, 0.99) : 0.99);
-      }
-      report_progress(progress,
-                      fmt::format("simulating: t = {:.2f} s, step {}, fastest node {:.2g} mm/s",
-                                  s.time_s, s.steps, st.max_speed_mm_per_s),
-                      std::min(fraction, 0.99));
-    }
-  }
-  if (!stopped && series.front().files.back().first != s.time_s) write_frames();  // final state
-  report_progress(progress, fmt::format("simulated {:.2f} s in {} steps", s.time_s, s.steps), 1.0);
-  if (stopped)
+  // 3. Step.
+  LoopResult loop = step_run(a, scene, s, driver, outputs, so_far, write_checkpoint, report);
+  if (!loop.stopped && !outputs.frame_written_at(s.time_s))
+    outputs.write_frames(s, so_far);  // the final state
+  report_progress(report.progress,
+                  fmt::format("simulated {:.2f} s in {} steps", s.time_s, s.steps), 1.0);
+  if (loop.stopped)
     log::info(
         "stopped after {} steps as asked (--stop-after); continue with: lamina run "
         "--resume {} -o {}",
         a.stop_after_steps, checkpoint_path, a.output);
-  else if (!converged && !unstable)
+  else if (!loop.converged && !loop.unstable)
     log::warn("{}: not at rest after solver.max_steps = {} steps ({:.2f} s simulated)",
               scene.source, scene.solver.max_steps, s.time_s);
 
   // 4. Results.
-  write_file_atomically((out / "metrics.csv").string(),
-                        [&](std::ostream& f) { f << so_far.metrics_csv; });
-  for (const Series& se : series) write_pvd(se, out);
+  outputs.write_results(so_far);
   io::RunSummary sum;
   sum.scene = scene.source;
   sum.model = ready.source;
-  sum.material = material;
-  sum.converged = converged;
-  sum.stopped = stopped;
-  sum.unstable = unstable;
+  sum.material = ready.setup.material;
+  sum.converged = loop.converged;
+  sum.stopped = loop.stopped;
+  sum.unstable = loop.unstable;
   sum.steps = s.steps;
   sum.sim_seconds = s.time_s;
   sum.model_seconds = model_seconds;
   sum.max_displacement_mm = so_far.max_displacement_mm;
   sum.max_abs_volume_change_pct = so_far.max_abs_volume_change_pct;
   sum.final_rest_error_mm = max_rest_distance(s);
-  sum.final_volume_change_pct = st.volume_change_pct;
+  sum.final_volume_change_pct = loop.last.volume_change_pct;
   sum.recoveries = s.recoveries;
   sum.integrator = scene.solver.integrator;
   sum.mode = scene.solver.mode;
@@ -375,43 +476,17 @@ int run_run(const RunArgs& a) {
   sum.nodes = m.node_count();
   sum.springs = static_cast<int64_t>(m.springs.size());
   sum.layers = m.layer_count();
-  sum.fixed_nodes = static_cast<int32_t>(setup.fixed.size());
+  sum.fixed_nodes = static_cast<int32_t>(ready.setup.fixed.size());
   sum.tools = static_cast<int32_t>(scene.tools.size());
-  if (!step_us.empty()) {
-    double total = 0.0;
-    for (double u : step_us) total += u;
-    sum.mean_step_us = total / static_cast<double>(step_us.size());
-    sum.steps_per_second = total > 0.0 ? 1e6 * static_cast<double>(step_us.size()) / total : 0.0;
-    const auto mid = step_us.begin() + static_cast<std::ptrdiff_t>(step_us.size() / 2);
-    std::nth_element(step_us.begin(), mid, step_us.end());
-    sum.median_step_us = *mid;
-  }
   sum.frames = so_far.frame;
   sum.max_reaction_n = so_far.max_reaction_mn / 1000.0;
-  if (a.realtime) {
-    sum.realtime = true;
-    sum.rate_hz = a.rate_hz;
-    const double wall = std::max(seconds_since(loop_start), 1e-9);
-    sum.achieved_rate_hz = static_cast<double>(s.steps - steps_at_start) / wall;
-    sum.real_time_factor = (s.time_s - start_time_s) / wall;
-    sum.kept_up = sum.real_time_factor >= 0.95;
-    if (!sum.kept_up)
-      log::warn("{}: the machine did not keep up with real time: {:.2f} simulated seconds per "
-                "wall second ({:.0f} of {:.0f} steps/s); a smaller model or a lower --rate keeps "
-                "up",
-                scene.source, sum.real_time_factor, sum.achieved_rate_hz, a.rate_hz);
-    if (!lateness_us.empty()) {
-      std::sort(lateness_us.begin(), lateness_us.end());
-      sum.worst_jitter_us = lateness_us.back();
-      sum.p99_jitter_us = lateness_us[static_cast<size_t>(0.99 * (lateness_us.size() - 1))];
-    }
-  }
+  summarize_timing(loop, a, sum);
   sum.wall_seconds = seconds_since(t_start);
   const std::string json = io::run_summary_json(sum);
-  write_file_atomically((out / "summary.json").string(),
+  write_file_atomically((outputs.out / "summary.json").string(),
                         [&](std::ostream& f) { f << json << "\n"; });
 
-  if (unstable) {
+  if (loop.unstable) {
     double largest_n = 0.0;
     for (const interact::Tool& t : scene.tools) largest_n = std::max(largest_n, t.force_mn.norm());
     throw Error(
@@ -423,28 +498,10 @@ int run_run(const RunArgs& a) {
                     scene.source, s.time_s, kMaxFailedSteps, largest_n / 1000.0, scene.solver.dt_s,
                     a.output));
   }
-  if (a.json) {
+  if (a.json)
     std::cout << json << "\n";
-  } else {
-    std::cout << fmt::format(
-        "lamina run: {} on {} ({} nodes, {} layers)\n"
-        "  {} after {} steps ({:.2f} s simulated) in {:.2f} s; {:.0f} steps/s\n"
-        "  max displacement {:.3g} mm, max |volume change| {:.3g}%, final rest error {:.3g} mm\n"
-        "  wrote {}: metrics.csv, summary.json, {}.pvd ({} frames)\n",
-        scene.source, ready.source, sum.nodes, sum.layers,
-        converged ? "converged"
-        : stopped ? "stopped for a resume"
-                  : "NOT converged",
-        sum.steps, sum.sim_seconds, sum.wall_seconds, sum.steps_per_second, sum.max_displacement_mm,
-        sum.max_abs_volume_change_pct, sum.final_rest_error_mm, a.output,
-        series.size() > 1 ? "skin.pvd, layer*" : "skin", so_far.frame);
-    if (sum.realtime)
-      std::cout << fmt::format(
-          "  realtime: {:.0f} steps/s achieved of {:.0f} ({:.2f}x real time{}); step start late by "
-          "{:.0f} us at worst, {:.0f} us at the 99th percentile\n",
-          sum.achieved_rate_hz, sum.rate_hz, sum.real_time_factor,
-          sum.kept_up ? "" : ", BEHIND", sum.worst_jitter_us, sum.p99_jitter_us);
-  }
+  else
+    print_run(sum, a.output, outputs.series.size(), so_far.frame);
   return 0;
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/pacer.h"
 
 namespace lamina::interact {
 namespace {
@@ -271,7 +272,7 @@ void RealtimeLoop::publish(bool force) {
 
 void RealtimeLoop::thread_main() {
   if (options_.threads > 0) omp_set_num_threads(options_.threads);  // this thread's own setting
-  auto next = Clock::now();
+  Pacer pacer;
   std::unique_lock lock(mutex_);
   while (!stop_requested_) {
     if (paused_) {
@@ -280,31 +281,20 @@ void RealtimeLoop::thread_main() {
       lock.unlock();
       publish(true);
       lock.lock();
-      next = Clock::now();
+      pacer.restart();
       continue;
     }
     apply_pending();
-    const double rate = rate_hz_;
+    pacer.set_rate(rate_hz_);
     lock.unlock();
 
-    late_us_ =
-        rate > 0.0
-            ? std::max(0.0, std::chrono::duration<double, std::micro>(Clock::now() - next).count())
-            : 0.0;
+    late_us_ = pacer.lateness_us();
     one_step();
     publish(false);
 
     lock.lock();
-    if (rate > 0.0) {
-      const auto period =
-          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
-      next += period;
-      // Fell far behind (a debugger, a busy machine): start afresh instead of racing to catch up.
-      if (Clock::now() - next > 50 * period) next = Clock::now();
-      wake_.wait_until(lock, next, [this] { return stop_requested_; });
-    } else {
-      next = Clock::now();
-    }
+    const Pacer::Clock::time_point tick = pacer.advance();
+    if (pacer.paced()) wake_.wait_until(lock, tick, [this] { return stop_requested_; });
   }
 }
 
