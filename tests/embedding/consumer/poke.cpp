@@ -3,10 +3,8 @@
 // Lamina by tests/embedding/consumer_test.cmake.
 #include <cstdio>
 
-#include "lamina/geometry/make_phantom.h"
 #include "lamina/interact/run_tools.h"
-#include "lamina/io/scene.h"
-#include "lamina/model/build_model.h"
+#include "lamina/io/scene_model.h"
 #include "lamina/render/camera.h"
 #include "lamina/render/offscreen.h"
 #include "lamina/render/renderer.h"
@@ -16,14 +14,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: poke OUTPUT.png\n");
     return 2;
   }
-  // A model from a mask (here the built-in phantom; lamina::io::read_label_volume reads a file).
-  lamina::Model model = lamina::model::build_model(lamina::geometry::make_phantom(), {}).model;
-
-  // The default scene: a physical liver held at its back, one tool pushing 0.4 N for 1 s.
-  lamina::io::Scene scene;
-  const lamina::io::SceneSetup setup = lamina::io::prepare_scene(scene, model);
-  lamina::sim::Simulation sim = lamina::io::make_scene_simulation(scene, model, setup);
-  lamina::interact::ToolDriver tools{.tools = scene.tools, .routing = scene.routing};
+  // The default scene: a physical liver (here the built-in phantom; a scene's "input" names a
+  // mask file) held at its back, one tool pushing 0.4 N for 1 s. make_ready_scene builds the
+  // model and prepares the scene against it as every Lamina command does.
+  const lamina::io::ReadyScene ready = lamina::io::make_ready_scene(lamina::io::Scene{});
+  const lamina::Model& model = *ready.model;
+  lamina::sim::Simulation sim = lamina::io::make_scene_simulation(ready);
+  lamina::interact::ToolDriver tools = lamina::io::make_tool_driver(ready.scene);
   const lamina::interact::ToolRun run = lamina::interact::run_tools(sim, tools, 0.5, false);
   std::printf("%d nodes; after %lld steps (%.2f s) the tool has moved the tissue %.2f mm\n",
               model.node_count(), static_cast<long long>(run.steps), sim.time_s,
