@@ -44,6 +44,11 @@ void ViewSession::State::adopt_rebuilt() {
   render::register_model(kModelName, vm->model);  // replaces the old one, style kept
   if (vm->material) material = *vm->material;
   gesture = Gesture::kNone;
+  // The last drag's record names nodes of the old model, which mean nothing (or lie outside)
+  // in the new one: it ends with the old model.
+  last_drag_node = drag_peak_node = -1;
+  drag_peak_mm = 0.0;
+  released_at_s = settle_3s_mm = -1.0;
   start_loop();
   ++rebuilds;
   status =

@@ -197,7 +197,7 @@ TEST_F(ViewSessionTest, APressOnAPanelIsThePanelsAndSaysSo) {
 TEST_F(ViewSessionTest, AScriptedRebuildSwapsTheModelUnderTheRunningSimulation) {
   test::TempDir dir;
   std::ofstream(dir.file("rebuild.json"))
-      << R"({"events": [{"at": 0.0, "rebuild": {"layers": 3, "skin_vertices": 400}},
+      << R"({"events": [{"at": 0.5, "rebuild": {"layers": 3, "skin_vertices": 400}},
                         {"at": 0.0, "screenshot": ")"
       << dir.file("before.png") << R"("}]})";
   ViewOptions o = fast_options();
@@ -219,9 +219,18 @@ TEST_F(ViewSessionTest, AScriptedRebuildSwapsTheModelUnderTheRunningSimulation) 
   EXPECT_FALSE(s.script_drives_mouse());
   const int32_t before = s.model().node_count();
   s.start();
+  // A drag on the first model, before the script's rebuild at 0.5 s.
+  drag_from_centre(s, 120.0, 0.5);
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  EXPECT_EQ(s.report()["rebuilds"], 0) << "too slow: the rebuild came before the first drag";
+  EXPECT_GE(s.report()["drag_node"].get<int>(), 0);
   ASSERT_TRUE(frames_until(
       s, [&] { return s.report()["rebuilds"] == 1; }, 120.0))
       << "the rebuild did not finish";
+  // The first drag's nodes were the old model's: its record ended with it.
+  EXPECT_EQ(s.report()["drag_node"], -1);
+  EXPECT_FALSE(s.report().contains("drag_peak_distance_from_drag_mm"));
   EXPECT_EQ(rebuilds_asked, 1);
   EXPECT_EQ(s.model().layer_count(), 3);
   EXPECT_NE(s.model().node_count(), before);
@@ -241,7 +250,7 @@ TEST_F(ViewSessionTest, AScriptedRebuildSwapsTheModelUnderTheRunningSimulation) 
   const nlohmann::json r = nlohmann::json::parse(report);
   EXPECT_EQ(r["rebuilds"], 1);
   EXPECT_EQ(r["layers"], 3);
-  EXPECT_EQ(r["drags"], 1);
+  EXPECT_EQ(r["drags"], 2);
   ASSERT_EQ(r["screenshots"].size(), 1u);
   EXPECT_TRUE(std::filesystem::exists(dir.file("before.png")));
 }
