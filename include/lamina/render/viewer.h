@@ -62,7 +62,8 @@ inline void init(Backend backend) {
 }
 bool is_initialized();
 /// Closes the window, frees the OpenGL and Dear ImGui state and forgets every model, the
-/// callback and the input. No-op when not initialized.
+/// callback and the input. No-op when not initialized. Not from inside the callback (the frame
+/// still runs on the engine): call request_close() there, and shutdown() after the loop.
 void shutdown();
 
 /// Throws lamina::Error (kUnavailable) if no display can be reached (DISPLAY and WAYLAND_DISPLAY
