@@ -16,6 +16,7 @@
 #include "lamina/render/renderer.h"
 #include "lamina/render/viewer.h"
 #include "lamina/sim/simulation.h"
+#include "view_session.h"
 
 namespace lamina::cli {
 namespace {
@@ -56,15 +57,13 @@ int run_view(const ViewArgs& a) {
     throw invalid_input("--rate", "must be 0..1e6 steps/s");
   if (!(a.gain_n_per_mm > 0.0) || a.gain_n_per_mm > 100.0)
     throw invalid_input("--gain", "must be in (0, 100] N/mm");
-  if (!a.script.empty()) render::check_viewer_script(a.script);
+  if (!a.script.empty()) check_view_script(a.script);
   render::check_display();
   const ProgressFn progress = stderr_progress(a.verbose);
   io::ReadyScene p = prepare(a.what, progress, a.paper);
   const bool from_scene_file = a.what.ends_with(".json");
 
-  render::ViewerOptions o;
-  o.width = a.size[0];
-  o.height = a.size[1];
+  ViewOptions o;
   o.rate_hz = a.rate_hz;
   o.gain_n_per_mm = a.gain_n_per_mm;
   o.material = p.scene.material;
@@ -72,7 +71,7 @@ int run_view(const ViewArgs& a) {
   o.routing = p.scene.routing;
   o.script = a.script;
   o.report = a.report;
-  render::ViewerModel vm;
+  ViewModel vm;
   vm.source = p.source;
   vm.fixed = p.setup.fixed;
   vm.support = p.setup.support;
@@ -95,7 +94,7 @@ int run_view(const ViewArgs& a) {
     o.rebuild = [scene = p.parsed](int32_t layers, int32_t skin_vertices, const ProgressFn& pr) {
       const io::ReadyScene b =
           io::rebuild_ready_scene(scene, layers, skin_vertices, volume_read_options, pr);
-      render::ViewerModel out;
+      ViewModel out;
       out.fixed = b.setup.fixed;
       out.support = b.setup.support;
       out.material = b.scene.material;
@@ -104,9 +103,18 @@ int run_view(const ViewArgs& a) {
       return out;
     };
   }
-  render::Viewer viewer(o);
-  viewer.set_model(std::move(vm));
-  return viewer.show();
+  // The session owns the simulation and drives the engine; the engine owns the window.
+  render::ViewerOptions window;
+  window.width = a.size[0];
+  window.height = a.size[1];
+  window.title = "Lamina - " + vm.source;
+  ViewSession session(std::move(o), std::move(vm));
+  window.platform_mouse = !session.script_drives_mouse();  // a script's mouse, not the window's
+  render::init(window);
+  struct Shutdown {
+    ~Shutdown() { render::shutdown(); }
+  } engine_guard;
+  return session.run();
 }
 
 int run_render(const RenderArgs& a) {

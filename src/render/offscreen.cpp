@@ -88,6 +88,10 @@ HeadlessContext::~HeadlessContext() {
 
 Image render_image(Renderer& renderer, const Frame& frame, const Camera& camera, int width,
                    int height) {
+  return render_image([&](int w, int h) { renderer.draw(frame, camera, w, h); }, width, height);
+}
+
+Image render_image(const std::function<void(int width, int height)>& draw, int width, int height) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
     throw invalid_input("image size", std::to_string(width) + "x" + std::to_string(height) +
                                           " is outside 1..16384 pixels");
@@ -111,7 +115,7 @@ Image render_image(Renderer& renderer, const Frame& frame, const Camera& camera,
   glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_DEPTH_COMPONENT24, width, height);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, rbo[1]);
   const bool complete = glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
-  if (complete) renderer.draw(frame, camera, width, height);
+  if (complete) draw(width, height);
 
   glBindFramebuffer(GL_FRAMEBUFFER, fbo[1]);
   glBindRenderbuffer(GL_RENDERBUFFER, rbo[2]);

@@ -165,6 +165,7 @@ struct Renderer::Impl {
   Range intra_springs, inter_springs;
 
   std::vector<float> pos, normal, color;  // per node, reused
+  bool vertices_sent = false;             // the vertex buffers hold this model's vertices
   std::vector<OverlayVertex> overlay;
 
   void upload_model(const Model& m) {
@@ -208,6 +209,7 @@ struct Renderer::Impl {
                  GL_DYNAMIC_DRAW);
     glBindVertexArray(0);
     model = &m;
+    vertices_sent = false;
     nodes = m.node_count();
     springs = m.springs.size();
     pos.resize(n * 3);
@@ -351,31 +353,45 @@ void Renderer::forget_model() {
   impl_->model = nullptr;
 }
 
-void Renderer::draw(const Frame& fr, const Camera& camera, int width, int height) {
+double scene_radius(const Model& m, const Camera& camera) {
+  const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
+  return 0.5 * (hi - lo).norm() + (camera.target - 0.5 * (lo + hi)).norm();
+}
+
+void Renderer::draw(const Frame& fr, const Camera& camera, int width, int height,
+                    const DrawPass& pass) {
   Impl& r = *impl_;
   const Style& st = fr.style;
   glViewport(0, 0, width, height);
-  glClearColor(st.background[0], st.background[1], st.background[2], st.background[3]);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  if (pass.clear) {
+    glClearColor(st.background[0], st.background[1], st.background[2], st.background[3]);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  }
   if (!fr.model || fr.model->node_count() == 0) return;
   const Model& m = *fr.model;
   if (r.model != &m || r.nodes != m.node_count() || r.springs != m.springs.size())
     r.upload_model(m);
 
-  r.fill_vertices(fr);
-  const size_t n = static_cast<size_t>(m.node_count());
+  // Normals and colours follow the positions: an unchanged frame costs neither the CPU pass
+  // over every face nor the transfer.
   glBindVertexArray(r.vao);
-  glBindBuffer(GL_ARRAY_BUFFER, r.vbo_pos);
-  glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * 3 * sizeof(float)), r.pos.data());
-  glBindBuffer(GL_ARRAY_BUFFER, r.vbo_normal);
-  glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * 3 * sizeof(float)),
-                  r.normal.data());
-  glBindBuffer(GL_ARRAY_BUFFER, r.vbo_color);
-  glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * 4 * sizeof(float)),
-                  r.color.data());
+  if (pass.upload_vertices || !r.vertices_sent) {
+    r.fill_vertices(fr);
+    const size_t n = static_cast<size_t>(m.node_count());
+    glBindBuffer(GL_ARRAY_BUFFER, r.vbo_pos);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * 3 * sizeof(float)),
+                    r.pos.data());
+    glBindBuffer(GL_ARRAY_BUFFER, r.vbo_normal);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * 3 * sizeof(float)),
+                    r.normal.data());
+    glBindBuffer(GL_ARRAY_BUFFER, r.vbo_color);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * 4 * sizeof(float)),
+                    r.color.data());
+    r.vertices_sent = true;
+  }
 
-  const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
-  const double scene_radius = 0.5 * (hi - lo).norm() + (camera.target - 0.5 * (lo + hi)).norm();
+  const double scene_radius =
+      pass.scene_radius_mm > 0.0 ? pass.scene_radius_mm : render::scene_radius(m, camera);
   const Eigen::Matrix4f view = view_matrix(camera).cast<float>();
   const Eigen::Matrix4f proj =
       projection_matrix(camera, static_cast<double>(width) / std::max(height, 1),

@@ -97,8 +97,11 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
   // The viewer waits for the X events; xdotool presses at the window's centre (the organ) and
   // drags upwards in steps, then lets go. The press is held a second before the drag, so that
   // a frame sees it at the centre even when a loaded machine draws only a few frames a second.
+  // -v: the viewer's debug log says what each press did (and why it started no drag), so that a
+  // failure below shows its cause. The window is probed hidden: before, xdotool could find a probe
+  // window that vanished a moment later and send its drag nowhere (BadWindow).
   const std::string session =
-      quoted(LAMINA_CLI) + " view --script quit.json --report report.json & " +
+      quoted(LAMINA_CLI) + " -v view --script quit.json --report report.json & " +
       "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
       "xdotool mousemove --window $w 700 450 sleep 0.5 mousedown 1 sleep 1.0 "
       "mousemove --window $w 700 420 sleep 0.2 mousemove --window $w 700 380 sleep 0.2 "
@@ -107,7 +110,7 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
   const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
-  EXPECT_EQ(rep["drags"], 1) << "the press on the organ was not seen";
+  EXPECT_EQ(rep["drags"], 1) << "the press on the organ was not seen\n" << r.err;
   EXPECT_GT(rep["max_displacement_mm"].get<double>(), 2.0);
   // A dent where it is dragged, not a swing of the whole organ: the largest displacement is at
   // (or next to) the dragged node.

@@ -5,6 +5,7 @@
 /// render_image() too, for screenshots at any size.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -43,6 +44,9 @@ class HeadlessContext {
 /// it back. The previously bound framebuffer and viewport are restored.
 Image render_image(Renderer& renderer, const Frame& frame, const Camera& camera, int width,
                    int height);
+/// The same for any drawing: runs `draw(width, height)` with the multisampled framebuffer bound
+/// (several models in one picture), then resolves and reads it back.
+Image render_image(const std::function<void(int width, int height)>& draw, int width, int height);
 
 /// Reads the bound read framebuffer's width x height pixels (rows top to bottom, opaque).
 Image read_pixels(int width, int height);

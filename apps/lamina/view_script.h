@@ -1,13 +1,14 @@
 #pragma once
 // Scripted viewer input (docs/viewer.md): timed mouse, key and screenshot events read from JSON,
-// replayed through the same code path as the real mouse.
+// injected into the viewer engine as the window's own events would be, so that they take the
+// same path through the session's gesture code as a real mouse.
 
 #include <Eigen/Core>
 #include <optional>
 #include <string>
 #include <vector>
 
-namespace lamina::render {
+namespace lamina::cli {
 
 struct ScriptEvent {
   double at_s = 0.0;                     ///< wall seconds after the window opened
@@ -27,6 +28,28 @@ struct ScriptEvent {
 
 /// Reads and checks a script. Events are returned sorted by time.
 /// \note Throws lamina::Error (kInvalidInput) "PATH: events[i].key: problem".
-std::vector<ScriptEvent> load_viewer_script(const std::string& path);
+std::vector<ScriptEvent> load_view_script(const std::string& path);
 
-}  // namespace lamina::render
+/// Replays a script against a clock: at each frame, the input of the events now due (and of a
+/// mouse glide in progress, interpolated) is injected into the engine (render::inject), and the
+/// events are returned for what is not input (mode, screenshots, rebuild, quit).
+class ScriptPlayer {
+ public:
+  explicit ScriptPlayer(std::vector<ScriptEvent> events);
+  /// The script moves the mouse, presses buttons, holds Shift or turns the wheel.
+  bool drives_mouse() const { return drives_mouse_; }
+  /// @param[in] t_s     seconds since the session started
+  /// @param[in] window  the window's size, pixels (positions are fractions of it)
+  /// @return the events due by t_s, in order
+  std::vector<ScriptEvent> play(double t_s, const Eigen::Vector2i& window);
+
+ private:
+  std::vector<ScriptEvent> events_;
+  size_t next_ = 0;
+  bool drives_mouse_ = false;
+  std::optional<ScriptEvent> glide_;  // a mouse glide in progress
+  Eigen::Vector2d glide_from_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d pos_ = Eigen::Vector2d::Zero();  // where the script put the pointer, pixels
+};
+
+}  // namespace lamina::cli

@@ -1,4 +1,4 @@
-#include "viewer_script.h"
+#include "view_script.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,10 @@
 #include <sstream>
 
 #include "lamina/core/error.h"
+#include "lamina/render/viewer.h"
+#include "view_session.h"
 
-namespace lamina::render {
+namespace lamina::cli {
 namespace {
 
 using nlohmann::json;
@@ -22,7 +24,7 @@ int button_index(const json& v, const std::string& where) {
 
 }  // namespace
 
-std::vector<ScriptEvent> load_viewer_script(const std::string& path) {
+std::vector<ScriptEvent> load_view_script(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw invalid_input(path, "cannot read the viewer script");
   std::stringstream text;
@@ -112,4 +114,51 @@ std::vector<ScriptEvent> load_viewer_script(const std::string& path) {
   return events;
 }
 
-}  // namespace lamina::render
+void check_view_script(const std::string& path) {
+  load_view_script(path);
+}
+
+ScriptPlayer::ScriptPlayer(std::vector<ScriptEvent> events) : events_(std::move(events)) {
+  for (const ScriptEvent& e : events_)
+    drives_mouse_ |= e.mouse || e.press >= 0 || e.release >= 0 || e.shift || e.scroll != 0.0;
+}
+
+std::vector<ScriptEvent> ScriptPlayer::play(double t, const Eigen::Vector2i& window) {
+  using render::InputEvent;
+  using render::MouseButton;
+  const Eigen::Vector2d size = window.cast<double>();
+  if (glide_) {
+    const double f =
+        glide_->over_s > 0.0 ? std::clamp((t - glide_->at_s) / glide_->over_s, 0.0, 1.0) : 1.0;
+    pos_ = glide_from_ + f * (glide_->mouse->cwiseProduct(size) - glide_from_);
+    render::inject(InputEvent::move_to(pos_));
+    if (f >= 1.0) glide_.reset();
+  }
+  std::vector<ScriptEvent> due;
+  while (next_ < events_.size() && events_[next_].at_s <= t) {
+    const ScriptEvent& e = events_[next_++];
+    if (e.mouse) {
+      if (e.over_s > 0.0) {
+        glide_ = e;
+        glide_from_ = pos_;
+      } else {
+        glide_.reset();
+        pos_ = e.mouse->cwiseProduct(size);
+        render::inject(InputEvent::move_to(pos_));
+      }
+    }
+    if (e.shift)
+      render::inject(*e.shift ? InputEvent::key_down("shift") : InputEvent::key_up("shift"));
+    if (e.press >= 0) render::inject(InputEvent::press(static_cast<MouseButton>(e.press)));
+    if (e.release >= 0) render::inject(InputEvent::release(static_cast<MouseButton>(e.release)));
+    if (e.scroll != 0.0) render::inject(InputEvent::scroll(e.scroll));
+    if (!e.key.empty()) {
+      render::inject(InputEvent::key_down(e.key));
+      render::inject(InputEvent::key_up(e.key));
+    }
+    due.push_back(e);
+  }
+  return due;
+}
+
+}  // namespace lamina::cli

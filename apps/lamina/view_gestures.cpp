@@ -1,0 +1,149 @@
+// Mouse and keys: the reference paper's drag (force = gain x drag, measured in the plane facing
+// the eye at the grabbed node), Shift-pinned forces, the tool tip, and orbit, pan and zoom.
+// A left press that does not start a drag says why (last_press(), and the debug log): a viewer
+// that silently ignores a press is a flaky test nobody can read.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "lamina/core/log.h"
+#include "lamina/interact/pick.h"
+#include "lamina/render/camera.h"
+#include "view_session_state.h"
+
+namespace lamina::cli {
+namespace {
+
+const char* gesture_name(Gesture g) {
+  switch (g) {
+    case Gesture::kOrbit:
+      return "an orbit";
+    case Gesture::kPan:
+      return "a pan";
+    case Gesture::kDrag:
+      return "a drag";
+    case Gesture::kTool:
+      return "a tool-tip move";
+    case Gesture::kNone:
+      break;
+  }
+  return "nothing";
+}
+
+}  // namespace
+
+void ViewSession::State::handle_key(const std::string& key) {
+  if (key == "r") {
+    loop->reset();
+  } else if (key == "space") {
+    paused = !paused;
+    loop->set_paused(paused);
+  } else if (key == "c") {
+    pinned.clear();
+    update_forces();
+  } else if (key == "t") {
+    tool_mode = !tool_mode;
+  }
+}
+
+void ViewSession::State::start_left_gesture(const render::Input& in) {
+  const Eigen::Vector2i size = render::window_size();
+  const render::Camera& camera = render::camera();
+  press_pos = in.mouse_px;
+  const render::Ray ray =
+      render::pixel_ray(camera, size.x(), size.y(), in.mouse_px.x(), in.mouse_px.y());
+  interact::SkinHit hit;
+  const bool have_x = snap.x.rows() == vm->model.node_count();
+  if (have_x) hit = interact::pick_skin(vm->model, snap.x, ray.origin, ray.direction);
+  const std::string where = fmt::format("press at ({:.0f}, {:.0f}) of {}x{}", in.mouse_px.x(),
+                                        in.mouse_px.y(), size.x(), size.y());
+  if (tool_mode) {
+    gesture = Gesture::kTool;
+    tool_depth_mm =
+        hit.node >= 0 ? hit.distance_mm - tip.radius_mm : (camera.target - ray.origin).norm();
+    last_press = where + ": tool-tip mode (no drag)";
+  } else if (hit.node >= 0) {
+    gesture = Gesture::kDrag;
+    drag_node = hit.node;
+    grab_point = snap.x.row(hit.node).transpose();
+    drag_force.setZero();
+    watched = hit.node;
+    last_drag_node = hit.node;
+    drag_peak_mm = 0.0;
+    drag_peak_node = -1;
+    released_at_s = -1.0;
+    settle_3s_mm = -1.0;
+    ++drags;
+    last_press = where + ": drag node " + std::to_string(hit.node);
+  } else {
+    gesture = Gesture::kOrbit;
+    last_press = where + (have_x ? ": missed the organ: orbit"
+                                 : ": no simulation state yet, nothing to pick: orbit");
+  }
+  log::debug("lamina view: {}", last_press);
+}
+
+void ViewSession::State::handle_mouse(const render::Input& in) {
+  const Eigen::Vector2i size = render::window_size();
+  render::Camera& camera = render::camera();
+  const Eigen::Vector2d delta = in.mouse_px - last_pos;
+  last_pos = in.mouse_px;
+  const bool left = in.went_down(render::MouseButton::kLeft);
+  if (left && (gesture != Gesture::kNone || in.ui_wants_mouse)) {
+    last_press = fmt::format("press at ({:.0f}, {:.0f}): {}", in.mouse_px.x(), in.mouse_px.y(),
+                             gesture != Gesture::kNone
+                                 ? std::string(gesture_name(gesture)) + " was in progress"
+                                 : "a panel has the mouse (Dear ImGui wants it)");
+    log::debug("lamina view: {}", last_press);
+  }
+  if (gesture == Gesture::kNone && !in.ui_wants_mouse) {
+    if (left)
+      start_left_gesture(in);
+    else if (in.went_down(render::MouseButton::kRight) ||
+             in.went_down(render::MouseButton::kMiddle))
+      gesture = Gesture::kPan;
+    if (in.wheel != 0.0) render::zoom(camera, std::pow(0.9, in.wheel));
+  }
+  const bool left_down = in.down(render::MouseButton::kLeft);
+  switch (gesture) {
+    case Gesture::kOrbit:
+      render::orbit(camera, -0.3 * delta.x(), 0.3 * delta.y());
+      if (!left_down) gesture = Gesture::kNone;
+      break;
+    case Gesture::kPan:
+      render::pan(camera, size.y(), delta.x(), delta.y());
+      if (!in.down(render::MouseButton::kRight) && !in.down(render::MouseButton::kMiddle))
+        gesture = Gesture::kNone;
+      break;
+    case Gesture::kDrag: {
+      // The paper's interaction: force = gain x drag, the drag measured in the plane facing
+      // the eye at the grabbed point.
+      const Eigen::Vector2d d = in.mouse_px - press_pos;
+      drag_force = 1000.0 * options.gain_n_per_mm *
+                   render::drag_in_view_plane(camera, size.y(), grab_point, d.x(), d.y());
+      if (!left_down) {
+        if (in.shift && drag_force.norm() > 0.0) pinned.push_back({drag_node, drag_force});
+        gesture = Gesture::kNone;
+        drag_force.setZero();
+        released_at_s = seconds();
+      }
+      update_forces();
+      break;
+    }
+    case Gesture::kTool: {
+      tool_depth_mm = std::max(1.0, tool_depth_mm + 2.0 * in.wheel);
+      const render::Ray ray =
+          render::pixel_ray(camera, size.x(), size.y(), in.mouse_px.x(), in.mouse_px.y());
+      tip.center_mm = ray.origin + tool_depth_mm * ray.direction;
+      tip.active = left_down;
+      loop->set_tool_tip(tip);
+      if (!left_down) gesture = Gesture::kNone;
+      break;
+    }
+    case Gesture::kNone:
+      break;
+  }
+}
+
+}  // namespace lamina::cli

@@ -1,0 +1,220 @@
+// The panels (Dear ImGui, drawn by the engine inside its frame): the model's state and whether
+// it keeps real time, the interaction, material, solver and routing parameters (live), display
+// choices, the rebuild, saving; and a window of plots over the last 600 frames.
+#include <fmt/format.h>
+#include <imgui.h>
+
+#include <algorithm>
+
+#include "lamina/render/camera.h"
+#include "view_session_state.h"
+
+namespace lamina::cli {
+namespace {
+
+void plot(const std::string& label, const History& h) {
+  float lo = 0.0f, hi = 0.0f;
+  for (int i = 0; i < h.count; ++i) {
+    const float v = h.values[(h.next + History::kLength - h.count + i) % History::kLength];
+    lo = i ? std::min(lo, v) : v, hi = i ? std::max(hi, v) : v;
+  }
+  if (hi - lo < 1e-6f) hi = lo + 1e-6f;
+  const std::string overlay = fmt::format("{}: {:.4g}", label, h.last());
+  ImGui::PlotLines(("##" + label).c_str(), h.values.data(), History::kLength, h.next,
+                   overlay.c_str(), lo, hi,
+                   ImVec2(std::max(ImGui::GetContentRegionAvail().x, 100.0f), 70));
+}
+
+}  // namespace
+
+void ViewSession::State::panels() {
+  ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(440, 0), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Lamina");
+  const Model& m = vm->model;
+  ImGui::TextWrapped("%s", vm->source.c_str());
+  ImGui::Text("%d nodes, %zu springs, %d layers, %d skin vertices", m.node_count(),
+              m.springs.size(), m.layer_count(), m.layers.empty() ? 0 : m.layers[0].node_count);
+  ImGui::Text("t = %.2f s, step %lld%s", snap.time_s, static_cast<long long>(snap.steps),
+              paused ? "  (paused)" : "");
+  ImGui::Text("rate %.0f Hz (target %s), step %.0f us, jitter %.0f us", snap.achieved_rate_hz,
+              rate_hz > 0 ? fmt::format("{:.0f}", rate_hz).c_str() : "max", snap.mean_step_us,
+              snap.worst_jitter_us);
+  // Real time or not, always in view: a slow machine shows a slow-motion organ, and says so.
+  if (rate_hz <= 0.0)
+    ImGui::TextColored(ImVec4(0.8f, 0.8f, 0.8f, 1), "as fast as possible: %.2fx real time",
+                       snap.real_time_factor);
+  else if (snap.keeping_up)
+    ImGui::TextColored(ImVec4(0.4f, 0.9f, 0.4f, 1), "real time: %.3g ms steps, %.2fx",
+                       1000.0 * snap.dt_s, snap.real_time_factor);
+  else
+    ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.3f, 1),
+                       "BEHIND real time: %.2fx (slow motion); lower the rate or the model "
+                       "size to keep up",
+                       snap.real_time_factor);
+  ImGui::Text("max displacement %.2f mm, volume change %+.3f %%", snap.stats.max_displacement_mm,
+              snap.stats.volume_change_pct);
+  ImGui::Text("reaction (%.0f, %.0f, %.0f) mN", snap.reaction_mn.x(), snap.reaction_mn.y(),
+              snap.reaction_mn.z());
+  if (snap.recoveries > 0)
+    ImGui::TextColored(ImVec4(1, 0.6f, 0.2f, 1), "%lld unstable steps rolled back",
+                       static_cast<long long>(snap.recoveries));
+  if (ImGui::Button("Reset (R)")) handle_key("r");
+  ImGui::SameLine();
+  if (ImGui::Button(paused ? "Resume (Space)" : "Pause (Space)")) handle_key("space");
+  ImGui::SameLine();
+  if (ImGui::Button("Release pinned (C)")) handle_key("c");
+
+  bool changed = false;
+  if (ImGui::CollapsingHeader("Interaction", ImGuiTreeNodeFlags_DefaultOpen)) {
+    int mode = tool_mode ? 1 : 0;
+    ImGui::RadioButton("drag (paper)", &mode, 0);
+    ImGui::SameLine();
+    ImGui::RadioButton("tool tip (T)", &mode, 1);
+    tool_mode = mode == 1;
+    ImGui::InputDouble("gain N/mm", &options.gain_n_per_mm, 0.01, 0.1, "%.3f");
+    options.gain_n_per_mm = std::clamp(options.gain_n_per_mm, 0.0, 10.0);
+    ImGui::Text("%zu pinned force(s); Shift+release pins a drag", pinned.size());
+    float radius = static_cast<float>(tip.radius_mm), k = static_cast<float>(tip.stiffness_n_per_m);
+    if (ImGui::SliderFloat("tip radius mm", &radius, 1.0f, 30.0f)) tip.radius_mm = radius;
+    if (ImGui::SliderFloat("tip stiffness N/m", &k, 1.0f, 500.0f, "%.0f",
+                           ImGuiSliderFlags_Logarithmic))
+      tip.stiffness_n_per_m = k;
+  }
+  if (ImGui::CollapsingHeader("Material", ImGuiTreeNodeFlags_DefaultOpen)) {
+    if (material.young_modulus_kpa > 0.0) {
+      // The physical tissue in the tetrahedra: E and nu identify every spring and volume term
+      // again when they change (a few milliseconds on the paper-size liver).
+      changed |=
+          ImGui::InputDouble("Young's modulus E kPa", &material.young_modulus_kpa, 0.5, 2, "%.3g");
+      changed |=
+          ImGui::InputDouble("Poisson's ratio nu", &material.poisson_ratio, 0.01, 0.05, "%.3f");
+      int coupled = material.tet_elasticity == model::TetElasticity::kCoupled ? 0 : 1;
+      if (ImGui::Combo("tetrahedra", &coupled, "coupled springs\0independent springs\0")) {
+        material.tet_elasticity =
+            coupled == 0 ? model::TetElasticity::kCoupled : model::TetElasticity::kSprings;
+        changed = true;
+      }
+    } else {
+      changed |= ImGui::InputDouble("stiffness K N/m", &material.stiffness_n_per_m, 0.5, 5, "%.3f");
+    }
+    changed |= ImGui::InputDouble("damping gamma kg/s", &material.damping_kg_per_s, 0.5, 5, "%.3f");
+    changed |=
+        ImGui::InputDouble("node mass kg (0 = lumped)", &material.node_mass_kg, 0.1, 1, "%.4g");
+    changed |= ImGui::InputDouble("anchor N/m", &material.anchor_stiffness_n_per_m, 0.1, 1, "%.3f");
+    changed |=
+        ImGui::InputDouble("mass damping alpha 1/s", &material.mass_damping_per_s, 1, 10, "%.4g");
+    // The volume term: 0 is the paper's model; a physical scene starts at lambda - mu.
+    bool volume = material.volume_stiffness_kpa > 0.0;
+    if (ImGui::Checkbox("volume term", &volume)) {
+      material.volume_stiffness_kpa = volume ? std::max(last_volume_kpa, 1e-3) : 0.0;
+      changed = true;
+    }
+    if (volume) {
+      changed |= ImGui::InputDouble("volume stiffness kPa", &material.volume_stiffness_kpa, 0.5, 5,
+                                    "%.4g");
+      last_volume_kpa = material.volume_stiffness_kpa;
+    }
+  }
+  if (ImGui::CollapsingHeader("Solver", ImGuiTreeNodeFlags_DefaultOpen)) {
+    // The combo's order is the enum's: semi-implicit, implicit (CG), projective.
+    int integrator = static_cast<int>(solver.integrator);
+    if (ImGui::Combo("integrator", &integrator,
+                     "semi-implicit Euler\0implicit Euler (CG)\0projective (Liu 2013)\0")) {
+      solver.integrator = static_cast<sim::Integrator>(integrator);
+      changed = true;
+    }
+    int mode = solver.mode == sim::Mode::kLocal ? 1 : 0;
+    if (ImGui::Combo("mode", &mode, "global\0local (paper)\0")) {
+      solver.mode = mode ? sim::Mode::kLocal : sim::Mode::kGlobal;
+      changed = true;
+    }
+    changed |= ImGui::InputDouble("dt s", &solver.dt_s, 0.001, 0.01, "%.4f");
+    changed |= ImGui::InputDouble("rest speed mm/s", &solver.rest_speed_mm_per_s, 0.0, 0.0, "%.2g");
+    changed |= ImGui::InputInt("CG iterations", &solver.cg_max_iterations);
+    changed |= ImGui::InputInt("projective iterations", &solver.projective_iterations);
+    changed |= ImGui::InputDouble("rate Hz (0 = max)", &rate_hz, 100, 1000, "%.0f");
+    ImGui::Text("last step: max move %.2e mm %s", snap.stats.max_move_mm,
+                snap.stats.converged ? "(below threshold)" : "");
+  }
+  if (ImGui::CollapsingHeader("Force routing", ImGuiTreeNodeFlags_DefaultOpen)) {
+    changed |= ImGui::SliderInt("locality N", &routing.locality, 1, std::max(1, m.rings.locality));
+    changed |=
+        ImGui::SliderInt("penetration P", &routing.penetration_depth, 1, 2 * m.layer_count() + 2);
+    float ra = static_cast<float>(routing.ring_attenuation),
+          ca = static_cast<float>(routing.crossing_attenuation);
+    if (ImGui::SliderFloat("ring attenuation", &ra, 0.0f, 1.0f))
+      routing.ring_attenuation = ra, changed = true;
+    if (ImGui::SliderFloat("crossing attenuation", &ca, 0.0f, 1.0f))
+      routing.crossing_attenuation = ca, changed = true;
+    changed |=
+        ImGui::InputDouble("contact threshold mm", &routing.contact_threshold_mm, 1, 5, "%.1f");
+  }
+  if (changed) push_parameters();
+  if (!param_error.empty())
+    ImGui::TextColored(ImVec4(1, 0.35f, 0.3f, 1), "%s", param_error.c_str());
+
+  if (ImGui::CollapsingHeader("Display")) {
+    if (ImGui::Combo("inner layers", &inner_choice, "hidden\0translucent\0wireframe\0")) {
+      style.inner = static_cast<render::InnerLayers>(inner_choice);
+      style.skin_alpha = style.inner == render::InnerLayers::kHidden ? 1.0f : 0.35f;
+    }
+    ImGui::SliderFloat("skin opacity", &style.skin_alpha, 0.05f, 1.0f);
+    ImGui::Checkbox("skin wireframe", &style.skin_wireframe);
+    ImGui::SameLine();
+    ImGui::Checkbox("springs", &style.springs);
+    if (ImGui::Combo("colour", &coloring_choice, "organ\0displacement\0"))
+      style.coloring = static_cast<render::Coloring>(coloring_choice);
+    ImGui::Checkbox("rings of contacts (fig. 2)", &show_rings);
+    ImGui::SliderFloat("arrow mm per N", &arrow_mm_per_n, 5.0f, 300.0f, "%.0f",
+                       ImGuiSliderFlags_Logarithmic);
+    if (ImGui::Button("Fit view")) render::camera() = render::fit_camera(m);
+  }
+  if (ImGui::CollapsingHeader("Model")) {
+    ImGui::BeginDisabled(!options.rebuild || rebuilding);
+    ImGui::InputInt("layers S", &rebuild_layers);
+    ImGui::InputInt("skin vertices", &rebuild_vertices, 100, 1000);
+    rebuild_layers = std::clamp(rebuild_layers, 1, 16);
+    rebuild_vertices = std::clamp(rebuild_vertices, 50, 500000);
+    if (ImGui::Button("Rebuild")) start_rebuild();
+    ImGui::EndDisabled();
+    if (!options.rebuild)
+      ImGui::TextWrapped("(a saved model cannot be rebuilt here: view its segmentation instead)");
+    if (rebuilding) {
+      std::lock_guard lock(rebuild_mutex);
+      ImGui::ProgressBar(static_cast<float>(rebuild_fraction), ImVec2(-1, 0),
+                         rebuild_stage.c_str());
+    }
+    if (!rebuild_error.empty())
+      ImGui::TextColored(ImVec4(1, 0.35f, 0.3f, 1), "%s", rebuild_error.c_str());
+  }
+  if (ImGui::CollapsingHeader("Save")) {
+    ImGui::InputText("PNG", screenshot_path, sizeof screenshot_path);
+    if (ImGui::Button("Screenshot (S)")) view_shot = true;
+    ImGui::InputText("mesh", export_path, sizeof export_path);
+    if (ImGui::Button("Export deformed skin")) export_skin(export_path);
+  }
+  if (!status.empty()) ImGui::TextWrapped("%s", status.c_str());
+  ImGui::End();
+
+  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(render::window_size().x()) - 430, 10),
+                          ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(420, 370), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Plots (last 600 frames)");
+  plot("displacement of node " + std::to_string(watched) + ", mm", h_displacement);
+  plot("skin volume change, %", h_volume);
+  plot("step time, us", h_step_us);
+  plot("simulation rate, Hz", h_rate);
+  ImGui::End();
+}
+
+void ViewSession::State::record_plots() {
+  if (watched >= 0 && watched < snap.x.rows())
+    h_displacement.push(
+        static_cast<float>((snap.x.row(watched) - vm->model.X.row(watched)).norm()));
+  h_volume.push(static_cast<float>(snap.stats.volume_change_pct));
+  h_step_us.push(static_cast<float>(snap.mean_step_us));
+  h_rate.push(static_cast<float>(snap.achieved_rate_hz));
+}
+
+}  // namespace lamina::cli

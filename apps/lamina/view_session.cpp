@@ -1,0 +1,225 @@
+// The session's life and its frame: the simulation thread is started and fed here, and once a
+// frame (inside the engine's frame_tick) the latest state is taken, input turned into forces and
+// camera moves, panels built, and what to show handed to the engine.
+#include "view_session.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdio>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/render/frame.h"
+#include "view_session_state.h"
+
+namespace lamina::cli {
+
+ViewSession::ViewSession(ViewOptions options, ViewModel model) : state_(std::make_unique<State>()) {
+  State& v = *state_;
+  if (!options.script.empty()) v.script = ScriptPlayer(load_view_script(options.script));
+  v.material = options.material;
+  if (v.material.volume_stiffness_kpa > 0.0) v.last_volume_kpa = v.material.volume_stiffness_kpa;
+  v.solver = options.solver;
+  v.routing = options.routing;
+  v.rate_hz = options.rate_hz;
+  v.options = std::move(options);
+  v.vm = std::make_unique<ViewModel>(std::move(model));
+}
+
+ViewSession::~ViewSession() {
+  State& v = *state_;
+  if (v.loop) v.loop->stop();
+  if (v.rebuild_thread.joinable()) v.rebuild_thread.join();
+  if (v.started && render::is_initialized()) render::set_callback({});
+}
+
+bool ViewSession::script_drives_mouse() const {
+  return state_->script.drives_mouse();
+}
+
+const interact::LoopSnapshot& ViewSession::snapshot() const {
+  return state_->snap;
+}
+
+const Model& ViewSession::model() const {
+  return state_->vm->model;
+}
+
+const std::string& ViewSession::last_press() const {
+  return state_->last_press;
+}
+
+nlohmann::json ViewSession::report() const {
+  return state_->report();
+}
+
+void ViewSession::start() {
+  State& v = *state_;
+  if (!render::is_initialized())
+    throw Error(ErrorKind::kInternal, "ViewSession::start() before render::init()");
+  render::register_model(kModelName, v.vm->model);
+  v.start_loop();
+  v.start_time = Clock::now();
+  v.started = true;
+  render::set_callback([&v] { v.on_frame(); });
+}
+
+bool ViewSession::frame() {
+  State& v = *state_;
+  const auto frame_start = Clock::now();
+  v.act_on_script(v.seconds());
+  const bool open = render::frame_tick();
+  if (!v.window_shot.empty()) {
+    v.save_window_screenshot(v.window_shot);
+    v.window_shot.clear();
+  }
+  ++v.frames;
+  v.frame_seconds += std::chrono::duration<double>(Clock::now() - frame_start).count();
+  return open && !v.quit;
+}
+
+void ViewSession::finish() {
+  State& v = *state_;
+  if (!v.started) return;
+  v.loop->stop();
+  v.loop->latest(v.snap);
+  v.watch_real_time_and_drag(v.seconds());  // the last window counts in the report too
+  v.write_report();
+  render::set_callback({});
+  v.started = false;
+  // Said in the window while it happened; said again here, where a log keeps it.
+  if (v.behind_seen)
+    fmt::print(stderr,
+               "lamina view: the simulation fell behind real time (down to {:.2f}x); lower the "
+               "rate or the model size, or close other programs\n",
+               v.min_real_time_factor);
+}
+
+int ViewSession::run() {
+  State& v = *state_;
+  start();
+  for (;;) {
+    const auto frame_start = Clock::now();
+    if (!frame()) break;
+    // At most 60 frames a second even where the display has no vertical sync (Xvfb): the
+    // simulation thread needs the other core more than the screen needs more frames. When the
+    // simulation falls behind real time anyway (software GL drawing on the cores the physics
+    // needs), the screen gives way: down to 15 frames a second until the loop keeps up again.
+    v.frame_interval_us = v.snap.keeping_up ? std::max(16667, v.frame_interval_us * 9 / 10)
+                                            : std::min(66667, v.frame_interval_us * 5 / 4);
+    std::this_thread::sleep_until(frame_start + std::chrono::microseconds(v.frame_interval_us));
+  }
+  finish();
+  return 0;
+}
+
+void ViewSession::State::start_loop() {
+  routing.locality = std::min(routing.locality, vm->model.rings.locality);
+  sim::Simulation s = sim::make_simulation(vm->model, material, solver);
+  sim::fix_nodes(s, vm->fixed);
+  sim::support_nodes(s, vm->support.nodes, vm->support.stiffness_n_per_m);
+  interact::LoopOptions lo;
+  lo.rate_hz = rate_hz;
+  lo.threads = 1;  // the window draws on the other core (llvmpipe renders on the CPU)
+  loop = std::make_unique<interact::RealtimeLoop>(std::move(s), routing, lo);
+  pinned.clear();
+  for (const auto& [node, force] : vm->pinned) pinned.push_back({node, force});
+  sent = pinned;
+  loop->set_forces(pinned);
+  loop->set_paused(paused);
+  snap = {};
+  loop->latest(snap);
+  shown_generation = ~uint64_t{0};
+  loop->start();
+  watched = vm->watched_node >= 0 ? vm->watched_node : (pinned.empty() ? 0 : pinned[0].node);
+  rebuild_layers = vm->model.layer_count();
+  rebuild_vertices = vm->model.layers.empty() ? 0 : vm->model.layers[0].node_count;
+}
+
+void ViewSession::State::push_parameters() {
+  try {
+    loop->set_parameters(material, solver, routing);
+    loop->set_rate(rate_hz);
+    param_error.clear();
+  } catch (const Error& e) {
+    param_error = e.what();
+  }
+}
+
+void ViewSession::State::update_forces() {
+  std::vector<interact::LiveForce> now = pinned;
+  if (gesture == Gesture::kDrag && drag_force.norm() > 0.0) now.push_back({drag_node, drag_force});
+  const bool same = now.size() == sent.size() &&
+                    std::equal(now.begin(), now.end(), sent.begin(), [](auto& a, auto& b) {
+                      return a.node == b.node && a.force_mn == b.force_mn;
+                    });
+  if (same) return;
+  sent = now;
+  loop->set_forces(now);
+}
+
+// The script's events due by t: their input is injected by the player (the engine applies it at
+// the start of the coming frame); what is not input is done here.
+void ViewSession::State::act_on_script(double t) {
+  for (const ScriptEvent& e : script.play(t, render::window_size())) {
+    if (!e.mode.empty()) tool_mode = e.mode == "tool";
+    if (!e.screenshot.empty()) save_screenshot(e.screenshot);
+    if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
+    if (e.rebuild_layers > 0) {
+      rebuild_layers = e.rebuild_layers;
+      rebuild_vertices = e.rebuild_skin_vertices;
+      start_rebuild();
+    }
+    if (e.quit) quit = true;
+  }
+}
+
+// Once a frame, inside the engine's frame_tick(): the simulation's latest state, then the input,
+// then the panels, then what the engine draws this frame.
+void ViewSession::State::on_frame() {
+  const double t = seconds();
+  loop->latest(snap);
+  max_displacement_mm = std::max(max_displacement_mm, snap.stats.max_displacement_mm);
+  watch_real_time_and_drag(t);
+  record_plots();
+  adopt_rebuilt();
+
+  const render::Input& in = render::input();
+  if (!in.ui_wants_keyboard)
+    for (const std::string& key : in.keys) {
+      if (key == "s")
+        view_shot = true;
+      else
+        handle_key(key);
+    }
+  handle_mouse(in);
+  panels();
+  show_state();
+  if (view_shot) {
+    view_shot = false;
+    save_screenshot(screenshot_path);
+  }
+}
+
+void ViewSession::State::show_state() {
+  const bool have_x = snap.x.rows() == vm->model.node_count();
+  // Only a new publication is sent: a paused or resting organ costs the engine no upload.
+  if (have_x && snap.generation != shown_generation) {
+    render::update_positions(kModelName, snap.x);
+    shown_generation = snap.generation;
+  }
+  render::set_style(kModelName, style);
+  render::Frame f;
+  f.model = &vm->model;
+  f.x = have_x ? &snap.x : nullptr;
+  for (const interact::LiveForce& lf : sent) {
+    render::add_force_arrow(f, lf.node, lf.force_mn, arrow_mm_per_n);
+    if (show_rings) f.rings.push_back({lf.node, routing.locality});
+  }
+  for (int32_t node : snap.contact_nodes) render::add_contact_marker(f, node);
+  if (tip.active) f.markers.push_back({tip.center_mm, tip.radius_mm, {0.7f, 0.75f, 0.8f, 1.0f}});
+  render::set_overlays(kModelName, {std::move(f.rings), std::move(f.arrows), std::move(f.markers)});
+}
+
+}  // namespace lamina::cli

@@ -1,0 +1,139 @@
+#pragma once
+// The state of a `lamina view` session, shared by its files: view_session.cpp (life, the frame,
+// the simulation), view_gestures.cpp (mouse and keys), view_panels.cpp (Dear ImGui),
+// view_rebuild.cpp (the background rebuild) and view_report.cpp (report, screenshots, export).
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "lamina/interact/realtime_loop.h"
+#include "lamina/render/input.h"
+#include "lamina/render/viewer.h"
+#include "view_script.h"
+#include "view_session.h"
+
+namespace lamina::cli {
+
+using Clock = std::chrono::steady_clock;
+
+enum class Gesture { kNone, kOrbit, kPan, kDrag, kTool };
+
+// A fixed-length history for the live plots.
+struct History {
+  static constexpr int kLength = 600;  // 10 s at 60 frames a second
+  std::vector<float> values = std::vector<float>(kLength, 0.0f);
+  int next = 0, count = 0;
+  void push(float v) {
+    values[next] = v;
+    next = (next + 1) % kLength;
+    count = std::min(count + 1, kLength);
+  }
+  float last() const { return count ? values[(next + kLength - 1) % kLength] : 0.0f; }
+};
+
+struct ViewSession::State {
+  ViewOptions options;
+  std::unique_ptr<ViewModel> vm;
+  std::unique_ptr<interact::RealtimeLoop> loop;
+  interact::LoopSnapshot snap;
+  uint64_t shown_generation = ~uint64_t{0};  // the snapshot last sent to the engine
+
+  // Live parameters (the panels edit these, then hand them to the loop).
+  sim::Material material;
+  sim::SolverOptions solver;
+  interact::RoutingOptions routing;
+  double last_volume_kpa = 1.0;  // what the volume term comes back at when ticked again
+  double rate_hz = 1000.0;
+  bool paused = false;
+  std::string param_error;
+
+  // Display.
+  render::Style style;
+  bool show_rings = true;
+  float arrow_mm_per_n = 60.0f;
+  int inner_choice = 0, coloring_choice = 0;
+
+  // Interaction.
+  bool tool_mode = false;
+  Gesture gesture = Gesture::kNone;
+  Eigen::Vector2d press_pos = Eigen::Vector2d::Zero(), last_pos = Eigen::Vector2d::Zero();
+  int32_t drag_node = -1;
+  Eigen::Vector3d grab_point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d drag_force = Eigen::Vector3d::Zero();  // mN
+  std::vector<interact::LiveForce> pinned, sent;
+  interact::ToolTip tip;
+  double tool_depth_mm = 0.0;
+  int32_t watched = -1;
+  std::string last_press;  // what the last left press did, and why
+
+  // Plots.
+  History h_displacement, h_volume, h_step_us, h_rate;
+
+  // Rebuild in the background.
+  int rebuild_layers = 2, rebuild_vertices = 1284;
+  std::thread rebuild_thread;
+  std::atomic<bool> rebuilding{false};
+  std::mutex rebuild_mutex;
+  std::string rebuild_stage, rebuild_error;
+  double rebuild_fraction = 0.0;
+  std::unique_ptr<ViewModel> rebuilt;
+
+  // Script, frames and report.
+  ScriptPlayer script{{}};
+  bool quit = false;
+  bool started = false;
+  int64_t frames = 0;
+  double max_displacement_mm = 0.0, frame_seconds = 0.0;
+  int64_t drags = 0, rebuilds = 0;
+  // What the report says about real time and about the last drag: where the organ dented
+  // most while it was dragged, and how far it was from rest 3 s (wall time) after the release.
+  double min_real_time_factor = 0.0;  // over the run after its first second; 0 = not yet
+  int frame_interval_us = 16667;      // the frame pacing: 60 Hz, slower while the loop is behind
+  bool behind_seen = false;
+  double drag_peak_mm = 0.0;
+  int32_t drag_peak_node = -1, last_drag_node = -1;
+  double released_at_s = -1.0, settle_3s_mm = -1.0;
+  Clock::time_point start_time = Clock::now();  // start()'s clock, which scripts also follow
+  std::vector<std::string> screenshots;
+  std::string status;
+  std::string window_shot;  // taken once the frame (panels included) is drawn
+  bool view_shot = false;   // S or the Save panel: the 3-D view, once this frame is set up
+  char screenshot_path[512] = "";
+  char export_path[512] = "lamina_skin.obj";
+
+  double seconds() const {
+    return std::chrono::duration<double>(Clock::now() - start_time).count();
+  }
+
+  // view_session.cpp
+  void start_loop();
+  void push_parameters();
+  void update_forces();
+  void on_frame();
+  void show_state();  // positions, style and overlays to the engine
+  // view_gestures.cpp
+  void handle_key(const std::string& key);
+  void handle_mouse(const render::Input& in);
+  void start_left_gesture(const render::Input& in);
+  // view_panels.cpp
+  void panels();
+  void record_plots();
+  // view_rebuild.cpp
+  void start_rebuild();
+  void adopt_rebuilt();
+  // view_report.cpp
+  void watch_real_time_and_drag(double t);
+  nlohmann::json report() const;
+  void write_report() const;
+  void save_screenshot(std::string path);
+  void save_window_screenshot(const std::string& path);
+  void export_skin(const std::string& path);
+  void act_on_script(double t);
+};
+
+}  // namespace lamina::cli

@@ -1,0 +1,259 @@
+// `lamina view`'s session (apps/lamina/view_session.h) on the viewer engine's mock backend: no
+// display, no OpenGL, input injected through the same queue a window feeds. A drag on the organ
+// dents it and release lets it return to rest; Shift at release pins the force; a press off the
+// organ orbits the camera and pushes nothing; a press on a panel is the panel's; a scripted
+// rebuild swaps the model under the running simulation. The simulation runs as fast as it can
+// (rate 0, the paper's 10 ms steps), and the tests wait on simulated time, not on the clock: the
+// paper's model (unit masses, K = 3 N/m) dents slowly, a few mm in the first seconds.
+#include "view_session.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "lamina/render/viewer.h"
+#include "support/sphere_model.h"
+#include "support/temp_dir.h"
+#include "support/volumes.h"
+
+namespace lamina::cli {
+namespace {
+
+using render::InputEvent;
+using render::MouseButton;
+using ::testing::HasSubstr;
+
+// The posterior cap held (as a scene's boundary would be).
+std::vector<int32_t> posterior_cap(const Model& m) {
+  std::vector<int32_t> back;
+  const double y_max = m.X.col(1).maxCoeff();
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (m.X(i, 1) > y_max - 8.0) back.push_back(i);
+  return back;
+}
+
+ViewModel sphere_view_model() {
+  ViewModel vm;
+  vm.model = test::sphere_model();
+  vm.fixed = posterior_cap(vm.model);
+  vm.source = "a sphere";
+  return vm;
+}
+
+ViewOptions fast_options() {
+  ViewOptions o;
+  o.rate_hz = 0.0;         // as fast as possible, at the solver's 10 ms step
+  o.gain_n_per_mm = 0.05;  // the scene files' gain: a 120-pixel drag on this small organ is ~8 mm
+  return o;
+}
+
+double largest_displacement(const ViewSession& s) {
+  const Eigen::MatrixX3d& x = s.snapshot().x;
+  if (x.rows() != s.model().node_count()) return 0.0;
+  return (x - s.model().X).rowwise().norm().maxCoeff();
+}
+
+// Frames until `done()` (or the wall-clock limit), a few milliseconds apart.
+template <class Done>
+bool frames_until(ViewSession& s, Done done, double limit_s = 60.0) {
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < limit_s) {
+    if (!s.frame()) return done();
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(3));
+  }
+  return false;
+}
+
+// Frames for `seconds` of simulated time.
+bool simulate_for(ViewSession& s, double seconds) {
+  const double until = s.snapshot().time_s + seconds;
+  return frames_until(s, [&] { return s.snapshot().time_s >= until; });
+}
+
+class ViewSessionTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    render::ViewerOptions o;
+    o.backend = render::Backend::kMock;
+    render::init(o);
+  }
+  void TearDown() override { render::shutdown(); }
+
+  // A drag on the window's centre (the organ), `dy` pixels up over a few frames, held for
+  // `hold_s` of simulated time.
+  void drag_from_centre(ViewSession& s, double dy, double hold_s) {
+    const Eigen::Vector2d c = render::window_size().cast<double>() / 2.0;
+    render::inject(InputEvent::move_to(c));
+    s.frame();
+    render::inject(InputEvent::press(MouseButton::kLeft));
+    s.frame();
+    for (int i = 1; i <= 5; ++i) {
+      render::inject(InputEvent::move_to(c - Eigen::Vector2d(0, dy * i / 5)));
+      s.frame();
+    }
+    ASSERT_TRUE(simulate_for(s, hold_s));
+  }
+};
+
+TEST_F(ViewSessionTest, ADragOnTheOrganDentsItAndReleaseLetsItReturnToRest) {
+  ViewSession s(fast_options(), sphere_view_model());
+  s.start();
+  ASSERT_TRUE(simulate_for(s, 0.2));
+  EXPECT_LT(largest_displacement(s), 1e-6) << "the organ moved with nobody touching it";
+
+  drag_from_centre(s, 120.0, 5.0);
+  EXPECT_THAT(s.last_press(), HasSubstr("drag node"));
+  const double dented = largest_displacement(s);
+  EXPECT_GT(dented, 2.0) << "the drag did not move the skin";
+  // While dragging, the engine shows the simulation's state and the drag's arrow.
+  s.frame();
+  ASSERT_EQ(render::last_frame().size(), 1u);
+  EXPECT_EQ(render::last_frame()[0].overlays.arrows.size(), 1u);
+  EXPECT_EQ(render::positions(ViewSession::kModelName).rows(), s.model().node_count());
+  EXPECT_GT((render::positions(ViewSession::kModelName) - s.model().X).rowwise().norm().maxCoeff(),
+            0.5 * dented)
+      << "the engine was not given the dented positions";
+
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  EXPECT_TRUE(render::last_frame()[0].overlays.arrows.empty()) << "the force outlived the drag";
+  ASSERT_TRUE(frames_until(s, [&] { return largest_displacement(s) < 0.05 * dented; }))
+      << "the organ did not return to rest: " << largest_displacement(s) << " mm";
+  s.finish();
+  const nlohmann::json r = s.report();
+  EXPECT_EQ(r["drags"], 1);
+  EXPECT_EQ(r["pinned_forces"], 0);
+  EXPECT_GT(r["drag_peak_displacement_mm"].get<double>(), 2.0);
+  EXPECT_EQ(r["recoveries"], 0);
+}
+
+TEST_F(ViewSessionTest, ShiftAtReleasePinsTheForceUntilC) {
+  ViewSession s(fast_options(), sphere_view_model());
+  s.start();
+  drag_from_centre(s, 120.0, 5.0);
+  // Shift held while the button goes up (each in its own frame, as a hand does it).
+  render::inject(InputEvent::key_down("shift"));
+  s.frame();
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  render::inject(InputEvent::key_up("shift"));
+  s.frame();
+  ASSERT_TRUE(simulate_for(s, 3.0));
+  EXPECT_EQ(s.report()["pinned_forces"], 1);
+  const double pinned = largest_displacement(s);
+  EXPECT_GT(pinned, 2.0) << "the pinned force stopped acting";
+  EXPECT_EQ(render::last_frame()[0].overlays.arrows.size(), 1u) << "the pinned force's arrow";
+
+  render::inject(InputEvent::key_down("c"));
+  render::inject(InputEvent::key_up("c"));
+  s.frame();
+  EXPECT_EQ(s.report()["pinned_forces"], 0);
+  ASSERT_TRUE(frames_until(s, [&] { return largest_displacement(s) < 0.05 * pinned; }))
+      << "C did not release the pinned force";
+}
+
+TEST_F(ViewSessionTest, APressOffTheOrganOrbitsInsteadOfPushing) {
+  ViewSession s(fast_options(), sphere_view_model());
+  s.start();
+  s.frame();
+  // The bottom right corner: no panel there, and the organ is framed with a margin.
+  const Eigen::Vector2i size = render::window_size();
+  const Eigen::Vector2d corner(0.97 * size.x(), 0.97 * size.y());
+  const double azimuth = render::camera().azimuth_deg;
+  render::inject(InputEvent::move_to(corner));
+  s.frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s.frame();
+  EXPECT_THAT(s.last_press(), HasSubstr("missed the organ: orbit"));
+  render::inject(InputEvent::move_to(corner - Eigen::Vector2d(100, 0)));
+  s.frame();
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  EXPECT_NEAR(render::camera().azimuth_deg, azimuth + 30.0, 1e-9) << "0.3 degrees a pixel";
+  ASSERT_TRUE(simulate_for(s, 0.5));
+  EXPECT_EQ(s.report()["drags"], 0);
+  EXPECT_LT(largest_displacement(s), 1e-6) << "a press off the organ pushed it";
+}
+
+TEST_F(ViewSessionTest, APressOnAPanelIsThePanelsAndSaysSo) {
+  ViewSession s(fast_options(), sphere_view_model());
+  s.start();
+  s.frame();
+  s.frame();  // the panels exist from the first frame; Dear ImGui hovers them from the next
+  render::inject(InputEvent::move_to({100, 60}));  // inside the "Lamina" panel
+  s.frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s.frame();
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  EXPECT_THAT(s.last_press(), HasSubstr("a panel has the mouse"));
+  EXPECT_EQ(s.report()["drags"], 0);
+}
+
+TEST_F(ViewSessionTest, AScriptedRebuildSwapsTheModelUnderTheRunningSimulation) {
+  test::TempDir dir;
+  std::ofstream(dir.file("rebuild.json"))
+      << R"({"events": [{"at": 0.5, "rebuild": {"layers": 3, "skin_vertices": 400}},
+                        {"at": 0.0, "screenshot": ")"
+      << dir.file("before.png") << R"("}]})";
+  ViewOptions o = fast_options();
+  o.script = dir.file("rebuild.json");
+  o.report = dir.file("report.json");
+  int rebuilds_asked = 0;
+  o.rebuild = [&](int32_t layers, int32_t skin_vertices, const ProgressFn& progress) {
+    ++rebuilds_asked;
+    LabelVolume v = test::empty_volume(50, 1.0);
+    test::paint_sphere(v, v.frame.to_physical(24.5, 24.5, 24.5), 20.0, 1);
+    ViewModel vm;
+    vm.model =
+        model::build_model(v, {.layers = layers, .skin_vertices = skin_vertices}, progress).model;
+    vm.fixed = posterior_cap(vm.model);
+    vm.source = "a rebuilt sphere";
+    return vm;
+  };
+  ViewSession s(o, sphere_view_model());
+  EXPECT_FALSE(s.script_drives_mouse());
+  const int32_t before = s.model().node_count();
+  s.start();
+  // A drag on the first model, before the script's rebuild at 0.5 s.
+  drag_from_centre(s, 120.0, 0.5);
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  EXPECT_EQ(s.report()["rebuilds"], 0) << "too slow: the rebuild came before the first drag";
+  EXPECT_GE(s.report()["drag_node"].get<int>(), 0);
+  ASSERT_TRUE(frames_until(
+      s, [&] { return s.report()["rebuilds"] == 1; }, 120.0))
+      << "the rebuild did not finish";
+  // The first drag's nodes were the old model's: its record ended with it.
+  EXPECT_EQ(s.report()["drag_node"], -1);
+  EXPECT_FALSE(s.report().contains("drag_peak_distance_from_drag_mm"));
+  EXPECT_EQ(rebuilds_asked, 1);
+  EXPECT_EQ(s.model().layer_count(), 3);
+  EXPECT_NE(s.model().node_count(), before);
+  // The engine shows the new model, and the simulation runs on it.
+  EXPECT_EQ(render::positions(ViewSession::kModelName).rows(), s.model().node_count());
+  ASSERT_TRUE(frames_until(s, [&] {
+    return s.snapshot().x.rows() == s.model().node_count() && s.snapshot().steps > 10;
+  }));
+  drag_from_centre(s, 120.0, 5.0);
+  EXPECT_THAT(s.last_press(), HasSubstr("drag node"));
+  EXPECT_GT(largest_displacement(s), 1.0) << "dragging the rebuilt model failed";
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  s.finish();
+  std::ifstream report(dir.file("report.json"));
+  ASSERT_TRUE(report) << "no report written";
+  const nlohmann::json r = nlohmann::json::parse(report);
+  EXPECT_EQ(r["rebuilds"], 1);
+  EXPECT_EQ(r["layers"], 3);
+  EXPECT_EQ(r["drags"], 2);
+  ASSERT_EQ(r["screenshots"].size(), 1u);
+  EXPECT_TRUE(std::filesystem::exists(dir.file("before.png")));
+}
+
+}  // namespace
+}  // namespace lamina::cli
