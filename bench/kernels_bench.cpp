@@ -26,12 +26,12 @@ const Model& model(int64_t size) {
   auto it = cache.find(size);
   if (it == cache.end()) {
     const int32_t skin[] = {1284, 6500, 33500}, layers[] = {2, 2, 5};
-    it = cache
-             .emplace(size, model::build_model(geometry::make_phantom(),
-                                               {.layers = layers[size],
-                                                .skin_vertices = skin[size]})
-                                .model)
-             .first;
+    it =
+        cache
+            .emplace(size, model::build_model(geometry::make_phantom(),
+                                              {.layers = layers[size], .skin_vertices = skin[size]})
+                               .model)
+            .first;
   }
   return it->second;
 }
@@ -72,16 +72,16 @@ void BM_SpringKernelPrecision(benchmark::State& state) {
   const Model& m = model(state.range(0));
   const Springs& sp = m.springs;
   const auto n = static_cast<int64_t>(sp.size());
-  std::vector<Real> rest(sp.rest_length_mm.begin(), sp.rest_length_mm.end()),
-      k(sp.size(), Real(3)), f(3 * sp.size());
+  std::vector<Real> rest(sp.rest_length_mm.begin(), sp.rest_length_mm.end()), k(sp.size(), Real(3)),
+      f(3 * sp.size());
   std::vector<Real> p(3 * static_cast<size_t>(m.node_count()));
   for (int32_t i = 0; i < m.node_count(); ++i)
     for (int c = 0; c < 3; ++c) p[c * m.node_count() + i] = static_cast<Real>(1.02 * m.X(i, c));
   const Real* px = p.data();
   for (auto _ : state) {
     sim::spring_kernel<Real>(0, n, nullptr, sp.i.data(), sp.j.data(), rest.data(), k.data(), px,
-                        px + m.node_count(), px + 2 * m.node_count(), f.data(), f.data() + n,
-                        f.data() + 2 * n);
+                             px + m.node_count(), px + 2 * m.node_count(), f.data(), f.data() + n,
+                             f.data() + 2 * n);
     benchmark::ClobberMemory();
   }
   label(state, m);
@@ -91,8 +91,14 @@ void BM_SpringKernelPrecision(benchmark::State& state) {
   const auto far = static_cast<float>(m.X.cwiseAbs().maxCoeff());
   state.counters["float_spacing_mm"] = std::nextafter(far, 2.0f * far) - far;
 }
-BENCHMARK(BM_SpringKernelPrecision<float>)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_SpringKernelPrecision<double>)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringKernelPrecision<float>)
+    ->DenseRange(0, 2)
+    ->ArgName("model")
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringKernelPrecision<double>)
+    ->DenseRange(0, 2)
+    ->ArgName("model")
+    ->Unit(benchmark::kMicrosecond);
 
 // One conjugate-gradient iteration's product (M + h gamma + h^2 K) p, K linearised by a step.
 void BM_CgIteration(benchmark::State& state) {
@@ -149,8 +155,7 @@ BENCHMARK(BM_Rings)
 void BM_ContactQuery(benchmark::State& state) {
   const Model& m = model(state.range(0));
   const Eigen::Vector3d point = m.X.row(0).transpose() + Eigen::Vector3d(0.5, -0.5, 0.5);
-  for (auto _ : state)
-    benchmark::DoNotOptimize(interact::nearest_skin_node(m, m.X, point, 5.0));
+  for (auto _ : state) benchmark::DoNotOptimize(interact::nearest_skin_node(m, m.X, point, 5.0));
   label(state, m);
   state.counters["skin_vertices"] = m.layers[0].node_count;
 }

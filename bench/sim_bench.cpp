@@ -49,7 +49,7 @@ void BM_PhysicalLiverStep(benchmark::State& state) {
   d.tools.front().end_s = 1e9;  // held
   interact::apply_tools(s, d);
   for (int k = 0; k < 50; ++k) sim::step(s);  // into the motion
-  const sim::Simulation start = s;  // every measured step from the same state on
+  const sim::Simulation start = s;            // every measured step from the same state on
   double cg = 0.0, forces = 0.0, integrate = 0.0;
   int64_t k = 0;
   for (auto _ : state) {
@@ -68,8 +68,7 @@ void BM_PhysicalLiverStep(benchmark::State& state) {
   state.counters["cg_iterations"] = cg / n;
   state.counters["forces_us"] = forces / n;
   state.counters["integrate_us"] = integrate / n;
-  state.counters["steps_per_s"] =
-      benchmark::Counter(n, benchmark::Counter::kIsRate);
+  state.counters["steps_per_s"] = benchmark::Counter(n, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_PhysicalLiverStep)
     ->ArgsProduct({{1284}, {1, 10}})
@@ -83,7 +82,8 @@ void BM_Step(benchmark::State& state) {
       state.range(1) ? sim::Integrator::kImplicitEuler : sim::Integrator::kSemiImplicitEuler;
   sim::Simulation s = sim::make_simulation(m, {}, {.integrator = integrator});
   interact::ToolDriver d;
-  d.tools.push_back({.vertex = interact::most_anterior_skin_node(m), .force_mn = Eigen::Vector3d(0, 50, 0)});
+  d.tools.push_back(
+      {.vertex = interact::most_anterior_skin_node(m), .force_mn = Eigen::Vector3d(0, 50, 0)});
   interact::apply_tools(s, d);
   for (auto _ : state) benchmark::DoNotOptimize(sim::step(s));
   state.counters["nodes"] = m.node_count();
@@ -108,11 +108,12 @@ void BM_PokeToConvergence(benchmark::State& state) {
   const double threshold = state.range(1) == 3 ? 1e-3 : 1e-4;
   int64_t steps = 0;
   for (auto _ : state) {
-    sim::Simulation s =
-        sim::make_simulation(m, {}, {.rest_speed_mm_per_s = threshold / 0.01, .mode = sim::Mode::kLocal});
+    sim::Simulation s = sim::make_simulation(
+        m, {}, {.rest_speed_mm_per_s = threshold / 0.01, .mode = sim::Mode::kLocal});
     interact::ToolDriver d;
     d.routing.locality = locality;
-    d.tools.push_back({.vertex = interact::most_anterior_skin_node(m), .force_mn = Eigen::Vector3d(0, 400, 0)});
+    d.tools.push_back(
+        {.vertex = interact::most_anterior_skin_node(m), .force_mn = Eigen::Vector3d(0, 400, 0)});
     interact::apply_tools(s, d);
     steps = sim::run_to_convergence(s).converged ? s.steps : -1;
   }

@@ -14,8 +14,9 @@
 namespace lamina::fuzz {
 
 inline std::string write_input(const uint8_t* data, size_t size, const std::string& extension) {
-  static const std::string dir =
-      std::filesystem::is_directory("/dev/shm") ? "/dev/shm" : std::filesystem::temp_directory_path().string();
+  static const std::string dir = std::filesystem::is_directory("/dev/shm")
+                                     ? "/dev/shm"
+                                     : std::filesystem::temp_directory_path().string();
   const std::string path = dir + "/lamina_fuzz_" + std::to_string(::getpid()) + extension;
   std::ofstream(path, std::ios::binary | std::ios::trunc)
       .write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));

@@ -33,8 +33,9 @@ sim::Integrator parse_integrator(const std::string& name) {
   for (auto i : {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler,
                  sim::Integrator::kProjective})
     if (io::integrator_name(i) == name) return i;
-  throw invalid_input("integrator", "is '" + name +
-                                        "'; semi_implicit_euler, implicit_euler or projective expected");
+  throw invalid_input(
+      "integrator",
+      "is '" + name + "'; semi_implicit_euler, implicit_euler or projective expected");
 }
 
 sim::Mode parse_mode(const std::string& name) {
@@ -48,7 +49,8 @@ void wire(PySimulation& p) {
 }
 
 sim::StepStats step_n(PySimulation& p, int64_t steps) {
-  if (steps < 0) throw invalid_input("step: steps", "is " + std::to_string(steps) + "; >= 0 expected");
+  if (steps < 0)
+    throw invalid_input("step: steps", "is " + std::to_string(steps) + "; >= 0 expected");
   py::gil_scoped_release release;
   for (int64_t k = 0; k < steps; ++k) {
     interact::apply_tools(p.sim, p.driver);
@@ -101,7 +103,8 @@ void bind_simulation(py::module_& m) {
       .def_readonly("kinetic_energy_j", &sim::StepStats::kinetic_energy_j)
       .def_readonly("step_us", &sim::StepStats::step_us)
       .def_readonly("cg_iterations", &sim::StepStats::cg_iterations)
-      .def_readonly("converged", &sim::StepStats::converged, "at rest: no node faster than the rest speed")
+      .def_readonly("converged", &sim::StepStats::converged,
+                    "at rest: no node faster than the rest speed")
       .def_readonly("recovered", &sim::StepStats::recovered)
       .def_readonly("failed", &sim::StepStats::failed)
       .def("__repr__", [](const sim::StepStats& s) {
@@ -110,11 +113,12 @@ void bind_simulation(py::module_& m) {
                (s.converged ? " at rest>" : ">");
       });
 
-  py::class_<PySimulation>(m, "Simulation",
-                           "Dynamics of a model: m x'' + gamma x' + f_internal(x) = f_ext.\n"
-                           "x, v, f_ext are (nodes, 3) float64 numpy views of the simulation's own\n"
-                           "memory (no copy): write them between steps. f_ext holds raw forces, mN;\n"
-                           "tools add their routed forces to them during each step.")
+  py::class_<PySimulation>(
+      m, "Simulation",
+      "Dynamics of a model: m x'' + gamma x' + f_internal(x) = f_ext.\n"
+      "x, v, f_ext are (nodes, 3) float64 numpy views of the simulation's own\n"
+      "memory (no copy): write them between steps. f_ext holds raw forces, mN;\n"
+      "tools add their routed forces to them during each step.")
       .def(py::init([](std::shared_ptr<Model> model, double stiffness_n_per_m,
                        double damping_kg_per_s, double mass_damping_per_s, double node_mass_kg,
                        double anchor_stiffness_n_per_m, double volume_stiffness_kpa,
@@ -122,8 +126,8 @@ void bind_simulation(py::module_& m) {
                        const Eigen::Vector3d& gravity_mm_per_s2, const std::string& integrator,
                        double dt_s, double rest_speed_mm_per_s, int64_t max_steps,
                        const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
-                       int32_t locality, int32_t penetration_depth,
-                       double contact_threshold_mm, const std::vector<int64_t>& fixed) {
+                       int32_t locality, int32_t penetration_depth, double contact_threshold_mm,
+                       const std::vector<int64_t>& fixed) {
              if (!model) throw invalid_input("Simulation: model", "is None");
              sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
                                .damping_kg_per_s = damping_kg_per_s,
@@ -187,137 +191,176 @@ void bind_simulation(py::module_& m) {
       .def_property_readonly("time_s", [](const PySimulation& p) { return p.sim.time_s; })
       .def_property_readonly("steps", [](const PySimulation& p) { return p.sim.steps; })
       .def_property_readonly("recoveries", [](const PySimulation& p) { return p.sim.recoveries; })
-      .def_property_readonly("stats", [](const PySimulation& p) { return p.last; },
-                             "the last step's StepStats")
+      .def_property_readonly(
+          "stats", [](const PySimulation& p) { return p.last; }, "the last step's StepStats")
       .def_property_readonly("dt_s", [](const PySimulation& p) { return p.sim.options().dt_s; })
-      .def_property_readonly("fixed", [](const PySimulation& p) {
-        std::vector<int32_t> out;
-        for (size_t i = 0; i < p.sim.fixed().size(); ++i)
-          if (p.sim.fixed()[i]) out.push_back(static_cast<int32_t>(i));
-        return out;
-      }, "indices of the nodes held where they are")
-      .def("fix_nodes", [](PySimulation& p, const std::vector<int64_t>& n) { sim::fix_nodes(p.sim, nodes_of(n)); },
-           py::arg("nodes"), "Holds these nodes at their rest positions from now on.")
-      .def("hold_nodes", [](PySimulation& p, const std::vector<int64_t>& n, const Eigen::MatrixX3d& x) {
-        sim::hold_nodes(p.sim, nodes_of(n), x);
-      }, py::arg("nodes"), py::arg("positions_mm"), "Holds these nodes at (len(nodes), 3) positions, mm.")
-      .def("release_nodes", [](PySimulation& p, const std::vector<int64_t>& n) { sim::release_nodes(p.sim, nodes_of(n)); },
-           py::arg("nodes"), "Lets held or fixed nodes move again.")
-      .def("support_nodes", [](PySimulation& p, const std::vector<int64_t>& n, const std::vector<double>& k) {
-        sim::support_nodes(p.sim, nodes_of(n), k);
-      }, py::arg("nodes"), py::arg("stiffness_n_per_m"), "Ties each node to its rest position by a spring, N/m.")
-      .def("add_tool", [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
-                          std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
-                          std::optional<double> start_s, double end_s) {
-        if (point_mm.has_value() == vertex.has_value())
-          throw invalid_input("add_tool", "give exactly one of point_mm and vertex");
-        if (!force_mn.allFinite()) throw invalid_input("add_tool: force_mn", "is not finite");
-        interact::Tool t;
-        t.by_point = point_mm.has_value();
-        if (point_mm) t.point_mm = *point_mm;
-        if (vertex) t.vertex = *vertex;
-        t.force_mn = force_mn;
-        t.start_s = start_s.value_or(p.sim.time_s);
-        t.end_s = end_s;
-        p.driver.tools.push_back(t);
-        return p.driver.tools.size() - 1;
-      }, py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
-         py::arg("force_mn"), py::arg("start_s") = py::none(),
-         py::arg("end_s") = std::numeric_limits<double>::infinity(),
-         "A tool: touches the skin node nearest point_mm (or skin node `vertex`) and pushes\n"
-         "with force_mn (mN, 3 values) from start_s (default: now) until end_s, routed over the\n"
-         "contact's rings and the layers behind it the paper's way. Returns its index.")
-      .def("clear_tools", [](PySimulation& p) {
-        p.driver.tools.clear();
-        p.driver.routes.clear();
-        p.driver.active.clear();
-      }, "Lifts every tool off.")
-      .def_property_readonly("tool_count", [](const PySimulation& p) { return p.driver.tools.size(); })
+      .def_property_readonly(
+          "fixed",
+          [](const PySimulation& p) {
+            std::vector<int32_t> out;
+            for (size_t i = 0; i < p.sim.fixed().size(); ++i)
+              if (p.sim.fixed()[i]) out.push_back(static_cast<int32_t>(i));
+            return out;
+          },
+          "indices of the nodes held where they are")
+      .def(
+          "fix_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n) {
+            sim::fix_nodes(p.sim, nodes_of(n));
+          },
+          py::arg("nodes"), "Holds these nodes at their rest positions from now on.")
+      .def(
+          "hold_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n, const Eigen::MatrixX3d& x) {
+            sim::hold_nodes(p.sim, nodes_of(n), x);
+          },
+          py::arg("nodes"), py::arg("positions_mm"),
+          "Holds these nodes at (len(nodes), 3) positions, mm.")
+      .def(
+          "release_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n) {
+            sim::release_nodes(p.sim, nodes_of(n));
+          },
+          py::arg("nodes"), "Lets held or fixed nodes move again.")
+      .def(
+          "support_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n, const std::vector<double>& k) {
+            sim::support_nodes(p.sim, nodes_of(n), k);
+          },
+          py::arg("nodes"), py::arg("stiffness_n_per_m"),
+          "Ties each node to its rest position by a spring, N/m.")
+      .def(
+          "add_tool",
+          [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
+             std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
+             std::optional<double> start_s, double end_s) {
+            if (point_mm.has_value() == vertex.has_value())
+              throw invalid_input("add_tool", "give exactly one of point_mm and vertex");
+            if (!force_mn.allFinite()) throw invalid_input("add_tool: force_mn", "is not finite");
+            interact::Tool t;
+            t.by_point = point_mm.has_value();
+            if (point_mm) t.point_mm = *point_mm;
+            if (vertex) t.vertex = *vertex;
+            t.force_mn = force_mn;
+            t.start_s = start_s.value_or(p.sim.time_s);
+            t.end_s = end_s;
+            p.driver.tools.push_back(t);
+            return p.driver.tools.size() - 1;
+          },
+          py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
+          py::arg("force_mn"), py::arg("start_s") = py::none(),
+          py::arg("end_s") = std::numeric_limits<double>::infinity(),
+          "A tool: touches the skin node nearest point_mm (or skin node `vertex`) and pushes\n"
+          "with force_mn (mN, 3 values) from start_s (default: now) until end_s, routed over the\n"
+          "contact's rings and the layers behind it the paper's way. Returns its index.")
+      .def(
+          "clear_tools",
+          [](PySimulation& p) {
+            p.driver.tools.clear();
+            p.driver.routes.clear();
+            p.driver.active.clear();
+          },
+          "Lifts every tool off.")
+      .def_property_readonly("tool_count",
+                             [](const PySimulation& p) { return p.driver.tools.size(); })
       .def("step", &step_n, py::arg("steps") = 1,
            "Takes `steps` steps with the tools and raw forces; returns the last StepStats.")
-      .def("run", [](PySimulation& p, double until_s, bool stop_at_rest, bool record) {
-        interact::ToolRun run;
-        Peaks peaks;
-        // record: one row per step, gathered here and handed to numpy as arrays.
-        std::vector<double> t, disp, vol, energy;
-        std::vector<Eigen::Vector3d> reaction;
-        {
-          py::gil_scoped_release release;
-          run = interact::run_tools(p.sim, p.driver, until_s, stop_at_rest,
-                                    [&](const sim::Simulation& s, const interact::ToolDriver& d,
-                                        const sim::StepStats& st) {
-                                      peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
-                                      peaks.abs_volume_change_pct = std::max(
-                                          peaks.abs_volume_change_pct, std::abs(st.volume_change_pct));
-                                      const Eigen::Vector3d r = interact::reaction_force(s, d.loads);
-                                      peaks.reaction_mn = std::max(peaks.reaction_mn, r.norm());
-                                      if (!record) return;
-                                      t.push_back(s.time_s);
-                                      disp.push_back(st.max_displacement_mm);
-                                      vol.push_back(st.volume_change_pct);
-                                      energy.push_back(st.kinetic_energy_j);
-                                      reaction.push_back(r);
-                                    });
-        }
-        p.last = run.last;
-        py::dict d = run_dict(p, run, peaks);
-        if (record) {
-          py::dict metrics;
-          metrics["time_s"] = py::array_t<double>(t.size(), t.data());
-          metrics["max_displacement_mm"] = py::array_t<double>(disp.size(), disp.data());
-          metrics["volume_change_pct"] = py::array_t<double>(vol.size(), vol.data());
-          metrics["kinetic_energy_j"] = py::array_t<double>(energy.size(), energy.data());
-          py::array_t<double> r({static_cast<py::ssize_t>(reaction.size()), py::ssize_t{3}});
-          auto rw = r.mutable_unchecked<2>();
-          for (size_t k = 0; k < reaction.size(); ++k)
-            for (int c = 0; c < 3; ++c) rw(k, c) = reaction[k][c];
-          metrics["reaction_mn"] = r;
-          d["metrics"] = metrics;
-        }
-        return d;
-      }, py::arg("until_s") = std::numeric_limits<double>::infinity(), py::arg("stop_at_rest") = true,
-         py::arg("record") = false,
-         "Steps until every tool has ended and the model has rested for 0.1 s (stop_at_rest),\n"
-         "or until simulated time until_s or the solver's max_steps. Returns a dict: steps,\n"
-         "converged, time_s, max_displacement_mm and volume_change_pct (the last step's),\n"
-         "recoveries, and over the run peak_displacement_mm, peak_abs_volume_change_pct and\n"
-         "max_reaction_mn. record=True adds 'metrics': per-step numpy arrays time_s,\n"
-         "max_displacement_mm, volume_change_pct, kinetic_energy_j (steps,) and reaction_mn\n"
-         "(steps, 3), as lamina run's metrics.csv.")
-      .def("reaction_force_mn", [](const PySimulation& p) {
-        return Eigen::Vector3d(interact::reaction_force(p.sim, p.driver.loads));
-      }, "the tissue's push back on the tools in the last step, mN (3 values)")
-      .def("reset", [](PySimulation& p) { sim::reset(p.sim); },
-           "Every node back at rest, time 0; parameters, fixed nodes and tools kept.")
+      .def(
+          "run",
+          [](PySimulation& p, double until_s, bool stop_at_rest, bool record) {
+            interact::ToolRun run;
+            Peaks peaks;
+            // record: one row per step, gathered here and handed to numpy as arrays.
+            std::vector<double> t, disp, vol, energy;
+            std::vector<Eigen::Vector3d> reaction;
+            {
+              py::gil_scoped_release release;
+              run = interact::run_tools(
+                  p.sim, p.driver, until_s, stop_at_rest,
+                  [&](const sim::Simulation& s, const interact::ToolDriver& d,
+                      const sim::StepStats& st) {
+                    peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
+                    peaks.abs_volume_change_pct =
+                        std::max(peaks.abs_volume_change_pct, std::abs(st.volume_change_pct));
+                    const Eigen::Vector3d r = interact::reaction_force(s, d.loads);
+                    peaks.reaction_mn = std::max(peaks.reaction_mn, r.norm());
+                    if (!record) return;
+                    t.push_back(s.time_s);
+                    disp.push_back(st.max_displacement_mm);
+                    vol.push_back(st.volume_change_pct);
+                    energy.push_back(st.kinetic_energy_j);
+                    reaction.push_back(r);
+                  });
+            }
+            p.last = run.last;
+            py::dict d = run_dict(p, run, peaks);
+            if (record) {
+              py::dict metrics;
+              metrics["time_s"] = py::array_t<double>(t.size(), t.data());
+              metrics["max_displacement_mm"] = py::array_t<double>(disp.size(), disp.data());
+              metrics["volume_change_pct"] = py::array_t<double>(vol.size(), vol.data());
+              metrics["kinetic_energy_j"] = py::array_t<double>(energy.size(), energy.data());
+              py::array_t<double> r({static_cast<py::ssize_t>(reaction.size()), py::ssize_t{3}});
+              auto rw = r.mutable_unchecked<2>();
+              for (size_t k = 0; k < reaction.size(); ++k)
+                for (int c = 0; c < 3; ++c) rw(k, c) = reaction[k][c];
+              metrics["reaction_mn"] = r;
+              d["metrics"] = metrics;
+            }
+            return d;
+          },
+          py::arg("until_s") = std::numeric_limits<double>::infinity(),
+          py::arg("stop_at_rest") = true, py::arg("record") = false,
+          "Steps until every tool has ended and the model has rested for 0.1 s (stop_at_rest),\n"
+          "or until simulated time until_s or the solver's max_steps. Returns a dict: steps,\n"
+          "converged, time_s, max_displacement_mm and volume_change_pct (the last step's),\n"
+          "recoveries, and over the run peak_displacement_mm, peak_abs_volume_change_pct and\n"
+          "max_reaction_mn. record=True adds 'metrics': per-step numpy arrays time_s,\n"
+          "max_displacement_mm, volume_change_pct, kinetic_energy_j (steps,) and reaction_mn\n"
+          "(steps, 3), as lamina run's metrics.csv.")
+      .def(
+          "reaction_force_mn",
+          [](const PySimulation& p) {
+            return Eigen::Vector3d(interact::reaction_force(p.sim, p.driver.loads));
+          },
+          "the tissue's push back on the tools in the last step, mN (3 values)")
+      .def(
+          "reset", [](PySimulation& p) { sim::reset(p.sim); },
+          "Every node back at rest, time 0; parameters, fixed nodes and tools kept.")
       .def_property_readonly("scene", [](const PySimulation& p) { return p.scene; });
 
-  m.def("scene_simulation", [](const py::object& what, bool paper) {
-    // A dict is a scene file's content (docs/scenes.md), paths in it as the caller's.
-    io::Scene scene =
-        py::isinstance<py::dict>(what)
-            ? io::parse_scene(py::module_::import("json").attr("dumps")(what).cast<std::string>(),
-                              "scene dict")
-            : io::scene_for(what.cast<std::string>(), paper);
-    io::ReadyScene ready = [&] {
-      py::gil_scoped_release release;
-      return io::make_ready_scene(scene);
-    }();
-    auto p = std::make_unique<PySimulation>(PySimulation{
-        ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source});
-    p->driver = io::make_tool_driver(ready.scene);
-    wire(*p);
-    return p;
-  }, py::arg("scene") = "phantom", py::kw_only(), py::arg("paper") = false,
-     "A simulation set up as `lamina run SCENE` sets it up: SCENE is a scene .json, a .vtu\n"
-     "model, a mask or 'phantom' (the default scene: the physical liver, held at its back,\n"
-     "one 0.4 N poke for 1 s), or a dict with a scene file's keys (docs/scenes.md). The\n"
-     "scene's tools are loaded; run() plays them.");
+  m.def(
+      "scene_simulation",
+      [](const py::object& what, bool paper) {
+        // A dict is a scene file's content (docs/scenes.md), paths in it as the caller's.
+        io::Scene scene =
+            py::isinstance<py::dict>(what)
+                ? io::parse_scene(
+                      py::module_::import("json").attr("dumps")(what).cast<std::string>(),
+                      "scene dict")
+                : io::scene_for(what.cast<std::string>(), paper);
+        io::ReadyScene ready = [&] {
+          py::gil_scoped_release release;
+          return io::make_ready_scene(scene);
+        }();
+        auto p = std::make_unique<PySimulation>(PySimulation{
+            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source});
+        p->driver = io::make_tool_driver(ready.scene);
+        wire(*p);
+        return p;
+      },
+      py::arg("scene") = "phantom", py::kw_only(), py::arg("paper") = false,
+      "A simulation set up as `lamina run SCENE` sets it up: SCENE is a scene .json, a .vtu\n"
+      "model, a mask or 'phantom' (the default scene: the physical liver, held at its back,\n"
+      "one 0.4 N poke for 1 s), or a dict with a scene file's keys (docs/scenes.md). The\n"
+      "scene's tools are loaded; run() plays them.");
 
-  m.def("nodes_near_plane", [](const Model& model, const Eigen::Vector3d& point,
-                               const Eigen::Vector3d& normal, double distance_mm) {
-    return sim::nodes_near_plane(model, point, normal, distance_mm);
-  }, py::arg("model"), py::arg("point_mm"), py::arg("normal"), py::arg("distance_mm"),
-     "Nodes within distance_mm of the plane through point_mm with this normal.");
+  m.def(
+      "nodes_near_plane",
+      [](const Model& model, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+         double distance_mm) { return sim::nodes_near_plane(model, point, normal, distance_mm); },
+      py::arg("model"), py::arg("point_mm"), py::arg("normal"), py::arg("distance_mm"),
+      "Nodes within distance_mm of the plane through point_mm with this normal.");
 }
 
 }  // namespace lamina::python

@@ -7,10 +7,10 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
-#include <limits>
-#include <string>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "commands.h"
@@ -109,8 +109,8 @@ struct PhysicalResult {
   double target_steps_per_second = 0.0;
 };
 
-PhysicalResult time_physical(const std::string& name, int32_t skin_vertices, double dt_s,
-                             int steps, int batches, double target) {
+PhysicalResult time_physical(const std::string& name, int32_t skin_vertices, double dt_s, int steps,
+                             int batches, double target) {
   PhysicalResult r;
   r.name = name;
   r.dt_s = dt_s;
@@ -228,9 +228,9 @@ int run_bench(const BenchArgs& a) {
     const int steps = a.quick ? explicit_steps / 4 : explicit_steps;
     r.explicit_us = time_steps(m, fixed, tool, sim::Integrator::kSemiImplicitEuler, steps, 5,
                                std::max(10, steps / 5));
-    r.implicit_us =
-        time_steps(m, fixed, tool, sim::Integrator::kImplicitEuler, std::max(5, explicit_steps / 20),
-                   a.quick ? 3 : 5, 10, &r.implicit_cg_iterations);
+    r.implicit_us = time_steps(m, fixed, tool, sim::Integrator::kImplicitEuler,
+                               std::max(5, explicit_steps / 20), a.quick ? 3 : 5, 10,
+                               &r.implicit_cg_iterations);
     // Projective dynamics (Liu et al. 2013), the prefactored reference: its first step factors
     // the matrix. Few steps: on this machine it is the slowest of the three by far.
     r.projective_us =

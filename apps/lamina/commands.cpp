@@ -154,6 +154,4 @@ void create_folder(const fs::path& dir) {
     throw Error(ErrorKind::kOutput, dir.string() + ": cannot create the folder: " + ec.message());
 }
 
-
-
 }  // namespace lamina::cli

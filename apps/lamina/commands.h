@@ -28,7 +28,6 @@ void check_output_folder(const std::string& dir);
 /// Creates `dir` (and its parents) or throws lamina::Error (kOutput).
 void create_folder(const std::filesystem::path& dir);
 
-
 /// The segmentation named by `input`: the built-in phantom for "phantom", else a file or folder.
 /// How every command reads a volume (here and in io::make_scene_model): main() sets the voxel
 /// budget (--max-voxels).
@@ -125,7 +124,7 @@ struct ValidateArgs {
   bool json = false;                     ///< the summary as JSON on stdout
   bool quick = false;                    ///< one depth (10%) instead of four (CI)
   std::vector<double> depths;  ///< indentation depths, % of the organ's depth; empty = default
-  bool deepest = false;  ///< indent where the organ is deepest, not at its most anterior point
+  bool deepest = false;    ///< indent where the organ is deepest, not at its most anterior point
   bool stability = false;  ///< the stability suite instead of the finite-element comparison
   /// Diagnostic: the finite elements on the model's own tetrahedra instead of an independent
   /// mesh (separates the model's error from the discretisation's).
@@ -137,7 +136,8 @@ struct ValidateArgs {
 int run_validate(const ValidateArgs& args);
 
 struct SoakArgs {
-  std::string scene;  ///< model, material and solver (its tools are ignored); empty = physical phantom
+  std::string
+      scene;  ///< model, material and solver (its tools are ignored); empty = physical phantom
   std::string output;
   int64_t steps = 1000000;
   uint64_t seed = 1;
@@ -154,7 +154,7 @@ struct ServeArgs {
   bool paper = false;                    ///< the reference paper's model and constants
   std::string host = "127.0.0.1";        ///< address to listen on (0.0.0.0: every interface)
   int port = 18944;                      ///< OpenIGTLink's (and 3D Slicer's) default; 0 = any
-  double send_hz = 30.0;      ///< POLYDATA messages per second; 0 = only on request
+  double send_hz = 30.0;                 ///< POLYDATA messages per second; 0 = only on request
   /// Reaction-force messages per second, at most one per step (1000: every step of the 1 kHz
   /// loop, a haptic device's rate); 0 = one with each POLYDATA batch.
   double reaction_hz = 1000.0;

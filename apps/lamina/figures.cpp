@@ -33,7 +33,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-
 }  // namespace
 
 int run_figures(const FiguresArgs& a) {

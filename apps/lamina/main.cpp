@@ -109,13 +109,15 @@ int main(int argc, char** argv) {
   bu->add_option("--structure", bo.structure,
                  "what fills the organ between the layers: tets (default; tetrahedra whose edges "
                  "are the springs) or links (the paper's: nearest-node links between layers)")
-      ->transform(CLI::CheckedTransformer(
-          std::map<std::string, model::Structure>{{"tets", model::Structure::kTetrahedra},
-                                                  {"links", model::Structure::kLinks}},
-          CLI::ignore_case)
-                     .description("{tets,links}"));  // not the enum's bytes (uint8_t prints as a char)
-  bu->add_option("--links", bo.inter_layer_links,
-                 "with --structure links: nearest nodes linked on each neighbour layer (default 3)");
+      ->transform(
+          CLI::CheckedTransformer(
+              std::map<std::string, model::Structure>{{"tets", model::Structure::kTetrahedra},
+                                                      {"links", model::Structure::kLinks}},
+              CLI::ignore_case)
+              .description("{tets,links}"));  // not the enum's bytes (uint8_t prints as a char)
+  bu->add_option(
+      "--links", bo.inter_layer_links,
+      "with --structure links: nearest nodes linked on each neighbour layer (default 3)");
   bu->add_option("--density", density_g_cm3, "tissue density in g/cm^3 (default 1.06, liver)");
   bu->add_option("--stiffness", bo.stiffness_n_per_m, "spring stiffness in N/m (default 3)");
   bu->add_flag("--json", build.json, "print the summary as one JSON object on stdout");

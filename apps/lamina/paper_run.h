@@ -34,8 +34,8 @@ struct RunStats {
 };
 
 /// Steps `setup` until t_end_s, or (if stop_at_rest) until every tool has ended and the model has
-/// come to rest (interact::run_tools, interact::RestWatch). Calls per_step after each step with that
-/// step's measurements.
+/// come to rest (interact::run_tools, interact::RestWatch). Calls per_step after each step with
+/// that step's measurements.
 RunStats simulate(const Setup& setup, double t_end_s, bool stop_at_rest,
                   const std::function<void(const sim::Simulation&, const interact::ToolDriver&,
                                            const sim::StepStats&)>& per_step = {});

@@ -36,7 +36,7 @@ std::string find_gnuplot() {
 // Runs `gnuplot script` (no shell), then renames the PNG it wrote to a temporary name into place,
 // so a failed plot never leaves a half-written picture.
 static void plot(const std::string& gnuplot, const fs::path& script, const fs::path& tmp_png,
-          const fs::path& png) {
+                 const fs::path& png) {
   const std::string script_s = script.string();
   char* argv[] = {const_cast<char*>("gnuplot"), const_cast<char*>(script_s.c_str()), nullptr};
   pid_t pid = 0;

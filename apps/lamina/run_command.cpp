@@ -143,8 +143,8 @@ void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simul
 // paper's with --paper). A resume must find the scene file as it was.
 struct RunScene {
   io::Scene scene;
-  std::string path;        // empty for the built-in scenes
-  uint32_t file_crc = 0;   // CRC-32 of the scene file (0 for the built-in scenes)
+  std::string path;       // empty for the built-in scenes
+  uint32_t file_crc = 0;  // CRC-32 of the scene file (0 for the built-in scenes)
 };
 
 RunScene load_run_scene(const RunArgs& a, const std::optional<io::RunCheckpoint>& resume) {
@@ -163,8 +163,8 @@ RunScene load_run_scene(const RunArgs& a, const std::optional<io::RunCheckpoint>
   }
   if (a.realtime && r.scene.solver.dt_s != 1.0 / a.rate_hz) {
     // Real time: the simulated clock follows the wall clock, one step of 1 / rate per tick.
-    log::info("{}: --realtime at {:g} Hz steps dt = {:g} s (the scene says {:g} s)",
-              r.scene.source, a.rate_hz, 1.0 / a.rate_hz, r.scene.solver.dt_s);
+    log::info("{}: --realtime at {:g} Hz steps dt = {:g} s (the scene says {:g} s)", r.scene.source,
+              a.rate_hz, 1.0 / a.rate_hz, r.scene.solver.dt_s);
     r.scene.solver.dt_s = 1.0 / a.rate_hz;
   }
   return r;
@@ -333,15 +333,15 @@ void summarize_timing(LoopResult& loop, const RunArgs& a, io::RunSummary& sum) {
   sum.real_time_factor = loop.sim_s / loop.wall_s;
   sum.kept_up = sum.real_time_factor >= 0.95;
   if (!sum.kept_up)
-    log::warn("{}: the machine did not keep up with real time: {:.2f} simulated seconds per "
-              "wall second ({:.0f} of {:.0f} steps/s); a smaller model or a lower --rate keeps "
-              "up",
-              sum.scene, sum.real_time_factor, sum.achieved_rate_hz, a.rate_hz);
+    log::warn(
+        "{}: the machine did not keep up with real time: {:.2f} simulated seconds per "
+        "wall second ({:.0f} of {:.0f} steps/s); a smaller model or a lower --rate keeps "
+        "up",
+        sum.scene, sum.real_time_factor, sum.achieved_rate_hz, a.rate_hz);
   if (!loop.lateness_us.empty()) {
     std::sort(loop.lateness_us.begin(), loop.lateness_us.end());
     sum.worst_jitter_us = loop.lateness_us.back();
-    sum.p99_jitter_us =
-        loop.lateness_us[static_cast<size_t>(0.99 * (loop.lateness_us.size() - 1))];
+    sum.p99_jitter_us = loop.lateness_us[static_cast<size_t>(0.99 * (loop.lateness_us.size() - 1))];
   }
 }
 
@@ -384,8 +384,8 @@ int run_run(const RunArgs& a) {
                            .every_s = ::isatty(2) ? 0.1 : 2.0};
 
   // 1. The model, and the scene checked against it, before anything is written.
-  const io::ReadyScene ready = io::make_ready_scene(run_scene.scene, volume_read_options,
-                                                    report.progress);
+  const io::ReadyScene ready =
+      io::make_ready_scene(run_scene.scene, volume_read_options, report.progress);
   const double model_seconds = seconds_since(t_start);
   const io::Scene& scene = ready.scene;
   const Model& m = *ready.model;
@@ -442,8 +442,8 @@ int run_run(const RunArgs& a) {
   LoopResult loop = step_run(a, scene, s, driver, outputs, so_far, write_checkpoint, report);
   if (!loop.stopped && !outputs.frame_written_at(s.time_s))
     outputs.write_frames(s, so_far);  // the final state
-  report_progress(report.progress,
-                  fmt::format("simulated {:.2f} s in {} steps", s.time_s, s.steps), 1.0);
+  report_progress(report.progress, fmt::format("simulated {:.2f} s in {} steps", s.time_s, s.steps),
+                  1.0);
   if (loop.stopped)
     log::info(
         "stopped after {} steps as asked (--stop-after); continue with: lamina run "

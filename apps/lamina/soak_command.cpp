@@ -5,7 +5,6 @@
 // return to rest. Pass: every state finite, memory flat after warm-up, volume drift bounded,
 // back at rest. A failure exits with code 1 after writing its report (docs/testing.md).
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "commands.h"
@@ -70,8 +70,9 @@ int run_soak(const SoakArgs& a) {
   int64_t tools_applied = 0;
   std::vector<int32_t> touched;  // local mode: every node a tool has loaded stays movable
 
-  std::string csv = "step,time_s,resident_mb,volume_change_pct,max_displacement_mm,recoveries,"
-                    "failed_steps,active_tools\n";
+  std::string csv =
+      "step,time_s,resident_mb,volume_change_pct,max_displacement_mm,recoveries,"
+      "failed_steps,active_tools\n";
   double rss_after_warmup = 0.0, rss_max_after_warmup = 0.0, max_abs_volume = 0.0,
          max_displacement = 0.0;
   int64_t failed_steps = 0;
@@ -83,7 +84,8 @@ int run_soak(const SoakArgs& a) {
       Eigen::Vector3d dir(axis(rng), axis(rng), axis(rng));
       dir.normalize();
       ActiveTool t;
-      t.route = interact::route_force(m, s.x, node(rng), 1000.0 * newtons(rng) * dir, scene.routing);
+      t.route =
+          interact::route_force(m, s.x, node(rng), 1000.0 * newtons(rng) * dir, scene.routing);
       t.end_s = s.time_s + hold(rng);
       touched.insert(touched.end(), t.route.nodes.begin(), t.route.nodes.end());
       interact::keep_touched_movable(s, touched);
@@ -109,8 +111,8 @@ int run_soak(const SoakArgs& a) {
                      s.time_s, rss, st.volume_change_pct, st.max_displacement_mm, s.recoveries,
                      failed_steps, tools.size());
       report_progress(progress,
-                      fmt::format("soak: step {} of {}, {} tools so far, {:.1f} MB", k + 1,
-                                  a.steps, tools_applied, rss),
+                      fmt::format("soak: step {} of {}, {} tools so far, {:.1f} MB", k + 1, a.steps,
+                                  tools_applied, rss),
                       0.9 * static_cast<double>(k + 1) / static_cast<double>(a.steps));
     }
   }

@@ -10,10 +10,10 @@
 #include <chrono>
 #include <exception>
 #include <filesystem>
-#include <mutex>
-#include <thread>
 #include <iostream>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "lamina/core/log.h"
 #include "lamina/validate/stability.h"
@@ -40,17 +40,18 @@ std::string kind_name(validate::LoadKind k) {
 std::string csv_of(const std::vector<StabilityResult>& rows, const validate::StabilityOptions& o) {
   std::string csv =
       "case,kind,integrator,dt_s,passed,finite,recoveries,outside_nodes,surfaces_cross,"
-      "inverted_tets,peak_displacement_mm,peak_volume_change_pct,loaded_at_rest,energy_rise,final_energy_ratio,"
+      "inverted_tets,peak_displacement_mm,peak_volume_change_pct,loaded_at_rest,energy_rise,final_"
+      "energy_ratio,"
       "returned_at_rest,rest_error_mm,steps,seconds\n";
   for (const StabilityResult& r : rows) {
     const double e0 = r.release_energy_j > 0 ? r.release_energy_j : 1.0;  // the final ratio's
-    csv += fmt::format("{},{},{},{:g},{},{},{},{},{},{},{:.6g},{:.6g},{},{:.6g},{:.6g},{},{:.6g},{},{:.3f}\n",
-                       r.c.name, kind_name(r.c.kind), io::integrator_name(r.c.integrator),
-                       r.c.dt_s, r.passed(o) ? 1 : 0, r.finite ? 1 : 0, r.recoveries,
-                       r.order.outside_nodes, r.order.surfaces_cross ? 1 : 0, r.order.inverted_tets,
-                       r.peak_displacement_mm, r.peak_volume_change_pct, r.loaded_at_rest ? 1 : 0,
-                       r.energy_rise(), r.final_energy_j / e0,
-                       r.returned_at_rest ? 1 : 0, r.rest_error_mm, r.steps, r.seconds);
+    csv += fmt::format(
+        "{},{},{},{:g},{},{},{},{},{},{},{:.6g},{:.6g},{},{:.6g},{:.6g},{},{:.6g},{},{:.3f}\n",
+        r.c.name, kind_name(r.c.kind), io::integrator_name(r.c.integrator), r.c.dt_s,
+        r.passed(o) ? 1 : 0, r.finite ? 1 : 0, r.recoveries, r.order.outside_nodes,
+        r.order.surfaces_cross ? 1 : 0, r.order.inverted_tets, r.peak_displacement_mm,
+        r.peak_volume_change_pct, r.loaded_at_rest ? 1 : 0, r.energy_rise(), r.final_energy_j / e0,
+        r.returned_at_rest ? 1 : 0, r.rest_error_mm, r.steps, r.seconds);
   }
   return csv;
 }
@@ -64,9 +65,9 @@ std::string energy_csv_of(const std::vector<StabilityResult>& rows) {
     const size_t every = std::max<size_t>(1, r.energy_trace.size() / 300);
     for (size_t k = 0; k < r.energy_trace.size(); k += every) {
       const auto& [t, e] = r.energy_trace[k];
-      csv += fmt::format("{},{},{:g},{:.6g},{:.6g},{:.6g}\n", r.c.name,
-                         io::integrator_name(r.c.integrator), r.c.dt_s, t, e,
-                         e / r.release_energy_j);
+      csv +=
+          fmt::format("{},{},{:g},{:.6g},{:.6g},{:.6g}\n", r.c.name,
+                      io::integrator_name(r.c.integrator), r.c.dt_s, t, e, e / r.release_energy_j);
     }
   }
   return csv;
@@ -98,7 +99,7 @@ void draw_plots(const fs::path& out, const std::vector<StabilityResult>& rows, d
   const std::string data = quote(out / "stability.csv");
   std::string sweep;
   for (sim::Integrator in : {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler,
-                            sim::Integrator::kProjective}) {
+                             sim::Integrator::kProjective}) {
     const std::string name = io::integrator_name(in);
     const auto swept = [&](const StabilityResult& r) {
       return r.c.integrator == in && r.c.name == "indent 30%";
@@ -117,13 +118,14 @@ void draw_plots(const fs::path& out, const std::vector<StabilityResult>& rows, d
           "$17 : NaN) with points pt 6 ps 3 lc 'red' notitle",
           data, name);
   }
-  draw_plot(gp, out, "stability_dt",
-            std::string(kPlotStyle) +
-                "set xlabel 'time step dt, s'\nset ylabel 'steps to load (30% indentation) and "
-                "return to rest (substeps not counted)'\nset logscale xy\nset key top right box opaque\n"
-                "set datafile missing NaN\nset label 1 'red ring: a check failed' at graph "
-                "0.02, graph 0.05\n",
-            sweep + "\n");
+  draw_plot(
+      gp, out, "stability_dt",
+      std::string(kPlotStyle) +
+          "set xlabel 'time step dt, s'\nset ylabel 'steps to load (30% indentation) and "
+          "return to rest (substeps not counted)'\nset logscale xy\nset key top right box opaque\n"
+          "set datafile missing NaN\nset label 1 'red ring: a check failed' at graph "
+          "0.02, graph 0.05\n",
+      sweep + "\n");
 }
 
 }  // namespace
@@ -197,8 +199,7 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
   if (failure) std::rethrow_exception(failure);
   report_progress(progress, "done", 1.0);
 
-  fmt::print(stderr,
-             "{:>14} {:>19} {:>7} {:>9} {:>8} {:>7} {:>8} {:>5} {:>9} {:>9} {:>6} {:>5}\n",
+  fmt::print(stderr, "{:>14} {:>19} {:>7} {:>9} {:>8} {:>7} {:>8} {:>5} {:>9} {:>9} {:>6} {:>5}\n",
              "case", "integrator", "dt s", "peak mm", "vol %", "outside", "inverted", "recov",
              "E rise", "rest mm", "steps", "pass");
   int passed = 0;
@@ -209,12 +210,12 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
                "{:>14} {:>19} {:>7g} {:>9.2f} {:>8.3f} {:>7} {:>8} {:>5} {:>8.2f}% {:>9.4f} {:>6} "
                "{:>5}\n",
                r.c.name, io::integrator_name(r.c.integrator), r.c.dt_s, r.peak_displacement_mm,
-               r.peak_volume_change_pct, r.order.outside_nodes, r.order.inverted_tets,
-               r.recoveries, 100.0 * r.energy_rise(), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
+               r.peak_volume_change_pct, r.order.outside_nodes, r.order.inverted_tets, r.recoveries,
+               100.0 * r.energy_rise(), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
   }
-  const std::string verdict =
-      fmt::format("stability: {} of {} cases passed (organ depth {:.1f} mm, rest tolerance {:g} mm)",
-                  passed, rows.size(), ind.organ_depth_mm, options.rest_tolerance_mm);
+  const std::string verdict = fmt::format(
+      "stability: {} of {} cases passed (organ depth {:.1f} mm, rest tolerance {:g} mm)", passed,
+      rows.size(), ind.organ_depth_mm, options.rest_tolerance_mm);
   if (passed == static_cast<int>(rows.size()))
     log::info("{}", verdict);
   else
@@ -268,9 +269,10 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
     write_text(out / "stability_energy.csv", energy_csv_of(rows));
     write_text(out / "summary.json", j.dump(2) + "\n");
     draw_plots(out, rows, dt, options);
-    log::info("wrote {}: stability.csv, stability_energy.csv, summary.json, "
-              "stability_energy.png, stability_dt.png",
-              out.string());
+    log::info(
+        "wrote {}: stability.csv, stability_energy.csv, summary.json, "
+        "stability_energy.png, stability_dt.png",
+        out.string());
   }
   if (a.json) std::cout << j.dump(2) << "\n";
   return 0;

@@ -62,8 +62,7 @@ std::string csv_of(const std::vector<Row>& rows) {
   for (const Row& r : rows)
     csv += fmt::format("{:.4g},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.4g},{:.6g},{},{},{:.3f}\n",
                        r.depth_pct, r.depth_mm, r.solver, r.result.force_n,
-                       r.result.volume_change_pct, r.error.rms_mm, r.error.max_mm,
-                       rms_pct(r.error),
+                       r.result.volume_change_pct, r.error.rms_mm, r.error.max_mm, rms_pct(r.error),
                        r.result.skin_u.rows() ? r.result.skin_u.rowwise().norm().maxCoeff() : 0.0,
                        r.result.converged ? 1 : 0, r.result.steps, r.result.seconds);
   return csv;
@@ -89,8 +88,8 @@ void draw_plots(const fs::path& out, const std::vector<std::string>& solvers,
                 const std::vector<double>& depths) {
   const std::string gp = find_gnuplot();
   // Depths from 0 to a little past the deepest (one depth alone would be an empty x range).
-  const std::string style = std::string(kPlotStyle) +
-                            fmt::format("set xrange [0:{}]\n", 1.1 * depths.back());
+  const std::string style =
+      std::string(kPlotStyle) + fmt::format("set xrange [0:{}]\n", 1.1 * depths.back());
   const std::string data = quote(out / "validation.csv");
   auto series = [&](const std::string& column, bool skip_reference) {
     std::string s;
@@ -140,8 +139,8 @@ int run_validate(const ValidateArgs& a) {
   Model& m = built.model;
   const double edge = median_intra_length(m);
   const double radius = std::max(8.0, 1.6 * edge);
-  const validate::Indentation ind = a.deepest ? validate::deepest_indentation(m, radius)
-                                              : validate::paper_indentation(m, radius);
+  const validate::Indentation ind =
+      a.deepest ? validate::deepest_indentation(m, radius) : validate::paper_indentation(m, radius);
   const std::vector<int32_t> held =
       sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
   const io::Scene parsed = scene;  // before resolve_material() fills in the material
@@ -153,8 +152,9 @@ int run_validate(const ValidateArgs& a) {
     s.damping_ratio = -1.0;
     s.damping_given = true;
     s.material.mass_damping_per_s = scene.material.mass_damping_per_s;
-    io::resolve_material(s, model, sim::nodes_near_plane(model, ind.held_point_mm, ind.held_normal,
-                                                         ind.held_distance_mm));
+    io::resolve_material(
+        s, model,
+        sim::nodes_near_plane(model, ind.held_point_mm, ind.held_normal, ind.held_distance_mm));
     s.material.mass_damping_per_s = scene.material.mass_damping_per_s;
     return s.material;
   };
@@ -175,10 +175,11 @@ int run_validate(const ValidateArgs& a) {
   sim::Material skin_material = resolved(skin_scene, skin_built.model);
   skin_material.volume_stiffness_kpa = 0.0;  // a shell has no volume between layers to keep
   variants.push_back({"ms_skin", &skin_built.model, skin_material});
-  log::info("validate: {} ({} nodes, {} layers), indenter radius {:.1f} mm at ({:.1f}, {:.1f}, "
-            "{:.1f}) mm, organ depth {:.1f} mm along +y",
-            built.source, m.node_count(), m.layer_count(), ind.radius_mm, ind.contact_mm.x(),
-            ind.contact_mm.y(), ind.contact_mm.z(), ind.organ_depth_mm);
+  log::info(
+      "validate: {} ({} nodes, {} layers), indenter radius {:.1f} mm at ({:.1f}, {:.1f}, "
+      "{:.1f}) mm, organ depth {:.1f} mm along +y",
+      built.source, m.node_count(), m.layer_count(), ind.radius_mm, ind.contact_mm.x(),
+      ind.contact_mm.y(), ind.contact_mm.z(), ind.organ_depth_mm);
 
   // 2. The finite-element mesh of the same mask, cells about the springs' length (0.7 of it gave
   //    37k tets on the phantom, whose corotational solves took minutes with a sparse LDLT).
@@ -191,13 +192,13 @@ int run_validate(const ValidateArgs& a) {
   const auto elapsed = [&] {
     return fmt::format("{:.0f} s", std::chrono::duration<double>(Clock::now() - t0).count());
   };
-  report_progress(progress,
-                  fmt::format("meshing the finite-element reference (CGAL Mesh_3, {:.1f} mm cells), "
-                              "{} so far",
-                              edge, elapsed()),
-                  0.0);
-  validate::TetMesh mesh =
-      validate::mesh_mask_tets(prepared.mask, {.cell_size_mm = edge});
+  report_progress(
+      progress,
+      fmt::format("meshing the finite-element reference (CGAL Mesh_3, {:.1f} mm cells), "
+                  "{} so far",
+                  edge, elapsed()),
+      0.0);
+  validate::TetMesh mesh = validate::mesh_mask_tets(prepared.mask, {.cell_size_mm = edge});
   if (a.fem_on_model) {
     if (!m.has_tets())
       throw invalid_input("--fem-on-model", "the model has no tetrahedra (built with links)");
@@ -226,8 +227,8 @@ int run_validate(const ValidateArgs& a) {
   const double jobs = 1.0 + static_cast<double>(depths.size() * (2 + variants.size()));
   double job = 1.0;
   const auto next = [&](double pct, const std::string& what) {
-    report_progress(progress, fmt::format("{:.0f}% indentation: {}, {} so far", pct, what,
-                                          elapsed()),
+    report_progress(progress,
+                    fmt::format("{:.0f}% indentation: {}, {} so far", pct, what, elapsed()),
                     job++ / jobs);
   };
   for (double pct : depths) {
@@ -235,11 +236,15 @@ int run_validate(const ValidateArgs& a) {
     const Eigen::MatrixX3d samples = m.X.middleRows(m.layers[0].first_node, m.layers[0].node_count);
     next(pct, fmt::format("corotational FEM on {} tets, {} load steps", mesh.T.rows(),
                           fem_options.load_steps));
-    Row co{pct, d, "fem_corotational",
-           validate::indent_fem(mesh, fem_material, ind, d, true, samples, fem_options), {}};
+    Row co{pct,
+           d,
+           "fem_corotational",
+           validate::indent_fem(mesh, fem_material, ind, d, true, samples, fem_options),
+           {}};
     co.error.reference_max_mm = co.result.skin_u.rowwise().norm().maxCoeff();
     next(pct, "linear FEM");
-    Row li{pct, d, "fem_linear", validate::indent_fem(mesh, fem_material, ind, d, false, samples), {}};
+    Row li{
+        pct, d, "fem_linear", validate::indent_fem(mesh, fem_material, ind, d, false, samples), {}};
     li.error = validate::field_error(li.result.skin_u, co.result.skin_u);
     rows.push_back(co);
     rows.push_back(li);
@@ -294,8 +299,7 @@ int run_validate(const ValidateArgs& a) {
   for (const Row& r : rows)
     fmt::print(stderr, "{:>5.0f}% {:>17} {:>9.4f} {:>11.4f} {:>10.2f} {:>7.2f}mm {:>5}\n",
                r.depth_pct, r.solver, r.result.force_n, r.result.volume_change_pct,
-               rms_pct(r.error),
-               r.error.max_mm, r.result.converged ? "yes" : "NO");
+               rms_pct(r.error), r.error.max_mm, r.result.converged ? "yes" : "NO");
   if (!a.output.empty()) {
     const fs::path out = a.output;
     create_folder(out);
@@ -304,9 +308,10 @@ int run_validate(const ValidateArgs& a) {
     std::vector<std::string> solvers = {"fem_corotational", "fem_linear"};
     for (const Variant& v : variants) solvers.push_back(v.name);
     draw_plots(out, solvers, depths);
-    log::info("wrote {}: validation.csv, summary.json, force_depth.png, skin_error.png, "
-              "volume_change.png",
-              out.string());
+    log::info(
+        "wrote {}: validation.csv, summary.json, force_depth.png, skin_error.png, "
+        "volume_change.png",
+        out.string());
   }
   if (a.json) std::cout << j.dump(2) << "\n";
   return 0;

@@ -58,8 +58,7 @@ int32_t lamina_model_skin_triangle_count(const lamina_model* model);
 lamina_status lamina_model_skin_triangles(const lamina_model* model, int32_t* indices,
                                           int64_t capacity);
 /* Copies the rest positions, mm, interleaved, into `xyz` (capacity >= 3 * node_count). */
-lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz,
-                                          int64_t capacity);
+lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz, int64_t capacity);
 
 /* ---- simulations ----------------------------------------------------------------------- */
 
@@ -67,11 +66,11 @@ lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz
  * gamma = 3 kg/s, unit masses). young_modulus_kpa > 0 makes the tissue elastic (E, nu) through
  * the model's tetrahedra, with stiffness_n_per_m = 0 and node_mass_kg = 0 (lumped masses). */
 typedef struct lamina_material {
-  double stiffness_n_per_m; /* every spring's constant, N/m; 0 = the model's */
-  double damping_kg_per_s;  /* viscous damping per node, kg/s */
-  double node_mass_kg;      /* every node's mass, kg; 0 = lumped from density and volume */
-  double young_modulus_kpa; /* E, kPa; 0 = off */
-  double poisson_ratio;     /* nu in [0, 0.5) */
+  double stiffness_n_per_m;    /* every spring's constant, N/m; 0 = the model's */
+  double damping_kg_per_s;     /* viscous damping per node, kg/s */
+  double node_mass_kg;         /* every node's mass, kg; 0 = lumped from density and volume */
+  double young_modulus_kpa;    /* E, kPa; 0 = off */
+  double poisson_ratio;        /* nu in [0, 0.5) */
   double volume_stiffness_kpa; /* bulk modulus of the volume term between layers; 0 = off */
 } lamina_material;
 
@@ -82,9 +81,9 @@ typedef enum lamina_integrator {
 } lamina_integrator;
 
 typedef struct lamina_solver {
-  int32_t integrator;          /* a lamina_integrator */
-  double dt_s;                 /* time step, s */
-  double rest_speed_mm_per_s;  /* at rest when no node moves faster */
+  int32_t integrator;         /* a lamina_integrator */
+  double dt_s;                /* time step, s */
+  double rest_speed_mm_per_s; /* at rest when no node moves faster */
 } lamina_solver;
 
 void lamina_material_defaults(lamina_material* material);
@@ -107,8 +106,8 @@ void lamina_sim_free(lamina_sim* sim);
  * pushed out by a penalty force (stiffness N/m per mm of penetration, on the deepest node),
  * spread over its rings and the layers behind it the paper's way. Call it every frame with the
  * instrument's pose; lamina_sim_clear_tool_tip lifts it off. */
-lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3],
-                                      double radius_mm, double stiffness_n_per_m);
+lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3], double radius_mm,
+                                      double stiffness_n_per_m);
 lamina_status lamina_sim_clear_tool_tip(lamina_sim* sim);
 /* Replaces every force held on skin nodes (count 0 releases them): forces_mn holds 3 * count
  * values, mN, each routed the paper's way from its node. */
@@ -117,14 +116,14 @@ lamina_status lamina_sim_set_forces(lamina_sim* sim, const int32_t* skin_nodes,
 
 /* What the last step measured. */
 typedef struct lamina_step_stats {
-  double time_s;                /* simulated time after the step */
-  int64_t steps;                /* steps since the start */
-  double max_displacement_mm;   /* largest node distance from rest */
-  double volume_change_pct;     /* skin volume change, % */
-  double reaction_mn[3];        /* the tissue's push back on the tools and forces, mN */
-  int32_t at_rest;              /* 1 when no node moves faster than the rest speed */
-  int32_t tool_tip_touching;    /* 1 when the tool tip touches the skin */
-  int64_t recoveries;           /* steps redone after a non-finite state */
+  double time_s;              /* simulated time after the step */
+  int64_t steps;              /* steps since the start */
+  double max_displacement_mm; /* largest node distance from rest */
+  double volume_change_pct;   /* skin volume change, % */
+  double reaction_mn[3];      /* the tissue's push back on the tools and forces, mN */
+  int32_t at_rest;            /* 1 when no node moves faster than the rest speed */
+  int32_t tool_tip_touching;  /* 1 when the tool tip touches the skin */
+  int64_t recoveries;         /* steps redone after a non-finite state */
 } lamina_step_stats;
 
 /* Takes `steps` steps of the solver's dt on the calling thread; `stats` (may be NULL) gets the

@@ -125,9 +125,13 @@ lamina_sim* wrap(std::shared_ptr<const lamina::Model> model, lamina::sim::Simula
 
 extern "C" {
 
-const char* lamina_last_error(void) { return last_error().c_str(); }
+const char* lamina_last_error(void) {
+  return last_error().c_str();
+}
 
-const char* lamina_version(void) { return LAMINA_VERSION; }
+const char* lamina_version(void) {
+  return LAMINA_VERSION;
+}
 
 lamina_status lamina_model_build(const char* input, lamina_model** out) {
   return guarded([&] {
@@ -156,7 +160,9 @@ lamina_status lamina_model_save(const lamina_model* model, const char* path) {
   });
 }
 
-void lamina_model_free(lamina_model* model) { delete model; }
+void lamina_model_free(lamina_model* model) {
+  delete model;
+}
 
 int32_t lamina_model_node_count(const lamina_model* model) {
   return model ? model->model->node_count() : 0;
@@ -176,7 +182,8 @@ int32_t lamina_model_skin_triangle_count(const lamina_model* model) {
 lamina_status lamina_model_skin_triangles(const lamina_model* model, int32_t* indices,
                                           int64_t capacity) {
   return guarded([&] {
-    const Eigen::MatrixX3i& f = need(model, "lamina_model_skin_triangles: model").model->layers[0].F;
+    const Eigen::MatrixX3i& f =
+        need(model, "lamina_model_skin_triangles: model").model->layers[0].F;
     need(indices, "lamina_model_skin_triangles: indices");
     need_capacity(capacity, 3 * f.rows(), "lamina_model_skin_triangles: indices");
     for (Eigen::Index t = 0; t < f.rows(); ++t)
@@ -197,8 +204,8 @@ lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz
 void lamina_material_defaults(lamina_material* material) {
   if (material == nullptr) return;
   const lamina::sim::Material d;
-  *material = {d.stiffness_n_per_m, d.damping_kg_per_s,  d.node_mass_kg,
-               d.young_modulus_kpa, d.poisson_ratio,     d.volume_stiffness_kpa};
+  *material = {d.stiffness_n_per_m, d.damping_kg_per_s, d.node_mass_kg,
+               d.young_modulus_kpa, d.poisson_ratio,    d.volume_stiffness_kpa};
 }
 
 void lamina_solver_defaults(lamina_solver* solver) {
@@ -219,7 +226,8 @@ lamina_status lamina_sim_create(const lamina_model* model, const lamina_material
     lamina_solver_defaults(&s);
     lamina::sim::Simulation sim = lamina::sim::make_simulation(
         *shared, to_material(material ? *material : m), to_solver(solver ? *solver : s));
-    if (fixed_count < 0) throw lamina::invalid_input("lamina_sim_create: fixed_count", "is negative");
+    if (fixed_count < 0)
+      throw lamina::invalid_input("lamina_sim_create: fixed_count", "is negative");
     if (fixed_count > 0) {
       need(fixed_nodes, "lamina_sim_create: fixed_nodes");
       lamina::sim::fix_nodes(sim, std::vector<int32_t>(fixed_nodes, fixed_nodes + fixed_count));
@@ -231,17 +239,20 @@ lamina_status lamina_sim_create(const lamina_model* model, const lamina_material
 lamina_status lamina_sim_create_from_scene(const char* scene, lamina_sim** out) {
   return guarded([&] {
     need(out, "lamina_sim_create_from_scene: out") = nullptr;
-    lamina::io::Scene s = lamina::io::scene_for(need_text(scene, "lamina_sim_create_from_scene: scene"));
+    lamina::io::Scene s =
+        lamina::io::scene_for(need_text(scene, "lamina_sim_create_from_scene: scene"));
     lamina::io::ReadyScene ready = lamina::io::make_ready_scene(s);
     lamina::sim::Simulation sim = lamina::io::make_scene_simulation(ready);
     *out = wrap(std::move(ready.model), std::move(sim), ready.scene.routing);
   });
 }
 
-void lamina_sim_free(lamina_sim* sim) { delete sim; }
+void lamina_sim_free(lamina_sim* sim) {
+  delete sim;
+}
 
-lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3],
-                                      double radius_mm, double stiffness_n_per_m) {
+lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3], double radius_mm,
+                                      double stiffness_n_per_m) {
   return guarded([&] {
     lamina_sim& s = need(sim, "lamina_sim_set_tool_tip: sim");
     need(center_mm, "lamina_sim_set_tool_tip: center_mm");
@@ -250,9 +261,9 @@ lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3]
       throw lamina::invalid_input("lamina_sim_set_tool_tip: radius_mm",
                                   "is " + std::to_string(radius_mm) + "; a positive size expected");
     if (!(stiffness_n_per_m >= 0.0) || !std::isfinite(stiffness_n_per_m))
-      throw lamina::invalid_input("lamina_sim_set_tool_tip: stiffness_n_per_m",
-                                  "is " + std::to_string(stiffness_n_per_m) +
-                                      "; zero or positive expected");
+      throw lamina::invalid_input(
+          "lamina_sim_set_tool_tip: stiffness_n_per_m",
+          "is " + std::to_string(stiffness_n_per_m) + "; zero or positive expected");
     lamina::interact::ToolTip tip;
     tip.active = true;
     tip.center_mm = Eigen::Vector3d(center_mm[0], center_mm[1], center_mm[2]);
@@ -281,11 +292,11 @@ lamina_status lamina_sim_set_forces(lamina_sim* sim, const int32_t* skin_nodes,
     for (int32_t k = 0; k < count; ++k) {
       if (skin_nodes[k] < 0 || skin_nodes[k] >= skin)
         throw lamina::invalid_input("lamina_sim_set_forces: skin_nodes[" + std::to_string(k) + "]",
-                                    "is " + std::to_string(skin_nodes[k]) +
-                                        "; a skin node (0.." + std::to_string(skin - 1) +
-                                        ") expected");
+                                    "is " + std::to_string(skin_nodes[k]) + "; a skin node (0.." +
+                                        std::to_string(skin - 1) + ") expected");
       forces[k].node = skin_nodes[k];
-      forces[k].force_mn = Eigen::Vector3d(forces_mn[3 * k], forces_mn[3 * k + 1], forces_mn[3 * k + 2]);
+      forces[k].force_mn =
+          Eigen::Vector3d(forces_mn[3 * k], forces_mn[3 * k + 1], forces_mn[3 * k + 2]);
     }
     s.loop->set_forces(std::move(forces));
   });
@@ -328,7 +339,9 @@ int32_t lamina_sim_node_count(const lamina_sim* sim) {
   return sim ? sim->model.model->node_count() : 0;
 }
 
-const lamina_model* lamina_sim_model(const lamina_sim* sim) { return sim ? &sim->model : nullptr; }
+const lamina_model* lamina_sim_model(const lamina_sim* sim) {
+  return sim ? &sim->model : nullptr;
+}
 
 lamina_status lamina_sim_positions(const lamina_sim* sim, double* xyz, int64_t capacity) {
   return guarded([&] {

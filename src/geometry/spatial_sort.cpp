@@ -42,7 +42,8 @@ void spatial_sort(const SurfaceMesh& in, SurfaceMesh& out) {
     return std::make_tuple(F(p, 0), F(p, 1), F(p, 2)) < std::make_tuple(F(q, 0), F(q, 1), F(q, 2));
   });
   sorted.F.resize(F.rows(), 3);
-  for (size_t t = 0; t < order.size(); ++t) sorted.F.row(static_cast<Eigen::Index>(t)) = F.row(order[t]);
+  for (size_t t = 0; t < order.size(); ++t)
+    sorted.F.row(static_cast<Eigen::Index>(t)) = F.row(order[t]);
   out = std::move(sorted);
 }
 

@@ -80,15 +80,15 @@ ShellTets tetrahedralize_shells(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
       throw failed(fmt::format("TetGen's intersection check stopped with code {}", code));
     }
     if (check.numberoftrifaces > 0)
-      throw failed(fmt::format("{} triangles of the layers intersect each other",
-                               check.numberoftrifaces));
+      throw failed(
+          fmt::format("{} triangles of the layers intersect each other", check.numberoftrifaces));
   }
 
   // -p: the input is a piecewise linear complex; -Y: no Steiner point on its facets, so the
   // layers stay exactly as they are; -q: radius-edge and dihedral bounds; -A: one attribute per
   // region enclosed by facets; -Q: quiet.
-  std::string switches = fmt::format("pYq{:.3g}/{:.3g}AQ", options.max_radius_edge_ratio,
-                                     options.min_dihedral_deg);
+  std::string switches =
+      fmt::format("pYq{:.3g}/{:.3g}AQ", options.max_radius_edge_ratio, options.min_dihedral_deg);
   try {
     tetrahedralize(switches.data(), &in, &out);
   } catch (int code) {
@@ -123,9 +123,8 @@ ShellTets tetrahedralize_shells(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
     if (volume < 0.0) std::swap(q[1], q[2]);
     for (int c = 0; c < 4; ++c) result.T(t, c) = q[c];
     for (int c = 0; c < 4; ++c) {
-      auto [it, added] =
-          tets_of_face.try_emplace(key(q[(c + 1) % 4], q[(c + 2) % 4], q[(c + 3) % 4]),
-                                   std::array<int, 2>{t, -1});
+      auto [it, added] = tets_of_face.try_emplace(
+          key(q[(c + 1) % 4], q[(c + 2) % 4], q[(c + 3) % 4]), std::array<int, 2>{t, -1});
       if (!added) it->second[1] = t;
     }
   }
@@ -154,8 +153,8 @@ ShellTets tetrahedralize_shells(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
       const int32_t k = surface[static_cast<size_t>(f)];
       const auto [at, added] = region_of_attribute.try_emplace(attribute, k);
       if (!added && at->second != k)
-        throw failed(fmt::format("one region lies inside both layer {} and layer {}", at->second,
-                                 k));
+        throw failed(
+            fmt::format("one region lies inside both layer {} and layer {}", at->second, k));
     }
     if (inside != 1)
       throw failed(fmt::format("triangle {} of layer {} has {} tetrahedra on its inner side", f,

@@ -42,8 +42,7 @@ std::string name_of(const std::string& file) {
 
 }  // namespace
 
-DicomGrid check_dicom_slices(const std::string& folder,
-                             const std::vector<DicomSliceTags>& slices) {
+DicomGrid check_dicom_slices(const std::string& folder, const std::vector<DicomSliceTags>& slices) {
   if (slices.size() < 2) return {};  // a single slice is refused as 2-D by the caller
   std::vector<double> v;
   std::vector<std::array<double, 3>> position(slices.size());
@@ -55,8 +54,8 @@ DicomGrid check_dicom_slices(const std::string& folder,
     // A tag that is absent, or not `count` finite numbers, is refused by name.
     const auto numbers = [&](const std::string& text, size_t count, const char* tag,
                              const char* absent_means) {
-      if (text.empty()) throw invalid_input(folder, fmt::format("{} has no {}{}", where, tag,
-                                                                absent_means));
+      if (text.empty())
+        throw invalid_input(folder, fmt::format("{} has no {}{}", where, tag, absent_means));
       if (!parse(text, count, v))
         throw invalid_input(folder, fmt::format("{}: {} '{}' is not {} finite numbers", where, tag,
                                                 text.substr(0, 80), count));

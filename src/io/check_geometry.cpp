@@ -46,8 +46,8 @@ void check_spacing(const std::string& path, const std::string& field,
 
 void check_direction(const std::string& path, const std::string& field,
                      const std::array<std::array<double, 3>, 3>& columns, bool scaled) {
-  const std::string all = fmt::format("{} {} {}", vector_text(columns[0]),
-                                      vector_text(columns[1]), vector_text(columns[2]));
+  const std::string all = fmt::format("{} {} {}", vector_text(columns[0]), vector_text(columns[1]),
+                                      vector_text(columns[2]));
   for (const auto& c : columns)
     for (double v : c)
       if (!std::isfinite(v)) throw invalid_input(path, field + " is not finite: " + all);
@@ -85,8 +85,7 @@ void check_origin(const std::string& path, const std::string& field,
                   const std::array<double, 3>& origin) {
   for (double v : origin)
     if (!std::isfinite(v))
-      throw invalid_input(path,
-                          fmt::format("{} is not finite: {}", field, vector_text(origin)));
+      throw invalid_input(path, fmt::format("{} is not finite: {}", field, vector_text(origin)));
 }
 
 uint64_t count_data_bytes(const std::string& path, uint64_t offset, bool gzip) {

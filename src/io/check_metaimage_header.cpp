@@ -29,8 +29,8 @@ namespace fs = std::filesystem;
 
 int element_bytes(const std::string& type) {
   static const std::map<std::string, int> sizes = {
-      {"MET_CHAR", 1},  {"MET_UCHAR", 1},     {"MET_SHORT", 2},      {"MET_USHORT", 2},
-      {"MET_INT", 4},   {"MET_UINT", 4},      {"MET_LONG_LONG", 8},  {"MET_ULONG_LONG", 8},
+      {"MET_CHAR", 1},  {"MET_UCHAR", 1}, {"MET_SHORT", 2},     {"MET_USHORT", 2},
+      {"MET_INT", 4},   {"MET_UINT", 4},  {"MET_LONG_LONG", 8}, {"MET_ULONG_LONG", 8},
       {"MET_FLOAT", 4}, {"MET_DOUBLE", 8}};
   const auto it = sizes.find(type);
   return it == sizes.end() ? 0 : it->second;
@@ -103,8 +103,9 @@ void check_metaimage_header(const std::string& path, int64_t max_voxels) {
     }
     if (key != "ElementDataFile") continue;
     if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
-      throw bad(n, "ElementDataFile is a multi-file pattern or LIST, which Lamina does not read: "
-                   "save the mask as one .mha, .nii.gz or .nrrd file");
+      throw bad(n,
+                "ElementDataFile is a multi-file pattern or LIST, which Lamina does not read: "
+                "save the mask as one .mha, .nii.gz or .nrrd file");
     break;  // the voxel data follows
   }
   if (!field.count("ElementDataFile"))
@@ -127,19 +128,20 @@ void check_metaimage_header(const std::string& path, int64_t max_voxels) {
   if (dims.size() != 1 || dims[0] != 3.0 || size.size() != 3) return;
   const std::string spacing_key = first_of({"ElementSpacing", "ElementSize"});
   if (spacing_key.empty())
-    throw invalid_input(path, "MetaImage header gives no voxel size (ElementSpacing), and a "
-                              "reader would assume 1 mm: add it");
+    throw invalid_input(path,
+                        "MetaImage header gives no voxel size (ElementSpacing), and a "
+                        "reader would assume 1 mm: add it");
   const std::vector<double> s = numbers(value(spacing_key.c_str()));
   if (s.size() != 3)
-    throw invalid_input(path, fmt::format("MetaImage {} has {} values for a 3-D image",
-                                          spacing_key, s.size()));
+    throw invalid_input(
+        path, fmt::format("MetaImage {} has {} values for a 3-D image", spacing_key, s.size()));
   check_spacing(path, "MetaImage " + spacing_key, {s[0], s[1], s[2]});
   const std::string matrix_key = first_of({"TransformMatrix", "Rotation", "Orientation"});
   if (!matrix_key.empty()) {
     const std::vector<double> m = numbers(value(matrix_key.c_str()));
     if (m.size() != 9)
-      throw invalid_input(path, fmt::format("MetaImage {} has {} values, not 9", matrix_key,
-                                            m.size()));
+      throw invalid_input(path,
+                          fmt::format("MetaImage {} has {} values, not 9", matrix_key, m.size()));
     check_direction(path, "MetaImage " + matrix_key,
                     {{{m[0], m[1], m[2]}, {m[3], m[4], m[5]}, {m[6], m[7], m[8]}}},
                     /*scaled=*/false);
@@ -148,8 +150,8 @@ void check_metaimage_header(const std::string& path, int64_t max_voxels) {
   if (!origin_key.empty()) {
     const std::vector<double> o = numbers(value(origin_key.c_str()));
     if (o.size() != 3)
-      throw invalid_input(path, fmt::format("MetaImage {} has {} values for a 3-D image",
-                                            origin_key, o.size()));
+      throw invalid_input(
+          path, fmt::format("MetaImage {} has {} values for a 3-D image", origin_key, o.size()));
     check_origin(path, "MetaImage " + origin_key, {o[0], o[1], o[2]});
   }
 
@@ -188,10 +190,9 @@ void check_metaimage_header(const std::string& path, int64_t max_voxels) {
   const std::vector<double> channels = numbers(value("ElementNumberOfChannels"));
   // Sizes were checked above as whole numbers of at most nine digits; channels are ITK's to
   // refuse (a label image has one), so only a plausible count is multiplied in.
-  const uint64_t per_voxel =
-      channels.size() == 1 && channels[0] >= 1.0 && channels[0] <= 1024.0
-          ? static_cast<uint64_t>(channels[0])
-          : 1u;
+  const uint64_t per_voxel = channels.size() == 1 && channels[0] >= 1.0 && channels[0] <= 1024.0
+                                 ? static_cast<uint64_t>(channels[0])
+                                 : 1u;
   uint64_t expected = static_cast<uint64_t>(bytes) * per_voxel;
   for (int a = 0; a < 3; ++a)
     expected = saturating_product(expected, static_cast<uint64_t>(size[a]));

@@ -56,19 +56,41 @@ class RawHeader {
 
 // Byte offsets of the NIfTI-1 fields used here (nifti1.h).
 enum : int {
-  kSizeofHdr = 0, kDim = 40, kDatatype = 70, kBitpix = 72, kPixdim = 76, kVoxOffset = 108,
-  kSclSlope = 112, kSclInter = 116, kQformCode = 252, kSformCode = 254, kQuatern = 256,
-  kQoffset = 268, kSrow = 280, kMagic = 344,
+  kSizeofHdr = 0,
+  kDim = 40,
+  kDatatype = 70,
+  kBitpix = 72,
+  kPixdim = 76,
+  kVoxOffset = 108,
+  kSclSlope = 112,
+  kSclInter = 116,
+  kQformCode = 252,
+  kSformCode = 254,
+  kQuatern = 256,
+  kQoffset = 268,
+  kSrow = 280,
+  kMagic = 344,
 };
 
 // Bits per voxel of the scalar types a label mask can be stored in; 0 for any other type.
 int scalar_bits(int datatype) {
   switch (datatype) {
-    case 2: case 256: return 8;    // uint8, int8
-    case 4: case 512: return 16;   // int16, uint16
-    case 8: case 768: case 16: return 32;  // int32, uint32, float32
-    case 64: case 1024: case 1280: return 64;  // float64, int64, uint64
-    default: return 0;
+    case 2:
+    case 256:
+      return 8;  // uint8, int8
+    case 4:
+    case 512:
+      return 16;  // int16, uint16
+    case 8:
+    case 768:
+    case 16:
+      return 32;  // int32, uint32, float32
+    case 64:
+    case 1024:
+    case 1280:
+      return 64;  // float64, int64, uint64
+    default:
+      return 0;
   }
 }
 
@@ -78,9 +100,10 @@ using Columns = std::array<std::array<double, 3>, 3>;
 // third column flipped by qfac, each column scaled by pixdim.
 Columns qform_columns(double b, double c, double d, double qfac, const std::array<double, 3>& s) {
   const double a = std::sqrt(std::max(0.0, 1.0 - (b * b + c * c + d * d)));
-  const double R[3][3] = {{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
-                          {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
-                          {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - c * c - b * b}};
+  const double R[3][3] = {
+      {a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
+      {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
+      {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - c * c - b * b}};
   Columns cols;
   for (int col = 0; col < 3; ++col)
     for (int row = 0; row < 3; ++row)
@@ -96,10 +119,11 @@ double norm(const std::array<double, 3>& v) {
 
 void check_nifti_header(const std::string& path, int64_t max_voxels) {
   std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   const bool pair = ext == ".hdr" || ext == ".img";
-  const std::string header_path = ext == ".img" ? fs::path(path).replace_extension(".hdr").string()
-                                                : path;
+  const std::string header_path =
+      ext == ".img" ? fs::path(path).replace_extension(".hdr").string() : path;
   std::array<unsigned char, kHeaderBytes> bytes{};
   gzFile f = gzopen(header_path.c_str(), "rb");
   if (!f) throw invalid_input(header_path, "cannot open the file");
@@ -117,15 +141,17 @@ void check_nifti_header(const std::string& path, int64_t max_voxels) {
       const bool nifti2 = h.i32(kSizeofHdr) == kNifti2HeaderBytes ||
                           (h.set_swapped(true), h.i32(kSizeofHdr) == kNifti2HeaderBytes);
       if (nifti2)
-        throw invalid_input(header_path, "is NIfTI-2, which Lamina's reader (ITK 5.2) does not "
-                                         "read: save the mask as NIfTI-1 (.nii.gz)");
+        throw invalid_input(header_path,
+                            "is NIfTI-2, which Lamina's reader (ITK 5.2) does not "
+                            "read: save the mask as NIfTI-1 (.nii.gz)");
       throw invalid_input(header_path, "is not a NIfTI-1 file (sizeof_hdr is not 348)");
     }
   }
   const std::string magic(reinterpret_cast<const char*>(bytes.data() + kMagic), 3);
   if (magic != "n+1" && magic != "ni1")
-    throw invalid_input(header_path, "has no NIfTI magic (an Analyze 7.5 header, whose "
-                                     "orientation is undefined): convert it to NIfTI-1");
+    throw invalid_input(header_path,
+                        "has no NIfTI magic (an Analyze 7.5 header, whose "
+                        "orientation is undefined): convert it to NIfTI-1");
 
   // Sizes and type.
   const int rank = h.i16(kDim);
@@ -181,8 +207,8 @@ void check_nifti_header(const std::string& path, int64_t max_voxels) {
   const int qcode = h.i16(kQformCode), scode = h.i16(kSformCode);
   for (const auto& [name, code] : {std::pair{"qform_code", qcode}, std::pair{"sform_code", scode}})
     if (code < 0 || code > 5)
-      throw invalid_input(header_path, fmt::format("{} {} is not a NIfTI transform code (0..5)",
-                                                   name, code));
+      throw invalid_input(header_path,
+                          fmt::format("{} {} is not a NIfTI transform code (0..5)", name, code));
   Columns q{}, s{};
   std::array<double, 3> q_origin{}, s_origin{};
   if (qcode > 0) {
@@ -198,8 +224,8 @@ void check_nifti_header(const std::string& path, int64_t max_voxels) {
                                                    "rotation (a reader would rescale it)",
                                                    b, c, d));
     if (qfac != 1.0 && qfac != -1.0 && qfac != 0.0)
-      throw invalid_input(header_path, fmt::format("pixdim[0] (qfac) must be 1 or -1, got {:g}",
-                                                   qfac));
+      throw invalid_input(header_path,
+                          fmt::format("pixdim[0] (qfac) must be 1 or -1, got {:g}", qfac));
     for (int a = 0; a < 3; ++a) q_origin[a] = h.f32(kQoffset + 4 * a);
     check_origin(header_path, "qoffset_x/y/z (qform origin)", q_origin);
     q = qform_columns(b, c, d, qfac, spacing);
@@ -226,8 +252,7 @@ void check_nifti_header(const std::string& path, int64_t max_voxels) {
     // place and orientation.
     double worst = 0.0;
     for (int a = 0; a < 3; ++a)
-      for (int r = 0; r < 3; ++r)
-        worst = std::max(worst, std::abs(q[a][r] - s[a][r]) / spacing[a]);
+      for (int r = 0; r < 3; ++r) worst = std::max(worst, std::abs(q[a][r] - s[a][r]) / spacing[a]);
     double shift = 0.0;
     for (int r = 0; r < 3; ++r) shift = std::max(shift, std::abs(q_origin[r] - s_origin[r]));
     const double smallest = std::min({spacing[0], spacing[1], spacing[2]});

@@ -24,16 +24,46 @@ namespace fs = std::filesystem;
 
 // Bytes per value of NRRD's type names (NRRD0005 spec, "type").
 int type_bytes(const std::string& t) {
-  static const std::map<std::string, int> sizes = {
-      {"signed char", 1}, {"int8", 1}, {"int8_t", 1}, {"uchar", 1}, {"unsigned char", 1},
-      {"uint8", 1}, {"uint8_t", 1}, {"short", 2}, {"short int", 2}, {"signed short", 2},
-      {"signed short int", 2}, {"int16", 2}, {"int16_t", 2}, {"ushort", 2}, {"unsigned short", 2},
-      {"unsigned short int", 2}, {"uint16", 2}, {"uint16_t", 2}, {"int", 4}, {"signed int", 4},
-      {"int32", 4}, {"int32_t", 4}, {"uint", 4}, {"unsigned int", 4}, {"uint32", 4},
-      {"uint32_t", 4}, {"longlong", 8}, {"long long", 8}, {"long long int", 8},
-      {"signed long long", 8}, {"signed long long int", 8}, {"int64", 8}, {"int64_t", 8},
-      {"ulonglong", 8}, {"unsigned long long", 8}, {"unsigned long long int", 8}, {"uint64", 8},
-      {"uint64_t", 8}, {"float", 4}, {"double", 8}};
+  static const std::map<std::string, int> sizes = {{"signed char", 1},
+                                                   {"int8", 1},
+                                                   {"int8_t", 1},
+                                                   {"uchar", 1},
+                                                   {"unsigned char", 1},
+                                                   {"uint8", 1},
+                                                   {"uint8_t", 1},
+                                                   {"short", 2},
+                                                   {"short int", 2},
+                                                   {"signed short", 2},
+                                                   {"signed short int", 2},
+                                                   {"int16", 2},
+                                                   {"int16_t", 2},
+                                                   {"ushort", 2},
+                                                   {"unsigned short", 2},
+                                                   {"unsigned short int", 2},
+                                                   {"uint16", 2},
+                                                   {"uint16_t", 2},
+                                                   {"int", 4},
+                                                   {"signed int", 4},
+                                                   {"int32", 4},
+                                                   {"int32_t", 4},
+                                                   {"uint", 4},
+                                                   {"unsigned int", 4},
+                                                   {"uint32", 4},
+                                                   {"uint32_t", 4},
+                                                   {"longlong", 8},
+                                                   {"long long", 8},
+                                                   {"long long int", 8},
+                                                   {"signed long long", 8},
+                                                   {"signed long long int", 8},
+                                                   {"int64", 8},
+                                                   {"int64_t", 8},
+                                                   {"ulonglong", 8},
+                                                   {"unsigned long long", 8},
+                                                   {"unsigned long long int", 8},
+                                                   {"uint64", 8},
+                                                   {"uint64_t", 8},
+                                                   {"float", 4},
+                                                   {"double", 8}};
   const auto it = sizes.find(t);
   return it == sizes.end() ? 0 : it->second;
 }
@@ -49,8 +79,8 @@ double number(const std::string& path, const std::string& field, const std::stri
   char* end = nullptr;
   const double v = std::strtod(token.c_str(), &end);
   if (token.empty() || *end != '\0')
-    throw invalid_input(path, fmt::format("NRRD field '{}': '{}' is not a number", field,
-                                          token.substr(0, 40)));
+    throw invalid_input(
+        path, fmt::format("NRRD field '{}': '{}' is not a number", field, token.substr(0, 40)));
   return v;
 }
 
@@ -102,8 +132,9 @@ void check_nrrd_header(const std::string& path, int64_t max_voxels) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return;  // ITK reports a missing or unreadable file in its own words
   std::string line;
-  if (!std::getline(in, line) || line.rfind("NRRD000", 0) != 0) return;  // a detached .nhdr is
-                                                                       // read the same way below
+  if (!std::getline(in, line) || line.rfind("NRRD000", 0) != 0)
+    return;  // a detached .nhdr is
+             // read the same way below
   std::map<std::string, std::string> field;
   for (int n = 2; std::getline(in, line); ++n) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -127,8 +158,8 @@ void check_nrrd_header(const std::string& path, int64_t max_voxels) {
   const int dims = static_cast<int>(dimension);
   const std::vector<std::string> sizes = tokens(field["sizes"]);
   if (static_cast<int>(sizes.size()) != dims)
-    throw invalid_input(path, fmt::format("NRRD 'sizes' has {} values for dimension {}",
-                                          sizes.size(), dims));
+    throw invalid_input(
+        path, fmt::format("NRRD 'sizes' has {} values for dimension {}", sizes.size(), dims));
   uint64_t voxels = 1;
   for (const std::string& s : sizes) {
     const double v = number(path, "sizes", s);
@@ -165,8 +196,9 @@ void check_nrrd_header(const std::string& path, int64_t max_voxels) {
         if (!std::isnan(v)) spacings.push_back(v);  // nan: the axis has no spacing
       }
     if (spacings.size() < 3)
-      throw invalid_input(path, "NRRD header gives no voxel size ('space directions' or "
-                                "'spacings'), and a reader would assume 1 mm: add it");
+      throw invalid_input(path,
+                          "NRRD header gives no voxel size ('space directions' or "
+                          "'spacings'), and a reader would assume 1 mm: add it");
     check_spacing(path, "NRRD 'spacings'", {spacings[0], spacings[1], spacings[2]});
   }
   if (has("space origin")) {
@@ -198,8 +230,8 @@ void check_nrrd_header(const std::string& path, int64_t max_voxels) {
     offset = 0;
     std::error_code ec;
     if (!fs::exists(data_path, ec))
-      throw invalid_input(path, fmt::format("NRRD '{}' names {}, which does not exist",
-                                            file_field, name));
+      throw invalid_input(
+          path, fmt::format("NRRD '{}' names {}, which does not exist", file_field, name));
   }
   if (has("byte skip")) {
     const double skip = number(path, "byte skip", field["byte skip"]);

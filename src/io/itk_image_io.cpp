@@ -95,9 +95,10 @@ void check_header(const std::string& path, itk::ImageIOBase* io, const ReadVolum
   detail::check_spacing(path, "voxel spacing",
                         {io->GetSpacing(0), io->GetSpacing(1), io->GetSpacing(2)});
   if (voxels > opt.max_voxels)
-    throw invalid_input(path, "has " + std::to_string(voxels) + " voxels, more than the limit of " +
-                                  std::to_string(opt.max_voxels) +
-                                  " (raise it with --max-voxels if the image is really this large)");
+    throw invalid_input(path,
+                        "has " + std::to_string(voxels) + " voxels, more than the limit of " +
+                            std::to_string(opt.max_voxels) +
+                            " (raise it with --max-voxels if the image is really this large)");
 }
 
 // MetaIO reports a short read ("data not read completely") on std::cerr and carries on with

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <Eigen/Geometry>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -16,8 +17,6 @@
 #include <type_traits>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
@@ -42,7 +41,7 @@ constexpr uint8_t kVtkTriangle = 5;
 constexpr uint8_t kVtkTetra = 10;
 constexpr uint8_t kCellKindTriangle = 0;  // springs are 1 + SpringKind
 constexpr uint8_t kCellKindTetra = 4;
-constexpr size_t kValuesPerLine = 12;     // a multiple of 3, so point rows stay whole
+constexpr size_t kValuesPerLine = 12;  // a multiple of 3, so point rows stay whole
 
 template <class T>
 constexpr const char* vtk_type() {
@@ -98,7 +97,8 @@ void check_savable(const Model& m, const std::string& path) {
             m.tets.region.size() == static_cast<size_t>(m.tets.size());
   for (size_t k = 0; ok && k < s.size(); ++k) ok = s.i[k] >= 0 && static_cast<size_t>(s.i[k]) < n;
   for (size_t k = 0; ok && k < m.layer_of.size(); ++k) ok = m.layer_of[k] >= kInteriorNode;
-  ok = ok && (m.tets.size() == 0 || (m.tets.T.minCoeff() >= 0 && m.tets.T.maxCoeff() < static_cast<int>(n)));
+  ok = ok && (m.tets.size() == 0 ||
+              (m.tets.T.minCoeff() >= 0 && m.tets.T.maxCoeff() < static_cast<int>(n)));
   if (!ok)
     throw Error(ErrorKind::kInternal,
                 path + ": cannot save: the model's arrays disagree in size or index range");
@@ -450,8 +450,8 @@ Model load_model(const std::string& path) {
   }
 
   const int64_t spring_count = cells - triangles - tet_count;
-  const auto connectivity = read_values<int64_t>(
-      path, f, "Cells/connectivity", 3 * triangles + 2 * spring_count + 4 * tet_count);
+  const auto connectivity = read_values<int64_t>(path, f, "Cells/connectivity",
+                                                 3 * triangles + 2 * spring_count + 4 * tet_count);
   const auto offsets = read_values<int64_t>(path, f, "Cells/offsets", cells);
   const auto types = read_values<uint8_t>(path, f, "Cells/types", cells);
   const auto kinds = read_values<uint8_t>(path, f, "CellData/cell_kind", cells);
@@ -511,9 +511,10 @@ Model load_model(const std::string& path) {
          (m.layer_of[i] == m.layer_of[j] || m.layer_of[i] == kInteriorNode ||
           m.layer_of[j] == kInteriorNode)) ||
         (kind == SpringKind::kVolume && tet_count == 0))
-      throw bad(spring + (kind == SpringKind::kIntraLayer   ? "an intra-layer spring"
-                          : kind == SpringKind::kInterLayer ? "an inter-layer spring"
-                                                            : "a tetrahedron-edge spring") +
+      throw bad(spring +
+                (kind == SpringKind::kIntraLayer   ? "an intra-layer spring"
+                 : kind == SpringKind::kInterLayer ? "an inter-layer spring"
+                                                   : "a tetrahedron-edge spring") +
                 " joins nodes of layers " + std::to_string(m.layer_of[i]) + " and " +
                 std::to_string(m.layer_of[j]));
     if (cell_layer[cell] != m.layer_of[i])

@@ -228,10 +228,12 @@ void read_model(const Reader& r, const json& j, Scene& s) {
   read_integer(r, *b, bp, "label", o.label, 0, std::numeric_limits<int32_t>::max());
   read_integer(r, *b, bp, "locality", o.locality, 1, 64);
   read_integer(r, *b, bp, "links", o.inter_layer_links, 1, 16);
-  read_number(r, *b, bp, "tet_radius_edge_ratio", o.tet_radius_edge_ratio,
-              [](double v) { return v >= 1.2 && v <= 10.0; }, "must be between 1.2 and 10");
-  read_number(r, *b, bp, "tet_min_dihedral_deg", o.tet_min_dihedral_deg,
-              [](double v) { return v >= 0.0 && v <= 18.0; }, "must be between 0 and 18 degrees");
+  read_number(
+      r, *b, bp, "tet_radius_edge_ratio", o.tet_radius_edge_ratio,
+      [](double v) { return v >= 1.2 && v <= 10.0; }, "must be between 1.2 and 10");
+  read_number(
+      r, *b, bp, "tet_min_dihedral_deg", o.tet_min_dihedral_deg,
+      [](double v) { return v >= 0.0 && v <= 18.0; }, "must be between 0 and 18 degrees");
 }
 
 void read_material(const Reader& r, const json& j, Scene& s) {
@@ -263,20 +265,19 @@ void read_material(const Reader& r, const json& j, Scene& s) {
     s.solver.dt_s = p.solver.dt_s;
     if (!s.structure_given) s.build.structure = p.build.structure;
   }
-  read_choice(r, j, path, "tet_elasticity", s.tet_elasticity,
-              {{"coupled", model::TetElasticity::kCoupled},
-               {"springs", model::TetElasticity::kSprings}});
+  read_choice(
+      r, j, path, "tet_elasticity", s.tet_elasticity,
+      {{"coupled", model::TetElasticity::kCoupled}, {"springs", model::TetElasticity::kSprings}});
   if (j.contains("poisson_ratio") && !s.elastic)
     r.fail(path + ".poisson_ratio", "needs young_modulus_kpa beside it");
   read_number(r, j, path, "young_modulus_kpa", s.elastic_material.young_modulus_kpa, kPositive,
               "must be > 0 (healthy liver: about 6 kPa)");
-  read_number(r, j, path, "poisson_ratio", s.elastic_material.poisson_ratio,
-              [](double v) { return v >= 0.0 && v < 0.5; },
-              "must be in [0, 0.5) (soft tissue: 0.45-0.49)");
+  read_number(
+      r, j, path, "poisson_ratio", s.elastic_material.poisson_ratio,
+      [](double v) { return v >= 0.0 && v < 0.5; }, "must be in [0, 0.5) (soft tissue: 0.45-0.49)");
   read_number(r, j, path, "damping_ratio", s.damping_ratio, kNonNegative,
               "must be >= 0 (1 = critically damped slowest mode)");
-  read_number(r, j, path, "mass_damping_per_s", m.mass_damping_per_s, kNonNegative,
-              "must be >= 0");
+  read_number(r, j, path, "mass_damping_per_s", m.mass_damping_per_s, kNonNegative, "must be >= 0");
   read_number(r, j, path, "volume_stiffness_kpa", m.volume_stiffness_kpa, kNonNegative,
               "must be >= 0 (0 = no volume term)");
   s.volume_stiffness_given = j.contains("volume_stiffness_kpa");
@@ -310,12 +311,11 @@ void read_material(const Reader& r, const json& j, Scene& s) {
 void read_solver(const Reader& r, const json& j, Scene& s) {
   const std::string path = "solver";
   r.require_object(j, path);
-  r.warn_unknown(j, path,
-                 {"integrator", "dt_s", "rest_speed_mm_per_s", "threshold_mm", "max_steps", "mode",
-                  "locality",
-                  "penetration_depth", "ring_attenuation", "crossing_attenuation",
-                  "contact_threshold_mm", "cg_max_iterations", "cg_tolerance",
-                  "projective_iterations"});
+  r.warn_unknown(
+      j, path,
+      {"integrator", "dt_s", "rest_speed_mm_per_s", "threshold_mm", "max_steps", "mode", "locality",
+       "penetration_depth", "ring_attenuation", "crossing_attenuation", "contact_threshold_mm",
+       "cg_max_iterations", "cg_tolerance", "projective_iterations"});
   sim::SolverOptions& o = s.solver;
   s.integrator_given = j.contains("integrator");
   read_choice(r, j, path, "integrator", o.integrator,
@@ -420,9 +420,9 @@ void read_boundary(const Reader& r, const json& j, Scene& s) {
         o.direction = r.vec3(reg["direction"], sp + ".direction");
         if (!(o.direction.norm() > 0.0)) r.fail(sp + ".direction", "must not be zero");
       }
-      read_number(r, reg, sp, "max_angle_deg", o.max_angle_deg,
-                  [](double v) { return v >= 0.0 && v <= 180.0; },
-                  "must be between 0 and 180 degrees");
+      read_number(
+          r, reg, sp, "max_angle_deg", o.max_angle_deg,
+          [](double v) { return v >= 0.0 && v <= 180.0; }, "must be between 0 and 180 degrees");
       read_number(r, reg, sp, "stiffness_kpa_per_mm", o.stiffness_kpa_per_mm, kNonNegative,
                   "must be >= 0 kPa/mm");
       s.support.push_back(o);
@@ -534,7 +534,7 @@ Scene paper_scene() {
   s.source = "the paper's scene";
   s.build.structure = model::Structure::kLinks;
   s.elastic = false;
-  s.material = sim::Material{};  // K = 3 N/m, gamma = 3 kg/s, unit masses
+  s.material = sim::Material{};     // K = 3 N/m, gamma = 3 kg/s, unit masses
   s.solver = sim::SolverOptions{};  // semi-implicit Euler, dt = 0.01 s, 1e-3 mm per step
   return s;
 }

@@ -36,11 +36,12 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
       rep.tet_volume_modulus_kpa = scene.tet_elasticity == model::TetElasticity::kCoupled
                                        ? model::kVolumeShare * lambda
                                        : std::max(0.0, lambda - mu);
-      log::info("{}: E = {:.3g} kPa, nu = {:.3g} in {} tetrahedra ({} springs; shear modulus "
-                "{:.3g} kPa, volume term {:.3g} kPa per tetrahedron)",
-                scene.source, mat.young_modulus_kpa, mat.poisson_ratio, model.tets.size(),
-                scene.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "independent",
-                mu, rep.tet_volume_modulus_kpa);
+      log::info(
+          "{}: E = {:.3g} kPa, nu = {:.3g} in {} tetrahedra ({} springs; shear modulus "
+          "{:.3g} kPa, volume term {:.3g} kPa per tetrahedron)",
+          scene.source, mat.young_modulus_kpa, mat.poisson_ratio, model.tets.size(),
+          scene.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "independent", mu,
+          rep.tet_volume_modulus_kpa);
     } else {
       rep.identification =
           model::identify_springs(model, scene.elastic_material, model.springs.stiffness_n_per_m);
@@ -72,8 +73,7 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
     rep.damping_ratio = scene.damping_ratio;
     rep.lowest_frequency_hz = omega / (2.0 * std::numbers::pi);
     log::info("{}: slowest vibration {:.3g} Hz; damping ratio {:.3g} gives alpha = {:.4g} 1/s",
-              scene.source, rep.lowest_frequency_hz, scene.damping_ratio,
-              mat.mass_damping_per_s);
+              scene.source, rep.lowest_frequency_hz, scene.damping_ratio, mat.mass_damping_per_s);
   }
   rep.volume_stiffness_kpa = mat.volume_stiffness_kpa;
   rep.mass_damping_per_s = mat.mass_damping_per_s;

@@ -41,9 +41,9 @@ SceneModel make_scene_model(const Scene& scene, const ReadVolumeOptions& read_op
 Scene scene_for(const std::string& what, bool paper) {
   if (what.ends_with(".json")) {
     if (paper)
-      throw invalid_input("--paper",
-                          "cannot be given with a scene file (" + what +
-                              "): the scene sets the model and material; see examples/paper_*.json");
+      throw invalid_input(
+          "--paper", "cannot be given with a scene file (" + what +
+                         "): the scene sets the model and material; see examples/paper_*.json");
     return load_scene(what);
   }
   Scene scene = paper ? paper_scene() : Scene{};

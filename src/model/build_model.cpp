@@ -244,9 +244,9 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
       kept.push_back(std::move(part));
     }
     if (info.dropped_components > 0)
-      rep.warnings.push_back(fmt::format(
-          "layer {}: dropped {} piece(s) too small to mesh in thin parts of the organ", k,
-          info.dropped_components));
+      rep.warnings.push_back(
+          fmt::format("layer {}: dropped {} piece(s) too small to mesh in thin parts of the organ",
+                      k, info.dropped_components));
     if (crossing > 0)
       rep.warnings.push_back(fmt::format(
           "layer {}: dropped {} piece(s) that came too close to layer {} in thin parts of the "
@@ -333,7 +333,8 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
       m.springs.kind.push_back(kind);
     };
     for (const auto& l : m.layers)
-      for (const auto& [a, b] : geometry::mesh_edges(l.F)) add_spring(a, b, SpringKind::kIntraLayer);
+      for (const auto& [a, b] : geometry::mesh_edges(l.F))
+        add_spring(a, b, SpringKind::kIntraLayer);
     for (const auto& [a, b] : link_layers(m, opt.inter_layer_links))
       add_spring(a, b, SpringKind::kInterLayer);
     sort_springs(m.springs);

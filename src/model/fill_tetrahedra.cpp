@@ -36,7 +36,8 @@ geometry::TetQuality fill_tetrahedra(const geometry::TetOptions& options, Model&
   m.fixed.assign(static_cast<size_t>(surface_nodes + interior), 0);
   for (Eigen::Index t = 0; t < st.T.rows(); ++t)
     for (int c = 0; c < 4; ++c)
-      if (st.T(t, c) >= surface_nodes) st.T(t, c) = surface_nodes + order[st.T(t, c) - surface_nodes];
+      if (st.T(t, c) >= surface_nodes)
+        st.T(t, c) = surface_nodes + order[st.T(t, c) - surface_nodes];
 
   // Tetrahedra in the order of their smallest node: a pass over them walks the nodes in order.
   std::vector<Eigen::Index> by_node(static_cast<size_t>(st.T.rows()));
@@ -54,7 +55,8 @@ geometry::TetQuality fill_tetrahedra(const geometry::TetOptions& options, Model&
   // Springs: every tetrahedron edge once, sorted by (i, j).
   std::set<std::pair<int32_t, int32_t>> layer_edges;
   for (const ModelLayer& l : m.layers)
-    for (const auto& [a, b] : geometry::mesh_edges(l.F)) layer_edges.emplace(std::min(a, b), std::max(a, b));
+    for (const auto& [a, b] : geometry::mesh_edges(l.F))
+      layer_edges.emplace(std::min(a, b), std::max(a, b));
   std::vector<std::pair<int32_t, int32_t>> edges;
   edges.reserve(6 * static_cast<size_t>(m.tets.size()));
   for (Eigen::Index t = 0; t < m.tets.T.rows(); ++t)

@@ -15,13 +15,15 @@ namespace {
 // Projecting onto the isotropic tensors (in Mandel form, mandel.h) is the same as averaging
 // over all orientations (what a curved organ does to its layers' frames).
 using detail::Mandel;
-inline Mandel isotropic(double lambda, double mu) { return detail::isotropic_tensor(lambda, mu); }
+inline Mandel isotropic(double lambda, double mu) {
+  return detail::isotropic_tensor(lambda, mu);
+}
 
 // A spring along d contributes k l^2 D D^T to the network's tensor (times 1 / V), D = (d1^2,
-// d2^2, d3^2, sqrt2 d2 d3, sqrt2 d1 d3, sqrt2 d1 d2): its energy is 1/2 k (l d.eps.d)^2. In the node's frame
-// (normal = axis 3) the spring makes angle theta with the normal; around the normal the layer
-// has no preferred direction, so the contribution is averaged over the azimuth (eight equally
-// spaced azimuths average the quartic terms exactly).
+// d2^2, d3^2, sqrt2 d2 d3, sqrt2 d1 d3, sqrt2 d1 d2): its energy is 1/2 k (l d.eps.d)^2. In the
+// node's frame (normal = axis 3) the spring makes angle theta with the normal; around the normal
+// the layer has no preferred direction, so the contribution is averaged over the azimuth (eight
+// equally spaced azimuths average the quartic terms exactly).
 Mandel transverse_average(double cos_theta) {
   const double c = std::clamp(cos_theta, -1.0, 1.0), s = std::sqrt(1.0 - c * c);
   Mandel sum = Mandel::Zero();
@@ -37,7 +39,9 @@ Mandel transverse_average(double cos_theta) {
   return sum / kAzimuths;
 }
 
-double dot(const Mandel& a, const Mandel& b) { return (a.array() * b.array()).sum(); }
+double dot(const Mandel& a, const Mandel& b) {
+  return (a.array() * b.array()).sum();
+}
 
 // (lambda, mu) of the isotropic tensor closest to c: its average over all orientations.
 Eigen::Vector2d isotropic_part(const Mandel& c) {

@@ -47,8 +47,8 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
   const bool coupled = elasticity == TetElasticity::kCoupled;
   out.volume_modulus_kpa = coupled ? kVolumeShare * lambda : std::max(0.0, lambda - mu);
   out.guard_modulus_kpa = kGuardModulus * (lambda + 2.0 * mu);
-  const Mat6 C = detail::isotropic_tensor(
-      coupled ? (1.0 - kVolumeShare) * lambda : std::min(lambda, mu), mu);
+  const Mat6 C =
+      detail::isotropic_tensor(coupled ? (1.0 - kVolumeShare) * lambda : std::min(lambda, mu), mu);
 
   const Springs& sp = m.springs;
   const Eigen::Index nt = m.tets.size();

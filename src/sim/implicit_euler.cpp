@@ -44,7 +44,8 @@ inline void stiffness_product(const Solver& s, int32_t i, const ConstCols& p, co
 double system_product(Solver& s, double h, const Eigen::MatrixX3d& pm, Eigen::MatrixX3d& ym,
                       int T) {
   const double h2 = h * h;
-  const double damp = h * s.material.damping_kg_per_s, mass_damp = h * s.material.mass_damping_per_s;
+  const double damp = h * s.material.damping_kg_per_s,
+               mass_damp = h * s.material.mass_damping_per_s;
   const bool volume = s.material.volume_stiffness_kpa > 0.0;
   std::array<double, kMaxLayers> vm{};
   if (volume) volume_multipliers(s, pm, T, vm.data());

@@ -4,8 +4,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 
-#include "spring_kernel.h"
 #include "solver.h"
+#include "spring_kernel.h"
 
 namespace lamina::sim {
 
@@ -38,8 +38,8 @@ void internal_forces(Simulation& sim, const Eigen::MatrixX3d& x, Eigen::MatrixX3
   tet_forces(s, x, f);
   volume_forces(s, x, f);
   for (Eigen::Index i = 0; i < x.rows(); ++i)
-    f.row(i) -= s.support.stiffness_n_per_m[static_cast<size_t>(i)] *
-                (x.row(i) - s.model->X.row(i));
+    f.row(i) -=
+        s.support.stiffness_n_per_m[static_cast<size_t>(i)] * (x.row(i) - s.model->X.row(i));
 }
 
 Eigen::Vector3d internal_force_on(const Simulation& sim, const std::vector<int32_t>& nodes) {
@@ -48,7 +48,8 @@ Eigen::Vector3d internal_force_on(const Simulation& sim, const std::vector<int32
   const Eigen::MatrixX3d& x = sim.x;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (int32_t i : nodes) {
-    for (int32_t a = s.springs.adj_offsets[i]; !s.tets.on && a < s.springs.adj_offsets[i + 1]; ++a) {
+    for (int32_t a = s.springs.adj_offsets[i]; !s.tets.on && a < s.springs.adj_offsets[i + 1];
+         ++a) {
       const int32_t j = s.springs.adj_other[a], e = s.springs.adj_spring[a];
       const Eigen::Vector3d d = x.row(j) - x.row(i);
       const double len = d.norm();
@@ -92,8 +93,8 @@ double spring_energy(const Simulation& sim, const Eigen::MatrixX3d& x) {
 
 double elastic_energy(const Simulation& sim, const Eigen::MatrixX3d& x) {
   const Solver& s = sim.solver();
-  return ((s.tets.on ? 0.0 : spring_energy_mj(s, x)) + tet_energy_mj(s, x) + support_energy_mj(s, x) +
-          volume_energy_mj(s, x)) *
+  return ((s.tets.on ? 0.0 : spring_energy_mj(s, x)) + tet_energy_mj(s, x) +
+          support_energy_mj(s, x) + volume_energy_mj(s, x)) *
          1e-6;  // mN mm = 1e-6 J
 }
 

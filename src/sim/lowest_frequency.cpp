@@ -51,7 +51,8 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
   detail::add_tet_stiffness_triplets(s, row, t);
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (row[i] >= 0)
-      for (int c = 0; c < 3; ++c) t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
+      for (int c = 0; c < 3; ++c)
+        t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
   Eigen::SparseMatrix<double> K(3 * n, 3 * n);
   K.setFromTriplets(t.begin(), t.end());
   Eigen::VectorXd mass(3 * n);

@@ -8,11 +8,10 @@
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <chrono>
 #include <vector>
 
 #include "lamina/core/error.h"
-#include <chrono>
-
 #include "solver.h"
 
 namespace lamina::sim::detail {

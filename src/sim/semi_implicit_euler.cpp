@@ -36,8 +36,8 @@ Measured semi_implicit_euler(Simulation& sim, double dt, bool save, StepProfile&
                  double fx, fy, fz;
                  node_force(s, sim, i, /*damped=*/true, fx, fy, fz);
                  const double h_m = dt / s.mass_kg[i];
-                 finish_node(s, state, i, dt, save, sim.v(i, 0) + h_m * fx,
-                             sim.v(i, 1) + h_m * fy, sim.v(i, 2) + h_m * fz, acc);
+                 finish_node(s, state, i, dt, save, sim.v(i, 0) + h_m * fx, sim.v(i, 1) + h_m * fy,
+                             sim.v(i, 2) + h_m * fz, acc);
                }
                part[t] = acc;
              });

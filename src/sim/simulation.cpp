@@ -36,12 +36,24 @@ Simulation& Simulation::operator=(const Simulation& o) {
 }
 Simulation& Simulation::operator=(Simulation&& o) noexcept = default;
 
-const Model& Simulation::model() const { return *solver_->model; }
-const Material& Simulation::material() const { return solver_->material; }
-const SolverOptions& Simulation::options() const { return solver_->options; }
-const std::vector<double>& Simulation::mass_kg() const { return solver_->mass_kg; }
-const std::vector<uint8_t>& Simulation::fixed() const { return solver_->fixed; }
-const std::vector<uint8_t>& Simulation::movable() const { return solver_->movable; }
+const Model& Simulation::model() const {
+  return *solver_->model;
+}
+const Material& Simulation::material() const {
+  return solver_->material;
+}
+const SolverOptions& Simulation::options() const {
+  return solver_->options;
+}
+const std::vector<double>& Simulation::mass_kg() const {
+  return solver_->mass_kg;
+}
+const std::vector<uint8_t>& Simulation::fixed() const {
+  return solver_->fixed;
+}
+const std::vector<uint8_t>& Simulation::movable() const {
+  return solver_->movable;
+}
 const std::vector<double>& Simulation::spring_stiffness_n_per_m() const {
   return solver_->springs.stiffness_n_per_m;
 }
@@ -72,7 +84,8 @@ void refresh(Simulation& sim) {
   s.active_springs.clear();
   if (!s.tets.on)  // otherwise the tetrahedra carry the springs
     for (size_t e = 0; e < sp.size(); ++e)
-      if (s.movable[sp.i[e]] || s.movable[sp.j[e]]) s.active_springs.push_back(static_cast<int32_t>(e));
+      if (s.movable[sp.i[e]] || s.movable[sp.j[e]])
+        s.active_springs.push_back(static_cast<int32_t>(e));
   s.active_tets.clear();
   if (s.tets.on)
     for (Eigen::Index t = 0; t < m.tets.size(); ++t)
@@ -108,14 +121,14 @@ void resolve(Solver& s, bool identify) {
   const Model& model = *s.model;
   const Material& material = s.material;
   const auto n = static_cast<size_t>(model.node_count());
-  s.mass_kg = material.node_mass_kg > 0.0 ? std::vector<double>(n, material.node_mass_kg)
-                                          : model.mass_kg;
+  s.mass_kg =
+      material.node_mass_kg > 0.0 ? std::vector<double>(n, material.node_mass_kg) : model.mass_kg;
   if (identify) setup_tets(s);
-  s.springs.stiffness_n_per_m = s.tets.on                           ? s.tets.id.spring_n_per_m
-                                : material.stiffness_n_per_m > 0.0 ? std::vector<double>(
-                                                                         model.springs.size(),
-                                                                         material.stiffness_n_per_m)
-                                                                   : model.springs.stiffness_n_per_m;
+  s.springs.stiffness_n_per_m =
+      s.tets.on ? s.tets.id.spring_n_per_m
+      : material.stiffness_n_per_m > 0.0
+          ? std::vector<double>(model.springs.size(), material.stiffness_n_per_m)
+          : model.springs.stiffness_n_per_m;
   if (material.volume_stiffness_kpa > 0.0 && s.volume.corner_offsets.empty()) setup_volume_term(s);
   setup_support(s);
 }
@@ -135,8 +148,8 @@ void check_against_model(const Model& model, const Material& material,
 
 void check_node(const Simulation& s, int32_t i, const char* what) {
   if (i < 0 || i >= s.model().node_count())
-    throw invalid_input(what, fmt::format("node {} is not in the model (0..{})", i,
-                                          s.model().node_count() - 1));
+    throw invalid_input(
+        what, fmt::format("node {} is not in the model (0..{})", i, s.model().node_count() - 1));
 }
 
 }  // namespace
@@ -166,9 +179,9 @@ void check_parameters(const Material& m, const SolverOptions& o) {
                         "must be >= 0 kPa (0 = off)" + got(m.young_modulus_kpa));
   if (m.young_modulus_kpa > 0.0) {
     if (!(m.poisson_ratio >= 0.0 && m.poisson_ratio < 0.5))
-      throw invalid_input("material.poisson_ratio",
-                          "must be in [0, 0.5) (0.5 is incompressible: use 0.45-0.49)" +
-                              got(m.poisson_ratio));
+      throw invalid_input(
+          "material.poisson_ratio",
+          "must be in [0, 0.5) (0.5 is incompressible: use 0.45-0.49)" + got(m.poisson_ratio));
     if (m.stiffness_n_per_m > 0.0)
       throw invalid_input("material.stiffness",
                           fmt::format("give either the springs' K or the tissue's E "
@@ -177,9 +190,10 @@ void check_parameters(const Material& m, const SolverOptions& o) {
                                       m.stiffness_n_per_m, m.young_modulus_kpa));
   }
   if (!m.gravity_mm_per_s2.allFinite())
-    throw invalid_input("material.gravity",
-                        fmt::format("must be finite, got ({}, {}, {}) mm/s^2", m.gravity_mm_per_s2.x(),
-                                    m.gravity_mm_per_s2.y(), m.gravity_mm_per_s2.z()));
+    throw invalid_input(
+        "material.gravity",
+        fmt::format("must be finite, got ({}, {}, {}) mm/s^2", m.gravity_mm_per_s2.x(),
+                    m.gravity_mm_per_s2.y(), m.gravity_mm_per_s2.z()));
   if (!positive(o.dt_s)) throw invalid_input("solver.dt", "must be > 0 s" + got(o.dt_s));
   if (!positive(o.rest_speed_mm_per_s))
     throw invalid_input("solver.rest_speed", "must be > 0 mm/s" + got(o.rest_speed_mm_per_s));
@@ -327,8 +341,8 @@ void reset(Simulation& sim) {
 
 SimState capture_state(const Simulation& sim) {
   const Solver& s = sim.solver();
-  return SimState{sim.x,     sim.v,         sim.f_ext,   s.dv,   sim.time_s,
-                  sim.steps, sim.recoveries, s.fixed, s.movable};
+  return SimState{sim.x,     sim.v,          sim.f_ext, s.dv,     sim.time_s,
+                  sim.steps, sim.recoveries, s.fixed,   s.movable};
 }
 
 void restore_state(Simulation& sim, const SimState& st) {
@@ -344,8 +358,9 @@ void restore_state(Simulation& sim, const SimState& st) {
     throw invalid_input("simulation state", "holds a value that is not finite");
   for (size_t i = 0; i < un; ++i)
     if (st.fixed[i] > 1 || st.movable[i] > 1 || (st.fixed[i] && st.movable[i]))
-      throw invalid_input("simulation state",
-                          fmt::format("node {}: fixed and movable flags are not 0/1 or both set", i));
+      throw invalid_input(
+          "simulation state",
+          fmt::format("node {}: fixed and movable flags are not 0/1 or both set", i));
   if (!std::isfinite(st.time_s) || st.time_s < 0.0 || st.steps < 0 || st.recoveries < 0)
     throw invalid_input("simulation state", "time, step or recovery count out of range");
   Solver& s = sim.solver();

@@ -57,7 +57,9 @@ inline void for_slices(int64_t n, int threads, Body&& body) {
 inline int32_t spring_of(int32_t signed_spring) {
   return signed_spring < 0 ? ~signed_spring : signed_spring;
 }
-inline double end_sign(int32_t signed_spring) { return signed_spring < 0 ? -1.0 : 1.0; }
+inline double end_sign(int32_t signed_spring) {
+  return signed_spring < 0 ? -1.0 : 1.0;
+}
 
 // Per-thread partial results, one cache line each so that threads never share one.
 struct alignas(64) Partial {
@@ -73,8 +75,7 @@ struct Cols {
 };
 struct ConstCols {
   const double *x, *y, *z;
-  explicit ConstCols(const Eigen::MatrixX3d& m)
-      : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
+  explicit ConstCols(const Eigen::MatrixX3d& m) : x(m.data()), y(x + m.rows()), z(y + m.rows()) {}
 };
 
 /// The springs (spring_term.cpp): the paper's, and the tetrahedra's edges.
@@ -100,17 +101,17 @@ constexpr int kTetLanes = 8;
 struct alignas(64) TetBlock {
   double rest_length_mm[6][kTetLanes];  ///< edge rest lengths (edge order model::kTetEdge)
   double rest_volume_mm3[kTetLanes];
-  double volume_stiffness[kTetLanes];   ///< k_v / V0, kPa / mm^3
-  double guard_stiffness[kTetLanes];    ///< k_g / V0, kPa / mm^3 (the inversion guard)
-  float q[21][kTetLanes];               ///< Q's upper triangle, N/m (TetIdentification::q_n_per_m)
+  double volume_stiffness[kTetLanes];  ///< k_v / V0, kPa / mm^3
+  double guard_stiffness[kTetLanes];   ///< k_g / V0, kPa / mm^3 (the inversion guard)
+  float q[21][kTetLanes];              ///< Q's upper triangle, N/m (TetIdentification::q_n_per_m)
   int32_t node[4][kTetLanes];
 };
 
 /// Eight tetrahedra's linearisation at the step's start (implicit Euler's products).
 struct alignas(64) TetBlockLinear {
-  float w[18][kTetLanes];    ///< unit edge directions (corner kTetEdge[k][0] to [1])
-  float geo[6][kTetLanes];   ///< each edge's geometric stiffness, max(0, tension) / length
-  float grad[12][kTetLanes]; ///< dV/dx of each corner, mm^2
+  float w[18][kTetLanes];             ///< unit edge directions (corner kTetEdge[k][0] to [1])
+  float geo[6][kTetLanes];            ///< each edge's geometric stiffness, max(0, tension) / length
+  float grad[12][kTetLanes];          ///< dV/dx of each corner, mm^2
   float volume_stiffness[kTetLanes];  ///< d(pressure)/dV (the guard's included when it acts)
 };
 
@@ -128,11 +129,11 @@ using TetRows = std::vector<float>;
 struct TetTerm {
   bool on = false;  ///< Material::young_modulus_kpa > 0 on a model with tetrahedra
   model::TetIdentification id;
-  std::vector<TetBlock> block;          ///< tetrahedron t is lane t % 8 of block t / 8
-  std::vector<TetBlockLinear> linear;   ///< per block (implicit Euler)
-  TetRows force;    ///< each corner's force, mN
-  TetRows product;  ///< each corner's share of (K p) (implicit Euler's CG)
-  TetRows diag;     ///< each corner's share of K's diagonal, N/m (Jacobi)
+  std::vector<TetBlock> block;         ///< tetrahedron t is lane t % 8 of block t / 8
+  std::vector<TetBlockLinear> linear;  ///< per block (implicit Euler)
+  TetRows force;                       ///< each corner's force, mN
+  TetRows product;                     ///< each corner's share of (K p) (implicit Euler's CG)
+  TetRows diag;                        ///< each corner's share of K's diagonal, N/m (Jacobi)
   // Each node's tetrahedron corners (CSR of t * 4 + c), for the node pass to gather.
   std::vector<int32_t> corner_offsets;  ///< #nodes + 1
   std::vector<int32_t> corners;
@@ -151,7 +152,7 @@ struct VolumeTerm {
 /// What holds the organ besides fixed nodes (support_term.cpp): per node a zero-length spring
 /// to its rest position, from Material::anchor_stiffness_n_per_m and support_nodes().
 struct SupportTerm {
-  std::vector<double> support_n_per_m;  ///< per node, from support_nodes() (0 elsewhere)
+  std::vector<double> support_n_per_m;    ///< per node, from support_nodes() (0 elsewhere)
   std::vector<double> stiffness_n_per_m;  ///< per node: anchor + support
 };
 
@@ -255,8 +256,8 @@ struct NodeState {
 
 // A movable node's end of step: its old state saved for rollback (with save), the new velocity
 // and the position it leads to stored, the node checked and measured.
-inline void finish_node(const Solver& s, NodeState& st, int32_t i, double h, bool save,
-                        double vx, double vy, double vz, Partial& acc) {
+inline void finish_node(const Solver& s, NodeState& st, int32_t i, double h, bool save, double vx,
+                        double vy, double vz, Partial& acc) {
   const double x0 = st.x.x[i], y0 = st.x.y[i], z0 = st.x.z[i];
   if (save) {
     st.xp.x[i] = x0, st.xp.y[i] = y0, st.xp.z[i] = z0;
@@ -400,8 +401,8 @@ inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double&
 // the tool's, gravity, its support and anchor, the volume term's pressure (from
 // update_volume_term) and, if damped, -(gamma + alpha m) v. Backward Euler puts the damping
 // into its matrix instead.
-inline void node_force(const Solver& s, const Simulation& sim, int32_t i, bool damped,
-                       double& fx, double& fy, double& fz) {
+inline void node_force(const Solver& s, const Simulation& sim, int32_t i, bool damped, double& fx,
+                       double& fy, double& fz) {
   const Material& mat = s.material;
   const Eigen::MatrixX3d& X = s.model->X;
   const double m = s.mass_kg[i], k = s.support.stiffness_n_per_m[i];

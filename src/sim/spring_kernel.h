@@ -17,10 +17,9 @@ namespace lamina::sim {
 template <class Real>
 void spring_kernel(int64_t begin, int64_t end, const int32_t* __restrict list,
                    const int32_t* __restrict si, const int32_t* __restrict sj,
-                   const Real* __restrict rest, const Real* __restrict k,
-                   const Real* __restrict px, const Real* __restrict py,
-                   const Real* __restrict pz, Real* __restrict fx, Real* __restrict fy,
-                   Real* __restrict fz) {
+                   const Real* __restrict rest, const Real* __restrict k, const Real* __restrict px,
+                   const Real* __restrict py, const Real* __restrict pz, Real* __restrict fx,
+                   Real* __restrict fy, Real* __restrict fz) {
   // A zero-length spring has no direction: |d| / l <= 1 keeps its force bounded (0 at d = 0).
   constexpr Real kShortest = Real(1e-12);
   // Written out twice (not as a lambda): a lambda's by-reference captures drop __restrict.

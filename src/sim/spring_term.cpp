@@ -4,8 +4,8 @@
 // exactly opposite and no two threads ever write the same value.
 #include <Eigen/Geometry>
 
-#include "spring_kernel.h"
 #include "solver.h"
+#include "spring_kernel.h"
 
 namespace lamina::sim::detail {
 
@@ -38,12 +38,11 @@ void spring_pass(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
   Cols f(s.springs.force);
   const bool dense = s.active_springs.size() == sp.size();
   const int32_t* list = dense ? nullptr : s.active_springs.data();
-  for_slices(static_cast<int64_t>(s.active_springs.size()), threads,
-             [&](int64_t begin, int64_t end, int) {
-               spring_kernel<double>(begin, end, list, sp.i.data(), sp.j.data(),
-                                     sp.rest_length_mm.data(), s.springs.stiffness_n_per_m.data(),
-                                     p.x, p.y, p.z, f.x, f.y, f.z);
-             });
+  for_slices(
+      static_cast<int64_t>(s.active_springs.size()), threads, [&](int64_t begin, int64_t end, int) {
+        spring_kernel<double>(begin, end, list, sp.i.data(), sp.j.data(), sp.rest_length_mm.data(),
+                              s.springs.stiffness_n_per_m.data(), p.x, p.y, p.z, f.x, f.y, f.z);
+      });
 }
 
 // The force on each spring's first node and its linearisation: unit direction and

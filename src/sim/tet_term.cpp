@@ -18,9 +18,9 @@
 // vector instructions (gathers for the corners' positions). Each pass writes only its own
 // block's rows and each node gathers its corners: no two threads write the same value, and the
 // forces of a tetrahedron sum to zero.
-#include <array>
 #include <Eigen/Geometry>
 #include <Eigen/SparseCore>
+#include <array>
 
 #include "solver.h"
 
@@ -35,7 +35,9 @@ constexpr double kGuardFraction = 0.1;  // the guard acts below this fraction of
 
 // Q's upper-triangle storage: row k starts at kRow[k] (its diagonal).
 constexpr int kRow[6] = {0, 6, 11, 15, 18, 20};
-constexpr int qi(int k, int m) { return k <= m ? kRow[k] + m - k : kRow[m] + k - m; }
+constexpr int qi(int k, int m) {
+  return k <= m ? kRow[k] + m - k : kRow[m] + k - m;
+}
 
 // The three edges meeting at each corner (from kTetEdge), and -1 or +1 as the corner is the
 // edge's first or second end.
@@ -68,18 +70,24 @@ inline Lanes lanes(const float* p) {
   __builtin_memcpy(&v, p, sizeof v);
   return __builtin_convertvector(v, Lanes);
 }
-inline void store(Lanes v, double* p) { __builtin_memcpy(p, &v, sizeof v); }
+inline void store(Lanes v, double* p) {
+  __builtin_memcpy(p, &v, sizeof v);
+}
 inline void store(Lanes v, float* p) {
   const LanesF f = __builtin_convertvector(v, LanesF);
   __builtin_memcpy(p, &f, sizeof f);
 }
-inline Lanes splat(double x) { return Lanes{} + x; }
+inline Lanes splat(double x) {
+  return Lanes{} + x;
+}
 inline Lanes sqrt(Lanes v) {
   Lanes r;
   for (int l = 0; l < L; ++l) r[l] = std::sqrt(v[l]);  // one vsqrtpd
   return r;
 }
-inline Lanes max(Lanes a, Lanes b) { return a > b ? a : b; }
+inline Lanes max(Lanes a, Lanes b) {
+  return a > b ? a : b;
+}
 
 // The corners' values (positions, or a CG direction) of a block: corner c, axis d at p[3 c + d].
 inline void load_corners(const TetBlock& b, const ConstCols& x, Lanes p[12]) {
@@ -107,9 +115,12 @@ inline void volume_parts(const TetBlock& b, const Lanes p[12], VolumeParts& o) {
   const Lanes cx = p[9] - p[0], cy = p[10] - p[1], cz = p[11] - p[2];
   // dV/dx1 = (b x c) / 6, dV/dx2 = (c x a) / 6, dV/dx3 = (a x b) / 6, dV/dx0 = -(their sum).
   const double s = 1.0 / 6.0;
-  o.g[3] = s * (by * cz - bz * cy), o.g[4] = s * (bz * cx - bx * cz), o.g[5] = s * (bx * cy - by * cx);
-  o.g[6] = s * (cy * az - cz * ay), o.g[7] = s * (cz * ax - cx * az), o.g[8] = s * (cx * ay - cy * ax);
-  o.g[9] = s * (ay * bz - az * by), o.g[10] = s * (az * bx - ax * bz), o.g[11] = s * (ax * by - ay * bx);
+  o.g[3] = s * (by * cz - bz * cy), o.g[4] = s * (bz * cx - bx * cz),
+  o.g[5] = s * (bx * cy - by * cx);
+  o.g[6] = s * (cy * az - cz * ay), o.g[7] = s * (cz * ax - cx * az),
+  o.g[8] = s * (cx * ay - cy * ax);
+  o.g[9] = s * (ay * bz - az * by), o.g[10] = s * (az * bx - ax * bz),
+  o.g[11] = s * (ax * by - ay * bx);
   for (int d = 0; d < 3; ++d) o.g[d] = -(o.g[3 + d] + o.g[6 + d] + o.g[9 + d]);
   o.volume = ax * o.g[3] + ay * o.g[4] + az * o.g[5];
   const Lanes k = lanes(b.volume_stiffness), kg = lanes(b.guard_stiffness);
@@ -129,7 +140,8 @@ inline void edge_parts(const TetBlock& b, const Lanes p[12], EdgeParts& o) {
   for (int k = 0; k < 6; ++k) {
     const int a = 3 * kTetEdge[k][0], c = 3 * kTetEdge[k][1];
     const Lanes ex = p[c] - p[a], ey = p[c + 1] - p[a + 1], ez = p[c + 2] - p[a + 2];
-    const Lanes len = max(sqrt(ex * ex + ey * ey + ez * ez), splat(1e-12));  // collapsed: no direction
+    const Lanes len =
+        max(sqrt(ex * ex + ey * ey + ez * ez), splat(1e-12));  // collapsed: no direction
     const Lanes inv = 1.0 / len;
     o.w[k][0] = ex * inv, o.w[k][1] = ey * inv, o.w[k][2] = ez * inv;
     o.length[k] = len;
@@ -200,7 +212,8 @@ void block_forces(const TetBlock& b, const Lanes p[12], Lanes f[12], TetBlockLin
       for (int j = 0; j < 3; ++j) u[j] = kCornerSign[n][j] * e.w[kCornerEdge[n][j]][d];
       Lanes sum = Lanes{};
       for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 3; ++i) sum += q[qi(kCornerEdge[n][j], kCornerEdge[n][i])] * u[j] * u[i];
+        for (int i = 0; i < 3; ++i)
+          sum += q[qi(kCornerEdge[n][j], kCornerEdge[n][i])] * u[j] * u[i];
       diag[3 * n + d] += sum;
     }
 }
@@ -210,8 +223,7 @@ void block_forces(const TetBlock& b, const Lanes p[12], Lanes f[12], TetBlockLin
 // geo_k (d_k - a_k w_k) act along the edge; the volume terms add dP/dV g (g . p). Their
 // pressure-times-curvature part is left out, as for the volume term between layers: it is
 // indefinite, and the matrix must stay positive definite for CG.
-void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[12],
-                   Lanes y[12]) {
+void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[12], Lanes y[12]) {
   Lanes g[12];
   Lanes along = Lanes{};
   for (int v = 0; v < 12; ++v) {
@@ -259,10 +271,10 @@ void setup_tets(Solver& s) {
     t = TetTerm{};
     return;
   }
-  t.id = model::identify_tets(
-      m, {.young_modulus_kpa = s.material.young_modulus_kpa,
-          .poisson_ratio = s.material.poisson_ratio},
-      s.material.tet_elasticity);
+  t.id = model::identify_tets(m,
+                              {.young_modulus_kpa = s.material.young_modulus_kpa,
+                               .poisson_ratio = s.material.poisson_ratio},
+                              s.material.tet_elasticity);
   const Eigen::Index nt = m.tets.size();
   const size_t blocks = static_cast<size_t>((nt + L - 1) / L);
   // Unused lanes of the last block: every corner node 0, no stiffness, a unit rest volume (no
@@ -409,7 +421,8 @@ void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
       // ends).
       double w1[6];
       for (int m = 0; m < 6; ++m)
-        w1[m] = std::abs(edges.w[m][0][l]) + std::abs(edges.w[m][1][l]) + std::abs(edges.w[m][2][l]);
+        w1[m] =
+            std::abs(edges.w[m][0][l]) + std::abs(edges.w[m][1][l]) + std::abs(edges.w[m][2][l]);
       for (int k = 0; k < 6; ++k) {
         double qsum = 0.0;
         for (int m = 0; m < 6; ++m) qsum += std::abs(b.q[qi(k, m)][l]) * w1[m];
@@ -443,10 +456,11 @@ void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row
       // The volume term at rest: (k_v / V0) g g^T (its curvature part vanishes at V = V0).
       for (int a = 0; a < 4; ++a)
         for (int c = 0; c < 4; ++c)
-          add_block(b.node[a][l], b.node[c][l],
-                    b.volume_stiffness[l] *
-                        Eigen::Vector3d(vol.g[3 * a][l], vol.g[3 * a + 1][l], vol.g[3 * a + 2][l]) *
-                        Eigen::RowVector3d(vol.g[3 * c][l], vol.g[3 * c + 1][l], vol.g[3 * c + 2][l]));
+          add_block(
+              b.node[a][l], b.node[c][l],
+              b.volume_stiffness[l] *
+                  Eigen::Vector3d(vol.g[3 * a][l], vol.g[3 * a + 1][l], vol.g[3 * a + 2][l]) *
+                  Eigen::RowVector3d(vol.g[3 * c][l], vol.g[3 * c + 1][l], vol.g[3 * c + 2][l]));
       // Springs and coupling: J_k is -w_k at corner a, +w_k at corner b; K = J^T Q J (at rest
       // the edges are at their rest lengths: no geometric term).
       Eigen::Vector3d w[6];

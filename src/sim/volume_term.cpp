@@ -45,9 +45,9 @@ double layer_volume_now(const Solver& s, const Eigen::MatrixX3d& x, size_t k, in
   const Eigen::MatrixX3i& F = s.model->layers[k].F;
   const std::vector<int32_t>& tris = s.layer_triangles[k];
   const auto n = static_cast<int64_t>(tris.size());
-  return (s.frozen_layer_volume6_mm3[k] +
-          (n == F.rows() ? volume6(F, x, nullptr, n, threads)
-                         : volume6(F, x, tris.data(), n, threads))) /
+  return (s.frozen_layer_volume6_mm3[k] + (n == F.rows()
+                                               ? volume6(F, x, nullptr, n, threads)
+                                               : volume6(F, x, tris.data(), n, threads))) /
          6.0;
 }
 
@@ -76,8 +76,8 @@ void setup_volume_term(Solver& s) {
   s.volume.gradient = Eigen::MatrixX3d::Zero(n, 3);
 }
 
-void layer_volume_gradient(const Solver& s, const ConstCols& x, int32_t i, double& gx,
-                           double& gy, double& gz) {
+void layer_volume_gradient(const Solver& s, const ConstCols& x, int32_t i, double& gx, double& gy,
+                           double& gz) {
   double ax = 0.0, ay = 0.0, az = 0.0;
   for (int32_t a = s.volume.corner_offsets[i]; a < s.volume.corner_offsets[i + 1]; ++a) {
     const int32_t b = s.volume.corner_pairs[2 * a], c = s.volume.corner_pairs[2 * a + 1];
@@ -192,7 +192,8 @@ void volume_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d
   double outside = 0.0;
   for (size_t k = 0; k < layers; ++k) {
     const double rest = rest_region_volume(s, k);
-    const double p = s.material.volume_stiffness_kpa * (region_volume(now.data(), layers, k) - rest) / rest;
+    const double p =
+        s.material.volume_stiffness_kpa * (region_volume(now.data(), layers, k) - rest) / rest;
     jump[k] = p - outside;
     outside = p;
   }

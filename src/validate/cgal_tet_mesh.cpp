@@ -108,15 +108,16 @@ TetMesh mesh_mask_tets(const Mask& input, const TetMeshOptions& options) {
   double extent = 0.0;
   for (int a = 0; a < 3; ++a)
     extent = std::max(extent, (hi[a] - lo[a] + 1) * input.frame.spacing_mm[a]);
-  const double input_max_spacing = std::max(
-      {input.frame.spacing_mm[0], input.frame.spacing_mm[1], input.frame.spacing_mm[2]});
+  const double input_max_spacing =
+      std::max({input.frame.spacing_mm[0], input.frame.spacing_mm[1], input.frame.spacing_mm[2]});
   const double cell_size = options.cell_size_mm > 0.0 ? options.cell_size_mm
                                                       : std::max(extent / 15.0, input_max_spacing);
 
   // A mask finer than about four voxels per cell (a clinical 0.57 mm scan under 8 mm cells) is
   // box-filtered down first, as the model builder does: CGAL's image oracle over 9.5 million
   // voxels took minutes (docs/validation.md).
-  const std::array<int, 3> factors = geometry::working_grid_factors(input.frame.spacing_mm, cell_size);
+  const std::array<int, 3> factors =
+      geometry::working_grid_factors(input.frame.spacing_mm, cell_size);
   Mask coarse;
   const bool downsample = factors[0] > 1 || factors[1] > 1 || factors[2] > 1;
   if (downsample) {

@@ -113,8 +113,7 @@ Indentation deepest_indentation(const Model& m, double radius_mm) {
   const int32_t stride = std::max(1, skin / 400);
   double deepest = 0.0;
   for (int32_t i = 0; i < skin; i += stride) {
-    if (in_slab(m.X.row(i).transpose(), ind) || normal(i, 1) > -0.5)
-      continue;
+    if (in_slab(m.X.row(i).transpose(), ind) || normal(i, 1) > -0.5) continue;
     for (const interact::Crossing& c :
          interact::force_line_crossings(m, m.X, i, Eigen::Vector3d::UnitY()))
       if (c.layer == 0 && c.distance_mm > 0.0) {  // the first exit: the local depth
@@ -130,8 +129,8 @@ Indentation deepest_indentation(const Model& m, double radius_mm) {
 }
 
 IndentResult indent_mass_spring(const Model& m, const sim::Material& material,
-                                sim::SolverOptions solver, const Indentation& ind,
-                                double depth_mm, int ramp) {
+                                sim::SolverOptions solver, const Indentation& ind, double depth_mm,
+                                int ramp) {
   const auto t0 = Clock::now();
   solver.mode = sim::Mode::kGlobal;
   sim::Simulation s = sim::make_simulation(m, material, solver);
@@ -194,7 +193,8 @@ IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material, const 
     throw invalid_input("finite-element mesh",
                         "no boundary vertex within the indenter's radius of the contact");
   const Eigen::RowVector3d dir = ind.direction.normalized().transpose();
-  bc.driven_displacement_mm = (depth_mm * dir).replicate(static_cast<Eigen::Index>(bc.driven.size()), 1);
+  bc.driven_displacement_mm =
+      (depth_mm * dir).replicate(static_cast<Eigen::Index>(bc.driven.size()), 1);
   const FemResult fem = corotational ? solve_corotational(mesh, material, bc, options)
                                      : solve_linear(mesh, material, bc);
   IndentResult r;

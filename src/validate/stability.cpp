@@ -188,7 +188,8 @@ std::vector<StabilityCase> stability_cases(double dt, bool quick, bool projectiv
   }
   for (double pct : {10.0, 20.0, 30.0, 40.0, 50.0})
     indent(LoadKind::kIndent, pct, Integrator::kImplicitEuler, dt);
-  for (double pct : {10.0, 20.0, 30.0}) indent(LoadKind::kPull, pct, Integrator::kImplicitEuler, dt);
+  for (double pct : {10.0, 20.0, 30.0})
+    indent(LoadKind::kPull, pct, Integrator::kImplicitEuler, dt);
   for (int32_t n : {1, 2, 3}) tools(n, 1.0);
   for (Integrator in :
        {Integrator::kSemiImplicitEuler, Integrator::kImplicitEuler, Integrator::kProjective}) {

@@ -381,17 +381,16 @@ std::vector<BadCase> bad_cases() {
   scene_case("SceneNegativeStiffness", R"({"material": {"stiffness_n_per_m": -3}})",
              {"scene.json", "material.stiffness_n_per_m"});
   scene_case("SceneLocalityZero", R"({"solver": {"locality": 0}})", {"scene.json", "locality"});
-  scene_case("SceneInfiniteForce",
-             R"({"tools": [{"vertex": 0, "force_n": [0, 1e999, 0]}]})",
+  scene_case("SceneInfiniteForce", R"({"tools": [{"vertex": 0, "force_n": [0, 1e999, 0]}]})",
              {"scene.json", "1e999"});
-  scene_case("SceneMissingModelFile", R"({"model": {"model": "nowhere.vtu"}})",
-             {"nowhere.vtu"});
+  scene_case("SceneMissingModelFile", R"({"model": {"model": "nowhere.vtu"}})", {"nowhere.vtu"});
 
   // Checkpoints (lamina run --resume).
   c.push_back({"ResumeFromAFileThatIsNotACheckpoint",
                [](const TempDir& d) {
                  write_file(d.work / "ck.lmck", "LAMCKPT\nbut not really");
-                 return "run -o " + quoted(d.file("out")) + " --resume " + quoted(d.file("ck.lmck"));
+                 return "run -o " + quoted(d.file("out")) + " --resume " +
+                        quoted(d.file("ck.lmck"));
                },
                {"ck.lmck", "checkpoint"},
                {"out"}});
@@ -560,7 +559,8 @@ TEST(CliWorkflow, PhantomBuildInfoExport) {
   EXPECT_EQ(triangles, layers[1].at("faces").get<uint32_t>());
   EXPECT_EQ(stl.size(), 84u + 50u * triangles);
 
-  EXPECT_EQ(test::hidden_files(dir.work), std::vector<std::string>{}) << "temporary files left behind";
+  EXPECT_EQ(test::hidden_files(dir.work), std::vector<std::string>{})
+      << "temporary files left behind";
 }
 
 // Without an input the tool builds the built-in phantom, so a fresh machine needs no data.
@@ -571,7 +571,8 @@ TEST(CliWorkflow, BuildWithoutInputUsesThePhantom) {
   EXPECT_TRUE(fs::exists(dir.work / "M.vtu"));
   json built;
   ASSERT_NO_THROW(built = json::parse(r.out)) << r.out;
-  EXPECT_NE(test::lowercase(built.at("input").get<std::string>()).find("phantom"), std::string::npos);
+  EXPECT_NE(test::lowercase(built.at("input").get<std::string>()).find("phantom"),
+            std::string::npos);
   EXPECT_GT(built.at("nodes").get<int64_t>(), 300);
   EXPECT_EQ(test::hidden_files(dir.work), std::vector<std::string>{});
 }

@@ -67,8 +67,18 @@ std::string cube_voxels() {
 // ----- NIfTI: a sound file written by Lamina (ITK), then one field overwritten in place.
 // Byte offsets from nifti1.h.
 enum Field : int {
-  kDatatype = 70, kBitpix = 72, kPixdim = 76, kVoxOffset = 108, kSclSlope = 112, kSclInter = 116,
-  kQformCode = 252, kSformCode = 254, kQuatern = 256, kQoffset = 268, kSrowX = 280, kSrowY = 296,
+  kDatatype = 70,
+  kBitpix = 72,
+  kPixdim = 76,
+  kVoxOffset = 108,
+  kSclSlope = 112,
+  kSclInter = 116,
+  kQformCode = 252,
+  kSformCode = 254,
+  kQuatern = 256,
+  kQoffset = 268,
+  kSrowX = 280,
+  kSrowY = 296,
 };
 
 struct Patch {
@@ -110,8 +120,8 @@ const std::string kSoundDirections = "space directions: (2,0,0) (0,2,0) (0,0,2)\
 const std::string kSoundOrigin = "space origin: (0,0,0)\n";
 
 std::string mha(const std::string& geometry, const std::string& voxels = cube_voxels()) {
-  return "ObjectType = Image\nNDims = 3\nDimSize = 10 10 10\nElementType = MET_UCHAR\n" +
-         geometry + "ElementDataFile = LOCAL\n" + voxels;
+  return "ObjectType = Image\nNDims = 3\nDimSize = 10 10 10\nElementType = MET_UCHAR\n" + geometry +
+         "ElementDataFile = LOCAL\n" + voxels;
 }
 
 struct HeaderCase {
@@ -142,7 +152,8 @@ std::vector<HeaderCase> header_cases() {
   nifti("SformVoxelSizeDisagreesWithPixdim", {{kSrowX, -4.0}}, {"sform", "pixdim"});
   nifti("QformQuaternionTooLong", {{kSformCode, 0, true}, {kQuatern, 0.9}, {kQuatern + 4, 0.9}},
         {"quaternion", "longer than 1"});
-  nifti("QformOriginInfinite", {{kSformCode, 0, true}, {kQoffset + 4, kInf}}, {"qoffset", "finite"});
+  nifti("QformOriginInfinite", {{kSformCode, 0, true}, {kQoffset + 4, kInf}},
+        {"qoffset", "finite"});
   nifti("QformAndSformDisagree", {{kQoffset, 50.0}}, {"qform", "sform", "different"});
   nifti("TransformCodeUnknown", {{kQformCode, 9, true}}, {"qform_code", "9"});
   nifti("ScaledLabels", {{kSclSlope, 2.0}}, {"scl_slope", "2"});
@@ -175,8 +186,7 @@ std::vector<HeaderCase> header_cases() {
   text("NrrdOriginNaN", "mask.nrrd",
        [] { return nrrd(kSoundDirections + "space origin: (0,nan,0)\n"); },
        {"space origin", "not finite"});
-  text("NrrdNoSpacing", "mask.nrrd", [] { return nrrd(kSoundOrigin); },
-       {"no voxel size", "1 mm"});
+  text("NrrdNoSpacing", "mask.nrrd", [] { return nrrd(kSoundOrigin); }, {"no voxel size", "1 mm"});
   text("NrrdSpacingsZero", "mask.nrrd", [] { return nrrd("spacings: 2 0 2\n"); },
        {"spacings", "0"});
   text("NrrdSpaceUnitsMetres", "mask.nrrd",
@@ -201,8 +211,7 @@ std::vector<HeaderCase> header_cases() {
        [] { return mha("ElementSpacing = 2 2 2\nTransformMatrix = 1 0 0 0 nan 0 0 0 1\n"); },
        {"TransformMatrix", "not finite"});
   text("MetaImageOffsetInfinite", "mask.mha",
-       [] { return mha("ElementSpacing = 2 2 2\nOffset = 0 -inf 0\n"); },
-       {"Offset", "not finite"});
+       [] { return mha("ElementSpacing = 2 2 2\nOffset = 0 -inf 0\n"); }, {"Offset", "not finite"});
   // Compressed MetaImage as Lamina (ITK) writes it, its CompressedDataSize line replaced: a
   // wrong size made MetaIO hang in inflate, allocate without bound or fill the rest with zeros.
   const auto compressed = [&](const std::string& name, const std::string& size_line,
@@ -261,10 +270,10 @@ TEST(SoundHeader, EachFormatAsTheCasesWriteItBuilds) {
                                           "TransformMatrix = 1 0 0 0 1 0 0 0 1\n"));
   for (const std::string name : {"sound.nii.gz", "sound.nrrd", "sound.mha"}) {
     SCOPED_TRACE(name);
-    const RunResult r = test::run_cli(
-        LAMINA_CLI, dir.work, dir.path,
-        "-q build " + quoted(dir.file(name)) + " -o " + quoted(dir.file("ok.vtu")) +
-            " --skin-vertices 200 --layers 1");
+    const RunResult r =
+        test::run_cli(LAMINA_CLI, dir.work, dir.path,
+                      "-q build " + quoted(dir.file(name)) + " -o " + quoted(dir.file("ok.vtu")) +
+                          " --skin-vertices 200 --layers 1");
     EXPECT_EQ(r.exit_code, 0) << r.err;
     EXPECT_TRUE(fs::exists(dir.work / "ok.vtu"));
     fs::remove(dir.work / "ok.vtu");

@@ -245,8 +245,8 @@ TEST(LaminaValidate, QuickRunComparesTheModelsWithConvergedFiniteElements) {
   const RunResult r = run_lamina(dir, "validate small.json --quick -o out --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json j = json::parse(r.out);
-  for (const char* f : {"validation.csv", "summary.json", "force_depth.png", "skin_error.png",
-                        "volume_change.png"})
+  for (const char* f :
+       {"validation.csv", "summary.json", "force_depth.png", "skin_error.png", "volume_change.png"})
     EXPECT_TRUE(fs::exists(dir.path / "out" / f)) << f;
   std::map<std::string, json> by;
   for (const json& row : j["rows"]) by[row["solver"]] = row;
@@ -454,13 +454,17 @@ std::string checkpoint_scene(const json& material, const json& solver) {
       {"model", {{"input", "phantom"}, {"build", {{"skin_vertices", 400}, {"layers", 3}}}}},
       {"material", material},
       {"solver", solver},
-      {"tools", json::array({{{"point", {-38.9, -61.3, -1.4}}, {"force_n", {0, 0.4, 0}},
-                              {"end_s", 0.6}},
-                             {{"point", {-39.9, 8.9, 66.3}}, {"force_n", {0, 0, -0.3}},
-                              {"start_s", 0.4}, {"end_s", 0.8}}})},
+      {"tools",
+       json::array({{{"point", {-38.9, -61.3, -1.4}}, {"force_n", {0, 0.4, 0}}, {"end_s", 0.6}},
+                    {{"point", {-39.9, 8.9, 66.3}},
+                     {"force_n", {0, 0, -0.3}},
+                     {"start_s", 0.4},
+                     {"end_s", 0.8}}})},
       {"boundary",
-       {{"fixed", json::array({{{"plane", {{"point", {0, 75.3, 0}}, {"normal", {0, 1, 0}},
-                                           {"distance_mm", 10}}}}})}}},
+       {{"fixed",
+         json::array(
+             {{{"plane",
+                {{"point", {0, 75.3, 0}}, {"normal", {0, 1, 0}}, {"distance_mm", 10}}}}})}}},
       {"output", {{"frame_interval_s", 0.1}, {"all_layers", true}}}};
   scene["solver"]["contact_threshold_mm"] = 30;
   return scene.dump(2);
@@ -492,8 +496,8 @@ TEST(LaminaRun, ResumeFromACheckpointContinuesBitForBit) {
     EXPECT_TRUE(stopped["stopped"].get<bool>());
     EXPECT_FALSE(stopped["converged"].get<bool>());
     EXPECT_EQ(stopped["steps"], 25);
-    const RunResult more = run_lamina(
-        dir, "-q run scene.json -o part --resume part/checkpoint.lmck --stop-after 30");
+    const RunResult more =
+        run_lamina(dir, "-q run scene.json -o part --resume part/checkpoint.lmck --stop-after 30");
     ASSERT_EQ(more.exit_code, 0) << more.err;
     const RunResult rest = run_lamina(dir, "-q run -o part --resume part/checkpoint.lmck");
     ASSERT_EQ(rest.exit_code, 0) << rest.err;
@@ -549,8 +553,7 @@ TEST(LaminaRun, ABadCheckpointOrAChangedSceneIsRefused) {
 // and one line saying what to lower, and what it did is written, with no NaN anywhere.
 TEST(LaminaRun, ALoadBeyondRecoveryStopsCleanlyWithExitFive) {
   test::TempDir dir;
-  std::ofstream(dir.file("absurd.json"))
-      << R"({"model": {"build": {"skin_vertices": 400}},
+  std::ofstream(dir.file("absurd.json")) << R"({"model": {"build": {"skin_vertices": 400}},
              "tools": [{"vertex": 0, "force_n": [0, 1e297, 0], "end_s": 1}],
              "output": {"frame_interval_s": 0.05}})";
   const RunResult r = run_lamina(dir, "-q run absurd.json -o out");

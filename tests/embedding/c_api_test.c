@@ -3,7 +3,6 @@
  * reaction force, lifts the tip and waits for rest; and every misuse returns a status with a
  * one-line message instead of crashing. Exit code 0 = every check held. */
 #include <lamina/c_api.h>
-
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -11,22 +10,22 @@
 
 static int failures = 0;
 
-#define CHECK(cond)                                                         \
-  do {                                                                      \
-    if (!(cond)) {                                                          \
+#define CHECK(cond)                                                            \
+  do {                                                                         \
+    if (!(cond)) {                                                             \
       fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #cond); \
-      ++failures;                                                           \
-    }                                                                       \
+      ++failures;                                                              \
+    }                                                                          \
   } while (0)
 
-#define CHECK_OK(call)                                                        \
-  do {                                                                        \
-    lamina_status s_ = (call);                                                \
-    if (s_ != LAMINA_OK) {                                                    \
-      fprintf(stderr, "%s:%d: %s returned %d: %s\n", __FILE__, __LINE__, #call, \
-              (int)s_, lamina_last_error());                                  \
-      exit(1);                                                                \
-    }                                                                         \
+#define CHECK_OK(call)                                                                   \
+  do {                                                                                   \
+    lamina_status s_ = (call);                                                           \
+    if (s_ != LAMINA_OK) {                                                               \
+      fprintf(stderr, "%s:%d: %s returned %d: %s\n", __FILE__, __LINE__, #call, (int)s_, \
+              lamina_last_error());                                                      \
+      exit(1);                                                                           \
+    }                                                                                    \
   } while (0)
 
 int main(void) {
@@ -81,8 +80,9 @@ int main(void) {
   CHECK_OK(lamina_sim_set_tool_tip(sim, tip, radius, 200.0));
   lamina_step_stats st;
   CHECK_OK(lamina_sim_step(sim, 300, &st));
-  printf("pushed: t = %.2f s, max displacement %.3f mm, reaction (%.2f, %.2f, %.2f) mN\n", st.time_s,
-         st.max_displacement_mm, st.reaction_mn[0], st.reaction_mn[1], st.reaction_mn[2]);
+  printf("pushed: t = %.2f s, max displacement %.3f mm, reaction (%.2f, %.2f, %.2f) mN\n",
+         st.time_s, st.max_displacement_mm, st.reaction_mn[0], st.reaction_mn[1],
+         st.reaction_mn[2]);
   CHECK(fabs(st.time_s - 3.0) < 1e-9 && st.steps == 300);
   CHECK(st.tool_tip_touching == 1);
   CHECK(st.max_displacement_mm > 0.5);

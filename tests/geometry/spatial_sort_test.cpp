@@ -23,13 +23,15 @@ SurfaceMesh shuffled_sphere() {
   test::paint_sphere(v, v.frame.to_physical(19.5, 19.5, 19.5), 15.0, 1);
   const DistanceField d =
       geometry::signed_distance(geometry::prepare_mask(v, {.pad_voxels = 2}).mask);
-  const SurfaceMesh m = geometry::remesh(geometry::extract_isosurface(d, 0.0), {.target_edge_mm = 1.5});
+  const SurfaceMesh m =
+      geometry::remesh(geometry::extract_isosurface(d, 0.0), {.target_edge_mm = 1.5});
   std::vector<int> perm(static_cast<size_t>(m.V.rows()));
   std::iota(perm.begin(), perm.end(), 0);
   std::shuffle(perm.begin(), perm.end(), std::mt19937(3));
   SurfaceMesh out;
   out.V.resize(m.V.rows(), 3);
-  for (size_t i = 0; i < perm.size(); ++i) out.V.row(perm[i]) = m.V.row(static_cast<Eigen::Index>(i));
+  for (size_t i = 0; i < perm.size(); ++i)
+    out.V.row(perm[i]) = m.V.row(static_cast<Eigen::Index>(i));
   out.F = m.F;
   for (Eigen::Index k = 0; k < out.F.size(); ++k) out.F.data()[k] = perm[out.F.data()[k]];
   return out;

@@ -69,7 +69,8 @@ TEST(TetrahedralizeShells, FillsTheShellAndTheCoreConformingToBothSurfaces) {
 
 TEST(TetrahedralizeShells, CrossingSurfacesAreRefusedWithAMessage) {
   // The "inner" surface pokes out of the outer one: no conforming mesh exists.
-  const Nested n = nested(test::octahedron(4.0), test::octahedron(3.0, Eigen::RowVector3d(2.5, 0, 0)));
+  const Nested n =
+      nested(test::octahedron(4.0), test::octahedron(3.0, Eigen::RowVector3d(2.5, 0, 0)));
   try {
     geometry::tetrahedralize_shells(n.V, n.F, n.surface);
     FAIL() << "crossing surfaces were meshed";

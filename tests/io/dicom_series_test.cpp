@@ -1,6 +1,8 @@
 // Reading a folder holding one DICOM series. The series is written here with ITK itself, so this
 // translation unit sees ITK's headers (tests/CMakeLists.txt) and, like src/io/itk_image_io.cpp,
 // must include no Eigen and no lamina header that includes Eigen.
+#include <gdcmReader.h>
+#include <gdcmWriter.h>
 #include <gtest/gtest.h>
 #include <itkGDCMImageIO.h>
 #include <itkImage.h>
@@ -8,9 +10,6 @@
 #include <itkMetaDataObject.h>
 #include <itkNumericSeriesFileNames.h>
 #include <unistd.h>
-
-#include <gdcmReader.h>
-#include <gdcmWriter.h>
 
 #include <algorithm>
 #include <array>
@@ -255,8 +254,8 @@ TEST_P(BadSeries, IsRefusedByNameWithExitTwoAndNoOutput) {
   const fs::path work = dir.path / "work", scans = work / "scans";
   fs::create_directories(scans);
   ASSERT_NO_FATAL_FAILURE(GetParam().write(scans));
-  const std::string args = "build " + test::quoted(scans.string()) + " -o " +
-                           test::quoted((work / "OUT.vtu").string());
+  const std::string args =
+      "build " + test::quoted(scans.string()) + " -o " + test::quoted((work / "OUT.vtu").string());
   const test::RunResult r = test::run_cli(LAMINA_CLI, work, dir.path, args);
   std::vector<std::string> words = GetParam().message_has;
   words.push_back("scans");

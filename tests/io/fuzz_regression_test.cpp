@@ -21,7 +21,8 @@ namespace lamina {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kRegressions = fs::path(__FILE__).parent_path() / ".." / ".." / "fuzz" / "regressions";
+const fs::path kRegressions =
+    fs::path(__FILE__).parent_path() / ".." / ".." / "fuzz" / "regressions";
 
 std::string bytes_of(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -43,7 +44,8 @@ bool refused(const std::string& target, const std::string& data, const test::Tem
       io::ReadVolumeOptions options;
       options.max_voxels = int64_t{1} << 20;
       io::read_label_volume(
-          write(std::string("input") + kExtensions[static_cast<uint8_t>(data[0]) % 4], data.substr(1)),
+          write(std::string("input") + kExtensions[static_cast<uint8_t>(data[0]) % 4],
+                data.substr(1)),
           options);
     } else if (target == "model") {
       io::load_model(write("input.vtu", data));

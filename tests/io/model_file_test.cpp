@@ -3,12 +3,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <algorithm>
 #include <functional>
 #include <limits>
 #include <sstream>
@@ -256,7 +256,8 @@ TEST(ModelFile, InvalidTetrahedraAreRejectedOnLoad) {
       {[](Model& m) { std::swap(m.tets.T(2, 0), m.tets.T(2, 1)); },
        "tetrahedron 2: is flat or inverted at rest"},
       {[](Model& m) { m.tets.region[1] = 3; }, "tetrahedron 1: region 3 is not a layer"},
-      {[](Model& m) { m.layer_of[6] = 0; }, "node 6: layer is 0 but the layer ranges put it in layer -1"},
+      {[](Model& m) { m.layer_of[6] = 0; },
+       "node 6: layer is 0 but the layer ranges put it in layer -1"},
       {[](Model& m) { m.springs.kind.back() = SpringKind::kInterLayer; },
        "an inter-layer spring joins nodes of layers 0 and -1"},
   };

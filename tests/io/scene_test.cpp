@@ -1,7 +1,5 @@
 #include "lamina/io/scene.h"
 
-#include "lamina/io/scene_model.h"
-
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
 
@@ -14,11 +12,10 @@
 #include <vector>
 
 #include "lamina/core/error.h"
-#include "support/sphere_model.h"
-
-#include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/io/scene_model.h"
 #include "lamina/model/compute_rings.h"
+#include "support/sphere_model.h"
 #include "support/temp_dir.h"
 
 namespace lamina::io {
@@ -377,8 +374,8 @@ TEST(ResolveMaterial, LinksIdentifiesSpringsTurnsOnTheVolumeTermAndDampsFromTheR
   EXPECT_FALSE(r.tets);
   EXPECT_GT(r.supported_nodes, 0);  // the posterior surface, held by the body around it
   EXPECT_NE(m.springs.stiffness_n_per_m, test::sphere_links_model().springs.stiffness_n_per_m);
-  EXPECT_NEAR(s.material.volume_stiffness_kpa, r.identification.lame_lambda_kpa -
-                                                   r.identification.shear_modulus_kpa, 1e-12);
+  EXPECT_NEAR(s.material.volume_stiffness_kpa,
+              r.identification.lame_lambda_kpa - r.identification.shear_modulus_kpa, 1e-12);
   EXPECT_EQ(s.solver.integrator, sim::Integrator::kImplicitEuler);
   EXPECT_DOUBLE_EQ(r.damping_ratio, 1.0);
   EXPECT_GT(r.lowest_frequency_hz, 0.0);
@@ -408,8 +405,8 @@ TEST(ResolveMaterial, TetrahedraCarryEAndNuThemselves) {
 // prepared as any scene is: its damping follows its own slowest vibration (a rebuild that kept
 // the first model's material once left a rebuilt physical liver with the old damping).
 TEST(RebuildReadyScene, ResolvesTheMaterialForTheNewModel) {
-  const Scene parsed = parse_scene(R"({"model": {"build": {"skin_vertices": 300, "layers": 2}}})",
-                                   "scene.json");
+  const Scene parsed =
+      parse_scene(R"({"model": {"build": {"skin_vertices": 300, "layers": 2}}})", "scene.json");
   const ReadyScene first = make_ready_scene(parsed);
   const ReadyScene rebuilt = rebuild_ready_scene(first.parsed, 3, 600);
   EXPECT_EQ(rebuilt.model->layer_count(), 3);
@@ -441,7 +438,8 @@ TEST(ResolveMaterial, ADampingRatioOnAModelHeldNowhereIsRefused) {
     prepare_scene(f, free);
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()).rfind("free.json: material.damping_ratio: ", 0), 0u) << e.what();
+    EXPECT_EQ(std::string(e.what()).rfind("free.json: material.damping_ratio: ", 0), 0u)
+        << e.what();
   }
 }
 

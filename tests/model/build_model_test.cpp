@@ -2,11 +2,11 @@
 
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <array>
+#include <filesystem>
 #include <map>
-#include <set>
 #include <numeric>
+#include <set>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
@@ -160,10 +160,9 @@ TEST_P(BuildOnOrgan, TetrahedraFillTheShellsConformingToTheLayers) {
 
 TEST(BuildModel, LinksJoinEveryNodeToANeighbouringLayer) {
   // The paper's structure, one choice away: nearest-node links between the layers.
-  const Model m =
-      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
-                         {.structure = model::Structure::kLinks, .skin_vertices = 400})
-          .model;
+  const Model m = model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
+                                     {.structure = model::Structure::kLinks, .skin_vertices = 400})
+                      .model;
   EXPECT_FALSE(m.has_tets());
   const model::ModelSummary s = model::summarize_model(m);
   EXPECT_EQ(s.spring_components, 1);

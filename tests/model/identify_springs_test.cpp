@@ -23,18 +23,18 @@ Energies strain_energies(const Model& m, const model::ElasticMaterial& mat,
   Model copy = m;
   const model::SpringIdentification id =
       model::identify_springs(copy, mat, copy.springs.stiffness_n_per_m);
-  const sim::Simulation s = sim::make_simulation(
-      copy, {.stiffness_n_per_m = 0.0, .node_mass_kg = 0.0,
-             .volume_stiffness_kpa = id.volume_stiffness_kpa});
+  const sim::Simulation s =
+      sim::make_simulation(copy, {.stiffness_n_per_m = 0.0,
+                                  .node_mass_kg = 0.0,
+                                  .volume_stiffness_kpa = id.volume_stiffness_kpa});
   const Eigen::RowVector3d c = m.X.colwise().mean();
   Eigen::MatrixX3d x = m.X;
-  for (Eigen::Index i = 0; i < x.rows(); ++i)
-    x.row(i) += ((m.X.row(i) - c) * eps.transpose());
+  for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) += ((m.X.row(i) - c) * eps.transpose());
   double volume = 0.0;
   for (double mass : m.mass_kg) volume += mass / m.density_kg_per_mm3;
   const double tr = eps.trace();
   const double w = id.shear_modulus_kpa * (eps.array() * eps.array()).sum() +
-                   0.5 * id.lame_lambda_kpa * tr * tr;  // kPa
+                   0.5 * id.lame_lambda_kpa * tr * tr;    // kPa
   return {sim::elastic_energy(s, x), w * volume * 1e-6};  // kPa mm^3 = 1e-6 J
 }
 
@@ -82,10 +82,10 @@ TEST(IdentifySprings, FitsTheLayeredNetworkAndSaysWhenItCannot) {
   EXPECT_NEAR(k2[7] / k[7], 2.0, 1e-9);
 
   // A skin-only model cannot resist stretch along its normal: the fit says so.
-  const Model skin = model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
-                                        {.structure = model::Structure::kLinks, .layers = 1,
-                                         .skin_vertices = 400})
-                         .model;
+  const Model skin =
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
+                         {.structure = model::Structure::kLinks, .layers = 1, .skin_vertices = 400})
+          .model;
   std::vector<double> ks;
   const model::SpringIdentification only =
       model::identify_springs(skin, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45}, ks);

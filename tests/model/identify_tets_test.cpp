@@ -24,7 +24,8 @@ Eigen::Matrix<double, 6, 6> q_of(const model::TetIdentification& id, Eigen::Inde
 
 TEST(IdentifyTets, CoupledQIsLinearElasticityInEdgeStretches) {
   const Model& m = test::sphere_model();
-  const model::TetIdentification id = model::identify_tets(m, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45});
+  const model::TetIdentification id =
+      model::identify_tets(m, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45});
   const double mu = 6.0 / 2.9, lambda = 6.0 * 0.45 / (1.45 * 0.1);
   EXPECT_NEAR(id.shear_modulus_kpa, mu, 1e-12);
   EXPECT_NEAR(id.volume_modulus_kpa, model::kVolumeShare * lambda, 1e-12);
@@ -62,7 +63,8 @@ TEST(IdentifyTets, IndependentSpringsHaveNoCouplingAndCarryLambdaMinusMuAside) {
   EXPECT_NEAR(id.volume_modulus_kpa, id.lame_lambda_kpa - id.shear_modulus_kpa, 1e-12);
   for (Eigen::Index t = 0; t < m.tets.size(); t += 53) {
     const Eigen::Matrix<double, 6, 6> q = q_of(id, t);
-    EXPECT_EQ((q - Eigen::Matrix<double, 6, 6>(q.diagonal().asDiagonal())).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_EQ((q - Eigen::Matrix<double, 6, 6>(q.diagonal().asDiagonal())).cwiseAbs().maxCoeff(),
+              0.0);
     EXPECT_GE(q.diagonal().minCoeff(), 0.0);
   }
 }

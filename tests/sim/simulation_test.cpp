@@ -47,13 +47,14 @@ const char* name(sim::Integrator i) {
                                               : "semi-implicit";
 }
 
-constexpr sim::Integrator kAllIntegrators[] = {
-    sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler,
-    sim::Integrator::kProjective};
+constexpr sim::Integrator kAllIntegrators[] = {sim::Integrator::kSemiImplicitEuler,
+                                               sim::Integrator::kImplicitEuler,
+                                               sim::Integrator::kProjective};
 
 double total_energy(const sim::Simulation& s) {
   double ke = 0.0;
-  for (Eigen::Index i = 0; i < s.v.rows(); ++i) ke += 0.5 * s.mass_kg()[i] * s.v.row(i).squaredNorm();
+  for (Eigen::Index i = 0; i < s.v.rows(); ++i)
+    ke += 0.5 * s.mass_kg()[i] * s.v.row(i).squaredNorm();
   return ke * 1e-6 + sim::elastic_energy(s, s.x);
 }
 
@@ -83,7 +84,8 @@ TEST(VolumeTerm, ForcesSumToZeroAndAreMinusTheEnergyGradient) {
   // or the term would add or remove energy.
   const Model& m = small_model();
   ASSERT_GE(m.layer_count(), 2);
-  sim::Simulation s = sim::make_simulation(m, {.stiffness_n_per_m = 0.001, .volume_stiffness_kpa = 50.0});
+  sim::Simulation s =
+      sim::make_simulation(m, {.stiffness_n_per_m = 0.001, .volume_stiffness_kpa = 50.0});
   const Eigen::MatrixX3d x = jiggle(m.X, 2.0, 11);
   Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
   sim::internal_forces(s, x, f);
@@ -151,21 +153,21 @@ TEST(Simulation, WithDampingAndNoToolEnergyNeverRises) {
       {}, {.volume_stiffness_kpa = 2.0}, {.damping_kg_per_s = 0.0, .mass_damping_per_s = 3.0}};
   for (auto integrator : kAllIntegrators)
     for (const sim::Material& material : variants) {
-    SCOPED_TRACE(std::string(name(integrator)) + ", volume term " +
-                 std::to_string(material.volume_stiffness_kpa) + " kPa, alpha " +
-                 std::to_string(material.mass_damping_per_s));
-    sim::Simulation s = sim::make_simulation(small_model(), material, {.integrator = integrator});
-    s.x = jiggle(small_model().X, 1.5);
-    double previous = total_energy(s);
-    const double start = previous;
-    for (int k = 0; k < 300; ++k) {
-      sim::step(s);
-      const double e = total_energy(s);
-      ASSERT_LE(e, previous * (1.0 + 1e-9)) << "step " << k;
-      previous = e;
+      SCOPED_TRACE(std::string(name(integrator)) + ", volume term " +
+                   std::to_string(material.volume_stiffness_kpa) + " kPa, alpha " +
+                   std::to_string(material.mass_damping_per_s));
+      sim::Simulation s = sim::make_simulation(small_model(), material, {.integrator = integrator});
+      s.x = jiggle(small_model().X, 1.5);
+      double previous = total_energy(s);
+      const double start = previous;
+      for (int k = 0; k < 300; ++k) {
+        sim::step(s);
+        const double e = total_energy(s);
+        ASSERT_LE(e, previous * (1.0 + 1e-9)) << "step " << k;
+        previous = e;
+      }
+      EXPECT_LT(previous, 0.5 * start);
     }
-    EXPECT_LT(previous, 0.5 * start);
-  }
 }
 
 TEST(Simulation, ReleasedModelReturnsToRest) {
@@ -358,13 +360,15 @@ TEST(Simulation, PhysicalLiverIsStableAtTenTimesThePapersDtWithImplicitEuler) {
   // slowest mode: semi-implicit Euler's limit is about a millisecond here, yet implicit Euler at
   // dt = 0.1 s (ten times the paper's) pushes, releases and comes back to rest with no recovery.
   Model m = small_model();
-  const model::SpringIdentification id =
-      model::identify_springs(m, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45},
-                              m.springs.stiffness_n_per_m);
-  sim::Material mat{.stiffness_n_per_m = 0.0, .damping_kg_per_s = 0.0, .node_mass_kg = 0.0,
+  const model::SpringIdentification id = model::identify_springs(
+      m, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45}, m.springs.stiffness_n_per_m);
+  sim::Material mat{.stiffness_n_per_m = 0.0,
+                    .damping_kg_per_s = 0.0,
+                    .node_mass_kg = 0.0,
                     .volume_stiffness_kpa = id.volume_stiffness_kpa};
   sim::Simulation s = sim::make_simulation(
-      m, mat, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.1, .rest_speed_mm_per_s = 0.01});
+      m, mat,
+      {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.1, .rest_speed_mm_per_s = 0.01});
   sim::fix_nodes(s, posterior_nodes(m));
   mat.mass_damping_per_s = 2.0 * sim::lowest_angular_frequency(s);
   sim::set_parameters(s, mat, s.options());
@@ -383,11 +387,13 @@ TEST(Simulation, PhysicalLiverIsStableAtTenTimesThePapersDtWithImplicitEuler) {
 TEST(Simulation, SameResultOnOneAndTwoThreads) {
   // Large enough (> 8192 nodes) that the step's loops really run in parallel.
   static const Model big =
-      model::build_model(geometry::make_phantom({.spacing_mm = {2, 2, 2}}), {.skin_vertices = 6000}).model;
+      model::build_model(geometry::make_phantom({.spacing_mm = {2, 2, 2}}), {.skin_vertices = 6000})
+          .model;
   ASSERT_GT(big.node_count(), 8192);
   auto run = [](int threads) {
     omp_set_num_threads(threads);
-    sim::Simulation s = sim::make_simulation(big, {}, {.integrator = sim::Integrator::kImplicitEuler});
+    sim::Simulation s =
+        sim::make_simulation(big, {}, {.integrator = sim::Integrator::kImplicitEuler});
     s.f_ext.row(3) << 10.0, -5.0, 2.0;
     for (int k = 0; k < 5; ++k) sim::step(s);
     return s.x;

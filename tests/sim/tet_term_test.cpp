@@ -27,8 +27,11 @@ const Model& tet_model() {
   return m;
 }
 
-const sim::Material kLiver{.stiffness_n_per_m = 0.0, .damping_kg_per_s = 0.0, .node_mass_kg = 0.0,
-                           .young_modulus_kpa = 6.0, .poisson_ratio = 0.45};
+const sim::Material kLiver{.stiffness_n_per_m = 0.0,
+                           .damping_kg_per_s = 0.0,
+                           .node_mass_kg = 0.0,
+                           .young_modulus_kpa = 6.0,
+                           .poisson_ratio = 0.45};
 
 Eigen::MatrixX3d jiggle(const Eigen::MatrixX3d& X, double amplitude, unsigned seed = 3) {
   std::mt19937 rng(seed);
@@ -95,8 +98,8 @@ TEST(ExplicitLimit, IsBelowTheTrueLimitAtRestOfThePhysicalLiver) {
   Eigen::VectorXd inv_sqrt_m(3 * n);
   for (Eigen::Index i = 0; i < n; ++i)
     inv_sqrt_m.segment<3>(3 * i).setConstant(1.0 / std::sqrt(s.solver().mass_kg[i]));
-  const Eigen::MatrixXd A = inv_sqrt_m.asDiagonal() * (0.5 * (K + K.transpose())) *
-                            inv_sqrt_m.asDiagonal();
+  const Eigen::MatrixXd A =
+      inv_sqrt_m.asDiagonal() * (0.5 * (K + K.transpose())) * inv_sqrt_m.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(A, Eigen::EigenvaluesOnly);
   const double w2 = eig.eigenvalues().maxCoeff(), c = mat.mass_damping_per_s;
   const double truth = (std::sqrt(c * c + 4.0 * w2) - c) / w2;  // h^2 w^2 + 2 h c = 4
@@ -116,10 +119,11 @@ TEST(TetTerm, ASmallHomogeneousStrainStoresTheContinuumsEnergy) {
   for (double v : s.tet_identification().rest_volume_mm3) volume += v;
   Eigen::Matrix3d shear = Eigen::Matrix3d::Zero();
   shear(0, 1) = shear(1, 0) = 1e-4;
-  for (const Eigen::Matrix3d& eps :
-       {Eigen::Matrix3d(Eigen::Vector3d(1e-4, 0, 0).asDiagonal()), Eigen::Matrix3d(1e-4 * Eigen::Matrix3d::Identity()), shear}) {
+  for (const Eigen::Matrix3d& eps : {Eigen::Matrix3d(Eigen::Vector3d(1e-4, 0, 0).asDiagonal()),
+                                     Eigen::Matrix3d(1e-4 * Eigen::Matrix3d::Identity()), shear}) {
     const Eigen::MatrixX3d x = m.X * (Eigen::Matrix3d::Identity() + eps).transpose();
-    const double continuum = volume * (mu * eps.squaredNorm() + 0.5 * lambda * eps.trace() * eps.trace());
+    const double continuum =
+        volume * (mu * eps.squaredNorm() + 0.5 * lambda * eps.trace() * eps.trace());
     EXPECT_NEAR(sim::elastic_energy(s, x) * 1e6 / continuum, 1.0, 1e-3);  // J -> mN mm
   }
 }
@@ -127,7 +131,8 @@ TEST(TetTerm, ASmallHomogeneousStrainStoresTheContinuumsEnergy) {
 TEST(TetTerm, ImplicitProductIsTheForcesDerivative) {
   // At rest (no geometric term, V = V0) K p is minus the directional derivative of the forces.
   const Model& m = tet_model();
-  sim::Simulation s = sim::make_simulation(m, kLiver, {.integrator = sim::Integrator::kImplicitEuler});
+  sim::Simulation s =
+      sim::make_simulation(m, kLiver, {.integrator = sim::Integrator::kImplicitEuler});
   sim::step(s);  // linearises at rest (nothing moves: no force)
   const Eigen::MatrixX3d p = jiggle(Eigen::MatrixX3d::Zero(m.node_count(), 3), 1.0, 9);
   const double h = 0.1;
@@ -135,7 +140,8 @@ TEST(TetTerm, ImplicitProductIsTheForcesDerivative) {
   sim::implicit_system_product(s, h, p, y);
   // y = (M + h^2 K) p here (no damping given): K p = (y - M p) / h^2.
   Eigen::MatrixX3d kp = y;
-  for (int32_t i = 0; i < m.node_count(); ++i) kp.row(i) = (y.row(i) - s.mass_kg()[i] * p.row(i)) / (h * h);
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    kp.row(i) = (y.row(i) - s.mass_kg()[i] * p.row(i)) / (h * h);
   const double e = 1e-6;
   Eigen::MatrixX3d fp = Eigen::MatrixX3d::Zero(m.node_count(), 3), fm = fp;
   sim::internal_forces(s, m.X + e * p, fp);
@@ -149,8 +155,13 @@ TEST(TetTerm, AnInvertedTetrahedronIsPushedBack) {
   // lengths barely change; the signed volume term must bring them back.
   const Model& m = tet_model();
   sim::Simulation s = sim::make_simulation(
-      m, {.stiffness_n_per_m = 0.0, .damping_kg_per_s = 0.0, .mass_damping_per_s = 30.0,
-          .node_mass_kg = 0.0, .young_modulus_kpa = 6.0, .poisson_ratio = 0.45},
+      m,
+      {.stiffness_n_per_m = 0.0,
+       .damping_kg_per_s = 0.0,
+       .mass_damping_per_s = 30.0,
+       .node_mass_kg = 0.0,
+       .young_modulus_kpa = 6.0,
+       .poisson_ratio = 0.45},
       {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.005, .cg_tolerance = 1e-4});
   Eigen::Index t = 0;
   while (m.tets.T.row(t).maxCoeff() < m.surface_node_count()) ++t;
@@ -173,11 +184,12 @@ TEST(TetTerm, BitForBitForAThreadCountAndToRoundOffAcrossThem) {
   // in another grouping, which moves the solution by round-off, amplified at most to the solve's
   // tolerance (1e-6 here) when an iteration count changes.
   static const Model big =
-      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 2000}).model;
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 2000})
+          .model;
   auto run = [](int threads) {
     omp_set_num_threads(threads);
-    sim::Simulation s = sim::make_simulation(big, kLiver, {.integrator = sim::Integrator::kImplicitEuler,
-                                                           .dt_s = 0.001});
+    sim::Simulation s = sim::make_simulation(
+        big, kLiver, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001});
     sim::fix_nodes(s, {0, 1, 2, 3});
     s.f_ext.row(big.node_count() / 2) << 100.0, -50.0, 20.0;
     s.f_ext.row(7) << 0.0, 300.0, 0.0;
@@ -198,8 +210,9 @@ TEST(TetTerm, NeedsAModelWithTetrahedraAndNoProjectiveDynamics) {
                          {.structure = model::Structure::kLinks, .skin_vertices = 200})
           .model;
   EXPECT_THROW(sim::make_simulation(links, kLiver), Error);
-  EXPECT_THROW(sim::make_simulation(tet_model(), kLiver, {.integrator = sim::Integrator::kProjective}),
-               Error);
+  EXPECT_THROW(
+      sim::make_simulation(tet_model(), kLiver, {.integrator = sim::Integrator::kProjective}),
+      Error);
   sim::Material both = kLiver;
   both.stiffness_n_per_m = 3.0;
   EXPECT_THROW(sim::make_simulation(tet_model(), both), Error);

@@ -1,6 +1,7 @@
 #pragma once
 // A two-layer sphere model, radius 20 mm, inner layer 8 mm deep, about 600 skin vertices, filled
-// with tetrahedra (or joined by links): built once per test program (an inline function's static is shared by every file that uses it).
+// with tetrahedra (or joined by links): built once per test program (an inline function's static is
+// shared by every file that uses it).
 
 #include <Eigen/Core>
 

@@ -57,9 +57,15 @@ int main(int argc, char** argv) {
     }
     const auto node = static_cast<int32_t>(frames % static_cast<uint64_t>(skin));
     switch (frames % 9) {
-      case 0: loop.set_forces({{node, Eigen::Vector3d(0, 200, 0)}}); break;
-      case 1: loop.set_forces({{node, Eigen::Vector3d(0, 150, 0)}, {0, Eigen::Vector3d(50, 0, 0)}}); break;
-      case 2: loop.set_forces({}); break;
+      case 0:
+        loop.set_forces({{node, Eigen::Vector3d(0, 200, 0)}});
+        break;
+      case 1:
+        loop.set_forces({{node, Eigen::Vector3d(0, 150, 0)}, {0, Eigen::Vector3d(50, 0, 0)}});
+        break;
+      case 2:
+        loop.set_forces({});
+        break;
       case 3: {
         interact::ToolTip tip;
         tip.active = frames % 2 == 0;
@@ -74,17 +80,26 @@ int main(int argc, char** argv) {
         loop.set_parameters(material, solver, {});
         break;
       }
-      case 5: loop.set_paused(frames % 4 == 1); break;
-      case 6: if (frames % 50 == 6) loop.reset(); break;
-      case 7: loop.set_rate(frames % 2 ? 1000.0 : 3000.0); break;
-      default: loop.set_paused(false); break;
+      case 5:
+        loop.set_paused(frames % 4 == 1);
+        break;
+      case 6:
+        if (frames % 50 == 6) loop.reset();
+        break;
+      case 7:
+        loop.set_rate(frames % 2 ? 1000.0 : 3000.0);
+        break;
+      default:
+        loop.set_paused(false);
+        break;
     }
     std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   loop.stop();
-  std::printf("tsan_loop_handoff: %llu viewer frames, %llu fresh snapshots, %lld steps, model "
-              "finite: yes\n",
-              static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fresh),
-              static_cast<long long>(snap.steps));
+  std::printf(
+      "tsan_loop_handoff: %llu viewer frames, %llu fresh snapshots, %lld steps, model "
+      "finite: yes\n",
+      static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fresh),
+      static_cast<long long>(snap.steps));
   return fresh > 10 ? 0 : 1;
 }

@@ -37,10 +37,10 @@ const Physical& physical() {
 
 validate::StabilityResult run(const validate::StabilityCase& c) {
   const Physical& p = physical();
-  return validate::run_stability_case(p.model, p.material,
-                                      {.integrator = sim::Integrator::kImplicitEuler,
-                                       .dt_s = 0.01, .cg_tolerance = 1e-3},
-                                      p.indentation, c);
+  return validate::run_stability_case(
+      p.model, p.material,
+      {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.01, .cg_tolerance = 1e-3},
+      p.indentation, c);
 }
 
 void expect_passed(const validate::StabilityResult& r) {
@@ -104,9 +104,8 @@ TEST(Stability, DeepIndentationPullAndThreeToolsReleaseBackToRest) {
 }
 
 TEST(Stability, ImplicitEulerAtTenTimesThePapersDt) {
-  const validate::StabilityResult r =
-      run({"indent 30%", validate::LoadKind::kIndent, 0.3, 0, 0.0,
-           sim::Integrator::kImplicitEuler, 0.1});
+  const validate::StabilityResult r = run({"indent 30%", validate::LoadKind::kIndent, 0.3, 0, 0.0,
+                                           sim::Integrator::kImplicitEuler, 0.1});
   expect_passed(r);
   EXPECT_EQ(r.recoveries, 0);
 }

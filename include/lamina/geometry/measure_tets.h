@@ -13,11 +13,11 @@ struct TetQuality {
   double min_dihedral_deg = 0.0;   ///< smallest dihedral angle of any tetrahedron
   double mean_dihedral_deg = 0.0;  ///< over all six angles of every tetrahedron
   double max_dihedral_deg = 0.0;
-  int64_t inverted = 0;            ///< tetrahedra with volume <= 0
-  int64_t slivers = 0;             ///< tetrahedra with a dihedral angle under kSliverDeg
-  int64_t below_10_deg = 0;        ///< tetrahedra with a dihedral angle under 10 degrees
+  int64_t inverted = 0;      ///< tetrahedra with volume <= 0
+  int64_t slivers = 0;       ///< tetrahedra with a dihedral angle under kSliverDeg
+  int64_t below_10_deg = 0;  ///< tetrahedra with a dihedral angle under 10 degrees
   double min_volume_mm3 = 0.0;
-  double volume_mm3 = 0.0;         ///< total signed volume
+  double volume_mm3 = 0.0;  ///< total signed volume
   /// A tetrahedron with a dihedral angle under this many degrees is a sliver (flat: it resists
   /// little and inverts easily).
   static constexpr double kSliverDeg = 5.0;

@@ -70,8 +70,8 @@ struct LoopSnapshot {
   double real_time_factor = 0.0;
   /// Real time was asked for and the last second ran at 95% of it or better.
   bool keeping_up = true;
-  double mean_step_us = 0.0;      ///< over the last second
-  double worst_jitter_us = 0.0;   ///< worst lateness of a step's start over the last second
+  double mean_step_us = 0.0;     ///< over the last second
+  double worst_jitter_us = 0.0;  ///< worst lateness of a step's start over the last second
   Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< tissue's push on the tools, mN
   std::vector<int32_t> contact_nodes;  ///< where each live force and the tool tip act
   bool tool_tip_touching = false;
@@ -81,8 +81,8 @@ struct LoopSnapshot {
 /// rate, without copying the state (RealtimeLoop::latest_reaction()).
 struct ReactionSample {
   Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< mN
-  int64_t steps = 0;    ///< the step it follows
-  double time_s = 0.0;  ///< simulated time after that step
+  int64_t steps = 0;                                      ///< the step it follows
+  double time_s = 0.0;                                    ///< simulated time after that step
 };
 
 class RealtimeLoop {

@@ -148,8 +148,8 @@ void use_elastic_material(Scene& scene);
 
 /// What resolve_material() decided, for logs and the run summary.
 struct MaterialReport {
-  bool elastic = false;                 ///< spring constants came from E and nu
-  bool tets = false;                    ///< ... through the tetrahedra (else per spring kind)
+  bool elastic = false;  ///< spring constants came from E and nu
+  bool tets = false;     ///< ... through the tetrahedra (else per spring kind)
   model::ElasticMaterial elastic_material;
   model::SpringIdentification identification;  ///< valid when elastic without tetrahedra
   model::TetElasticity tet_elasticity = model::TetElasticity::kCoupled;  ///< with tetrahedra
@@ -197,11 +197,11 @@ struct RunSummary {
   double achieved_rate_hz = 0.0;  ///< steps / wall time of the stepping loop (realtime only)
   /// Simulated seconds per wall second of the stepping loop (realtime only): 1 in real time.
   double real_time_factor = 0.0;
-  bool kept_up = true;  ///< realtime: real_time_factor >= 0.95 (else a warning says so)
-  double worst_jitter_us = 0.0;   ///< latest start of a step after its tick (realtime only)
-  double p99_jitter_us = 0.0;     ///< 99th percentile of that lateness (realtime only)
-  double max_reaction_n = 0.0;    ///< largest |reaction force| of the tissue on the tools, N
-  MaterialReport material;        ///< written as the "material" object
+  bool kept_up = true;           ///< realtime: real_time_factor >= 0.95 (else a warning says so)
+  double worst_jitter_us = 0.0;  ///< latest start of a step after its tick (realtime only)
+  double p99_jitter_us = 0.0;    ///< 99th percentile of that lateness (realtime only)
+  double max_reaction_n = 0.0;   ///< largest |reaction force| of the tissue on the tools, N
+  MaterialReport material;       ///< written as the "material" object
 };
 
 /// Resolves the scene's material against its model, after resolve_scene_defaults(): with an
@@ -219,8 +219,8 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
 
 /// Everything a scene decides about its model before a simulation starts.
 struct SceneSetup {
-  std::vector<int32_t> fixed;      ///< fixed nodes, sorted and unique
-  model::SurfaceSupport support;   ///< supported nodes and their stiffness (all regions)
+  std::vector<int32_t> fixed;     ///< fixed nodes, sorted and unique
+  model::SurfaceSupport support;  ///< supported nodes and their stiffness (all regions)
   MaterialReport material;
 };
 

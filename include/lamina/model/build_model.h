@@ -28,7 +28,7 @@ enum class Structure : uint8_t {
 /// tetrahedra.
 struct BuildOptions {
   Structure structure = Structure::kTetrahedra;  ///< what joins the layers
-  int32_t label = 0;             ///< label to model; 0 = any non-zero voxel
+  int32_t label = 0;                             ///< label to model; 0 = any non-zero voxel
   int32_t layers = 2;            ///< S: layer 0 is the skin, 1..S-1 nested inside; 1..16
   int32_t skin_vertices = 1284;  ///< target skin vertex count (the paper's model size)
   double layer_depth_mm = 0.0;   ///< depth between layers; 0 = auto (max depth / (S+1))

@@ -29,9 +29,9 @@ struct ElasticMaterial {
 
 /// What the identification found.
 struct SpringIdentification {
-  double shear_modulus_kpa = 0.0;     ///< mu = E / (2 (1 + nu))
-  double lame_lambda_kpa = 0.0;       ///< lambda = E nu / ((1 + nu) (1 - 2 nu))
-  double volume_stiffness_kpa = 0.0;  ///< K_v = max(0, lambda - mu): the volume term's share
+  double shear_modulus_kpa = 0.0;       ///< mu = E / (2 (1 + nu))
+  double lame_lambda_kpa = 0.0;         ///< lambda = E nu / ((1 + nu) (1 - 2 nu))
+  double volume_stiffness_kpa = 0.0;    ///< K_v = max(0, lambda - mu): the volume term's share
   double c_intra = 0.0, c_inter = 0.0;  ///< k_e = c E V_e / l_e^2 for each kind of spring
   /// ||C_network - C_target|| / ||C_target|| (the tensor norm): 0 = the springs are exactly
   /// isotropic with the target's lambda and mu; a skin-only network, which cannot resist

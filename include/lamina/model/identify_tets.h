@@ -43,8 +43,8 @@ inline constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {
 /// The identified constants.
 struct TetIdentification {
   TetElasticity elasticity = TetElasticity::kCoupled;
-  double shear_modulus_kpa = 0.0;   ///< mu = E / (2 (1 + nu))
-  double lame_lambda_kpa = 0.0;     ///< lambda = E nu / ((1 + nu) (1 - 2 nu))
+  double shear_modulus_kpa = 0.0;  ///< mu = E / (2 (1 + nu))
+  double lame_lambda_kpa = 0.0;    ///< lambda = E nu / ((1 + nu) (1 - 2 nu))
   /// k_v, kPa: each tetrahedron stores k_v (V - V0)^2 / (2 V0), which at small strain is
   /// k_v / 2 tr(eps)^2 V0: a share k_v of lambda. Signed V: an inverted tetrahedron is pushed
   /// back towards positive volume.

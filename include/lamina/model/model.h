@@ -42,8 +42,9 @@ struct ModelLayer {
 /// inside the deepest layer. Conforming: every layer triangle is a face of a tetrahedron, and the
 /// tetrahedra's edges are the model's springs.
 struct Tets {
-  Eigen::MatrixX4i T;           ///< #T by 4 node indices, positively oriented at rest
-  std::vector<int32_t> region;  ///< #T: k = the shell just inside layer k (the core for the deepest)
+  Eigen::MatrixX4i T;  ///< #T by 4 node indices, positively oriented at rest
+  std::vector<int32_t>
+      region;  ///< #T: k = the shell just inside layer k (the core for the deepest)
 
   int64_t size() const { return T.rows(); }
 };
@@ -76,7 +77,7 @@ struct Model {
   std::vector<uint8_t> fixed;      ///< #nodes, 1 = held in place (boundary condition)
   std::vector<ModelLayer> layers;  ///< layer 0 = skin, then inward
   Springs springs;
-  Tets tets;                       ///< empty for a model whose layers are joined by links only
+  Tets tets;  ///< empty for a model whose layers are joined by links only
   Rings rings;
   double density_kg_per_mm3 = 1.06e-6;  ///< used to lump the masses (liver: 1.06 g/cm^3)
   std::string source;                   ///< what it was built from (path or "built-in phantom")

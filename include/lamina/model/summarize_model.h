@@ -26,9 +26,9 @@ struct LayerSummary {
 struct ModelSummary {
   int64_t nodes = 0;
   int64_t springs = 0, intra_layer_springs = 0, inter_layer_springs = 0;
-  int64_t volume_springs = 0;  ///< tetrahedron edges that are no layer's edge
-  int64_t interior_nodes = 0;  ///< nodes on no layer (inside the tetrahedra)
-  geometry::TetQuality tets;   ///< count 0 when the layers are joined by links
+  int64_t volume_springs = 0;     ///< tetrahedron edges that are no layer's edge
+  int64_t interior_nodes = 0;     ///< nodes on no layer (inside the tetrahedra)
+  geometry::TetQuality tets;      ///< count 0 when the layers are joined by links
   int32_t spring_components = 0;  ///< connected components of the spring network (1 = one body)
   double total_mass_kg = 0.0;
   int32_t locality = 0;

@@ -251,7 +251,9 @@ StepStats step(Simulation& sim);
 
 /// True when no node moves faster than the rest speed (StepStats::converged): the single
 /// definition of "at rest" every command uses.
-inline bool at_rest(const StepStats& stats) { return stats.converged; }
+inline bool at_rest(const StepStats& stats) {
+  return stats.converged;
+}
 
 /// How long a model must stay at rest to count as settled, s (0.1 s: ten of the paper's steps).
 inline constexpr double kQuietSeconds = 0.1;

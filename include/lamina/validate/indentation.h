@@ -19,7 +19,7 @@ namespace lamina::validate {
 struct Indentation {
   Eigen::Vector3d contact_mm = Eigen::Vector3d::Zero();  ///< skin point touched, at rest
   Eigen::Vector3d direction = Eigen::Vector3d::UnitY();  ///< unit, into the organ
-  double radius_mm = 10.0;  ///< the skin within this distance of the contact moves with the tip
+  double radius_mm = 10.0;      ///< the skin within this distance of the contact moves with the tip
   double organ_depth_mm = 0.0;  ///< the organ's thickness along `direction` from the contact
   /// Held region: every node within `held_distance_mm` of the plane through `held_point_mm`
   /// with normal `held_normal` (the paper's: the posterior 10 mm).
@@ -41,13 +41,13 @@ Indentation deepest_indentation(const Model& model, double radius_mm = 10.0);
 
 /// One solved indentation.
 struct IndentResult {
-  Eigen::MatrixX3d skin_u;      ///< displacement at each sample point (skin node), mm
-  Eigen::MatrixX3d u;           ///< FEM only: the displacement of every mesh vertex, mm
-  double force_n = 0.0;         ///< the indenter's push along `direction`, N
+  Eigen::MatrixX3d skin_u;         ///< displacement at each sample point (skin node), mm
+  Eigen::MatrixX3d u;              ///< FEM only: the displacement of every mesh vertex, mm
+  double force_n = 0.0;            ///< the indenter's push along `direction`, N
   double volume_change_pct = 0.0;  ///< of the whole organ (mass-spring: the skin's enclosed volume)
   bool converged = false;
-  int64_t steps = 0;            ///< mass-spring steps or FEM linear solves
-  double seconds = 0.0;         ///< wall time
+  int64_t steps = 0;     ///< mass-spring steps or FEM linear solves
+  double seconds = 0.0;  ///< wall time
 };
 
 /// Mass-spring: skin nodes within the indenter radius held at X + depth * direction, the held

@@ -63,15 +63,15 @@ struct StabilityOptions {
 /// What one case measured.
 struct StabilityResult {
   StabilityCase c;
-  bool finite = true;              ///< every state finite (after any rollback)
-  int64_t recoveries = 0;          ///< steps that went non-finite and were rolled back and redone
+  bool finite = true;      ///< every state finite (after any rollback)
+  int64_t recoveries = 0;  ///< steps that went non-finite and were rolled back and redone
   /// The worst of the checks at rest (under the load, and after the release): most nodes
   /// outside, whether surfaces cross, most tetrahedra inverted. The pass criterion.
   LayerOrder order;
   /// The same while moving (every check_interval_s): reported, not required (an indenter's rim
   /// can flatten a tetrahedron under it for a moment).
   LayerOrder order_in_motion;
-  int32_t order_checks = 0;        ///< how many times the layer order was checked
+  int32_t order_checks = 0;  ///< how many times the layer order was checked
   double peak_displacement_mm = 0.0;
   double peak_volume_change_pct = 0.0;  ///< of the skin's enclosed volume, largest |change|
   bool loaded_at_rest = false;          ///< the loaded model came to rest
@@ -106,8 +106,7 @@ std::vector<StabilityCase> stability_cases(double dt_s, bool quick, bool project
 /// \note Throws lamina::Error (kInvalidInput) if the indenter's patch holds no skin node or a
 ///   tool touches nothing.
 StabilityResult run_stability_case(const Model& model, const sim::Material& material,
-                                   const sim::SolverOptions& solver,
-                                   const Indentation& indentation, const StabilityCase& c,
-                                   const StabilityOptions& options = {});
+                                   const sim::SolverOptions& solver, const Indentation& indentation,
+                                   const StabilityCase& c, const StabilityOptions& options = {});
 
 }  // namespace lamina::validate

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   lamina::render::Renderer renderer;
   lamina::render::Frame frame{.model = &model, .x = &sim.x};
   const lamina::render::Camera camera = lamina::render::fit_camera(model);
-  lamina::render::write_png(lamina::render::render_image(renderer, frame, camera, 640, 480), argv[1]);
+  lamina::render::write_png(lamina::render::render_image(renderer, frame, camera, 640, 480),
+                            argv[1]);
   return run.last.max_displacement_mm > 0.5 ? 0 : 1;
 }
