@@ -19,6 +19,8 @@ pkgs=(
   libopenigtlink-dev openigtlink-examples
   # fuzzing (scripts/fuzz.sh): clang with libFuzzer and the sanitizer runtimes, and its OpenMP
   clang-14 libclang-rt-14-dev libomp-14-dev
+  # the formatting check (scripts/check_format.sh, .clang-format)
+  clang-format-14
 )
 
 missing=()
