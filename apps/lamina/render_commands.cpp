@@ -92,14 +92,14 @@ int run_view(const ViewArgs& a) {
     // The same preparation as the first model's (prepare_scene): fixed and supported nodes,
     // and the material resolved again, whose damping follows the new model's slowest vibration.
     o.rebuild = [scene = p.parsed](int32_t layers, int32_t skin_vertices, const ProgressFn& pr) {
-      const io::ReadyScene b =
+      io::ReadyScene b =
           io::rebuild_ready_scene(scene, layers, skin_vertices, volume_read_options, pr);
       ViewModel out;
       out.fixed = b.setup.fixed;
       out.support = b.setup.support;
       out.material = b.scene.material;
       out.source = b.source;
-      out.model = *b.model;
+      out.model = std::move(*b.model);  // b's only owner: no copy of the new model
       return out;
     };
   }
