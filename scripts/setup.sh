@@ -6,6 +6,7 @@ set -euo pipefail
 pkgs=(
   cmake g++ make pkg-config ninja-build
   libeigen3-dev libinsighttoolkit5-dev libcgal-dev libopenvdb-dev libtbb-dev libimath-dev
+  libxsimd-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libmeshoptimizer-dev libtet1.5-dev libgtest-dev libgmock-dev libbenchmark-dev
   zlib1g-dev

@@ -21,6 +21,7 @@
 #include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
 #include "paper_run.h"
+#include "plain_loop.h"
 
 namespace lamina::cli {
 namespace {
@@ -62,7 +63,8 @@ struct SizeResult {
   int32_t nodes = 0, skin_vertices = 0, layers = 0;
   int64_t springs = 0;
   double build_s = 0.0;
-  double explicit_us = 0.0, implicit_us = 0.0, projective_us = 0.0, projective_factor_s = 0.0;
+  double explicit_us = 0.0, plain_us = 0.0, implicit_us = 0.0, projective_us = 0.0,
+         projective_factor_s = 0.0;
   int32_t implicit_cg_iterations = 0;
   double poke_to_rest_ms = 0.0;
   int64_t poke_steps = 0;
@@ -73,9 +75,12 @@ struct SizeResult {
 // Median microseconds per step over `batches` batches of `steps` steps, under a held poke (so
 // the step does real work: moving nodes, a non-zero external force), after `warmup` steps (caches,
 // pages). first_step_s: the first step's wall time (projective dynamics factors its matrix then).
+// With plain_us, each batch is followed by as many steps of the plain loop (plain_loop.h) from the
+// state after the warm-up, interleaved so that both see the same machine; its median goes there.
 double time_steps(const Model& m, const std::vector<int32_t>& fixed, const interact::Tool& tool,
                   sim::Integrator integrator, int steps, int batches, int warmup,
-                  int32_t* cg_iterations = nullptr, double* first_step_s = nullptr) {
+                  int32_t* cg_iterations = nullptr, double* first_step_s = nullptr,
+                  double* plain_us = nullptr) {
   sim::SolverOptions o;
   o.integrator = integrator;
   sim::Simulation s = sim::make_simulation(m, {}, o);
@@ -88,14 +93,25 @@ double time_steps(const Model& m, const std::vector<int32_t>& fixed, const inter
   sim::step(s);
   if (first_step_s) *first_step_s = seconds_since(t_first);
   for (int k = 1; k < warmup; ++k) sim::step(s);
-  std::vector<double> us;
+  PlainLoop plain;
+  if (plain_us) {
+    plain = make_plain_loop(s);
+    for (int k = 0; k < warmup; ++k) plain_step(plain);  // its caches and pages, as Lamina's
+  }
+  std::vector<double> us, plain_batches;
   for (int b = 0; b < batches; ++b) {
     const auto t0 = Clock::now();
     sim::StepStats st;
     for (int k = 0; k < steps; ++k) st = sim::step(s);
     us.push_back(1e6 * seconds_since(t0) / steps);
     if (cg_iterations) *cg_iterations = st.cg_iterations;
+    if (plain_us) {
+      const auto tp = Clock::now();
+      for (int k = 0; k < steps; ++k) plain_step(plain);
+      plain_batches.push_back(1e6 * seconds_since(tp) / steps);
+    }
   }
+  if (plain_us) *plain_us = median(plain_batches);
   return median(us);
 }
 
@@ -227,7 +243,7 @@ int run_bench(const BenchArgs& a) {
         std::max(20, static_cast<int>(2e6 / std::max<int64_t>(r.springs, 1)));
     const int steps = a.quick ? explicit_steps / 4 : explicit_steps;
     r.explicit_us = time_steps(m, fixed, tool, sim::Integrator::kSemiImplicitEuler, steps, 5,
-                               std::max(10, steps / 5));
+                               std::max(10, steps / 5), nullptr, nullptr, &r.plain_us);
     r.implicit_us = time_steps(m, fixed, tool, sim::Integrator::kImplicitEuler,
                                std::max(5, explicit_steps / 20), a.quick ? 3 : 5, 10,
                                &r.implicit_cg_iterations);
@@ -286,11 +302,15 @@ int run_bench(const BenchArgs& a) {
     m["springs"] = r.springs;
     m["build_seconds"] = r.build_s;
     const double ns_per_spring = 1000.0 * r.explicit_us / static_cast<double>(r.springs);
-    m["explicit"] = {{"us_per_step", r.explicit_us},
-                     {"ns_per_spring", ns_per_spring},
-                     {"steps_per_second", 1e6 / r.explicit_us},
-                     {"floor_ns_per_spring", r.floor_ns_per_spring},
-                     {"fraction_of_floor", r.floor_ns_per_spring / ns_per_spring}};
+    m["explicit"] = {
+        {"us_per_step", r.explicit_us},
+        {"ns_per_spring", ns_per_spring},
+        {"steps_per_second", 1e6 / r.explicit_us},
+        {"floor_ns_per_spring", r.floor_ns_per_spring},
+        {"fraction_of_floor", r.floor_ns_per_spring / ns_per_spring},
+        {"plain_loop_us_per_step", r.plain_us},
+        {"plain_loop_ns_per_spring", 1000.0 * r.plain_us / static_cast<double>(r.springs)},
+        {"speedup_over_plain_loop", r.plain_us / r.explicit_us}};
     m["implicit"] = {{"us_per_step", r.implicit_us},
                      {"ns_per_spring", 1000.0 * r.implicit_us / static_cast<double>(r.springs)},
                      {"steps_per_second", 1e6 / r.implicit_us},
@@ -321,16 +341,18 @@ int run_bench(const BenchArgs& a) {
     std::cout << fmt::format(
         "  clinical mask 512x512x130 -> model with tetrahedra: {:.2f} s, {} tets, peak {:.0f} MB\n",
         clinical_build_s, clinical_tets, clinical_peak_mb);
-  std::cout << "  the paper's network (links), the paper's constants:\n"
-               "  model   nodes  springs  build_s  explicit_us  steps/s  ns/spring  floor_ns  "
-               "of_floor  implicit_us  projective_us  poke_to_rest_ms\n";
+  std::cout << "  the paper's network (links), the paper's constants; plain_us: the plain "
+               "single-thread loop in the same run, x_plain: how many times faster Lamina is:\n"
+               "  model   nodes  springs  build_s  explicit_us  steps/s  ns/spring  plain_us  "
+               "x_plain  floor_ns  of_floor  implicit_us  projective_us  poke_to_rest_ms\n";
   for (const SizeResult& r : results) {
     const double ns = 1000.0 * r.explicit_us / static_cast<double>(r.springs);
     std::cout << fmt::format(
-        "  {:6} {:6} {:8} {:8.2f} {:12.1f} {:8.0f} {:10.1f} {:9.2f} {:8.0f}% {:12.1f} {:14.1f} "
-        "{:>16}\n",
-        r.name, r.nodes, r.springs, r.build_s, r.explicit_us, 1e6 / r.explicit_us, ns,
-        r.floor_ns_per_spring, 100.0 * r.floor_ns_per_spring / ns, r.implicit_us, r.projective_us,
+        "  {:6} {:6} {:8} {:8.2f} {:12.1f} {:8.0f} {:10.1f} {:9.1f} {:8.2f} {:9.2f} {:8.0f}% "
+        "{:12.1f} {:14.1f} {:>16}\n",
+        r.name, r.nodes, r.springs, r.build_s, r.explicit_us, 1e6 / r.explicit_us, ns, r.plain_us,
+        r.plain_us / r.explicit_us, r.floor_ns_per_spring, 100.0 * r.floor_ns_per_spring / ns,
+        r.implicit_us, r.projective_us,
         r.poke_steps > 0 ? fmt::format("{:.1f}{}", r.poke_to_rest_ms, r.poke_converged ? "" : "*")
                          : std::string("-"));
   }

@@ -16,6 +16,7 @@ double us_since(Clock::time_point t) {
 
 Measured semi_implicit_euler(Simulation& sim, double dt, bool save, StepProfile& profile) {
   Solver& s = sim.solver();
+  if (lanes_apply(s)) return semi_implicit_euler_lanes(sim, dt, save, profile);
   const int T = threads_for(s);
   const auto t0 = Clock::now();
   if (s.material.volume_stiffness_kpa > 0.0) update_volume_term(s, sim.x, T);

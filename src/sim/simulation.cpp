@@ -94,6 +94,7 @@ void refresh(Simulation& sim) {
         const auto block = static_cast<int32_t>(t / kTetLanes);
         if (s.active_tets.empty() || s.active_tets.back() != block) s.active_tets.push_back(block);
       }
+  refresh_spring_lanes(s);
   s.layer_triangles.resize(m.layers.size());
   s.frozen_layer_volume6_mm3.resize(m.layers.size());
   std::vector<int32_t> frozen;
@@ -131,6 +132,7 @@ void resolve(Solver& s, bool identify) {
           : model.springs.stiffness_n_per_m;
   if (material.volume_stiffness_kpa > 0.0 && s.volume.corner_offsets.empty()) setup_volume_term(s);
   setup_support(s);
+  fill_spring_lanes(s);
 }
 
 // Checks what depends on the model as well as on the parameters.
@@ -226,6 +228,7 @@ Simulation make_simulation(const Model& model, const Material& material,
   s.movable.resize(static_cast<size_t>(n));
   for (int32_t i = 0; i < n; ++i) s.movable[i] = options.mode == Mode::kGlobal && !s.fixed[i];
   setup_springs(s);
+  setup_spring_lanes(s);
   s.rest_layer_volume_mm3.resize(model.layers.size());
   for (int32_t k = 0; k < model.layer_count(); ++k)
     s.rest_layer_volume_mm3[k] = layer_volume(model, model.X, k);

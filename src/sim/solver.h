@@ -20,6 +20,7 @@
 
 #include "lamina/model/identify_tets.h"
 #include "lamina/sim/simulation.h"
+#include "spring_lanes.h"
 
 namespace lamina::sim::detail {
 
@@ -168,6 +169,7 @@ struct Solver {
   std::vector<uint8_t> movable;  ///< 1 = integrated this step (not fixed, and local when kLocal)
 
   SpringTerm springs;
+  SpringLanes lanes;  ///< the springs again, laid out for the explicit step (spring_lanes.h)
   TetTerm tets;
   VolumeTerm volume;
   SupportTerm support;
@@ -351,6 +353,9 @@ double system_product(Solver& s, double h, const Eigen::MatrixX3d& p, Eigen::Mat
                       int threads);
 /// What an integrator's stages took, microseconds (StepStats::profile).
 Measured semi_implicit_euler(Simulation& sim, double h, bool save, StepProfile& profile);
+/// Whether semi_implicit_euler() takes the lanes' fused pass (springs only, no volume term).
+bool lanes_apply(const Solver& s);
+Measured semi_implicit_euler_lanes(Simulation& sim, double h, bool save, StepProfile& profile);
 Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
                         StepProfile& profile);
 Measured projective_step(Simulation& sim, double h, bool save, StepProfile& profile);

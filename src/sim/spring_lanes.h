@@ -1,0 +1,73 @@
+#pragma once
+// The explicit step's spring forces, one SIMD lane per node (xsimd; docs/benchmarks.md, "The hot
+// loop"). Nodes go in blocks of kLanes consecutive indices; block b holds, slot after slot, each
+// of its nodes' springs as "the node at the other end, rest length, stiffness" (a node with fewer
+// springs than the block's most connected one is padded with springs to itself of zero
+// stiffness). A block's force is then a run of identical vector steps with no scatter, no
+// per-spring buffer and no race: a node's lane sums its own springs (each spring is evaluated
+// once from each end, which the gathers' saving pays for).
+//
+// The pass reads positions from a single-precision copy, x - centre packed four floats per node
+// (one cache line per neighbour for the gathers), made at the step's start from the
+// double-precision state; the integration stays in double. A spring's force is k L (1/L - 1/l) d;
+// where its rest length is its edge's length at rest, 1/L is computed from the same floats by
+// the same operations as 1/l, so that a network at rest feels exactly zero force.
+
+#include <xsimd/memory/xsimd_aligned_allocator.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+namespace lamina::sim::detail {
+
+// Lanes per SIMD register of floats on the CPU compiled for (spring_lanes_kernel.h checks it
+// against xsimd's): AVX-512 16, AVX 8, else 4.
+#if defined(__AVX512F__)
+constexpr int32_t kLanes = 16;
+#elif defined(__AVX__)
+constexpr int32_t kLanes = 8;
+#else
+constexpr int32_t kLanes = 4;
+#endif
+template <class T>
+using AlignedVector = std::vector<T, xsimd::aligned_allocator<T>>;
+
+struct Solver;
+
+struct SpringLanes {
+  int32_t nodes = 0;
+  double centre[3] = {0.0, 0.0, 0.0};  ///< subtracted before rounding to float (precision)
+  std::vector<int32_t> slot_offsets;   ///< per block + 1: its slots, kLanes entries each
+  AlignedVector<int32_t> other4;       ///< per entry: 4 x the node at the other end
+  AlignedVector<float> inverse_rest;   ///< per entry: 1 / L, 1/mm (0 on padding)
+  AlignedVector<float> k_rest;         ///< per entry: k L, mN (0 on padding)
+  std::vector<double> rest_mm;         ///< per entry: L (to refill k_rest)
+  std::vector<int32_t> spring;         ///< per entry: the spring (-1: padding), to refill k
+  AlignedVector<float> p;              ///< 4 floats per node: x - centre, the pass's positions
+  AlignedVector<double> movable;       ///< per node: 1 = integrated (Solver::movable, as doubles)
+  std::vector<int32_t> active_blocks;  ///< blocks with a movable node (refresh())
+  std::vector<int32_t> read_nodes;     ///< the nodes those blocks read, ascending
+  bool reads_all = true;               ///< read_nodes is every node (global mode)
+};
+
+inline int32_t block_count(int32_t nodes) {
+  return (nodes + kLanes - 1) / kLanes;
+}
+
+/// The lanes' layout from the model's springs, and the rest lengths (make_simulation).
+void setup_spring_lanes(Solver& s);
+/// The lanes' stiffness from springs.stiffness_n_per_m (whenever the material resolves it).
+void fill_spring_lanes(Solver& s);
+/// active_blocks and read_nodes from the movable nodes (refresh()).
+void refresh_spring_lanes(Solver& s);
+
+/// Node q's position for the pass: x - centre, rounded to float.
+inline void pack_position(SpringLanes& t, int32_t q, double x, double y, double z) {
+  float* p = t.p.data() + 4 * static_cast<int64_t>(q);
+  p[0] = static_cast<float>(x - t.centre[0]);
+  p[1] = static_cast<float>(y - t.centre[1]);
+  p[2] = static_cast<float>(z - t.centre[2]);
+}
+
+}  // namespace lamina::sim::detail
