@@ -65,12 +65,12 @@ void integrate_lanes(const NodeConstants& c, NodeState& st, int32_t i, const flo
           ez = z - D::load_unaligned(c.X.z + i);
   alignas(64) double f64[3][kHalf];
   for (int32_t q = 0; q < kHalf; ++q) f64[0][q] = fx[q], f64[1][q] = fy[q], f64[2][q] = fz[q];
-  const D ux = D::load_unaligned(c.fe.x + i) + m * D(c.gx) - ks * ex - damp * vx +
-               D::load_aligned(f64[0]);
-  const D uy = D::load_unaligned(c.fe.y + i) + m * D(c.gy) - ks * ey - damp * vy +
-               D::load_aligned(f64[1]);
-  const D uz = D::load_unaligned(c.fe.z + i) + m * D(c.gz) - ks * ez - damp * vz +
-               D::load_aligned(f64[2]);
+  const D ux =
+      D::load_unaligned(c.fe.x + i) + m * D(c.gx) - ks * ex - damp * vx + D::load_aligned(f64[0]);
+  const D uy =
+      D::load_unaligned(c.fe.y + i) + m * D(c.gy) - ks * ey - damp * vy + D::load_aligned(f64[1]);
+  const D uz =
+      D::load_unaligned(c.fe.z + i) + m * D(c.gz) - ks * ez - damp * vz + D::load_aligned(f64[2]);
   if (save) {
     x.store_unaligned(st.xp.x + i), y.store_unaligned(st.xp.y + i), z.store_unaligned(st.xp.z + i);
     vx.store_unaligned(st.vp.x + i), vy.store_unaligned(st.vp.y + i),
@@ -82,19 +82,20 @@ void integrate_lanes(const NodeConstants& c, NodeState& st, int32_t i, const flo
   const D mx = xsimd::select(movable, D(c.h) * nvx, D(0.0)),
           my = xsimd::select(movable, D(c.h) * nvy, D(0.0)),
           mz = xsimd::select(movable, D(c.h) * nvz, D(0.0));
-  nvx.store_unaligned(st.v.x + i), nvy.store_unaligned(st.v.y + i),
-      nvz.store_unaligned(st.v.z + i);
+  nvx.store_unaligned(st.v.x + i), nvy.store_unaligned(st.v.y + i), nvz.store_unaligned(st.v.z + i);
   (x + mx).store_unaligned(st.x.x + i), (y + my).store_unaligned(st.x.y + i),
       (z + mz).store_unaligned(st.x.z + i);
   // account(), lane by lane: the moved node's distance from rest, the move, the energy.
   const D nex = ex + mx, ney = ey + my, nez = ez + mz, lim(c.lim);
   const auto bounded = xsimd::abs(nex) < lim && xsimd::abs(ney) < lim && xsimd::abs(nez) < lim;
   const D vsum = nvx + nvy + nvz;
-  acc.ok = acc.ok && xsimd::all(!movable || (bounded && vsum == vsum && xsimd::abs(vsum) <
-                                                                         D(std::numeric_limits<double>::infinity())));
+  acc.ok = acc.ok &&
+           xsimd::all(!movable || (bounded && vsum == vsum &&
+                                   xsimd::abs(vsum) < D(std::numeric_limits<double>::infinity())));
   const D zero(0.0), v2 = nvx * nvx + nvy * nvy + nvz * nvz;
   acc.move2 = xsimd::max(acc.move2, xsimd::select(movable, mx * mx + my * my + mz * mz, zero));
-  acc.disp2 = xsimd::max(acc.disp2, xsimd::select(movable, nex * nex + ney * ney + nez * nez, zero));
+  acc.disp2 =
+      xsimd::max(acc.disp2, xsimd::select(movable, nex * nex + ney * ney + nez * nez, zero));
   acc.ke = acc.ke + xsimd::select(movable, D(0.5) * m * v2, zero);
   acc.speed2 = xsimd::max(acc.speed2, xsimd::select(movable, v2, zero));
 }
@@ -153,7 +154,11 @@ Partial integrate_blocks(Simulation& sim, double h, bool save, int64_t begin, in
 }  // namespace
 
 bool lanes_apply(const Solver& s) {
-  return !s.tets.on && !(s.material.volume_stiffness_kpa > 0.0);
+  // Local mode's few hundred movable nodes can be scattered over many blocks: below half the
+  // lanes in use, the per-spring passes (which visit only what moves) are faster.
+  const auto lanes_used = static_cast<size_t>(kLanes) * s.lanes.active_blocks.size();
+  return !s.tets.on && !(s.material.volume_stiffness_kpa > 0.0) &&
+         2 * s.active_nodes.size() >= lanes_used;
 }
 
 Measured semi_implicit_euler_lanes(Simulation& sim, double h, bool save, StepProfile& profile) {

@@ -1,11 +1,10 @@
 // The lanes' tables (spring_lanes.h): built once per model, their stiffness refilled when the
 // material changes, their active blocks when the movable nodes do.
-#include "spring_lanes_kernel.h"
-
 #include <algorithm>
 #include <cmath>
 
 #include "solver.h"
+#include "spring_lanes_kernel.h"
 
 namespace lamina::sim::detail {
 
@@ -43,7 +42,8 @@ void setup_spring_lanes(Solver& s) {
         const int32_t j = real ? st.adj_other[st.adj_offsets[i] + k] : i;
         t.other4[e0 + q] = 4 * j;
         t.spring[e0 + q] = real ? st.adj_spring[st.adj_offsets[i] + k] : -1;
-        for (int d = 0; d < 3; ++d) (d == 0 ? dx : d == 1 ? dy : dz)[q] = t.p[4 * j + d] - t.p[4 * i + d];
+        for (int d = 0; d < 3; ++d)
+          (d == 0 ? dx : d == 1 ? dy : dz)[q] = t.p[4 * j + d] - t.p[4 * i + d];
       }
       // 1 / the edge's length at rest in the pass's own arithmetic: where the model's rest length
       // is that length, the pass sees exactly zero force at rest.
@@ -86,7 +86,8 @@ void refresh_spring_lanes(Solver& s) {
   std::vector<uint8_t> read(static_cast<size_t>(t.nodes), 0);
   for (int32_t b : t.active_blocks) {
     for (int32_t i = b * kLanes; i < std::min(t.nodes, (b + 1) * kLanes); ++i) read[i] = 1;
-    for (int64_t e = int64_t{t.slot_offsets[b]} * kLanes; e < int64_t{t.slot_offsets[b + 1]} * kLanes; ++e)
+    for (int64_t e = int64_t{t.slot_offsets[b]} * kLanes;
+         e < int64_t{t.slot_offsets[b + 1]} * kLanes; ++e)
       read[t.other4[e] / 4] = 1;
   }
   for (int32_t i = 0; i < t.nodes; ++i)

@@ -13,11 +13,10 @@
 // where its rest length is its edge's length at rest, 1/L is computed from the same floats by
 // the same operations as 1/l, so that a network at rest feels exactly zero force.
 
-#include <xsimd/memory/xsimd_aligned_allocator.hpp>
-
 #include <algorithm>
 #include <cstdint>
 #include <vector>
+#include <xsimd/memory/xsimd_aligned_allocator.hpp>
 
 namespace lamina::sim::detail {
 

@@ -72,7 +72,8 @@ inline void block_spring_force(const SpringLanes& t, int32_t b, float* __restric
   FloatLanes px, py, pz;
   gather_positions(p, IndexLanes::load_aligned(own), px, py, pz);
   FloatLanes ax(0.0f), ay(0.0f), az(0.0f);
-  for (int64_t e = int64_t{t.slot_offsets[b]} * kLanes, end = int64_t{t.slot_offsets[b + 1]} * kLanes;
+  for (int64_t e = int64_t{t.slot_offsets[b]} * kLanes,
+               end = int64_t{t.slot_offsets[b + 1]} * kLanes;
        e < end; e += kLanes) {
     FloatLanes qx, qy, qz;
     gather_positions(p, IndexLanes::load_aligned(t.other4.data() + e), qx, qy, qz);

@@ -1,0 +1,83 @@
+// No step allocates (issue 17): every integrator's step, with a held poke, makes no heap
+// allocation once the simulation is set up. This executable counts every operator new.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "lamina/sim/simulation.h"
+#include "support/sphere_model.h"
+
+namespace {
+std::atomic<int64_t> allocations{0};
+}
+
+void* operator new(size_t size) {
+  allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, size_t) noexcept {
+  std::free(p);
+}
+
+namespace lamina {
+namespace {
+
+int64_t allocations_in_steps(sim::Simulation& s, int steps) {
+  const int64_t before = allocations.load();
+  for (int k = 0; k < steps; ++k) sim::step(s);
+  return allocations.load() - before;
+}
+
+sim::Simulation poked(const Model& m, const sim::Material& mat, const sim::SolverOptions& o) {
+  sim::Simulation s = sim::make_simulation(m, mat, o);
+  sim::fix_nodes(s, {0, 1, 2});
+  s.f_ext.row(m.node_count() / 2) << 120.0, -60.0, 30.0;
+  if (o.mode == sim::Mode::kLocal) {
+    std::vector<int32_t> local;
+    for (int32_t i = m.node_count() / 3; i < m.node_count() / 2 + 20; ++i) local.push_back(i);
+    sim::set_local_nodes(s, local);
+  }
+  sim::step(s);  // the first step may size what it caches
+  return s;
+}
+
+TEST(StepAllocation, NoStepAllocates) {
+  const Model& links = test::sphere_links_model();
+  const Model& tets = test::sphere_model();
+  struct Case {
+    const char* name;
+    const Model& model;
+    sim::Material material;
+    sim::SolverOptions options;
+  };
+  const Case cases[] = {
+      {"explicit, global (the lanes)", links, {}, {}},
+      {"explicit, local", links, {}, {.mode = sim::Mode::kLocal}},
+      {"explicit, volume term", links, {.volume_stiffness_kpa = 5.0}, {}},
+      {"implicit Euler", links, {}, {.integrator = sim::Integrator::kImplicitEuler}},
+      {"implicit Euler, tetrahedra",
+       tets,
+       {.stiffness_n_per_m = 0.0, .node_mass_kg = 0.0, .young_modulus_kpa = 6.0},
+       {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001}},
+  };
+  {  // the control: the counter does see the library's allocations
+    sim::Simulation s = poked(links, {}, {});
+    const int64_t before = allocations.load();
+    const sim::SimState state = sim::capture_state(s);
+    EXPECT_GT(allocations.load() - before, 0) << "operator new is not counted";
+  }
+  for (const Case& c : cases) {
+    sim::Simulation s = poked(c.model, c.material, c.options);
+    EXPECT_EQ(allocations_in_steps(s, 50), 0) << c.name;
+    EXPECT_GT((s.x - c.model.X).cwiseAbs().maxCoeff(), 1e-3) << c.name << ": nothing moved";
+  }
+}
+
+}  // namespace
+}  // namespace lamina
