@@ -5,6 +5,7 @@
 // the block's movable nodes in double, the node's state read and written once.
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <limits>
 
@@ -161,30 +162,74 @@ bool lanes_apply(const Solver& s) {
          2 * s.active_nodes.size() >= lanes_used;
 }
 
+// Threads for the pass: from 8,192 lane entries (the paper-size network's 25,600 take 23 us on
+// one thread, 15 on two; docs/benchmarks.md). One parallel region a step, so a busy machine
+// costs it one wait for a time slice, not a dozen as in an implicit step.
+int lanes_threads(const SpringLanes& t) {
+  return t.work_before.back() * kLanes >= 8192 ? std::clamp(omp_get_max_threads(), 1, kMaxThreads)
+                                               : 1;
+}
+
+// The first active block of thread k of n: the blocks split by work (SpringLanes::work_before).
+int64_t first_block(const SpringLanes& t, int k, int n) {
+  const int64_t target = t.work_before.back() * k / n;
+  return std::lower_bound(t.work_before.begin(), t.work_before.end() - 1, target) -
+         t.work_before.begin();
+}
+
+// Thread k of n's share of 6 x the skin's volume at the step's end, over its triangles with a
+// movable corner (the rest is cached: Solver::frozen_layer_volume6_mm3).
+double skin_volume6_share(const Solver& s, const Eigen::MatrixX3d& x, int k, int n) {
+  const Eigen::MatrixX3i& F = s.model->layers[0].F;
+  const std::vector<int32_t>& tris = s.layer_triangles[0];
+  const auto count = static_cast<int64_t>(tris.size());
+  return volume6_slice(F, x, count == F.rows() ? nullptr : tris.data(), count * k / n,
+                       count * (k + 1) / n);
+}
+
 Measured semi_implicit_euler_lanes(Simulation& sim, double h, bool save, StepProfile& profile) {
   Solver& s = sim.solver();
   SpringLanes& t = s.lanes;
-  const int T = threads_for(s);
+  const int T = lanes_threads(t);
   const auto t0 = std::chrono::steady_clock::now();
   const int64_t reads = t.reads_all ? t.nodes : static_cast<int64_t>(t.read_nodes.size());
   const auto blocks = static_cast<int64_t>(t.active_blocks.size());
+  const bool volume = !s.layer_triangles.empty();
   Partials part;
   if (T <= 1) {
     pack_positions(t, sim.x, 0, reads);
     part[0] = integrate_blocks(sim, h, save, 0, blocks);
+    if (volume) part[0].volume6 = skin_volume6_share(s, sim.x, 0, 1);
   } else {
+    // One parallel region: pack, integrate the blocks, measure the skin's volume.
 #pragma omp parallel num_threads(T)
     {
       const int k = omp_get_thread_num(), n = omp_get_num_threads();
-      pack_positions(t, sim.x, reads * k / n, reads * (k + 1) / n);
+      const int64_t begin = first_block(t, k, n), end = first_block(t, k + 1, n);
+      // Each thread packs the nodes it integrates (in global mode), so that the positions its
+      // gathers read were written by its own core but for the blocks' borders.
+      if (t.reads_all)
+        pack_positions(t, sim.x, k == 0 ? 0 : kLanes * int64_t{t.active_blocks[begin]},
+                       end == blocks ? reads : kLanes * int64_t{t.active_blocks[end]});
+      else
+        pack_positions(t, sim.x, reads * k / n, reads * (k + 1) / n);
 #pragma omp barrier
-      part[k] = integrate_blocks(sim, h, save, blocks * k / n, blocks * (k + 1) / n);
+      part[k] = integrate_blocks(sim, h, save, begin, end);
+      if (volume) {
+#pragma omp barrier
+        part[k].volume6 = skin_volume6_share(s, sim.x, k, n);
+      }
     }
   }
   // One fused pass: its time is the integration's (forces_us stays for the other paths).
   profile.integrate_us +=
       std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
-  return combine(part, T);
+  Measured m = combine(part, T);
+  if (volume) {
+    m.skin_volume6 = 0.0;
+    for (int k = 0; k < std::max(T, 1); ++k) m.skin_volume6 += part[k].volume6;
+  }
+  return m;
 }
 
 }  // namespace lamina::sim::detail

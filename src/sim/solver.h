@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -65,6 +66,7 @@ inline double end_sign(int32_t signed_spring) {
 // Per-thread partial results, one cache line each so that threads never share one.
 struct alignas(64) Partial {
   double a = 0.0, b = 0.0, c = 0.0, d = 0.0;
+  double volume6 = 0.0;  ///< the thread's share of 6 x the skin's volume (the lanes' pass)
   bool ok = true;
 };
 using Partials = std::array<Partial, kMaxThreads>;
@@ -218,6 +220,9 @@ inline int threads_for(const Solver& s) {
 // Everything a step measures about the movable nodes, from their state before (x_prev) and after.
 struct Measured {
   double move2 = 0.0, disp2 = 0.0, ke = 0.0, speed2 = 0.0;
+  /// 6 x the skin's volume over its triangles with a movable corner, when the pass measured it
+  /// at the step's end (NaN: step() measures it).
+  double skin_volume6 = std::numeric_limits<double>::quiet_NaN();
   bool ok = true;
 };
 
@@ -313,6 +318,9 @@ void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row
                                 std::vector<Eigen::Triplet<double>>& out);
 
 // --- The volume term between layers (volume_term.cpp). ---
+/// 6 x the signed volume of triangles [begin, end) of the list (of F when list is null).
+double volume6_slice(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x, const int32_t* list,
+                     int64_t begin, int64_t end);
 /// 6 x the signed volume of the listed triangles of F (all of F when list is null).
 double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x, const int32_t* list,
                int64_t count, int threads);

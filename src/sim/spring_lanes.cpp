@@ -80,6 +80,9 @@ void refresh_spring_lanes(Solver& s) {
   for (int32_t i : s.active_nodes)
     if (t.active_blocks.empty() || t.active_blocks.back() != i / kLanes)
       t.active_blocks.push_back(i / kLanes);
+  t.work_before.assign(1, 0);
+  for (int32_t b : t.active_blocks)
+    t.work_before.push_back(t.work_before.back() + t.slot_offsets[b + 1] - t.slot_offsets[b] + 2);
   t.reads_all = s.active_nodes.size() * 2 >= static_cast<size_t>(t.nodes);
   t.read_nodes.clear();
   if (t.reads_all) return;  // converting every node is cheaper than listing them

@@ -46,8 +46,11 @@ struct SpringLanes {
   AlignedVector<float> p;              ///< 4 floats per node: x - centre, the pass's positions
   AlignedVector<double> movable;       ///< per node: 1 = integrated (Solver::movable, as doubles)
   std::vector<int32_t> active_blocks;  ///< blocks with a movable node (refresh())
-  std::vector<int32_t> read_nodes;     ///< the nodes those blocks read, ascending
-  bool reads_all = true;               ///< read_nodes is every node (global mode)
+  /// Work before each active block (its slots, plus two for its nodes' update), and the total
+  /// at the end: threads split the blocks by work, not by count.
+  std::vector<int64_t> work_before;
+  std::vector<int32_t> read_nodes;  ///< the nodes those blocks read, ascending
+  bool reads_all = true;            ///< read_nodes is every node (global mode)
 };
 
 inline int32_t block_count(int32_t nodes) {

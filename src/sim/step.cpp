@@ -112,7 +112,9 @@ StepStats step(Simulation& sim) {
   if (!s.layer_triangles.empty()) {
     const auto tris = static_cast<int64_t>(s.layer_triangles[0].size());
     st.skin_volume_mm3 =
-        layer_volume_now(s, sim.x, 0, tris >= 4 * kParallelSprings ? threads_for(s) : 1);
+        std::isnan(m.skin_volume6)
+            ? layer_volume_now(s, sim.x, 0, tris >= 4 * kParallelSprings ? threads_for(s) : 1)
+            : (s.frozen_layer_volume6_mm3[0] + m.skin_volume6) / 6.0;
     st.volume_change_pct =
         100.0 * (st.skin_volume_mm3 - s.rest_skin_volume_mm3) / s.rest_skin_volume_mm3;
   }

@@ -21,20 +21,25 @@ double rest_region_volume(const Solver& s, size_t r) {
 
 }  // namespace
 
+double volume6_slice(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& xm, const int32_t* list,
+                     int64_t begin, int64_t end) {
+  const ConstCols x(xm);
+  double v6 = 0.0;
+  for (int64_t q = begin; q < end; ++q) {
+    const Eigen::Index f = list ? list[q] : q;
+    const int32_t a = F(f, 0), b = F(f, 1), c = F(f, 2);
+    v6 += x.x[a] * (x.y[b] * x.z[c] - x.z[b] * x.y[c]) +
+          x.y[a] * (x.z[b] * x.x[c] - x.x[b] * x.z[c]) +
+          x.z[a] * (x.x[b] * x.y[c] - x.y[b] * x.x[c]);
+  }
+  return v6;
+}
+
 double volume6(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& xm, const int32_t* list,
                int64_t count, int threads) {
-  const ConstCols x(xm);
   Partials part;
   for_slices(count, threads, [&](int64_t begin, int64_t end, int t) {
-    double v6 = 0.0;
-    for (int64_t q = begin; q < end; ++q) {
-      const Eigen::Index f = list ? list[q] : q;
-      const int32_t a = F(f, 0), b = F(f, 1), c = F(f, 2);
-      v6 += x.x[a] * (x.y[b] * x.z[c] - x.z[b] * x.y[c]) +
-            x.y[a] * (x.z[b] * x.x[c] - x.x[b] * x.z[c]) +
-            x.z[a] * (x.x[b] * x.y[c] - x.y[b] * x.x[c]);
-    }
-    part[t].a = v6;
+    part[t].a = volume6_slice(F, xm, list, begin, end);
   });
   double sum = 0.0;
   for (int t = 0; t < std::max(threads, 1); ++t) sum += part[t].a;
