@@ -20,8 +20,11 @@ Measured semi_implicit_euler(Simulation& sim, double dt, bool save, StepProfile&
   const int T = threads_for(s);
   const auto t0 = Clock::now();
   if (s.material.volume_stiffness_kpa > 0.0) update_volume_term(s, sim.x, T);
+  const bool compact = s.compact.on;
   if (s.tets.on)
     tet_pass(s, sim.x, /*linearise=*/false, T);  // the springs are the tetrahedra's edges
+  else if (compact)
+    compact_spring_pass(s, sim.x);  // local mode's few springs, copied together
   else
     spring_pass(s, sim.x, T);
   const auto t1 = Clock::now();
@@ -35,7 +38,12 @@ Measured semi_implicit_euler(Simulation& sim, double dt, bool save, StepProfile&
                for (int64_t q = begin; q < end; ++q) {
                  const int32_t i = s.active_nodes[q];
                  double fx, fy, fz;
-                 node_force(s, sim, i, /*damped=*/true, fx, fy, fz);
+                 if (compact) {
+                   node_force_but_elements(s, sim, i, /*damped=*/true, fx, fy, fz);
+                   gather_compact_springs(s, q, fx, fy, fz);
+                 } else {
+                   node_force(s, sim, i, /*damped=*/true, fx, fy, fz);
+                 }
                  const double h_m = dt / s.mass_kg[i];
                  finish_node(s, state, i, dt, save, sim.v(i, 0) + h_m * fx, sim.v(i, 1) + h_m * fy,
                              sim.v(i, 2) + h_m * fz, acc);

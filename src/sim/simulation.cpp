@@ -95,6 +95,7 @@ void refresh(Simulation& sim) {
         if (s.active_tets.empty() || s.active_tets.back() != block) s.active_tets.push_back(block);
       }
   refresh_spring_lanes(s);
+  refresh_compact_springs(s);
   s.layer_triangles.resize(m.layers.size());
   s.frozen_layer_volume6_mm3.resize(m.layers.size());
   std::vector<int32_t> frozen;

@@ -95,6 +95,20 @@ struct SpringTerm {
   Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor> dir;
 };
 
+/// Local mode's active springs copied together (refresh()): a poke moves a hundred-odd nodes and
+/// a thousand springs scattered over the model's arrays, and picking them out cost 3.3 ns a
+/// spring and 17 ns a node (cache misses); copied together they stream from L1. Same kernel,
+/// same order of sums: the same results to the bit.
+struct CompactSprings {
+  bool on = false;
+  std::vector<int32_t> i, j;  ///< the springs' ends
+  std::vector<double> rest_mm, k_n_per_m;
+  Eigen::MatrixX3d force;  ///< per compact spring: its force on its first end, mN
+  /// Per active node (active_nodes order) + 1, and its springs as compact indices (~ where the
+  /// node is the second end), in the order of SpringTerm::adj_signed.
+  std::vector<int32_t> offsets, signed_spring;
+};
+
 /// The tetrahedra are processed eight at a time, one per SIMD lane (AVX-512 holds eight
 /// doubles): each block of eight keeps every field as an array over its lanes, so the passes'
 /// arithmetic runs across tetrahedra with no shuffling (docs/architecture.md).
@@ -171,7 +185,8 @@ struct Solver {
   std::vector<uint8_t> movable;  ///< 1 = integrated this step (not fixed, and local when kLocal)
 
   SpringTerm springs;
-  SpringLanes lanes;  ///< the springs again, laid out for the explicit step (spring_lanes.h)
+  CompactSprings compact;  ///< local mode's springs, copied together (explicit steps)
+  SpringLanes lanes;       ///< the springs again, laid out for the explicit step (spring_lanes.h)
   TetTerm tets;
   VolumeTerm volume;
   SupportTerm support;
@@ -280,6 +295,10 @@ inline void finish_node(const Solver& s, NodeState& st, int32_t i, double h, boo
 void setup_springs(Solver& s);
 /// Each active spring's force at x into springs.force.
 void spring_pass(Solver& s, const Eigen::MatrixX3d& x, int threads);
+/// Each compact spring's force at x into compact.force (CompactSprings).
+void compact_spring_pass(Solver& s, const Eigen::MatrixX3d& x);
+/// The compact springs from the active ones when they are few (refresh()).
+void refresh_compact_springs(Solver& s);
 /// As spring_pass, plus implicit Euler's linearisation (springs.dir).
 void spring_linearise(Solver& s, const Eigen::MatrixX3d& x, int threads);
 /// The spring force on node i gathered from springs.force, added to f (below).
@@ -371,18 +390,16 @@ Measured projective_step(Simulation& sim, double h, bool save, StepProfile& prof
 /// Rebuilds what a step visits and what it caches about the nodes that stay put.
 void refresh(Simulation& sim);
 
-// The spring force on node i: its springs' forces, + where it is the first node, - where the
-// second. adj_signed holds e for the first and ~e (negative) for the second, so one load gives
+// The spring force on a node from a per-spring force buffer (each spring's force on its first
+// end): its springs' forces [a, end) of signed_spring, + where it is the first end, - where the
+// second. signed_spring holds e for the first and ~e (negative) for the second, so one load gives
 // both. Two sets of sums halve the chain of dependent additions (a node has about ten springs).
-inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, double& fz) {
-  const SpringTerm& t = s.springs;
-  const int32_t* __restrict signed_spring = t.adj_signed.data();
-  const double* __restrict gx = t.force.data();
-  const double* __restrict gy = gx + t.force.rows();
-  const double* __restrict gz = gy + t.force.rows();
+inline void gather_signed(const int32_t* __restrict signed_spring, int32_t a, int32_t end,
+                          const Eigen::MatrixX3d& force, double& fx, double& fy, double& fz) {
+  const double* __restrict gx = force.data();
+  const double* __restrict gy = gx + force.rows();
+  const double* __restrict gz = gy + force.rows();
   double ax = 0.0, ay = 0.0, az = 0.0, bx = 0.0, by = 0.0, bz = 0.0;
-  int32_t a = t.adj_offsets[i];
-  const int32_t end = t.adj_offsets[i + 1];
   for (; a + 1 < end; a += 2) {
     const int32_t c0 = signed_spring[a], c1 = signed_spring[a + 1];
     const int32_t e0 = spring_of(c0), e1 = spring_of(c1);
@@ -398,6 +415,12 @@ inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, d
   fx += ax + bx, fy += ay + by, fz += az + bz;
 }
 
+// The spring force on node i from the spring pass (springs.force).
+inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, double& fz) {
+  const SpringTerm& t = s.springs;
+  gather_signed(t.adj_signed.data(), t.adj_offsets[i], t.adj_offsets[i + 1], t.force, fx, fy, fz);
+}
+
 inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
                         double& fz) {
   const TetTerm& t = s.tets;
@@ -410,12 +433,11 @@ inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double&
   fx += ax, fy += ay, fz += az;
 }
 
-// The force on movable node i (mN): its springs' and tetrahedra's (gathered from their passes),
-// the tool's, gravity, its support and anchor, the volume term's pressure (from
-// update_volume_term) and, if damped, -(gamma + alpha m) v. Backward Euler puts the damping
-// into its matrix instead.
-inline void node_force(const Solver& s, const Simulation& sim, int32_t i, bool damped, double& fx,
-                       double& fy, double& fz) {
+// The force on movable node i (mN) but its springs' and tetrahedra's: the tool's, gravity, its
+// support and anchor, the volume term's pressure (from update_volume_term) and, if damped,
+// -(gamma + alpha m) v. Backward Euler puts the damping into its matrix instead.
+inline void node_force_but_elements(const Solver& s, const Simulation& sim, int32_t i, bool damped,
+                                    double& fx, double& fy, double& fz) {
   const Material& mat = s.material;
   const Eigen::MatrixX3d& X = s.model->X;
   const double m = s.mass_kg[i], k = s.support.stiffness_n_per_m[i];
@@ -428,10 +450,24 @@ inline void node_force(const Solver& s, const Simulation& sim, int32_t i, bool d
     fx -= damp * sim.v(i, 0), fy -= damp * sim.v(i, 1), fz -= damp * sim.v(i, 2);
   }
   if (mat.volume_stiffness_kpa > 0.0) add_volume_force(s, i, fx, fy, fz);
+}
+
+// The force on movable node i (mN): node_force_but_elements() and its springs' and tetrahedra's
+// (gathered from their passes).
+inline void node_force(const Solver& s, const Simulation& sim, int32_t i, bool damped, double& fx,
+                       double& fy, double& fz) {
+  node_force_but_elements(s, sim, i, damped, fx, fy, fz);
   if (s.tets.on)
     gather_tets(s, s.tets.force, i, fx, fy, fz);  // the springs are the tetrahedra's edges
   else
     gather_springs(s, i, fx, fy, fz);
+}
+
+// The spring force on the q-th active node from the compact springs' pass (CompactSprings), in
+// gather_springs()'s order.
+inline void gather_compact_springs(const Solver& s, int64_t q, double& fx, double& fy, double& fz) {
+  const CompactSprings& c = s.compact;
+  gather_signed(c.signed_spring.data(), c.offsets[q], c.offsets[q + 1], c.force, fx, fy, fz);
 }
 
 }  // namespace lamina::sim::detail

@@ -45,6 +45,43 @@ void spring_pass(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
       });
 }
 
+void refresh_compact_springs(Solver& s) {
+  CompactSprings& c = s.compact;
+  const Springs& sp = s.model->springs;
+  // A quarter of the springs or more: the model's own arrays are streamed well enough.
+  c.on = !s.tets.on && s.active_springs.size() * 4 < sp.size();
+  if (!c.on) return;
+  const auto count = s.active_springs.size();
+  c.i.resize(count), c.j.resize(count), c.rest_mm.resize(count), c.k_n_per_m.resize(count);
+  std::vector<int32_t> compact_of(sp.size(), -1);
+  for (size_t q = 0; q < count; ++q) {
+    const int32_t e = s.active_springs[q];
+    compact_of[e] = static_cast<int32_t>(q);
+    c.i[q] = sp.i[e], c.j[q] = sp.j[e];
+    c.rest_mm[q] = sp.rest_length_mm[e];
+    c.k_n_per_m[q] = s.springs.stiffness_n_per_m[e];
+  }
+  c.force = Eigen::MatrixX3d::Zero(static_cast<Eigen::Index>(count), 3);
+  c.offsets.assign(1, 0);
+  c.signed_spring.clear();
+  const SpringTerm& t = s.springs;
+  for (int32_t i : s.active_nodes) {  // every spring of a movable node is active
+    for (int32_t a = t.adj_offsets[i]; a < t.adj_offsets[i + 1]; ++a) {
+      const int32_t signed_e = t.adj_signed[a], q = compact_of[spring_of(signed_e)];
+      c.signed_spring.push_back(signed_e < 0 ? ~q : q);
+    }
+    c.offsets.push_back(static_cast<int32_t>(c.signed_spring.size()));
+  }
+}
+
+void compact_spring_pass(Solver& s, const Eigen::MatrixX3d& xm) {
+  CompactSprings& c = s.compact;
+  const ConstCols p(xm);
+  Cols f(c.force);
+  spring_kernel<double>(0, static_cast<int64_t>(c.i.size()), nullptr, c.i.data(), c.j.data(),
+                        c.rest_mm.data(), c.k_n_per_m.data(), p.x, p.y, p.z, f.x, f.y, f.z);
+}
+
 // The force on each spring's first node and its linearisation: unit direction and
 // max(0, 1 - L/l).
 void spring_linearise(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
