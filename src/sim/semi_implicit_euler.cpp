@@ -24,7 +24,7 @@ Measured semi_implicit_euler(Simulation& sim, double dt, bool save, StepProfile&
   if (s.tets.on)
     tet_pass(s, sim.x, /*linearise=*/false, T);  // the springs are the tetrahedra's edges
   else if (compact)
-    compact_spring_pass(s, sim.x);  // local mode's few springs, copied together
+    compact_spring_pass(s, sim.x, T);  // local mode's few springs, copied together
   else
     spring_pass(s, sim.x, T);
   const auto t1 = Clock::now();

@@ -131,12 +131,10 @@ Partial integrate_blocks(Simulation& sim, double h, bool save, int64_t begin, in
     for (; i < last; ++i) {  // the model's last few nodes, one at a time
       if (!s.movable[i]) continue;
       const int32_t q = i - first;
-      const double m = s.mass_kg[i], ks = s.support.stiffness_n_per_m[i];
-      const double damp = mat.damping_kg_per_s + mat.mass_damping_per_s * m, h_m = h / m;
-      const double x = st.x.x[i], y = st.x.y[i], z = st.x.z[i];
-      const double ux = c.fe.x[i] + m * g.x() - ks * (x - c.X.x[i]) - damp * st.v.x[i] + fx[q];
-      const double uy = c.fe.y[i] + m * g.y() - ks * (y - c.X.y[i]) - damp * st.v.y[i] + fy[q];
-      const double uz = c.fe.z[i] + m * g.z() - ks * (z - c.X.z[i]) - damp * st.v.z[i] + fz[q];
+      double ux, uy, uz;
+      node_force_but_elements(s, sim, i, /*damped=*/true, ux, uy, uz);
+      ux += fx[q], uy += fy[q], uz += fz[q];
+      const double h_m = h / s.mass_kg[i];
       finish_node(s, st, i, h, save, st.v.x[i] + h_m * ux, st.v.y[i] + h_m * uy,
                   st.v.z[i] + h_m * uz, acc);
     }

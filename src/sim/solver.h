@@ -296,7 +296,7 @@ void setup_springs(Solver& s);
 /// Each active spring's force at x into springs.force.
 void spring_pass(Solver& s, const Eigen::MatrixX3d& x, int threads);
 /// Each compact spring's force at x into compact.force (CompactSprings).
-void compact_spring_pass(Solver& s, const Eigen::MatrixX3d& x);
+void compact_spring_pass(Solver& s, const Eigen::MatrixX3d& x, int threads);
 /// The compact springs from the active ones when they are few (refresh()).
 void refresh_compact_springs(Solver& s);
 /// As spring_pass, plus implicit Euler's linearisation (springs.dir).

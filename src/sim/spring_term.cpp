@@ -74,12 +74,14 @@ void refresh_compact_springs(Solver& s) {
   }
 }
 
-void compact_spring_pass(Solver& s, const Eigen::MatrixX3d& xm) {
+void compact_spring_pass(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
   CompactSprings& c = s.compact;
   const ConstCols p(xm);
   Cols f(c.force);
-  spring_kernel<double>(0, static_cast<int64_t>(c.i.size()), nullptr, c.i.data(), c.j.data(),
-                        c.rest_mm.data(), c.k_n_per_m.data(), p.x, p.y, p.z, f.x, f.y, f.z);
+  for_slices(static_cast<int64_t>(c.i.size()), threads, [&](int64_t begin, int64_t end, int) {
+    spring_kernel<double>(begin, end, nullptr, c.i.data(), c.j.data(), c.rest_mm.data(),
+                          c.k_n_per_m.data(), p.x, p.y, p.z, f.x, f.y, f.z);
+  });
 }
 
 // The force on each spring's first node and its linearisation: unit direction and
