@@ -21,17 +21,18 @@ namespace {
 using namespace lamina;
 
 // 0: the paper's size (1284 skin vertices, 2 layers); 1: about 10k nodes; 2: about 100k nodes.
-const Model& model(int64_t size) {
-  static std::map<int64_t, Model> cache;
-  auto it = cache.find(size);
+// Tetrahedra between the layers (the default), or the paper's links (`lamina bench`'s networks).
+const Model& model(int64_t size, bool links = false) {
+  static std::map<std::pair<int64_t, bool>, Model> cache;
+  auto it = cache.find({size, links});
   if (it == cache.end()) {
     const int32_t skin[] = {1284, 6500, 33500}, layers[] = {2, 2, 5};
-    it =
-        cache
-            .emplace(size, model::build_model(geometry::make_phantom(),
-                                              {.layers = layers[size], .skin_vertices = skin[size]})
-                               .model)
-            .first;
+    model::BuildOptions options{.layers = layers[size], .skin_vertices = skin[size]};
+    if (links) options.structure = model::Structure::kLinks;
+    it = cache
+             .emplace(std::pair{size, links},
+                      model::build_model(geometry::make_phantom(), options).model)
+             .first;
   }
   return it->second;
 }
@@ -100,9 +101,10 @@ BENCHMARK(BM_SpringKernelPrecision<double>)
     ->ArgName("model")
     ->Unit(benchmark::kMicrosecond);
 
-// One conjugate-gradient iteration's product (M + h gamma + h^2 K) p, K linearised by a step.
+// One conjugate-gradient iteration's product (M + h gamma + h^2 K) p, K linearised by a step:
+// of the tetrahedra and their edges' springs, or of the paper's springs (links: 1).
 void BM_CgIteration(benchmark::State& state) {
-  const Model& m = model(state.range(0));
+  const Model& m = model(state.range(0), state.range(1) != 0);
   sim::Simulation s = sim::make_simulation(m, {}, {.integrator = sim::Integrator::kImplicitEuler});
   s.x.col(1) *= 1.02;
   sim::step(s);
@@ -115,7 +117,10 @@ void BM_CgIteration(benchmark::State& state) {
   label(state, m);
   state.counters["ns_per_spring"] = per(state, static_cast<double>(m.springs.size()));
 }
-BENCHMARK(BM_CgIteration)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CgIteration)
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
+    ->ArgNames({"model", "links"})
+    ->Unit(benchmark::kMicrosecond);
 
 // One whole step under a held poke, for comparison with the kernels (`lamina bench` reports the
 // same on the same models).

@@ -10,23 +10,19 @@
 #include <array>
 #include <chrono>
 
-#include "solver.h"
+#include "spring_lanes_product.h"
 
 namespace lamina::sim::detail {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// (K p)_i of the support, the springs and (from tets.product, filled by tet_product_pass) the
-// tetrahedra; the volume term between layers from its per-layer multipliers.
-inline void stiffness_product(const Solver& s, int32_t i, const ConstCols& p, const double* vm,
-                              double& kx, double& ky, double& kz) {
-  const double k = s.support.stiffness_n_per_m[i];
-  kx = k * p.x[i], ky = k * p.y[i], kz = k * p.z[i];
-  if (s.tets.on)
-    gather_tets(s, s.tets.product, i, kx, ky, kz);  // the springs are the tetrahedra's edges
-  else
-    spring_product(s, i, p, kx, ky, kz);
+// (K p)_i of the support and the volume term between layers (from its per-layer multipliers),
+// added to the springs' or the tetrahedra's k.
+inline void other_stiffness(const Solver& s, int32_t i, const ConstCols& p, const double* vm,
+                            const double* k, double& kx, double& ky, double& kz) {
+  const double ks = s.support.stiffness_n_per_m[i];
+  kx = k[0] + ks * p.x[i], ky = k[1] + ks * p.y[i], kz = k[2] + ks * p.z[i];
   if (vm) {
     const int32_t layer = s.model->layer_of[i];
     if (layer >= 0) {
@@ -53,21 +49,16 @@ double system_product(Solver& s, double h, const Eigen::MatrixX3d& pm, Eigen::Ma
   const ConstCols p(pm);
   Cols y(ym);
   Partials part;
-  for_slices(static_cast<int64_t>(s.active_nodes.size()), T,
-             [&](int64_t begin, int64_t end, int t) {
-               double pap = 0.0;
-               for (int64_t q = begin; q < end; ++q) {
-                 const int32_t i = s.active_nodes[q];
-                 double kx, ky, kz;
-                 stiffness_product(s, i, p, volume ? vm.data() : nullptr, kx, ky, kz);
-                 const double md = s.mass_kg[i] * (1.0 + mass_damp) + damp;
-                 const double yx = md * p.x[i] + h2 * kx, yy = md * p.y[i] + h2 * ky,
-                              yz = md * p.z[i] + h2 * kz;
-                 y.x[i] = yx, y.y[i] = yy, y.z[i] = yz;
-                 pap += p.x[i] * yx + p.y[i] * yy + p.z[i] * yz;
-               }
-               part[t].a = pap;
-             });
+  for_spring_products<false>(
+      s, pm, T, part, [&](int32_t i, const double* k, const double*, Partial& acc) {
+        double kx, ky, kz;
+        other_stiffness(s, i, p, volume ? vm.data() : nullptr, k, kx, ky, kz);
+        const double md = s.mass_kg[i] * (1.0 + mass_damp) + damp;
+        const double yx = md * p.x[i] + h2 * kx, yy = md * p.y[i] + h2 * ky,
+                     yz = md * p.z[i] + h2 * kz;
+        y.x[i] = yx, y.y[i] = yy, y.z[i] = yz;
+        acc.a += p.x[i] * yx + p.y[i] * yy + p.z[i] * yz;
+      });
   double sum = 0.0;
   for (int t = 0; t < T; ++t) sum += part[t].a;
   return sum;
@@ -104,6 +95,7 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
     tet_pass(s, sim.x, /*linearise=*/true, T, /*product_of=*/&s.dv);
   else
     spring_linearise(s, sim.x, T);
+  if (product_lanes_apply(s)) fill_product_lanes(s, T);
   const auto t1 = Clock::now();
   profile.forces_us += std::chrono::duration<double, std::micro>(t1 - t0).count();
 
@@ -118,46 +110,39 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
   {
     const ConstCols v(sim.v), w(s.dv);
     Cols r(s.r), z(s.z), pp(s.p), dg(s.diag);
-    for_slices(nodes, T, [&](int64_t begin, int64_t end, int t) {
-      Partial acc;  // a: |b|^2, b: r.z, c: |r|^2
-      for (int64_t q = begin; q < end; ++q) {
-        const int32_t i = s.active_nodes[q];
-        const double m = s.mass_kg[i];
-        double fx, fy, fz;
-        node_force(s, sim, i, /*damped=*/false, fx, fy, fz);
-        double kx, ky, kz;
-        stiffness_product(s, i, w, volume ? vm.data() : nullptr, kx, ky, kz);
-        const double k = s.support.stiffness_n_per_m[i];
-        double d0 = k, d1 = k, d2 = k;
-        if (s.tets.on)
-          gather_tets(s, s.tets.diag, i, d0, d1, d2);
-        else
-          spring_diagonal(s, i, d0, d1, d2);
-        if (volume) {
-          const int32_t layer = s.model->layer_of[i];
-          if (layer >= 0) {
-            const double gx = s.volume.gradient(i, 0), gy = s.volume.gradient(i, 1),
-                         gz = s.volume.gradient(i, 2);
-            d0 += vd[layer] * gx * gx, d1 += vd[layer] * gy * gy, d2 += vd[layer] * gz * gz;
+    // acc.a: |b|^2, b: r.z, c: |r|^2, d: sum of m^2
+    for_spring_products<true>(
+        s, s.dv, T, part, [&](int32_t i, const double* k, const double* d, Partial& acc) {
+          const double m = s.mass_kg[i];
+          double fx, fy, fz;
+          node_force(s, sim, i, /*damped=*/false, fx, fy, fz);
+          double kx, ky, kz;
+          other_stiffness(s, i, w, volume ? vm.data() : nullptr, k, kx, ky, kz);
+          const double ks = s.support.stiffness_n_per_m[i];
+          double d0 = d[0] + ks, d1 = d[1] + ks, d2 = d[2] + ks;
+          if (volume) {
+            const int32_t layer = s.model->layer_of[i];
+            if (layer >= 0) {
+              const double gx = s.volume.gradient(i, 0), gy = s.volume.gradient(i, 1),
+                           gz = s.volume.gradient(i, 2);
+              d0 += vd[layer] * gx * gx, d1 += vd[layer] * gy * gy, d2 += vd[layer] * gz * gz;
+            }
           }
-        }
-        const double md = m * (1.0 + mass_damp_h) + damp_h;
-        const double bx = m * v.x[i] + h * fx, by = m * v.y[i] + h * fy, bz = m * v.z[i] + h * fz;
-        const double rx = bx - md * w.x[i] - h2 * kx, ry = by - md * w.y[i] - h2 * ky,
-                     rz = bz - md * w.z[i] - h2 * kz;
-        const double gx = md + h2 * d0, gy = md + h2 * d1, gz = md + h2 * d2;
-        dg.x[i] = gx, dg.y[i] = gy, dg.z[i] = gz;
-        r.x[i] = rx, r.y[i] = ry, r.z[i] = rz;
-        const double zx = rx / gx, zy = ry / gy, zz = rz / gz;
-        z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
-        pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
-        acc.a += bx * bx + by * by + bz * bz;
-        acc.b += rx * zx + ry * zy + rz * zz;
-        acc.c += rx * rx + ry * ry + rz * rz;
-        acc.d += m * m;
-      }
-      part[t] = acc;
-    });
+          const double md = m * (1.0 + mass_damp_h) + damp_h;
+          const double bx = m * v.x[i] + h * fx, by = m * v.y[i] + h * fy, bz = m * v.z[i] + h * fz;
+          const double rx = bx - md * w.x[i] - h2 * kx, ry = by - md * w.y[i] - h2 * ky,
+                       rz = bz - md * w.z[i] - h2 * kz;
+          const double gx = md + h2 * d0, gy = md + h2 * d1, gz = md + h2 * d2;
+          dg.x[i] = gx, dg.y[i] = gy, dg.z[i] = gz;
+          r.x[i] = rx, r.y[i] = ry, r.z[i] = rz;
+          const double zx = rx / gx, zy = ry / gy, zz = rz / gz;
+          z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+          pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
+          acc.a += bx * bx + by * by + bz * bz;
+          acc.b += rx * zx + ry * zy + rz * zz;
+          acc.c += rx * rx + ry * ry + rz * rz;
+          acc.d += m * m;
+        });
   }
   double b2 = 0.0, rz = 0.0, r2 = 0.0, m2 = 0.0;
   for (int t = 0; t < T; ++t) b2 += part[t].a, rz += part[t].b, r2 += part[t].c, m2 += part[t].d;

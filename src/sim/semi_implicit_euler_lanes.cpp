@@ -168,13 +168,6 @@ int lanes_threads(const SpringLanes& t) {
                                                : 1;
 }
 
-// The first active block of thread k of n: the blocks split by work (SpringLanes::work_before).
-int64_t first_block(const SpringLanes& t, int k, int n) {
-  const int64_t target = t.work_before.back() * k / n;
-  return std::lower_bound(t.work_before.begin(), t.work_before.end() - 1, target) -
-         t.work_before.begin();
-}
-
 // Thread k of n's share of 6 x the skin's volume at the step's end, over its triangles with a
 // movable corner (the rest is cached: Solver::frozen_layer_volume6_mm3).
 double skin_volume6_share(const Solver& s, const Eigen::MatrixX3d& x, int k, int n) {

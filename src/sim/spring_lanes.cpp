@@ -83,6 +83,10 @@ void refresh_spring_lanes(Solver& s) {
   t.work_before.assign(1, 0);
   for (int32_t b : t.active_blocks)
     t.work_before.push_back(t.work_before.back() + t.slot_offsets[b + 1] - t.slot_offsets[b] + 2);
+  // Implicit Euler's tables (a resize to the same size allocates nothing).
+  const bool products = !s.tets.on && s.options.integrator == Integrator::kImplicitEuler;
+  t.product.resize(products ? 4 * t.spring.size() : 0);
+  t.packed.resize(products ? 4 * static_cast<size_t>(t.nodes) : 0);
   t.reads_all = s.active_nodes.size() * 2 >= static_cast<size_t>(t.nodes);
   t.read_nodes.clear();
   if (t.reads_all) return;  // converting every node is cheaper than listing them

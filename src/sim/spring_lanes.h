@@ -51,6 +51,13 @@ struct SpringLanes {
   std::vector<int64_t> work_before;
   std::vector<int32_t> read_nodes;  ///< the nodes those blocks read, ascending
   bool reads_all = true;            ///< read_nodes is every node (global mode)
+
+  // Implicit Euler's products K p on the same layout (spring_lanes_product.h), sized only for
+  // implicit Euler on springs (refresh()).
+  /// Per slot, kLanes floats each of w_x, w_y, w_z and k alpha: the spring's linearised
+  /// stiffness k [alpha I + (1 - alpha) u u^T] = k alpha I + w w^T, w = sqrt(k (1 - alpha)) u.
+  AlignedVector<float> product;
+  AlignedVector<double> packed;  ///< 4 doubles per node: the vector K multiplies, x y z _
 };
 
 inline int32_t block_count(int32_t nodes) {
@@ -61,8 +68,15 @@ inline int32_t block_count(int32_t nodes) {
 void setup_spring_lanes(Solver& s);
 /// The lanes' stiffness from springs.stiffness_n_per_m (whenever the material resolves it).
 void fill_spring_lanes(Solver& s);
-/// active_blocks and read_nodes from the movable nodes (refresh()).
+/// active_blocks and read_nodes from the movable nodes, and the products' tables (refresh()).
 void refresh_spring_lanes(Solver& s);
+
+/// The first active block of thread k of n: the blocks split by work (SpringLanes::work_before).
+inline int64_t first_block(const SpringLanes& t, int k, int n) {
+  const int64_t target = t.work_before.back() * k / n;
+  return std::lower_bound(t.work_before.begin(), t.work_before.end() - 1, target) -
+         t.work_before.begin();
+}
 
 /// Node q's position for the pass: x - centre, rounded to float.
 inline void pack_position(SpringLanes& t, int32_t q, double x, double y, double z) {
