@@ -123,9 +123,9 @@ BENCHMARK(BM_CgIteration)
     ->Unit(benchmark::kMicrosecond);
 
 // One whole step under a held poke, for comparison with the kernels (`lamina bench` reports the
-// same on the same models).
+// same on the links networks).
 void BM_WholeStep(benchmark::State& state) {
-  const Model& m = model(state.range(0));
+  const Model& m = model(state.range(0), state.range(2) != 0);
   const auto integrator =
       state.range(1) ? sim::Integrator::kImplicitEuler : sim::Integrator::kSemiImplicitEuler;
   sim::Simulation s = sim::make_simulation(m, {}, {.integrator = integrator});
@@ -138,8 +138,8 @@ void BM_WholeStep(benchmark::State& state) {
   state.counters["ns_per_spring"] = per(state, static_cast<double>(m.springs.size()));
 }
 BENCHMARK(BM_WholeStep)
-    ->ArgsProduct({{0, 1, 2}, {0, 1}})
-    ->ArgNames({"model", "implicit"})
+    ->ArgsProduct({{0, 1, 2}, {0, 1}, {0, 1}})
+    ->ArgNames({"model", "implicit", "links"})
     ->Unit(benchmark::kMicrosecond);
 
 // The paper's neighbourhood rings by breadth-first search, up to locality N (done at build).

@@ -73,6 +73,7 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
   const double mass_damp_h = h * mat.mass_damping_per_s;
   const auto nodes = static_cast<int64_t>(s.active_nodes.size());
   const bool volume = mat.volume_stiffness_kpa > 0.0;
+  const bool lanes = product_lanes_apply(s);  // the springs' linearisation and products
   const auto t0 = Clock::now();
 
   // 1. The warm start w = v0 + (last step's v1 - v0), into dv (which holds the solution from
@@ -93,9 +94,10 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
   if (volume) update_volume_term(s, sim.x, T);
   if (s.tets.on)
     tet_pass(s, sim.x, /*linearise=*/true, T, /*product_of=*/&s.dv);
+  else if (lanes)
+    linearise_lanes(s, sim.x, T);
   else
     spring_linearise(s, sim.x, T);
-  if (product_lanes_apply(s)) fill_product_lanes(s, T);
   const auto t1 = Clock::now();
   profile.forces_us += std::chrono::duration<double, std::micro>(t1 - t0).count();
 
@@ -115,7 +117,12 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
         s, s.dv, T, part, [&](int32_t i, const double* k, const double* d, Partial& acc) {
           const double m = s.mass_kg[i];
           double fx, fy, fz;
-          node_force(s, sim, i, /*damped=*/false, fx, fy, fz);
+          if (lanes) {
+            node_force_but_elements(s, sim, i, /*damped=*/false, fx, fy, fz);
+            gather_lane_force(s, i, fx, fy, fz);
+          } else {
+            node_force(s, sim, i, /*damped=*/false, fx, fy, fz);
+          }
           double kx, ky, kz;
           other_stiffness(s, i, w, volume ? vm.data() : nullptr, k, kx, ky, kz);
           const double ks = s.support.stiffness_n_per_m[i];

@@ -71,6 +71,9 @@ void fill_spring_lanes(Solver& s) {
   const std::vector<double>& k = s.springs.stiffness_n_per_m;
   for (size_t e = 0; e < t.spring.size(); ++e)
     t.k_rest[e] = t.spring[e] < 0 ? 0.0f : static_cast<float>(k[t.spring[e]] * t.rest_mm[e]);
+  if (!t.stiffness.empty())
+    for (size_t e = 0; e < t.spring.size(); ++e)
+      t.stiffness[e] = t.spring[e] < 0 ? 0.0 : k[t.spring[e]];
 }
 
 void refresh_spring_lanes(Solver& s) {
@@ -85,8 +88,12 @@ void refresh_spring_lanes(Solver& s) {
     t.work_before.push_back(t.work_before.back() + t.slot_offsets[b + 1] - t.slot_offsets[b] + 2);
   // Implicit Euler's tables (a resize to the same size allocates nothing).
   const bool products = !s.tets.on && s.options.integrator == Integrator::kImplicitEuler;
+  const bool sized = !t.stiffness.empty();
   t.product.resize(products ? 4 * t.spring.size() : 0);
   t.packed.resize(products ? 4 * static_cast<size_t>(t.nodes) : 0);
+  t.stiffness.resize(products ? t.spring.size() : 0);
+  t.force.resize(products ? 3 * static_cast<size_t>(t.nodes) : 0);
+  if (products && !sized) fill_spring_lanes(s);
   t.reads_all = s.active_nodes.size() * 2 >= static_cast<size_t>(t.nodes);
   t.read_nodes.clear();
   if (t.reads_all) return;  // converting every node is cheaper than listing them

@@ -57,7 +57,9 @@ struct SpringLanes {
   /// Per slot, kLanes floats each of w_x, w_y, w_z and k alpha: the spring's linearised
   /// stiffness k [alpha I + (1 - alpha) u u^T] = k alpha I + w w^T, w = sqrt(k (1 - alpha)) u.
   AlignedVector<float> product;
-  AlignedVector<double> packed;  ///< 4 doubles per node: the vector K multiplies, x y z _
+  AlignedVector<double> packed;     ///< 4 doubles per node: positions or p, x y z _
+  AlignedVector<double> stiffness;  ///< per entry: k, N/m (0 on padding)
+  AlignedVector<double> force;      ///< the springs' force at the linearisation: x, y, z columns
 };
 
 inline int32_t block_count(int32_t nodes) {
@@ -66,7 +68,8 @@ inline int32_t block_count(int32_t nodes) {
 
 /// The lanes' layout from the model's springs, and the rest lengths (make_simulation).
 void setup_spring_lanes(Solver& s);
-/// The lanes' stiffness from springs.stiffness_n_per_m (whenever the material resolves it).
+/// The lanes' stiffness from springs.stiffness_n_per_m (whenever the material resolves it, and
+/// when refresh() sizes implicit Euler's tables).
 void fill_spring_lanes(Solver& s);
 /// active_blocks and read_nodes from the movable nodes, and the products' tables (refresh()).
 void refresh_spring_lanes(Solver& s);

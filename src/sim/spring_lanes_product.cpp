@@ -1,6 +1,8 @@
-// Implicit Euler's spring products on the lanes (spring_lanes_product.h): when they apply, and
-// the per-entry linearised stiffness, filled once a step.
+// Implicit Euler's springs on the lanes (spring_lanes_product.h): when they apply, and their
+// linearisation once a step (the force and each entry's linearised stiffness).
 #include "spring_lanes_product.h"
+
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -13,32 +15,79 @@ bool product_lanes_apply(const Solver& s) {
   return !s.tets.on && !t.product.empty() && 2 * s.active_nodes.size() >= lanes_used;
 }
 
-// Entry by entry of the active blocks, from the spring's direction u and alpha = max(0, 1 - L/l)
-// (SpringTerm::dir, in float already) and its stiffness k: w = sqrt(k (1 - alpha)) u and
-// k alpha. A padding entry (no spring) stays zero.
-void fill_product_lanes(Solver& s, int threads) {
+namespace {
+
+// Block b: each entry's spring at the packed positions, d = x_j - x_i, l = |d| (at least
+// 1e-12 mm), as spring_linearise() has it: the force k (1 - L/l) d summed on the node's lane, and
+// w = sqrt(k (1 - alpha)) d / l and k alpha into the entry's product table.
+void block_linearise(SpringLanes& t, int32_t b, double (*f)[kLanes]) {
+  using D = DoubleLanes;
+  const double* x = t.packed.data();
+  alignas(64) int32_t own[kLanes];
+  for (int32_t q = 0; q < kLanes; ++q) own[q] = 4 * std::min(b * kLanes + q, t.nodes - 1);
+  D px[2], py[2], pz[2], fx[2], fy[2], fz[2];
+  for (int h = 0; h < 2; ++h) {
+    px[h] = gather_doubles(x, own + h * kHalf), py[h] = gather_doubles(x + 1, own + h * kHalf),
+    pz[h] = gather_doubles(x + 2, own + h * kHalf);
+    fx[h] = fy[h] = fz[h] = D(0.0);
+  }
+  for (int64_t e = int64_t{t.slot_offsets[b]} * kLanes,
+               end = int64_t{t.slot_offsets[b + 1]} * kLanes;
+       e < end; e += kLanes) {
+    float* c = t.product.data() + 4 * e;
+    for (int h = 0; h < 2; ++h) {
+      const int32_t o = h * kHalf;
+      const int32_t* index = t.other4.data() + e + o;
+      const D dx = gather_doubles(x, index) - px[h], dy = gather_doubles(x + 1, index) - py[h],
+              dz = gather_doubles(x + 2, index) - pz[h];
+      const D l =
+          xsimd::max(xsimd::sqrt(xsimd::fma(dx, dx, xsimd::fma(dy, dy, dz * dz))), D(1e-12));
+      const D inverse = D(1.0) / l;  // one division for the two uses
+      const D k = D::load_aligned(t.stiffness.data() + e + o);
+      const D ratio = D::load_unaligned(t.rest_mm.data() + e + o) * inverse;  // L / l
+      const D tension = k * (D(1.0) - ratio);
+      fx[h] = xsimd::fma(tension, dx, fx[h]), fy[h] = xsimd::fma(tension, dy, fy[h]),
+      fz[h] = xsimd::fma(tension, dz, fz[h]);
+      const D ka = k * xsimd::max(D(0.0), D(1.0) - ratio);
+      const D scale = xsimd::sqrt(xsimd::max(D(0.0), k - ka)) * inverse;
+      narrow(scale * dx, c + o), narrow(scale * dy, c + kLanes + o);
+      narrow(scale * dz, c + 2 * kLanes + o), narrow(ka, c + 3 * kLanes + o);
+    }
+  }
+  for (int h = 0; h < 2; ++h)
+    fx[h].store_aligned(f[0] + h * kHalf), fy[h].store_aligned(f[1] + h * kHalf),
+        fz[h].store_aligned(f[2] + h * kHalf);
+}
+
+}  // namespace
+
+void linearise_lanes(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
   SpringLanes& t = s.lanes;
-  const float* dir = s.springs.dir.data();
-  const double* stiffness = s.springs.stiffness_n_per_m.data();
-  const auto blocks = static_cast<int64_t>(t.active_blocks.size());
-  for_slices(blocks, threads, [&](int64_t begin, int64_t end, int) {
-    for (int64_t a = begin; a < end; ++a) {
+  const ConstCols x(xm);
+  const int64_t reads = t.reads_all ? t.nodes : static_cast<int64_t>(t.read_nodes.size());
+  const int64_t n = t.nodes;
+  auto run = [&](int th, int count) {
+    for (int64_t q = reads * th / count, end = reads * (th + 1) / count; q < end; ++q)
+      pack_vector(t, x, t.reads_all ? q : t.read_nodes[q]);
+    if (count > 1) {
+#pragma omp barrier
+    }
+    alignas(64) double f[3][kLanes];
+    for (int64_t a = first_block(t, th, count), end = first_block(t, th + 1, count); a < end; ++a) {
       const int32_t b = t.active_blocks[a];
-      for (int64_t slot = t.slot_offsets[b]; slot < t.slot_offsets[b + 1]; ++slot) {
-        float* c = t.product.data() + 4 * kLanes * slot;
-        for (int32_t q = 0; q < kLanes; ++q) {
-          const int32_t e = t.spring[slot * kLanes + q];
-          if (e < 0) continue;
-          const float* u = dir + 4 * static_cast<int64_t>(e);
-          const double k = stiffness[e], ka = k * u[3], root = std::sqrt(std::max(0.0, k - ka));
-          c[q] = static_cast<float>(root * u[0]);
-          c[kLanes + q] = static_cast<float>(root * u[1]);
-          c[2 * kLanes + q] = static_cast<float>(root * u[2]);
-          c[3 * kLanes + q] = static_cast<float>(ka);
-        }
+      block_linearise(t, b, f);
+      for (int32_t i = b * kLanes, last = std::min(t.nodes, i + kLanes); i < last; ++i) {
+        const int32_t q = i - b * kLanes;
+        t.force[i] = f[0][q], t.force[n + i] = f[1][q], t.force[2 * n + i] = f[2][q];
       }
     }
-  });
+  };
+  if (threads <= 1) {
+    run(0, 1);
+    return;
+  }
+#pragma omp parallel num_threads(threads)
+  run(omp_get_thread_num(), omp_get_num_threads());
 }
 
 }  // namespace lamina::sim::detail

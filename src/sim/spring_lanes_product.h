@@ -19,9 +19,16 @@ static_assert(kLanes == 2 * kHalf, "a block of float lanes is two registers of d
 /// (refresh_spring_lanes) and at least half the lanes of the active blocks in use (local mode's
 /// scattered few nodes keep the CSR).
 bool product_lanes_apply(const Solver& s);
-/// SpringLanes::product from the springs' linearisation (spring_linearise's directions and
-/// 1 - L/l), for the active blocks, on `threads` threads.
-void fill_product_lanes(Solver& s, int threads);
+/// The springs' linearisation at x on the lanes, in place of spring_linearise(): per entry of
+/// the active blocks, SpringLanes::product (w and k alpha, alpha = max(0, 1 - L/l)), and per
+/// node the springs' force, SpringLanes::force. One parallel region: pack x, then the blocks.
+void linearise_lanes(Solver& s, const Eigen::MatrixX3d& x, int threads);
+/// The springs' force on node i from linearise_lanes(), added to f.
+inline void gather_lane_force(const Solver& s, int32_t i, double& fx, double& fy, double& fz) {
+  const double* f = s.lanes.force.data();
+  const int64_t n = s.lanes.nodes;
+  fx += f[i], fy += f[n + i], fz += f[2 * n + i];
+}
 /// Node i's row of p into SpringLanes::packed.
 inline void pack_vector(SpringLanes& t, const ConstCols& p, int64_t i) {
   double* q = t.packed.data() + 4 * i;
@@ -51,6 +58,19 @@ inline DoubleLanes widen(const float* p) {
   alignas(64) double v[kHalf];
   for (int32_t q = 0; q < kHalf; ++q) v[q] = p[q];
   return DoubleLanes::load_aligned(v);
+#endif
+}
+
+/// kHalf doubles narrowed to floats, stored aligned.
+inline void narrow(const DoubleLanes& v, float* p) {
+#if defined(__AVX512F__)
+  _mm256_store_ps(p, _mm512_cvtpd_ps(v));
+#elif defined(__AVX__)
+  _mm_store_ps(p, _mm256_cvtpd_ps(v));
+#else
+  alignas(64) double d[kHalf];
+  v.store_aligned(d);
+  for (int32_t q = 0; q < kHalf; ++q) p[q] = static_cast<float>(d[q]);
 #endif
 }
 

@@ -96,36 +96,46 @@ TEST(SpringLanesProduct, IsTheStretchedSpringsDerivative) {
   EXPECT_LT((kp - derivative).cwiseAbs().maxCoeff(), 1e-5 * derivative.cwiseAbs().maxCoeff());
 }
 
-TEST(SpringLanesProduct, EqualsTheNodeByNodeProductAndDiagonal) {
-  // A shape with springs both stretched and compressed (the clamp at work), against the CSR.
+TEST(SpringLanesProduct, EqualsTheNodeByNodeForceProductAndDiagonal) {
+  // A shape with springs both stretched and compressed (the clamp at work): the lanes'
+  // linearisation (made by the step) against spring_linearise()'s over the CSR, at the same x.
   const Model& m = links_model(400);
   const Eigen::MatrixX3d x = stretched(m, 1.02) + 0.3 * random_rows(m.node_count(), 5);
   sim::Simulation s = linearised_at(m, x);
-  ASSERT_TRUE(sim::detail::product_lanes_apply(s.solver()));
+  sim::detail::Solver& solver = s.solver();
+  ASSERT_TRUE(sim::detail::product_lanes_apply(solver));
+  sim::detail::spring_linearise(solver, x, 1);
   const Eigen::MatrixX3d p = random_rows(m.node_count(), 9);
   const Rows lanes = lane_rows(s, p, 1);
   const sim::detail::ConstCols pc(p);
-  double largest = 0.0, worst_k = 0.0, worst_d = 0.0;
+  double largest_k = 0.0, largest_f = 0.0, worst_k = 0.0, worst_f = 0.0, worst_d = 0.0;
   int32_t movable = 0;
   for (int32_t i = 0; i < m.node_count(); ++i) {
-    if (!s.solver().movable[i]) {
+    if (!solver.movable[i]) {
       EXPECT_EQ(lanes.k.row(i).squaredNorm(), 0.0) << "a held node was visited: " << i;
       continue;
     }
     ++movable;
-    double k[3] = {0, 0, 0}, d[3] = {0, 0, 0};
-    sim::detail::spring_product(s.solver(), i, pc, k[0], k[1], k[2]);
-    sim::detail::spring_diagonal(s.solver(), i, d[0], d[1], d[2]);
+    double k[3] = {0, 0, 0}, d[3] = {0, 0, 0}, f[3] = {0, 0, 0}, g[3] = {0, 0, 0};
+    sim::detail::spring_product(solver, i, pc, k[0], k[1], k[2]);
+    sim::detail::spring_diagonal(solver, i, d[0], d[1], d[2]);
+    sim::detail::gather_springs(solver, i, f[0], f[1], f[2]);
+    sim::detail::gather_lane_force(solver, i, g[0], g[1], g[2]);
     for (int c = 0; c < 3; ++c) {
-      largest = std::max(largest, std::abs(k[c]));
+      largest_k = std::max(largest_k, std::abs(k[c]));
+      largest_f = std::max(largest_f, std::abs(f[c]));
       worst_k = std::max(worst_k, std::abs(lanes.k(i, c) - k[c]));
+      worst_f = std::max(worst_f, std::abs(g[c] - f[c]));
       worst_d = std::max(worst_d, std::abs(lanes.d(i, c) - d[c]) / d[c]);
     }
   }
   EXPECT_EQ(movable, m.node_count() - static_cast<int32_t>(
                                           std::count(m.fixed.begin(), m.fixed.end(), uint8_t{1})));
-  // The lanes keep w = sqrt(k (1 - alpha)) u and k alpha in float: about 1e-7 of the terms.
-  EXPECT_LT(worst_k, 1e-6 * largest);
+  ASSERT_GT(largest_f, 0.0);
+  // The force in double, summed in another order; the lanes keep w = sqrt(k (1 - alpha)) u and
+  // k alpha in float (as the CSR keeps u and alpha): about 1e-7 of the terms.
+  EXPECT_LT(worst_f, 1e-12 * largest_f);
+  EXPECT_LT(worst_k, 1e-6 * largest_k);
   EXPECT_LT(worst_d, 1e-6);
 }
 
