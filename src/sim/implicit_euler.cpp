@@ -45,7 +45,7 @@ double system_product(Solver& s, double h, const Eigen::MatrixX3d& pm, Eigen::Ma
   const bool volume = s.material.volume_stiffness_kpa > 0.0;
   std::array<double, kMaxLayers> vm{};
   if (volume) volume_multipliers(s, pm, T, vm.data());
-  if (s.tets.on) tet_product_pass(s, pm, T);
+  if (s.tets.on && !s.tets.assembly.current) tet_product_pass(s, pm, T);
   const ConstCols p(pm);
   Cols y(ym);
   Partials part;
@@ -92,9 +92,10 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
   // 2. Forces at x0 and the linearisation: springs (direction, 1 - L/l), tetrahedra (with their
   //    share of K w in the same sweep), the volume term between layers.
   if (volume) update_volume_term(s, sim.x, T);
-  if (s.tets.on)
+  if (s.tets.on) {
     tet_pass(s, sim.x, /*linearise=*/true, T, /*product_of=*/&s.dv);
-  else if (lanes)
+    s.tets.assembly.current = false;
+  } else if (lanes)
     linearise_lanes(s, sim.x, T);
   else
     spring_linearise(s, sim.x, T);
@@ -174,6 +175,13 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
     for (int32_t i : s.active_nodes) s.dv.row(i).setZero();
   } else {
     for (; it < s.options.cg_max_iterations && r2 > stop2; ++it) {
+      // A large model's step that iterates assembles the tetrahedra's stiffness first: each
+      // product then streams node blocks (TetAssembly); one that converges at once never pays.
+      TetAssembly& assembly = s.tets.assembly;
+      if (assembly.on && !assembly.current) {
+        assemble_tets(s, T);
+        assembly.current = true;
+      }
       const double pap = system_product(s, h, s.p, s.y, T);
       if (!(pap > 0.0)) break;
       const double alpha = rz / pap;

@@ -140,6 +140,20 @@ struct alignas(64) TetBlockLinear {
 /// solve resolves (its tolerance is 1e-3); zero at rest stays exactly zero.
 using TetRows = std::vector<float>;
 
+/// The tetrahedra's linearised stiffness assembled once a step into 3x3 blocks between nodes
+/// (tet_assembly.cpp, assemble_tets in tet_term.cpp), for models whose element data outgrows
+/// the caches: a product then streams each node's blocks (36 bytes a neighbour) instead of every
+/// tetrahedron's constants, linearisation and rows (about 330 bytes a tetrahedron;
+/// docs/benchmarks.md).
+struct TetAssembly {
+  bool on = false;       ///< set up (setup_tet_assembly; from 200,000 tetrahedra, tet_term.cpp)
+  bool current = false;  ///< the blocks hold this step's linearisation (assemble_tets)
+  std::vector<int32_t> offsets;  ///< per node + 1: its entries, its own block first
+  std::vector<int32_t> column;   ///< per entry: the other node
+  std::vector<int32_t> entry;    ///< per tetrahedron 16: the entry of corner pair (r, s), 4 r + s
+  std::vector<float> block;      ///< per entry 9 (row-major), N/m
+};
+
 /// The tetrahedra (tet_term.cpp): each carries its share of its six edge springs, their
 /// coupling, and resists a change of its signed volume (docs/physics.md). When on, the springs
 /// (all tetrahedron edges) are carried here and the spring passes are skipped.
@@ -154,6 +168,7 @@ struct TetTerm {
   // Each node's tetrahedron corners (CSR of t * 4 + c), for the node pass to gather.
   std::vector<int32_t> corner_offsets;  ///< #nodes + 1
   std::vector<int32_t> corners;
+  TetAssembly assembly;
 };
 
 /// The volume term between layers (volume_term.cpp; Material::volume_stiffness_kpa).
@@ -325,6 +340,13 @@ void tet_product_pass(Solver& s, const Eigen::MatrixX3d& p, int threads);
 inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
                         double& fz);
 double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
+/// The active tetrahedra's 16 blocks of K each summed into tets.assembly (after tet_pass with
+/// linearise); each thread adds to the rows of its range of nodes.
+void assemble_tets(Solver& s, int threads);
+/// tets.assembly's pattern (the nodes joined by a tetrahedron) and each tetrahedron's entries.
+void setup_tet_assembly(Solver& s);
+/// The assembled (K p)_i of the tetrahedra, added to k.
+inline void assembled_tet_product(const Solver& s, int32_t i, const ConstCols& p, double* k);
 /// One tetrahedron's corner forces at any x (not the hot path).
 Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& x,
                                                int64_t t);
@@ -431,6 +453,21 @@ inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double&
     ax += f[0], ay += f[1], az += f[2];
   }
   fx += ax, fy += ay, fz += az;
+}
+
+inline void assembled_tet_product(const Solver& s, int32_t i, const ConstCols& p, double* k) {
+  const TetAssembly& a = s.tets.assembly;
+  const float* __restrict blocks = a.block.data();
+  double kx = 0.0, ky = 0.0, kz = 0.0;
+  for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
+    const int32_t j = a.column[e];
+    const float* b = blocks + 9 * static_cast<int64_t>(e);
+    const double px = p.x[j], py = p.y[j], pz = p.z[j];
+    kx += b[0] * px + b[1] * py + b[2] * pz;
+    ky += b[3] * px + b[4] * py + b[5] * pz;
+    kz += b[6] * px + b[7] * py + b[8] * pz;
+  }
+  k[0] += kx, k[1] += ky, k[2] += kz;
 }
 
 // The force on movable node i (mN) but its springs' and tetrahedra's: the tool's, gravity, its

@@ -124,7 +124,8 @@ inline void block_spring_product(const SpringLanes& t, int32_t b, double (*k)[kL
 /// kDiagonal) their diagonal of K, and acc its thread's partial results (into part[thread]).
 /// Through the lanes where they apply (one parallel region: pack p, then blocks split by work),
 /// else node by node over the CSR; with tetrahedra, their product and diagonal (tets.product
-/// and tets.diag, which tet_product_pass and tet_pass fill beforehand).
+/// and tets.diag, which tet_product_pass and tet_pass fill beforehand; or, assembled, the
+/// product from tets.assembly).
 template <bool kDiagonal, class Body>
 void for_spring_products(Solver& s, const Eigen::MatrixX3d& pm, int threads, Partials& part,
                          Body&& body) {
@@ -137,7 +138,10 @@ void for_spring_products(Solver& s, const Eigen::MatrixX3d& pm, int threads, Par
                    const int32_t i = s.active_nodes[q];
                    double k[3] = {0.0, 0.0, 0.0}, d[3] = {0.0, 0.0, 0.0};
                    if (s.tets.on) {  // the springs are the tetrahedra's edges
-                     gather_tets(s, s.tets.product, i, k[0], k[1], k[2]);
+                     if (s.tets.assembly.current)
+                       assembled_tet_product(s, i, p, k);
+                     else
+                       gather_tets(s, s.tets.product, i, k[0], k[1], k[2]);
                      if constexpr (kDiagonal) gather_tets(s, s.tets.diag, i, d[0], d[1], d[2]);
                    } else {
                      spring_product(s, i, p, k[0], k[1], k[2]);

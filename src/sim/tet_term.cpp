@@ -32,6 +32,12 @@ namespace {
 
 constexpr int L = kTetLanes;
 constexpr double kGuardFraction = 0.1;  // the guard acts below this fraction of V0
+// From this many tetrahedra implicit Euler assembles their stiffness once a step (TetAssembly).
+// Measured (docs/benchmarks.md): at 10,014 (the paper-size liver, its element data within the
+// caches) assembling makes a 1 ms step 1.2-2x slower; at 101,730 it is a trade, 1.2x slower
+// settled at 1 ms (about 8 CG products a step do not repay it) and 1.3-2.3x faster at 10 ms; at
+// 432,017, 2.5-3.3x faster at both.
+constexpr int64_t kAssembleFromTets = 200000;
 
 // Q's upper-triangle storage: row k starts at kRow[k] (its diagonal).
 constexpr int kRow[6] = {0, 6, 11, 15, 18, 20};
@@ -255,6 +261,57 @@ void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[1
   }
 }
 
+// The 16 3x3 blocks of K (row corner r, column corner c: out[4 r + c][3 a + d]) of a linearised
+// block, the matrix block_product() applies: with s_kr = -1, +1 or 0 as corner r is edge k's
+// first end, second or neither,
+//   K_rc = dP/dV g_r g_c^T + sum_k,m s_kr s_mc Q_km w_k w_m^T + sum_k s_kr s_kc geo_k (I - w_k
+//   w_k^T).
+// The coupling's sum goes through z_kc = sum_m s_mc Q_km w_m (three edges meet at each corner).
+void block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16][9]) {
+  Lanes g[12], w[6][3], q[21];
+  for (int v = 0; v < 12; ++v) g[v] = lanes(lin.grad[v]);
+  for (int k = 0; k < 6; ++k)
+    for (int e = 0; e < 3; ++e) w[k][e] = lanes(lin.w[3 * k + e]);
+  load_q(b, q);
+  const Lanes kv = lanes(lin.volume_stiffness);
+  Lanes z[6][4][3];
+  for (int k = 0; k < 6; ++k)
+    for (int c = 0; c < 4; ++c)
+      for (int e = 0; e < 3; ++e) {
+        Lanes sum = Lanes{};
+        for (int j = 0; j < 3; ++j) {
+          const int m = kCornerEdge[c][j];
+          sum += kCornerSign[c][j] * q[qi(k, m)] * w[m][e];
+        }
+        z[k][c][e] = sum;
+      }
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) {
+      Lanes* o = out[4 * r + c];
+      for (int a = 0; a < 3; ++a)
+        for (int d = 0; d < 3; ++d) {
+          Lanes sum = kv * g[3 * r + a] * g[3 * c + d];
+          for (int j = 0; j < 3; ++j) {
+            const int k = kCornerEdge[r][j];
+            sum += kCornerSign[r][j] * w[k][a] * z[k][c][d];
+          }
+          o[3 * a + d] = sum;
+        }
+    }
+  for (int k = 0; k < 6; ++k) {
+    const int ends[2] = {kTetEdge[k][0], kTetEdge[k][1]};
+    const Lanes geo = lanes(lin.geo[k]);
+    for (int x = 0; x < 2; ++x)
+      for (int y = 0; y < 2; ++y) {
+        const Lanes sg = x == y ? geo : -geo;
+        Lanes* o = out[4 * ends[x] + ends[y]];
+        for (int a = 0; a < 3; ++a)
+          for (int d = 0; d < 3; ++d)
+            o[3 * a + d] += sg * ((a == d ? 1.0 : 0.0) - w[k][a] * w[k][d]);
+      }
+  }
+}
+
 // A block's lane-major values into the eight tetrahedra's rows (12 t + 3 c + d).
 inline void store_rows(const Lanes v[12], float* rows) {
   for (int l = 0; l < L; ++l)
@@ -306,6 +363,7 @@ void setup_tets(Solver& s) {
   std::vector<int32_t> fill(t.corner_offsets.begin(), t.corner_offsets.end() - 1);
   for (Eigen::Index q = 0; q < nt; ++q)
     for (int c = 0; c < 4; ++c) t.corners[fill[m.tets.T(q, c)]++] = static_cast<int32_t>(4 * q + c);
+  if (nt >= kAssembleFromTets) setup_tet_assembly(s);
 }
 
 void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads,
@@ -344,6 +402,40 @@ void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
                  store_rows(y, tt.product.data() + 12 * L * k);
                }
              });
+}
+
+void assemble_tets(Solver& s, int threads) {
+  TetTerm& tt = s.tets;
+  TetAssembly& a = tt.assembly;
+  const auto nt = static_cast<int64_t>(s.model->tets.size());
+  float* __restrict blocks = a.block.data();
+  // Each thread owns a range of node rows and adds only to them: a block of tetrahedra with
+  // corners in both ranges is computed by both threads (no atomics, no second buffer), and each
+  // row sums its tetrahedra in the same order whatever the thread count.
+  for_slices(s.model->node_count(), threads, [&](int64_t lo, int64_t hi, int) {
+    const auto owned = [&](int32_t i) { return i >= lo && i < hi; };
+    std::fill(blocks + 9 * static_cast<int64_t>(a.offsets[lo]),
+              blocks + 9 * static_cast<int64_t>(a.offsets[hi]), 0.0f);
+    for (const int32_t k : s.active_tets) {
+      const TetBlock& b = tt.block[static_cast<size_t>(k)];
+      bool any = false;
+      for (int c = 0; c < 4; ++c)
+        for (int l = 0; l < L; ++l) any |= owned(b.node[c][l]);
+      if (!any) continue;
+      Lanes out[16][9];
+      block_stiffness(b, tt.linear[static_cast<size_t>(k)], out);
+      for (int l = 0; l < L && static_cast<int64_t>(k) * L + l < nt; ++l) {
+        const int32_t* entry = a.entry.data() + 16 * (static_cast<int64_t>(k) * L + l);
+        for (int r = 0; r < 4; ++r) {
+          if (!owned(b.node[r][l])) continue;
+          for (int c = 0; c < 4; ++c) {
+            float* o = blocks + 9 * static_cast<int64_t>(entry[4 * r + c]);
+            for (int v = 0; v < 9; ++v) o[v] += static_cast<float>(out[4 * r + c][v][l]);
+          }
+        }
+      }
+    }
+  });
 }
 
 Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& xm,

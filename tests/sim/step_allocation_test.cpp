@@ -8,6 +8,7 @@
 #include <new>
 
 #include "lamina/sim/simulation.h"
+#include "sim/solver.h"  // white box: the assembly switched on for a small model
 #include "support/sphere_model.h"
 
 namespace {
@@ -140,6 +141,14 @@ TEST(StepAllocation, NoStepAllocates) {
     sim::Simulation s = poked(c.model, c.material, c.options);
     EXPECT_EQ(allocations_in_steps(s, 50), 0) << c.name;
     EXPECT_GT((s.x - c.model.X).cwiseAbs().maxCoeff(), 1e-3) << c.name << ": nothing moved";
+  }
+  {  // the tetrahedra's stiffness assembled each step (on by itself from 200,000 tetrahedra)
+    const Case& c = cases[4];
+    sim::Simulation s = poked(c.model, c.material, c.options);
+    sim::detail::setup_tet_assembly(s.solver());
+    sim::step(s);
+    EXPECT_EQ(allocations_in_steps(s, 50), 0) << "implicit Euler, tetrahedra assembled";
+    EXPECT_TRUE(s.solver().tets.assembly.current) << "the last step did not assemble";
   }
 }
 

@@ -14,24 +14,11 @@
 #include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
 #include "sim/solver.h"  // white-box: the implicit product
+#include "support/tet_phantom.h"
 
 namespace {
 
 using namespace lamina;
-
-// A small two-layer phantom filled with tetrahedra (about 700 nodes), built once.
-const Model& tet_model() {
-  static const Model m =
-      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400})
-          .model;
-  return m;
-}
-
-const sim::Material kLiver{.stiffness_n_per_m = 0.0,
-                           .damping_kg_per_s = 0.0,
-                           .node_mass_kg = 0.0,
-                           .young_modulus_kpa = 6.0,
-                           .poisson_ratio = 0.45};
 
 Eigen::MatrixX3d jiggle(const Eigen::MatrixX3d& X, double amplitude, unsigned seed = 3) {
   std::mt19937 rng(seed);
@@ -42,10 +29,10 @@ Eigen::MatrixX3d jiggle(const Eigen::MatrixX3d& X, double amplitude, unsigned se
 }
 
 TEST(TetTerm, ForcesSumToZeroVanishAtRestAndAreMinusTheEnergyGradient) {
-  const Model& m = tet_model();
+  const Model& m = test::tet_phantom();
   ASSERT_TRUE(m.has_tets());
   for (auto elasticity : {model::TetElasticity::kCoupled, model::TetElasticity::kSprings}) {
-    sim::Material mat = kLiver;
+    sim::Material mat = test::kTetLiver;
     mat.tet_elasticity = elasticity;
     sim::Simulation s = sim::make_simulation(m, mat);
     Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
@@ -76,8 +63,8 @@ TEST(TetTerm, ForcesSumToZeroVanishAtRestAndAreMinusTheEnergyGradient) {
 // below it. (It is far below, and must be: a limit from this eigenvalue with a 1.5 margin blew
 // up the stability suite's 30% indentation, where compressed tetrahedra stiffen.)
 TEST(ExplicitLimit, IsBelowTheTrueLimitAtRestOfThePhysicalLiver) {
-  const Model& m = tet_model();
-  sim::Material mat = kLiver;
+  const Model& m = test::tet_phantom();
+  sim::Material mat = test::kTetLiver;
   mat.mass_damping_per_s = 4.0;  // about what critical damping of the slowest mode gives
   sim::Simulation s = sim::make_simulation(m, mat);
   const Eigen::Index n = m.node_count();
@@ -112,8 +99,8 @@ TEST(ExplicitLimit, IsBelowTheTrueLimitAtRestOfThePhysicalLiver) {
 TEST(TetTerm, ASmallHomogeneousStrainStoresTheContinuumsEnergy) {
   // Coupled springs plus the volume term are linear elasticity at small strain: under
   // x = (I + eps) X the model stores V (mu eps:eps + lambda/2 tr(eps)^2), V the organ's volume.
-  const Model& m = tet_model();
-  sim::Simulation s = sim::make_simulation(m, kLiver);
+  const Model& m = test::tet_phantom();
+  sim::Simulation s = sim::make_simulation(m, test::kTetLiver);
   const double mu = 6.0 / 2.9, lambda = 6.0 * 0.45 / (1.45 * 0.1);
   double volume = 0.0;
   for (double v : s.tet_identification().rest_volume_mm3) volume += v;
@@ -130,9 +117,9 @@ TEST(TetTerm, ASmallHomogeneousStrainStoresTheContinuumsEnergy) {
 
 TEST(TetTerm, ImplicitProductIsTheForcesDerivative) {
   // At rest (no geometric term, V = V0) K p is minus the directional derivative of the forces.
-  const Model& m = tet_model();
+  const Model& m = test::tet_phantom();
   sim::Simulation s =
-      sim::make_simulation(m, kLiver, {.integrator = sim::Integrator::kImplicitEuler});
+      sim::make_simulation(m, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler});
   sim::step(s);  // linearises at rest (nothing moves: no force)
   const Eigen::MatrixX3d p = jiggle(Eigen::MatrixX3d::Zero(m.node_count(), 3), 1.0, 9);
   const double h = 0.1;
@@ -153,7 +140,7 @@ TEST(TetTerm, ImplicitProductIsTheForcesDerivative) {
 TEST(TetTerm, AnInvertedTetrahedronIsPushedBack) {
   // Mirror an interior node through the face opposite it: its tetrahedra invert, yet their edge
   // lengths barely change; the signed volume term must bring them back.
-  const Model& m = tet_model();
+  const Model& m = test::tet_phantom();
   sim::Simulation s = sim::make_simulation(
       m,
       {.stiffness_n_per_m = 0.0,
@@ -189,7 +176,7 @@ TEST(TetTerm, BitForBitForAThreadCountAndToRoundOffAcrossThem) {
   auto run = [](int threads) {
     omp_set_num_threads(threads);
     sim::Simulation s = sim::make_simulation(
-        big, kLiver, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001});
+        big, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001});
     sim::fix_nodes(s, {0, 1, 2, 3});
     s.f_ext.row(big.node_count() / 2) << 100.0, -50.0, 20.0;
     s.f_ext.row(7) << 0.0, 300.0, 0.0;
@@ -209,13 +196,13 @@ TEST(TetTerm, NeedsAModelWithTetrahedraAndNoProjectiveDynamics) {
       model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
                          {.structure = model::Structure::kLinks, .skin_vertices = 200})
           .model;
-  EXPECT_THROW(sim::make_simulation(links, kLiver), Error);
-  EXPECT_THROW(
-      sim::make_simulation(tet_model(), kLiver, {.integrator = sim::Integrator::kProjective}),
-      Error);
-  sim::Material both = kLiver;
+  EXPECT_THROW(sim::make_simulation(links, test::kTetLiver), Error);
+  EXPECT_THROW(sim::make_simulation(test::tet_phantom(), test::kTetLiver,
+                                    {.integrator = sim::Integrator::kProjective}),
+               Error);
+  sim::Material both = test::kTetLiver;
   both.stiffness_n_per_m = 3.0;
-  EXPECT_THROW(sim::make_simulation(tet_model(), both), Error);
+  EXPECT_THROW(sim::make_simulation(test::tet_phantom(), both), Error);
 }
 
 }  // namespace
