@@ -35,7 +35,8 @@ void setup_tet_assembly(Solver& s) {
       const int32_t i = tets.T(q, r);
       for (int c = 0; c < 4; ++c) {
         const int32_t j = tets.T(q, c);
-        const auto first = a.column.begin() + a.offsets[i], last = a.column.begin() + a.offsets[i + 1];
+        const auto first = a.column.begin() + a.offsets[i],
+                   last = a.column.begin() + a.offsets[i + 1];
         const auto at = j == i ? first : std::lower_bound(first + 1, last, j);
         a.entry[16 * static_cast<size_t>(q) + 4 * r + c] =
             static_cast<int32_t>(at - a.column.begin());

@@ -8,13 +8,12 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
-#include "support/tet_phantom.h"
 #include "sim/solver.h"  // white box: both products side by side
+#include "support/tet_phantom.h"
 
 namespace {
 
 using namespace lamina;
-
 
 Eigen::MatrixX3d random_rows(Eigen::Index rows, double amplitude, unsigned seed) {
   std::mt19937 rng(seed);
@@ -57,7 +56,8 @@ TEST(TetAssembly, EqualsTheElementByElementProductAndIsSymmetric) {
   for (int32_t i = 0; i < m.node_count(); ++i)
     for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
       const int32_t j = a.column[e];
-      const auto first = a.column.begin() + a.offsets[j], last = a.column.begin() + a.offsets[j + 1];
+      const auto first = a.column.begin() + a.offsets[j],
+                 last = a.column.begin() + a.offsets[j + 1];
       const auto at = std::find(first, last, i);
       ASSERT_NE(at, last) << "node " << j << " lacks its neighbour " << i;
       const float* b = a.block.data() + 9 * e;
