@@ -264,8 +264,8 @@ void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[1
 // The 16 3x3 blocks of K (row corner r, column corner c: out[4 r + c][3 a + d]) of a linearised
 // block, the matrix block_product() applies: with s_kr = -1, +1 or 0 as corner r is edge k's
 // first end, second or neither,
-//   K_rc = dP/dV g_r g_c^T + sum_k,m s_kr s_mc Q_km w_k w_m^T + sum_k s_kr s_kc geo_k (I - w_k
-//   w_k^T).
+//   K_rc = dP/dV g_r g_c^T + sum_k,m s_kr s_mc Q_km w_k w_m^T
+//          + sum_k s_kr s_kc geo_k (I - w_k w_k^T).
 // The coupling's sum goes through z_kc = sum_m s_mc Q_km w_m (three edges meet at each corner).
 void block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16][9]) {
   Lanes g[12], w[6][3], q[21];

@@ -13,6 +13,7 @@
 #include "lamina/model/build_model.h"
 #include "lamina/model/identify_springs.h"
 #include "sim/solver.h"  // white-box: what a step visits
+#include "support/random_rows.h"
 
 namespace {
 
@@ -24,15 +25,6 @@ const Model& small_model() {
       model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400})
           .model;
   return m;
-}
-
-// Random displacements of every node, up to `amplitude` mm, reproducible.
-Eigen::MatrixX3d jiggle(const Eigen::MatrixX3d& X, double amplitude, unsigned seed = 7) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-amplitude, amplitude);
-  Eigen::MatrixX3d x = X;
-  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += u(rng);
-  return x;
 }
 
 // Support for a global-mode model: the posterior 15 mm held (attached to the back wall).
@@ -61,7 +53,7 @@ double total_energy(const sim::Simulation& s) {
 TEST(SpringForces, SumToZeroAndAreMinusTheEnergyGradient) {
   const Model& m = small_model();
   sim::Simulation s = sim::make_simulation(m);
-  const Eigen::MatrixX3d x = jiggle(m.X, 2.0);
+  const Eigen::MatrixX3d x = test::jiggle(m.X, 2.0, 7);
   Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
   sim::spring_forces(s, x, f);
   const double scale = f.cwiseAbs().maxCoeff();
@@ -86,7 +78,7 @@ TEST(VolumeTerm, ForcesSumToZeroAndAreMinusTheEnergyGradient) {
   ASSERT_GE(m.layer_count(), 2);
   sim::Simulation s =
       sim::make_simulation(m, {.stiffness_n_per_m = 0.001, .volume_stiffness_kpa = 50.0});
-  const Eigen::MatrixX3d x = jiggle(m.X, 2.0, 11);
+  const Eigen::MatrixX3d x = test::jiggle(m.X, 2.0, 11);
   Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
   sim::internal_forces(s, x, f);
   Eigen::MatrixX3d springs = Eigen::MatrixX3d::Zero(m.node_count(), 3);
@@ -157,7 +149,7 @@ TEST(Simulation, WithDampingAndNoToolEnergyNeverRises) {
                    std::to_string(material.volume_stiffness_kpa) + " kPa, alpha " +
                    std::to_string(material.mass_damping_per_s));
       sim::Simulation s = sim::make_simulation(small_model(), material, {.integrator = integrator});
-      s.x = jiggle(small_model().X, 1.5);
+      s.x = test::jiggle(small_model().X, 1.5, 7);
       double previous = total_energy(s);
       const double start = previous;
       for (int k = 0; k < 300; ++k) {
@@ -325,7 +317,7 @@ TEST(Simulation, LargeDtIsSubsteppedByExplicitAndStableForImplicitIntegrators) {
   sim::Simulation ex = sim::make_simulation(m, {}, {.dt_s = 1.0});
   EXPECT_GT(sim::explicit_substeps(1.0, sim::explicit_dt_limit(ex)), 1);
   EXPECT_EQ(sim::explicit_substeps(0.01, sim::explicit_dt_limit(ex)), 1);  // the paper's dt
-  ex.x = jiggle(m.X, 1.0);
+  ex.x = test::jiggle(m.X, 1.0, 7);
   const double ex_start = total_energy(ex);
   for (int k = 0; k < 30; ++k) sim::step(ex);
   EXPECT_EQ(ex.recoveries, 0);
@@ -335,7 +327,7 @@ TEST(Simulation, LargeDtIsSubsteppedByExplicitAndStableForImplicitIntegrators) {
   for (auto integrator : {sim::Integrator::kImplicitEuler, sim::Integrator::kProjective}) {
     SCOPED_TRACE(name(integrator));
     sim::Simulation im = sim::make_simulation(m, {}, {.integrator = integrator, .dt_s = 1.0});
-    im.x = jiggle(m.X, 1.0);
+    im.x = test::jiggle(m.X, 1.0, 7);
     const double start = total_energy(im);
     for (int k = 0; k < 30; ++k) sim::step(im);
     EXPECT_EQ(im.recoveries, 0);
@@ -347,7 +339,7 @@ TEST(Simulation, ANonFiniteStepIsRolledBackAndNeverSpreads) {
   // A NaN force: the step goes non-finite, is rolled back and redone (half steps, then implicit
   // Euler), and when that fails too the motion stops: no NaN reaches the state.
   sim::Simulation s = sim::make_simulation(small_model());
-  s.x = jiggle(small_model().X, 1.0);
+  s.x = test::jiggle(small_model().X, 1.0, 7);
   s.f_ext.row(3) << std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0;
   for (int k = 0; k < 5; ++k) sim::step(s);
   EXPECT_EQ(s.recoveries, 5);

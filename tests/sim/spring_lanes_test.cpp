@@ -14,6 +14,7 @@
 #include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
 #include "sim/spring_lanes_product.h"  // white box: the lanes and the CSR product side by side
+#include "support/random_rows.h"
 
 namespace {
 
@@ -31,14 +32,6 @@ const Model& links_model(int32_t skin_vertices) {
                           .model)
              .first;
   return it->second;
-}
-
-Eigen::MatrixX3d random_rows(Eigen::Index rows, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::MatrixX3d p(rows, 3);
-  for (Eigen::Index k = 0; k < p.size(); ++k) p.data()[k] = u(rng);
-  return p;
 }
 
 // The organ stretched by `factor` about its centre: every spring longer than at rest.
@@ -80,7 +73,7 @@ TEST(SpringLanesProduct, IsTheStretchedSpringsDerivative) {
   const Eigen::MatrixX3d x = stretched(m, 1.03);
   sim::Simulation s = linearised_at(m, x, {.anchor_stiffness_n_per_m = 0.5});
   ASSERT_TRUE(sim::detail::product_lanes_apply(s.solver()));
-  const Eigen::MatrixX3d p = random_rows(m.node_count(), 3);
+  const Eigen::MatrixX3d p = test::random_rows(m.node_count(), 1.0, 3);
   const double h = 0.1;
   Eigen::MatrixX3d y = Eigen::MatrixX3d::Zero(m.node_count(), 3);
   sim::implicit_system_product(s, h, p, y);
@@ -100,12 +93,12 @@ TEST(SpringLanesProduct, EqualsTheNodeByNodeForceProductAndDiagonal) {
   // A shape with springs both stretched and compressed (the clamp at work): the lanes'
   // linearisation (made by the step) against spring_linearise()'s over the CSR, at the same x.
   const Model& m = links_model(400);
-  const Eigen::MatrixX3d x = stretched(m, 1.02) + 0.3 * random_rows(m.node_count(), 5);
+  const Eigen::MatrixX3d x = stretched(m, 1.02) + 0.3 * test::random_rows(m.node_count(), 1.0, 5);
   sim::Simulation s = linearised_at(m, x);
   sim::detail::Solver& solver = s.solver();
   ASSERT_TRUE(sim::detail::product_lanes_apply(solver));
   sim::detail::spring_linearise(solver, x, 1);
-  const Eigen::MatrixX3d p = random_rows(m.node_count(), 9);
+  const Eigen::MatrixX3d p = test::random_rows(m.node_count(), 1.0, 9);
   const Rows lanes = lane_rows(s, p, 1);
   const sim::detail::ConstCols pc(p);
   double largest_k = 0.0, largest_f = 0.0, worst_k = 0.0, worst_f = 0.0, worst_d = 0.0;
@@ -145,7 +138,7 @@ TEST(SpringLanesProduct, IsTheSameOnOneAndTwoThreads) {
   ASSERT_GT(m.springs.size(), 16384u);  // implicit Euler's steps take two threads from here
   sim::Simulation s = linearised_at(m, stretched(m, 1.02));
   ASSERT_TRUE(sim::detail::product_lanes_apply(s.solver()));
-  const Eigen::MatrixX3d p = random_rows(m.node_count(), 11);
+  const Eigen::MatrixX3d p = test::random_rows(m.node_count(), 1.0, 11);
   const Rows one = lane_rows(s, p, 1), two = lane_rows(s, p, 2);
   EXPECT_GT(one.k.cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ(one.k, two.k);

@@ -3,25 +3,16 @@
 // matrix, and implicit Euler with it steps as it does without.
 #include <gtest/gtest.h>
 
-#include <random>
+#include <algorithm>
 
-#include "lamina/geometry/make_phantom.h"
-#include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
 #include "sim/solver.h"  // white box: both products side by side
+#include "support/random_rows.h"
 #include "support/tet_phantom.h"
 
 namespace {
 
 using namespace lamina;
-
-Eigen::MatrixX3d random_rows(Eigen::Index rows, double amplitude, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-amplitude, amplitude);
-  Eigen::MatrixX3d p(rows, 3);
-  for (Eigen::Index k = 0; k < p.size(); ++k) p.data()[k] = u(rng);
-  return p;
-}
 
 TEST(TetAssembly, EqualsTheElementByElementProductAndIsSymmetric) {
   const Model& m = test::tet_phantom();
@@ -30,8 +21,8 @@ TEST(TetAssembly, EqualsTheElementByElementProductAndIsSymmetric) {
       sim::make_simulation(m, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler});
   sim::detail::Solver& s = sim.solver();
   // Jiggled by up to 2 mm: edges stretched and compressed (the clamped geometric term at work).
-  const Eigen::MatrixX3d x = m.X + random_rows(m.node_count(), 2.0, 3);
-  const Eigen::MatrixX3d p = random_rows(m.node_count(), 1.0, 7);
+  const Eigen::MatrixX3d x = test::jiggle(m.X, 2.0, 3);
+  const Eigen::MatrixX3d p = test::random_rows(m.node_count(), 1.0, 7);
   sim::detail::tet_pass(s, x, /*linearise=*/true, 1, &p);
   sim::detail::setup_tet_assembly(s);
   sim::detail::assemble_tets(s, 1);

@@ -14,19 +14,12 @@
 #include "lamina/model/build_model.h"
 #include "lamina/sim/simulation.h"
 #include "sim/solver.h"  // white-box: the implicit product
+#include "support/random_rows.h"
 #include "support/tet_phantom.h"
 
 namespace {
 
 using namespace lamina;
-
-Eigen::MatrixX3d jiggle(const Eigen::MatrixX3d& X, double amplitude, unsigned seed = 3) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-amplitude, amplitude);
-  Eigen::MatrixX3d x = X;
-  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += u(rng);
-  return x;
-}
 
 TEST(TetTerm, ForcesSumToZeroVanishAtRestAndAreMinusTheEnergyGradient) {
   const Model& m = test::tet_phantom();
@@ -38,7 +31,7 @@ TEST(TetTerm, ForcesSumToZeroVanishAtRestAndAreMinusTheEnergyGradient) {
     Eigen::MatrixX3d f = Eigen::MatrixX3d::Zero(m.node_count(), 3);
     sim::internal_forces(s, m.X, f);
     EXPECT_LT(f.cwiseAbs().maxCoeff(), 1e-9) << "rest is an equilibrium";
-    const Eigen::MatrixX3d x = jiggle(m.X, 2.0);
+    const Eigen::MatrixX3d x = test::jiggle(m.X, 2.0, 3);
     f.setZero();
     sim::internal_forces(s, x, f);
     const double scale = f.cwiseAbs().maxCoeff();
@@ -121,7 +114,7 @@ TEST(TetTerm, ImplicitProductIsTheForcesDerivative) {
   sim::Simulation s =
       sim::make_simulation(m, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler});
   sim::step(s);  // linearises at rest (nothing moves: no force)
-  const Eigen::MatrixX3d p = jiggle(Eigen::MatrixX3d::Zero(m.node_count(), 3), 1.0, 9);
+  const Eigen::MatrixX3d p = test::random_rows(m.node_count(), 1.0, 9);
   const double h = 0.1;
   Eigen::MatrixX3d y = Eigen::MatrixX3d::Zero(m.node_count(), 3);
   sim::implicit_system_product(s, h, p, y);
