@@ -279,10 +279,11 @@ int run_serve(const ServeArgs& a) {
   fmt::print(stderr,
              "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "
              "behind); {} clients, {} messages in ({} poses), {} out ({:.1f} MB, {} frames "
-             "skipped), {} connections dropped; max reaction {:.3g} mN\n",
+             "skipped), {} connections dropped; max reaction {:.3g} mN; steps waited for the "
+             "server {} times, at most {:.3f} ms\n",
              snap.steps, snap.time_s, wall_s, rtf, behind_s, c.clients, c.messages_in, poses,
              c.messages_out, static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped,
-             c.dropped, max_reaction_mn);
+             c.dropped, max_reaction_mn, snap.lock_waits, 1e-3 * snap.longest_lock_wait_us);
   return 0;
 }
 

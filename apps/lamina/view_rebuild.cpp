@@ -31,6 +31,12 @@ void ViewSession::State::start_rebuild() {
   });
 }
 
+bool ViewSession::State::rebuild_pending() {
+  if (rebuilding) return true;
+  std::lock_guard lock(rebuild_mutex);
+  return rebuilt != nullptr;  // built, not yet in use (adopted at the next frame)
+}
+
 void ViewSession::State::adopt_rebuilt() {
   std::unique_ptr<ViewModel> next;
   {

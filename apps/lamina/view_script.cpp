@@ -98,13 +98,17 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
         ev.rebuild_skin_vertices = value["skin_vertices"].get<int>();
         if (ev.rebuild_layers < 1 || ev.rebuild_layers > 16 || ev.rebuild_skin_vertices < 50)
           throw invalid_input(at, "layers must be 1..16 and skin_vertices >= 50");
+      } else if (key == "wait") {
+        if (value != "rebuild") throw invalid_input(at, "expected \"rebuild\"");
+        ev.wait_rebuild = true;
       } else if (key == "quit") {
         if (!value.is_boolean()) throw invalid_input(at, "expected true");
         ev.quit = value.get<bool>();
       } else {
-        throw invalid_input(at,
-                            "unknown key (known: at, mouse, over, press, release, shift, "
-                            "scroll, mode, key, screenshot, window_screenshot, rebuild, quit)");
+        throw invalid_input(
+            at,
+            "unknown key (known: at, mouse, over, press, release, shift, "
+            "scroll, mode, key, screenshot, window_screenshot, rebuild, wait, quit)");
       }
     }
     events.push_back(ev);
@@ -123,9 +127,21 @@ ScriptPlayer::ScriptPlayer(std::vector<ScriptEvent> events) : events_(std::move(
     drives_mouse_ |= e.mouse || e.press >= 0 || e.release >= 0 || e.shift || e.scroll != 0.0;
 }
 
-std::vector<ScriptEvent> ScriptPlayer::play(double t, const Eigen::Vector2i& window) {
+void ScriptPlayer::hold(double t) {
+  if (!held()) held_since_s_ = t;
+}
+
+void ScriptPlayer::resume(double t) {
+  if (!held()) return;
+  held_s_ += t - held_since_s_;
+  held_since_s_ = -1.0;
+}
+
+std::vector<ScriptEvent> ScriptPlayer::play(double wall_t, const Eigen::Vector2i& window) {
   using render::InputEvent;
   using render::MouseButton;
+  if (held()) return {};
+  const double t = wall_t - held_s_;  // the script's own clock
   const Eigen::Vector2d size = window.cast<double>();
   if (glide_) {
     const double f =
@@ -157,6 +173,7 @@ std::vector<ScriptEvent> ScriptPlayer::play(double t, const Eigen::Vector2i& win
       render::inject(InputEvent::key_up(e.key));
     }
     due.push_back(e);
+    if (e.wait_rebuild) break;
   }
   return due;
 }

@@ -23,6 +23,9 @@ struct ScriptEvent {
   std::string window_screenshot;         ///< PNG path: the whole window, panels included
   int rebuild_layers = 0;                ///< > 0: rebuild the model with this many layers...
   int rebuild_skin_vertices = 0;         ///< ...and about this many skin vertices
+  /// Hold the script's clock here until the rebuild started before this event is in use, so
+  /// that what follows meets the new model however long this machine takes to build it.
+  bool wait_rebuild = false;
   bool quit = false;
 };
 
@@ -40,14 +43,21 @@ class ScriptPlayer {
   bool drives_mouse() const { return drives_mouse_; }
   /// @param[in] t_s     seconds since the session started
   /// @param[in] window  the window's size, pixels (positions are fractions of it)
-  /// @return the events due by t_s, in order
+  /// @return the events due by t_s, in order; a wait event ends the list (nothing after it is
+  ///         played in the same call, so the caller can hold() the clock first)
   std::vector<ScriptEvent> play(double t_s, const Eigen::Vector2i& window);
+  /// Holds the script's clock from t_s: play() returns nothing until resume(); the events after
+  /// the hold keep their spacing, shifted by how long it lasted.
+  void hold(double t_s);
+  void resume(double t_s);
+  bool held() const { return held_since_s_ >= 0.0; }
 
  private:
   std::vector<ScriptEvent> events_;
   size_t next_ = 0;
   bool drives_mouse_ = false;
-  std::optional<ScriptEvent> glide_;  // a mouse glide in progress
+  double held_since_s_ = -1.0, held_s_ = 0.0;  // a hold in progress; all holds so far
+  std::optional<ScriptEvent> glide_;           // a mouse glide in progress
   Eigen::Vector2d glide_from_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d pos_ = Eigen::Vector2d::Zero();  // where the script put the pointer, pixels
 };

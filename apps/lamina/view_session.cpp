@@ -162,6 +162,10 @@ void ViewSession::State::update_forces() {
 // The script's events due by t: their input is injected by the player (the engine applies it at
 // the start of the coming frame); what is not input is done here.
 void ViewSession::State::act_on_script(double t) {
+  if (script.held()) {
+    if (rebuild_pending()) return;
+    script.resume(t);
+  }
   for (const ScriptEvent& e : script.play(t, render::window_size())) {
     if (!e.mode.empty()) tool_mode = e.mode == "tool";
     if (!e.screenshot.empty()) save_screenshot(e.screenshot);
@@ -171,6 +175,7 @@ void ViewSession::State::act_on_script(double t) {
       rebuild_vertices = e.rebuild_skin_vertices;
       start_rebuild();
     }
+    if (e.wait_rebuild && rebuild_pending()) script.hold(t);
     if (e.quit) quit = true;
   }
 }

@@ -126,6 +126,7 @@ struct ViewSession::State {
   // view_rebuild.cpp
   void start_rebuild();
   void adopt_rebuilt();
+  bool rebuild_pending();  // building, or built and not yet in use
   // view_report.cpp
   void watch_real_time_and_drag(double t);
   nlohmann::json report() const;

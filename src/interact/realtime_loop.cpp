@@ -213,7 +213,8 @@ void RealtimeLoop::one_step() {
   const double t1 = now_s();
   {
     const Eigen::Vector3d reaction = reaction_force(sim_, loads_);
-    std::lock_guard lock(reaction_mutex_);
+    std::unique_lock lock(reaction_mutex_, std::defer_lock);
+    acquire(lock);
     reaction_ = {reaction, sim_.steps, sim_.time_s};
   }
 
@@ -249,7 +250,8 @@ void RealtimeLoop::publish(bool force) {
   // The last step's reaction (one_step computes it for latest_reaction()), not a second pass.
   const Eigen::Vector3d reaction = latest_reaction().reaction_mn;
 
-  std::lock_guard lock(snapshot_mutex_);
+  std::unique_lock lock(snapshot_mutex_, std::defer_lock);
+  acquire(lock);
   LoopSnapshot& s = published_;
   s.x = sim_.x;
   s.stats = last_stats_;
@@ -267,7 +269,17 @@ void RealtimeLoop::publish(bool force) {
   for (const ForceRoute& r : routes_) s.contact_nodes.push_back(r.contact_node);
   if (tip_contact_ >= 0) s.contact_nodes.push_back(tip_contact_);
   s.tool_tip_touching = tip_contact_ >= 0;
+  s.lock_waits = lock_waits_;
+  s.longest_lock_wait_us = longest_lock_wait_us_;
   ++s.generation;
+}
+
+void RealtimeLoop::acquire(std::unique_lock<std::mutex>& lock) {
+  if (lock.try_lock()) return;
+  const double t0 = now_s();
+  lock.lock();
+  ++lock_waits_;
+  longest_lock_wait_us_ = std::max(longest_lock_wait_us_, 1e6 * (now_s() - t0));
 }
 
 void RealtimeLoop::thread_main() {
@@ -280,7 +292,7 @@ void RealtimeLoop::thread_main() {
       apply_pending();
       lock.unlock();
       publish(true);
-      lock.lock();
+      acquire(lock);
       pacer.restart();
       continue;
     }
@@ -292,7 +304,7 @@ void RealtimeLoop::thread_main() {
     one_step();
     publish(false);
 
-    lock.lock();
+    acquire(lock);
     const Pacer::Clock::time_point tick = pacer.advance();
     if (pacer.paced()) wake_.wait_until(lock, tick, [this] { return stop_requested_; });
   }

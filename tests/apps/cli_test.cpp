@@ -1,6 +1,6 @@
-// End-to-end tests of the `lamina` tool: the real binary (LAMINA_CLI) runs in a fresh folder with
-// stdout and stderr captured in files, so exit codes, messages and leftover files are exactly
-// what a user or a script would see.
+// End-to-end tests of the `lamina` tool: the real binary (`test::lamina_cli()`) runs in a fresh
+// folder with stdout and stderr captured in files, so exit codes, messages and leftover files are
+// exactly what a user or a script would see.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -28,6 +28,7 @@
 #include "support/refusal.h"
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina {
 namespace {
@@ -59,7 +60,7 @@ void write_file(const fs::path& path, const std::string& bytes) {
 
 // Runs `lamina ARGS` with `dir` as working directory.
 RunResult run_lamina(const TempDir& dir, const std::string& args) {
-  return test::run_cli(LAMINA_CLI, dir.work, dir.root, args);
+  return test::run_cli(test::lamina_cli(), dir.work, dir.root, args);
 }
 
 // A MetaImage file: a text header, then the raw voxels ("ElementDataFile = LOCAL").

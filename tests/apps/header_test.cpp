@@ -20,6 +20,7 @@
 #include "support/refusal.h"
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina {
 namespace {
@@ -248,7 +249,7 @@ TEST_P(BadHeader, IsRefusedByNameWithExitTwoAndNoOutput) {
   const std::string input = bad.write(dir);
   const std::string args =
       "build " + quoted(dir.file(input)) + " -o " + quoted(dir.file("OUT.vtu"));
-  const RunResult r = test::run_cli(LAMINA_CLI, dir.work, dir.path, args);
+  const RunResult r = test::run_cli(test::lamina_cli(), dir.work, dir.path, args);
   std::vector<std::string> words = bad.message_has;
   words.push_back(input);
   const auto problems = test::refusal_problems(r, words, {"OUT.vtu"}, dir.work);
@@ -271,7 +272,7 @@ TEST(SoundHeader, EachFormatAsTheCasesWriteItBuilds) {
   for (const std::string name : {"sound.nii.gz", "sound.nrrd", "sound.mha"}) {
     SCOPED_TRACE(name);
     const RunResult r =
-        test::run_cli(LAMINA_CLI, dir.work, dir.path,
+        test::run_cli(test::lamina_cli(), dir.work, dir.path,
                       "-q build " + quoted(dir.file(name)) + " -o " + quoted(dir.file("ok.vtu")) +
                           " --skin-vertices 200 --layers 1");
     EXPECT_EQ(r.exit_code, 0) << r.err;

@@ -1,5 +1,5 @@
-// End-to-end tests of `lamina run`: the real binary (LAMINA_CLI) runs a scene into a fresh folder
-// and the files it leaves are read back as ParaView or a script would read them.
+// End-to-end tests of `lamina run`: the real binary (`test::lamina_cli()`) runs a scene into a
+// fresh folder and the files it leaves are read back as ParaView or a script would read them.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -23,6 +23,7 @@
 #include "lamina/model/build_model.h"
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina {
 namespace {
@@ -30,7 +31,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const fs::path kExamples = fs::path(__FILE__).parent_path() / ".." / ".." / "examples";
+const fs::path kExamples = test::source_path("examples");
 
 using test::quoted;
 using test::read_text;
@@ -38,7 +39,7 @@ using test::RunResult;
 
 // Runs `lamina ARGS` in `dir`, with stdout and stderr captured beside it.
 RunResult run_lamina(const test::TempDir& dir, const std::string& args) {
-  return test::run_cli(LAMINA_CLI, dir.path, dir.path, args);
+  return test::run_cli(test::lamina_cli(), dir.path, dir.path, args);
 }
 
 std::vector<std::string> lines_of(const std::string& text) {

@@ -10,7 +10,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <thread>
 
@@ -253,6 +255,50 @@ TEST_F(ViewSessionTest, AScriptedRebuildSwapsTheModelUnderTheRunningSimulation) 
   EXPECT_EQ(r["drags"], 2);
   ASSERT_EQ(r["screenshots"].size(), 1u);
   EXPECT_TRUE(std::filesystem::exists(dir.file("before.png")));
+}
+
+// A script's "wait": "rebuild" holds its clock until the new model is in use, however long the
+// build takes: here the build is held back by the test for a second of frames.
+TEST_F(ViewSessionTest, AScriptWaitsForItsRebuildHoweverLongItTakes) {
+  test::TempDir dir;
+  std::ofstream(dir.file("wait.json"))
+      << R"({"events": [{"at": 0.0, "rebuild": {"layers": 3, "skin_vertices": 400}},
+                        {"at": 0.0, "wait": "rebuild"},
+                        {"at": 0.1, "screenshot": ")"
+      << dir.file("after.png") << R"("}]})";
+  ViewOptions o = fast_options();
+  o.script = dir.file("wait.json");
+  std::atomic<bool> build_may_finish{false};
+  o.rebuild = [&](int32_t layers, int32_t skin_vertices, const ProgressFn& progress) {
+    while (!build_may_finish) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    LabelVolume v = test::empty_volume(50, 1.0);
+    test::paint_sphere(v, v.frame.to_physical(24.5, 24.5, 24.5), 20.0, 1);
+    ViewModel vm;
+    vm.model =
+        model::build_model(v, {.layers = layers, .skin_vertices = skin_vertices}, progress).model;
+    vm.fixed = posterior_cap(vm.model);
+    return vm;
+  };
+  ViewSession s(o, sphere_view_model());
+  // Declared after the session, so destroyed before it: a failed check below still lets the
+  // build finish before the session joins its thread.
+  struct Release {
+    std::atomic<bool>& flag;
+    ~Release() { flag = true; }
+  } release{build_may_finish};
+  s.start();
+  frames_until(
+      s, [] { return false; }, 1.0);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("after.png")))
+      << "the script went on before the model it waits for was in use";
+  EXPECT_EQ(s.report()["rebuilds"], 0);
+  build_may_finish = true;
+  ASSERT_TRUE(frames_until(
+      s, [&] { return std::filesystem::exists(dir.file("after.png")); }, 120.0))
+      << "the script did not go on after the rebuild";
+  EXPECT_EQ(s.report()["rebuilds"], 1);
+  EXPECT_EQ(s.model().layer_count(), 3);
+  s.finish();
 }
 
 }  // namespace

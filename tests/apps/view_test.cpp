@@ -12,6 +12,7 @@
 
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina {
 namespace {
@@ -45,13 +46,24 @@ TEST(View, ScriptedDragMovesTheSkinAndReleaseLetsItReturn) {
     {"at": 2.0, "screenshot": "dragged.png"},
     {"at": 2.2, "release": "left"},
     {"at": 5.0, "quit": true}]})";
-  const auto r = run_shell(dir, std::string(kXvfb) + quoted(LAMINA_CLI) +
+  const auto r = run_shell(dir, std::string(kXvfb) + quoted(test::lamina_cli()) +
                                     " view --script drag.json --report report.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
   EXPECT_EQ(rep["drags"], 1);
-  EXPECT_GE(rep["frames"].get<int>(), 10) << "the window did not keep drawing";
-  EXPECT_GT(rep["sim_steps"].get<int>(), 500) << "the simulation thread did not run";
+  // How many frames and steps a machine gives is its own (lamina bench measures speed): here the
+  // window drew (the screenshot below is a frame after the drag), the simulation thread stepped,
+  // and the report says honestly how it kept up, as in RealMouseEventsFromXdotoolDragTheOrgan.
+  EXPECT_GT(rep["frames"].get<int>(), 0) << "the window did not draw";
+  EXPECT_GT(rep["sim_steps"].get<int>(), 0) << "the simulation thread did not run";
+  const double rtf = rep["real_time_factor"].get<double>();
+  ASSERT_GT(rep["min_real_time_factor"].get<double>(), 0.0) << "real time not measured";
+  EXPECT_NEAR(rep["achieved_rate_hz"].get<double>() * rep["dt_s"].get<double>(), rtf, 0.02 * rtf)
+      << "the simulated clock is not the steps taken";
+  EXPECT_EQ(rep["fell_behind"].get<bool>(), rep["min_real_time_factor"].get<double>() < 0.95);
+  EXPECT_EQ(r.err.find("fell behind real time") != std::string::npos,
+            rep["fell_behind"].get<bool>())
+      << r.err;
   EXPECT_GT(rep["max_displacement_mm"].get<double>(), 2.0) << "the drag did not move the skin";
   EXPECT_LT(rep["final_max_displacement_mm"].get<double>(),
             0.8 * rep["max_displacement_mm"].get<double>())
@@ -63,21 +75,17 @@ TEST(View, ScriptedDragMovesTheSkinAndReleaseLetsItReturn) {
 
 TEST(View, RebuildSwapsTheModelUnderTheRunningSimulation) {
   test::TempDir dir;
-  // The rebuild runs while the script's clock goes on: under the sanitizers it takes 3-4x longer,
-  // so the drag that follows it waits that much longer too.
-#ifdef LAMINA_SANITIZED
-  const double wait = 20.0;
-#else
-  const double wait = 5.0;
-#endif
+  // The rebuild takes as long as this machine needs (3-4x longer under the sanitizers): the
+  // script's clock waits for the new model, and the drag follows it.
   std::ofstream(dir.path / "rebuild.json") << R"({"events": [
     {"at": 0.3, "rebuild": {"layers": 3, "skin_vertices": 800}},
-    {"at": )" << wait << R"(, "mouse": [0.5, 0.5]},
-    {"at": )" << wait + 0.2 << R"(, "press": "left"},
-    {"at": )" << wait + 0.3 << R"(, "mouse": [0.5, 0.4], "over": 0.5},
-    {"at": )" << wait + 1.5 << R"(, "release": "left"},
-    {"at": )" << wait + 2.0 << R"(, "quit": true}]})";
-  const auto r = run_shell(dir, std::string(kXvfb) + quoted(LAMINA_CLI) +
+    {"at": 0.3, "wait": "rebuild"},
+    {"at": 0.6, "mouse": [0.5, 0.5]},
+    {"at": 0.8, "press": "left"},
+    {"at": 0.9, "mouse": [0.5, 0.4], "over": 0.5},
+    {"at": 2.1, "release": "left"},
+    {"at": 2.6, "quit": true}]})";
+  const auto r = run_shell(dir, std::string(kXvfb) + quoted(test::lamina_cli()) +
                                     " view --script rebuild.json --report report.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
@@ -101,7 +109,7 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
   // failure below shows its cause. The window is probed hidden: before, xdotool could find a probe
   // window that vanished a moment later and send its drag nowhere (BadWindow).
   const std::string session =
-      quoted(LAMINA_CLI) + " -v view --script quit.json --report report.json & " +
+      quoted(test::lamina_cli()) + " -v view --script quit.json --report report.json & " +
       "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
       "xdotool mousemove --window $w 700 450 sleep 0.5 mousedown 1 sleep 1.0 "
       "mousemove --window $w 700 420 sleep 0.2 mousemove --window $w 700 380 sleep 0.2 "
@@ -137,7 +145,7 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
 TEST(View, WithoutADisplaySaysSoAndSuggestsRender) {
   test::TempDir dir;
   const auto r =
-      run_shell(dir, "env -u DISPLAY -u WAYLAND_DISPLAY " + quoted(LAMINA_CLI) + " view");
+      run_shell(dir, "env -u DISPLAY -u WAYLAND_DISPLAY " + quoted(test::lamina_cli()) + " view");
   EXPECT_EQ(r.exit_code, 4);
   EXPECT_NE(r.err.find("no display"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("lamina render"), std::string::npos) << r.err;
@@ -148,31 +156,31 @@ TEST(View, BadScriptIsRejectedBeforeAnyWindow) {
   test::TempDir dir;
   std::ofstream(dir.path / "bad.json") << R"({"events": [{"at": 1, "press": "thumb"}]})";
   const auto r =
-      run_shell(dir, std::string(kXvfb) + quoted(LAMINA_CLI) + " view --script bad.json");
+      run_shell(dir, std::string(kXvfb) + quoted(test::lamina_cli()) + " view --script bad.json");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("bad.json: events[0].press"), std::string::npos) << r.err;
 }
 
 TEST(Render, WritesAPictureWithNoDisplayAndRejectsBadOptions) {
   test::TempDir dir;
-  auto r = run_shell(dir, "env -u DISPLAY " + quoted(LAMINA_CLI) +
+  auto r = run_shell(dir, "env -u DISPLAY " + quoted(test::lamina_cli()) +
                               " render phantom -o poke.png --at 0.8 --size 320x240");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(is_png(dir.path / "poke.png"));
   EXPECT_NE(r.out.find("1 tool(s) acting"), std::string::npos) << r.out;
 
-  r = run_shell(dir, quoted(LAMINA_CLI) + " render phantom -o bad.png --camera 10,100");
+  r = run_shell(dir, quoted(test::lamina_cli()) + " render phantom -o bad.png --camera 10,100");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--camera"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir.path / "bad.png"));
-  r = run_shell(dir, quoted(LAMINA_CLI) + " render phantom -o picture.jpg");
+  r = run_shell(dir, quoted(test::lamina_cli()) + " render phantom -o picture.jpg");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_FALSE(fs::exists(dir.path / "picture.jpg"));
 }
 
 TEST(Figures, QuickRunWritesEveryFigureAndItsData) {
   test::TempDir dir;
-  const auto r = run_shell(dir, quoted(LAMINA_CLI) + " figures --quick -o figs");
+  const auto r = run_shell(dir, quoted(test::lamina_cli()) + " figures --quick -o figs");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (const char* png :
        {"fig4_trajectories.png", "fig5_timing.png", "fig6_snapshots.png", "volume_change.png"})
@@ -203,7 +211,7 @@ TEST(Figures, QuickRunWritesEveryFigureAndItsData) {
 
 TEST(Bench, QuickRunReportsEveryKeyForTwoModels) {
   test::TempDir dir;
-  const auto r = run_shell(dir, quoted(LAMINA_CLI) + " bench --quick --json");
+  const auto r = run_shell(dir, quoted(test::lamina_cli()) + " bench --quick --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json j = json::parse(r.out);
   EXPECT_GT(j["memory_bandwidth_gb_s"].get<double>(), 0.1);
@@ -233,7 +241,8 @@ TEST(Bench, QuickRunReportsEveryKeyForTwoModels) {
 
 TEST(Figures, BadInputIsOneLineAndLeavesNoFolder) {
   test::TempDir dir;
-  const auto r = run_shell(dir, quoted(LAMINA_CLI) + " figures --input nosuch.nii.gz -o figs");
+  const auto r =
+      run_shell(dir, quoted(test::lamina_cli()) + " figures --input nosuch.nii.gz -o figs");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("nosuch.nii.gz"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;

@@ -1,4 +1,5 @@
-# cmake -DBUILD=<lamina build dir> -DSOURCE=<this folder> -DWORK=<scratch folder> -P consumer_test.cmake
+# cmake -DBUILD=<lamina build dir> -DSOURCE=<this folder> -DWORK=<scratch folder>
+#       [-DPYTHON=<interpreter>] [-DCCACHE=<ccache> -DCCACHE_BASEDIR=<source dir>] -P consumer_test.cmake
 # Installs the build into a fresh prefix, then configures, builds and runs tests/embedding/consumer
 # against it, as another project would: only CMAKE_PREFIX_PATH is given.
 function(run)
@@ -19,8 +20,17 @@ foreach(f bin/lamina include/lamina/c_api.h lib/cmake/lamina/laminaConfig.cmake)
 endforeach()
 # The installed tool finds its libraries from where it is (RPATH $ORIGIN/../lib).
 run(${prefix}/bin/lamina --version)
+# Compiled through ccache as the project is (cmake/ccache.cmake), when the project used it: the
+# prefix and the consumer's source lie under the same base_dir, so another clone's run hits.
+set(launcher)
+if(CCACHE)
+  set(ENV{CCACHE_BASEDIR} ${CCACHE_BASEDIR})
+  set(ENV{CCACHE_DEPEND} 1)
+  set(launcher -DCMAKE_CXX_COMPILER_LAUNCHER=${CCACHE}
+               "-DCMAKE_CXX_FLAGS=-ffile-prefix-map=${CCACHE_BASEDIR}=.")
+endif()
 run(${CMAKE_COMMAND} -S ${SOURCE}/consumer -B ${WORK}/build -G Ninja -DCMAKE_BUILD_TYPE=Release
-    -DCMAKE_PREFIX_PATH=${prefix})
+    -DCMAKE_PREFIX_PATH=${prefix} ${launcher})
 run(${CMAKE_COMMAND} --build ${WORK}/build)
 run(${WORK}/build/poke ${WORK}/poke.png)
 file(SIZE ${WORK}/poke.png png_bytes)

@@ -27,6 +27,7 @@
 #include "support/refusal.h"
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina::io {
 namespace {
@@ -256,7 +257,7 @@ TEST_P(BadSeries, IsRefusedByNameWithExitTwoAndNoOutput) {
   ASSERT_NO_FATAL_FAILURE(GetParam().write(scans));
   const std::string args =
       "build " + test::quoted(scans.string()) + " -o " + test::quoted((work / "OUT.vtu").string());
-  const test::RunResult r = test::run_cli(LAMINA_CLI, work, dir.path, args);
+  const test::RunResult r = test::run_cli(test::lamina_cli(), work, dir.path, args);
   std::vector<std::string> words = GetParam().message_has;
   words.push_back("scans");
   const auto problems = test::refusal_problems(r, words, {"OUT.vtu"}, work);

@@ -16,13 +16,13 @@
 #include "lamina/io/model_file.h"
 #include "lamina/io/scene.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kRegressions =
-    fs::path(__FILE__).parent_path() / ".." / ".." / "fuzz" / "regressions";
+const fs::path kRegressions = test::source_path("fuzz/regressions");
 
 std::string bytes_of(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);

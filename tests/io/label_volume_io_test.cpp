@@ -16,6 +16,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/grid.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina::io {
 namespace {
@@ -137,7 +138,7 @@ class SharedData : public ::testing::TestWithParam<SharedMask> {};
 
 TEST_P(SharedData, MatchesProvenance) {
   const SharedMask& m = GetParam();
-  const LabelVolume v = read_label_volume(std::string(LAMINA_SHARED_DATA) + "/" + m.file);
+  const LabelVolume v = read_label_volume(test::shared_data(m.file));
   EXPECT_EQ(v.frame.size, m.size);
   for (int a = 0; a < 3; ++a) EXPECT_NEAR(v.frame.spacing_mm[a], m.spacing_mm, 1e-6);
   // ITK reports patient LPS: a positive-diagonal RAS affine becomes direction diag(-1, -1, 1)

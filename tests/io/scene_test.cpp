@@ -17,6 +17,7 @@
 #include "lamina/model/compute_rings.h"
 #include "support/sphere_model.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace lamina::io {
 namespace {
@@ -489,7 +490,7 @@ TEST(LoadScene, MissingFileIsAnInputErrorNamingIt) {
 }
 
 TEST(LoadScene, EveryShippedExampleParsesWithoutWarnings) {
-  const fs::path examples = fs::path(__FILE__).parent_path() / ".." / ".." / "examples";
+  const fs::path examples = test::source_path("examples");
   int count = 0;
   for (const auto& e : fs::directory_iterator(examples)) {
     if (e.path().extension() != ".json") continue;

@@ -16,6 +16,7 @@
 #include "lamina/io/model_file.h"
 #include "lamina/model/compute_rings.h"
 #include "lamina/model/summarize_model.h"
+#include "support/test_paths.h"
 #include "support/volumes.h"
 
 namespace {
@@ -27,9 +28,8 @@ const model::BuildResult& built(const std::string& input) {
   static std::map<std::string, model::BuildResult> cache;
   auto it = cache.find(input);
   if (it == cache.end()) {
-    const LabelVolume v =
-        input == "phantom" ? geometry::make_phantom()
-                           : io::read_label_volume(std::string(LAMINA_SHARED_DATA) + "/" + input);
+    const LabelVolume v = input == "phantom" ? geometry::make_phantom()
+                                             : io::read_label_volume(test::shared_data(input));
     it = cache.emplace(input, model::build_model(v, {})).first;
   }
   return it->second;
@@ -290,7 +290,7 @@ TEST(BuildModel, SkinFromTheSofaVoxelisationLiesOnTheOriginalSofaMesh) {
   // rebuild from it must lie on that mesh to within about a voxel. The OBJ is in the NIfTI's
   // RAS frame; ITK (and so Lamina) works in LPS: x and y flip.
   const auto& b = built("liver_sofa_smooth_voxelized_1mm.nii.gz");
-  SurfaceMesh sofa = io::read_obj(std::string(LAMINA_SHARED_DATA) + "/liver_sofa_smooth_mm.obj");
+  SurfaceMesh sofa = io::read_obj(test::shared_data("liver_sofa_smooth_mm.obj"));
   sofa.V.col(0) *= -1.0;
   sofa.V.col(1) *= -1.0;
   const SurfaceMesh skin = model::layer_mesh(b.model, 0);

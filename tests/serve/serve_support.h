@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "support/run_cli.h"
+#include "support/test_paths.h"
 
 extern char** environ;
 
@@ -101,7 +102,7 @@ class Child {
 class Server {
  public:
   Server(const std::filesystem::path& dir, const std::vector<std::string>& args) {
-    std::vector<std::string> argv = {LAMINA_CLI, "serve"};
+    std::vector<std::string> argv = {lamina_cli(), "serve"};
     argv.insert(argv.end(), args.begin(), args.end());
     argv.insert(argv.end(), {"--port", "0"});
     child_.emplace(argv, dir / "serve_out.txt", dir / "serve_err.txt");
@@ -133,13 +134,16 @@ class Server {
 struct Summary {
   int64_t steps = 0, clients = 0, messages_in = 0, poses = 0, messages_out = 0, dropped = 0;
   double simulated_s = 0.0, wall_s = 0.0, real_time_factor = 0.0, max_reaction_mn = 0.0;
+  int64_t lock_waits = 0;           ///< counted by the simulation's thread
+  double longest_lock_wait_ms = 0;  ///< the longest a step waited for the server's thread
 };
 
 inline std::optional<Summary> parse_summary(const std::string& log) {
   static const std::regex kLine(
       R"(lamina serve: ([0-9]+) steps, ([0-9.]+) s simulated in ([0-9.]+) s \(([0-9.]+)x real )"
       R"(time.*\); ([0-9]+) clients, ([0-9]+) messages in \(([0-9]+) poses\), ([0-9]+) out .*, )"
-      R"(([0-9]+) connections dropped; max reaction ([0-9.e+-]+) mN)");
+      R"(([0-9]+) connections dropped; max reaction ([0-9.e+-]+) mN; steps waited for the )"
+      R"(server ([0-9]+) times, at most ([0-9.]+) ms)");
   std::smatch m;
   if (!std::regex_search(log, m, kLine)) return std::nullopt;
   Summary s;
@@ -153,6 +157,8 @@ inline std::optional<Summary> parse_summary(const std::string& log) {
   s.messages_out = std::stoll(m[8]);
   s.dropped = std::stoll(m[9]);
   s.max_reaction_mn = std::stod(m[10]);
+  s.lock_waits = std::stoll(m[11]);
+  s.longest_lock_wait_ms = std::stod(m[12]);
   return s;
 }
 

@@ -5,6 +5,8 @@
 #include <igtlPolyDataMessage.h>
 #include <igtl_position.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
@@ -71,11 +73,13 @@ double distance_to(const Eigen::MatrixX3d& points, const Eigen::Vector3d& p) {
   return std::sqrt((points.rowwise() - p.transpose()).rowwise().squaredNorm().minCoeff());
 }
 
-#if !defined(IGTL_TRACKER_CLIENT) || !defined(IGTL_POLYDATA_CLIENT)
+#if !defined(IGTL_TRACKER_CLIENT_FROM_TEST) || !defined(IGTL_POLYDATA_CLIENT_FROM_TEST)
 #define IGTL_TRACKER_CLIENT ""
 #define IGTL_POLYDATA_CLIENT ""
 #define SKIP_WITHOUT_EXAMPLES() GTEST_SKIP() << "openigtlink-examples is not installed"
 #else
+#define IGTL_TRACKER_CLIENT beside_test_program(IGTL_TRACKER_CLIENT_FROM_TEST).string()
+#define IGTL_POLYDATA_CLIENT beside_test_program(IGTL_POLYDATA_CLIENT_FROM_TEST).string()
 #define SKIP_WITHOUT_EXAMPLES()
 #endif
 
@@ -123,7 +127,7 @@ TEST(Serve, TheExamplePolyDataClientGetsTheWholeSkin) {
   SKIP_WITHOUT_EXAMPLES();
   TempDir dir;
   // The skin's size, from the model builder on its own.
-  const RunResult built = run_cli(LAMINA_CLI, dir.path, dir.path,
+  const RunResult built = run_cli(lamina_cli(), dir.path, dir.path,
                                   "build phantom -o " + quoted(dir.file("model.vtu")) + " --json");
   ASSERT_EQ(built.exit_code, 0) << built.err;
   const nlohmann::json summary = nlohmann::json::parse(built.out);
@@ -233,17 +237,17 @@ TEST(Serve, TheReactionStreamsAtTheStepRateAndTheSkinAtItsOwn) {
     reactions += m->type == "TRANSFORM" && m->device == "LaminaReaction";
     skins += m->type == "POLYDATA" && m->device == "LaminaSkin";
   }
-  // 1000 steps a second in real time; a loaded 2-core machine keeps less of it, never 30.
-  // Under ASan a step takes about 2.8 ms: some 350 steps a second.
-#ifdef LAMINA_SANITIZED
-  EXPECT_GT(reactions, 100) << server.log();
-#else
-  EXPECT_GT(reactions, 300) << server.log();
-#endif
-  EXPECT_GE(skins, 20);
-  EXPECT_LE(skins, 40);
   const Summary s = stop(server);
   EXPECT_EQ(s.dropped, 0);
+  // One reaction a step, at whatever rate this machine steps (1000 a second in real time; under
+  // ASan about 350): compared with the steps per second the server itself counted over its run,
+  // not with a rate fixed here. The skin keeps its own 30 Hz, never faster.
+  ASSERT_GT(s.wall_s, 0.0);
+  const double steps_per_s = static_cast<double>(s.steps) / s.wall_s;
+  EXPECT_GT(reactions, 0.5 * steps_per_s) << server.log();
+  EXPECT_LT(reactions, 1.1 * steps_per_s + 5.0) << "more reactions than steps\n" << server.log();
+  EXPECT_GT(skins, 0);
+  EXPECT_LE(skins, 40);
 }
 
 TEST(Serve, BadClientsAreDroppedAndTheRestCarriesOn) {
@@ -319,17 +323,27 @@ TEST(Serve, BadClientsAreDroppedAndTheRestCarriesOn) {
   const Summary s = stop(server);
   EXPECT_EQ(s.dropped, 6) << server.log();
   EXPECT_EQ(s.clients, 8);
-  // The steps never waited for the network: real time (a loose bound on a shared machine).
-  EXPECT_GT(s.real_time_factor, 0.5) << server.log();
-  EXPECT_GT(s.simulated_s, 0.5 * busy_s);
+  // The simulation stepped through it all and no step waited on the network, as the stepping
+  // thread counts it: the stalled client held its half header for a second before it was
+  // dropped (--stall-timeout 1), so a step that waited for it would have waited that long.
+  // How fast the steps came is the machine's (lamina bench measures it); the server's part is
+  // to say so when they fell behind.
+  EXPECT_GT(s.steps, 0) << server.log();
+  EXPECT_LT(s.longest_lock_wait_ms, 250.0) << server.log();
+  EXPECT_NEAR(s.simulated_s, s.steps / 500.0, 0.0051) << "--rate 500: 2 ms steps";
+  const bool warned = server.log().find("x real time over the whole run") != std::string::npos;
+  if (s.real_time_factor <= 0.94) EXPECT_TRUE(warned) << server.log();
+  if (s.real_time_factor >= 0.96) EXPECT_FALSE(warned) << server.log();
+  std::fprintf(stderr, "note: %.2f s simulated in %.2f s of bad clients and %.2f s in all\n",
+               s.simulated_s, busy_s, s.wall_s);
 }
 
 TEST(Serve, BadOptionsAndABusyPortAreOneLineErrors) {
   TempDir dir;
-  const RunResult hz = run_cli(LAMINA_CLI, dir.path, dir.path, "serve --send-hz -1");
+  const RunResult hz = run_cli(lamina_cli(), dir.path, dir.path, "serve --send-hz -1");
   EXPECT_EQ(hz.exit_code, 2);
   EXPECT_NE(hz.err.find("--send-hz: must be in [0, 1000]"), std::string::npos) << hz.err;
-  const RunResult frame = run_cli(LAMINA_CLI, dir.path, dir.path, "serve --frame xyz");
+  const RunResult frame = run_cli(lamina_cli(), dir.path, dir.path, "serve --frame xyz");
   EXPECT_EQ(frame.exit_code, 2);
   EXPECT_NE(frame.err.find("--frame: must be ras or lps, got 'xyz'"), std::string::npos);
   // A port someone else listens on: refused before any model is built.
@@ -342,14 +356,16 @@ TEST(Serve, BadOptionsAndABusyPortAreOneLineErrors) {
   socklen_t len = sizeof(a);
   ::getsockname(busy, reinterpret_cast<sockaddr*>(&a), &len);
   const std::string port = std::to_string(ntohs(a.sin_port));
-  const auto t0 = Clock::now();
-  const RunResult taken = run_cli(LAMINA_CLI, dir.path, dir.path, "serve --port " + port);
+  const RunResult taken = run_cli(lamina_cli(), dir.path, dir.path, "serve --port " + port);
   ::close(busy);
   EXPECT_EQ(taken.exit_code, 2);
   EXPECT_NE(taken.err.find("--port: 127.0.0.1:" + port + ": cannot listen: in use"),
             std::string::npos)
       << taken.err;
-  EXPECT_LT(seconds_since(t0), 0.8);  // building the phantom alone takes about a second
+  // Refused before the model was built: the one line is all it said (it listens first, then
+  // builds, and logs "listening on" in between).
+  EXPECT_EQ(std::count(taken.err.begin(), taken.err.end(), '\n'), 1) << taken.err;
+  EXPECT_EQ(taken.err.find("listening on"), std::string::npos) << taken.err;
 }
 
 }  // namespace

@@ -75,6 +75,12 @@ struct LoopSnapshot {
   Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< tissue's push on the tools, mN
   std::vector<int32_t> contact_nodes;  ///< where each live force and the tool tip act
   bool tool_tip_touching = false;
+  /// Since the loop was made: how many times the stepping thread found one of its locks held by
+  /// a caller (setting forces, copying a snapshot) and the longest it waited for one, us. A
+  /// caller holds them only to copy a few values, never while it draws or waits on a network,
+  /// so a wait of more than milliseconds is a bug on any machine (the serve tests check it).
+  int64_t lock_waits = 0;
+  double longest_lock_wait_us = 0.0;
 };
 
 /// The tissue's push back on the tools after one step: updated every step, a haptic device's
@@ -130,6 +136,8 @@ class RealtimeLoop {
   void one_step();
   void publish(bool force);
   void follow_the_clock(double rate_hz);  // dt = 1 / rate in real time
+  // Locks `lock` for the stepping thread, counting the wait when a caller holds it.
+  void acquire(std::unique_lock<std::mutex>& lock);
 
   sim::Simulation sim_;
   RoutingOptions routing_;
@@ -170,6 +178,8 @@ class RealtimeLoop {
   bool keeping_up_ = true;
   double published_worst_jitter_ = 0.0;
   double late_us_ = 0.0;  // how late the current step started, us
+  int64_t lock_waits_ = 0;
+  double longest_lock_wait_us_ = 0.0;
 
   // The last step's reaction, guarded by reaction_mutex_ (a lock per step, held for a copy of
   // five numbers: the snapshot's lock is held while positions are copied).
