@@ -72,7 +72,7 @@ void ViewSession::State::start_left_gesture(const render::Input& in) {
     last_drag_node = hit.node;
     drag_peak_mm = 0.0;
     drag_peak_node = -1;
-    released_at_s = -1.0;
+    released_at_sim_s = -1.0;
     settle_3s_mm = -1.0;
     ++drags;
     last_press = where + ": drag node " + std::to_string(hit.node);
@@ -126,7 +126,7 @@ void ViewSession::State::handle_mouse(const render::Input& in) {
         if (in.shift && drag_force.norm() > 0.0) pinned.push_back({drag_node, drag_force});
         gesture = Gesture::kNone;
         drag_force.setZero();
-        released_at_s = seconds();
+        released_at_sim_s = snap.time_s;
       }
       update_forces();
       break;

@@ -54,7 +54,7 @@ void ViewSession::State::adopt_rebuilt() {
   // in the new one: it ends with the old model.
   last_drag_node = drag_peak_node = -1;
   drag_peak_mm = 0.0;
-  released_at_s = settle_3s_mm = -1.0;
+  released_at_sim_s = settle_3s_mm = -1.0;
   start_loop();
   ++rebuilds;
   status =

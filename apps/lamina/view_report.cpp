@@ -34,8 +34,12 @@ void ViewSession::State::watch_real_time_and_drag(double t) {
     const double peak = (snap.x - vm->model.X).rowwise().norm().maxCoeff(&node);
     if (peak > drag_peak_mm) drag_peak_mm = peak, drag_peak_node = static_cast<int32_t>(node);
   }
-  if (released_at_s >= 0.0 && settle_3s_mm < 0.0 && t >= released_at_s + 3.0)
-    settle_3s_mm = snap.stats.max_displacement_mm;
+  if (released_at_sim_s >= 0.0 && settle_3s_mm < 0.0) {
+    if (snap.time_s < released_at_sim_s)
+      released_at_sim_s = -1.0;  // reset to time 0 since: nothing to measure
+    else if (snap.time_s >= released_at_sim_s + 3.0)
+      settle_3s_mm = snap.stats.max_displacement_mm;
+  }
 }
 
 nlohmann::json ViewSession::State::report() const {

@@ -99,8 +99,9 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
         if (ev.rebuild_layers < 1 || ev.rebuild_layers > 16 || ev.rebuild_skin_vertices < 50)
           throw invalid_input(at, "layers must be 1..16 and skin_vertices >= 50");
       } else if (key == "wait") {
-        if (value != "rebuild") throw invalid_input(at, "expected \"rebuild\"");
-        ev.wait_rebuild = true;
+        if (value != "rebuild" && value != "settled")
+          throw invalid_input(at, "expected \"rebuild\" or \"settled\"");
+        ev.wait = value.get<std::string>();
       } else if (key == "quit") {
         if (!value.is_boolean()) throw invalid_input(at, "expected true");
         ev.quit = value.get<bool>();
@@ -173,7 +174,7 @@ std::vector<ScriptEvent> ScriptPlayer::play(double wall_t, const Eigen::Vector2i
       render::inject(InputEvent::key_up(e.key));
     }
     due.push_back(e);
-    if (e.wait_rebuild) break;
+    if (!e.wait.empty()) break;
   }
   return due;
 }

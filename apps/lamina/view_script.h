@@ -23,9 +23,10 @@ struct ScriptEvent {
   std::string window_screenshot;         ///< PNG path: the whole window, panels included
   int rebuild_layers = 0;                ///< > 0: rebuild the model with this many layers...
   int rebuild_skin_vertices = 0;         ///< ...and about this many skin vertices
-  /// Hold the script's clock here until the rebuild started before this event is in use, so
-  /// that what follows meets the new model however long this machine takes to build it.
-  bool wait_rebuild = false;
+  /// Hold the script's clock here until something that takes this machine's own time is done:
+  /// "rebuild" (the model a rebuild before this event asked for is in use) or "settled" (3
+  /// simulated seconds have passed since the last drag's release, and the report measured it).
+  std::string wait;
   bool quit = false;
 };
 

@@ -163,7 +163,7 @@ void ViewSession::State::update_forces() {
 // the start of the coming frame); what is not input is done here.
 void ViewSession::State::act_on_script(double t) {
   if (script.held()) {
-    if (rebuild_pending()) return;
+    if (waiting_for(script_wait)) return;
     script.resume(t);
   }
   for (const ScriptEvent& e : script.play(t, render::window_size())) {
@@ -175,9 +175,19 @@ void ViewSession::State::act_on_script(double t) {
       rebuild_vertices = e.rebuild_skin_vertices;
       start_rebuild();
     }
-    if (e.wait_rebuild && rebuild_pending()) script.hold(t);
+    if (!e.wait.empty() && waiting_for(e.wait)) {
+      script_wait = e.wait;
+      script.hold(t);
+    }
     if (e.quit) quit = true;
   }
+}
+
+// Whether what a script's "wait" names is still under way.
+bool ViewSession::State::waiting_for(const std::string& what) {
+  if (what == "rebuild") return rebuild_pending();
+  // "settled": a release whose 3-second record is not yet taken.
+  return released_at_sim_s >= 0.0 && settle_3s_mm < 0.0;
 }
 
 // Once a frame, inside the engine's frame_tick(): the simulation's latest state, then the input,

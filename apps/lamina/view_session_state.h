@@ -85,6 +85,7 @@ struct ViewSession::State {
 
   // Script, frames and report.
   ScriptPlayer script{{}};
+  std::string script_wait;  // what the script, while held, waits for
   bool quit = false;
   bool started = false;
   int64_t frames = 0;
@@ -97,7 +98,9 @@ struct ViewSession::State {
   bool behind_seen = false;
   double drag_peak_mm = 0.0;
   int32_t drag_peak_node = -1, last_drag_node = -1;
-  double released_at_s = -1.0, settle_3s_mm = -1.0;
+  // The last release, in simulated seconds, and the largest displacement 3 simulated seconds
+  // later (-1: not yet): the simulation's own clock, so that a slow machine measures the same.
+  double released_at_sim_s = -1.0, settle_3s_mm = -1.0;
   Clock::time_point start_time = Clock::now();  // start()'s clock, which scripts also follow
   std::vector<std::string> screenshots;
   std::string status;
@@ -126,7 +129,8 @@ struct ViewSession::State {
   // view_rebuild.cpp
   void start_rebuild();
   void adopt_rebuilt();
-  bool rebuild_pending();  // building, or built and not yet in use
+  bool rebuild_pending();                     // building, or built and not yet in use
+  bool waiting_for(const std::string& what);  // a script's "wait" still under way
   // view_report.cpp
   void watch_real_time_and_drag(double t);
   nlohmann::json report() const;
