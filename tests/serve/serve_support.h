@@ -195,6 +195,9 @@ class Client {
     if (fd_ >= 0) ::close(fd_);
     fd_ = -1;
   }
+  /// Ends the sending side (FIN): the server reads the end of the stream. (A close() with the
+  /// server's streamed frames unread would reset the connection instead, a different case.)
+  void hang_up() { ::shutdown(fd_, SHUT_WR); }
 
   void send_bytes(const std::vector<uint8_t>& bytes) {
     ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);

@@ -293,11 +293,12 @@ TEST(Serve, BadClientsAreDroppedAndTheRestCarriesOn) {
     Client bad(server.port());
     const std::string peer = bad.peer();
     bad.send_bytes(c.bytes);
-    if (c.hang_up) {
-      bad.close();
-    } else {
-      EXPECT_TRUE(bad.closed_by_server(3.0));
-    }
+    // A client that hangs up mid-message closes its side and then reads until the server has
+    // closed too: closing at once, with the skin frames the server streams to every client
+    // unread, would reset the connection (logged as "connection failed: Connection reset by
+    // peer", the race a loaded machine met).
+    if (c.hang_up) bad.hang_up();
+    EXPECT_TRUE(bad.closed_by_server(3.0));
     // One line, naming the client and the problem.
     const auto logged = Clock::now();
     while (server.log().find(peer + ": " + c.logged) == std::string::npos &&
