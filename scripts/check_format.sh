@@ -14,10 +14,20 @@ if [ "${1:-}" = "--fix" ]; then
   "$format" -i "${files[@]}"
   exit 0
 fi
-bad=()
-for f in "${files[@]}"; do
-  "$format" --dry-run --Werror "$f" >/dev/null 2>&1 || bad+=("$f")
-done
+# Batches of files on every core (one clang-format per file took 27 s on a 2-core machine, three
+# times in each CI run); each unformatted file is named in clang-format's own report.
+set +e
+report=$(printf '%s\0' "${files[@]}" |
+  xargs -0 -P "$(nproc)" -n 32 "$format" --dry-run --Werror 2>&1 >/dev/null)
+status=$?
+set -e
+mapfile -t bad < <(grep -oE '^[^:]+:[0-9]+:[0-9]+: error: code should be clang-formatted' \
+  <<<"$report" | cut -d: -f1 | sort -u)
+if ((status != 0 && ${#bad[@]} == 0)); then
+  echo "check_format: $format failed:" >&2
+  echo "$report" | head -n 20 >&2
+  exit 2
+fi
 if ((${#bad[@]})); then
   echo "check_format: ${#bad[@]} of ${#files[@]} files are not formatted (.clang-format):" >&2
   printf '  %s\n' "${bad[@]}" >&2
