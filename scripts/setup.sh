@@ -10,7 +10,7 @@ pkgs=(
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libmeshoptimizer-dev libtet1.5-dev libgtest-dev libgmock-dev libbenchmark-dev
   zlib1g-dev
-  # every compile goes through ccache (cmake/ccache.cmake; docs/testing.md, "Cached builds")
+  # every compile goes through ccache (cmake/ccache.cmake)
   ccache
   # render module, viewer and figures: GLFW + libepoxy + Dear ImGui + stb, Mesa's EGL
   # surfaceless (headless) and llvmpipe, Xvfb and xdotool (the viewer test), gnuplot (plots)

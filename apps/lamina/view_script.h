@@ -47,18 +47,20 @@ class ScriptPlayer {
   /// @return the events due by t_s, in order; a wait event ends the list (nothing after it is
   ///         played in the same call, so the caller can hold() the clock first)
   std::vector<ScriptEvent> play(double t_s, const Eigen::Vector2i& window);
-  /// Holds the script's clock from t_s: play() returns nothing until resume(); the events after
-  /// the hold keep their spacing, shifted by how long it lasted.
-  void hold(double t_s);
+  /// Holds the script's clock from t_s for what a wait event names: play() returns nothing until
+  /// resume(); the events after the hold keep their spacing, shifted by how long it lasted.
+  void hold(double t_s, const std::string& what);
   void resume(double t_s);
   bool held() const { return held_since_s_ >= 0.0; }
+  const std::string& held_for() const { return held_for_; }  ///< the wait being held for
 
  private:
   std::vector<ScriptEvent> events_;
   size_t next_ = 0;
   bool drives_mouse_ = false;
   double held_since_s_ = -1.0, held_s_ = 0.0;  // a hold in progress; all holds so far
-  std::optional<ScriptEvent> glide_;           // a mouse glide in progress
+  std::string held_for_;
+  std::optional<ScriptEvent> glide_;  // a mouse glide in progress
   Eigen::Vector2d glide_from_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d pos_ = Eigen::Vector2d::Zero();  // where the script put the pointer, pixels
 };

@@ -163,7 +163,7 @@ void ViewSession::State::update_forces() {
 // the start of the coming frame); what is not input is done here.
 void ViewSession::State::act_on_script(double t) {
   if (script.held()) {
-    if (waiting_for(script_wait)) return;
+    if (waiting_for(script.held_for())) return;
     script.resume(t);
   }
   for (const ScriptEvent& e : script.play(t, render::window_size())) {
@@ -175,10 +175,7 @@ void ViewSession::State::act_on_script(double t) {
       rebuild_vertices = e.rebuild_skin_vertices;
       start_rebuild();
     }
-    if (!e.wait.empty() && waiting_for(e.wait)) {
-      script_wait = e.wait;
-      script.hold(t);
-    }
+    if (!e.wait.empty() && waiting_for(e.wait)) script.hold(t, e.wait);
     if (e.quit) quit = true;
   }
 }

@@ -85,7 +85,6 @@ struct ViewSession::State {
 
   // Script, frames and report.
   ScriptPlayer script{{}};
-  std::string script_wait;  // what the script, while held, waits for
   bool quit = false;
   bool started = false;
   int64_t frames = 0;

@@ -45,6 +45,18 @@ ViewModel sphere_view_model() {
   return vm;
 }
 
+// What the tests' rebuild callback builds: a sphere mask meshed with the asked layers and skin.
+ViewModel rebuilt_sphere(int32_t layers, int32_t skin_vertices, const ProgressFn& progress) {
+  LabelVolume v = test::empty_volume(50, 1.0);
+  test::paint_sphere(v, v.frame.to_physical(24.5, 24.5, 24.5), 20.0, 1);
+  ViewModel vm;
+  vm.model =
+      model::build_model(v, {.layers = layers, .skin_vertices = skin_vertices}, progress).model;
+  vm.fixed = posterior_cap(vm.model);
+  vm.source = "a rebuilt sphere";
+  return vm;
+}
+
 ViewOptions fast_options() {
   ViewOptions o;
   o.rate_hz = 0.0;         // as fast as possible, at the solver's 10 ms step
@@ -208,14 +220,7 @@ TEST_F(ViewSessionTest, AScriptedRebuildSwapsTheModelUnderTheRunningSimulation) 
   int rebuilds_asked = 0;
   o.rebuild = [&](int32_t layers, int32_t skin_vertices, const ProgressFn& progress) {
     ++rebuilds_asked;
-    LabelVolume v = test::empty_volume(50, 1.0);
-    test::paint_sphere(v, v.frame.to_physical(24.5, 24.5, 24.5), 20.0, 1);
-    ViewModel vm;
-    vm.model =
-        model::build_model(v, {.layers = layers, .skin_vertices = skin_vertices}, progress).model;
-    vm.fixed = posterior_cap(vm.model);
-    vm.source = "a rebuilt sphere";
-    return vm;
+    return rebuilt_sphere(layers, skin_vertices, progress);
   };
   ViewSession s(o, sphere_view_model());
   EXPECT_FALSE(s.script_drives_mouse());
@@ -271,13 +276,7 @@ TEST_F(ViewSessionTest, AScriptWaitsForItsRebuildHoweverLongItTakes) {
   std::atomic<bool> build_may_finish{false};
   o.rebuild = [&](int32_t layers, int32_t skin_vertices, const ProgressFn& progress) {
     while (!build_may_finish) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    LabelVolume v = test::empty_volume(50, 1.0);
-    test::paint_sphere(v, v.frame.to_physical(24.5, 24.5, 24.5), 20.0, 1);
-    ViewModel vm;
-    vm.model =
-        model::build_model(v, {.layers = layers, .skin_vertices = skin_vertices}, progress).model;
-    vm.fixed = posterior_cap(vm.model);
-    return vm;
+    return rebuilt_sphere(layers, skin_vertices, progress);
   };
   ViewSession s(o, sphere_view_model());
   // Declared after the session, so destroyed before it: a failed check below still lets the
