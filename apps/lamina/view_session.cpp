@@ -175,7 +175,9 @@ void ViewSession::State::act_on_script(double t) {
       rebuild_vertices = e.rebuild_skin_vertices;
       start_rebuild();
     }
-    if (!e.wait.empty() && waiting_for(e.wait)) script.hold(t, e.wait);
+    // Held at once, and judged from the next frame on: the input played with it (a release
+    // just before a "settled") reaches the gestures only in this frame's tick.
+    if (!e.wait.empty()) script.hold(t, e.wait);
     if (e.quit) quit = true;
   }
 }

@@ -300,5 +300,30 @@ TEST_F(ViewSessionTest, AScriptWaitsForItsRebuildHoweverLongItTakes) {
   s.finish();
 }
 
+// "wait": "settled" played in the same frame as the release before it still waits for the 3
+// simulated seconds after that release: the release reaches the gestures only when the frame
+// runs, after the script has been played.
+TEST_F(ViewSessionTest, AScriptWaitsForTheOrganToSettleAfterItsRelease) {
+  test::TempDir dir;
+  std::ofstream(dir.file("settle.json")) << R"({"events": [{"at": 0.0, "mouse": [0.5, 0.5]},
+                        {"at": 0.05, "press": "left"},
+                        {"at": 0.1, "mouse": [0.5, 0.4], "over": 0.2},
+                        {"at": 0.5, "release": "left"},
+                        {"at": 0.5, "wait": "settled"},
+                        {"at": 0.5, "screenshot": ")"
+                                         << dir.file("settled.png") << R"("}]})";
+  ViewOptions o = fast_options();
+  o.rate_hz = 1000.0;  // real time: 3 simulated seconds take 3 s here, not one frame
+  o.script = dir.file("settle.json");
+  ViewSession s(o, sphere_view_model());
+  s.start();
+  ASSERT_TRUE(frames_until(s, [&] { return std::filesystem::exists(dir.file("settled.png")); }))
+      << "the script never went on";
+  EXPECT_EQ(s.report()["drags"], 1) << s.last_press();
+  EXPECT_GE(s.report()["max_displacement_3s_after_release_mm"].get<double>(), 0.0)
+      << "the script went on before the 3 simulated seconds after the release";
+  s.finish();
+}
+
 }  // namespace
 }  // namespace lamina::cli
