@@ -116,47 +116,65 @@ double time_steps(const Model& m, const std::vector<int32_t>& fixed, const inter
 }
 
 // The physical liver (the default scene: tetrahedra, E and nu, support, implicit Euler) at
-// a skin size and dt, under the scene's poke held: median microseconds per step over batches.
-struct PhysicalResult {
+// a skin size and dt, under the scene's poke held: median microseconds per step over batches,
+// the CG iterations a step, and the setup (model build; the scene's preparation, the slowest
+// vibration and the preconditioner's hierarchy included) in seconds.
+struct PhysicalCase {
   std::string name;
-  int32_t nodes = 0, skin_vertices = 0;
-  int64_t tets = 0;
-  double dt_s = 0.0, build_s = 0.0, us_per_step = 0.0, cg_iterations = 0.0;
+  int32_t skin_vertices = 0;
+  double dt_s = 0.0;
+  int steps = 0, batches = 0;
   double target_steps_per_second = 0.0;
+  sim::Preconditioner preconditioner = sim::Preconditioner::kAuto;
 };
 
-PhysicalResult time_physical(const std::string& name, int32_t skin_vertices, double dt_s, int steps,
-                             int batches, double target) {
+struct PhysicalResult {
+  PhysicalCase c;
+  int32_t nodes = 0, skin_vertices = 0;
+  int64_t tets = 0;
+  double build_s = 0.0, prepare_s = 0.0, solver_setup_s = 0.0, first_step_us = 0.0;
+  double us_per_step = 0.0, cg_iterations = 0.0, peak_rss_mb = 0.0;
+  bool multigrid = false;
+};
+
+double peak_rss_mb();
+
+PhysicalResult time_physical(const PhysicalCase& c) {
   PhysicalResult r;
-  r.name = name;
-  r.dt_s = dt_s;
-  r.target_steps_per_second = target;
+  r.c = c;
   io::Scene scene;
-  scene.build.skin_vertices = skin_vertices;
-  scene.solver.dt_s = dt_s;
+  scene.build.skin_vertices = c.skin_vertices;
+  scene.solver.dt_s = c.dt_s;
+  scene.solver.preconditioner = c.preconditioner;
   const auto t0 = Clock::now();
   io::SceneModel built{model::build_model(geometry::make_phantom(), scene.build).model, "phantom"};
   r.build_s = seconds_since(t0);
+  const auto t1 = Clock::now();
   const io::ReadyScene ready = io::make_ready_scene(scene, std::move(built));
   const Model& m = *ready.model;
-  sim::Simulation s = io::make_scene_simulation(ready);
+  sim::Simulation s = io::make_scene_simulation(ready);  // prepares the solver
+  r.prepare_s = seconds_since(t1);
+  r.solver_setup_s = sim::prepare_solver(s);  // again: 0 unless the first was not kept
   interact::ToolDriver d;
   d.tools = ready.scene.tools;
   d.tools.front().end_s = std::numeric_limits<double>::infinity();
   interact::apply_tools(s, d);
-  for (int k = 0; k < 20; ++k) sim::step(s);  // into the motion
+  r.first_step_us = sim::step(s).step_us;
+  for (int k = 1; k < 20; ++k) sim::step(s);  // into the motion
   std::vector<double> us;
   int64_t iterations = 0;
-  for (int b = 0; b < batches; ++b) {
+  for (int b = 0; b < c.batches; ++b) {
     const auto tb = Clock::now();
-    for (int k = 0; k < steps; ++k) iterations += sim::step(s).cg_iterations;
-    us.push_back(1e6 * seconds_since(tb) / steps);
+    for (int k = 0; k < c.steps; ++k) iterations += sim::step(s).cg_iterations;
+    us.push_back(1e6 * seconds_since(tb) / c.steps);
   }
   r.nodes = m.node_count();
   r.skin_vertices = m.layers[0].node_count;
   r.tets = m.tets.size();
   r.us_per_step = median(us);
-  r.cg_iterations = static_cast<double>(iterations) / (steps * batches);
+  r.cg_iterations = static_cast<double>(iterations) / (c.steps * c.batches);
+  r.multigrid = sim::uses_multigrid(s);
+  r.peak_rss_mb = peak_rss_mb();
   return r;
 }
 
@@ -167,6 +185,57 @@ double peak_rss_mb() {
   while (std::getline(in, line))
     if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
   return 0.0;
+}
+
+nlohmann::json physical_json(const PhysicalResult& r) {
+  const double steps_per_second = 1e6 / r.us_per_step;
+  return {{"name", "physical_" + r.c.name},
+          {"nodes", r.nodes},
+          {"skin_vertices", r.skin_vertices},
+          {"tets", r.tets},
+          {"dt_s", r.c.dt_s},
+          {"preconditioner", r.multigrid ? "multigrid" : "jacobi"},
+          {"build_seconds", r.build_s},
+          {"prepare_seconds", r.prepare_s},
+          {"setup_seconds", r.build_s + r.prepare_s},
+          {"first_step_us", r.first_step_us},
+          {"us_per_step", r.us_per_step},
+          {"steps_per_second", steps_per_second},
+          {"cg_iterations", r.cg_iterations},
+          {"peak_rss_mb", r.peak_rss_mb},
+          {"target_steps_per_second", r.c.target_steps_per_second},
+          {"real_time", steps_per_second * r.c.dt_s >= 1.0}};
+}
+
+void print_physical(const std::vector<PhysicalResult>& physical) {
+  std::cout << "  physical liver (tetrahedra, E = 6 kPa, nu = 0.45, implicit Euler, held poke; "
+               "setup = build + prepare, s; peak memory of the process so far):\n"
+               "  model                      nodes    tets  dt_ms  precond.  setup_s  first_ms  "
+               "us_per_step  steps/s  target  cg_iters  peak_mb\n";
+  for (const PhysicalResult& r : physical)
+    std::cout << fmt::format(
+        "  {:24} {:7} {:7} {:6.1f}  {:9} {:7.2f} {:9.1f} {:12.1f} {:8.0f} {:7.0f} {:9.2f} "
+        "{:8.0f}\n",
+        "physical_" + r.c.name, r.nodes, r.tets, 1000.0 * r.c.dt_s,
+        r.multigrid ? "multigrid" : "jacobi", r.build_s + r.prepare_s, r.first_step_us / 1000.0,
+        r.us_per_step, 1e6 / r.us_per_step, r.c.target_steps_per_second, r.cg_iterations,
+        r.peak_rss_mb);
+}
+
+int report_physical(const BenchArgs& a, const std::vector<PhysicalResult>& physical,
+                    Clock::time_point t_start) {
+  if (a.json) {
+    nlohmann::json j;
+    j["threads"] = omp_get_max_threads();
+    j["wall_seconds"] = seconds_since(t_start);
+    for (const PhysicalResult& r : physical) j["physical"].push_back(physical_json(r));
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << fmt::format("lamina bench: {} thread(s), {:.0f} s\n", omp_get_max_threads(),
+                           seconds_since(t_start));
+  print_physical(physical);
+  return 0;
 }
 
 }  // namespace
@@ -191,16 +260,43 @@ int run_bench(const BenchArgs& a) {
     clinical_peak_mb = peak_rss_mb();
   }
 
-  // The physical liver in real time: paper size at a haptic loop's 1 ms, and about 20k nodes at
-  // 10 ms (the targets: 1,000 and 100 steps/s).
-  std::vector<PhysicalResult> physical;
-  report_progress(progress, "bench: the physical liver, paper size, dt = 1 ms", 0.02);
-  physical.push_back(
-      time_physical("physical_paper", 1284, 0.001, a.quick ? 50 : 200, a.quick ? 3 : 5, 1000.0));
+  // The physical liver in real time at every size a user picks: paper size and 5,000 skin
+  // vertices at a haptic loop's 1 ms, about 43k and 100k nodes at a display's 16.7 ms; paper size
+  // and 43k nodes at 10 ms with Jacobi as well, the iterations' reference in the same run.
+  const double ms60 = 1.0 / 60.0;
+  std::vector<PhysicalCase> cases = {
+      {"paper", 1284, 0.001, a.quick ? 50 : 200, a.quick ? 3 : 5, 1600}};
   if (!a.quick) {
-    report_progress(progress, "bench: the physical liver, about 20k nodes, dt = 10 ms", 0.04);
-    physical.push_back(time_physical("physical_20k", 10000, 0.01, 10, 3, 100.0));
+    const auto jacobi = sim::Preconditioner::kJacobi;
+    cases.push_back({"5k", 5000, 0.001, 50, 5, 500});
+    cases.push_back({"paper_10ms", 1284, 0.01, 50, 5, 100});
+    cases.push_back(
+        {"paper_10ms_multigrid", 1284, 0.01, 50, 5, 100, sim::Preconditioner::kMultigrid});
+    cases.push_back({"20k_10ms", 10000, 0.01, 10, 3, 100});
+    cases.push_back({"20k_10ms_jacobi", 10000, 0.01, 5, 3, 100, jacobi});
+    cases.push_back({"43k_10ms", 20000, 0.01, 10, 3, 100});
+    cases.push_back({"43k_10ms_jacobi", 20000, 0.01, 3, 3, 100, jacobi});
+    cases.push_back({"43k", 20000, ms60, 10, 3, 60});
+    cases.push_back({"100k", 47000, ms60, 5, 3, 20});
   }
+  if (!a.physical.empty()) {
+    std::vector<PhysicalCase> chosen;
+    for (const std::string& name : a.physical) {
+      const auto it = std::find_if(cases.begin(), cases.end(),
+                                   [&](const PhysicalCase& c) { return c.name == name; });
+      if (it == cases.end())
+        throw invalid_input("bench --physical", fmt::format("no case named '{}'", name));
+      chosen.push_back(*it);
+    }
+    cases = chosen;
+  }
+  std::vector<PhysicalResult> physical;
+  for (size_t k = 0; k < cases.size(); ++k) {
+    report_progress(progress, fmt::format("bench: the physical liver, {}", cases[k].name),
+                    0.02 + 0.03 * static_cast<double>(k) / static_cast<double>(cases.size()));
+    physical.push_back(time_physical(cases[k]));
+  }
+  if (!a.physical.empty()) return report_physical(a, physical, t_start);
 
   report_progress(progress, "bench: memory bandwidth (STREAM triad)", 0.05);
   const double bandwidth =
@@ -275,18 +371,7 @@ int run_bench(const BenchArgs& a) {
   j["quick"] = a.quick;
   j["memory_bandwidth_gb_s"] = bandwidth;
   j["wall_seconds"] = seconds_since(t_start);
-  for (const PhysicalResult& r : physical)
-    j["physical"].push_back({{"name", r.name},
-                             {"nodes", r.nodes},
-                             {"skin_vertices", r.skin_vertices},
-                             {"tets", r.tets},
-                             {"dt_s", r.dt_s},
-                             {"build_seconds", r.build_s},
-                             {"us_per_step", r.us_per_step},
-                             {"steps_per_second", 1e6 / r.us_per_step},
-                             {"cg_iterations", r.cg_iterations},
-                             {"target_steps_per_second", r.target_steps_per_second},
-                             {"real_time", 1e6 / r.us_per_step * r.dt_s >= 1.0}});
+  for (const PhysicalResult& r : physical) j["physical"].push_back(physical_json(r));
   if (!a.quick)
     j["clinical_build"] = {{"seconds", clinical_build_s},
                            {"tets", clinical_tets},
@@ -331,12 +416,7 @@ int run_bench(const BenchArgs& a) {
   std::cout << fmt::format(
       "lamina bench: {} thread(s), memory bandwidth {:.1f} GB/s (STREAM triad), {:.0f} s\n",
       threads, bandwidth, seconds_since(t_start));
-  std::cout << "  physical liver (tetrahedra, E = 6 kPa, nu = 0.45, implicit Euler, held poke):\n"
-               "  model           nodes    tets  dt_ms  us_per_step  steps/s  target  cg_iters\n";
-  for (const PhysicalResult& r : physical)
-    std::cout << fmt::format("  {:14} {:6} {:7} {:6.1f} {:12.1f} {:8.0f} {:7.0f} {:9.2f}\n", r.name,
-                             r.nodes, r.tets, 1000.0 * r.dt_s, r.us_per_step, 1e6 / r.us_per_step,
-                             r.target_steps_per_second, r.cg_iterations);
+  print_physical(physical);
   if (!a.quick)
     std::cout << fmt::format(
         "  clinical mask 512x512x130 -> model with tetrahedra: {:.2f} s, {} tets, peak {:.0f} MB\n",

@@ -179,6 +179,9 @@ struct BenchArgs {
   bool json = false;
   bool quick = false;  ///< paper-size and 10k models only, shorter timings (under a minute)
   bool verbose = false;
+  /// only these physical-liver cases (names as `lamina bench` prints them, without
+  /// "physical_"), nothing else
+  std::vector<std::string> physical;
 };
 /// Measures this machine: memory bandwidth, then build time, explicit and implicit step time and
 /// time from a poke to rest on phantom models of about 2k, 10k and 100k nodes.

@@ -119,6 +119,7 @@ sim::Simulation make_scene_simulation(const Scene& scene, const Model& model,
   sim::Simulation s = sim::make_simulation(model, scene.material, scene.solver);
   sim::fix_nodes(s, setup.fixed);
   sim::support_nodes(s, setup.support.nodes, setup.support.stiffness_n_per_m);
+  sim::prepare_solver(s);  // the first step as fast as the rest
   return s;
 }
 

@@ -3,13 +3,15 @@
 // f0 every force but damping, K the stiffness of the springs, the tetrahedra, the support and
 // the volume term at x0. The springs' geometric term is clamped at max(0, 1 - L/l), and the
 // volume terms keep only their Gauss-Newton part, so the matrix stays positive definite under
-// any deformation and conjugate gradients apply. Jacobi-preconditioned, warm-started from v0
+// any deformation and conjugate gradients apply. Preconditioned by Jacobi or by multigrid
+// (preconditioner.h), warm-started from v0
 // plus the last step's change (a smooth motion changes its velocity by about the same each
 // step). The cost is bounded: one product for the start residual and one per CG iteration, at
 // most SolverOptions::cg_max_iterations.
 #include <array>
 #include <chrono>
 
+#include "preconditioner.h"
 #include "spring_lanes_product.h"
 
 namespace lamina::sim::detail {
@@ -64,8 +66,14 @@ double system_product(Solver& s, double h, const Eigen::MatrixX3d& pm, Eigen::Ma
   return sum;
 }
 
-Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
-                        StepProfile& profile) {
+namespace {
+
+// The step for one preconditioner (preconditioner.h): a pointwise one is applied inside the
+// passes that produce the residual, the multigrid after them.
+template <class Pre>
+Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iterations,
+                             StepProfile& profile) {
+  constexpr bool kPointwise = Pre::kPointwise;
   Solver& s = sim.solver();
   const int T = threads_for(s);
   const Material& mat = s.material;
@@ -113,7 +121,7 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
   {
     const ConstCols v(sim.v), w(s.dv);
     Cols r(s.r), z(s.z), pp(s.p), dg(s.diag);
-    // acc.a: |b|^2, b: r.z, c: |r|^2, d: sum of m^2
+    // acc.a: |b|^2, b: r.z (a pointwise preconditioner's), c: |r|^2, d: sum of m^2
     for_spring_products<true>(
         s, s.dv, T, part, [&](int32_t i, const double* k, const double* d, Partial& acc) {
           const double m = s.mass_kg[i];
@@ -143,11 +151,13 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
           const double gx = md + h2 * d0, gy = md + h2 * d1, gz = md + h2 * d2;
           dg.x[i] = gx, dg.y[i] = gy, dg.z[i] = gz;
           r.x[i] = rx, r.y[i] = ry, r.z[i] = rz;
-          const double zx = rx / gx, zy = ry / gy, zz = rz / gz;
-          z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
-          pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
+          if constexpr (kPointwise) {
+            const double zx = Pre::apply(rx, gx), zy = Pre::apply(ry, gy), zz = Pre::apply(rz, gz);
+            z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+            pp.x[i] = zx, pp.y[i] = zy, pp.z[i] = zz;
+            acc.b += rx * zx + ry * zy + rz * zz;
+          }
           acc.a += bx * bx + by * by + bz * bz;
-          acc.b += rx * zx + ry * zy + rz * zz;
           acc.c += rx * rx + ry * ry + rz * rz;
           acc.d += m * m;
         });
@@ -170,18 +180,46 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
   const double stop2 = std::max(s.options.cg_tolerance * s.options.cg_tolerance * b2,
                                 floor_speed * floor_speed * m2);
   int32_t it = 0;
+  // A large model's step that iterates assembles the tetrahedra's stiffness first: each product
+  // then streams node blocks (TetAssembly); one that converges at once never pays.
+  const auto assemble = [&s, T] {
+    TetAssembly& assembly = s.tets.assembly;
+    if (assembly.on && !assembly.current) {
+      assemble_tets(s, T);
+      assembly.current = true;
+    }
+  };
+  // The multigrid's z = B r, and p = z (only when CG iterates: a V-cycle costs two products).
+  const auto precondition = [&] {
+    assemble();
+    const double rz_mg = apply_multigrid(s, h, T);
+    Cols pw(s.p);
+    const ConstCols zc(s.z);
+    for_slices(nodes, T, [&](int64_t begin, int64_t end, int) {
+      for (int64_t q = begin; q < end; ++q) {
+        const int32_t i = s.active_nodes[q];
+        pw.x[i] = zc.x[i], pw.y[i] = zc.y[i], pw.z[i] = zc.z[i];
+      }
+    });
+    return rz_mg;
+  };
+  if constexpr (!kPointwise) {
+    if (b2 != 0.0 && r2 > stop2) {
+      refresh_multigrid(s);
+      rz = precondition();
+      if (!std::isfinite(rz)) {
+        Measured failed;
+        failed.ok = false;
+        return failed;
+      }
+    }
+  }
   if (b2 == 0.0) {
     // No force and no motion: the answer is v1 = 0, whatever the warm start said.
     for (int32_t i : s.active_nodes) s.dv.row(i).setZero();
   } else {
     for (; it < s.options.cg_max_iterations && r2 > stop2; ++it) {
-      // A large model's step that iterates assembles the tetrahedra's stiffness first: each
-      // product then streams node blocks (TetAssembly); one that converges at once never pays.
-      TetAssembly& assembly = s.tets.assembly;
-      if (assembly.on && !assembly.current) {
-        assemble_tets(s, T);
-        assembly.current = true;
-      }
+      assemble();
       const double pap = system_product(s, h, s.p, s.y, T);
       if (!(pap > 0.0)) break;
       const double alpha = rz / pap;
@@ -195,9 +233,12 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
           const double rx = r.x[i] - alpha * y.x[i], ry = r.y[i] - alpha * y.y[i],
                        rz_ = r.z[i] - alpha * y.z[i];
           r.x[i] = rx, r.y[i] = ry, r.z[i] = rz_;
-          const double zx = rx / dg.x[i], zy = ry / dg.y[i], zz = rz_ / dg.z[i];
-          z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
-          acc.b += rx * zx + ry * zy + rz_ * zz;
+          if constexpr (kPointwise) {
+            const double zx = Pre::apply(rx, dg.x[i]), zy = Pre::apply(ry, dg.y[i]),
+                         zz = Pre::apply(rz_, dg.z[i]);
+            z.x[i] = zx, z.y[i] = zy, z.z[i] = zz;
+            acc.b += rx * zx + ry * zy + rz_ * zz;
+          }
           acc.c += rx * rx + ry * ry + rz_ * rz_;
         }
         part[t] = acc;
@@ -205,12 +246,13 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
       double rz_new = 0.0;
       r2 = 0.0;
       for (int t = 0; t < T; ++t) rz_new += part[t].b, r2 += part[t].c;
-      const double beta = rz_new / rz;
-      rz = rz_new;
       if (r2 <= stop2) {
         ++it;
         break;
       }
+      if constexpr (!kPointwise) rz_new = apply_multigrid(s, h, T);
+      const double beta = rz_new / rz;
+      rz = rz_new;
       Cols pw(s.p);
       const ConstCols zc(s.z);
       for_slices(nodes, T, [&](int64_t begin, int64_t end, int) {
@@ -240,6 +282,18 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
   });
   profile.integrate_us += std::chrono::duration<double, std::micro>(Clock::now() - t1).count();
   return combine(part, T);
+}
+
+}  // namespace
+
+Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
+                        StepProfile& profile) {
+  Solver& s = sim.solver();
+  if (multigrid_applies(s)) {
+    setup_multigrid(s, h);  // at once unless dt, the material or the movable nodes changed
+    return implicit_euler_with<MultigridPreconditioner>(sim, h, save, iterations, profile);
+  }
+  return implicit_euler_with<JacobiPreconditioner>(sim, h, save, iterations, profile);
 }
 
 }  // namespace lamina::sim::detail

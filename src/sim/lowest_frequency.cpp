@@ -1,19 +1,22 @@
 // The lowest natural frequency of the held model, for damping given as a ratio: mass-
 // proportional damping alpha = 2 zeta omega_1 damps the slowest mode at ratio zeta (and each
 // faster mode n at zeta omega_1 / omega_n).
-#include <Eigen/SparseCholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/SparseCore>
 #include <cmath>
 #include <vector>
 
 #include "lamina/core/error.h"
+#include "lamina/core/log.h"
 #include "lamina/sim/simulation.h"
+#include "multigrid.h"
 #include "solver.h"
 
 namespace lamina::sim {
 
 double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
-  const detail::Solver& s = sim.solver();
+  using namespace detail;
+  const Solver& s = sim.solver();
   const Model& m = *s.model;
   bool supported = false;
   for (double k : s.support.stiffness_n_per_m) supported = supported || k > 0.0;
@@ -27,56 +30,76 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
                         "the model is held nowhere (no fixed nodes, no anchor springs), so its "
                         "slowest motion is a free drift; fix a region or use damping_kg_per_s");
 
-  // Stiffness at rest: k u u^T per spring (the rest length is the length, so no geometric
-  // term), the tetrahedra's coupling and volume, support and anchors on the diagonal. The volume
-  // term between layers is left out: the slowest modes of a held organ bend it, which barely
-  // changes the volume of a region.
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(36 * m.springs.size() + 3 * static_cast<size_t>(n));
-  const Springs& sp = m.springs;
-  for (size_t e = 0; !s.tets.on && e < sp.size(); ++e) {  // else inside the tetrahedra
-    const int32_t a = row[sp.i[e]], b = row[sp.j[e]];
-    const Eigen::Vector3d u = (m.X.row(sp.j[e]) - m.X.row(sp.i[e])).normalized();
-    const Eigen::Matrix3d k = s.springs.stiffness_n_per_m[e] * u * u.transpose();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) {
-        if (a >= 0) t.emplace_back(3 * a + r, 3 * a + c, k(r, c));
-        if (b >= 0) t.emplace_back(3 * b + r, 3 * b + c, k(r, c));
-        if (a >= 0 && b >= 0) {
-          t.emplace_back(3 * a + r, 3 * b + c, -k(r, c));
-          t.emplace_back(3 * b + r, 3 * a + c, -k(r, c));
-        }
-      }
-  }
-  detail::add_tet_stiffness_triplets(s, row, t);
-  for (int32_t i = 0; i < m.node_count(); ++i)
-    if (row[i] >= 0)
-      for (int c = 0; c < 3; ++c)
-        t.emplace_back(3 * row[i] + c, 3 * row[i] + c, s.support.stiffness_n_per_m[i]);
-  Eigen::SparseMatrix<double> K(3 * n, 3 * n);
-  K.setFromTriplets(t.begin(), t.end());
+  // Stiffness at rest (rest_stiffness.cpp; the volume term between layers is left out: the
+  // slowest modes of a held organ bend it, which barely changes the volume of a region).
+  const Eigen::SparseMatrix<double> K = rest_stiffness(s, row, n);
   Eigen::VectorXd mass(3 * n);
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (row[i] >= 0) mass.segment<3>(3 * row[i]).setConstant(s.mass_kg[i]);
 
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(K);
-  if (ldlt.info() != Eigen::Success)
-    throw Error(ErrorKind::kInternal, "the stiffness matrix did not factor");
-  // Inverse iteration: K y = M x converges to the slowest mode; its Rayleigh quotient is
-  // omega^2. A smooth start (every node moved alike) already leans on the slow modes.
-  Eigen::VectorXd x = Eigen::VectorXd::Ones(3 * n), y;
-  double omega2 = 0.0;
-  for (int32_t it = 0; it < max_iterations; ++it) {
-    y = ldlt.solve(mass.cwiseProduct(x));
-    const double norm = std::sqrt(y.dot(mass.cwiseProduct(y)));
-    if (!(norm > 0.0) || !std::isfinite(norm))
+  // LOBPCG (Knyazev 2001) for the smallest eigenpair of K x = omega^2 M x, preconditioned by a
+  // multigrid V-cycle on K: its iterations do not grow with the model, and nothing the size of
+  // the model is factored (an LDLT of K took 176 s at 42,823 nodes). Each iteration finds the
+  // best x in span{x, T r, p} (T the V-cycle, p the last step), M-orthonormalised.
+  Multigrid mg;
+  Eigen::MatrixX3d points(n, 3);
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (row[i] >= 0) points.row(row[i]) = m.X.row(i);
+  build_multigrid(K, points, mg);
+  const SparseRows Kr = K;
+  const auto dot_m = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return a.dot(mass.cwiseProduct(b));
+  };
+  Eigen::VectorXd x = Eigen::VectorXd::Ones(3 * n);  // smooth: leans on the slow modes
+  x /= std::sqrt(dot_m(x, x));
+  Eigen::VectorXd kx = Kr * x, r, p, basis[3], kbasis[3];
+  double omega2 = x.dot(kx);
+  bool have_p = false;
+  int32_t it = 0;
+  for (; it < max_iterations; ++it) {
+    r = kx - omega2 * mass.cwiseProduct(x);
+    if (!std::isfinite(r.squaredNorm()))
       throw Error(ErrorKind::kInternal, "the lowest-frequency iteration broke down");
-    x = y / norm;
-    const double next = x.dot(K * x);  // x^T M x = 1
-    const bool settled = std::abs(next - omega2) <= 1e-8 * next;
-    omega2 = next;
-    if (settled) break;
+    // |r|_M^-1 relative to omega^2 |x|_M: the eigenvalue's error is about its square.
+    if (std::sqrt(r.dot(r.cwiseQuotient(mass))) <= 1e-7 * omega2) break;
+    mg.levels[0].b = r;
+    v_cycle(mg, 0);
+    // The subspace, M-orthonormalised by Gram-Schmidt (twice, for round-off); a direction that
+    // has nothing left beyond the others is dropped.
+    int k = 0;
+    for (const Eigen::VectorXd* v : {&x, &mg.levels[0].x, have_p ? &p : nullptr}) {
+      if (!v) continue;
+      Eigen::VectorXd u = *v;
+      for (int pass = 0; pass < 2; ++pass)
+        for (int j = 0; j < k; ++j) u -= dot_m(basis[j], u) * basis[j];
+      const double norm = std::sqrt(dot_m(u, u));
+      if (!(norm > 1e-10 * std::sqrt(dot_m(*v, *v)))) continue;
+      basis[k] = u / norm;
+      kbasis[k] = Kr * basis[k];
+      ++k;
+    }
+    Eigen::MatrixXd G(k, k);
+    for (int a = 0; a < k; ++a)
+      for (int b = 0; b < k; ++b)
+        G(a, b) = 0.5 * (basis[a].dot(kbasis[b]) + basis[b].dot(kbasis[a]));
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(G);
+    const Eigen::VectorXd c = eig.eigenvectors().col(0);
+    Eigen::VectorXd next = c[0] * basis[0];
+    kx = c[0] * kbasis[0];
+    p.setZero(3 * n);
+    for (int a = 1; a < k; ++a) {
+      next += c[a] * basis[a];
+      kx += c[a] * kbasis[a];
+      p += c[a] * basis[a];  // the step taken beyond x
+    }
+    have_p = k > 1;
+    const double norm = std::sqrt(dot_m(next, next));
+    x = next / norm;
+    kx /= norm;
+    omega2 = x.dot(kx);
   }
+  log::debug("slowest vibration: {} LOBPCG iterations on {} unknowns, multigrid of {} levels", it,
+             3 * n, mg.levels.size());
   return std::sqrt(omega2);
 }
 

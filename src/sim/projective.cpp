@@ -117,13 +117,18 @@ void correct_for_volume_term(ProjectiveSolver& p) {
 
 }  // namespace
 
+void prepare_projective(Solver& s, double h) {
+  if (!s.projective) s.projective = std::make_shared<ProjectiveSolver>();
+  ProjectiveSolver& p = *s.projective;
+  if (!p.factored || p.version != s.setup_version || p.h != h) factor(s, p, h);
+}
+
 Measured projective_step(Simulation& sim, double h, bool save, StepProfile& profile) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   Solver& s = sim.solver();
-  if (!s.projective) s.projective = std::make_shared<ProjectiveSolver>();
+  prepare_projective(s, h);
   ProjectiveSolver& p = *s.projective;
-  if (!p.factored || p.version != s.setup_version || p.h != h) factor(s, p, h);
   const Model& m = *s.model;
   const Springs& sp = m.springs;
   const Material& mat = s.material;

@@ -27,7 +27,9 @@ Simulation::Simulation(const Simulation& o)
       steps(o.steps),
       recoveries(o.recoveries),
       solver_(std::make_unique<Solver>(*o.solver_)) {
-  solver_->projective.reset();  // a factor is refactored on first use rather than shared
+  // A factor or a hierarchy is rebuilt on first use rather than shared with its workspace.
+  solver_->projective.reset();
+  solver_->multigrid.reset();
 }
 Simulation::Simulation(Simulation&& o) noexcept = default;
 Simulation& Simulation::operator=(const Simulation& o) {

@@ -188,7 +188,12 @@ struct SupportTerm {
   std::vector<double> stiffness_n_per_m;  ///< per node: anchor + support
 };
 
-struct ProjectiveSolver;  // projective.cpp: the prefactored system, reused across steps
+struct ProjectiveSolver;         // projective.cpp: the prefactored system, reused across steps
+struct MultigridPreconditioner;  // preconditioner.h: the implicit step's hierarchy
+
+/// SolverOptions::preconditioner kAuto takes the multigrid from this many movable nodes in
+/// global mode (docs/benchmarks.md: where its fewer iterations repay their two extra products).
+constexpr int64_t kMultigridFromNodes = 4000;
 
 struct Solver {
   const Model* model = nullptr;
@@ -222,6 +227,8 @@ struct Solver {
   mutable std::vector<double> row_limit_s;  // a cache: explicit_dt_limit() is const
   mutable uint64_t row_limit_version = 0;
   std::shared_ptr<ProjectiveSolver> projective;  ///< made on the first projective step
+  /// made on the first implicit step that takes it (multigrid_applies())
+  std::shared_ptr<MultigridPreconditioner> multigrid;
 
   // What a step visits: the movable nodes (ascending), every spring with a movable end, every
   // block of tetrahedra with a movable corner.
@@ -391,6 +398,11 @@ inline void add_volume_force(const Solver& s, int32_t i, double& fx, double& fy,
       fz -= jump * s.volume.gradient(i, 2);
 }
 
+/// The stiffness at rest over rows row_of[node] (-1: left out), 3 per node interleaved: springs
+/// or tetrahedra, support and anchors; not the volume term between layers (rest_stiffness.cpp).
+Eigen::SparseMatrix<double> rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
+                                           int32_t rows);
+
 // --- Support: anchors and the elastic support (support_term.cpp). ---
 void setup_support(Solver& s);
 double support_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
@@ -408,6 +420,8 @@ Measured semi_implicit_euler_lanes(Simulation& sim, double h, bool save, StepPro
 Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
                         StepProfile& profile);
 Measured projective_step(Simulation& sim, double h, bool save, StepProfile& profile);
+/// Factors projective dynamics' matrix unless it is current for the movable nodes and h.
+void prepare_projective(Solver& s, double h);
 
 /// Rebuilds what a step visits and what it caches about the nodes that stay put.
 void refresh(Simulation& sim);

@@ -3,6 +3,7 @@
 // finite check and its recovery, the measurements.
 #include <chrono>
 
+#include "preconditioner.h"
 #include "solver.h"
 
 namespace lamina::sim {
@@ -63,6 +64,17 @@ void roll_back(Simulation& sim) {
 }
 
 }  // namespace
+
+double prepare_solver(Simulation& sim) {
+  const auto t0 = Clock::now();
+  Solver& s = sim.solver();
+  const double h = s.options.dt_s;
+  if (s.options.integrator == Integrator::kProjective)
+    prepare_projective(s, h);
+  else if (s.options.integrator == Integrator::kImplicitEuler && multigrid_applies(s))
+    setup_multigrid(s, h);
+  return us_since(t0) * 1e-6;
+}
 
 StepStats step(Simulation& sim) {
   Solver& s = sim.solver();

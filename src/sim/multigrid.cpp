@@ -1,0 +1,241 @@
+// Smoothed-aggregation multigrid (multigrid.h): the hierarchy's setup and the V-cycle.
+#include "multigrid.h"
+
+#include <Eigen/Geometry>
+#include <Eigen/QR>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+
+namespace lamina::sim::detail {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The nodes of one level: each owns a contiguous range of unknowns.
+struct LevelNodes {
+  std::vector<int32_t> offsets;  ///< #nodes + 1
+  std::vector<int32_t> node_of;  ///< per unknown
+  int32_t count() const { return static_cast<int32_t>(offsets.size()) - 1; }
+};
+
+// Strong neighbours of each node (CSR): |A_IJ|_F^2 >= theta^2 |A_II|_F |A_JJ|_F over the 3x3 (or
+// r x r) blocks. A weak link (a sliver tetrahedron's, a soft spring's) does not pull two nodes
+// into one aggregate whose motion the coarse level would then misrepresent.
+void strong_neighbours(const SparseRows& A, const LevelNodes& nodes, double theta,
+                       std::vector<int32_t>& offsets, std::vector<int32_t>& adj) {
+  const int32_t n = nodes.count();
+  std::vector<double> self(static_cast<size_t>(n), 0.0), acc(static_cast<size_t>(n), 0.0);
+  std::vector<int32_t> touched;
+  for (Eigen::Index d = 0; d < A.outerSize(); ++d)
+    for (SparseRows::InnerIterator it(A, d); it; ++it)
+      if (nodes.node_of[it.col()] == nodes.node_of[d]) self[nodes.node_of[d]] += it.value() * it.value();
+  for (double& v : self) v = std::sqrt(v);
+  offsets.assign(1, 0);
+  adj.clear();
+  for (int32_t i = 0; i < n; ++i) {
+    touched.clear();
+    for (int32_t d = nodes.offsets[i]; d < nodes.offsets[i + 1]; ++d)
+      for (SparseRows::InnerIterator it(A, d); it; ++it) {
+        const int32_t j = nodes.node_of[it.col()];
+        if (j == i) continue;
+        if (acc[j] == 0.0) touched.push_back(j);
+        acc[j] += it.value() * it.value() + 1e-300;  // stays > 0 once touched
+      }
+    std::sort(touched.begin(), touched.end());
+    for (int32_t j : touched) {
+      if (acc[j] >= theta * theta * self[i] * self[j]) adj.push_back(j);
+      acc[j] = 0.0;
+    }
+    offsets.push_back(static_cast<int32_t>(adj.size()));
+  }
+}
+
+// Vanek's three phases: a node whose neighbours are all free starts an aggregate with them; a
+// node left over joins a neighbouring aggregate; what is still left groups with its free
+// neighbours. Returns the aggregate of each node and sets `count`.
+std::vector<int32_t> aggregate(const std::vector<int32_t>& offsets, const std::vector<int32_t>& adj,
+                               int32_t& count) {
+  const auto n = static_cast<int32_t>(offsets.size()) - 1;
+  std::vector<int32_t> agg(static_cast<size_t>(n), -1);
+  count = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    if (agg[i] >= 0) continue;
+    bool free = true;
+    for (int32_t k = offsets[i]; k < offsets[i + 1] && free; ++k) free = agg[adj[k]] < 0;
+    if (!free) continue;
+    agg[i] = count;
+    for (int32_t k = offsets[i]; k < offsets[i + 1]; ++k) agg[adj[k]] = count;
+    ++count;
+  }
+  std::vector<int32_t> joined = agg;
+  for (int32_t i = 0; i < n; ++i)
+    if (agg[i] < 0)
+      for (int32_t k = offsets[i]; k < offsets[i + 1]; ++k)
+        if (agg[adj[k]] >= 0) {
+          joined[i] = agg[adj[k]];
+          break;
+        }
+  agg.swap(joined);
+  for (int32_t i = 0; i < n; ++i) {
+    if (agg[i] >= 0) continue;
+    agg[i] = count;
+    for (int32_t k = offsets[i]; k < offsets[i + 1]; ++k)
+      if (agg[adj[k]] < 0) agg[adj[k]] = count;
+    ++count;
+  }
+  return agg;
+}
+
+// rho(D^-1 A) by power iteration from a fixed start (the same hierarchy every run).
+double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_diag) {
+  Eigen::VectorXd x(A.rows()), y(A.rows());
+  for (Eigen::Index k = 0; k < x.size(); ++k) x[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
+  x.normalize();
+  double rho = 0.0;
+  for (int it = 0; it < 15; ++it) {
+    y.noalias() = A * x;
+    y = inv_diag.cwiseProduct(y);
+    rho = y.norm();
+    if (!(rho > 0.0)) break;
+    x = y / rho;
+  }
+  return rho;
+}
+
+void finish_level(MultigridLevel& level) {
+  level.inv_diag = level.A.diagonal().cwiseInverse();
+  if (!level.inv_diag.allFinite() || (level.A.diagonal().array() <= 0.0).any())
+    throw Error(ErrorKind::kInternal, "multigrid: a level's diagonal is not positive");
+  level.omega = 4.0 / (3.0 * jacobi_spectral_radius(level.A, level.inv_diag));
+  level.b.setZero(level.A.rows());
+  level.x.setZero(level.A.rows());
+  level.r.setZero(level.A.rows());
+}
+
+}  // namespace
+
+void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3d& points,
+                     Multigrid& mg, int64_t coarsest_unknowns) {
+  const auto t0 = std::chrono::steady_clock::now();
+  mg.levels.clear();
+  mg.shape = {};
+  mg.levels.emplace_back();
+  mg.levels[0].A = A;
+  // The near-null space on the finest level: per node, the three translations and the three
+  // rotations about the origin (each aggregate's QR below recentres them).
+  const auto n0 = static_cast<int32_t>(points.rows());
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(3 * n0, 6);
+  LevelNodes nodes;
+  nodes.offsets.resize(static_cast<size_t>(n0) + 1);
+  nodes.node_of.resize(3 * static_cast<size_t>(n0));
+  for (int32_t i = 0; i < n0; ++i) {
+    const Eigen::Vector3d p = points.row(i).transpose();
+    nodes.offsets[i] = 3 * i;
+    for (int d = 0; d < 3; ++d) {
+      nodes.node_of[3 * i + d] = i;
+      B(3 * i + d, d) = 1.0;
+      // Rotation about axis k: e_k x p, component d.
+      for (int k = 0; k < 3; ++k) B(3 * i + d, 3 + k) = Eigen::Vector3d::Unit(k).cross(p)[d];
+    }
+  }
+  nodes.offsets[n0] = 3 * n0;
+  for (double theta = 0.08;; theta *= 0.5) {
+    MultigridLevel& level = mg.levels.back();
+    finish_level(level);
+    if (level.A.rows() <= coarsest_unknowns || mg.levels.size() >= 10) break;
+    std::vector<int32_t> offsets, adj;
+    strong_neighbours(level.A, nodes, theta, offsets, adj);
+    int32_t count = 0;
+    const std::vector<int32_t> agg = aggregate(offsets, adj, count);
+    // Each aggregate's unknowns and the tentative prolongation: an orthonormal basis of its
+    // rigid motions (Q of a rank-revealing QR; fewer than six when the aggregate is too small
+    // or too flat to carry them all), the coarse near-null space R = Q^T B.
+    std::vector<std::vector<int32_t>> members(static_cast<size_t>(count));
+    for (int32_t i = 0; i < nodes.count(); ++i) members[agg[i]].push_back(i);
+    std::vector<Eigen::Triplet<double>> t;
+    t.reserve(static_cast<size_t>(6 * level.A.rows()));
+    LevelNodes coarse;
+    coarse.offsets.assign(1, 0);
+    std::vector<Eigen::MatrixXd> coarse_b(static_cast<size_t>(count));
+    std::vector<int32_t> dofs;
+    for (int32_t a = 0; a < count; ++a) {
+      dofs.clear();
+      for (int32_t i : members[a])
+        for (int32_t d = nodes.offsets[i]; d < nodes.offsets[i + 1]; ++d) dofs.push_back(d);
+      Eigen::MatrixXd local(static_cast<Eigen::Index>(dofs.size()), 6);
+      for (size_t r = 0; r < dofs.size(); ++r) local.row(static_cast<Eigen::Index>(r)) = B.row(dofs[r]);
+      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(local);
+      qr.setThreshold(1e-9);
+      const auto rank = static_cast<int32_t>(qr.rank());
+      const Eigen::MatrixXd Q =
+          qr.householderQ() * Eigen::MatrixXd::Identity(local.rows(), rank);
+      coarse_b[a] = Q.transpose() * local;
+      const int32_t first = coarse.offsets.back();
+      for (size_t r = 0; r < dofs.size(); ++r)
+        for (int32_t c = 0; c < rank; ++c)
+          t.emplace_back(dofs[r], first + c, Q(static_cast<Eigen::Index>(r), c));
+      coarse.offsets.push_back(first + rank);
+      for (int32_t c = 0; c < rank; ++c) coarse.node_of.push_back(a);
+    }
+    const int32_t unknowns = coarse.offsets.back();
+    if (unknowns >= level.A.rows()) break;  // no coarsening left (a disconnected remnant)
+    SparseRows tentative(level.A.rows(), unknowns);
+    tentative.setFromTriplets(t.begin(), t.end());
+    // Smoothing the prolongation by one damped-Jacobi step on A makes each coarse basis function
+    // low in energy: the coarse level then corrects what Jacobi cannot.
+    const double t_aggregate = seconds_since(t0);
+    const SparseRows AP = level.A * tentative;
+    level.P = tentative - (level.omega * level.inv_diag).asDiagonal() * AP;
+    level.R = level.P.transpose();
+    MultigridLevel next;
+    const double t_smooth = seconds_since(t0);
+    const SparseRows AP_smoothed = level.A * level.P;
+    next.A = level.R * AP_smoothed;
+    log::debug("multigrid level {}: {} unknowns, {} aggregates, P {} nonzeros, coarse {} "
+               "nonzeros; aggregated at {:.2f} s, smoothed at {:.2f} s, Galerkin at {:.2f} s",
+               mg.levels.size() - 1, level.A.rows(), count, level.P.nonZeros(), next.A.nonZeros(),
+               t_aggregate, t_smooth, seconds_since(t0));
+    B.resize(unknowns, 6);
+    for (int32_t a = 0; a < count; ++a)
+      B.middleRows(coarse.offsets[a], coarse.offsets[a + 1] - coarse.offsets[a]) = coarse_b[a];
+    nodes = std::move(coarse);
+    mg.levels.push_back(std::move(next));
+  }
+  mg.coarsest.compute(Eigen::SparseMatrix<double>(mg.levels.back().A));
+  if (mg.coarsest.info() != Eigen::Success)
+    throw Error(ErrorKind::kInternal, "multigrid: the coarsest level did not factor");
+  const double fine_nonzeros = static_cast<double>(mg.levels[0].A.nonZeros());
+  for (const MultigridLevel& level : mg.levels) {
+    mg.shape.unknowns.push_back(level.A.rows());
+    mg.shape.nonzeros.push_back(level.A.nonZeros());
+    mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
+  }
+  mg.shape.setup_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void v_cycle(Multigrid& mg, size_t from) {
+  MultigridLevel& level = mg.levels[from];
+  if (from + 1 == mg.levels.size()) {
+    level.x = mg.coarsest.solve(level.b);
+    return;
+  }
+  MultigridLevel& next = mg.levels[from + 1];
+  const double w = level.omega;
+  level.x = w * level.inv_diag.cwiseProduct(level.b);
+  level.r.noalias() = level.A * level.x;
+  level.r = level.b - level.r;
+  next.b.noalias() = level.R * level.r;
+  v_cycle(mg, from + 1);
+  level.x.noalias() += level.P * next.x;
+  level.r.noalias() = level.A * level.x;
+  level.x += w * level.inv_diag.cwiseProduct(level.b - level.r);
+}
+
+}  // namespace lamina::sim::detail

@@ -1,0 +1,76 @@
+#pragma once
+// Smoothed-aggregation algebraic multigrid (Vanek, Mandel & Brezina 1996) for the implicit step's
+// system and the slowest vibration: the reference paper's multi-scale idea, the same organ at
+// several resolutions, built from the matrix itself. Each level groups the nodes of the one
+// below into aggregates (a node and its neighbours), carries the rigid motions of each aggregate
+// (three translations, three rotations: what elasticity cannot resist) as that coarse node's
+// unknowns, smooths that prolongation by one damped-Jacobi step and takes the Galerkin product
+// P^T A P as the coarse operator. The coarsest level (at most a few thousand unknowns) is
+// factored once. docs/architecture.md says why this and not hypre.
+//
+// A V-cycle with one damped-Jacobi sweep before and after each coarse correction is a
+// symmetric positive definite preconditioner for conjugate gradients. Internal to module sim.
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <cstdint>
+#include <vector>
+
+namespace lamina::sim::detail {
+
+using SparseRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
+struct MultigridLevel {
+  SparseRows A;               ///< this level's operator (level 0: the matrix it was built from)
+  SparseRows P, R;            ///< to the next level: prolongation, and restriction R = P^T
+  Eigen::VectorXd inv_diag;   ///< 1 / diag(A)
+  double omega = 0.0;         ///< damped Jacobi's weight, 4 / (3 rho(D^-1 A))
+  Eigen::VectorXd b, x, r;    ///< workspace: right side, solution, residual
+};
+
+/// What a hierarchy is (the benchmark and the run summary report it).
+struct MultigridShape {
+  std::vector<int64_t> unknowns, nonzeros;  ///< per level
+  double setup_s = 0.0;
+  /// sum over levels of nonzeros / the finest level's: the V-cycle's cost in products of A
+  double operator_complexity = 0.0;
+};
+
+struct Multigrid {
+  std::vector<MultigridLevel> levels;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> coarsest;
+  MultigridShape shape;
+};
+
+/// Builds the hierarchy of the symmetric positive definite A: 3 unknowns per node, interleaved
+/// (row 3 i + axis), `points` (#nodes by 3, mm) where the nodes are (the rigid rotations' arms).
+/// Coarsens until at most `coarsest_unknowns` are left, then factors that level.
+void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3d& points,
+                     Multigrid& mg, int64_t coarsest_unknowns = 1500);
+
+/// One V-cycle from level `from` on levels[from].b into levels[from].x (allocates nothing).
+void v_cycle(Multigrid& mg, size_t from);
+
+/// z = B r with the finest level's operator and diagonal the caller's (the implicit step's exact
+/// linearisation: `product(z, y)` sets y = A z), the coarser levels the hierarchy's. `work` is
+/// scratch of r's size. `mask` (1 or 0 per unknown) keeps the correction off unknowns held since
+/// the hierarchy was built (their inv_diag is 0): B stays symmetric on the others.
+template <class Product>
+void v_cycle_with(Multigrid& mg, const Eigen::VectorXd& r, const Eigen::VectorXd& inv_diag,
+                  const Eigen::VectorXd& mask, Product&& product, Eigen::VectorXd& z,
+                  Eigen::VectorXd& work) {
+  MultigridLevel& fine = mg.levels[0];
+  const double w = fine.omega;
+  z = w * inv_diag.cwiseProduct(r);
+  if (mg.levels.size() > 1) {
+    product(z, work);
+    work = (r - work).cwiseProduct(mask);
+    mg.levels[1].b.noalias() = fine.R * work;
+    v_cycle(mg, 1);
+    z.noalias() += fine.P * mg.levels[1].x;
+    z = z.cwiseProduct(mask);
+  }
+  product(z, work);
+  z += w * inv_diag.cwiseProduct(r - work);
+}
+
+}  // namespace lamina::sim::detail
