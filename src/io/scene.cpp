@@ -315,7 +315,7 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
       j, path,
       {"integrator", "dt_s", "rest_speed_mm_per_s", "threshold_mm", "max_steps", "mode", "locality",
        "penetration_depth", "ring_attenuation", "crossing_attenuation", "contact_threshold_mm",
-       "cg_max_iterations", "cg_tolerance", "projective_iterations"});
+       "cg_max_iterations", "cg_tolerance", "preconditioner", "projective_iterations"});
   sim::SolverOptions& o = s.solver;
   s.integrator_given = j.contains("integrator");
   read_choice(r, j, path, "integrator", o.integrator,
@@ -339,6 +339,10 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
               {{"global", sim::Mode::kGlobal}, {"local", sim::Mode::kLocal}});
   read_integer(r, j, path, "cg_max_iterations", o.cg_max_iterations, 1, 1'000'000);
   read_number(r, j, path, "cg_tolerance", o.cg_tolerance, kPositive, "must be > 0");
+  read_choice(r, j, path, "preconditioner", o.preconditioner,
+              {{"auto", sim::Preconditioner::kAuto},
+               {"jacobi", sim::Preconditioner::kJacobi},
+               {"multigrid", sim::Preconditioner::kMultigrid}});
   read_integer(r, j, path, "projective_iterations", o.projective_iterations, 1, 10'000);
   interact::RoutingOptions& ro = s.routing;
   read_integer(r, j, path, "locality", ro.locality, 1, 64);

@@ -34,7 +34,8 @@ void strong_neighbours(const SparseRows& A, const LevelNodes& nodes, double thet
   std::vector<int32_t> touched;
   for (Eigen::Index d = 0; d < A.outerSize(); ++d)
     for (SparseRows::InnerIterator it(A, d); it; ++it)
-      if (nodes.node_of[it.col()] == nodes.node_of[d]) self[nodes.node_of[d]] += it.value() * it.value();
+      if (nodes.node_of[it.col()] == nodes.node_of[d])
+        self[nodes.node_of[d]] += it.value() * it.value();
   for (double& v : self) v = std::sqrt(v);
   offsets.assign(1, 0);
   adj.clear();
@@ -95,7 +96,8 @@ std::vector<int32_t> aggregate(const std::vector<int32_t>& offsets, const std::v
 // rho(D^-1 A) by power iteration from a fixed start (the same hierarchy every run).
 double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_diag) {
   Eigen::VectorXd x(A.rows()), y(A.rows());
-  for (Eigen::Index k = 0; k < x.size(); ++k) x[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
+  for (Eigen::Index k = 0; k < x.size(); ++k)
+    x[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
   x.normalize();
   double rho = 0.0;
   for (int it = 0; it < 15; ++it) {
@@ -145,7 +147,10 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
     }
   }
   nodes.offsets[n0] = 3 * n0;
-  for (double theta = 0.08;; theta *= 0.5) {
+  // Strength matters on the finest level (the mesh's slivers and soft links); the coarse
+  // operators are denser and smoother, and a threshold there left aggregates of two or three
+  // nodes (a 9,871-node liver's third level kept 43% of the second's unknowns).
+  for (double theta = 0.08;; theta = 0.0) {
     MultigridLevel& level = mg.levels.back();
     finish_level(level);
     if (level.A.rows() <= coarsest_unknowns || mg.levels.size() >= 10) break;
@@ -169,12 +174,12 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
       for (int32_t i : members[a])
         for (int32_t d = nodes.offsets[i]; d < nodes.offsets[i + 1]; ++d) dofs.push_back(d);
       Eigen::MatrixXd local(static_cast<Eigen::Index>(dofs.size()), 6);
-      for (size_t r = 0; r < dofs.size(); ++r) local.row(static_cast<Eigen::Index>(r)) = B.row(dofs[r]);
+      for (size_t r = 0; r < dofs.size(); ++r)
+        local.row(static_cast<Eigen::Index>(r)) = B.row(dofs[r]);
       Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(local);
       qr.setThreshold(1e-9);
       const auto rank = static_cast<int32_t>(qr.rank());
-      const Eigen::MatrixXd Q =
-          qr.householderQ() * Eigen::MatrixXd::Identity(local.rows(), rank);
+      const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(local.rows(), rank);
       coarse_b[a] = Q.transpose() * local;
       const int32_t first = coarse.offsets.back();
       for (size_t r = 0; r < dofs.size(); ++r)
@@ -184,23 +189,30 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
       for (int32_t c = 0; c < rank; ++c) coarse.node_of.push_back(a);
     }
     const int32_t unknowns = coarse.offsets.back();
-    if (unknowns >= level.A.rows()) break;  // no coarsening left (a disconnected remnant)
+    // Coarsening that keeps more than half the unknowns costs more than it saves: this level is
+    // then the coarsest.
+    if (2 * static_cast<int64_t>(unknowns) > level.A.rows()) break;
     SparseRows tentative(level.A.rows(), unknowns);
     tentative.setFromTriplets(t.begin(), t.end());
     // Smoothing the prolongation by one damped-Jacobi step on A makes each coarse basis function
     // low in energy: the coarse level then corrects what Jacobi cannot.
     const double t_aggregate = seconds_since(t0);
-    const SparseRows AP = level.A * tentative;
-    level.P = tentative - (level.omega * level.inv_diag).asDiagonal() * AP;
+    // Plain aggregation: P is the tentative prolongation itself. Smoothing it by one Jacobi step
+    // (Vanek's smoothed aggregation) took the same CG iterations on the 22k- and 48k-node livers
+    // at 10 ms (15.5 and 53.9 a step, against 14.2 and 41.7) but made the second level's
+    // operator six times denser: 224 against 103 ms a step at 22k, 1,444 against 497 ms at 48k,
+    // and 8.2 against 1.1 s to build (docs/benchmarks.md).
+    level.P = tentative;
     level.R = level.P.transpose();
     MultigridLevel next;
     const double t_smooth = seconds_since(t0);
-    const SparseRows AP_smoothed = level.A * level.P;
-    next.A = level.R * AP_smoothed;
-    log::debug("multigrid level {}: {} unknowns, {} aggregates, P {} nonzeros, coarse {} "
-               "nonzeros; aggregated at {:.2f} s, smoothed at {:.2f} s, Galerkin at {:.2f} s",
-               mg.levels.size() - 1, level.A.rows(), count, level.P.nonZeros(), next.A.nonZeros(),
-               t_aggregate, t_smooth, seconds_since(t0));
+    const SparseRows AP = level.A * level.P;
+    next.A = level.R * AP;
+    log::debug(
+        "multigrid level {}: {} unknowns, {} aggregates, P {} nonzeros, coarse {} "
+        "nonzeros; aggregated at {:.2f} s, prolongation at {:.2f} s, Galerkin at {:.2f} s",
+        mg.levels.size() - 1, level.A.rows(), count, level.P.nonZeros(), next.A.nonZeros(),
+        t_aggregate, t_smooth, seconds_since(t0));
     B.resize(unknowns, 6);
     for (int32_t a = 0; a < count; ++a)
       B.middleRows(coarse.offsets[a], coarse.offsets[a + 1] - coarse.offsets[a]) = coarse_b[a];
@@ -216,8 +228,7 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
     mg.shape.nonzeros.push_back(level.A.nonZeros());
     mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
   }
-  mg.shape.setup_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  mg.shape.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 void v_cycle(Multigrid& mg, size_t from) {

@@ -1,12 +1,12 @@
 #pragma once
-// Smoothed-aggregation algebraic multigrid (Vanek, Mandel & Brezina 1996) for the implicit step's
-// system and the slowest vibration: the reference paper's multi-scale idea, the same organ at
-// several resolutions, built from the matrix itself. Each level groups the nodes of the one
-// below into aggregates (a node and its neighbours), carries the rigid motions of each aggregate
+// Aggregation multigrid (after Vanek, Mandel & Brezina 1996) for the implicit step's system and
+// the slowest vibration: the reference paper's multi-scale idea, the same organ at several
+// resolutions, built from the matrix itself. Each level groups the nodes of the one below into
+// aggregates (a node and its strong neighbours), carries the rigid motions of each aggregate
 // (three translations, three rotations: what elasticity cannot resist) as that coarse node's
-// unknowns, smooths that prolongation by one damped-Jacobi step and takes the Galerkin product
-// P^T A P as the coarse operator. The coarsest level (at most a few thousand unknowns) is
-// factored once. docs/architecture.md says why this and not hypre.
+// unknowns, and takes the Galerkin product P^T A P as the coarse operator. The coarsest level
+// (at most a few thousand unknowns) is factored once. docs/architecture.md says why this and not
+// hypre, and why the prolongation is not smoothed.
 //
 // A V-cycle with one damped-Jacobi sweep before and after each coarse correction is a
 // symmetric positive definite preconditioner for conjugate gradients. Internal to module sim.
@@ -20,11 +20,11 @@ namespace lamina::sim::detail {
 using SparseRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
 struct MultigridLevel {
-  SparseRows A;               ///< this level's operator (level 0: the matrix it was built from)
-  SparseRows P, R;            ///< to the next level: prolongation, and restriction R = P^T
-  Eigen::VectorXd inv_diag;   ///< 1 / diag(A)
-  double omega = 0.0;         ///< damped Jacobi's weight, 4 / (3 rho(D^-1 A))
-  Eigen::VectorXd b, x, r;    ///< workspace: right side, solution, residual
+  SparseRows A;              ///< this level's operator (level 0: the matrix it was built from)
+  SparseRows P, R;           ///< to the next level: prolongation, and restriction R = P^T
+  Eigen::VectorXd inv_diag;  ///< 1 / diag(A)
+  double omega = 0.0;        ///< damped Jacobi's weight, 4 / (3 rho(D^-1 A))
+  Eigen::VectorXd b, x, r;   ///< workspace: right side, solution, residual
 };
 
 /// What a hierarchy is (the benchmark and the run summary report it).

@@ -2,10 +2,10 @@
 // system at rest, (M (1 + h alpha) + h gamma) + h^2 K_rest over the movable nodes, rebuilt only
 // when the material, dt or the movable nodes change beyond what masking covers; its finest level
 // the step's exact linearised product.
+#include <fmt/ranges.h>
+
 #include <Eigen/SparseCore>
 #include <algorithm>
-
-#include <fmt/ranges.h>
 
 #include "lamina/core/log.h"
 #include "preconditioner.h"
@@ -20,8 +20,7 @@ bool multigrid_applies(const Solver& s) {
     case Preconditioner::kMultigrid:
       return !s.active_nodes.empty();
     default:
-      return s.options.mode == Mode::kGlobal &&
-             static_cast<int64_t>(s.active_nodes.size()) >= kMultigridFromNodes;
+      return false;  // Jacobi until the multigrid wins at every size (solver.h)
   }
 }
 
@@ -42,6 +41,9 @@ void setup_multigrid(Solver& s, double h) {
   if (!s.multigrid) s.multigrid = std::make_shared<MultigridPreconditioner>();
   MultigridPreconditioner& p = *s.multigrid;
   const auto n = static_cast<int32_t>(s.mass_kg.size());
+  // A V-cycle's products stream the assembled blocks of the tetrahedra (TetAssembly): three
+  // products an iteration repay the assembly at any size.
+  if (s.tets.on && !s.tets.assembly.on) setup_tet_assembly(s);
   if (!still_fits(s, p, h)) {
     p.nodes = s.active_nodes;
     p.row_of.assign(static_cast<size_t>(n), -1);
@@ -52,7 +54,8 @@ void setup_multigrid(Solver& s, double h) {
       points.row(q) = s.model->X.row(p.nodes[q]);
     }
     Eigen::SparseMatrix<double> A = rest_stiffness(s, p.row_of, rows) * (h * h);
-    const double damp = h * s.material.damping_kg_per_s, mass_damp = h * s.material.mass_damping_per_s;
+    const double damp = h * s.material.damping_kg_per_s,
+                 mass_damp = h * s.material.mass_damping_per_s;
     for (int32_t q = 0; q < rows; ++q)
       for (int c = 0; c < 3; ++c)
         A.coeffRef(3 * q + c, 3 * q + c) += s.mass_kg[p.nodes[q]] * (1.0 + mass_damp) + damp;

@@ -191,9 +191,10 @@ struct SupportTerm {
 struct ProjectiveSolver;         // projective.cpp: the prefactored system, reused across steps
 struct MultigridPreconditioner;  // preconditioner.h: the implicit step's hierarchy
 
-/// SolverOptions::preconditioner kAuto takes the multigrid from this many movable nodes in
-/// global mode (docs/benchmarks.md: where its fewer iterations repay their two extra products).
-constexpr int64_t kMultigridFromNodes = 4000;
+// SolverOptions::preconditioner kAuto is Jacobi for now: the multigrid won at 22k nodes and
+// 10 ms (103 against 286 ms a step) but lost at 48k (497 against 238 ms: 41.7 iterations, and a
+// V-cycle costs about five of Jacobi's), and at 1 ms Jacobi takes 1-3 iterations at any size
+// (docs/benchmarks.md).
 
 struct Solver {
   const Model* model = nullptr;

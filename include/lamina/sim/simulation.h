@@ -34,12 +34,14 @@ enum class Integrator : uint8_t {
 
 /// Implicit Euler's preconditioner for conjugate gradients.
 enum class Preconditioner : uint8_t {
-  /// multigrid for a global-mode system of 4,000 movable nodes or more, Jacobi below
+  /// Jacobi, for now: the multigrid wins at some sizes and dt and loses at others
+  /// (docs/benchmarks.md)
   kAuto,
   kJacobi,  ///< the system's diagonal: cheapest per iteration; iterations grow with the mesh
-  /// smoothed-aggregation multigrid (the same organ at coarser scales): iterations nearly
-  /// independent of the mesh, three products an iteration, a setup of about a second per 40k
-  /// nodes whenever dt, the material or the movable nodes change
+  /// aggregation multigrid (the same organ at coarser scales), built from the stiffness at
+  /// rest: 6x fewer iterations than Jacobi on a 22k-node liver at 10 ms (2.8x faster) but 2.3x
+  /// fewer at 48k nodes (2.1x slower), three products an iteration, a setup of 0.3-1.1 s
+  /// (22k-48k nodes) whenever dt, the material or the movable nodes change
   kMultigrid,
 };
 
