@@ -2,13 +2,14 @@
 // the slowest vibration: a symmetric positive definite V-cycle, the same states as Jacobi in
 // fewer iterations, held nodes masked without a rebuild, the slowest vibration as a
 // factorisation finds it.
+#include "sim/multigrid.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
 #include "lamina/sim/simulation.h"
-#include "sim/multigrid.h"
 #include "sim/preconditioner.h"
 #include "sim/solver.h"  // white box: the hierarchy and its build count
 #include "support/random_rows.h"
