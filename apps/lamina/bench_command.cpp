@@ -115,6 +115,15 @@ double time_steps(const Model& m, const std::vector<int32_t>& fixed, const inter
   return median(us);
 }
 
+// The process's peak resident memory so far (VmHWM), MB.
+double peak_rss_mb() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return 0.0;
+}
+
 // The physical liver (the default scene: tetrahedra, E and nu, support, implicit Euler) at
 // a skin size and dt, under the scene's poke held: median microseconds per step over batches,
 // the CG iterations a step, and the setup (model build; the scene's preparation, the slowest
@@ -132,12 +141,10 @@ struct PhysicalResult {
   PhysicalCase c;
   int32_t nodes = 0, skin_vertices = 0;
   int64_t tets = 0;
-  double build_s = 0.0, prepare_s = 0.0, solver_setup_s = 0.0, first_step_us = 0.0;
+  double build_s = 0.0, prepare_s = 0.0, first_step_us = 0.0;
   double us_per_step = 0.0, cg_iterations = 0.0, peak_rss_mb = 0.0;
   bool multigrid = false;
 };
-
-double peak_rss_mb();
 
 PhysicalResult time_physical(const PhysicalCase& c) {
   PhysicalResult r;
@@ -154,7 +161,6 @@ PhysicalResult time_physical(const PhysicalCase& c) {
   const Model& m = *ready.model;
   sim::Simulation s = io::make_scene_simulation(ready);  // prepares the solver
   r.prepare_s = seconds_since(t1);
-  r.solver_setup_s = sim::prepare_solver(s);  // again: 0 unless the first was not kept
   interact::ToolDriver d;
   d.tools = ready.scene.tools;
   d.tools.front().end_s = std::numeric_limits<double>::infinity();
@@ -176,15 +182,6 @@ PhysicalResult time_physical(const PhysicalCase& c) {
   r.multigrid = sim::uses_multigrid(s);
   r.peak_rss_mb = peak_rss_mb();
   return r;
-}
-
-// The process's peak resident memory so far (VmHWM), MB.
-double peak_rss_mb() {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  return 0.0;
 }
 
 nlohmann::json physical_json(const PhysicalResult& r) {

@@ -6,8 +6,8 @@
 // any deformation and conjugate gradients apply. Preconditioned by Jacobi or by multigrid
 // (preconditioner.h), warm-started from v0
 // plus the last step's change (a smooth motion changes its velocity by about the same each
-// step). The cost is bounded: one product for the start residual and one per CG iteration, at
-// most SolverOptions::cg_max_iterations.
+// step). The cost is bounded: one product for the start residual and one per CG iteration (a
+// multigrid V-cycle adds two), at most SolverOptions::cg_max_iterations.
 #include <array>
 #include <chrono>
 
@@ -67,6 +67,12 @@ double system_product(Solver& s, double h, const Eigen::MatrixX3d& pm, Eigen::Ma
 }
 
 namespace {
+
+Measured failed_step() {
+  Measured failed;
+  failed.ok = false;
+  return failed;
+}
 
 // The step for one preconditioner (preconditioner.h): a pointwise one is applied inside the
 // passes that produce the residual, the multigrid after them.
@@ -166,11 +172,7 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
   for (int t = 0; t < T; ++t) b2 += part[t].a, rz += part[t].b, r2 += part[t].c, m2 += part[t].d;
   // A load so large that |b|^2 overflows would stop CG before its first iteration and pass for
   // "no motion": it is a failed step (nothing has been written yet).
-  if (!std::isfinite(b2) || !std::isfinite(rz)) {
-    Measured failed;
-    failed.ok = false;
-    return failed;
-  }
+  if (!std::isfinite(b2) || !std::isfinite(rz)) return failed_step();
 
   // 4. Conjugate gradients on v1 (in dv), to a residual of cg_tolerance |b|, or to one that
   //    stands for velocity errors of a thousandth of the rest speed: close to rest |b| itself
@@ -207,11 +209,7 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
     if (b2 != 0.0 && r2 > stop2) {
       refresh_multigrid(s);
       rz = precondition();
-      if (!std::isfinite(rz)) {
-        Measured failed;
-        failed.ok = false;
-        return failed;
-      }
+      if (!std::isfinite(rz)) return failed_step();
     }
   }
   if (b2 == 0.0) {

@@ -46,7 +46,7 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations) {
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (row[i] >= 0) points.row(row[i]) = m.X.row(i);
   build_multigrid(K, points, mg);
-  const SparseRows Kr = K;
+  const SparseRows& Kr = mg.levels[0].A;  // K, by rows (threaded products)
   const auto dot_m = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
     return a.dot(mass.cwiseProduct(b));
   };

@@ -1,4 +1,4 @@
-// Smoothed-aggregation multigrid (multigrid.h): the hierarchy's setup and the V-cycle.
+// Aggregation multigrid (multigrid.h): the hierarchy's setup and the V-cycle.
 #include "multigrid.h"
 
 #include <Eigen/Geometry>
@@ -158,7 +158,7 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
     strong_neighbours(level.A, nodes, theta, offsets, adj);
     int32_t count = 0;
     const std::vector<int32_t> agg = aggregate(offsets, adj, count);
-    // Each aggregate's unknowns and the tentative prolongation: an orthonormal basis of its
+    // Each aggregate's unknowns and the prolongation: an orthonormal basis of its
     // rigid motions (Q of a rank-revealing QR; fewer than six when the aggregate is too small
     // or too flat to carry them all), the coarse near-null space R = Q^T B.
     std::vector<std::vector<int32_t>> members(static_cast<size_t>(count));
@@ -192,27 +192,23 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
     // Coarsening that keeps more than half the unknowns costs more than it saves: this level is
     // then the coarsest.
     if (2 * static_cast<int64_t>(unknowns) > level.A.rows()) break;
-    SparseRows tentative(level.A.rows(), unknowns);
-    tentative.setFromTriplets(t.begin(), t.end());
-    // Smoothing the prolongation by one damped-Jacobi step on A makes each coarse basis function
-    // low in energy: the coarse level then corrects what Jacobi cannot.
-    const double t_aggregate = seconds_since(t0);
     // Plain aggregation: P is the tentative prolongation itself. Smoothing it by one Jacobi step
     // (Vanek's smoothed aggregation) took the same CG iterations on the 22k- and 48k-node livers
     // at 10 ms (15.5 and 53.9 a step, against 14.2 and 41.7) but made the second level's
     // operator six times denser: 224 against 103 ms a step at 22k, 1,444 against 497 ms at 48k,
     // and 8.2 against 1.1 s to build (docs/benchmarks.md).
-    level.P = tentative;
+    level.P.resize(level.A.rows(), unknowns);
+    level.P.setFromTriplets(t.begin(), t.end());
     level.R = level.P.transpose();
+    const double t_aggregate = seconds_since(t0);
     MultigridLevel next;
-    const double t_smooth = seconds_since(t0);
     const SparseRows AP = level.A * level.P;
     next.A = level.R * AP;
     log::debug(
-        "multigrid level {}: {} unknowns, {} aggregates, P {} nonzeros, coarse {} "
-        "nonzeros; aggregated at {:.2f} s, prolongation at {:.2f} s, Galerkin at {:.2f} s",
+        "multigrid level {}: {} unknowns, {} aggregates, P {} nonzeros, coarse {} nonzeros; "
+        "aggregated at {:.2f} s, Galerkin at {:.2f} s",
         mg.levels.size() - 1, level.A.rows(), count, level.P.nonZeros(), next.A.nonZeros(),
-        t_aggregate, t_smooth, seconds_since(t0));
+        t_aggregate, seconds_since(t0));
     B.resize(unknowns, 6);
     for (int32_t a = 0; a < count; ++a)
       B.middleRows(coarse.offsets[a], coarse.offsets[a + 1] - coarse.offsets[a]) = coarse_b[a];
@@ -228,7 +224,7 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
     mg.shape.nonzeros.push_back(level.A.nonZeros());
     mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
   }
-  mg.shape.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  mg.shape.setup_s = seconds_since(t0);
 }
 
 void v_cycle(Multigrid& mg, size_t from) {

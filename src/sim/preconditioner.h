@@ -9,7 +9,7 @@
 // - Multigrid (multigrid.h), a V-cycle whose finest level is the exact linearised system and
 //   whose coarser levels are built once from the system at rest: 2-6x fewer iterations than
 //   Jacobi, for two more products and the coarse levels a cycle (docs/benchmarks.md). Its
-//   iterations still grow with the mesh (2.6, 14.2, 41.7 a step at 2k, 22k, 48k nodes, 10 ms).
+//   iterations still grow with the mesh (2.8, 14.2, 41.7 a step at 2k, 22k, 48k nodes, 10 ms).
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
@@ -45,7 +45,7 @@ struct MultigridPreconditioner {
 };
 
 /// Whether this step takes the multigrid (SolverOptions::preconditioner; kAuto is Jacobi for
-/// now, solver.h says why).
+/// now, multigrid_preconditioner.cpp says why).
 bool multigrid_applies(const Solver& s);
 /// Builds the hierarchy when the movable nodes, the material or h changed since the last build.
 void setup_multigrid(Solver& s, double h);

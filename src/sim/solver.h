@@ -191,11 +191,6 @@ struct SupportTerm {
 struct ProjectiveSolver;         // projective.cpp: the prefactored system, reused across steps
 struct MultigridPreconditioner;  // preconditioner.h: the implicit step's hierarchy
 
-// SolverOptions::preconditioner kAuto is Jacobi for now: the multigrid won at 22k nodes and
-// 10 ms (103 against 286 ms a step) but lost at 48k (497 against 238 ms: 41.7 iterations, and a
-// V-cycle costs about five of Jacobi's), and at 1 ms Jacobi takes 1-3 iterations at any size
-// (docs/benchmarks.md).
-
 struct Solver {
   const Model* model = nullptr;
   Material material;

@@ -20,14 +20,9 @@ namespace {
 using namespace lamina;
 
 sim::Simulation poked(sim::Preconditioner preconditioner) {
-  const Model& m = test::tet_phantom();
-  sim::Simulation s = sim::make_simulation(m, test::kTetLiver,
-                                           {.integrator = sim::Integrator::kImplicitEuler,
-                                            .dt_s = 0.01,
-                                            .preconditioner = preconditioner});
-  sim::fix_nodes(s, {0, 1, 2, 3, 4, 5, 6, 7});
-  s.f_ext.row(m.node_count() / 3) << 0.0, 300.0, 0.0;
-  return s;
+  return test::poked_tet_phantom({.integrator = sim::Integrator::kImplicitEuler,
+                                  .dt_s = 0.01,
+                                  .preconditioner = preconditioner});
 }
 
 TEST(Multigrid, TheVCycleIsSymmetricPositiveDefinite) {
@@ -61,12 +56,7 @@ TEST(Multigrid, ReachesJacobisStatesInFewerIterations) {
   auto run = [](sim::Preconditioner pre, int32_t& iterations) -> Eigen::MatrixX3d {
     sim::Simulation s = poked(pre);
     EXPECT_EQ(sim::uses_multigrid(s), pre == sim::Preconditioner::kMultigrid);
-    iterations = 0;
-    for (int k = 0; k < 150; ++k) {
-      const sim::StepStats st = sim::step(s);
-      EXPECT_FALSE(st.recovered);
-      iterations += st.cg_iterations;
-    }
+    iterations = test::step_counting_iterations(s, 150);
     return Eigen::MatrixX3d(s.x);
   };
   int32_t jacobi_iterations = 0, multigrid_iterations = 0;

@@ -73,19 +73,12 @@ TEST(TetAssembly, ImplicitEulerStepsAsWithTheElementProduct) {
   // iterations a step): the assembled matrix and the element product reach the same states.
   const Model& m = test::tet_phantom();
   auto run = [&](bool assembled, int32_t& iterations) -> Eigen::MatrixX3d {
-    sim::Simulation sim = sim::make_simulation(
-        m, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.01});
-    sim::fix_nodes(sim, {0, 1, 2, 3, 4, 5, 6, 7});
+    sim::Simulation sim =
+        test::poked_tet_phantom({.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.01});
     sim::detail::TetAssembly& a = sim.solver().tets.assembly;
     EXPECT_FALSE(a.on) << "a model this small keeps the element product";
     if (assembled) sim::detail::setup_tet_assembly(sim.solver());  // every product by blocks
-    sim.f_ext.row(m.node_count() / 3) << 0.0, 300.0, 0.0;
-    iterations = 0;
-    for (int k = 0; k < 150; ++k) {
-      const sim::StepStats st = sim::step(sim);
-      EXPECT_FALSE(st.recovered);
-      iterations += st.cg_iterations;
-    }
+    iterations = test::step_counting_iterations(sim, 150);
     return Eigen::MatrixX3d(sim.x);
   };
   int32_t element_iterations = 0, assembled_iterations = 0;

@@ -263,7 +263,7 @@ void restore_state(Simulation& sim, const SimState& state);
 double prepare_solver(Simulation& sim);
 
 /// Whether implicit Euler's steps take the multigrid preconditioner (SolverOptions::
-/// preconditioner, and for kAuto the model's size and mode).
+/// preconditioner is kMultigrid and some node moves).
 bool uses_multigrid(const Simulation& sim);
 
 /// Advances one time step, in named and timed stages (StepStats::profile): the force terms
