@@ -1,5 +1,6 @@
 // Simulations: made from a model with keyword arguments (the C++ defaults and units), or from a
 // scene as `lamina run` sets it up; stepped with tools and raw forces; state as numpy views.
+#include <fmt/format.h>
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -44,18 +45,39 @@ sim::Mode parse_mode(const std::string& name) {
   throw invalid_input("mode", "is '" + name + "'; global or local expected");
 }
 
+sim::Preconditioner parse_preconditioner(const std::string& name) {
+  if (name == "auto") return sim::Preconditioner::kAuto;
+  if (name == "jacobi") return sim::Preconditioner::kJacobi;
+  if (name == "multigrid") return sim::Preconditioner::kMultigrid;
+  throw invalid_input("preconditioner", "is '" + name + "'; auto, jacobi or multigrid expected");
+}
+
 void wire(PySimulation& p) {
   p.driver.held_forces = Eigen::MatrixX3d::Zero(p.model->node_count(), 3);
+}
+
+// An unstable simulation is an error in Python, never a StepStats to overlook: lamina.Error
+// (kind 'unstable'); the state stays readable and reset() starts again.
+void throw_if_unstable(const PySimulation& p, const char* what) {
+  if (p.last.unstable == sim::Instability::kNone) return;
+  throw Error(ErrorKind::kUnstable,
+              fmt::format("{}: unstable at t = {:.4g} s: {}; lower dt, the tool forces or the "
+                          "stiffness, then reset()",
+                          what, p.sim.time_s, sim::describe(p.last.unstable)));
 }
 
 sim::StepStats step_n(PySimulation& p, int64_t steps) {
   if (steps < 0)
     throw invalid_input("step: steps", "is " + std::to_string(steps) + "; >= 0 expected");
-  py::gil_scoped_release release;
-  for (int64_t k = 0; k < steps; ++k) {
-    interact::apply_tools(p.sim, p.driver);
-    p.last = sim::step(p.sim);
+  {
+    py::gil_scoped_release release;
+    for (int64_t k = 0; k < steps; ++k) {
+      interact::apply_tools(p.sim, p.driver);
+      p.last = sim::step(p.sim);
+      if (p.last.unstable != sim::Instability::kNone) break;
+    }
   }
+  throw_if_unstable(p, "step");
   return p.last;
 }
 
@@ -107,6 +129,16 @@ void bind_simulation(py::module_& m) {
                     "at rest: no node faster than the rest speed")
       .def_readonly("recovered", &sim::StepStats::recovered)
       .def_readonly("failed", &sim::StepStats::failed)
+      .def_property_readonly(
+          "unstable",
+          [](const sim::StepStats& s) {
+            return s.unstable == sim::Instability::kNone ? "" : sim::describe(s.unstable);
+          },
+          "why the simulation left physical bounds; empty while it is stable")
+      .def_readonly("solver_converged", &sim::StepStats::solver_converged,
+                    "implicit Euler: conjugate gradients reached their tolerance")
+      .def_readonly("solver_residual", &sim::StepStats::solver_residual,
+                    "implicit Euler: |b - A dv| / |b| at the solve's end")
       .def("__repr__", [](const sim::StepStats& s) {
         return "<lamina.StepStats max_displacement_mm=" + std::to_string(s.max_displacement_mm) +
                " volume_change_pct=" + std::to_string(s.volume_change_pct) +
@@ -119,45 +151,47 @@ void bind_simulation(py::module_& m) {
       "x, v, f_ext are (nodes, 3) float64 numpy views of the simulation's own\n"
       "memory (no copy): write them between steps. f_ext holds raw forces, mN;\n"
       "tools add their routed forces to them during each step.")
-      .def(py::init([](std::shared_ptr<Model> model, double stiffness_n_per_m,
-                       double damping_kg_per_s, double mass_damping_per_s, double node_mass_kg,
-                       double anchor_stiffness_n_per_m, double volume_stiffness_kpa,
-                       double young_modulus_kpa, double poisson_ratio,
-                       const Eigen::Vector3d& gravity_mm_per_s2, const std::string& integrator,
-                       double dt_s, double rest_speed_mm_per_s, int64_t max_steps,
-                       const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
-                       int32_t locality, int32_t penetration_depth, double contact_threshold_mm,
-                       const std::vector<int64_t>& fixed) {
-             if (!model) throw invalid_input("Simulation: model", "is None");
-             sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
-                               .damping_kg_per_s = damping_kg_per_s,
-                               .mass_damping_per_s = mass_damping_per_s,
-                               .node_mass_kg = node_mass_kg,
-                               .anchor_stiffness_n_per_m = anchor_stiffness_n_per_m,
-                               .volume_stiffness_kpa = volume_stiffness_kpa,
-                               .young_modulus_kpa = young_modulus_kpa,
-                               .poisson_ratio = poisson_ratio,
-                               .gravity_mm_per_s2 = gravity_mm_per_s2};
-             sim::SolverOptions opt{.integrator = parse_integrator(integrator),
-                                    .dt_s = dt_s,
-                                    .rest_speed_mm_per_s = rest_speed_mm_per_s,
-                                    .max_steps = max_steps,
-                                    .mode = parse_mode(mode),
-                                    .cg_max_iterations = cg_max_iterations,
-                                    .cg_tolerance = cg_tolerance};
-             auto p = std::make_unique<PySimulation>(
-                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}});
-             p->driver.routing.locality = locality;
-             p->driver.routing.penetration_depth = penetration_depth;
-             p->driver.routing.contact_threshold_mm = contact_threshold_mm;
-             if (locality > model->rings.locality)
-               throw invalid_input("locality", "is " + std::to_string(locality) +
-                                                   "; the model's rings reach " +
-                                                   std::to_string(model->rings.locality));
-             sim::fix_nodes(p->sim, nodes_of(fixed));
-             wire(*p);
-             return p;
-           }),
+      .def(py::init(
+               [](std::shared_ptr<Model> model, double stiffness_n_per_m, double damping_kg_per_s,
+                  double mass_damping_per_s, double node_mass_kg, double anchor_stiffness_n_per_m,
+                  double volume_stiffness_kpa, double young_modulus_kpa, double poisson_ratio,
+                  const Eigen::Vector3d& gravity_mm_per_s2, const std::string& integrator,
+                  double dt_s, double rest_speed_mm_per_s, int64_t max_steps,
+                  const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
+                  const std::string& preconditioner, int32_t locality, int32_t penetration_depth,
+                  double contact_threshold_mm, const std::vector<int64_t>& fixed) {
+                 if (!model) throw invalid_input("Simulation: model", "is None");
+                 sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
+                                   .damping_kg_per_s = damping_kg_per_s,
+                                   .mass_damping_per_s = mass_damping_per_s,
+                                   .node_mass_kg = node_mass_kg,
+                                   .anchor_stiffness_n_per_m = anchor_stiffness_n_per_m,
+                                   .volume_stiffness_kpa = volume_stiffness_kpa,
+                                   .young_modulus_kpa = young_modulus_kpa,
+                                   .poisson_ratio = poisson_ratio,
+                                   .gravity_mm_per_s2 = gravity_mm_per_s2};
+                 sim::SolverOptions opt{.integrator = parse_integrator(integrator),
+                                        .dt_s = dt_s,
+                                        .rest_speed_mm_per_s = rest_speed_mm_per_s,
+                                        .max_steps = max_steps,
+                                        .mode = parse_mode(mode),
+                                        .cg_max_iterations = cg_max_iterations,
+                                        .cg_tolerance = cg_tolerance,
+                                        .preconditioner = parse_preconditioner(preconditioner)};
+                 auto p = std::make_unique<PySimulation>(
+                     PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}});
+                 p->driver.routing.locality = locality;
+                 p->driver.routing.penetration_depth = penetration_depth;
+                 p->driver.routing.contact_threshold_mm = contact_threshold_mm;
+                 if (locality > model->rings.locality)
+                   throw invalid_input("locality", "is " + std::to_string(locality) +
+                                                       "; the model's rings reach " +
+                                                       std::to_string(model->rings.locality));
+                 sim::fix_nodes(p->sim, nodes_of(fixed));
+                 sim::prepare_solver(p->sim);  // the multigrid now, not in the first step
+                 wire(*p);
+                 return p;
+               }),
            py::arg("model"), py::kw_only(), py::arg("stiffness_n_per_m") = 3.0,
            py::arg("damping_kg_per_s") = 3.0, py::arg("mass_damping_per_s") = 0.0,
            py::arg("node_mass_kg") = 1.0, py::arg("anchor_stiffness_n_per_m") = 0.0,
@@ -166,13 +200,14 @@ void bind_simulation(py::module_& m) {
            py::arg("integrator") = "semi_implicit_euler", py::arg("dt_s") = 0.01,
            py::arg("rest_speed_mm_per_s") = 0.1, py::arg("max_steps") = 100000,
            py::arg("mode") = "global", py::arg("cg_max_iterations") = 100,
-           py::arg("cg_tolerance") = 1e-6, py::arg("locality") = 4,
-           py::arg("penetration_depth") = 4, py::arg("contact_threshold_mm") = 10.0,
-           py::arg("fixed") = std::vector<int64_t>{},
+           py::arg("cg_tolerance") = 1e-6, py::arg("preconditioner") = "auto",
+           py::arg("locality") = 4, py::arg("penetration_depth") = 4,
+           py::arg("contact_threshold_mm") = 10.0, py::arg("fixed") = std::vector<int64_t>{},
            "A simulation at rest. Defaults are the reference paper's (K = 3 N/m, gamma = 3 kg/s,\n"
            "unit masses, semi-implicit Euler at dt = 0.01 s). young_modulus_kpa (E) > 0 with\n"
            "stiffness_n_per_m = 0 and node_mass_kg = 0 makes the tissue elastic (E, nu) through\n"
            "the tetrahedra. integrator: semi_implicit_euler, implicit_euler, projective.\n"
+           "preconditioner (implicit_euler's CG): auto (= jacobi), jacobi, multigrid.\n"
            "fixed: node indices held at rest (without them a push moves the organ bodily).")
       .def_property_readonly("model", [](const PySimulation& p) { return p.model; })
       .def_property(
@@ -293,6 +328,7 @@ void bind_simulation(py::module_& m) {
                   });
             }
             p.last = run.last;
+            throw_if_unstable(p, "run");
             py::dict d = run_dict(p, run, peaks);
             if (record) {
               py::dict metrics;
@@ -325,7 +361,11 @@ void bind_simulation(py::module_& m) {
           },
           "the tissue's push back on the tools in the last step, mN (3 values)")
       .def(
-          "reset", [](PySimulation& p) { sim::reset(p.sim); },
+          "reset",
+          [](PySimulation& p) {
+            sim::reset(p.sim);
+            p.last = {};
+          },
           "Every node back at rest, time 0; parameters, fixed nodes and tools kept.")
       .def_property_readonly("scene", [](const PySimulation& p) { return p.scene; });
 

@@ -143,7 +143,10 @@ struct PhysicalResult {
   int64_t tets = 0;
   double build_s = 0.0, prepare_s = 0.0, first_step_us = 0.0;
   double us_per_step = 0.0, cg_iterations = 0.0, peak_rss_mb = 0.0;
+  int64_t unsolved_steps = 0;   // timed steps whose CG stopped short of its tolerance
+  double worst_residual = 0.0;  // the largest |r| / |b| a timed step ended with
   bool multigrid = false;
+  bool unstable = false;
 };
 
 PhysicalResult time_physical(const PhysicalCase& c) {
@@ -171,7 +174,13 @@ PhysicalResult time_physical(const PhysicalCase& c) {
   int64_t iterations = 0;
   for (int b = 0; b < c.batches; ++b) {
     const auto tb = Clock::now();
-    for (int k = 0; k < c.steps; ++k) iterations += sim::step(s).cg_iterations;
+    for (int k = 0; k < c.steps; ++k) {
+      const sim::StepStats st = sim::step(s);
+      iterations += st.cg_iterations;
+      r.unsolved_steps += st.solver_converged ? 0 : 1;
+      r.worst_residual = std::max(r.worst_residual, st.solver_residual);
+      r.unstable = r.unstable || st.unstable != sim::Instability::kNone;
+    }
     us.push_back(1e6 * seconds_since(tb) / c.steps);
   }
   r.nodes = m.node_count();
@@ -199,6 +208,9 @@ nlohmann::json physical_json(const PhysicalResult& r) {
           {"us_per_step", r.us_per_step},
           {"steps_per_second", steps_per_second},
           {"cg_iterations", r.cg_iterations},
+          {"unsolved_steps", r.unsolved_steps},
+          {"worst_residual", r.worst_residual},
+          {"unstable", r.unstable},
           {"peak_rss_mb", r.peak_rss_mb},
           {"target_steps_per_second", r.c.target_steps_per_second},
           {"real_time", steps_per_second * r.c.dt_s >= 1.0}};
@@ -208,15 +220,15 @@ void print_physical(const std::vector<PhysicalResult>& physical) {
   std::cout << "  physical liver (tetrahedra, E = 6 kPa, nu = 0.45, implicit Euler, held poke; "
                "setup = build + prepare, s; peak memory of the process so far):\n"
                "  model                      nodes    tets  dt_ms  precond.  setup_s  first_ms  "
-               "us_per_step  steps/s  target  cg_iters  peak_mb\n";
+               "us_per_step  steps/s  target  cg_iters  missed  peak_mb\n";
   for (const PhysicalResult& r : physical)
     std::cout << fmt::format(
         "  {:24} {:7} {:7} {:6.1f}  {:9} {:7.2f} {:9.1f} {:12.1f} {:8.0f} {:7.0f} {:9.2f} "
-        "{:8.0f}\n",
+        "{:7}{} {:8.0f}\n",
         "physical_" + r.c.name, r.nodes, r.tets, 1000.0 * r.c.dt_s,
         r.multigrid ? "multigrid" : "jacobi", r.build_s + r.prepare_s, r.first_step_us / 1000.0,
         r.us_per_step, 1e6 / r.us_per_step, r.c.target_steps_per_second, r.cg_iterations,
-        r.peak_rss_mb);
+        r.unsolved_steps, r.unstable ? "!" : " ", r.peak_rss_mb);
 }
 
 int report_physical(const BenchArgs& a, const std::vector<PhysicalResult>& physical,

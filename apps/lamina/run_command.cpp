@@ -205,8 +205,8 @@ struct RunOutputs {
 // How the stepping loop ended and what it measured along the way.
 struct LoopResult {
   bool converged = false;
-  bool stopped = false;   // --stop-after: a checkpoint to resume from was written
-  bool unstable = false;  // steps failed even after rollback, kMaxFailedSteps in a row
+  bool stopped = false;  // --stop-after: a checkpoint to resume from was written
+  sim::Instability unstable = sim::Instability::kNone;  // why the run stopped early
   sim::StepStats last;
   std::vector<double> step_us;      // each step's wall time, tool routing included
   std::vector<double> lateness_us;  // --realtime: each step's start after its tick
@@ -214,10 +214,6 @@ struct LoopResult {
   int64_t steps = 0;                // steps this run took (a resumed run's share)
   double sim_s = 0.0;               // simulated time this run covered
 };
-
-// A step that not even backward Euler can take leaves the state as it was. A few in a row mean
-// the load or dt is beyond the model: stop, keep what was computed, and say so.
-constexpr int64_t kMaxFailedSteps = 10;
 
 // Progress towards the end of a run: before the last release, time towards it; after, the
 // orders of magnitude of the largest speed still to lose before the rest speed.
@@ -249,7 +245,8 @@ struct RunProgressReport {
 
 // Steps until every tool has let go and the model is at rest (interact::RestWatch: a tool that
 // never ends is followed until the model rests under its load), or until max_steps, too many
-// failed steps, or --stop-after. Frames, metrics and checkpoints are written as it goes.
+// an unstable simulation (sim::Instability), or --stop-after. Frames, metrics and checkpoints are
+// written as it goes.
 LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s,
                     interact::ToolDriver& driver, RunOutputs& outputs, io::RunProgress& so_far,
                     const std::function<void(int64_t)>& write_checkpoint,
@@ -267,7 +264,6 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s
   const int64_t first_step = so_far.loop_step;
   const int64_t steps_at_start = s.steps;
   const double time_at_start = s.time_s;
-  int64_t failed_streak = 0;
   for (int64_t k = first_step; k < scene.solver.max_steps; ++k) {
     if (a.realtime) r.lateness_us.push_back(pacer.lateness_us());
     const double start_s = s.time_s;
@@ -294,9 +290,8 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s
         k + 1 == scene.solver.max_steps)
       append_metrics(so_far.metrics_csv, s.time_s, r.last, us, active, reaction);
     if (r.converged) break;
-    failed_streak = r.last.failed ? failed_streak + 1 : 0;
-    if (failed_streak >= kMaxFailedSteps) {
-      r.unstable = true;
+    if (r.last.unstable != sim::Instability::kNone) {
+      r.unstable = r.last.unstable;
       break;
     }
     if (a.checkpoint_every > 0 && (k + 1) % a.checkpoint_every == 0) write_checkpoint(k + 1);
@@ -449,7 +444,7 @@ int run_run(const RunArgs& a) {
         "stopped after {} steps as asked (--stop-after); continue with: lamina run "
         "--resume {} -o {}",
         a.stop_after_steps, checkpoint_path, a.output);
-  else if (!loop.converged && !loop.unstable)
+  else if (!loop.converged && loop.unstable == sim::Instability::kNone)
     log::warn("{}: not at rest after solver.max_steps = {} steps ({:.2f} s simulated)",
               scene.source, scene.solver.max_steps, s.time_s);
 
@@ -461,7 +456,9 @@ int run_run(const RunArgs& a) {
   sum.material = ready.setup.material;
   sum.converged = loop.converged;
   sum.stopped = loop.stopped;
-  sum.unstable = loop.unstable;
+  sum.unstable = loop.unstable != sim::Instability::kNone;
+  sum.unstable_reason =
+      loop.unstable != sim::Instability::kNone ? sim::describe(loop.unstable) : "";
   sum.steps = s.steps;
   sum.sim_seconds = s.time_s;
   sum.model_seconds = model_seconds;
@@ -486,17 +483,15 @@ int run_run(const RunArgs& a) {
   write_file_atomically((outputs.out / "summary.json").string(),
                         [&](std::ostream& f) { f << json << "\n"; });
 
-  if (loop.unstable) {
+  if (loop.unstable != sim::Instability::kNone) {
     double largest_n = 0.0;
     for (const interact::Tool& t : scene.tools) largest_n = std::max(largest_n, t.force_mn.norm());
-    throw Error(
-        ErrorKind::kUnstable,
-        fmt::format("{}: the simulation could not take a step at t = {:.3g} s even after "
-                    "rolling back to backward Euler ({} steps in a row): a tool force "
-                    "(largest {:.3g} N) or dt = {:.3g} s is beyond what this model can take; "
-                    "lower it (the run until then is in {})",
-                    scene.source, s.time_s, kMaxFailedSteps, largest_n / 1000.0, scene.solver.dt_s,
-                    a.output));
+    throw Error(ErrorKind::kUnstable,
+                fmt::format("{}: unstable at t = {:.3g} s: {}; a tool force (largest {:.3g} N), "
+                            "dt = {:.3g} s or the stiffness is beyond what this model can take: "
+                            "lower it (the run until then is in {})",
+                            scene.source, s.time_s, sim::describe(loop.unstable),
+                            largest_n / 1000.0, scene.solver.dt_s, a.output));
   }
   if (a.json)
     std::cout << json << "\n";

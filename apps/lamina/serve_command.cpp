@@ -216,6 +216,9 @@ int run_serve(const ServeArgs& a) {
   double max_reaction_mn = 0.0, behind_s = 0.0;
   interact::LoopSnapshot snap;
   uint64_t last_window = 0;
+  int64_t unstable_events = 0;
+  bool awaiting_reset = false;
+  auto next_unstable_log = start;
   loop.start();
   while (!stop_requested) {
     const auto now = Clock::now();
@@ -239,6 +242,26 @@ int run_serve(const ServeArgs& a) {
     if (next_tick < Clock::now()) next_tick = Clock::now() + tick;  // no burst after a stall
     loop.latest(snap);
     max_reaction_mn = std::max(max_reaction_mn, snap.reaction_mn.norm());
+    // Unstable: the loop has stopped and sends no reaction; said in the log, the organ put back
+    // at rest so that the session goes on, and the exit code says it happened.
+    if (snap.stats.unstable != sim::Instability::kNone && !awaiting_reset) {
+      ++unstable_events;
+      awaiting_reset = true;
+      // A tool held where it blew the organ up blows it up again after each reset: said once,
+      // then at most every 10 s with the count.
+      if (Clock::now() >= next_unstable_log) {
+        log::error(
+            "the simulation became unstable at t = {:.3f} s: {}; the organ is reset "
+            "to rest (a lower --tip-stiffness, a lower --rate or a stiffer material "
+            "avoids it){}",
+            snap.time_s, sim::describe(snap.stats.unstable),
+            unstable_events > 1 ? fmt::format(" ({} times so far)", unstable_events) : "");
+        next_unstable_log = Clock::now() + std::chrono::seconds(10);
+      }
+      loop.reset();
+    } else if (snap.stats.unstable == sim::Instability::kNone) {
+      awaiting_reset = false;
+    }
     if (a.send_hz > 0.0 && server.client_count() > 0) {
       std::vector<net::Packed> batch;
       for (int32_t k = 0; k < streamed_layers; ++k) batch.push_back(outgoing.surface(snap, k));
@@ -284,6 +307,11 @@ int run_serve(const ServeArgs& a) {
              snap.steps, snap.time_s, wall_s, rtf, behind_s, c.clients, c.messages_in, poses,
              c.messages_out, static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped,
              c.dropped, max_reaction_mn, snap.lock_waits, 1e-3 * snap.longest_lock_wait_us);
+  if (unstable_events > 0) {
+    log::error("the simulation became unstable {} time(s) during the session (see above)",
+               unstable_events);
+    return static_cast<int>(ErrorKind::kUnstable);
+  }
   return 0;
 }
 

@@ -98,7 +98,8 @@ int run_soak(const SoakArgs& a) {
     for (const ActiveTool& t : tools) interact::add_load(s, t.route, loads);
     const sim::StepStats st = sim::step(s);
     failed_steps += st.failed ? 1 : 0;
-    finite = finite && std::isfinite(st.volume_change_pct) && std::isfinite(st.max_displacement_mm);
+    finite = finite && std::isfinite(st.volume_change_pct) &&
+             std::isfinite(st.max_displacement_mm) && st.unstable == sim::Instability::kNone;
     max_abs_volume = std::max(max_abs_volume, std::abs(st.volume_change_pct));
     max_displacement = std::max(max_displacement, st.max_displacement_mm);
     if (k % sample == 0 || k + 1 == a.steps) {

@@ -56,8 +56,16 @@ void ViewSession::State::panels() {
               snap.stats.volume_change_pct);
   ImGui::Text("reaction (%.0f, %.0f, %.0f) mN", snap.reaction_mn.x(), snap.reaction_mn.y(),
               snap.reaction_mn.z());
+  if (snap.stats.unstable != sim::Instability::kNone) {
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.25f, 0.2f, 1));
+    ImGui::TextWrapped(
+        "UNSTABLE at t = %.2f s, stopped: %s. Press R to reset; lower the gain, dt or the "
+        "stiffness",
+        snap.time_s, sim::describe(snap.stats.unstable));
+    ImGui::PopStyleColor();
+  }
   if (snap.recoveries > 0)
-    ImGui::TextColored(ImVec4(1, 0.6f, 0.2f, 1), "%lld unstable steps rolled back",
+    ImGui::TextColored(ImVec4(1, 0.6f, 0.2f, 1), "%lld steps redone after leaving bounds",
                        static_cast<long long>(snap.recoveries));
   if (ImGui::Button("Reset (R)")) handle_key("r");
   ImGui::SameLine();

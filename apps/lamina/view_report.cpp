@@ -7,6 +7,7 @@
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
+#include "lamina/core/log.h"
 #include "lamina/io/mesh_file.h"
 #include "lamina/model/summarize_model.h"
 #include "view_session_state.h"
@@ -29,6 +30,17 @@ void ViewSession::State::watch_real_time_and_drag(double t) {
                                : snap.real_time_factor;
     behind_seen = behind_seen || !snap.keeping_up;
   }
+  const bool unstable = snap.stats.unstable != sim::Instability::kNone;
+  if (unstable && !unstable_now) {
+    ++unstable_events;
+    if (first_unstable == sim::Instability::kNone)
+      first_unstable = snap.stats.unstable, first_unstable_s = snap.time_s;
+    log::error(
+        "lamina view: the simulation became unstable at t = {:.3f} s: {}; it stopped "
+        "(press R to reset, then lower the gain, dt or the stiffness)",
+        snap.time_s, sim::describe(snap.stats.unstable));
+  }
+  unstable_now = unstable;
   if (gesture == Gesture::kDrag && snap.x.rows() == vm->model.node_count()) {
     Eigen::Index node = 0;
     const double peak = (snap.x - vm->model.X).rowwise().norm().maxCoeff(&node);
@@ -64,6 +76,11 @@ nlohmann::json ViewSession::State::report() const {
   j["final_max_displacement_mm"] = snap.stats.max_displacement_mm;
   j["final_volume_change_pct"] = snap.stats.volume_change_pct;
   j["recoveries"] = snap.recoveries;
+  j["unstable_events"] = unstable_events;
+  if (unstable_events > 0) {
+    j["first_unstable_reason"] = sim::describe(first_unstable);
+    j["first_unstable_at_s"] = first_unstable_s;
+  }
   j["drags"] = drags;
   j["pinned_forces"] = pinned.size();
   j["nodes"] = vm->model.node_count();

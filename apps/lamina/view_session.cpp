@@ -94,6 +94,11 @@ void ViewSession::finish() {
                "lamina view: the simulation fell behind real time (down to {:.2f}x); lower the "
                "rate or the model size, or close other programs\n",
                v.min_real_time_factor);
+  if (v.unstable_events > 0)
+    fmt::print(stderr,
+               "lamina view: the simulation became unstable {} time(s), first at t = {:.3f} s: "
+               "{}\n",
+               v.unstable_events, v.first_unstable_s, sim::describe(v.first_unstable));
 }
 
 int ViewSession::run() {
@@ -111,7 +116,8 @@ int ViewSession::run() {
     std::this_thread::sleep_until(frame_start + std::chrono::microseconds(v.frame_interval_us));
   }
   finish();
-  return 0;
+  // Never silently wrong: a session in which the simulation blew up ends as `lamina run` would.
+  return v.unstable_events > 0 ? static_cast<int>(ErrorKind::kUnstable) : 0;
 }
 
 void ViewSession::State::start_loop() {

@@ -95,6 +95,12 @@ struct ViewSession::State {
   double min_real_time_factor = 0.0;  // over the run after its first second; 0 = not yet
   int frame_interval_us = 16667;      // the frame pacing: 60 Hz, slower while the loop is behind
   bool behind_seen = false;
+  // Unstable simulations (sim::Instability) seen, the first one's reason and simulated time:
+  // said on screen, in the log, in the report, and as exit code 5.
+  int64_t unstable_events = 0;
+  bool unstable_now = false;
+  sim::Instability first_unstable = sim::Instability::kNone;
+  double first_unstable_s = 0.0;
   double drag_peak_mm = 0.0;
   int32_t drag_peak_node = -1, last_drag_node = -1;
   // The last release, in simulated seconds, and the largest displacement 3 simulated seconds

@@ -127,7 +127,9 @@ typedef struct lamina_step_stats {
 } lamina_step_stats;
 
 /* Takes `steps` steps of the solver's dt on the calling thread; `stats` (may be NULL) gets the
- * last one's measurements. */
+ * last one's measurements. LAMINA_ERROR_UNSTABLE once the simulation has left physical bounds
+ * (steps failing in a row, energy growing while no tool acts, a stalled solver): it takes no
+ * more steps, and its reaction is zero, until lamina_sim_reset. */
 lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats* stats);
 /* Puts every node back at rest (time 0); tool tip and forces are kept. */
 lamina_status lamina_sim_reset(lamina_sim* sim);

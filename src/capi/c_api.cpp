@@ -308,11 +308,11 @@ lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats*
     if (steps < 0) throw lamina::invalid_input("lamina_sim_step: steps", "is negative");
     s.loop->run_steps(steps);
     s.loop->latest(s.snapshot);
-    if (s.snapshot.stats.failed)
+    if (s.snapshot.stats.unstable != lamina::sim::Instability::kNone)
       throw Error(ErrorKind::kUnstable,
-                  "lamina_sim_step: the step failed even with backward Euler at t = " +
-                      std::to_string(s.snapshot.time_s) +
-                      " s; the state was kept (a load or dt beyond what the model can take)");
+                  "lamina_sim_step: unstable at t = " + std::to_string(s.snapshot.time_s) +
+                      " s: " + lamina::sim::describe(s.snapshot.stats.unstable) +
+                      "; lower dt, the forces or the stiffness, then lamina_sim_reset");
     if (stats == nullptr) return;
     const lamina::interact::LoopSnapshot& p = s.snapshot;
     stats->time_s = p.time_s;

@@ -134,7 +134,7 @@ void RealtimeLoop::run_steps(int64_t steps) {
     std::lock_guard lock(mutex_);
     apply_pending();
   }
-  for (int64_t k = 0; k < steps; ++k) one_step();
+  for (int64_t k = 0; k < steps && !halted(); ++k) one_step();
   publish(true);
 }
 
@@ -142,6 +142,7 @@ void RealtimeLoop::apply_pending() {
   bool reroute = false;
   if (reset_requested_) {
     sim::reset(sim_);
+    last_stats_ = {};  // an unstable simulation steps again from rest
     window_sim_start_s_ = sim_.time_s;
     reset_requested_ = false;
     reroute = true;
@@ -212,7 +213,9 @@ void RealtimeLoop::one_step() {
   last_stats_ = sim::step(sim_);
   const double t1 = now_s();
   {
-    const Eigen::Vector3d reaction = reaction_force(sim_, loads_);
+    // An unstable simulation's push is no force to render on a haptic device: none at all.
+    const Eigen::Vector3d reaction =
+        halted() ? Eigen::Vector3d::Zero() : reaction_force(sim_, loads_);
     std::unique_lock lock(reaction_mutex_, std::defer_lock);
     acquire(lock);
     reaction_ = {reaction, sim_.steps, sim_.time_s};
@@ -287,7 +290,7 @@ void RealtimeLoop::thread_main() {
   Pacer pacer;
   std::unique_lock lock(mutex_);
   while (!stop_requested_) {
-    if (paused_) {
+    if (paused_ || halted()) {  // unstable: no more steps until reset()
       wake_.wait_for(lock, std::chrono::milliseconds(20));
       apply_pending();
       lock.unlock();

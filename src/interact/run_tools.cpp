@@ -25,6 +25,7 @@ ToolRun run_tools(sim::Simulation& sim, ToolDriver& driver, double t_end_s, bool
     run.last = sim::step(sim);
     ++run.steps;
     if (per_step) per_step(sim, driver, run.last);
+    if (run.last.unstable != sim::Instability::kNone) break;  // the caller says so
     if (rest.update(start, run.last) && stop_at_rest) {
       run.converged = true;
       break;

@@ -643,6 +643,7 @@ std::string run_summary_json(const RunSummary& s) {
   j["converged"] = s.converged;
   j["stopped"] = s.stopped;
   j["unstable"] = s.unstable;
+  if (s.unstable) j["unstable_reason"] = s.unstable_reason;
   j["steps"] = s.steps;
   j["sim_seconds"] = s.sim_seconds;
   j["wall_seconds"] = s.wall_seconds;

@@ -237,8 +237,7 @@ Simulation make_simulation(const Model& model, const Material& material,
     s.rest_layer_volume_mm3[k] = layer_volume(model, model.X, k);
   s.rest_skin_volume_mm3 = s.rest_layer_volume_mm3.empty() ? 0.0 : s.rest_layer_volume_mm3[0];
   resolve(s, /*identify=*/true);
-  s.blowup_limit_mm =
-      100.0 * (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
+  s.blowup_limit_mm = (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
   for (Eigen::MatrixX3d* m : {&s.x_prev, &s.v_prev, &s.r, &s.p, &s.z, &s.y, &s.dv})
     *m = Eigen::MatrixX3d::Zero(n, 3);
   s.diag = Eigen::MatrixX3d::Ones(n, 3);
@@ -342,6 +341,7 @@ void reset(Simulation& sim) {
   sim.v.setZero();
   sim.solver().dv.setZero();
   sim.time_s = 0.0;
+  sim.solver().watch = {};  // a fresh start: whatever made it unstable is gone
   refresh(sim);
 }
 
@@ -378,6 +378,7 @@ void restore_state(Simulation& sim, const SimState& st) {
   sim.time_s = st.time_s;
   sim.steps = st.steps;
   sim.recoveries = st.recoveries;
+  s.watch = {};  // the watch starts again from the restored state (it is not part of it)
   refresh(sim);  // the active lists and frozen caches; it zeroes dv of nodes that do not move
   s.dv = st.dv;
 }

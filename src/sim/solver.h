@@ -188,6 +188,17 @@ struct SupportTerm {
   std::vector<double> stiffness_n_per_m;  ///< per node: anchor + support
 };
 
+/// What step() remembers to tell an unstable simulation (stability_watch.cpp).
+struct StabilityWatch {
+  int64_t failed_streak = 0;    ///< failed steps in a row
+  int64_t unsolved_streak = 0;  ///< steps in a row whose linear solve stalled (Measured)
+  uint64_t setup_version = 0;   ///< Solver::setup_version when the energy watch began
+  int64_t quiet_steps = 0;      ///< steps since a tool last acted
+  bool armed = false;           ///< start_j holds the energy at the watch's first check
+  double start_j = 0.0;
+  Instability latched = Instability::kNone;
+};
+
 struct ProjectiveSolver;         // projective.cpp: the prefactored system, reused across steps
 struct MultigridPreconditioner;  // preconditioner.h: the implicit step's hierarchy
 
@@ -209,8 +220,10 @@ struct Solver {
 
   double rest_skin_volume_mm3 = 0.0;
   std::vector<double> rest_layer_volume_mm3;  ///< per layer: the volume it encloses at rest
-  /// A node this far from its rest position (100 model sizes) counts as a blow-up.
+  /// A node this far from its rest position (the organ's own size, the diagonal of its box)
+  /// fails the step: no tissue stretches that far, and a blow-up passes it long before NaN.
   double blowup_limit_mm = 0.0;
+  StabilityWatch watch;
 
   /// Counts changes of what a prefactored solve depends on (movable nodes, material, dt).
   uint64_t setup_version = 0;
@@ -253,6 +266,9 @@ inline int threads_for(const Solver& s) {
 // Everything a step measures about the movable nodes, from their state before (x_prev) and after.
 struct Measured {
   double move2 = 0.0, disp2 = 0.0, ke = 0.0, speed2 = 0.0;
+  bool solved = true;     ///< implicit Euler: CG reached its tolerance
+  bool stalled = false;   ///< implicit Euler: CG ended more than 100 times above its tolerance
+  double residual = 0.0;  ///< implicit Euler: |r| / |b| at CG's end
   /// 6 x the skin's volume over its triangles with a movable corner, when the pass measured it
   /// at the step's end (NaN: step() measures it).
   double skin_volume6 = std::numeric_limits<double>::quiet_NaN();
@@ -421,6 +437,9 @@ void prepare_projective(Solver& s, double h);
 
 /// Rebuilds what a step visits and what it caches about the nodes that stay put.
 void refresh(Simulation& sim);
+/// Counts the step into the watch and sets st.unstable (stability_watch.cpp).
+/// `stalled`: the step's linear solve ended far above its tolerance (Measured::stalled).
+void watch_stability(Simulation& sim, StepStats& st, bool stalled);
 
 // The spring force on a node from a per-spring force buffer (each spring's force on its first
 // end): its springs' forces [a, end) of signed_spring, + where it is the first end, - where the

@@ -1,6 +1,6 @@
 // One time step in named, timed stages (after Box2D's b2World_Step): the force terms and
 // integration (inside each integrator: force passes, then a node pass or a linear solve), the
-// finite check and its recovery, the measurements.
+// bounds check and its recovery, the measurements and the watch for instability.
 #include <chrono>
 
 #include "preconditioner.h"
@@ -109,7 +109,9 @@ StepStats step(Simulation& sim) {
       s.dv.setZero();
       st.failed = true;
     }
+    const Measured solve = m;
     m = measure(sim);
+    m.solved = solve.solved, m.stalled = solve.stalled, m.residual = solve.residual;
     st.profile.recover_us = us_since(tr);
   }
   sim.time_s += h;
@@ -131,6 +133,9 @@ StepStats step(Simulation& sim) {
         100.0 * (st.skin_volume_mm3 - s.rest_skin_volume_mm3) / s.rest_skin_volume_mm3;
   }
   st.converged = !st.failed && st.max_speed_mm_per_s < s.options.rest_speed_mm_per_s;
+  st.solver_converged = m.solved;
+  st.solver_residual = m.residual;
+  watch_stability(sim, st, m.stalled);
   st.profile.measure_us = us_since(tm);
   st.step_us = us_since(t0);
   return st;

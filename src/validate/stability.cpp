@@ -48,6 +48,10 @@ struct Stage {
       r.finite = false;
       return false;
     }
+    if (st.unstable != sim::Instability::kNone) {
+      r.unstable = st.unstable;
+      return false;
+    }
     r.peak_displacement_mm = std::max(r.peak_displacement_mm, st.max_displacement_mm);
     r.peak_volume_change_pct = std::max(r.peak_volume_change_pct, std::abs(st.volume_change_pct));
     if (release_s >= 0.0) {
@@ -160,8 +164,8 @@ bool StabilityResult::energy_decays(const StabilityOptions& o) const {
 }
 
 bool StabilityResult::passed(const StabilityOptions& o) const {
-  return finite && order.ordered() && loaded_at_rest && returned_at_rest && energy_decays(o) &&
-         rest_error_mm <= o.rest_tolerance_mm;
+  return finite && unstable == sim::Instability::kNone && order.ordered() && loaded_at_rest &&
+         returned_at_rest && energy_decays(o) && rest_error_mm <= o.rest_tolerance_mm;
 }
 
 std::vector<StabilityCase> stability_cases(double dt, bool quick, bool projective) {

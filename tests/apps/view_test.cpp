@@ -73,6 +73,31 @@ TEST(View, ScriptedDragMovesTheSkinAndReleaseLetsItReturn) {
   EXPECT_FALSE(fs::exists(dir.path / "imgui.ini")) << "stray file";
 }
 
+// A case built to explode: the paper's soft springs dragged with a thousand times the default
+// gain (hundreds of newtons) pull the skin farther than the organ is wide. The window says so,
+// the simulation stops, the log and the report say so, and the viewer's exit code is 5.
+TEST(View, ADragThatBlowsTheOrganUpIsShownLoggedAndEndsWithExitFive) {
+  test::TempDir dir;
+  std::ofstream(dir.path / "blow.json") << R"({"events": [
+    {"at": 0.5, "mouse": [0.5, 0.5]},
+    {"at": 0.7, "press": "left"},
+    {"at": 0.8, "mouse": [0.5, 0.25], "over": 0.5},
+    {"at": 3.5, "window_screenshot": "blown.png"},
+    {"at": 4.0, "quit": true}]})";
+  const auto r = run_shell(dir, std::string(kXvfb) + quoted(test::lamina_cli()) +
+                                    " view --paper --gain 10 --script blow.json --report "
+                                    "report.json");
+  EXPECT_EQ(r.exit_code, 5) << r.err;
+  EXPECT_NE(r.err.find("error: lamina view: the simulation became unstable at t = "),
+            std::string::npos)
+      << r.err;
+  const json rep = json::parse(test::read_text(dir.path / "report.json"));
+  EXPECT_EQ(rep["unstable_events"], 1);
+  EXPECT_NE(rep["first_unstable_reason"].get<std::string>().find("steps failed"),
+            std::string::npos);
+  EXPECT_TRUE(is_png(dir.path / "blown.png"));
+}
+
 TEST(View, RebuildSwapsTheModelUnderTheRunningSimulation) {
   test::TempDir dir;
   // The rebuild takes as long as this machine needs (3-4x longer under the sanitizers): the
@@ -122,7 +147,10 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
   EXPECT_EQ(rep["drags"], 1) << "the press on the organ was not seen\n" << r.err;
-  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 2.0);
+  // The 2-second drag dents the organ by millimetres in real time. A machine that cannot keep up
+  // (ASan with a build beside it ran 0.03x: 60 ms of simulated drag) dents it less, and says so
+  // below; a dent is still required.
+  EXPECT_GT(rep["max_displacement_mm"].get<double>(), rep["fell_behind"].get<bool>() ? 0.5 : 2.0);
   // A dent where it is dragged, not a swing of the whole organ: the largest displacement is at
   // (or next to) the dragged node.
   EXPECT_LT(rep["drag_peak_distance_from_drag_mm"].get<double>(), 15.0);

@@ -134,6 +134,25 @@ int main(void) {
   /* A success clears the message. */
   CHECK_OK(lamina_sim_step(sim, 1, NULL));
   CHECK(lamina_last_error()[0] == '\0');
+
+  /* A case built to explode: a tool tip a million times too stiff drives the skin farther than
+   * the organ is wide. Within a few dozen steps the status is UNSTABLE with one line saying
+   * why; the positions stay finite, no more steps are taken, the reaction a haptic device
+   * would render is zero, and a reset steps again. */
+  CHECK_OK(lamina_sim_set_tool_tip(sim, tip, radius, 2e8));
+  lamina_status blown = LAMINA_OK;
+  for (int k = 0; k < 5 && blown == LAMINA_OK; ++k) blown = lamina_sim_step(sim, 10, &st);
+  CHECK(blown == LAMINA_ERROR_UNSTABLE);
+  printf("exploded as built: %s\n", lamina_last_error());
+  CHECK(strstr(lamina_last_error(), "unstable at t = ") != NULL);
+  CHECK(strchr(lamina_last_error(), '\n') == NULL);
+  CHECK_OK(lamina_sim_positions(sim, x, 3 * (int64_t)n));
+  for (int64_t k = 0; k < 3 * (int64_t)n; ++k) CHECK(isfinite(x[k]));
+  CHECK(lamina_sim_step(sim, 5, NULL) == LAMINA_ERROR_UNSTABLE);
+  CHECK_OK(lamina_sim_clear_tool_tip(sim));
+  CHECK_OK(lamina_sim_reset(sim));
+  CHECK_OK(lamina_sim_step(sim, 5, &st));
+  CHECK(st.max_displacement_mm < 1e-6 && st.reaction_mn[1] == 0.0);
   lamina_sim_free(sim);
 
   /* A scene: the default physical liver on the phantom, as `lamina run` sets it up. */

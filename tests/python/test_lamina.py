@@ -83,6 +83,43 @@ def test_tool_push_and_reaction(phantom_model):
     assert np.allclose(sim.reaction_force_mn(), 0.0)
 
 
+def test_a_case_built_to_explode_raises_unstable(phantom_model):
+    """A load far beyond the organ (1e9 N on one node): its steps are refused, then step()
+    raises lamina.Error (exit code 5, one line); the state stays finite and reset() steps
+    again."""
+    sim = lamina.Simulation(phantom_model, integrator="implicit_euler",
+                            fixed=back_nodes(phantom_model))
+    sim.f_ext[front_node(phantom_model)] = (0.0, 1e12, 0.0)
+    with pytest.raises(lamina.Error, match=r"step: unstable at t = .*steps failed") as e:
+        sim.step(50)
+    assert e.value.exit_code == 5 and one_line(e.value)
+    assert sim.stats.unstable.startswith("steps failed")
+    assert np.isfinite(sim.x).all()
+    with pytest.raises(lamina.Error, match="unstable"):
+        sim.step()  # it stays unstable until reset
+    sim.f_ext[:] = 0.0
+    sim.reset()
+    assert sim.step(5).unstable == ""
+
+
+def test_multigrid_preconditioner_takes_the_same_steps(phantom_model):
+    """preconditioner= chooses implicit Euler's; multigrid reaches Jacobi's state."""
+    states = []
+    for pre in ("jacobi", "multigrid"):
+        sim = lamina.Simulation(phantom_model, integrator="implicit_euler", preconditioner=pre,
+                                stiffness_n_per_m=0.0, node_mass_kg=0.0, damping_kg_per_s=0.0,
+                                mass_damping_per_s=5.0, young_modulus_kpa=6.0,
+                                fixed=back_nodes(phantom_model))
+        sim.f_ext[front_node(phantom_model)] = (0.0, 400.0, 0.0)
+        sim.step(20)
+        states.append(sim.x.copy())
+    moved = np.abs(states[0] - phantom_model.X).max()
+    assert moved > 0.5
+    assert np.abs(states[0] - states[1]).max() < 1e-3 * moved
+    with pytest.raises(lamina.Error, match="auto, jacobi or multigrid"):
+        lamina.Simulation(phantom_model, preconditioner="amg")
+
+
 def test_run_scene_matches_the_command_line(tmp_path, cli):
     """lamina.run_scene() is `lamina run` without the files: the same steps, the same peaks."""
     done = subprocess.run([cli, "-q", "run", "--json", "-o", str(tmp_path / "run")],

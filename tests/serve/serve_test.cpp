@@ -221,6 +221,38 @@ TEST(Serve, APoseOnTheSkinPushesItAndTheReactionComesBackAgainstThePush) {
   EXPECT_GT(s.max_reaction_mn, 5.0);
 }
 
+// A case built to fail: a physical liver whose implicit solver may take one conjugate-gradient
+// iteration a step against a 1e-12 tolerance. Untouched it is at rest (nothing to solve); pushed
+// by a stiff tip (up to 4 N), every solve stops far short, and after
+// sim::kUnsolvedStepsToUnstable of them the simulation is unstable. The log says so in one error
+// line (at most every 10 s however often it recurs), the organ is put back at rest each time,
+// the session goes on, and its exit code is 5, not 0.
+TEST(Serve, AnUnstableSimulationIsLoggedResetAndEndsWithExitFive) {
+  TempDir dir;
+  std::ofstream(dir.path / "stalls.json") << R"({"model": {"build": {"skin_vertices": 400}},
+      "solver": {"integrator": "implicit_euler", "cg_max_iterations": 1, "cg_tolerance": 1e-12}})";
+  Server server(dir.path, with({(dir.path / "stalls.json").string(), "--send-hz", "5",
+                                "--tip-stiffness", "2000"}));
+  Client tool(server.port());
+  const auto skin = tool.receive("POLYDATA", "LaminaSkin", 30.0);
+  ASSERT_TRUE(skin) << server.log();
+  const Eigen::MatrixX3d rest = polydata_points(*skin);
+  Eigen::Index front = 0;
+  rest.col(1).maxCoeff(&front);  // RAS: the most anterior node
+  tool.send_bytes(
+      transform_bytes("Needle", rest.row(front).transpose() + Eigen::Vector3d(0, 3, 0)));
+  const auto t0 = Clock::now();
+  while (server.log().find("became unstable") == std::string::npos && seconds_since(t0) < 15.0)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_NE(server.log().find("the simulation became unstable at t = "), std::string::npos)
+      << server.log();
+  EXPECT_NE(server.log().find("the implicit solver missed its tolerance"), std::string::npos);
+  EXPECT_NE(server.log().find("the organ is reset to rest"), std::string::npos);
+  server.process().terminate();
+  EXPECT_EQ(server.process().wait(20.0), 5) << server.log();
+  EXPECT_NE(server.log().find("time(s) during the session"), std::string::npos) << server.log();
+}
+
 // Each bad client gets one log line naming it and its problem, and loses its connection; the
 // simulation keeps its pace and the next well-behaved client is served.
 // The reaction force streams every step (a haptic client's 1 kHz), the surfaces at 30 Hz.

@@ -14,24 +14,17 @@
 #include "lamina/model/identify_springs.h"
 #include "sim/solver.h"  // white-box: what a step visits
 #include "support/random_rows.h"
+#include "support/tet_phantom.h"
 
 namespace {
 
 using namespace lamina;
 
-// A small two-layer phantom model (about 600 nodes), built once per process.
+// A small two-layer phantom model (about 600 nodes), built once per process, and its support.
 const Model& small_model() {
-  static const Model m =
-      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400})
-          .model;
-  return m;
+  return test::tet_phantom();
 }
-
-// Support for a global-mode model: the posterior 15 mm held (attached to the back wall).
-std::vector<int32_t> posterior_nodes(const Model& m) {
-  const double back = m.X.col(1).maxCoeff();
-  return sim::nodes_near_plane(m, Eigen::Vector3d(0, back, 0), Eigen::Vector3d(0, 1, 0), 15.0);
-}
+using test::posterior_nodes;
 
 const char* name(sim::Integrator i) {
   return i == sim::Integrator::kImplicitEuler ? "implicit"

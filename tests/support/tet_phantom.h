@@ -19,6 +19,12 @@ inline const Model& tet_phantom() {
   return m;
 }
 
+/// Its posterior 15 mm, held (attached to the back wall): what a global-mode model needs.
+inline std::vector<int32_t> posterior_nodes(const Model& m) {
+  const double back = m.X.col(1).maxCoeff();
+  return sim::nodes_near_plane(m, Eigen::Vector3d(0, back, 0), Eigen::Vector3d(0, 1, 0), 15.0);
+}
+
 inline const sim::Material kTetLiver{.stiffness_n_per_m = 0.0,
                                      .damping_kg_per_s = 0.0,
                                      .node_mass_kg = 0.0,

@@ -113,7 +113,9 @@ class RealtimeLoop {
   /// New rate (0 = as fast as possible). In real time the step becomes 1 / rate_hz.
   void set_rate(double rate_hz);
   void set_paused(bool paused);
-  /// Puts every node back at rest with zero velocity and time 0; forces are kept.
+  /// Puts every node back at rest with zero velocity and time 0; forces are kept. The way on
+  /// after the simulation became unstable (LoopSnapshot::stats.unstable): the loop stops
+  /// stepping then, and its reaction is zero, so that a haptic device feels nothing wild.
   void reset();
 
   /// Copies the latest snapshot into `out` if it is newer than out.generation.
@@ -131,6 +133,8 @@ class RealtimeLoop {
 
  private:
   void thread_main();
+  // Unstable (sim::Instability): the loop stops stepping, and its reaction is zero, until reset().
+  bool halted() const { return last_stats_.unstable != sim::Instability::kNone; }
   void apply_pending();  // under mutex_
   void route_forces();
   void one_step();

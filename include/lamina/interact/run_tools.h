@@ -46,7 +46,8 @@ using StepObserver =
     std::function<void(const sim::Simulation&, const ToolDriver&, const sim::StepStats&)>;
 
 /// Steps `sim` with `driver`'s tools until simulated time reaches `t_end_s` or the solver's
-/// max_steps, or, if `stop_at_rest`, until the model has come to rest (RestWatch).
+/// max_steps, or, if `stop_at_rest`, until the model has come to rest (RestWatch), or until the
+/// simulation becomes unstable (ToolRun::last.unstable, which the caller must report).
 /// \note Throws lamina::Error (kInvalidInput) as apply_tools() for a tool that touches nothing.
 ToolRun run_tools(sim::Simulation& sim, ToolDriver& driver, double t_end_s, bool stop_at_rest,
                   const StepObserver& per_step = {});

@@ -165,11 +165,12 @@ struct MaterialReport {
 
 /// What a scene run measured: the content of `lamina run`'s summary.json.
 struct RunSummary {
-  std::string scene;       ///< the scene's source
-  std::string model;       ///< what the model was built from or loaded from
-  bool converged = false;  ///< every tool ended and the model came to rest before max_steps
-  bool stopped = false;    ///< stopped early by --stop-after, with a checkpoint to resume from
-  bool unstable = false;   ///< stopped because steps failed even after rollback (exit code 5)
+  std::string scene;            ///< the scene's source
+  std::string model;            ///< what the model was built from or loaded from
+  bool converged = false;       ///< every tool ended and the model came to rest before max_steps
+  bool stopped = false;         ///< stopped early by --stop-after, with a checkpoint to resume from
+  bool unstable = false;        ///< stopped because the simulation became unstable (exit code 5)
+  std::string unstable_reason;  ///< sim::describe() of why, empty when stable
   int64_t steps = 0;
   double sim_seconds = 0.0;                ///< simulated time, s
   double wall_seconds = 0.0;               ///< the whole run: model, simulation and output, s

@@ -101,6 +101,32 @@ struct SolverOptions {
   int32_t projective_iterations = 10;  ///< projective dynamics: local/global iterations per step
 };
 
+/// Why a simulation stopped being trustworthy (StepStats::unstable). step() latches the first
+/// reason it finds and reports it on every later step, until reset() or restore_state().
+enum class Instability : uint8_t {
+  kNone,
+  /// kFailedStepsToUnstable steps in a row could not be taken even by backward Euler: a value
+  /// became non-finite or a node moved farther from rest than the organ's own size.
+  kStepsFailed,
+  /// The total energy (kinetic, elastic, gravity's) grew while no tool acted: by more than its
+  /// own size since the check began, which damped tissue can never do.
+  kEnergyGrowth,
+  /// Implicit Euler's conjugate gradients ended more than 100 times above their tolerance
+  /// kUnsolvedStepsToUnstable steps in a row: the motion is no longer the integrator's.
+  kSolverStalled,
+};
+
+/// A one-line reason, for messages ("the energy grew while no tool acted").
+const char* describe(Instability reason);
+
+/// Failed steps in a row that make a simulation unstable.
+inline constexpr int64_t kFailedStepsToUnstable = 10;
+/// Steps in a row whose linear solve ended more than 100 times above its tolerance that make a
+/// simulation unstable (a step just above it, Jacobi at its cap on a large model, does not).
+inline constexpr int64_t kUnsolvedStepsToUnstable = 50;
+/// Steps between two checks of the total energy while no tool acts.
+inline constexpr int64_t kEnergyCheckSteps = 32;
+
 /// Where a step's time went, microseconds (Box2D's b2Profile).
 struct StepProfile {
   double forces_us = 0.0;     ///< spring, tetrahedron and volume passes (and linearisation)
@@ -125,6 +151,14 @@ struct StepStats {
   /// Not even backward Euler could take the step: the state was kept, the motion stopped, and
   /// the step does not count as converged (a load or dt far beyond what the model can take).
   bool failed = false;
+  /// Implicit Euler: conjugate gradients reached their tolerance (true for other integrators).
+  bool solver_converged = true;
+  /// Implicit Euler: the final residual over the right-hand side, |b - A dv| / |b|.
+  double solver_residual = 0.0;
+  /// Not kNone once the simulation has left physical bounds (Instability): stop, say so, and
+  /// reset() before going on. Every entry point (lamina run, view, serve, Python, the C API)
+  /// ends or stops on it.
+  Instability unstable = Instability::kNone;
 };
 
 /// A simulation of a Model (not owned: it must outlive the simulation). Create with
@@ -268,9 +302,14 @@ bool uses_multigrid(const Simulation& sim);
 
 /// Advances one time step, in named and timed stages (StepStats::profile): the force terms
 /// (springs, tetrahedra, volume, support, gravity, tools), integration (semi-implicit Euler in
-/// explicit_substeps() equal parts when dt is beyond its limit), the finite check (else roll
-/// back and redo the step with two half steps, then with implicit Euler; if that fails too,
-/// keep the state, stop the motion and report `failed`), and the measurements.
+/// explicit_substeps() equal parts when dt is beyond its limit), the bounds check (a value that
+/// is not finite, or a node farther from rest than the organ's size: roll back and redo the
+/// step with two half steps, then with implicit Euler; if that fails too, keep the state, stop
+/// the motion and report `failed`), the measurements, and the watch for instability
+/// (StepStats::unstable: failed steps, energy growing while no tool acts, a stalled solver).
+/// A tool acts when some movable node has an external force or a call since the last step
+/// moved, held, released or re-parametrised nodes; writing x or v directly each step is a tool
+/// the energy watch cannot see: drive nodes through f_ext or hold_nodes().
 StepStats step(Simulation& sim);
 
 /// True when no node moves faster than the rest speed (StepStats::converged): the single

@@ -65,6 +65,7 @@ struct StabilityResult {
   StabilityCase c;
   bool finite = true;      ///< every state finite (after any rollback)
   int64_t recoveries = 0;  ///< steps that went non-finite and were rolled back and redone
+  sim::Instability unstable = sim::Instability::kNone;  ///< the watch's verdict (step())
   /// The worst of the checks at rest (under the load, and after the release): most nodes
   /// outside, whether surfaces cross, most tetrahedra inverted. The pass criterion.
   LayerOrder order;
