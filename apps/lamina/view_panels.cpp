@@ -12,6 +12,14 @@
 namespace lamina::cli {
 namespace {
 
+// The highest of the usual rates (haptic 1 kHz down to 15 Hz) whose step budget is at least
+// twice the step time measured now; 0 if none.
+double real_time_rate(double mean_step_us) {
+  for (double hz : {1000.0, 500.0, 250.0, 120.0, 60.0, 30.0, 15.0})
+    if (1e6 / hz >= 2.0 * mean_step_us) return hz;
+  return 0.0;
+}
+
 void plot(const std::string& label, const History& h) {
   float lo = 0.0f, hi = 0.0f;
   for (int i = 0; i < h.count; ++i) {
@@ -47,11 +55,17 @@ void ViewSession::State::panels() {
   else if (snap.keeping_up)
     ImGui::TextColored(ImVec4(0.4f, 0.9f, 0.4f, 1), "real time: %.3g ms steps, %.2fx",
                        1000.0 * snap.dt_s, snap.real_time_factor);
-  else
-    ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.3f, 1),
-                       "BEHIND real time: %.2fx (slow motion); lower the rate or the model "
-                       "size to keep up",
-                       snap.real_time_factor);
+  else {
+    const double fits = real_time_rate(snap.mean_step_us);
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.45f, 0.3f, 1));
+    ImGui::TextWrapped("BEHIND real time: %.2fx (slow motion); %s", snap.real_time_factor,
+                       fits > 0.0 ? fmt::format("{:.0f} Hz keeps up (Model panel), or fewer "
+                                                "skin vertices",
+                                                fits)
+                                        .c_str()
+                                  : "fewer skin vertices keep up");
+    ImGui::PopStyleColor();
+  }
   ImGui::Text("max displacement %.2f mm, volume change %+.3f %%", snap.stats.max_displacement_mm,
               snap.stats.volume_change_pct);
   ImGui::Text("reaction (%.0f, %.0f, %.0f) mN", snap.reaction_mn.x(), snap.reaction_mn.y(),
@@ -186,6 +200,25 @@ void ViewSession::State::panels() {
     rebuild_vertices = std::clamp(rebuild_vertices, 50, 500000);
     if (ImGui::Button("Rebuild")) start_rebuild();
     ImGui::EndDisabled();
+    // Which rate keeps this model in real time: from the step time the loop measures now. A
+    // lower rate means a longer step, which costs an implicit solve more iterations: the hint
+    // keeps half its budget spare, and the loop says again whether it keeps up.
+    if (snap.mean_step_us > 0.0) {
+      const double max_hz = 1e6 / snap.mean_step_us;
+      ImGui::TextWrapped("a step takes %.2f ms here: real time up to about %.0f steps/s",
+                         snap.mean_step_us / 1000.0, max_hz);
+      const double fits = real_time_rate(snap.mean_step_us);
+      if (fits > 0.0 && fits != rate_hz) {
+        if (ImGui::Button(
+                fmt::format("Use {:.0f} Hz ({:.1f} ms steps)", fits, 1000.0 / fits).c_str())) {
+          rate_hz = fits;
+          push_parameters();
+        }
+      } else if (fits <= 0.0) {
+        ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.3f, 1),
+                           "too slow for real time even at 15 Hz: fewer skin vertices");
+      }
+    }
     if (!options.rebuild)
       ImGui::TextWrapped("(a saved model cannot be rebuilt here: view its segmentation instead)");
     if (rebuilding) {
