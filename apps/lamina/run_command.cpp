@@ -388,7 +388,9 @@ int run_run(const RunArgs& a) {
   if (resume && model_crc != resume->model_crc)
     throw invalid_input(a.resume, "was written for another model than the one " + ready.source +
                                       " gives now (its fingerprint differs)");
+  const auto t_prepare = Clock::now();
   sim::Simulation s = io::make_scene_simulation(ready);
+  const double prepare_seconds = seconds_since(t_prepare);
   if (ready.setup.fixed.empty() && ready.setup.support.nodes.empty() &&
       scene.material.anchor_stiffness_n_per_m == 0.0 && scene.solver.mode == sim::Mode::kGlobal)
     log::warn(
@@ -462,6 +464,8 @@ int run_run(const RunArgs& a) {
   sum.steps = s.steps;
   sum.sim_seconds = s.time_s;
   sum.model_seconds = model_seconds;
+  sum.setup_stage_seconds = ready.stage_seconds;
+  sum.setup_stage_seconds.emplace_back("prepare_solver", prepare_seconds);
   sum.max_displacement_mm = so_far.max_displacement_mm;
   sum.max_abs_volume_change_pct = so_far.max_abs_volume_change_pct;
   sum.final_rest_error_mm = max_rest_distance(s);

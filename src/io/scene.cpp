@@ -648,6 +648,9 @@ std::string run_summary_json(const RunSummary& s) {
   j["sim_seconds"] = s.sim_seconds;
   j["wall_seconds"] = s.wall_seconds;
   j["model_seconds"] = s.model_seconds;
+  nlohmann::ordered_json stages = nlohmann::ordered_json::object();  // in the order they ran
+  for (const auto& [name, sec] : s.setup_stage_seconds) stages[name] = sec;
+  j["setup_stage_seconds"] = stages;
   j["max_displacement_mm"] = s.max_displacement_mm;
   j["max_abs_volume_change_pct"] = s.max_abs_volume_change_pct;
   j["final_rest_error_mm"] = s.final_rest_error_mm;

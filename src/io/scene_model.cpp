@@ -1,6 +1,7 @@
 #include "lamina/io/scene_model.h"
 
 #include <algorithm>
+#include <chrono>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
@@ -13,14 +14,27 @@ LabelVolume read_input(const std::string& input, const ReadVolumeOptions& option
   return input == kScenePhantom ? geometry::make_phantom() : read_label_volume(input, options);
 }
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+}  // namespace
+
 SceneModel make_scene_model(const Scene& scene, const ReadVolumeOptions& read_options,
                             const ProgressFn& progress) {
   SceneModel out;
+  auto t = Clock::now();
   // Rings must reach as far as the routing spreads force (RoutingOptions::locality).
   const int32_t locality = std::max(scene.build.locality, scene.routing.locality);
   if (!scene.model_path.empty()) {
     out.source = scene.model_path;
     out.model = load_model(scene.model_path);
+    out.stage_seconds.emplace_back("read", seconds_since(t));
+    t = Clock::now();
     if (scene.density_given) {
       // Lumped masses are proportional to the density they were computed with.
       const double scale = scene.build.density_kg_per_mm3 / out.model.density_kg_per_mm3;
@@ -28,13 +42,17 @@ SceneModel make_scene_model(const Scene& scene, const ReadVolumeOptions& read_op
       out.model.density_kg_per_mm3 = scene.build.density_kg_per_mm3;
     }
     out.model.rings = model::compute_rings(out.model, std::max(out.model.rings.locality, locality));
+    out.stage_seconds.emplace_back("rings", seconds_since(t));
     return out;
   }
   const LabelVolume volume = read_input(scene.input, read_options);
+  out.stage_seconds.emplace_back("read", seconds_since(t));
   out.source = volume.source;
   model::BuildOptions options = scene.build;
   options.locality = locality;
-  out.model = model::build_model(volume, options, progress).model;
+  model::BuildResult built = model::build_model(volume, options, progress);
+  out.model = std::move(built.model);
+  for (const auto& stage : built.report.stage_seconds) out.stage_seconds.push_back(stage);
   return out;
 }
 
@@ -68,7 +86,10 @@ ReadyScene make_ready_scene(const Scene& scene, SceneModel built) {
   r.scene = scene;
   r.model = std::make_shared<Model>(std::move(built.model));
   r.source = std::move(built.source);
+  r.stage_seconds = std::move(built.stage_seconds);
+  const auto t = Clock::now();
   r.setup = prepare_scene(r.scene, *r.model);
+  r.stage_seconds.emplace_back("prepare_scene", seconds_since(t));
   return r;
 }
 

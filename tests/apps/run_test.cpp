@@ -205,6 +205,20 @@ TEST(LaminaRun, WithoutASceneRunsTheDefaultPokeOnThePhantom) {
   EXPECT_DOUBLE_EQ(summary["dt_s"].get<double>(), 0.001);
   EXPECT_GT(summary["max_displacement_mm"].get<double>(), 1.0);
   EXPECT_LT(summary["final_rest_error_mm"].get<double>(), 0.05);
+  // Every setup stage's seconds, in the order they ran, and together no more than the run.
+  const auto in_order = nlohmann::ordered_json::parse(read_text(dir.path / "out" / "summary.json"));
+  const auto& stages = in_order["setup_stage_seconds"];
+  ASSERT_TRUE(stages.is_object());
+  std::vector<std::string> names;
+  double setup = 0.0;
+  for (const auto& [name, sec] : stages.items()) names.push_back(name), setup += sec.get<double>();
+  ASSERT_GE(names.size(), 5u);
+  EXPECT_EQ(names.front(), "read");
+  EXPECT_NE(std::find(names.begin(), names.end(), "tetrahedra"), names.end());
+  EXPECT_EQ(names[names.size() - 2], "prepare_scene");
+  EXPECT_EQ(names.back(), "prepare_solver");
+  EXPECT_GT(setup, 0.0);
+  EXPECT_LE(setup, summary["wall_seconds"].get<double>());
 }
 
 TEST(LaminaRun, PhysicalLiverExampleDeformsReturnsAndKeepsItsVolume) {

@@ -172,9 +172,13 @@ struct RunSummary {
   bool unstable = false;        ///< stopped because the simulation became unstable (exit code 5)
   std::string unstable_reason;  ///< sim::describe() of why, empty when stable
   int64_t steps = 0;
-  double sim_seconds = 0.0;                ///< simulated time, s
-  double wall_seconds = 0.0;               ///< the whole run: model, simulation and output, s
-  double model_seconds = 0.0;              ///< building or loading the model (rings included), s
+  double sim_seconds = 0.0;    ///< simulated time, s
+  double wall_seconds = 0.0;   ///< the whole run: model, simulation and output, s
+  double model_seconds = 0.0;  ///< building or loading the model (rings included), s
+  /// Setup, wall seconds per stage: reading, the build's stages (or the rings of a loaded
+  /// model), "prepare_scene" (support, material, slowest vibration) and "prepare_solver" (the
+  /// simulation made and its solver prepared: the multigrid's hierarchy).
+  std::vector<std::pair<std::string, double>> setup_stage_seconds;
   double max_displacement_mm = 0.0;        ///< largest node distance from rest over the run
   double max_abs_volume_change_pct = 0.0;  ///< largest |skin volume change| over the run, %
   double final_rest_error_mm = 0.0;        ///< largest node distance from rest at the end
