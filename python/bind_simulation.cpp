@@ -46,9 +46,9 @@ sim::Mode parse_mode(const std::string& name) {
 }
 
 sim::Preconditioner parse_preconditioner(const std::string& name) {
-  if (name == "auto") return sim::Preconditioner::kAuto;
-  if (name == "jacobi") return sim::Preconditioner::kJacobi;
-  if (name == "multigrid") return sim::Preconditioner::kMultigrid;
+  for (auto p :
+       {sim::Preconditioner::kAuto, sim::Preconditioner::kJacobi, sim::Preconditioner::kMultigrid})
+    if (io::preconditioner_name(p) == name) return p;
   throw invalid_input("preconditioner", "is '" + name + "'; auto, jacobi or multigrid expected");
 }
 

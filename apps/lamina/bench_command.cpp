@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "lamina/core/clock.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/interact/tools.h"
@@ -25,12 +26,6 @@
 
 namespace lamina::cli {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;

@@ -16,6 +16,7 @@
 
 #include "commands.h"
 #include "lamina/core/atomic_file.h"
+#include "lamina/core/clock.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pacer.h"
@@ -32,12 +33,6 @@ namespace lamina::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // Frames of an earlier run in the same folder would be mistaken for this run's (a longer earlier
 // run leaves higher-numbered files); only names this command writes are removed, and a resumed
 // run keeps the `keep` frames written before its checkpoint.

@@ -22,14 +22,9 @@ std::string default_screenshot_name() {
 
 }  // namespace
 
-// The report's record of real time and of the last drag (see their fields).
-void ViewSession::State::watch_real_time_and_drag(double t) {
-  if (t > 1.5 && snap.real_time_factor > 0.0 && !paused) {
-    min_real_time_factor = min_real_time_factor > 0.0
-                               ? std::min(min_real_time_factor, snap.real_time_factor)
-                               : snap.real_time_factor;
-    behind_seen = behind_seen || !snap.keeping_up;
-  }
+// Each time the simulation becomes unstable: counted for the report and the exit code, and
+// logged once (the panel says it for as long as it lasts).
+void ViewSession::State::watch_instability() {
   const bool unstable = snap.stats.unstable != sim::Instability::kNone;
   if (unstable && !unstable_now) {
     ++unstable_events;
@@ -41,6 +36,16 @@ void ViewSession::State::watch_real_time_and_drag(double t) {
         snap.time_s, sim::describe(snap.stats.unstable));
   }
   unstable_now = unstable;
+}
+
+// The report's record of real time and of the last drag (see their fields).
+void ViewSession::State::watch_real_time_and_drag(double t) {
+  if (t > 1.5 && snap.real_time_factor > 0.0 && !paused) {
+    min_real_time_factor = min_real_time_factor > 0.0
+                               ? std::min(min_real_time_factor, snap.real_time_factor)
+                               : snap.real_time_factor;
+    behind_seen = behind_seen || !snap.keeping_up;
+  }
   if (gesture == Gesture::kDrag && snap.x.rows() == vm->model.node_count()) {
     Eigen::Index node = 0;
     const double peak = (snap.x - vm->model.X).rowwise().norm().maxCoeff(&node);

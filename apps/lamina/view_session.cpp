@@ -85,6 +85,7 @@ void ViewSession::finish() {
   v.loop->stop();
   v.loop->latest(v.snap);
   v.watch_real_time_and_drag(v.seconds());  // the last window counts in the report too
+  v.watch_instability();
   v.write_report();
   render::set_callback({});
   v.started = false;
@@ -202,6 +203,7 @@ void ViewSession::State::on_frame() {
   loop->latest(snap);
   max_displacement_mm = std::max(max_displacement_mm, snap.stats.max_displacement_mm);
   watch_real_time_and_drag(t);
+  watch_instability();
   record_plots();
   adopt_rebuilt();
 

@@ -138,6 +138,7 @@ struct ViewSession::State {
   bool waiting_for(const std::string& what);  // a script's "wait" still under way
   // view_report.cpp
   void watch_real_time_and_drag(double t);
+  void watch_instability();
   nlohmann::json report() const;
   void write_report() const;
   void save_screenshot(std::string path);

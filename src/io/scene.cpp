@@ -632,6 +632,17 @@ std::string integrator_name(sim::Integrator integrator) {
   }
 }
 
+std::string preconditioner_name(sim::Preconditioner preconditioner) {
+  switch (preconditioner) {
+    case sim::Preconditioner::kJacobi:
+      return "jacobi";
+    case sim::Preconditioner::kMultigrid:
+      return "multigrid";
+    default:
+      return "auto";
+  }
+}
+
 std::string mode_name(sim::Mode mode) {
   return mode == sim::Mode::kLocal ? "local" : "global";
 }

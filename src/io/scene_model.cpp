@@ -1,8 +1,8 @@
 #include "lamina/io/scene_model.h"
 
 #include <algorithm>
-#include <chrono>
 
+#include "lamina/core/clock.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/model_file.h"
@@ -13,16 +13,6 @@ namespace lamina::io {
 LabelVolume read_input(const std::string& input, const ReadVolumeOptions& options) {
   return input == kScenePhantom ? geometry::make_phantom() : read_label_volume(input, options);
 }
-
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
-}  // namespace
 
 SceneModel make_scene_model(const Scene& scene, const ReadVolumeOptions& read_options,
                             const ProgressFn& progress) {

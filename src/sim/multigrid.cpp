@@ -7,15 +7,12 @@
 #include <chrono>
 #include <cmath>
 
+#include "lamina/core/clock.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 
 namespace lamina::sim::detail {
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // The nodes of one level: each owns a contiguous range of unknowns.
 struct LevelNodes {
@@ -124,7 +121,7 @@ void finish_level(MultigridLevel& level) {
 
 void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3d& points,
                      Multigrid& mg, int64_t coarsest_unknowns) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   mg.levels.clear();
   mg.shape = {};
   mg.levels.emplace_back();

@@ -6,17 +6,13 @@
 #include <limits>
 #include <nanoflann.hpp>
 
+#include "lamina/core/clock.h"
 #include "lamina/core/error.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/layer_normals.h"
 
 namespace lamina::validate {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 bool in_slab(const Eigen::Vector3d& p, const Indentation& ind) {
   return std::abs((p - ind.held_point_mm).dot(ind.held_normal.normalized())) <=

@@ -243,9 +243,10 @@ sim::Simulation make_scene_simulation(const Scene& scene, const Model& model,
 /// recoveries > 0; integrator and mode as the scene file spells them).
 std::string run_summary_json(const RunSummary& summary);
 
-/// The scene file's spelling of an integrator ("semi_implicit_euler", "implicit_euler") and of a
-/// mode ("global", "local").
+/// The scene file's spelling of an integrator ("semi_implicit_euler", "implicit_euler"), of a
+/// mode ("global", "local") and of a preconditioner ("auto", "jacobi", "multigrid").
 std::string integrator_name(sim::Integrator integrator);
 std::string mode_name(sim::Mode mode);
+std::string preconditioner_name(sim::Preconditioner preconditioner);
 
 }  // namespace lamina::io
