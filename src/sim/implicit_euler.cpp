@@ -11,6 +11,7 @@
 #include <array>
 #include <chrono>
 
+#include "lamina/core/log.h"
 #include "preconditioner.h"
 #include "spring_lanes_product.h"
 
@@ -76,9 +77,11 @@ Measured failed_step() {
 
 // The step for one preconditioner (preconditioner.h): a pointwise one is applied inside the
 // passes that produce the residual, the multigrid after them.
+// `indefinite` is set (and nothing of the step kept but its partial solution, as the next
+// attempt's warm start) when a V-cycle gives r . z <= 0.
 template <class Pre>
 Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iterations,
-                             StepProfile& profile) {
+                             StepProfile& profile, bool& indefinite) {
   constexpr bool kPointwise = Pre::kPointwise;
   Solver& s = sim.solver();
   const int T = threads_for(s);
@@ -205,11 +208,22 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
     });
     return rz_mg;
   };
+  // The multigrid found not positive definite on r: give back dv as a velocity's warm start
+  // (step 1 adds v0 again) for the Jacobi step that follows.
+  const auto give_up = [&] {
+    Cols w(s.dv);
+    const ConstCols v(sim.v);
+    for (int32_t i : s.active_nodes) w.x[i] -= v.x[i], w.y[i] -= v.y[i], w.z[i] -= v.z[i];
+    iterations = it;
+    indefinite = true;
+    return failed_step();
+  };
   if constexpr (!kPointwise) {
     if (b2 != 0.0 && r2 > stop2) {
-      refresh_multigrid(s);
+      refresh_multigrid(s, h, T);
       rz = precondition();
       if (!std::isfinite(rz)) return failed_step();
+      if (!(rz > 0.0)) return give_up();
     }
   }
   if (b2 == 0.0) {
@@ -248,7 +262,10 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
         ++it;
         break;
       }
-      if constexpr (!kPointwise) rz_new = apply_multigrid(s, h, T);
+      if constexpr (!kPointwise) {
+        rz_new = apply_multigrid(s, h, T);
+        if (!(rz_new > 0.0)) return give_up();
+      }
       const double beta = rz_new / rz;
       rz = rz_new;
       Cols pw(s.p);
@@ -293,11 +310,26 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
 Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
                         StepProfile& profile) {
   Solver& s = sim.solver();
+  bool indefinite = false;
   if (multigrid_applies(s)) {
     setup_multigrid(s, h);  // at once unless dt, the material or the movable nodes changed
-    return implicit_euler_with<MultigridPreconditioner>(sim, h, save, iterations, profile);
+    const Measured m =
+        implicit_euler_with<MultigridPreconditioner>(sim, h, save, iterations, profile, indefinite);
+    if (!indefinite) return m;
+    // Never seen since the weight follows the step (refresh_multigrid); kept so that a case
+    // nobody measured costs Jacobi's iterations instead of a wrong or failed step.
+    if (s.multigrid->fallbacks++ == 0)
+      log::warn(
+          "implicit Euler: the multigrid was not positive definite after {} iterations; this "
+          "step and any like it take Jacobi",
+          iterations);
+    int32_t more = 0;
+    const Measured j =
+        implicit_euler_with<JacobiPreconditioner>(sim, h, save, more, profile, indefinite);
+    iterations += more;
+    return j;
   }
-  return implicit_euler_with<JacobiPreconditioner>(sim, h, save, iterations, profile);
+  return implicit_euler_with<JacobiPreconditioner>(sim, h, save, iterations, profile, indefinite);
 }
 
 }  // namespace lamina::sim::detail

@@ -50,16 +50,16 @@ void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3
 /// One V-cycle from level `from` on levels[from].b into levels[from].x (allocates nothing).
 void v_cycle(Multigrid& mg, size_t from);
 
-/// z = B r with the finest level's operator and diagonal the caller's (the implicit step's exact
-/// linearisation: `product(z, y)` sets y = A z), the coarser levels the hierarchy's. `work` is
+/// z = B r with the finest level's operator, diagonal and smoothing weight `w` the caller's (the
+/// implicit step's exact linearisation: `product(z, y)` sets y = A z), the coarser levels the
+/// hierarchy's. B is positive definite while w rho(D^-1 A) < 2 on the finest level. `work` is
 /// scratch of r's size. `mask` (1 or 0 per unknown) keeps the correction off unknowns held since
 /// the hierarchy was built (their inv_diag is 0): B stays symmetric on the others.
 template <class Product>
 void v_cycle_with(Multigrid& mg, const Eigen::VectorXd& r, const Eigen::VectorXd& inv_diag,
-                  const Eigen::VectorXd& mask, Product&& product, Eigen::VectorXd& z,
+                  double w, const Eigen::VectorXd& mask, Product&& product, Eigen::VectorXd& z,
                   Eigen::VectorXd& work) {
   MultigridLevel& fine = mg.levels[0];
-  const double w = fine.omega;
   z = w * inv_diag.cwiseProduct(r);
   if (mg.levels.size() > 1) {
     product(z, work);

@@ -1,11 +1,13 @@
 // The multigrid as implicit Euler's preconditioner (preconditioner.h): its hierarchy from the
-// system at rest, (M (1 + h alpha) + h gamma) + h^2 K_rest over the movable nodes, rebuilt only
-// when the material, dt or the movable nodes change beyond what masking covers; its finest level
-// the step's exact linearised product.
+// system at rest, (M (1 + h alpha) + h gamma) + h^2 K_rest over the movable nodes, rebuilt when
+// the material, dt or the movable nodes change beyond what masking covers, and from a step's
+// own system when the deformation has moved it; its finest level the step's exact linearised
+// product, smoothed by l1-Jacobi on the step's assembled blocks.
 #include <fmt/ranges.h>
 
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <cmath>
 
 #include "lamina/core/log.h"
 #include "preconditioner.h"
@@ -13,9 +15,9 @@
 
 namespace lamina::sim::detail {
 
-// kAuto is Jacobi for now: the multigrid won at 22k nodes and 10 ms (103 against 286 ms a step)
-// but lost at 48k (497 against 238 ms: 41.7 iterations, and a V-cycle costs about five of
-// Jacobi's), and at 1 ms Jacobi takes 1-3 iterations at any size (docs/benchmarks.md).
+// kAuto is Jacobi for now: the multigrid wins at 10 ms from about 10k nodes (127 against 307 ms
+// a step at 22k, 288 against 330 at 48k) but a rebuild from a step's system is a hitch (2 s at
+// 48k) that allocates, and at 1 ms Jacobi takes 1-3 iterations at any size (docs/benchmarks.md).
 bool multigrid_applies(const Solver& s) {
   return s.options.preconditioner == Preconditioner::kMultigrid && !s.active_nodes.empty();
 }
@@ -64,6 +66,7 @@ void setup_multigrid(Solver& s, double h) {
         shape.setup_s);
     p.stiffness_version = s.stiffness_version;
     p.h = h;
+    p.rho = 0.0;  // the power iteration starts over
     ++p.builds;
     for (Eigen::VectorXd* v : {&p.inv_diag, &p.mask, &p.r, &p.z, &p.work}) v->setZero(3 * rows);
     p.in.setZero(n, 3);
@@ -71,16 +74,134 @@ void setup_multigrid(Solver& s, double h) {
   }
 }
 
-void refresh_multigrid(Solver& s) {
+namespace {
+
+// y = A z on the rows, held nodes masked (A: the step's linearised system).
+void masked_product(Solver& s, MultigridPreconditioner& p, double h, int threads,
+                    const Eigen::VectorXd& z, Eigen::VectorXd& y) {
+  const auto rows = static_cast<int32_t>(p.nodes.size());
+  for (int32_t q = 0; q < rows; ++q)
+    for (int c = 0; c < 3; ++c) p.in(p.nodes[q], c) = p.mask[3 * q + c] * z[3 * q + c];
+  system_product(s, h, p.in, p.out, threads);
+  for (int32_t q = 0; q < rows; ++q)
+    for (int c = 0; c < 3; ++c) y[3 * q + c] = p.mask[3 * q + c] * p.out(p.nodes[q], c);
+}
+
+// The step's system over the rows as one sparse matrix, from the tetrahedra's assembled blocks
+// (TetAssembly, current): M (1 + h alpha) + h gamma + h^2 (K + support). As rest_stiffness(),
+// without the volume term between layers.
+Eigen::SparseMatrix<double> assembled_system(const Solver& s, const MultigridPreconditioner& p,
+                                             double h) {
+  const TetAssembly& a = s.tets.assembly;
+  const auto rows = static_cast<int32_t>(p.nodes.size());
+  const double h2 = h * h, damp = h * s.material.damping_kg_per_s,
+               mass_damp = h * s.material.mass_damping_per_s;
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(a.block.size());
+  for (int32_t q = 0; q < rows; ++q) {
+    const int32_t i = p.nodes[q];
+    const double own =
+        s.mass_kg[i] * (1.0 + mass_damp) + damp + h2 * s.support.stiffness_n_per_m[i];
+    for (int c = 0; c < 3; ++c) t.emplace_back(3 * q + c, 3 * q + c, own);
+    for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
+      const int32_t j = p.row_of[a.column[e]];
+      if (j < 0) continue;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          t.emplace_back(3 * q + r, 3 * j + c, h2 * a.block[9 * e + 3 * r + c]);
+    }
+  }
+  Eigen::SparseMatrix<double> A(3 * rows, 3 * rows);
+  A.setFromTriplets(t.begin(), t.end());
+  return A;
+}
+
+// rho(D^-1 A) of the step's system by power iteration on p.power. The largest eigenvalue moves
+// little from step to step, so kPowerSteps products from the last step's vector track it; after
+// a build the vector starts over and takes more. Approaches rho from below.
+double track_rho(Solver& s, MultigridPreconditioner& p, double h, int threads) {
+  const auto rows = static_cast<int32_t>(p.nodes.size());
+  int steps = kPowerSteps;
+  if (p.power.size() != 3 * rows || p.rho == 0.0) {
+    p.power.resize(3 * rows);
+    for (Eigen::Index k = 0; k < p.power.size(); ++k)
+      p.power[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
+    steps = kPowerStepsAfterBuild;
+  }
+  p.power = p.power.cwiseProduct(p.mask);
+  double rho = 0.0;
+  for (int k = 0; k < steps; ++k) {
+    const double norm = p.power.norm();
+    if (!(norm > 0.0)) break;
+    p.power /= norm;
+    masked_product(s, p, h, threads, p.power, p.work);
+    for (int32_t q = 0; q < rows; ++q)
+      for (int c = 0; c < 3; ++c) p.power[3 * q + c] = p.work[3 * q + c] / s.diag(p.nodes[q], c);
+    rho = p.power.norm();
+  }
+  return rho > 0.0 && std::isfinite(rho) ? rho : p.rho;
+}
+
+}  // namespace
+
+void refresh_multigrid(Solver& s, double h, int threads) {
   MultigridPreconditioner& p = *s.multigrid;
   const auto rows = static_cast<int32_t>(p.nodes.size());
   for (int32_t q = 0; q < rows; ++q) {
-    const int32_t i = p.nodes[q];
-    const bool moves = s.movable[i] != 0;
-    for (int c = 0; c < 3; ++c) {
-      p.inv_diag[3 * q + c] = moves ? 1.0 / s.diag(i, c) : 0.0;
-      p.mask[3 * q + c] = moves ? 1.0 : 0.0;
+    const bool moves = s.movable[p.nodes[q]] != 0;
+    for (int c = 0; c < 3; ++c) p.mask[3 * q + c] = moves ? 1.0 : 0.0;
+  }
+  TetAssembly& assembly = s.tets.assembly;
+  if (assembly.on && !assembly.current) {
+    assemble_tets(s, threads);
+    assembly.current = true;
+  }
+  // The coarse levels follow the linearisation: when rho(D^-1 A) has moved by more than
+  // kRelineariseAt either way since the hierarchy was built, the organ's deformation (rotated,
+  // stretched, compressed tetrahedra) has moved its slow modes away from those the coarse
+  // operators were projected from, and the hierarchy is built again from the step's own matrix.
+  // On the SOFA liver at 5,000 skin vertices under the default poke, rho went from 3.4 at rest
+  // to 10.8, and CG with the rest hierarchy ended every step at its cap of 100 iterations; with
+  // two rebuilds on the way, it took 25-64 (docs/benchmarks.md).
+  const double built = p.rho;
+  p.rho = track_rho(s, p, h, threads);
+  if (built == 0.0) p.rho_built = p.rho;
+  if (assembly.on && p.rho > 0.0 &&
+      (p.rho > kRelineariseAt * p.rho_built || kRelineariseAt * p.rho < p.rho_built)) {
+    Eigen::MatrixX3d points(rows, 3);
+    for (int32_t q = 0; q < rows; ++q) points.row(q) = s.model->X.row(p.nodes[q]);
+    build_multigrid(assembled_system(s, p, h), points, p.mg);
+    log::debug(
+        "implicit Euler: multigrid rebuilt from the step's system (rho {:.3g}, was {:.3g}) in "
+        "{:.2f} s",
+        p.rho, p.rho_built, p.mg.shape.setup_s);
+    p.rho_built = p.rho;
+    ++p.relinearised;
+  }
+  // The finest level's smoother. Where the stiffness is assembled, l1-Jacobi (Baker, Falgout,
+  // Kolev & Yang 2011): each row's weight 1 / sum_j |A_ij|, the sum taken from the step's blocks.
+  // D_l1 - A is positive semidefinite, so with the weight 4/3 the V-cycle is positive definite
+  // whatever the deformation, and a row whose rotated tetrahedra couple it strongly to its
+  // neighbours takes a short step without shortening everyone's. Otherwise (springs, no
+  // assembly) damped Jacobi with 4 / (3 rho), rho this step's.
+  if (assembly.on) {
+    const double h2 = h * h;
+    for (int32_t q = 0; q < rows; ++q) {
+      const int32_t i = p.nodes[q];
+      for (int r = 0; r < 3; ++r) {
+        double sum = s.diag(i, r);  // the own entry, with mass, damping, support, volume term
+        for (int32_t e = assembly.offsets[i]; e < assembly.offsets[i + 1]; ++e)
+          for (int c = 0; c < 3; ++c)
+            if (e != assembly.offsets[i] || c != r)
+              sum += h2 * std::abs(static_cast<double>(assembly.block[9 * e + 3 * r + c]));
+        p.inv_diag[3 * q + r] = p.mask[3 * q + r] / sum;
+      }
     }
+    p.omega = 4.0 / 3.0;
+  } else {
+    for (int32_t q = 0; q < rows; ++q)
+      for (int c = 0; c < 3; ++c) p.inv_diag[3 * q + c] = p.mask[3 * q + c] / s.diag(p.nodes[q], c);
+    p.omega = 4.0 / (3.0 * p.rho);
   }
 }
 
@@ -90,13 +211,9 @@ double apply_multigrid(Solver& s, double h, int threads) {
   for (int32_t q = 0; q < rows; ++q)
     for (int c = 0; c < 3; ++c) p.r[3 * q + c] = p.mask[3 * q + c] * s.r(p.nodes[q], c);
   const auto product = [&](const Eigen::VectorXd& z, Eigen::VectorXd& y) {
-    for (int32_t q = 0; q < rows; ++q)
-      for (int c = 0; c < 3; ++c) p.in(p.nodes[q], c) = p.mask[3 * q + c] * z[3 * q + c];
-    system_product(s, h, p.in, p.out, threads);
-    for (int32_t q = 0; q < rows; ++q)
-      for (int c = 0; c < 3; ++c) y[3 * q + c] = p.mask[3 * q + c] * p.out(p.nodes[q], c);
+    masked_product(s, p, h, threads, z, y);
   };
-  v_cycle_with(p.mg, p.r, p.inv_diag, p.mask, product, p.z, p.work);
+  v_cycle_with(p.mg, p.r, p.inv_diag, p.omega, p.mask, product, p.z, p.work);
   double rz = 0.0;
   for (int32_t q = 0; q < rows; ++q) {
     const int32_t i = p.nodes[q];

@@ -7,9 +7,10 @@
 // - Jacobi, B = diag(A)^-1, pointwise: fused into the passes that produce r, no pass of its own.
 //   Its iterations grow with the mesh (68.9 a step on a 22k-node liver at dt = 10 ms).
 // - Multigrid (multigrid.h), a V-cycle whose finest level is the exact linearised system and
-//   whose coarser levels are built once from the system at rest: 2-6x fewer iterations than
-//   Jacobi, for two more products and the coarse levels a cycle (docs/benchmarks.md). Its
-//   iterations still grow with the mesh (2.8, 14.2, 41.7 a step at 2k, 22k, 48k nodes, 10 ms).
+//   whose coarser levels are built from the system at rest, and again from a step's system when
+//   the deformation has moved it (refresh_multigrid): 3-6x fewer iterations than Jacobi, for two
+//   more products and the coarse levels a cycle (docs/benchmarks.md). Its iterations still grow
+//   with the mesh (3.1, 14.9, 25.9 a step at 2k, 22k, 48k nodes, 10 ms).
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
@@ -24,6 +25,14 @@ struct JacobiPreconditioner {
   static constexpr bool kPointwise = true;
   static double apply(double r, double diagonal) { return r / diagonal; }
 };
+
+// Power-iteration products a step for the finest level's smoothing weight (MultigridPreconditioner
+// says why), and after a hierarchy is built.
+constexpr int kPowerSteps = 2;
+constexpr int kPowerStepsAfterBuild = 15;
+// The drift of rho(D^-1 A), either way, at which the hierarchy is built again from the step's
+// system (refresh_multigrid).
+constexpr double kRelineariseAt = 1.5;
 
 struct MultigridPreconditioner {
   static constexpr bool kPointwise = false;
@@ -41,7 +50,17 @@ struct MultigridPreconditioner {
   // the node moves now, the residual, the result and scratch.
   Eigen::VectorXd inv_diag, mask, r, z, work;
   Eigen::MatrixX3d in, out;  ///< per node: system_product()'s argument and result
-  int64_t builds = 0;        ///< hierarchies built so far
+  // The finest level's smoother follows the step's linearisation, not the rest state's: a
+  // compressed liver's rotated tetrahedra raised rho(D^-1 A) from 3.4 to 10.8 (SOFA liver, 5,000
+  // skin vertices), past the 1.5x margin of a weight fixed at rest, and the V-cycle stopped being
+  // positive definite. rho is tracked by power iteration on `power`, a few products a step
+  // (refresh_multigrid); `rho_built` is its value when the hierarchy was last built.
+  Eigen::VectorXd power;
+  double rho = 0.0, rho_built = 0.0;
+  double omega = 0.0;        ///< the finest level's smoothing weight (with inv_diag)
+  int64_t builds = 0;        ///< hierarchies built for a new dt, material or movable nodes
+  int64_t relinearised = 0;  ///< hierarchies built again from a step's system (refresh_multigrid)
+  int64_t fallbacks = 0;     ///< steps that found the V-cycle indefinite and took Jacobi instead
 };
 
 /// Whether this step takes the multigrid (SolverOptions::preconditioner; kAuto is Jacobi for
@@ -49,9 +68,11 @@ struct MultigridPreconditioner {
 bool multigrid_applies(const Solver& s);
 /// Builds the hierarchy when the movable nodes, the material or h changed since the last build.
 void setup_multigrid(Solver& s, double h);
-/// The finest level's diagonal from Solver::diag (after the residual pass).
-void refresh_multigrid(Solver& s);
-/// s.z = B s.r on the movable nodes (rows of the others untouched); returns r . z.
+/// After the residual pass: the finest level's smoother from the step's linearisation, and the
+/// hierarchy built again from it when it has drifted (kPowerSteps products, more after a build).
+void refresh_multigrid(Solver& s, double h, int threads);
+/// s.z = B s.r on the movable nodes (rows of the others untouched); returns r . z, not > 0 when
+/// B is not positive definite on r (the step then takes Jacobi: implicit_euler.cpp).
 double apply_multigrid(Solver& s, double h, int threads);
 
 }  // namespace lamina::sim::detail
