@@ -93,8 +93,7 @@ std::vector<int32_t> aggregate(const std::vector<int32_t>& offsets, const std::v
 // rho(D^-1 A) by power iteration from a fixed start (the same hierarchy every run).
 double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_diag) {
   Eigen::VectorXd x(A.rows()), y(A.rows());
-  for (Eigen::Index k = 0; k < x.size(); ++k)
-    x[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
+  power_iteration_start(x);
   x.normalize();
   double rho = 0.0;
   for (int it = 0; it < 15; ++it) {

@@ -12,6 +12,7 @@
 // symmetric positive definite preconditioner for conjugate gradients. Internal to module sim.
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -46,6 +47,13 @@ struct Multigrid {
 /// Coarsens until at most `coarsest_unknowns` are left, then factors that level.
 void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3d& points,
                      Multigrid& mg, int64_t coarsest_unknowns = 1500);
+
+/// A fixed start for power iterations (every entry nonzero, varying from unknown to unknown):
+/// the same estimate every run.
+inline void power_iteration_start(Eigen::VectorXd& x) {
+  for (Eigen::Index k = 0; k < x.size(); ++k)
+    x[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
+}
 
 /// One V-cycle from level `from` on levels[from].b into levels[from].x (allocates nothing).
 void v_cycle(Multigrid& mg, size_t from);

@@ -52,11 +52,9 @@ void setup_multigrid(Solver& s, double h) {
       points.row(q) = s.model->X.row(p.nodes[q]);
     }
     Eigen::SparseMatrix<double> A = rest_stiffness(s, p.row_of, rows) * (h * h);
-    const double damp = h * s.material.damping_kg_per_s,
-                 mass_damp = h * s.material.mass_damping_per_s;
     for (int32_t q = 0; q < rows; ++q)
       for (int c = 0; c < 3; ++c)
-        A.coeffRef(3 * q + c, 3 * q + c) += s.mass_kg[p.nodes[q]] * (1.0 + mass_damp) + damp;
+        A.coeffRef(3 * q + c, 3 * q + c) += inertia_diagonal(s, p.nodes[q], h);
     build_multigrid(A, points, p.mg);
     const MultigridShape& shape = p.mg.shape;
     log::info(
@@ -94,14 +92,12 @@ Eigen::SparseMatrix<double> assembled_system(const Solver& s, const MultigridPre
                                              double h) {
   const TetAssembly& a = s.tets.assembly;
   const auto rows = static_cast<int32_t>(p.nodes.size());
-  const double h2 = h * h, damp = h * s.material.damping_kg_per_s,
-               mass_damp = h * s.material.mass_damping_per_s;
+  const double h2 = h * h;
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(a.block.size());
   for (int32_t q = 0; q < rows; ++q) {
     const int32_t i = p.nodes[q];
-    const double own =
-        s.mass_kg[i] * (1.0 + mass_damp) + damp + h2 * s.support.stiffness_n_per_m[i];
+    const double own = inertia_diagonal(s, i, h) + h2 * s.support.stiffness_n_per_m[i];
     for (int c = 0; c < 3; ++c) t.emplace_back(3 * q + c, 3 * q + c, own);
     for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
       const int32_t j = p.row_of[a.column[e]];
@@ -124,8 +120,7 @@ double track_rho(Solver& s, MultigridPreconditioner& p, double h, int threads) {
   int steps = kPowerSteps;
   if (p.power.size() != 3 * rows || p.rho == 0.0) {
     p.power.resize(3 * rows);
-    for (Eigen::Index k = 0; k < p.power.size(); ++k)
-      p.power[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
+    power_iteration_start(p.power);
     steps = kPowerStepsAfterBuild;
   }
   p.power = p.power.cwiseProduct(p.mask);

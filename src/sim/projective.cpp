@@ -37,13 +37,12 @@ void factor(const Solver& s, ProjectiveSolver& p, double h) {
   const auto n = static_cast<Eigen::Index>(s.active_nodes.size());
   p.row_of.assign(static_cast<size_t>(m.node_count()), -1);
   for (Eigen::Index q = 0; q < n; ++q) p.row_of[s.active_nodes[q]] = static_cast<int32_t>(q);
-  const double h2 = h * h, damp = h * s.material.damping_kg_per_s;
-  const double mass_damp = h * s.material.mass_damping_per_s;
+  const double h2 = h * h;
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(static_cast<size_t>(n) + s.springs.adj_other.size());
   for (Eigen::Index q = 0; q < n; ++q) {
     const int32_t i = s.active_nodes[q];
-    double diag = s.mass_kg[i] * (1.0 + mass_damp) + damp + h2 * s.support.stiffness_n_per_m[i];
+    double diag = inertia_diagonal(s, i, h) + h2 * s.support.stiffness_n_per_m[i];
     for (int32_t a = s.springs.adj_offsets[i]; a < s.springs.adj_offsets[i + 1]; ++a) {
       const double k = s.springs.stiffness_n_per_m[s.springs.adj_spring[a]];
       diag += h2 * k;

@@ -410,6 +410,13 @@ inline void add_volume_force(const Solver& s, int32_t i, double& fx, double& fy,
       fz -= jump * s.volume.gradient(i, 2);
 }
 
+/// Node i's share of the implicit system's diagonal that is not stiffness, per unknown:
+/// m (1 + h alpha) + h gamma, kg (the matrices built outside the hot loops: projective
+/// dynamics' and the multigrid's).
+inline double inertia_diagonal(const Solver& s, int32_t i, double h) {
+  return s.mass_kg[i] * (1.0 + h * s.material.mass_damping_per_s) + h * s.material.damping_kg_per_s;
+}
+
 /// The stiffness at rest over rows row_of[node] (-1: left out), 3 per node interleaved: springs
 /// or tetrahedra, support and anchors; not the volume term between layers (rest_stiffness.cpp).
 Eigen::SparseMatrix<double> rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
