@@ -207,7 +207,9 @@ void bind_simulation(py::module_& m) {
            "unit masses, semi-implicit Euler at dt = 0.01 s). young_modulus_kpa (E) > 0 with\n"
            "stiffness_n_per_m = 0 and node_mass_kg = 0 makes the tissue elastic (E, nu) through\n"
            "the tetrahedra. integrator: semi_implicit_euler, implicit_euler, projective.\n"
-           "preconditioner (implicit_euler's CG): auto (= jacobi), jacobi, multigrid.\n"
+           "preconditioner (implicit_euler's CG): auto (Jacobi or multigrid by a trial solve), "
+           "jacobi, "
+           "multigrid.\n"
            "fixed: node indices held at rest (without them a push moves the organ bodily).")
       .def_property_readonly("model", [](const PySimulation& p) { return p.model; })
       .def_property(

@@ -468,6 +468,8 @@ int run_run(const RunArgs& a) {
   sum.recoveries = s.recoveries;
   sum.integrator = scene.solver.integrator;
   sum.mode = scene.solver.mode;
+  if (scene.solver.integrator == sim::Integrator::kImplicitEuler)
+    sum.preconditioner = sim::uses_multigrid(s) ? "multigrid" : "jacobi";
   sum.dt_s = scene.solver.dt_s;
   sum.nodes = m.node_count();
   sum.springs = static_cast<int64_t>(m.springs.size());

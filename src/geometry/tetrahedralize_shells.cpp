@@ -69,9 +69,9 @@ ShellTets tetrahedralize_shells(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
   }
 
   // TetGen assumes its input does not intersect itself (and crashes on crossing surfaces): -d
-  // first checks, listing the intersecting facets. build_model() has checked the layers with
-  // CGAL already; this keeps the function safe on its own.
-  {
+  // first checks, listing the intersecting facets; a caller that has checked the surfaces
+  // (build_model(), with CGAL) turns it off.
+  if (options.check_intersections) {
     tetgenio check;
     std::string detect = "dQ";
     try {

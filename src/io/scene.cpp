@@ -670,6 +670,7 @@ std::string run_summary_json(const RunSummary& s) {
   j["recoveries"] = s.recoveries;
   j["integrator"] = integrator_name(s.integrator);
   j["mode"] = mode_name(s.mode);
+  if (!s.preconditioner.empty()) j["preconditioner"] = s.preconditioner;
   j["dt_s"] = s.dt_s;
   j["nodes"] = s.nodes;
   j["springs"] = s.springs;

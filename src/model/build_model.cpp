@@ -317,7 +317,9 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
     // triangles; their edges are the springs, their volumes the masses.
     report_progress(progress, "tetrahedra", 0.8);
     rep.tets = fill_tetrahedra({.max_radius_edge_ratio = opt.tet_radius_edge_ratio,
-                                .min_dihedral_deg = opt.tet_min_dihedral_deg},
+                                .min_dihedral_deg = opt.tet_min_dihedral_deg,
+                                // step 6 checked every layer and their nesting with CGAL
+                                .check_intersections = false},
                                m);
     rep.interior_nodes = m.node_count() - static_cast<int32_t>(total);
     std::fill(m.springs.stiffness_n_per_m.begin(), m.springs.stiffness_n_per_m.end(),

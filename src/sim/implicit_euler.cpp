@@ -311,8 +311,8 @@ Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iteration
                         StepProfile& profile) {
   Solver& s = sim.solver();
   bool indefinite = false;
-  if (multigrid_applies(s)) {
-    setup_multigrid(s, h);  // at once unless dt, the material or the movable nodes changed
+  // At once unless dt, the material or the movable nodes changed.
+  if (setup_multigrid(s, h)) {
     const Measured m =
         implicit_euler_with<MultigridPreconditioner>(sim, h, save, iterations, profile, indefinite);
     if (!indefinite) return m;

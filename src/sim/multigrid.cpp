@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <utility>
 
 #include "lamina/core/clock.h"
 #include "lamina/core/error.h"
@@ -118,13 +119,15 @@ void finish_level(MultigridLevel& level) {
 
 }  // namespace
 
-void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3d& points,
-                     Multigrid& mg, int64_t coarsest_unknowns) {
+void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
+                     int64_t coarsest_unknowns) {
   const auto t0 = Clock::now();
   mg.levels.clear();
+  // At most 10 levels (below): no level is moved by a reallocation (0.4 s at 47,685 nodes).
+  mg.levels.reserve(10);
   mg.shape = {};
   mg.levels.emplace_back();
-  mg.levels[0].A = A;
+  mg.levels[0].A = std::move(A);
   // The near-null space on the finest level: per node, the three translations and the three
   // rotations about the origin (each aggregate's QR below recentres them).
   const auto n0 = static_cast<int32_t>(points.rows());

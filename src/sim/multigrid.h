@@ -16,9 +16,9 @@
 #include <cstdint>
 #include <vector>
 
-namespace lamina::sim::detail {
+#include "block_rows.h"
 
-using SparseRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+namespace lamina::sim::detail {
 
 struct MultigridLevel {
   SparseRows A;              ///< this level's operator (level 0: the matrix it was built from)
@@ -45,8 +45,8 @@ struct Multigrid {
 /// Builds the hierarchy of the symmetric positive definite A: 3 unknowns per node, interleaved
 /// (row 3 i + axis), `points` (#nodes by 3, mm) where the nodes are (the rigid rotations' arms).
 /// Coarsens until at most `coarsest_unknowns` are left, then factors that level.
-void build_multigrid(const Eigen::SparseMatrix<double>& A, const Eigen::MatrixX3d& points,
-                     Multigrid& mg, int64_t coarsest_unknowns = 1500);
+void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
+                     int64_t coarsest_unknowns = 1500);
 
 /// A fixed start for power iterations (every entry nonzero, varying from unknown to unknown):
 /// the same estimate every run.

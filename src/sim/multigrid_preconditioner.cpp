@@ -8,6 +8,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "lamina/core/log.h"
 #include "preconditioner.h"
@@ -15,61 +16,106 @@
 
 namespace lamina::sim::detail {
 
-// kAuto is Jacobi for now: the multigrid wins at 10 ms from about 10k nodes (127 against 307 ms
-// a step at 22k, 288 against 330 at 48k) but a rebuild from a step's system is a hitch (2 s at
-// 48k) that allocates, and at 1 ms Jacobi takes 1-3 iterations at any size (docs/benchmarks.md).
 bool multigrid_applies(const Solver& s) {
-  return s.options.preconditioner == Preconditioner::kMultigrid && !s.active_nodes.empty();
+  const Preconditioner pick = s.options.preconditioner;
+  if (s.active_nodes.empty() || pick == Preconditioner::kJacobi) return false;
+  if (pick == Preconditioner::kMultigrid) return true;
+  return s.multigrid && s.multigrid->pick == pick && s.multigrid->chosen;
 }
 
 namespace {
 
 bool still_fits(const Solver& s, const MultigridPreconditioner& p, double h) {
-  if (p.mg.levels.empty() || p.stiffness_version != s.stiffness_version || p.h != h ||
-      p.row_of.size() != s.mass_kg.size())
+  if (p.pick != s.options.preconditioner || (p.chosen && p.mg.levels.empty()) ||
+      p.stiffness_version != s.stiffness_version || p.h != h || p.row_of.size() != s.mass_kg.size())
     return false;
   for (int32_t i : s.active_nodes)
     if (p.row_of[i] < 0) return false;
   return 2 * s.active_nodes.size() >= p.nodes.size();
 }
 
+// kAuto's trial: Jacobi-preconditioned CG on the system at rest A, from zero, to the step's
+// tolerance and cap, on a smooth right side (every node pushed alike, as by its weight: the
+// slow, smooth motion Jacobi is slow on). Returns its iterations.
+int32_t jacobi_trial(const SparseRows& A, const SolverOptions& o) {
+  const Eigen::VectorXd inv_diag = A.diagonal().cwiseInverse();
+  Eigen::VectorXd b(A.rows());
+  for (Eigen::Index k = 0; k < b.size(); ++k) b[k] = 1.0 / inv_diag[k];
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(A.rows()), r = b, z = inv_diag.cwiseProduct(r), q;
+  Eigen::VectorXd d = z;
+  double rz = r.dot(z);
+  const double stop2 = o.cg_tolerance * o.cg_tolerance * b.squaredNorm();
+  int32_t it = 0;
+  for (; it < o.cg_max_iterations && r.squaredNorm() > stop2; ++it) {
+    q.noalias() = A * d;
+    const double alpha = rz / d.dot(q);
+    x += alpha * d;
+    r -= alpha * q;
+    z = inv_diag.cwiseProduct(r);
+    const double rz_new = r.dot(z);
+    d = z + (rz_new / rz) * d;
+    rz = rz_new;
+  }
+  return it;
+}
+
 }  // namespace
 
-void setup_multigrid(Solver& s, double h) {
+bool setup_multigrid(Solver& s, double h) {
+  if (s.options.preconditioner == Preconditioner::kJacobi || s.active_nodes.empty()) return false;
   if (!s.multigrid) s.multigrid = std::make_shared<MultigridPreconditioner>();
   MultigridPreconditioner& p = *s.multigrid;
+  if (still_fits(s, p, h)) return p.chosen;
   const auto n = static_cast<int32_t>(s.mass_kg.size());
+  p.pick = s.options.preconditioner;
+  p.stiffness_version = s.stiffness_version;
+  p.h = h;
+  p.nodes = s.active_nodes;
+  p.row_of.assign(static_cast<size_t>(n), -1);
+  const auto rows = static_cast<int32_t>(p.nodes.size());
+  Eigen::MatrixX3d points(rows, 3);
+  for (int32_t q = 0; q < rows; ++q) {
+    p.row_of[p.nodes[q]] = q;
+    points.row(q) = s.model->X.row(p.nodes[q]);
+  }
+  // h^2 K_rest plus the inertia on the diagonal, written into the springs' pattern; the
+  // pattern stays for the rebuilds from a step's system (assembled_system()).
+  rest_stiffness_blocks(s, p.row_of, rows, p.system);
+  const double h2 = h * h;
+  for (double& v : p.system.value) v *= h2;
+  for (int32_t q = 0; q < rows; ++q) {
+    double* own = p.system.at(q, q);
+    for (int c = 0; c < 3; ++c) own[4 * c] += inertia_diagonal(s, p.nodes[q], h);
+  }
+  SparseRows A = to_sparse(p.system);
+  p.chosen = true;
+  if (p.pick == Preconditioner::kAuto) {
+    p.trial_iterations = jacobi_trial(A, s.options);
+    p.chosen = p.trial_iterations >= std::min(kAutoTrialIterations, s.options.cg_max_iterations);
+    log::info("implicit Euler: Jacobi's trial solve took {} iterations: {}", p.trial_iterations,
+              p.chosen ? "the multigrid" : "Jacobi");
+    if (!p.chosen) {
+      p.mg.levels.clear();  // nothing of a hierarchy this run will not use
+      p.system = {};
+      return false;
+    }
+  }
   // A V-cycle's products stream the assembled blocks of the tetrahedra (TetAssembly): three
   // products an iteration repay the assembly at any size.
   if (s.tets.on && !s.tets.assembly.on) setup_tet_assembly(s);
-  if (!still_fits(s, p, h)) {
-    p.nodes = s.active_nodes;
-    p.row_of.assign(static_cast<size_t>(n), -1);
-    const auto rows = static_cast<int32_t>(p.nodes.size());
-    Eigen::MatrixX3d points(rows, 3);
-    for (int32_t q = 0; q < rows; ++q) {
-      p.row_of[p.nodes[q]] = q;
-      points.row(q) = s.model->X.row(p.nodes[q]);
-    }
-    Eigen::SparseMatrix<double> A = rest_stiffness(s, p.row_of, rows) * (h * h);
-    for (int32_t q = 0; q < rows; ++q)
-      for (int c = 0; c < 3; ++c)
-        A.coeffRef(3 * q + c, 3 * q + c) += inertia_diagonal(s, p.nodes[q], h);
-    build_multigrid(A, points, p.mg);
-    const MultigridShape& shape = p.mg.shape;
-    log::info(
-        "implicit Euler: multigrid of {} levels ({} unknowns), operator complexity {:.2f}, "
-        "built in {:.2f} s",
-        shape.unknowns.size(), fmt::join(shape.unknowns, " > "), shape.operator_complexity,
-        shape.setup_s);
-    p.stiffness_version = s.stiffness_version;
-    p.h = h;
-    p.rho = 0.0;  // the power iteration starts over
-    ++p.builds;
-    for (Eigen::VectorXd* v : {&p.inv_diag, &p.mask, &p.r, &p.z, &p.work}) v->setZero(3 * rows);
-    p.in.setZero(n, 3);
-    p.out.setZero(n, 3);
-  }
+  build_multigrid(std::move(A), points, p.mg);
+  const MultigridShape& shape = p.mg.shape;
+  log::info(
+      "implicit Euler: multigrid of {} levels ({} unknowns), operator complexity {:.2f}, "
+      "built in {:.2f} s",
+      shape.unknowns.size(), fmt::join(shape.unknowns, " > "), shape.operator_complexity,
+      shape.setup_s);
+  p.rho = 0.0;  // the power iteration starts over
+  ++p.builds;
+  for (Eigen::VectorXd* v : {&p.inv_diag, &p.mask, &p.r, &p.z, &p.work}) v->setZero(3 * rows);
+  p.in.setZero(n, 3);
+  p.out.setZero(n, 3);
+  return true;
 }
 
 namespace {
@@ -86,30 +132,28 @@ void masked_product(Solver& s, MultigridPreconditioner& p, double h, int threads
 }
 
 // The step's system over the rows as one sparse matrix, from the tetrahedra's assembled blocks
-// (TetAssembly, current): M (1 + h alpha) + h gamma + h^2 (K + support). As rest_stiffness(),
-// without the volume term between layers.
-Eigen::SparseMatrix<double> assembled_system(const Solver& s, const MultigridPreconditioner& p,
-                                             double h) {
+// (TetAssembly, current): M (1 + h alpha) + h gamma + h^2 (K + support), written into the
+// springs' pattern that setup_multigrid() left in p.system. As rest_stiffness(), without the
+// volume term between layers.
+SparseRows assembled_system(const Solver& s, MultigridPreconditioner& p, double h) {
   const TetAssembly& a = s.tets.assembly;
   const auto rows = static_cast<int32_t>(p.nodes.size());
   const double h2 = h * h;
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(a.block.size());
+  BlockRows& A = p.system;
+  std::fill(A.value.begin(), A.value.end(), 0.0);
   for (int32_t q = 0; q < rows; ++q) {
     const int32_t i = p.nodes[q];
     const double own = inertia_diagonal(s, i, h) + h2 * s.support.stiffness_n_per_m[i];
-    for (int c = 0; c < 3; ++c) t.emplace_back(3 * q + c, 3 * q + c, own);
+    double* diagonal = A.at(q, q);
+    for (int c = 0; c < 3; ++c) diagonal[4 * c] += own;
     for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
       const int32_t j = p.row_of[a.column[e]];
       if (j < 0) continue;
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c)
-          t.emplace_back(3 * q + r, 3 * j + c, h2 * a.block[9 * e + 3 * r + c]);
+      double* block = A.at(q, j);
+      for (int k = 0; k < 9; ++k) block[k] += h2 * static_cast<double>(a.block[9 * e + k]);
     }
   }
-  Eigen::SparseMatrix<double> A(3 * rows, 3 * rows);
-  A.setFromTriplets(t.begin(), t.end());
-  return A;
+  return to_sparse(A);
 }
 
 // rho(D^-1 A) of the step's system by power iteration on p.power. The largest eigenvalue moves

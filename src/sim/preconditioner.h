@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "lamina/sim/simulation.h"
 #include "multigrid.h"
 
 namespace lamina::sim::detail {
@@ -33,6 +34,13 @@ constexpr int kPowerStepsAfterBuild = 15;
 // The drift of rho(D^-1 A), either way, at which the hierarchy is built again from the step's
 // system (refresh_multigrid).
 constexpr double kRelineariseAt = 1.5;
+// kAuto takes the multigrid when Jacobi's trial solve of the system at rest (from zero, a smooth
+// right side) takes this many iterations or more, or reaches the cap. Measured on the phantom
+// under the default poke (`lamina run`, median step, Jacobi against multigrid): trial 25 (2,321
+// nodes at 5 ms) level; 46 (2,321 nodes, 10 ms) level in a run, Jacobi 1.6x faster in the
+// benchmark's held poke; 54 (3,358 nodes, 10 ms) multigrid 1.13x faster; 61, 69, 78 and 100
+// (4,957 nodes at 10 ms, 2,321 at 16.7 ms, 9,871 at 10 ms and 16.7 ms) multigrid 1.6-2.8x.
+constexpr int32_t kAutoTrialIterations = 50;
 
 struct MultigridPreconditioner {
   static constexpr bool kPointwise = false;
@@ -44,8 +52,12 @@ struct MultigridPreconditioner {
   // rebuild it.
   uint64_t stiffness_version = 0;
   double h = 0.0;
-  std::vector<int32_t> nodes;   ///< per row: its node
-  std::vector<int32_t> row_of;  ///< per node: its row, or -1
+  Preconditioner pick = Preconditioner::kJacobi;  ///< SolverOptions::preconditioner then
+  bool chosen = false;            ///< the multigrid applies (kMultigrid, or kAuto's trial)
+  int32_t trial_iterations = -1;  ///< kAuto's trial: Jacobi's iterations at rest (-1: none)
+  std::vector<int32_t> nodes;     ///< per row: its node
+  std::vector<int32_t> row_of;    ///< per node: its row, or -1
+  BlockRows system;               ///< the matrix the hierarchy was last built from, by blocks
   // Per unknown (3 row + axis): the finest level's 1 / diagonal (0 on a held node's), 1 or 0 as
   // the node moves now, the residual, the result and scratch.
   Eigen::VectorXd inv_diag, mask, r, z, work;
@@ -63,11 +75,13 @@ struct MultigridPreconditioner {
   int64_t fallbacks = 0;     ///< steps that found the V-cycle indefinite and took Jacobi instead
 };
 
-/// Whether this step takes the multigrid (SolverOptions::preconditioner; kAuto is Jacobi for
-/// now, multigrid_preconditioner.cpp says why).
+/// Whether the steps take the multigrid (what uses_multigrid() reports): kMultigrid, or kAuto
+/// once setup_multigrid() has chosen it.
 bool multigrid_applies(const Solver& s);
-/// Builds the hierarchy when the movable nodes, the material or h changed since the last build.
-void setup_multigrid(Solver& s, double h);
+/// Whether this step takes the multigrid: kMultigrid, or kAuto when Jacobi's trial solve of
+/// the system at rest took kAutoTrialIterations or more. Decides again, and builds the
+/// hierarchy, when the movable nodes, the material or h changed since.
+bool setup_multigrid(Solver& s, double h);
 /// After the residual pass: the finest level's smoother from the step's linearisation, and the
 /// hierarchy built again from it when it has drifted (kPowerSteps products, more after a build).
 void refresh_multigrid(Solver& s, double h, int threads);

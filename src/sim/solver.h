@@ -19,6 +19,7 @@
 #include <memory>
 #include <vector>
 
+#include "block_rows.h"
 #include "lamina/model/identify_tets.h"
 #include "lamina/sim/simulation.h"
 #include "spring_lanes.h"
@@ -374,8 +375,7 @@ void tet_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f)
 /// Each node's Gershgorin row sum of the tetrahedra's stiffness at rest, added to row (N/m).
 void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row);
 /// The tetrahedra's stiffness at rest as 3x3 blocks between rows row_of[node] (-1: held).
-void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row_of,
-                                std::vector<Eigen::Triplet<double>>& out);
+void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, BlockRows& out);
 
 // --- The volume term between layers (volume_term.cpp). ---
 /// 6 x the signed volume of triangles [begin, end) of the list (of F when list is null).
@@ -419,8 +419,9 @@ inline double inertia_diagonal(const Solver& s, int32_t i, double h) {
 
 /// The stiffness at rest over rows row_of[node] (-1: left out), 3 per node interleaved: springs
 /// or tetrahedra, support and anchors; not the volume term between layers (rest_stiffness.cpp).
-Eigen::SparseMatrix<double> rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
-                                           int32_t rows);
+void rest_stiffness_blocks(const Solver& s, const std::vector<int32_t>& row_of, int32_t rows,
+                           BlockRows& out);
+SparseRows rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, int32_t rows);
 
 // --- Support: anchors and the elastic support (support_term.cpp). ---
 void setup_support(Solver& s);

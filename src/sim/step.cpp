@@ -71,8 +71,8 @@ double prepare_solver(Simulation& sim) {
   const double h = s.options.dt_s;
   if (s.options.integrator == Integrator::kProjective)
     prepare_projective(s, h);
-  else if (s.options.integrator == Integrator::kImplicitEuler && multigrid_applies(s))
-    setup_multigrid(s, h);
+  else if (s.options.integrator == Integrator::kImplicitEuler)
+    setup_multigrid(s, h);  // kAuto decides here, and the multigrid is built
   return us_since(t0) * 1e-6;
 }
 

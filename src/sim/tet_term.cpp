@@ -528,13 +528,10 @@ void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
   for (size_t n = 0; n < row.size(); ++n) row[n] += std::max({r3[n][0], r3[n][1], r3[n][2]});
 }
 
-void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row_of,
-                                std::vector<Eigen::Triplet<double>>& out) {
+void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, BlockRows& out) {
   if (!s.tets.on) return;
   const Eigen::MatrixX3d& X = s.model->X;
-  // Each tetrahedron's 12 x 12 matrix summed first, then written as its 16 blocks: 144 triplets
-  // a tetrahedron (1,440 when every spring pair wrote its own blocks: 2.3 GB of triplets at
-  // 101,730 tetrahedra).
+  // Each tetrahedron's 12 x 12 matrix summed first, then added to its 16 blocks.
   Eigen::Matrix<double, 12, 12> k12;
   for (const TetBlock& b : s.tets.block) {
     Lanes p[12];
@@ -566,9 +563,9 @@ void add_tet_stiffness_triplets(const Solver& s, const std::vector<int32_t>& row
         for (int c = 0; c < 4; ++c) {
           const int32_t col = row_of[b.node[c][l]];
           if (col < 0) continue;
+          double* block = out.at(r, col);
           for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-              out.emplace_back(3 * r + i, 3 * col + j, k12(3 * a + i, 3 * c + j));
+            for (int j = 0; j < 3; ++j) block[3 * i + j] += k12(3 * a + i, 3 * c + j);
         }
       }
     }

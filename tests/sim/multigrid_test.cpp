@@ -175,3 +175,55 @@ TEST(LowestFrequency, ByMultigridLobpcgAsByAFactorisation) {
 }
 
 }  // namespace
+
+TEST(Multigrid, RestStiffnessIsTheForcesDerivativeAtRest) {
+  // The blocks written into the springs' pattern (block_rows.h) against central differences of
+  // the tetrahedra's own forces: K p = -(f(X + e p) - f(X - e p)) / 2e on the movable rows.
+  const Model& m = test::tet_phantom();
+  sim::Simulation s = sim::make_simulation(m, test::kTetLiver);
+  sim::fix_nodes(s, {0, 1, 2, 3, 4, 5, 6, 7});
+  std::vector<int32_t> row(static_cast<size_t>(m.node_count()), -1);
+  int32_t n = 0;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (!s.fixed()[i]) row[i] = n++;
+  const sim::detail::SparseRows K = sim::detail::rest_stiffness(s.solver(), row, n);
+  ASSERT_EQ(K.rows(), 3 * n);
+  const Eigen::MatrixX3d p = test::random_rows(m.node_count(), 1.0, 5);
+  Eigen::VectorXd pv = Eigen::VectorXd::Zero(3 * n);
+  Eigen::MatrixX3d pm = Eigen::MatrixX3d::Zero(m.node_count(), 3);
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (row[i] >= 0) pv.segment<3>(3 * row[i]) = p.row(i).transpose(), pm.row(i) = p.row(i);
+  const double e = 1e-5;
+  Eigen::MatrixX3d plus = Eigen::MatrixX3d::Zero(m.node_count(), 3), minus = plus;
+  sim::detail::tet_forces(s.solver(), m.X + e * pm, plus);
+  sim::detail::tet_forces(s.solver(), m.X - e * pm, minus);
+  const Eigen::VectorXd Kp = K * pv;
+  double worst = 0.0, scale = 0.0;
+  for (int32_t i = 0; i < m.node_count(); ++i) {
+    if (row[i] < 0) continue;
+    const Eigen::Vector3d fd = -(plus.row(i) - minus.row(i)).transpose() / (2.0 * e);
+    worst = std::max(worst, (Kp.segment<3>(3 * row[i]) - fd).norm());
+    scale = std::max(scale, fd.norm());
+  }
+  ASSERT_GT(scale, 0.0);
+  EXPECT_LT(worst, 1e-5 * scale);
+}
+
+TEST(Multigrid, AutoTakesJacobiWhereItIsQuickAndTheMultigridWhereItIsNot) {
+  // kAuto's trial solve at rest: at a haptic loop's 1 ms the masses dominate and Jacobi
+  // converges in a few iterations; at 50 ms the stiffness does and it does not.
+  for (const double dt : {0.001, 0.05}) {
+    sim::Simulation s = test::poked_tet_phantom({.integrator = sim::Integrator::kImplicitEuler,
+                                                 .dt_s = dt,
+                                                 .preconditioner = sim::Preconditioner::kAuto});
+    sim::prepare_solver(s);
+    const sim::detail::MultigridPreconditioner& p = *s.solver().multigrid;
+    const bool multigrid = dt > 0.01;
+    EXPECT_EQ(sim::uses_multigrid(s), multigrid) << "dt " << dt << ", trial " << p.trial_iterations;
+    EXPECT_EQ(p.trial_iterations >= sim::detail::kAutoTrialIterations, multigrid);
+    EXPECT_EQ(p.mg.levels.empty(), !multigrid);
+    // Its steps converge with either.
+    for (int k = 0; k < 5; ++k) EXPECT_TRUE(sim::step(s).solver_converged) << "dt " << dt;
+    EXPECT_EQ(sim::uses_multigrid(s), multigrid);
+  }
+}

@@ -186,6 +186,9 @@ struct RunSummary {
   int64_t recoveries = 0;  ///< steps that hit a non-finite or unbounded state and were redone
   sim::Integrator integrator = sim::Integrator::kSemiImplicitEuler;
   sim::Mode mode = sim::Mode::kGlobal;
+  /// implicit Euler's preconditioner as the steps took it ("auto" resolved): "jacobi" or
+  /// "multigrid"; empty for the other integrators
+  std::string preconditioner;
   double dt_s = 0.0;
   int32_t nodes = 0;
   int64_t springs = 0;

@@ -34,14 +34,15 @@ enum class Integrator : uint8_t {
 
 /// Implicit Euler's preconditioner for conjugate gradients.
 enum class Preconditioner : uint8_t {
-  /// Jacobi, for now: the multigrid wins at some sizes and dt and loses at others
-  /// (docs/benchmarks.md)
+  /// Jacobi or the multigrid, chosen when the solver is prepared (and again when dt, the
+  /// material or the movable nodes change) by a trial solve of the system at rest with Jacobi:
+  /// the multigrid when that takes 50 iterations or more (docs/benchmarks.md)
   kAuto,
   kJacobi,  ///< the system's diagonal: cheapest per iteration; iterations grow with the mesh
-  /// aggregation multigrid (the same organ at coarser scales), built from the stiffness at
-  /// rest: 6x fewer iterations than Jacobi on a 22k-node liver at 10 ms (2.8x faster) but 2.3x
-  /// fewer at 48k nodes (2.1x slower), three products an iteration, a setup of 0.3-1.1 s
-  /// (22k-48k nodes) whenever dt, the material or the movable nodes change
+  /// aggregation multigrid (the same organ at coarser scales), built from the system at rest
+  /// and again from a step's when the deformation has moved it: 2-6x fewer iterations than
+  /// Jacobi at 10 ms from 2k to 48k nodes, three products an iteration, a setup of 1.1 s at 48k
+  /// nodes whenever dt, the material or the movable nodes change
   kMultigrid,
 };
 
@@ -296,8 +297,9 @@ void restore_state(Simulation& sim, const SimState& state);
 /// builds whatever is missing or out of date anyway. Returns the seconds it took.
 double prepare_solver(Simulation& sim);
 
-/// Whether implicit Euler's steps take the multigrid preconditioner (SolverOptions::
-/// preconditioner is kMultigrid and some node moves).
+/// Whether implicit Euler's steps take the multigrid preconditioner: some node moves and
+/// SolverOptions::preconditioner is kMultigrid, or kAuto and prepare_solver() (or the first
+/// step) chose it.
 bool uses_multigrid(const Simulation& sim);
 
 /// Advances one time step, in named and timed stages (StepStats::profile): the force terms
