@@ -158,6 +158,9 @@ void ViewSession::State::panels() {
     changed |= ImGui::InputDouble("rate Hz (0 = max)", &rate_hz, 100, 1000, "%.0f");
     ImGui::Text("last step: max move %.2e mm %s", snap.stats.max_move_mm,
                 snap.stats.converged ? "(below threshold)" : "");
+    if (solver.integrator == sim::Integrator::kImplicitEuler)
+      ImGui::Text("CG: %d iterations, %s", snap.stats.cg_iterations,
+                  snap.multigrid ? "multigrid" : "Jacobi");
   }
   if (ImGui::CollapsingHeader("Force routing", ImGuiTreeNodeFlags_DefaultOpen)) {
     changed |= ImGui::SliderInt("locality N", &routing.locality, 1, std::max(1, m.rings.locality));

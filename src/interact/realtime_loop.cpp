@@ -263,6 +263,7 @@ void RealtimeLoop::publish(bool force) {
   s.recoveries = sim_.recoveries;
   s.achieved_rate_hz = achieved_rate_hz_;
   s.dt_s = sim_.options().dt_s;
+  s.multigrid = sim::uses_multigrid(sim_);
   s.real_time_factor = real_time_factor_;
   s.keeping_up = keeping_up_;
   s.mean_step_us = mean_step_us_;

@@ -46,8 +46,8 @@ void spring_block_pattern(const Model& m, const std::vector<int32_t>& row_of, in
     std::sort(first, last);
     const auto end = std::unique(first, last);
     out.offsets[r] = kept;
-    kept = static_cast<int32_t>(std::copy(first, end, out.column.begin() + kept) -
-                                out.column.begin());
+    kept =
+        static_cast<int32_t>(std::copy(first, end, out.column.begin() + kept) - out.column.begin());
   }
   out.offsets[rows] = kept;
   out.column.resize(static_cast<size_t>(kept));

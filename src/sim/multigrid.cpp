@@ -226,6 +226,29 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
   mg.shape.setup_s = seconds_since(t0);
 }
 
+void rebuild_operators(SparseRows A, Multigrid& mg) {
+  const auto t0 = Clock::now();
+  if (mg.levels.empty() || A.rows() != mg.levels[0].A.rows())
+    throw Error(ErrorKind::kInternal, "multigrid: operators rebuilt on other unknowns");
+  mg.levels[0].A = std::move(A);
+  for (size_t l = 0; l < mg.levels.size(); ++l) {
+    MultigridLevel& level = mg.levels[l];
+    finish_level(level);
+    if (l + 1 == mg.levels.size()) break;
+    const SparseRows AP = level.A * level.P;
+    mg.levels[l + 1].A = level.R * AP;
+  }
+  const Eigen::SparseMatrix<double> coarsest(mg.levels.back().A);
+  if (coarsest.nonZeros() == mg.shape.nonzeros.back())
+    mg.coarsest.factorize(coarsest);  // the same pattern: its ordering and analysis stay
+  else
+    mg.coarsest.compute(coarsest);
+  if (mg.coarsest.info() != Eigen::Success)
+    throw Error(ErrorKind::kInternal, "multigrid: the coarsest level did not factor");
+  for (size_t l = 0; l < mg.levels.size(); ++l) mg.shape.nonzeros[l] = mg.levels[l].A.nonZeros();
+  mg.shape.setup_s = seconds_since(t0);
+}
+
 void v_cycle(Multigrid& mg, size_t from) {
   MultigridLevel& level = mg.levels[from];
   if (from + 1 == mg.levels.size()) {

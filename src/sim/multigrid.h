@@ -48,6 +48,12 @@ struct Multigrid {
 void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
                      int64_t coarsest_unknowns = 1500);
 
+/// The hierarchy again for a new matrix on the same unknowns (a relinearised system): keeps the
+/// aggregates and prolongations, computes each coarse operator P^T A P again, the smoothing
+/// weights and the coarsest factorisation (its pattern's analysis kept when the pattern is).
+/// About half a full build (aggregation and a QR per aggregate are skipped).
+void rebuild_operators(SparseRows A, Multigrid& mg);
+
 /// A fixed start for power iterations (every entry nonzero, varying from unknown to unknown):
 /// the same estimate every run.
 inline void power_iteration_start(Eigen::VectorXd& x) {

@@ -198,7 +198,8 @@ void refresh_multigrid(Solver& s, double h, int threads) {
   // The coarse levels follow the linearisation: when rho(D^-1 A) has moved by more than
   // kRelineariseAt either way since the hierarchy was built, the organ's deformation (rotated,
   // stretched, compressed tetrahedra) has moved its slow modes away from those the coarse
-  // operators were projected from, and the hierarchy is built again from the step's own matrix.
+  // operators were projected from, and the coarse operators are projected again from the step's
+  // own matrix (the aggregates and prolongations kept: rebuild_operators()).
   // On the SOFA liver at 5,000 skin vertices under the default poke, rho went from 3.4 at rest
   // to 10.8, and CG with the rest hierarchy ended every step at its cap of 100 iterations; with
   // two rebuilds on the way, it took 25-64 (docs/benchmarks.md).
@@ -207,9 +208,7 @@ void refresh_multigrid(Solver& s, double h, int threads) {
   if (built == 0.0) p.rho_built = p.rho;
   if (assembly.on && p.rho > 0.0 &&
       (p.rho > kRelineariseAt * p.rho_built || kRelineariseAt * p.rho < p.rho_built)) {
-    Eigen::MatrixX3d points(rows, 3);
-    for (int32_t q = 0; q < rows; ++q) points.row(q) = s.model->X.row(p.nodes[q]);
-    build_multigrid(assembled_system(s, p, h), points, p.mg);
+    rebuild_operators(assembled_system(s, p, h), p.mg);
     log::debug(
         "implicit Euler: multigrid rebuilt from the step's system (rho {:.3g}, was {:.3g}) in "
         "{:.2f} s",

@@ -65,6 +65,8 @@ struct LoopSnapshot {
   uint64_t generation = 0;        ///< increases with each publication
   double achieved_rate_hz = 0.0;  ///< steps per wall second over the last second
   double dt_s = 0.0;              ///< the step's simulated time
+  /// implicit Euler's steps take the multigrid (kMultigrid, or kAuto's choice for this dt)
+  bool multigrid = false;
   /// Simulated seconds per wall second over the last second: 1 in real time, less when the
   /// machine cannot keep up (the simulation then runs in slow motion).
   double real_time_factor = 0.0;
