@@ -151,7 +151,16 @@ void ViewSession::State::panels() {
       solver.mode = mode ? sim::Mode::kLocal : sim::Mode::kGlobal;
       changed = true;
     }
-    changed |= ImGui::InputDouble("dt s", &solver.dt_s, 0.001, 0.01, "%.4f");
+    if (rate_hz > 0.0) {
+      // In real time each step is 1/rate (RealtimeLoop): show that, not the scene's dt, which
+      // only the "as fast as possible" rate 0 steps.
+      double step_s = 1.0 / rate_hz;
+      ImGui::BeginDisabled();
+      ImGui::InputDouble("dt s (1/rate)", &step_s, 0.0, 0.0, "%.4f");
+      ImGui::EndDisabled();
+    } else {
+      changed |= ImGui::InputDouble("dt s", &solver.dt_s, 0.001, 0.01, "%.4f");
+    }
     changed |= ImGui::InputDouble("rest speed mm/s", &solver.rest_speed_mm_per_s, 0.0, 0.0, "%.2g");
     changed |= ImGui::InputInt("CG iterations", &solver.cg_max_iterations);
     changed |= ImGui::InputInt("projective iterations", &solver.projective_iterations);

@@ -41,6 +41,10 @@ RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
     : sim_(std::move(sim)), routing_(routing), options_(options), rate_hz_(options.rate_hz) {
   stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
+  // At the step the clock gives: auto's trial, the multigrid or projective dynamics' factor are
+  // made here, not in the stepping thread's first step (a 0.8 s hitch at 6,228 nodes and 60 Hz
+  // in the viewer).
+  sim::prepare_solver(sim_);
   window_start_s_ = now_s();
   window_sim_start_s_ = sim_.time_s;
   publish(true);
