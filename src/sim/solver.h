@@ -110,12 +110,19 @@ struct CompactSprings {
   std::vector<int32_t> offsets, signed_spring;
 };
 
-/// The tetrahedra are processed eight at a time, one per SIMD lane (AVX-512 holds eight
-/// doubles): each block of eight keeps every field as an array over its lanes, so the passes'
-/// arithmetic runs across tetrahedra with no shuffling (docs/architecture.md).
+/// The tetrahedra are processed a SIMD register's worth of doubles at a time, one per lane:
+/// each block keeps every field as an array over its lanes, so the passes' arithmetic runs
+/// across tetrahedra with no shuffling (docs/architecture.md). Eight with AVX-512, four
+/// otherwise: eight lanes on an AVX2 machine are two registers a value, and the passes' twenty-odd
+/// live values then spill (AMD EPYC, AVX2: 4 lanes took the paper-size step from 2.2-2.5 to
+/// 1.6 ms and the 5k one from 29-31 to 18-21 ms; docs/benchmarks.md).
+#if defined(__AVX512F__)
 constexpr int kTetLanes = 8;
+#else
+constexpr int kTetLanes = 4;
+#endif
 
-/// Eight tetrahedra's constants (a block; unused lanes have zero stiffness).
+/// A block of kTetLanes tetrahedra's constants (unused lanes have zero stiffness).
 struct alignas(64) TetBlock {
   double rest_length_mm[6][kTetLanes];  ///< edge rest lengths (edge order model::kTetEdge)
   double rest_volume_mm3[kTetLanes];
@@ -125,7 +132,7 @@ struct alignas(64) TetBlock {
   int32_t node[4][kTetLanes];
 };
 
-/// Eight tetrahedra's linearisation at the step's start (implicit Euler's products).
+/// A block's linearisation at the step's start (implicit Euler's products).
 struct alignas(64) TetBlockLinear {
   float w[18][kTetLanes];             ///< unit edge directions (corner kTetEdge[k][0] to [1])
   float geo[6][kTetLanes];            ///< each edge's geometric stiffness, max(0, tension) / length

@@ -13,11 +13,11 @@
 // fifth of that guard, ten without one; docs/physics.md). C1 at
 // the threshold; its Gauss-Newton part joins the volume term's.
 //
-// The passes run over blocks of eight tetrahedra, one per SIMD lane: every loop below over
-// `l < kTetLanes` is the same arithmetic on eight tetrahedra, which the compiler turns into
-// vector instructions (gathers for the corners' positions). Each pass writes only its own
-// block's rows and each node gathers its corners: no two threads write the same value, and the
-// forces of a tetrahedron sum to zero.
+// The passes run over blocks of kTetLanes tetrahedra (8 or 4, solver.h), one per SIMD lane:
+// every loop below over `l < kTetLanes` is the same arithmetic on a block's tetrahedra, which
+// the compiler turns into vector instructions (gathers for the corners' positions). Each pass
+// writes only its own block's rows and each node gathers its corners: no two threads write the same
+// value, and the forces of a tetrahedron sum to zero.
 #include <Eigen/Geometry>
 #include <Eigen/SparseCore>
 #include <array>
@@ -59,8 +59,8 @@ constexpr bool corner_table_matches_edges() {
 }
 static_assert(corner_table_matches_edges());
 
-// The eight lanes of a block as one value: GCC's and Clang's vector extensions, which compile to
-// one AVX-512 instruction per operation here (two AVX2 ones elsewhere). Written out rather than
+// A block's lanes as one value: GCC's and Clang's vector extensions, which compile to one
+// AVX-512 (8 lanes) or AVX2 (4 lanes) instruction per operation. Written out rather than
 // left to the auto-vectoriser, which vectorised these loops only in part (-fopt-info-vec:
 // docs/architecture.md has the measurement).
 typedef double Lanes __attribute__((vector_size(8 * L)));
@@ -312,7 +312,7 @@ void block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16]
   }
 }
 
-// A block's lane-major values into the eight tetrahedra's rows (12 t + 3 c + d).
+// A block's lane-major values into its tetrahedra's rows (12 t + 3 c + d).
 inline void store_rows(const Lanes v[12], float* rows) {
   for (int l = 0; l < L; ++l)
     for (int k = 0; k < 12; ++k) rows[12 * l + k] = static_cast<float>(v[k][l]);
