@@ -265,10 +265,11 @@ struct Solver {
   Eigen::MatrixX3d diag;            ///< Jacobi preconditioner (per node, per axis)
 };
 
-/// Threads for a step: by the springs it visits (a block of tetrahedra counts as its 48 edges).
+/// Threads for a step: by the springs it visits (a block of tetrahedra counts as its six edges a
+/// tetrahedron, whatever the block's width).
 inline int threads_for(const Solver& s) {
   return threads_for_springs(static_cast<int64_t>(s.active_springs.size()) +
-                             48 * static_cast<int64_t>(s.active_tets.size()));
+                             6 * kTetLanes * static_cast<int64_t>(s.active_tets.size()));
 }
 
 // Everything a step measures about the movable nodes, from their state before (x_prev) and after.
