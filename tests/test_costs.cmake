@@ -14,6 +14,7 @@ set(lamina_test_costs
   Serve.TheExamplePolyDataClientGetsTheWholeSkin 11
   View.ScriptedDragMovesTheSkinAndReleaseLetsItReturn 10
   LaminaValidate.QuickRunComparesTheModelsWithConvergedFiniteElements 8
+  LaminaValidate.TheIndenterRadiusIsTheUsersAndABadOneIsRefused 8
   LaminaRun.WithoutASceneRunsTheDefaultPokeOnThePhantom 8
   LaminaRun.PhysicalLiverExampleDeformsReturnsAndKeepsItsVolume 8
   Serve.TheExampleTrackerClientDrivesTheToolTip 7

@@ -124,7 +124,10 @@ struct ValidateArgs {
   bool json = false;                     ///< the summary as JSON on stdout
   bool quick = false;                    ///< one depth (10%) instead of four (CI)
   std::vector<double> depths;  ///< indentation depths, % of the organ's depth; empty = default
-  bool deepest = false;    ///< indent where the organ is deepest, not at its most anterior point
+  bool deepest = false;  ///< indent where the organ is deepest, not at its most anterior point
+  /// The indenter's radius, mm; 0: 1.6 spring lengths, at least 8 mm (so it follows the mesh; a
+  /// study across resolutions fixes it)
+  double indenter_radius_mm = 0.0;
   bool stability = false;  ///< the stability suite instead of the finite-element comparison
   /// Diagnostic: the finite elements on the model's own tetrahedra instead of an independent
   /// mesh (separates the model's error from the discretisation's).

@@ -285,6 +285,10 @@ int main(int argc, char** argv) {
   va->add_flag("--deepest", val.deepest,
                "indent where the organ is deepest along +y instead of at its most anterior point "
                "(the paper's, which can be a thin edge)");
+  va->add_option("--indenter-radius", val.indenter_radius_mm,
+                 "the indenter's radius, mm (default: 1.6 spring lengths, at least 8 mm; fix it to "
+                 "compare resolutions)")
+      ->check(CLI::Range(1.0, 100.0));
   va->add_flag("--stability", val.stability,
                "the stability suite: indentations to 50%, pulls, several tools, dt sweeps per "
                "integrator, each released and checked (finite, layer order, energy, rest)");

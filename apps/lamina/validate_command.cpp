@@ -138,7 +138,8 @@ int run_validate(const ValidateArgs& a) {
   io::SceneModel built = io::make_scene_model(scene, volume_read_options, progress);
   Model& m = built.model;
   const double edge = median_intra_length(m);
-  const double radius = std::max(8.0, 1.6 * edge);
+  const double radius =
+      a.indenter_radius_mm > 0.0 ? a.indenter_radius_mm : std::max(8.0, 1.6 * edge);
   const validate::Indentation ind =
       a.deepest ? validate::deepest_indentation(m, radius) : validate::paper_indentation(m, radius);
   const std::vector<int32_t> held =

@@ -53,11 +53,12 @@ struct MultigridPreconditioner {
   uint64_t stiffness_version = 0;
   double h = 0.0;
   Preconditioner pick = Preconditioner::kJacobi;  ///< SolverOptions::preconditioner then
-  bool chosen = false;            ///< the multigrid applies (kMultigrid, or kAuto's trial)
-  int32_t trial_iterations = -1;  ///< kAuto's trial: Jacobi's iterations at rest (-1: none)
-  std::vector<int32_t> nodes;     ///< per row: its node
-  std::vector<int32_t> row_of;    ///< per node: its row, or -1
-  BlockRows system;               ///< the matrix the hierarchy was last built from, by blocks
+  bool chosen = false;  ///< the multigrid applies (kMultigrid, or kAuto's trial)
+  /// kAuto's trial: Jacobi's iterations at rest, at most kAutoTrialIterations (-1: none)
+  int32_t trial_iterations = -1;
+  std::vector<int32_t> nodes;   ///< per row: its node
+  std::vector<int32_t> row_of;  ///< per node: its row, or -1
+  BlockRows system;             ///< the matrix the hierarchy was last built from, by blocks
   // Per unknown (3 row + axis): the finest level's 1 / diagonal (0 on a held node's), 1 or 0 as
   // the node moves now, the residual, the result and scratch.
   Eigen::VectorXd inv_diag, mask, r, z, work;

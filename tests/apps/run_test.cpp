@@ -309,6 +309,23 @@ TEST(LaminaValidate, StabilityQuickRunReleasesEveryLoadAndWritesItsReport) {
                           [](const json& c) { return c["passed"].get<bool>(); }));
 }
 
+TEST(LaminaValidate, TheIndenterRadiusIsTheUsersAndABadOneIsRefused) {
+  // A study across resolutions fixes the indenter: the run uses the radius given (not 1.6 spring
+  // lengths), and a radius outside 1-100 mm is one line, exit 2, nothing written.
+  test::TempDir dir;
+  std::ofstream(dir.file("small.json"))
+      << R"({"model": {"input": "phantom", "build": {"skin_vertices": 400}}})";
+  const RunResult bad = run_lamina(dir, "validate small.json --quick --indenter-radius 0.5 -o out");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--indenter-radius"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir.path / "out"));
+  const RunResult r = run_lamina(dir, "validate small.json --quick --indenter-radius 30 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  EXPECT_DOUBLE_EQ(j["indenter_radius_mm"].get<double>(), 30.0);
+  for (const json& row : j["rows"]) EXPECT_TRUE(row["converged"].get<bool>()) << row["solver"];
+}
+
 TEST(LaminaValidate, ASavedModelIsRefusedBeforeAnythingIsWritten) {
   test::TempDir dir;
   { std::ofstream(dir.path / "m.vtu") << "<VTKFile/>"; }
