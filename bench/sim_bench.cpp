@@ -82,6 +82,36 @@ BENCHMARK(BM_PhysicalLiverStep)
     ->ArgNames({"skin_vertices", "dt_ms", "assembled"})
     ->Unit(benchmark::kMicrosecond);
 
+// hold_nodes() on the physical liver as an indenter or a grasper calls it every step: a patch of
+// skin nodes within 15 mm of the most anterior one held 0.01 mm further in each call (the first
+// call, which makes them held, outside the timing). Compare with BM_PhysicalLiverStep's step.
+void BM_HoldNodesEveryStep(benchmark::State& state) {
+  Model m = phantom_model(static_cast<int32_t>(state.range(0)), true);
+  io::Scene scene;
+  const io::SceneSetup setup = io::prepare_scene(scene, m);
+  sim::Simulation s = io::make_scene_simulation(scene, m, setup);
+  const int32_t front = interact::most_anterior_skin_node(m);
+  std::vector<int32_t> patch;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if ((m.X.row(i) - m.X.row(front)).norm() < 15.0) patch.push_back(i);
+  Eigen::MatrixX3d at(static_cast<Eigen::Index>(patch.size()), 3);
+  for (size_t k = 0; k < patch.size(); ++k)
+    at.row(static_cast<Eigen::Index>(k)) = m.X.row(patch[k]);
+  sim::hold_nodes(s, patch, at);
+  for (auto _ : state) {
+    at.col(1).array() += 0.01;
+    sim::hold_nodes(s, patch, at);
+    benchmark::DoNotOptimize(s.x.data());
+  }
+  state.counters["nodes"] = m.node_count();
+  state.counters["held"] = static_cast<double>(patch.size());
+}
+BENCHMARK(BM_HoldNodesEveryStep)
+    ->Arg(1284)
+    ->Arg(10000)
+    ->ArgName("skin_vertices")
+    ->Unit(benchmark::kMicrosecond);
+
 void BM_Step(benchmark::State& state) {
   const Model& m = phantom_model(static_cast<int32_t>(state.range(0)));
   const auto integrator =

@@ -71,7 +71,6 @@ void refresh(Simulation& sim) {
   const Model& m = *s.model;
   const int32_t n = m.node_count();
   s.active_nodes.clear();
-  double frozen2 = 0.0;
   for (int32_t i = 0; i < n; ++i) {
     if (s.movable[i]) {
       s.active_nodes.push_back(i);
@@ -79,9 +78,7 @@ void refresh(Simulation& sim) {
     }
     sim.v.row(i).setZero();
     for (Eigen::MatrixX3d* w : {&s.r, &s.z, &s.p, &s.dv}) w->row(i).setZero();
-    frozen2 = std::max(frozen2, (sim.x.row(i) - m.X.row(i)).squaredNorm());
   }
-  s.frozen_max_displacement_mm = std::sqrt(frozen2);
   const Springs& sp = m.springs;
   s.active_springs.clear();
   if (!s.tets.on)  // otherwise the tetrahedra carry the springs
@@ -99,18 +96,32 @@ void refresh(Simulation& sim) {
   refresh_spring_lanes(s);
   refresh_compact_springs(s);
   s.layer_triangles.resize(m.layers.size());
-  s.frozen_layer_volume6_mm3.resize(m.layers.size());
-  std::vector<int32_t> frozen;
+  s.frozen_layer_triangles.resize(m.layers.size());
   for (size_t k = 0; k < m.layers.size(); ++k) {
     const Eigen::MatrixX3i& F = m.layers[k].F;
     std::vector<int32_t>& active = s.layer_triangles[k];
+    std::vector<int32_t>& frozen = s.frozen_layer_triangles[k];
     active.clear();
     frozen.clear();
     for (Eigen::Index t = 0; t < F.rows(); ++t)
       (s.movable[F(t, 0)] || s.movable[F(t, 1)] || s.movable[F(t, 2)] ? active : frozen)
           .push_back(static_cast<int32_t>(t));
+  }
+  refresh_frozen_positions(sim);
+}
+
+void refresh_frozen_positions(Simulation& sim) {
+  Solver& s = sim.solver();
+  const Model& m = *s.model;
+  double frozen2 = 0.0;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (!s.movable[i]) frozen2 = std::max(frozen2, (sim.x.row(i) - m.X.row(i)).squaredNorm());
+  s.frozen_max_displacement_mm = std::sqrt(frozen2);
+  s.frozen_layer_volume6_mm3.resize(m.layers.size());
+  for (size_t k = 0; k < m.layers.size(); ++k) {
+    const std::vector<int32_t>& frozen = s.frozen_layer_triangles[k];
     s.frozen_layer_volume6_mm3[k] =
-        volume6(F, sim.x, frozen.data(), static_cast<int64_t>(frozen.size()), 1);
+        volume6(m.layers[k].F, sim.x, frozen.data(), static_cast<int64_t>(frozen.size()), 1);
   }
 }
 
@@ -308,10 +319,17 @@ void hold_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
     throw invalid_input("held nodes", fmt::format("need one position per node, got {} for {}",
                                                   positions.rows(), nodes.size()));
   if (!positions.allFinite()) throw invalid_input("held nodes", "positions must be finite");
-  fix_nodes(sim, nodes);  // checks the indices, stops the nodes
+  for (int32_t i : nodes) check_node(sim, i, "held nodes");
+  Solver& s = sim.solver();
+  // An indenter or a grasper moves the same held nodes every step: then only the positions
+  // change, and what the step visits (refresh(): every node, spring, tetrahedron and triangle)
+  // stays as it is.
+  const bool held = std::all_of(nodes.begin(), nodes.end(), [&](int32_t i) { return s.fixed[i]; });
+  if (!held) fix_nodes(sim, nodes);  // stops the nodes, lists what moves
   for (size_t k = 0; k < nodes.size(); ++k)
     sim.x.row(nodes[k]) = positions.row(static_cast<Eigen::Index>(k));
-  refresh(sim);  // the caches of what stays put see the new positions
+  ++s.held_moves;                 // work done on the organ: the energy watch waits
+  refresh_frozen_positions(sim);  // the caches of what stays put see the new positions
 }
 
 void release_nodes(Simulation& sim, const std::vector<int32_t>& nodes) {

@@ -201,6 +201,7 @@ struct StabilityWatch {
   int64_t failed_streak = 0;    ///< failed steps in a row
   int64_t unsolved_streak = 0;  ///< steps in a row whose linear solve stalled (Measured)
   uint64_t setup_version = 0;   ///< Solver::setup_version when the energy watch began
+  uint64_t held_moves = 0;      ///< Solver::held_moves when the energy watch began
   int64_t quiet_steps = 0;      ///< steps since a tool last acted
   bool armed = false;           ///< start_j holds the energy at the watch's first check
   double start_j = 0.0;
@@ -235,6 +236,9 @@ struct Solver {
 
   /// Counts changes of what a prefactored solve depends on (movable nodes, material, dt).
   uint64_t setup_version = 0;
+  /// Counts moves of held nodes (hold_nodes): work done on the organ, which the energy watch
+  /// must see as a tool acting, though no prefactored solve depends on it.
+  uint64_t held_moves = 0;
   /// explicit_dt_limit(), cached for the setup_version it was computed at (0 = not yet).
   double explicit_limit_s = 0.0;
   uint64_t explicit_limit_version = 0;
@@ -256,6 +260,7 @@ struct Solver {
   double frozen_max_displacement_mm = 0.0;
   /// Per layer: its triangles with a movable corner, and 6 x the signed volume of the others.
   std::vector<std::vector<int32_t>> layer_triangles;
+  std::vector<std::vector<int32_t>> frozen_layer_triangles;  ///< per layer: the others
   std::vector<double> frozen_layer_volume6_mm3;
 
   // Workspace, sized once (no allocation per step). Rows of nodes that do not move stay zero in
@@ -453,6 +458,9 @@ void prepare_projective(Solver& s, double h);
 
 /// Rebuilds what a step visits and what it caches about the nodes that stay put.
 void refresh(Simulation& sim);
+/// What refresh() caches of the positions of nodes that do not move, after hold_nodes() moved
+/// them: the largest displacement among them and their layers' volume share. The lists stay.
+void refresh_frozen_positions(Simulation& sim);
 /// Counts the step into the watch and sets st.unstable (stability_watch.cpp).
 /// `stalled`: the step's linear solve ended far above its tolerance (Measured::stalled).
 void watch_stability(Simulation& sim, StepStats& st, bool stalled);

@@ -31,7 +31,8 @@ constexpr double kEnergyFloorJ = 1e-6;
 
 bool tool_acts(const Simulation& sim) {
   const Solver& s = sim.solver();
-  if (s.watch.setup_version != s.setup_version) return true;  // nodes held, moved, released
+  // nodes held, moved, released
+  if (s.watch.setup_version != s.setup_version || s.watch.held_moves != s.held_moves) return true;
   for (int32_t i : s.active_nodes)
     if (sim.f_ext(i, 0) != 0.0 || sim.f_ext(i, 1) != 0.0 || sim.f_ext(i, 2) != 0.0) return true;
   return false;
@@ -58,6 +59,7 @@ bool energy_grew(Simulation& sim, const StepStats& st) {
   StabilityWatch& w = s.watch;
   if (tool_acts(sim)) {
     w.setup_version = s.setup_version;
+    w.held_moves = s.held_moves;
     w.quiet_steps = 0;
     w.armed = false;
     return false;

@@ -9,6 +9,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/geometry/mesh_measures.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/identify_springs.h"
@@ -204,13 +205,19 @@ TEST(Simulation, EveryIntegratorReachesTheSameLoadedEquilibrium) {
         << name(kAllIntegrators[k]);
 }
 
-TEST(Simulation, HeldNodesStayWhereTheyAreHeldAndDriveTheRest) {
-  // A displacement-controlled indenter: a patch of skin held 3 mm in, the back held at rest.
-  const Model& m = small_model();
+// The skin nodes within 20 mm of the most anterior one: an indenter's patch.
+std::vector<int32_t> anterior_patch(const Model& m) {
   const int32_t front = interact::most_anterior_skin_node(m);
   std::vector<int32_t> patch;
   for (int32_t i = 0; i < m.layers[0].node_count; ++i)
     if ((m.X.row(i) - m.X.row(front)).norm() < 20.0) patch.push_back(i);
+  return patch;
+}
+
+TEST(Simulation, HeldNodesStayWhereTheyAreHeldAndDriveTheRest) {
+  // A displacement-controlled indenter: a patch of skin held 3 mm in, the back held at rest.
+  const Model& m = small_model();
+  const std::vector<int32_t> patch = anterior_patch(m);
   ASSERT_GT(patch.size(), 2u);
   Eigen::MatrixX3d at(static_cast<Eigen::Index>(patch.size()), 3);
   for (size_t k = 0; k < patch.size(); ++k)
@@ -241,6 +248,44 @@ TEST(Simulation, HeldNodesStayWhereTheyAreHeldAndDriveTheRest) {
   sim::Simulation bad = sim::make_simulation(m);
   EXPECT_THROW(sim::hold_nodes(bad, {0, 1}, Eigen::MatrixX3d::Zero(1, 3)), Error);
   EXPECT_THROW(sim::hold_nodes(bad, {-1}, Eigen::MatrixX3d::Zero(1, 3)), Error);
+}
+
+TEST(Simulation, HoldingTheSameNodesAgainMovesThemWithoutANewSetupAndTheStepMeasuresThem) {
+  // An indenter or a grasper holds the same nodes at new positions every step: no new setup
+  // (the prefactored solves and the step's lists stay), but the energy watch sees a tool acting
+  // and the step's measurements see where the held nodes now are.
+  const Model& m = small_model();
+  const std::vector<int32_t> patch = anterior_patch(m);
+  ASSERT_GT(patch.size(), 2u);
+  sim::Simulation s = sim::make_simulation(m, {.anchor_stiffness_n_per_m = 0.3},
+                                           {.integrator = sim::Integrator::kImplicitEuler});
+  sim::fix_nodes(s, posterior_nodes(m));
+  Eigen::MatrixX3d at(static_cast<Eigen::Index>(patch.size()), 3);
+  for (size_t k = 0; k < patch.size(); ++k)
+    at.row(static_cast<Eigen::Index>(k)) = m.X.row(patch[k]);
+  sim::hold_nodes(s, patch, at);
+  const uint64_t setup = s.solver().setup_version;
+  for (int k = 1; k <= 20; ++k) {
+    at.col(1).array() -= 0.5;  // 10 mm in over 20 steps
+    const uint64_t moves = s.solver().held_moves;
+    sim::hold_nodes(s, patch, at);
+    EXPECT_EQ(s.solver().setup_version, setup) << "a new setup for the same held nodes";
+    EXPECT_EQ(s.solver().held_moves, moves + 1);
+    const sim::StepStats st = sim::step(s);
+    ASSERT_FALSE(st.failed);
+    EXPECT_EQ(st.unstable, sim::Instability::kNone);
+    for (size_t q = 0; q < patch.size(); ++q)
+      ASSERT_EQ(s.x.row(patch[q]), at.row(static_cast<Eigen::Index>(q)));
+    // The held nodes are the farthest from rest, and the skin's volume is the one enclosed now.
+    EXPECT_NEAR(st.max_displacement_mm, 0.5 * k, 1e-9);
+    const double enclosed = geometry::enclosed_volume({s.x, m.layers[0].F});
+    EXPECT_NEAR(st.skin_volume_mm3, enclosed, 1e-9 * enclosed);
+  }
+  // Holding another node is a new setup.
+  int32_t other = 0;
+  while (s.solver().fixed[other]) ++other;
+  sim::hold_nodes(s, {other}, s.x.row(other));
+  EXPECT_GT(s.solver().setup_version, setup);
 }
 
 TEST(Simulation, FixedNodesNeverMove) {
