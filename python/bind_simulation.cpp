@@ -183,10 +183,7 @@ void bind_simulation(py::module_& m) {
                  p->driver.routing.locality = locality;
                  p->driver.routing.penetration_depth = penetration_depth;
                  p->driver.routing.contact_threshold_mm = contact_threshold_mm;
-                 if (locality > model->rings.locality)
-                   throw invalid_input("locality", "is " + std::to_string(locality) +
-                                                       "; the model's rings reach " +
-                                                       std::to_string(model->rings.locality));
+                 interact::check_routing(p->driver.routing, model->rings.locality);
                  sim::fix_nodes(p->sim, nodes_of(fixed));
                  sim::prepare_solver(p->sim);  // the multigrid now, not in the first step
                  wire(*p);

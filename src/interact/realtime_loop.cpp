@@ -39,6 +39,7 @@ int32_t deepest_inside(const Model& m, const Eigen::MatrixX3d& x, const ToolTip&
 RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
                            const LoopOptions& options)
     : sim_(std::move(sim)), routing_(routing), options_(options), rate_hz_(options.rate_hz) {
+  check_routing(routing_, sim_.model().rings.locality);  // here, not in the stepping thread
   stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
   // At the step the clock gives: auto's trial, the multigrid or projective dynamics' factor are
@@ -98,10 +99,7 @@ void RealtimeLoop::set_tool_tip(const ToolTip& tip) {
 void RealtimeLoop::set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
                                   const RoutingOptions& routing) {
   // Validate now, on the caller's thread, so that the error reaches the caller.
-  if (routing.locality < 1 || routing.locality > sim_.model().rings.locality)
-    throw invalid_input("locality", "must be 1.." + std::to_string(sim_.model().rings.locality) +
-                                        " (the rings precomputed in the model)");
-  if (routing.penetration_depth < 1) throw invalid_input("penetration depth", "must be >= 1");
+  check_routing(routing, sim_.model().rings.locality);
   sim::check_parameters(material, solver);  // throws, naming the bad parameter
   std::lock_guard lock(mutex_);
   new_params_ = Params{material, solver, routing};

@@ -1,5 +1,7 @@
 #include "lamina/interact/tools.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -70,15 +72,36 @@ std::vector<Crossing> force_line_crossings(const Model& model, const Eigen::Matr
   return out;
 }
 
+std::optional<RoutingProblem> routing_problem(const RoutingOptions& o, int32_t rings_locality) {
+  if (o.locality < 1 || o.locality > rings_locality)
+    return RoutingProblem{"locality", fmt::format("must be between 1 and the model's rings ({}), "
+                                                  "got {}",
+                                                  rings_locality, o.locality)};
+  if (o.penetration_depth < 1)
+    return RoutingProblem{
+        "penetration_depth",
+        fmt::format("must be at least 1 (the contact itself), got {}", o.penetration_depth)};
+  const auto fraction = [](double v) { return v >= 0.0 && v <= 1.0; };  // false for NaN
+  if (!fraction(o.ring_attenuation))
+    return RoutingProblem{"ring_attenuation",
+                          fmt::format("must be between 0 and 1, got {}", o.ring_attenuation)};
+  if (!fraction(o.crossing_attenuation))
+    return RoutingProblem{"crossing_attenuation",
+                          fmt::format("must be between 0 and 1, got {}", o.crossing_attenuation)};
+  if (!(o.contact_threshold_mm > 0.0 && std::isfinite(o.contact_threshold_mm)))
+    return RoutingProblem{"contact_threshold_mm",
+                          fmt::format("must be > 0 mm, got {}", o.contact_threshold_mm)};
+  return std::nullopt;
+}
+
+void check_routing(const RoutingOptions& o, int32_t rings_locality) {
+  if (const auto p = routing_problem(o, rings_locality))
+    throw invalid_input("solver." + p->key, p->problem);
+}
+
 ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t contact_node,
                        const Eigen::Vector3d& force_mn, const RoutingOptions& o) {
-  if (o.locality < 1 || o.locality > model.rings.locality)
-    throw invalid_input("solver.locality",
-                        "must be between 1 and the model's precomputed locality (" +
-                            std::to_string(model.rings.locality) + "), got " +
-                            std::to_string(o.locality));
-  if (o.penetration_depth < 1)
-    throw invalid_input("solver.penetration_depth", "must be at least 1 (the contact itself)");
+  check_routing(o, model.rings.locality);
   ForceRoute route;
   route.contact_node = contact_node;
   route.crossings = force_line_crossings(model, x, contact_node, force_mn);

@@ -580,9 +580,8 @@ void resolve_scene_defaults(Scene& s, const Model& m) {
 
 void check_scene_against_model(const Scene& s, const Model& m) {
   const Reader r(s.source);
-  if (s.routing.locality > m.rings.locality)
-    r.fail("solver.locality", fmt::format("must not exceed the model's rings ({}), got {}",
-                                          m.rings.locality, s.routing.locality));
+  if (const auto p = interact::routing_problem(s.routing, m.rings.locality))
+    r.fail("solver." + p->key, p->problem);
   const int32_t skin_nodes = m.layers.at(0).node_count;
   for (size_t k = 0; k < s.tools.size(); ++k) {
     const interact::Tool& t = s.tools[k];

@@ -46,6 +46,13 @@ int32_t front_node(const Model& m) {
   return best;
 }
 
+TEST(RealtimeLoop, RefusesBadRoutingWhenMadeAndWhenSet) {
+  // On the caller's thread, named: not later, in the stepping thread's first routed force.
+  EXPECT_THROW(interact::RealtimeLoop(held_sphere(), {.penetration_depth = 0}), Error);
+  interact::RealtimeLoop loop(held_sphere(), {});
+  EXPECT_THROW(loop.set_parameters({}, {}, {.ring_attenuation = 2.0}), Error);
+}
+
 TEST(PickSkin, RayTowardsTheCentreHitsTheNearSideAndARayAwayMisses) {
   Eigen::Vector3d c;
   const Model& m = sphere_model(&c);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <set>
 
 #include "lamina/core/error.h"
@@ -85,6 +87,33 @@ TEST(RouteForce, RingsAreAttenuatedRingByRingAndTheTotalIsTheForce) {
   // Spreading conserves the force: the total over all receiving nodes is the applied force.
   EXPECT_TRUE(Eigen::Vector3d(r.forces.colwise().sum()).isApprox(force));
   EXPECT_THROW(interact::route_force(m, m.X, 10, force, {.locality = m.rings.locality + 1}), Error);
+}
+
+TEST(RoutingOptions, EachBadValueIsNamedByItsKeyInOneCheck) {
+  // One check for the scene reader, route_force, the realtime loop and Python: each bad value is
+  // named by its scene key, and good options (the paper's) pass.
+  const int32_t rings = 4;
+  EXPECT_FALSE(interact::routing_problem({}, rings).has_value());
+  const auto key = [&](const interact::RoutingOptions& o) {
+    const auto p = interact::routing_problem(o, rings);
+    return p ? p->key : std::string("none");
+  };
+  EXPECT_EQ(key({.locality = 0}), "locality");
+  EXPECT_EQ(key({.locality = rings + 1}), "locality");
+  EXPECT_EQ(key({.penetration_depth = 0}), "penetration_depth");
+  EXPECT_EQ(key({.ring_attenuation = 1.5}), "ring_attenuation");
+  EXPECT_EQ(key({.ring_attenuation = std::nan("")}), "ring_attenuation");
+  EXPECT_EQ(key({.crossing_attenuation = -0.1}), "crossing_attenuation");
+  EXPECT_EQ(key({.contact_threshold_mm = 0.0}), "contact_threshold_mm");
+  EXPECT_EQ(key({.contact_threshold_mm = std::numeric_limits<double>::infinity()}),
+            "contact_threshold_mm");
+  try {
+    interact::check_routing({.penetration_depth = 0}, rings);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(),
+                 "solver.penetration_depth: must be at least 1 (the contact itself), got 0");
+  }
 }
 
 TEST(NearestSkinNode, WithinThresholdOnly) {

@@ -604,7 +604,7 @@ TEST(CheckSceneAgainstModel, NamesTheKeyThatDoesNotFitTheModel) {
                        0),
             0u);
   EXPECT_EQ(message(R"({"tools": []})"),  // default locality 4 > the model's 2
-            "scene.json: solver.locality: must not exceed the model's rings (2), got 4");
+            "scene.json: solver.locality: must be between 1 and the model's rings (2), got 4");
   EXPECT_EQ(message(R"({"tools": [], "solver": {"locality": 1},
                         "boundary": {"fixed": [{"nodes": [0, 6]}]}})"),
             "scene.json: boundary.fixed[0].nodes[1]: must be a node of the model, 0..5, got 6");

@@ -8,6 +8,8 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <limits>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "lamina/model/model.h"
@@ -27,6 +29,18 @@ struct RoutingOptions {
   double contact_threshold_mm =
       10.0;  ///< a tool point farther than this from every skin node touches nothing
 };
+
+/// What is wrong with routing options for a model whose rings reach `rings_locality`: the key
+/// (as in a scene's "solver" section) and the problem, or nothing. The one check of the options,
+/// used by the scene reader, route_force(), the realtime loop and the Python binding.
+struct RoutingProblem {
+  std::string key;
+  std::string problem;
+};
+std::optional<RoutingProblem> routing_problem(const RoutingOptions& options,
+                                              int32_t rings_locality);
+/// Throws lamina::Error (kInvalidInput) naming the key when routing_problem() finds one.
+void check_routing(const RoutingOptions& options, int32_t rings_locality);
 
 /// Where the force line crosses a layer.
 struct Crossing {
