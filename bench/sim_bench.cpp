@@ -177,4 +177,31 @@ void BM_PickSkin(benchmark::State& state) {
 }
 BENCHMARK(BM_PickSkin)->Arg(1284)->Arg(12840)->Unit(benchmark::kMicrosecond);
 
+// A tool tip's contact, once per step at 1 kHz: the 5 mm sphere 2 mm into the most anterior
+// skin, its penalty load found over the skin triangles and spread by barycentric weights
+// (interact::sphere_contact, without routing), against the paper's tip on its deepest node
+// routed over rings and layers (arg 1 = the paper's).
+void BM_ToolTipContact(benchmark::State& state) {
+  const Model& m = phantom_model(static_cast<int32_t>(state.range(0)));
+  const int32_t front = interact::most_anterior_skin_node(m);
+  const interact::ToolTip tip{.active = true,
+                              .center_mm = m.X.row(front).transpose() - Eigen::Vector3d(0, 3, 0),
+                              .radius_mm = 5.0,
+                              .stiffness_n_per_m = 20.0};
+  const interact::RoutingOptions routing{.routing = state.range(1) ? interact::Routing::kPaper
+                                                                   : interact::Routing::kNone};
+  size_t nodes = 0;
+  for (auto _ : state) {
+    const interact::ForceRoute r = interact::load_of_tip(m, m.X, tip, routing);
+    nodes = r.nodes.size();
+    benchmark::DoNotOptimize(r.forces.data());
+  }
+  state.counters["skin_faces"] = static_cast<double>(m.layers[0].F.rows());
+  state.counters["loaded_nodes"] = static_cast<double>(nodes);
+}
+BENCHMARK(BM_ToolTipContact)
+    ->ArgsProduct({{1284, 12840}, {0, 1}})
+    ->ArgNames({"skin", "paper"})
+    ->Unit(benchmark::kMicrosecond);
+
 BENCHMARK_MAIN();

@@ -52,6 +52,12 @@ sim::Preconditioner parse_preconditioner(const std::string& name) {
   throw invalid_input("preconditioner", "is '" + name + "'; auto, jacobi or multigrid expected");
 }
 
+interact::Routing parse_routing(const std::string& name) {
+  for (auto r : {interact::Routing::kNone, interact::Routing::kPaper})
+    if (io::routing_name(r) == name) return r;
+  throw invalid_input("routing", "is '" + name + "'; none or paper expected");
+}
+
 void wire(PySimulation& p) {
   p.driver.held_forces = Eigen::MatrixX3d::Zero(p.model->node_count(), 3);
 }
@@ -151,44 +157,51 @@ void bind_simulation(py::module_& m) {
       "x, v, f_ext are (nodes, 3) float64 numpy views of the simulation's own\n"
       "memory (no copy): write them between steps. f_ext holds raw forces, mN;\n"
       "tools add their routed forces to them during each step.")
-      .def(py::init(
-               [](std::shared_ptr<Model> model, double stiffness_n_per_m, double damping_kg_per_s,
-                  double mass_damping_per_s, double node_mass_kg, double anchor_stiffness_n_per_m,
-                  double volume_stiffness_kpa, double young_modulus_kpa, double poisson_ratio,
-                  const Eigen::Vector3d& gravity_mm_per_s2, const std::string& integrator,
-                  double dt_s, double rest_speed_mm_per_s, int64_t max_steps,
-                  const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
-                  const std::string& preconditioner, int32_t locality, int32_t penetration_depth,
-                  double contact_threshold_mm, const std::vector<int64_t>& fixed) {
-                 if (!model) throw invalid_input("Simulation: model", "is None");
-                 sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
-                                   .damping_kg_per_s = damping_kg_per_s,
-                                   .mass_damping_per_s = mass_damping_per_s,
-                                   .node_mass_kg = node_mass_kg,
-                                   .anchor_stiffness_n_per_m = anchor_stiffness_n_per_m,
-                                   .volume_stiffness_kpa = volume_stiffness_kpa,
-                                   .young_modulus_kpa = young_modulus_kpa,
-                                   .poisson_ratio = poisson_ratio,
-                                   .gravity_mm_per_s2 = gravity_mm_per_s2};
-                 sim::SolverOptions opt{.integrator = parse_integrator(integrator),
-                                        .dt_s = dt_s,
-                                        .rest_speed_mm_per_s = rest_speed_mm_per_s,
-                                        .max_steps = max_steps,
-                                        .mode = parse_mode(mode),
-                                        .cg_max_iterations = cg_max_iterations,
-                                        .cg_tolerance = cg_tolerance,
-                                        .preconditioner = parse_preconditioner(preconditioner)};
-                 auto p = std::make_unique<PySimulation>(
-                     PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}});
-                 p->driver.routing.locality = locality;
-                 p->driver.routing.penetration_depth = penetration_depth;
-                 p->driver.routing.contact_threshold_mm = contact_threshold_mm;
-                 interact::check_routing(p->driver.routing, model->rings.locality);
-                 sim::fix_nodes(p->sim, nodes_of(fixed));
-                 sim::prepare_solver(p->sim);  // the multigrid now, not in the first step
-                 wire(*p);
-                 return p;
-               }),
+      .def(py::init([](std::shared_ptr<Model> model, double stiffness_n_per_m,
+                       double damping_kg_per_s, double mass_damping_per_s, double node_mass_kg,
+                       double anchor_stiffness_n_per_m, double volume_stiffness_kpa,
+                       double young_modulus_kpa, double poisson_ratio,
+                       const Eigen::Vector3d& gravity_mm_per_s2, const std::string& integrator,
+                       double dt_s, double rest_speed_mm_per_s, int64_t max_steps,
+                       const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
+                       const std::string& preconditioner, const std::optional<std::string>& routing,
+                       int32_t locality, int32_t penetration_depth, double contact_threshold_mm,
+                       const std::vector<int64_t>& fixed) {
+             if (!model) throw invalid_input("Simulation: model", "is None");
+             // Checked before the simulation is made (its solver setup can take seconds).
+             // The physical tissue (E given) conserves force; the paper's constants route.
+             const bool elastic = young_modulus_kpa > 0.0 && stiffness_n_per_m == 0.0;
+             interact::RoutingOptions ro{
+                 .routing = parse_routing(routing.value_or(elastic ? "none" : "paper")),
+                 .locality = locality,
+                 .penetration_depth = penetration_depth,
+                 .contact_threshold_mm = contact_threshold_mm};
+             interact::check_routing(ro, model->rings.locality);
+             sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
+                               .damping_kg_per_s = damping_kg_per_s,
+                               .mass_damping_per_s = mass_damping_per_s,
+                               .node_mass_kg = node_mass_kg,
+                               .anchor_stiffness_n_per_m = anchor_stiffness_n_per_m,
+                               .volume_stiffness_kpa = volume_stiffness_kpa,
+                               .young_modulus_kpa = young_modulus_kpa,
+                               .poisson_ratio = poisson_ratio,
+                               .gravity_mm_per_s2 = gravity_mm_per_s2};
+             sim::SolverOptions opt{.integrator = parse_integrator(integrator),
+                                    .dt_s = dt_s,
+                                    .rest_speed_mm_per_s = rest_speed_mm_per_s,
+                                    .max_steps = max_steps,
+                                    .mode = parse_mode(mode),
+                                    .cg_max_iterations = cg_max_iterations,
+                                    .cg_tolerance = cg_tolerance,
+                                    .preconditioner = parse_preconditioner(preconditioner)};
+             auto p = std::make_unique<PySimulation>(
+                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}});
+             p->driver.routing = ro;
+             sim::fix_nodes(p->sim, nodes_of(fixed));
+             sim::prepare_solver(p->sim);  // the multigrid now, not in the first step
+             wire(*p);
+             return p;
+           }),
            py::arg("model"), py::kw_only(), py::arg("stiffness_n_per_m") = 3.0,
            py::arg("damping_kg_per_s") = 3.0, py::arg("mass_damping_per_s") = 0.0,
            py::arg("node_mass_kg") = 1.0, py::arg("anchor_stiffness_n_per_m") = 0.0,
@@ -198,8 +211,9 @@ void bind_simulation(py::module_& m) {
            py::arg("rest_speed_mm_per_s") = 0.1, py::arg("max_steps") = 100000,
            py::arg("mode") = "global", py::arg("cg_max_iterations") = 100,
            py::arg("cg_tolerance") = 1e-6, py::arg("preconditioner") = "auto",
-           py::arg("locality") = 4, py::arg("penetration_depth") = 4,
-           py::arg("contact_threshold_mm") = 10.0, py::arg("fixed") = std::vector<int64_t>{},
+           py::arg("routing") = py::none(), py::arg("locality") = 4,
+           py::arg("penetration_depth") = 4, py::arg("contact_threshold_mm") = 10.0,
+           py::arg("fixed") = std::vector<int64_t>{},
            "A simulation at rest. Defaults are the reference paper's (K = 3 N/m, gamma = 3 kg/s,\n"
            "unit masses, semi-implicit Euler at dt = 0.01 s). young_modulus_kpa (E) > 0 with\n"
            "stiffness_n_per_m = 0 and node_mass_kg = 0 makes the tissue elastic (E, nu) through\n"
@@ -207,6 +221,9 @@ void bind_simulation(py::module_& m) {
            "preconditioner (implicit_euler's CG): auto (Jacobi or multigrid by a trial solve), "
            "jacobi, "
            "multigrid.\n"
+           "routing: none (a tool's force spread over the skin it touches, conserved; the\n"
+           "default with young_modulus_kpa) or paper (the paper's rings and copies; the default\n"
+           "with its constants).\n"
            "fixed: node indices held at rest (without them a push moves the organ bodily).")
       .def_property_readonly("model", [](const PySimulation& p) { return p.model; })
       .def_property(
@@ -267,10 +284,13 @@ void bind_simulation(py::module_& m) {
           "add_tool",
           [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
              std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
-             std::optional<double> start_s, double end_s) {
+             std::optional<double> start_s, double end_s, double radius_mm) {
             if (point_mm.has_value() == vertex.has_value())
               throw invalid_input("add_tool", "give exactly one of point_mm and vertex");
             if (!force_mn.allFinite()) throw invalid_input("add_tool: force_mn", "is not finite");
+            if (!(radius_mm >= 0.0 && std::isfinite(radius_mm)))
+              throw invalid_input("add_tool: radius_mm",
+                                  fmt::format("must be >= 0 mm, got {}", radius_mm));
             interact::Tool t;
             t.by_point = point_mm.has_value();
             if (point_mm) t.point_mm = *point_mm;
@@ -278,15 +298,19 @@ void bind_simulation(py::module_& m) {
             t.force_mn = force_mn;
             t.start_s = start_s.value_or(p.sim.time_s);
             t.end_s = end_s;
+            t.radius_mm = radius_mm;
             p.driver.tools.push_back(t);
             return p.driver.tools.size() - 1;
           },
           py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
           py::arg("force_mn"), py::arg("start_s") = py::none(),
           py::arg("end_s") = std::numeric_limits<double>::infinity(),
-          "A tool: touches the skin node nearest point_mm (or skin node `vertex`) and pushes\n"
-          "with force_mn (mN, 3 values) from start_s (default: now) until end_s, routed over the\n"
-          "contact's rings and the layers behind it the paper's way. Returns its index.")
+          py::arg("radius_mm") = interact::kDefaultPatchRadiusMm,
+          "A tool: touches the skin nearest point_mm (or skin node `vertex`) and pushes with\n"
+          "force_mn (mN, 3 values) from start_s (default: now) until end_s. Without routing\n"
+          "(the physical tissue's default) the force is spread over the skin within radius_mm\n"
+          "of the contact, and the tissue's load is exactly the force; with routing='paper' it\n"
+          "is routed over the contact's rings and the layers behind it. Returns its index.")
       .def(
           "clear_tools",
           [](PySimulation& p) {

@@ -468,6 +468,7 @@ int run_run(const RunArgs& a) {
   sum.recoveries = s.recoveries;
   sum.integrator = scene.solver.integrator;
   sum.mode = scene.solver.mode;
+  sum.routing = scene.routing.routing;
   if (scene.solver.integrator == sim::Integrator::kImplicitEuler)
     sum.preconditioner = sim::uses_multigrid(s) ? "multigrid" : "jacobi";
   sum.dt_s = scene.solver.dt_s;

@@ -84,8 +84,8 @@ int run_soak(const SoakArgs& a) {
       Eigen::Vector3d dir(axis(rng), axis(rng), axis(rng));
       dir.normalize();
       ActiveTool t;
-      t.route =
-          interact::route_force(m, s.x, node(rng), 1000.0 * newtons(rng) * dir, scene.routing);
+      t.route = interact::load_at_node(m, s.x, node(rng), 1000.0 * newtons(rng) * dir,
+                                       interact::kDefaultPatchRadiusMm, scene.routing);
       t.end_s = s.time_s + hold(rng);
       touched.insert(touched.end(), t.route.nodes.begin(), t.route.nodes.end());
       interact::keep_touched_movable(s, touched);

@@ -172,6 +172,14 @@ void ViewSession::State::panels() {
                   snap.multigrid ? "multigrid" : "Jacobi");
   }
   if (ImGui::CollapsingHeader("Force routing", ImGuiTreeNodeFlags_DefaultOpen)) {
+    // none: a push spread over the skin it touches, the tool feels minus its load; paper: the
+    // reference paper's rings and copies through the layers.
+    int route = routing.routing == interact::Routing::kPaper ? 1 : 0;
+    if (ImGui::Combo("routing", &route, "none (force conserved)\0paper (rings, copies)\0")) {
+      routing.routing = route == 1 ? interact::Routing::kPaper : interact::Routing::kNone;
+      changed = true;
+    }
+    ImGui::BeginDisabled(routing.routing != interact::Routing::kPaper);
     changed |= ImGui::SliderInt("locality N", &routing.locality, 1, std::max(1, m.rings.locality));
     changed |=
         ImGui::SliderInt("penetration P", &routing.penetration_depth, 1, 2 * m.layer_count() + 2);
@@ -181,6 +189,7 @@ void ViewSession::State::panels() {
       routing.ring_attenuation = ra, changed = true;
     if (ImGui::SliderFloat("crossing attenuation", &ca, 0.0f, 1.0f))
       routing.crossing_attenuation = ca, changed = true;
+    ImGui::EndDisabled();
     changed |=
         ImGui::InputDouble("contact threshold mm", &routing.contact_threshold_mm, 1, 5, "%.1f");
   }

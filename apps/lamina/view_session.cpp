@@ -237,7 +237,8 @@ void ViewSession::State::show_state() {
   f.x = have_x ? &snap.x : nullptr;
   for (const interact::LiveForce& lf : sent) {
     render::add_force_arrow(f, lf.node, lf.force_mn, arrow_mm_per_n);
-    if (show_rings) f.rings.push_back({lf.node, routing.locality});
+    if (show_rings && routing.routing == interact::Routing::kPaper)
+      f.rings.push_back({lf.node, routing.locality});
   }
   for (int32_t node : snap.contact_nodes) render::add_contact_marker(f, node);
   if (tip.active) f.markers.push_back({tip.center_mm, tip.radius_mm, {0.7f, 0.75f, 0.8f, 1.0f}});

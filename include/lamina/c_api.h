@@ -102,15 +102,19 @@ lamina_status lamina_sim_create(const lamina_model* model, const lamina_material
 lamina_status lamina_sim_create_from_scene(const char* scene, lamina_sim** out);
 void lamina_sim_free(lamina_sim* sim);
 
-/* A spherical tool tip at `center_mm` (a game engine's instrument): skin nodes inside it are
- * pushed out by a penalty force (stiffness N/m per mm of penetration, on the deepest node),
- * spread over its rings and the layers behind it the paper's way. Call it every frame with the
- * instrument's pose; lamina_sim_clear_tool_tip lifts it off. */
+/* A spherical tool tip at `center_mm` (a game engine's instrument): the skin inside it is
+ * pushed out by a penalty force, stiffness (N/m = mN/mm) times the deepest penetration. On a
+ * physical tissue (a scene's default, or lamina_sim_create with E and no raw stiffness) that
+ * load is spread over every piece of skin inside the sphere and the tool feels exactly minus it
+ * (reaction_mn); with the paper's constants it acts on the deepest skin node, routed over its
+ * rings and the layers behind it. Call it every frame with the instrument's pose;
+ * lamina_sim_clear_tool_tip lifts it off. */
 lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3], double radius_mm,
                                       double stiffness_n_per_m);
 lamina_status lamina_sim_clear_tool_tip(lamina_sim* sim);
 /* Replaces every force held on skin nodes (count 0 releases them): forces_mn holds 3 * count
- * values, mN, each routed the paper's way from its node. */
+ * values, mN, each spread over the skin within 5 mm of its node on a physical tissue (the load
+ * is the force), routed the paper's way from its node with the paper's constants. */
 lamina_status lamina_sim_set_forces(lamina_sim* sim, const int32_t* skin_nodes,
                                     const double* forces_mn, int32_t count);
 
@@ -120,7 +124,8 @@ typedef struct lamina_step_stats {
   int64_t steps;              /* steps since the start */
   double max_displacement_mm; /* largest node distance from rest */
   double volume_change_pct;   /* skin volume change, % */
-  double reaction_mn[3];      /* the tissue's push back on the tools and forces, mN */
+  double reaction_mn[3];      /* the force on the tools, mN: minus their load on a physical
+                                 tissue; the tissue's push back under the paper's routing */
   int32_t at_rest;            /* 1 when no node moves faster than the rest speed */
   int32_t tool_tip_touching;  /* 1 when the tool tip touches the skin */
   int64_t recoveries;         /* steps redone after a non-finite state */

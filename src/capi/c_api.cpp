@@ -224,15 +224,21 @@ lamina_status lamina_sim_create(const lamina_model* model, const lamina_material
     lamina_material_defaults(&m);
     lamina_solver s;
     lamina_solver_defaults(&s);
-    lamina::sim::Simulation sim = lamina::sim::make_simulation(
-        *shared, to_material(material ? *material : m), to_solver(solver ? *solver : s));
+    const lamina::sim::Material mat = to_material(material ? *material : m);
+    lamina::sim::Simulation sim =
+        lamina::sim::make_simulation(*shared, mat, to_solver(solver ? *solver : s));
     if (fixed_count < 0)
       throw lamina::invalid_input("lamina_sim_create: fixed_count", "is negative");
     if (fixed_count > 0) {
       need(fixed_nodes, "lamina_sim_create: fixed_nodes");
       lamina::sim::fix_nodes(sim, std::vector<int32_t>(fixed_nodes, fixed_nodes + fixed_count));
     }
-    *out = wrap(shared, std::move(sim), {});
+    // A physical tissue (E, no raw spring constant) conserves a tool's force; the paper's
+    // constants route it the paper's way (as in scenes and Python).
+    const bool elastic = mat.young_modulus_kpa > 0.0 && mat.stiffness_n_per_m == 0.0;
+    *out = wrap(shared, std::move(sim),
+                {.routing = elastic ? lamina::interact::Routing::kNone
+                                    : lamina::interact::Routing::kPaper});
   });
 }
 

@@ -19,21 +19,6 @@ double now_s() {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// The deepest skin node inside the sphere, or -1. Brute force: a k-d tree rebuilt at 1 kHz on a
-// moving skin would cost more than this scan (1.3k nodes, ~2 us).
-int32_t deepest_inside(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,
-                       double& distance) {
-  int32_t best = -1;
-  double best_d2 = tip.radius_mm * tip.radius_mm;
-  const int32_t skin = m.layers.empty() ? 0 : m.layers[0].node_count;
-  for (int32_t i = 0; i < skin; ++i) {
-    const double d2 = (x.row(i).transpose() - tip.center_mm).squaredNorm();
-    if (d2 < best_d2) best_d2 = d2, best = i;
-  }
-  distance = std::sqrt(best_d2);
-  return best;
-}
-
 }  // namespace
 
 RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
@@ -177,7 +162,7 @@ void RealtimeLoop::route_forces() {
   routes_.clear();
   for (const LiveForce& f : forces_) {
     if (f.node < 0 || f.node >= m.layers[0].node_count || !f.force_mn.allFinite()) continue;
-    routes_.push_back(route_force(m, sim_.x, f.node, f.force_mn, routing_));
+    routes_.push_back(load_at_node(m, sim_.x, f.node, f.force_mn, f.radius_mm, routing_));
     touched_.insert(touched_.end(), routes_.back().nodes.begin(), routes_.back().nodes.end());
   }
   keep_touched_movable(sim_, touched_);
@@ -189,35 +174,30 @@ void RealtimeLoop::one_step() {
   clear_loads(sim_, loads_);
   for (const ForceRoute& r : routes_) add_load(sim_, r, loads_);
 
-  // The tool tip: a penalty force on the deepest skin node inside it, along the line from the
-  // tip's centre, routed afresh when the contact moves (routes are linear in the force).
-  tip_force_.setZero();
-  ForceRoute tip_route;
-  if (tip_.active) {
-    double distance = 0.0;
-    const int32_t node = deepest_inside(m, sim_.x, tip_, distance);
-    if (node >= 0) {
-      Eigen::Vector3d dir = sim_.x.row(node).transpose() - tip_.center_mm;
-      dir = dir.norm() > 1e-9 ? dir.normalized() : Eigen::Vector3d(0, 1, 0);
-      tip_force_ = tip_.stiffness_n_per_m * (tip_.radius_mm - distance) * dir;
-      tip_route = route_force(m, sim_.x, node, tip_force_, routing_);
-      add_load(sim_, tip_route, loads_);
-      if (node != tip_contact_ && sim_.options().mode == sim::Mode::kLocal) {
-        touched_.insert(touched_.end(), tip_route.nodes.begin(), tip_route.nodes.end());
-        keep_touched_movable(sim_, touched_);
-      }
-    }
-    tip_contact_ = node;
-  } else {
-    tip_contact_ = -1;
+  // The tool tip: a penalty load where it meets the skin, found afresh every step.
+  tip_route_ = load_of_tip(m, sim_.x, tip_, routing_);
+  add_load(sim_, tip_route_, loads_);
+  if (tip_route_.contact_node >= 0 && tip_route_.contact_node != tip_contact_ &&
+      sim_.options().mode == sim::Mode::kLocal) {
+    touched_.insert(touched_.end(), tip_route_.nodes.begin(), tip_route_.nodes.end());
+    keep_touched_movable(sim_, touched_);
   }
+  tip_contact_ = tip_route_.contact_node;
 
   last_stats_ = sim::step(sim_);
   const double t1 = now_s();
   {
     // An unstable simulation's push is no force to render on a haptic device: none at all.
-    const Eigen::Vector3d reaction =
-        halted() ? Eigen::Vector3d::Zero() : reaction_force(sim_, loads_);
+    // Without routing the tools feel exactly minus their load on the tissue (Newton's third
+    // law, and continuous: the penalty's); the paper's copies are not a tool's load, so there
+    // the tissue's push on the loaded nodes is what comes back.
+    Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
+    if (!halted() && routing_.routing == Routing::kNone) {
+      for (const ForceRoute& r : routes_) reaction -= total_force(r);
+      reaction -= total_force(tip_route_);
+    } else if (!halted()) {
+      reaction = reaction_force(sim_, loads_);
+    }
     std::unique_lock lock(reaction_mutex_, std::defer_lock);
     acquire(lock);
     reaction_ = {reaction, sim_.steps, sim_.time_s};

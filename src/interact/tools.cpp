@@ -8,6 +8,7 @@
 #include <nanoflann.hpp>
 
 #include "lamina/core/error.h"
+#include "skin_samples.h"
 
 namespace lamina::interact {
 namespace {
@@ -123,20 +124,7 @@ ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t co
                            (copy_scale * ring_weight_now / weight_sum) * force_mn);
     copy_scale *= o.crossing_attenuation;
   }
-  std::sort(parts.begin(), parts.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<Eigen::Vector3d> merged;
-  for (const auto& [node, f] : parts) {
-    if (!route.nodes.empty() && route.nodes.back() == node) {
-      merged.back() += f;
-    } else {
-      route.nodes.push_back(node);
-      merged.push_back(f);
-    }
-  }
-  route.forces.resize(static_cast<Eigen::Index>(merged.size()), 3);
-  for (size_t k = 0; k < merged.size(); ++k)
-    route.forces.row(static_cast<Eigen::Index>(k)) = merged[k];
+  detail::merge_parts(parts, route);
   return route;
 }
 
@@ -171,21 +159,22 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
     const Tool& tool = d.tools[t];
     const bool on = s.time_s >= tool.start_s && s.time_s < tool.end_s;
     if (on && !d.active[t]) {
-      // The tool touches down: find the contact and route its force on the current shape.
-      int32_t contact = tool.vertex;
+      // The tool touches down: contact and routing on the current shape, held from then on.
       if (tool.by_point) {
-        contact = nearest_skin_node(m, s.x, tool.point_mm, d.routing.contact_threshold_mm);
-        if (contact < 0)
+        d.routes[t] =
+            load_at_point(m, s.x, tool.point_mm, tool.force_mn, tool.radius_mm, d.routing);
+        if (d.routes[t].contact_node < 0)
           throw invalid_input("tools[" + std::to_string(t) + "].point",
-                              "touches no skin node within " +
-                                  std::to_string(d.routing.contact_threshold_mm) + " mm");
-      } else if (contact < 0 || contact >= m.layers[0].node_count) {
-        throw invalid_input("tools[" + std::to_string(t) + "].vertex",
-                            "must be a skin node, 0.." +
-                                std::to_string(m.layers[0].node_count - 1) + ", got " +
-                                std::to_string(contact));
+                              fmt::format("touches no skin within {} mm (contact_threshold_mm)",
+                                          d.routing.contact_threshold_mm));
+      } else {
+        if (tool.vertex < 0 || tool.vertex >= m.layers[0].node_count)
+          throw invalid_input("tools[" + std::to_string(t) + "].vertex",
+                              "must be a skin node, 0.." +
+                                  std::to_string(m.layers[0].node_count - 1) + ", got " +
+                                  std::to_string(tool.vertex));
+        d.routes[t] = load_at_node(m, s.x, tool.vertex, tool.force_mn, tool.radius_mm, d.routing);
       }
-      d.routes[t] = route_force(m, s.x, contact, tool.force_mn, d.routing);
       d.touched.insert(d.touched.end(), d.routes[t].nodes.begin(), d.routes[t].nodes.end());
       changed = true;
     }

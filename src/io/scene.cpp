@@ -263,6 +263,7 @@ void read_material(const Reader& r, const json& j, Scene& s) {
     m = p.material;
     s.solver.integrator = p.solver.integrator;
     s.solver.dt_s = p.solver.dt_s;
+    s.routing.routing = p.routing.routing;
     if (!s.structure_given) s.build.structure = p.build.structure;
   }
   read_choice(
@@ -311,11 +312,11 @@ void read_material(const Reader& r, const json& j, Scene& s) {
 void read_solver(const Reader& r, const json& j, Scene& s) {
   const std::string path = "solver";
   r.require_object(j, path);
-  r.warn_unknown(
-      j, path,
-      {"integrator", "dt_s", "rest_speed_mm_per_s", "threshold_mm", "max_steps", "mode", "locality",
-       "penetration_depth", "ring_attenuation", "crossing_attenuation", "contact_threshold_mm",
-       "cg_max_iterations", "cg_tolerance", "preconditioner", "projective_iterations"});
+  r.warn_unknown(j, path,
+                 {"integrator", "dt_s", "rest_speed_mm_per_s", "threshold_mm", "max_steps", "mode",
+                  "routing", "locality", "penetration_depth", "ring_attenuation",
+                  "crossing_attenuation", "contact_threshold_mm", "cg_max_iterations",
+                  "cg_tolerance", "preconditioner", "projective_iterations"});
   sim::SolverOptions& o = s.solver;
   s.integrator_given = j.contains("integrator");
   read_choice(r, j, path, "integrator", o.integrator,
@@ -345,6 +346,8 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
                {"multigrid", sim::Preconditioner::kMultigrid}});
   read_integer(r, j, path, "projective_iterations", o.projective_iterations, 1, 10'000);
   interact::RoutingOptions& ro = s.routing;
+  read_choice(r, j, path, "routing", ro.routing,
+              {{"none", interact::Routing::kNone}, {"paper", interact::Routing::kPaper}});
   read_integer(r, j, path, "locality", ro.locality, 1, 64);
   read_integer(r, j, path, "penetration_depth", ro.penetration_depth, 1, 1'000'000);
   read_number(r, j, path, "ring_attenuation", ro.ring_attenuation, kFraction,
@@ -364,7 +367,8 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
     const json& t = j[k];
     r.require_object(t, path);
     r.warn_unknown(t, path,
-                   {"point", "vertex", "force_n", "drag_mm", "gain_n_per_mm", "start_s", "end_s"});
+                   {"point", "vertex", "force_n", "drag_mm", "gain_n_per_mm", "start_s", "end_s",
+                    "radius_mm"});
     interact::Tool tool;
     const bool has_point = t.contains("point"), has_vertex = t.contains("vertex");
     if (has_point == has_vertex)
@@ -395,6 +399,9 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
       tool.force_mn = kMilliNewtonsPerNewton * gain * r.vec3(t["drag_mm"], path + ".drag_mm");
     }
     read_number(r, t, path, "start_s", tool.start_s, kNonNegative, "must be >= 0");
+    read_number(r, t, path, "radius_mm", tool.radius_mm, kNonNegative,
+                "must be >= 0 mm (the patch the force is spread over without routing; 0 = a "
+                "point)");
     // A null end means the tool never lets go (the same as leaving the key out).
     if (t.contains("end_s") && !t["end_s"].is_null()) {
       read_number(
@@ -540,6 +547,7 @@ Scene paper_scene() {
   s.elastic = false;
   s.material = sim::Material{};     // K = 3 N/m, gamma = 3 kg/s, unit masses
   s.solver = sim::SolverOptions{};  // semi-implicit Euler, dt = 0.01 s, 1e-3 mm per step
+  s.routing.routing = interact::Routing::kPaper;
   return s;
 }
 
@@ -589,11 +597,14 @@ void check_scene_against_model(const Scene& s, const Model& m) {
     if (!t.by_point && (t.vertex < 0 || t.vertex >= skin_nodes))
       r.fail(path + ".vertex",
              fmt::format("must be a skin node, 0..{}, got {}", skin_nodes - 1, t.vertex));
+    // The same contact the tool will make: the nearest skin node for the paper's routing, the
+    // nearest point of the skin without it.
     if (t.by_point &&
-        interact::nearest_skin_node(m, m.X, t.point_mm, s.routing.contact_threshold_mm) < 0)
+        interact::load_at_point(m, m.X, t.point_mm, Eigen::Vector3d::Zero(), 0.0, s.routing)
+                .contact_node < 0)
       r.fail(path + ".point",
              fmt::format("[{}, {}, {}] is farther than solver.contact_threshold_mm ({} mm) from "
-                         "every skin node at rest",
+                         "the skin at rest",
                          t.point_mm.x(), t.point_mm.y(), t.point_mm.z(),
                          s.routing.contact_threshold_mm));
   }
@@ -642,6 +653,10 @@ std::string preconditioner_name(sim::Preconditioner preconditioner) {
   }
 }
 
+std::string routing_name(interact::Routing routing) {
+  return routing == interact::Routing::kPaper ? "paper" : "none";
+}
+
 std::string mode_name(sim::Mode mode) {
   return mode == sim::Mode::kLocal ? "local" : "global";
 }
@@ -669,6 +684,7 @@ std::string run_summary_json(const RunSummary& s) {
   j["recoveries"] = s.recoveries;
   j["integrator"] = integrator_name(s.integrator);
   j["mode"] = mode_name(s.mode);
+  j["routing"] = routing_name(s.routing);
   if (!s.preconditioner.empty()) j["preconditioner"] = s.preconditioner;
   j["dt_s"] = s.dt_s;
   j["nodes"] = s.nodes;

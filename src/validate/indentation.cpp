@@ -8,6 +8,7 @@
 
 #include "lamina/core/clock.h"
 #include "lamina/core/error.h"
+#include "lamina/geometry/closest_on_triangle.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/layer_normals.h"
 
@@ -17,39 +18,6 @@ namespace {
 bool in_slab(const Eigen::Vector3d& p, const Indentation& ind) {
   return std::abs((p - ind.held_point_mm).dot(ind.held_normal.normalized())) <=
          ind.held_distance_mm;
-}
-
-// The point of triangle (a, b, c) closest to p, as barycentric weights (Ericson, Real-Time
-// Collision Detection, 5.1.5).
-Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    const double v = d1 / (d1 - d3);
-    return {1 - v, v, 0};
-  }
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    const double w = d2 / (d2 - d6);
-    return {1 - w, 0, w};
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {0, 1 - w, w};
-  }
-  const double denom = 1.0 / (va + vb + vc);
-  const double v = vb * denom, w = vc * denom;
-  return {1 - v - w, v, w};
 }
 
 // u sampled at each point of `samples` from the nearest point of the boundary faces F.
@@ -74,7 +42,7 @@ Eigen::MatrixX3d sample_on_faces(const TetMesh& mesh, const Eigen::MatrixX3i& F,
       const Eigen::Index f = idx[n];
       const Eigen::Vector3d a = mesh.V.row(F(f, 0)), b = mesh.V.row(F(f, 1)),
                             c = mesh.V.row(F(f, 2));
-      const Eigen::Vector3d w = closest_on_triangle(p, a, b, c);
+      const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
       const double dist = (w[0] * a + w[1] * b + w[2] * c - p).squaredNorm();
       if (dist < best) {
         best = dist;

@@ -128,7 +128,8 @@ std::vector<interact::Tool> make_tools(const Model& m, const Indentation& ind, i
   std::vector<interact::Tool> tools;
   for (int32_t node : contacts) {
     if (node < 0) continue;  // no skin there (the contact is near the organ's side)
-    const interact::ForceRoute route = interact::route_force(m, m.X, node, dir, routing);
+    const interact::ForceRoute route =
+        interact::load_at_node(m, m.X, node, dir, interact::kDefaultPatchRadiusMm, routing);
     const double total = (route.forces * dir).sum();  // mN per mN of tool force
     interact::Tool t;
     t.vertex = node;

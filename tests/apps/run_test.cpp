@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -205,6 +206,20 @@ TEST(LaminaRun, WithoutASceneRunsTheDefaultPokeOnThePhantom) {
   EXPECT_DOUBLE_EQ(summary["dt_s"].get<double>(), 0.001);
   EXPECT_GT(summary["max_displacement_mm"].get<double>(), 1.0);
   EXPECT_LT(summary["final_rest_error_mm"].get<double>(), 0.05);
+  // No routed copies: the 0.4 N push is the tissue's whole load, and once the dent has settled
+  // (0.5-1 s) the tissue pushes back with 400 +- 4 mN (Newton's third law at rest).
+  EXPECT_EQ(summary["routing"], "none");
+  int settled = 0;
+  for (const std::string& row : lines_of(read_text(dir.path / "out" / "metrics.csv"))) {
+    std::vector<double> v;
+    std::stringstream cells(row);
+    for (std::string cell; std::getline(cells, cell, ',');) v.push_back(std::atof(cell.c_str()));
+    if (v.size() != 11 || !(v[0] >= 0.5 && v[0] < 0.999)) continue;
+    ++settled;
+    EXPECT_NEAR(v[9], -400.0, 4.0) << row;
+    EXPECT_LT(std::hypot(v[8], v[10]), 4.0) << row;
+  }
+  EXPECT_GT(settled, 400);
   // Every setup stage's seconds, in the order they ran, and together no more than the run.
   const auto in_order = nlohmann::ordered_json::parse(read_text(dir.path / "out" / "summary.json"));
   const auto& stages = in_order["setup_stage_seconds"];

@@ -11,40 +11,19 @@
 #include "lamina/core/error.h"
 #include "lamina/interact/pick.h"
 #include "lamina/model/build_model.h"
+#include "support/held_sphere.h"
 #include "support/sphere_model.h"
 
 namespace {
 
 using namespace lamina;
 
+using test::front_node;
+using test::held_sphere;
 using test::sphere_model;
-
-// A simulation of the sphere with its far side (y > centre + 12 mm) fixed, stiffer than the
-// paper's K = 3 N/m so that it settles in a few thousand steps.
-sim::Simulation held_sphere(const sim::SolverOptions& o = {}) {
-  Eigen::Vector3d c;
-  const Model& m = sphere_model(&c);
-  sim::Material material;
-  material.stiffness_n_per_m = 20.0;
-  material.damping_kg_per_s = 8.0;
-  sim::Simulation s = sim::make_simulation(m, material, o);
-  std::vector<int32_t> fixed;
-  for (int32_t i = 0; i < m.node_count(); ++i)
-    if (m.X(i, 1) > c.y() + 12.0) fixed.push_back(i);
-  sim::fix_nodes(s, fixed);
-  return s;
-}
 
 // These fixed-step tests keep the solver's own dt (the real-time loop would step 1 / rate).
 const interact::LoopOptions kSolverDt{.real_time = false};
-
-// The skin node nearest to the sphere's -y pole (the side a +y push acts on).
-int32_t front_node(const Model& m) {
-  int32_t best = 0;
-  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
-    if (m.X(i, 1) < m.X(best, 1)) best = i;
-  return best;
-}
 
 TEST(RealtimeLoop, RefusesBadRoutingWhenMadeAndWhenSet) {
   // On the caller's thread, named: not later, in the stepping thread's first routed force.

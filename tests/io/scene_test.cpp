@@ -106,6 +106,8 @@ TEST(ParseScene, EmptySceneIsThePhysicalLiver) {
   EXPECT_DOUBLE_EQ(s.solver.cg_tolerance, 1e-3);
   EXPECT_EQ(s.solver.max_steps, 100000);
   EXPECT_EQ(s.solver.mode, sim::Mode::kGlobal);
+  // The physical tissue conserves a tool's force: no routed copies.
+  EXPECT_EQ(s.routing.routing, interact::Routing::kNone);
   EXPECT_EQ(s.routing.locality, 4);           // N
   EXPECT_EQ(s.routing.penetration_depth, 4);  // P
   EXPECT_DOUBLE_EQ(s.routing.ring_attenuation, 0.5);
@@ -133,11 +135,12 @@ TEST(ParseScene, ReadsEveryKey) {
                  "anchor_stiffness_n_per_m": 0.25, "gravity_mm_per_s2": [0, 9810, 0],
                  "density_g_per_cm3": 1.1},
     "solver": {"integrator": "implicit_euler", "dt_s": 0.1, "threshold_mm": 1e-4,
-               "max_steps": 1e5, "mode": "local", "locality": 3, "penetration_depth": 2,
+               "max_steps": 1e5, "mode": "local", "routing": "paper", "locality": 3,
+               "penetration_depth": 2,
                "ring_attenuation": 0.25, "crossing_attenuation": 0.9,
                "contact_threshold_mm": 4, "cg_max_iterations": 50, "cg_tolerance": 1e-8},
     "tools": [{"vertex": 7, "force_n": [0, 0.05, 0], "start_s": 0.5, "end_s": 1.5},
-              {"point": [1, -2, 3.5], "force_n": [-0.001, 0, 0.002]},
+              {"point": [1, -2, 3.5], "force_n": [-0.001, 0, 0.002], "radius_mm": 2.5},
               {"vertex": 0, "force_n": [0, 0, 1], "end_s": null}],
     "boundary": {"fixed": [{"plane": {"point": [0, 80, 0], "normal": [0, 2, 0],
                                       "distance_mm": 12}},
@@ -170,6 +173,7 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_EQ(s.solver.mode, sim::Mode::kLocal);
   EXPECT_EQ(s.solver.cg_max_iterations, 50);
   EXPECT_DOUBLE_EQ(s.solver.cg_tolerance, 1e-8);
+  EXPECT_EQ(s.routing.routing, interact::Routing::kPaper);
   EXPECT_EQ(s.routing.locality, 3);
   EXPECT_EQ(s.routing.penetration_depth, 2);
   EXPECT_DOUBLE_EQ(s.routing.ring_attenuation, 0.25);
@@ -186,6 +190,8 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_EQ(s.tools[1].point_mm, Eigen::Vector3d(1, -2, 3.5));
   EXPECT_DOUBLE_EQ(s.tools[1].start_s, 0.0);
   EXPECT_TRUE(std::isinf(s.tools[1].end_s));  // never lets go
+  EXPECT_DOUBLE_EQ(s.tools[0].radius_mm, interact::kDefaultPatchRadiusMm);
+  EXPECT_DOUBLE_EQ(s.tools[1].radius_mm, 2.5);
   EXPECT_TRUE(std::isinf(s.tools[2].end_s));
 
   ASSERT_EQ(s.fixed.size(), 3u);
@@ -258,6 +264,9 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
        "tools[0].vertex: must be >= 0, got -3"},
       {R"({"tools": [{"vertex": 1.5, "force_n": [0, 1, 0]}]})",
        "tools[0].vertex: expected an integer, got 1.5"},
+      {R"({"tools": [{"vertex": 1, "force_n": [0, 1, 0], "radius_mm": -2}]})",
+       "tools[0].radius_mm: must be >= 0 mm"},
+      {R"({"solver": {"routing": "copies"}})", "solver.routing: "},
       {R"({"tools": [{"vertex": 0, "force_n": [0, 1, 0], "start_s": 2, "end_s": 1}]})",
        "tools[0].end_s: must be after start_s (2), got 1"},
       {R"({"tools": {"vertex": 0}})", "tools: expected an array of tools"},
@@ -328,6 +337,13 @@ TEST(ParseScene, ThePapersConstantsBringThePapersSetup) {
   EXPECT_DOUBLE_EQ(s.material.node_mass_kg, 1.0);
   EXPECT_EQ(s.solver.integrator, sim::Integrator::kSemiImplicitEuler);
   EXPECT_DOUBLE_EQ(s.solver.dt_s, 0.01);
+  EXPECT_EQ(s.routing.routing, interact::Routing::kPaper);
+  // The paper's constants without its routing, when the file says so.
+  EXPECT_EQ(parse_scene(R"({"material": {"stiffness_n_per_m": 3},
+                            "solver": {"routing": "none"}})",
+                        "scene.json")
+                .routing.routing,
+            interact::Routing::kNone);
   // An explicit structure stays; paper_scene() is the same setup.
   const Scene t = parse_scene(R"({"model": {"build": {"structure": "tets"}},
                                   "material": {"stiffness_n_per_m": 3}})",
@@ -339,6 +355,7 @@ TEST(ParseScene, ThePapersConstantsBringThePapersSetup) {
   EXPECT_DOUBLE_EQ(p.material.stiffness_n_per_m, 3.0);
   EXPECT_DOUBLE_EQ(p.solver.dt_s, 0.01);
   EXPECT_DOUBLE_EQ(p.solver.rest_speed_mm_per_s, 0.1);  // the paper's 1e-3 mm per 0.01 s step
+  EXPECT_EQ(p.routing.routing, interact::Routing::kPaper);
 }
 
 TEST(ParseScene, AnElasticMaterialReplacesThePapersConstants) {

@@ -154,8 +154,9 @@ def test_scene_from_a_dict():
     sim = lamina.scene_simulation({"material": {"young_modulus_kpa": 12.0}})
     stiff = sim.run(until_s=0.5)
     soft = lamina.scene_simulation({"material": {"young_modulus_kpa": 3.0}}).run(until_s=0.5)
-    # Half the stiffness, about twice the dent under the same 0.4 N.
-    assert 1.5 < soft["peak_displacement_mm"] / stiff["peak_displacement_mm"] < 5.0
+    # A quarter of the modulus, about four times the dent under the same 0.4 N (5.5 measured:
+    # peaks of a dynamic response within 0.5 s, and large strain under the 5 mm patch).
+    assert 2.0 < soft["peak_displacement_mm"] / stiff["peak_displacement_mm"] < 8.0
 
 
 def one_line(e):
@@ -177,7 +178,7 @@ def test_errors_carry_the_one_line_messages(phantom_model):
     with pytest.raises(lamina.Error, match="exactly one of point_mm and vertex"):
         sim.add_tool(point_mm=(0, 0, 0), vertex=3, force_mn=(0, 1, 0))
     sim.add_tool(point_mm=(1e4, 0, 0), force_mn=(0, 1, 0))
-    with pytest.raises(lamina.Error, match=r"tools\[0\].point: touches no skin node"):
+    with pytest.raises(lamina.Error, match=r"tools\[0\].point: touches no skin within"):
         sim.step()
     with pytest.raises(lamina.Error, match="node"):
         sim.fix_nodes([phantom_model.node_count + 3])

@@ -23,21 +23,6 @@
 
 namespace lamina::interact {
 
-/// A force held on a skin node (a mouse drag, a pinned drag), routed the paper's way.
-struct LiveForce {
-  int32_t node = -1;                                   ///< skin node the force is applied to
-  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();  ///< mN
-};
-
-/// A spherical tool tip: skin nodes inside it are pushed out by a penalty force on the deepest
-/// one, proportional to its penetration, routed the paper's way.
-struct ToolTip {
-  bool active = false;
-  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
-  double radius_mm = 5.0;
-  double stiffness_n_per_m = 20.0;  ///< penalty: mN per mm of penetration
-};
-
 struct LoopOptions {
   /// Steps per wall-clock second; 0 = as fast as possible (then at the solver's own dt).
   double rate_hz = 1000.0;
@@ -173,7 +158,7 @@ class RealtimeLoop {
   std::vector<int32_t> touched_;
   Loads loads_;
   int32_t tip_contact_ = -1;
-  Eigen::Vector3d tip_force_ = Eigen::Vector3d::Zero();
+  ForceRoute tip_route_;  // the tip's load in the last step
   double last_publish_s_ = -1.0;
   sim::StepStats last_stats_;
   double window_step_sum_us_ = 0.0;

@@ -1,9 +1,13 @@
 #pragma once
 /// \file
-/// The reference paper's tool interaction: a tool tip touches the nearest skin node; its force is
-/// spread over that node's BFS rings; along the force line, attenuated copies hit the first P
-/// surfaces the line crosses (inner layers, then the far side of the skin), each again spread
-/// over rings. Several tools at once, each with its own start and end time.
+/// Tools and the one pipeline from a tool to forces on nodes: *contact* finds where the tool
+/// meets the skin and what load it puts there (contact.h: a force spread over the patch it
+/// touches, a sphere's penalty), then *routing* either leaves that load as it is (Routing::kNone,
+/// the physical tissue's: the tetrahedra carry it inward, and the tool feels exactly minus it) or
+/// adds the reference paper's copies (Routing::kPaper: the force on the nearest skin node spread
+/// over its BFS rings, and attenuated copies where the force line crosses the first P surfaces,
+/// inner layers then the far side of the skin). Several tools at once, each with its own start
+/// and end time.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -17,8 +21,16 @@
 
 namespace lamina::interact {
 
-/// How a tool's force is distributed. Defaults reproduce the paper's figure 3 (N = 4, P = 4).
+/// What happens to a tool's load after contact.
+enum class Routing {
+  kPaper,  ///< the reference paper's: rings and attenuated copies along the force line
+  kNone,   ///< the contact's load as it is: force conserved (the physical tissue's default)
+};
+
+/// How a tool's force is distributed. Defaults reproduce the paper's figure 3 (N = 4, P = 4);
+/// a physical scene sets `routing` to kNone (io::Scene's default).
 struct RoutingOptions {
+  Routing routing = Routing::kPaper;
   int32_t locality =
       4;  ///< N: rings 0..N-1 of each hit node receive force (<= model.rings.locality)
   int32_t penetration_depth =
@@ -27,7 +39,7 @@ struct RoutingOptions {
   double crossing_attenuation =
       0.95;  ///< crossing k (0 = the contact) receives crossing_attenuation^k of the force
   double contact_threshold_mm =
-      10.0;  ///< a tool point farther than this from every skin node touches nothing
+      10.0;  ///< a tool point farther than this from the skin touches nothing
 };
 
 /// What is wrong with routing options for a model whose rings reach `rings_locality`: the key
@@ -42,6 +54,40 @@ std::optional<RoutingProblem> routing_problem(const RoutingOptions& options,
 /// Throws lamina::Error (kInvalidInput) naming the key when routing_problem() finds one.
 void check_routing(const RoutingOptions& options, int32_t rings_locality);
 
+/// The radius of the patch a pushing tool's force is spread over without routing, mm: the
+/// viewer's and the default tool tip's 5 mm.
+inline constexpr double kDefaultPatchRadiusMm = 5.0;
+
+/// A tool: where it touches (a point in mm, or a skin vertex), its force, and when it acts.
+struct Tool {
+  bool by_point = false;  ///< true: touch the skin nearest to point_mm
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
+  int32_t vertex = 0;                                  ///< used when !by_point: a skin node index
+  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();  ///< mN (the scene file takes newtons)
+  double start_s = 0.0;                                ///< acts from this time...
+  double end_s = std::numeric_limits<double>::infinity();  ///< ...until this time, s
+  /// Without routing: the force is spread over the skin within this distance of the contact
+  /// point (contact.h, spread_on_patch).
+  double radius_mm = kDefaultPatchRadiusMm;
+};
+
+/// A force held on a skin node (a mouse drag, a pinned drag), delivered like a Tool's.
+struct LiveForce {
+  int32_t node = -1;                                   ///< skin node the force is applied to
+  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();  ///< mN
+  double radius_mm = kDefaultPatchRadiusMm;            ///< the patch without routing
+};
+
+/// A spherical tool tip. The tissue inside it is pushed out with a force of stiffness times the
+/// deepest penetration: without routing spread over every skin triangle inside the sphere by its
+/// penetration (contact.h, sphere_contact), the paper's way on the deepest skin node.
+struct ToolTip {
+  bool active = false;
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  double radius_mm = 5.0;
+  double stiffness_n_per_m = 20.0;  ///< penalty: mN per mm of penetration
+};
+
 /// Where the force line crosses a layer.
 struct Crossing {
   int32_t layer = 0;         ///< which surface
@@ -49,13 +95,14 @@ struct Crossing {
   double distance_mm = 0.0;  ///< along the line from the contact node
 };
 
-/// A tool's force, distributed: the nodes that receive force and how much.
+/// A tool's load on the tissue, after contact and routing: the nodes that receive force and how
+/// much. Without routing the forces sum to exactly minus the force on the tool.
 struct ForceRoute {
-  int32_t contact_node = -1;
-  std::vector<Crossing>
-      crossings;               ///< the first P crossings, contact first, in order along the line
-  std::vector<int32_t> nodes;  ///< nodes receiving force (ring members), unique
-  Eigen::MatrixX3d forces;     ///< #nodes by 3, mN, matching `nodes`
+  int32_t contact_node = -1;        ///< the skin node nearest to the contact (a marker, the rings)
+  std::vector<Crossing> crossings;  ///< the paper's routing: the first P crossings, contact
+                                    ///< first, in order along the line; empty without routing
+  std::vector<int32_t> nodes;       ///< nodes receiving force, unique, ascending
+  Eigen::MatrixX3d forces;          ///< #nodes by 3, mN, matching `nodes`
 };
 
 /// The crossings of the line from skin node `contact_node` in `direction` with every layer's
@@ -67,6 +114,28 @@ std::vector<Crossing> force_line_crossings(const Model& model, const Eigen::Matr
 ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t contact_node,
                        const Eigen::Vector3d& force_mn, const RoutingOptions& options = {});
 
+/// The one pipeline from a pushing tool to forces on nodes (contact, then routing), used by the
+/// tool driver, the realtime loop, the soak and validate alike.
+/// A force on skin node `node`: spread over the patch of `radius_mm` around it (Routing::kNone),
+/// or routed from that node the paper's way.
+ForceRoute load_at_node(const Model& model, const Eigen::MatrixX3d& x, int32_t node,
+                        const Eigen::Vector3d& force_mn, double radius_mm,
+                        const RoutingOptions& options);
+/// A force at `point_mm`: on the nearest skin point, spread over the patch (kNone), or routed
+/// from the nearest skin node; an empty route (contact_node -1) when the skin is farther than
+/// options.contact_threshold_mm.
+ForceRoute load_at_point(const Model& model, const Eigen::MatrixX3d& x,
+                         const Eigen::Vector3d& point_mm, const Eigen::Vector3d& force_mn,
+                         double radius_mm, const RoutingOptions& options);
+/// A tool tip's penalty load at positions x: contact.h's sphere_contact (kNone), or the paper's:
+/// stiffness x the penetration of the deepest skin node inside the sphere, on that node, routed.
+/// Empty when it touches nothing or is not active.
+ForceRoute load_of_tip(const Model& model, const Eigen::MatrixX3d& x, const ToolTip& tip,
+                       const RoutingOptions& options);
+/// The sum of a route's forces, mN: the load on the tissue (without routing, minus the force on
+/// the tool).
+Eigen::Vector3d total_force(const ForceRoute& route);
+
 /// The skin node nearest to `point_mm` at positions x, or -1 if none is within threshold_mm.
 /// Uses a k-d tree over the current skin positions (nanoflann).
 int32_t nearest_skin_node(const Model& model, const Eigen::MatrixX3d& x,
@@ -75,16 +144,6 @@ int32_t nearest_skin_node(const Model& model, const Eigen::MatrixX3d& x,
 /// The most anterior skin node at rest (smallest y in LPS; the first of equals): where the
 /// reference paper's poke, the default scene's tool and `lamina validate`'s indenter touch.
 int32_t most_anterior_skin_node(const Model& model);
-
-/// A tool: where it touches (a point in mm, or a skin vertex), its force, and when it acts.
-struct Tool {
-  bool by_point = false;  ///< true: touch the skin node nearest to point_mm
-  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
-  int32_t vertex = 0;                                  ///< used when !by_point: a skin node index
-  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();  ///< mN (the scene file takes newtons)
-  double start_s = 0.0;                                ///< acts from this time...
-  double end_s = std::numeric_limits<double>::infinity();  ///< ...until this time, s
-};
 
 /// External forces written sparsely: the nodes that were given force, so that clearing them
 /// costs in proportion to them and not to the model (a 1 kHz loop on a 100k-node model).

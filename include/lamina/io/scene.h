@@ -86,7 +86,9 @@ struct Scene {
   /// takes the paper's semi-implicit Euler at 10 ms).
   sim::SolverOptions solver = {
       .integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001, .cg_tolerance = 1e-3};
-  interact::RoutingOptions routing;
+  /// The physical tissue's: no routing (a tool's load spread over the patch it touches, force
+  /// conserved); paper_scene() and the paper's constants take the paper's routing.
+  interact::RoutingOptions routing{.routing = interact::Routing::kNone};
   std::vector<interact::Tool> tools;  ///< forces in mN (the file gives newtons)
   std::vector<FixedRegion> fixed;
   /// Elastic support of parts of the skin (zero-length springs to rest, per unit area).
@@ -186,6 +188,7 @@ struct RunSummary {
   int64_t recoveries = 0;  ///< steps that hit a non-finite or unbounded state and were redone
   sim::Integrator integrator = sim::Integrator::kSemiImplicitEuler;
   sim::Mode mode = sim::Mode::kGlobal;
+  interact::Routing routing = interact::Routing::kNone;  ///< the tools' (routing_name())
   /// implicit Euler's preconditioner as the steps took it ("auto" resolved): "jacobi" or
   /// "multigrid"; empty for the other integrators
   std::string preconditioner;
@@ -251,5 +254,7 @@ std::string run_summary_json(const RunSummary& summary);
 std::string integrator_name(sim::Integrator integrator);
 std::string mode_name(sim::Mode mode);
 std::string preconditioner_name(sim::Preconditioner preconditioner);
+/// The scene file's spelling of a routing: "none" or "paper".
+std::string routing_name(interact::Routing routing);
 
 }  // namespace lamina::io

@@ -1,0 +1,80 @@
+#pragma once
+// Internal to interact's contact files: the closest point of a triangle, sample points over the
+// skin near a centre, and the merge of per-node force parts into a ForceRoute.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "lamina/geometry/closest_on_triangle.h"
+#include "lamina/interact/tools.h"
+#include "lamina/model/model.h"
+
+namespace lamina::interact::detail {
+
+// True when no point of the triangle can be within `reach` of `centre` (its bounding box is
+// farther): the cheap test before closest_on_triangle.
+inline bool box_out_of_reach(const Eigen::Vector3d& centre, double reach, const Eigen::Vector3d& a,
+                             const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+  const Eigen::Vector3d gap = (lo - centre).cwiseMax(centre - hi).cwiseMax(0.0);
+  return gap.squaredNorm() > reach * reach;
+}
+
+// Calls visit(face, barycentric, point, area) at sample points of every skin triangle that
+// comes within `reach` of `centre`. Each such triangle is cut into k x k similar pieces (k^2
+// samples at the pieces' centroids, each standing for area / k^2), k chosen so that a piece is
+// no wider than spacing(face, barycentric weights of its point nearest to the centre, that
+// point's distance) (at most 16 cuts an edge).
+template <class Spacing, class Visit>
+void sample_skin_near(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& centre,
+                      double reach, Spacing&& spacing, Visit&& visit) {
+  const Eigen::MatrixX3i& F = m.layers[0].F;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
+    if (box_out_of_reach(centre, reach, a, b, c)) continue;
+    const Eigen::Vector3d w = geometry::closest_on_triangle(centre, a, b, c);
+    const double distance = (w[0] * a + w[1] * b + w[2] * c - centre).norm();
+    if (distance > reach) continue;
+    const double longest =
+        std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
+    const double h = spacing(static_cast<int32_t>(f), w, distance);
+    const int k = h > 0.0 ? std::clamp(static_cast<int>(std::ceil(longest / h)), 1, 16) : 16;
+    const double area = 0.5 * (b - a).cross(c - a).norm() / (k * k);
+    const double inv = 1.0 / k;
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; i + j < k; ++j) {
+        // The piece with corners (i, j), (i + 1, j), (i, j + 1) in steps of 1/k along b and c,
+        // and, unless at the far edge, the flipped piece beside it.
+        for (int flip = 0; flip < (i + j + 1 < k ? 2 : 1); ++flip) {
+          const double third = flip ? 2.0 / 3.0 : 1.0 / 3.0;
+          const double wb = (i + third) * inv, wc = (j + third) * inv;
+          const Eigen::Vector3d bary(1.0 - wb - wc, wb, wc);
+          visit(static_cast<int32_t>(f), bary, Eigen::Vector3d(a + wb * (b - a) + wc * (c - a)),
+                area);
+        }
+      }
+  }
+}
+
+// Per-node force parts merged into a route (nodes ascending, each once). `parts` is reused
+// scratch: sorted in place.
+inline void merge_parts(std::vector<std::pair<int32_t, Eigen::Vector3d>>& parts, ForceRoute& out) {
+  std::sort(parts.begin(), parts.end(),
+            [](const auto& l, const auto& r) { return l.first < r.first; });
+  out.nodes.clear();
+  for (const auto& part : parts)
+    if (out.nodes.empty() || out.nodes.back() != part.first) out.nodes.push_back(part.first);
+  out.forces.setZero(static_cast<Eigen::Index>(out.nodes.size()), 3);
+  Eigen::Index row = -1;
+  int32_t last = -1;
+  for (const auto& [node, f] : parts) {
+    if (node != last) ++row, last = node;
+    out.forces.row(row) += f.transpose();
+  }
+}
+
+}  // namespace lamina::interact::detail

@@ -1,0 +1,159 @@
+// Contact on the skin's surface: the nearest skin point, a force spread over the patch it
+// touches, a sphere's penalty; each load sums to what the tool puts in (Newton's third law), and
+// at rest under a held tool the tissue pushes back with exactly as much.
+#include "lamina/interact/contact.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "lamina/core/error.h"
+#include "lamina/interact/realtime_loop.h"
+#include "support/held_sphere.h"
+#include "support/sphere_model.h"
+
+namespace {
+
+using namespace lamina;
+
+using test::front_node;
+using test::held_sphere;
+using test::sphere_model;
+
+const interact::RoutingOptions kNoRouting{.routing = interact::Routing::kNone};
+
+double longest_skin_edge(const Model& m) {
+  double longest = 0.0;
+  const Eigen::MatrixX3i& F = m.layers[0].F;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      longest = std::max(longest, (m.X.row(F(f, c)) - m.X.row(F(f, (c + 1) % 3))).norm());
+  return longest;
+}
+
+TEST(ClosestSkinPoint, LiesOnTheSkinNoFartherThanAnyNodeAndOnItsTriangle) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  for (const Eigen::Vector3d& dir :
+       {Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(1, 1, 1).normalized(),
+        Eigen::Vector3d(-0.3, 0.2, 0.9).normalized()}) {
+    const Eigen::Vector3d p = c + 60.0 * dir;  // outside the sphere
+    const interact::SkinPoint at = interact::closest_skin_point(m, m.X, p);
+    ASSERT_GE(at.face, 0);
+    EXPECT_NEAR(at.barycentric.sum(), 1.0, 1e-12);
+    EXPECT_GE(at.barycentric.minCoeff(), 0.0);
+    Eigen::Vector3d q = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k)
+      q += at.barycentric[k] * m.X.row(m.layers[0].F(at.face, k)).transpose();
+    EXPECT_LT((q - at.point_mm).norm(), 1e-9);
+    EXPECT_NEAR((p - at.point_mm).norm(), at.distance_mm, 1e-9);
+    double nearest_node = 1e300;
+    for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+      nearest_node = std::min(nearest_node, (m.X.row(i).transpose() - p).norm());
+    EXPECT_LE(at.distance_mm, nearest_node + 1e-12);
+    EXPECT_GT(at.distance_mm, nearest_node - longest_skin_edge(m));
+  }
+}
+
+TEST(SpreadOnPatch, SumsToTheForceOverMoreNodesAsThePatchWidensAndNeverOnTheFarSide) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  const int32_t node = front_node(m);
+  const interact::SkinPoint at = interact::skin_point_at_node(m, m.X, node);
+  const Eigen::Vector3d f(30.0, 400.0, -20.0);
+  size_t last = 0;
+  for (double radius : {0.0, 4.0, 8.0, 16.0}) {
+    const interact::ForceRoute r = interact::spread_on_patch(m, m.X, at, f, radius);
+    EXPECT_LT((interact::total_force(r) - f).norm(), 1e-9 * f.norm()) << "radius " << radius;
+    EXPECT_GE(r.nodes.size(), last) << "radius " << radius;
+    last = r.nodes.size();
+    for (size_t k = 0; k < r.nodes.size(); ++k) {
+      EXPECT_LT(r.nodes[k], m.layers[0].node_count) << "only skin nodes carry a pushing tool";
+      // Within the patch, or a corner of a triangle that reaches into it.
+      EXPECT_LT((m.X.row(r.nodes[k]) - m.X.row(node)).norm(), radius + longest_skin_edge(m));
+      // Each node's share is along the force: a pressure, not a shear of its own.
+      EXPECT_GT(r.forces.row(static_cast<Eigen::Index>(k)).dot(f), 0.0);
+    }
+  }
+  EXPECT_EQ(interact::spread_on_patch(m, m.X, at, f, 0.0).nodes.size(), 1u)
+      << "a point load on a node is that node's";
+  EXPECT_GT(last, 10u);
+  EXPECT_THROW(interact::skin_point_at_node(m, m.X, m.layers[0].node_count), Error);
+}
+
+TEST(SphereContact, PushesWithStiffnessTimesTheDeepestPenetrationAlongTheSkinsNormal) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  const int32_t node = front_node(m);
+  interact::ToolTip tip{.active = true, .radius_mm = 8.0, .stiffness_n_per_m = 20.0};
+  // Outside, not touching: nothing.
+  tip.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 9.0, 0);
+  EXPECT_TRUE(interact::sphere_contact(m, m.X, tip).nodes.empty());
+  // 3 mm into the pole (the skin's nearest point may lie a little off the node).
+  tip.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 5.0, 0);
+  const interact::SkinPoint deepest = interact::closest_skin_point(m, m.X, tip.center_mm);
+  const interact::ForceRoute r = interact::sphere_contact(m, m.X, tip);
+  const Eigen::Vector3d total = interact::total_force(r);
+  EXPECT_NEAR(total.norm(), 20.0 * (8.0 - deepest.distance_mm), 1e-9);
+  EXPECT_GT(total.y() / total.norm(), std::cos(10.0 * M_PI / 180.0)) << "pushed inward (+y)";
+  EXPECT_GT(r.nodes.size(), 3u) << "an 8 mm sphere 3 mm deep covers more than one triangle";
+  for (int32_t i : r.nodes) EXPECT_LT(i, m.layers[0].node_count);
+  // Continuous: a 1 um move of the tool changes its force by about k x 1 um.
+  interact::ToolTip moved = tip;
+  moved.center_mm.y() += 1e-3;
+  const Eigen::Vector3d total2 = interact::total_force(interact::sphere_contact(m, m.X, moved));
+  EXPECT_LT((total2 - total).norm(), 20.0 * 1e-3 * 3.0);
+}
+
+// At rest under a held tool the tissue's push on the loaded nodes is minus the load, and the
+// load is minus the force on the tool (Newton's third law) within 1%.
+TEST(Contact, AtRestTheTissuePushesBackWithExactlyTheToolsLoad) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  // At rest means slow enough that damping (8 kg/s x speed) is far below 1% of the load.
+  sim::Simulation s = held_sphere(
+      {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.01, .rest_speed_mm_per_s = 1e-4});
+
+  const int32_t node = front_node(m);
+  const interact::ToolTip tip{.active = true,
+                              .center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 5.0, 0),
+                              .radius_mm = 8.0,
+                              .stiffness_n_per_m = 20.0};
+  interact::Loads loads;
+  interact::ForceRoute load;
+  int quiet = 0;  // steps in a row below the rest speed
+  bool rested = false;
+  for (int k = 0; k < 50000 && !rested; ++k) {
+    interact::clear_loads(s, loads);
+    load = interact::load_of_tip(m, s.x, tip, kNoRouting);
+    interact::add_load(s, load, loads);
+    quiet = sim::step(s).converged ? quiet + 1 : 0;
+    rested = quiet >= 100;
+  }
+  ASSERT_TRUE(rested);
+  ASSERT_FALSE(load.nodes.empty()) << "the tip still touches at rest";
+  const Eigen::Vector3d on_tissue = interact::total_force(load);
+  const Eigen::Vector3d push_back = interact::reaction_force(s, loads);
+  EXPECT_LT((push_back + on_tissue).norm(), 0.01 * on_tissue.norm())
+      << "tissue " << push_back.transpose() << " vs load " << on_tissue.transpose();
+  EXPECT_GT(s.x(node, 1) - m.X(node, 1), 0.5) << "the skin gave way";
+}
+
+// The realtime loop without routing: the reaction is exactly minus the tip's load every step,
+// the tip keeps pushing at rest, and a live force adds its own load, conserved.
+TEST(Contact, TheLoopsReactionIsMinusTheLoadOfTheTipAndTheForces) {
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  sim::Simulation s = held_sphere({});
+  interact::RealtimeLoop loop(std::move(s), kNoRouting, {.real_time = false});
+  const int32_t node = front_node(m);
+  loop.set_forces({{.node = node, .force_mn = Eigen::Vector3d(0, 150, 0)}});
+  loop.run_steps(3000);
+  interact::LoopSnapshot snap;
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_LT((snap.reaction_mn - Eigen::Vector3d(0, -150, 0)).norm(), 1e-9);
+  EXPECT_GT(snap.x(node, 1) - m.X(node, 1), 0.5);
+}
+
+}  // namespace
