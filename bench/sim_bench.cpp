@@ -7,6 +7,7 @@
 #include <map>
 
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pick.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
@@ -178,9 +179,9 @@ void BM_PickSkin(benchmark::State& state) {
 BENCHMARK(BM_PickSkin)->Arg(1284)->Arg(12840)->Unit(benchmark::kMicrosecond);
 
 // A tool tip's contact, once per step at 1 kHz: the 5 mm sphere 2 mm into the most anterior
-// skin, its penalty load found over the skin triangles and spread by barycentric weights
-// (interact::sphere_contact, without routing), against the paper's tip on its deepest node
-// routed over rings and layers (arg 1 = the paper's).
+// skin; without routing its haptic proxy slides to the surface and the coupling's load is
+// spread over the patch it rests on (interact::couple_proxy), against the paper's tip on its
+// deepest node routed over rings and layers (arg 1 = the paper's).
 void BM_ToolTipContact(benchmark::State& state) {
   const Model& m = phantom_model(static_cast<int32_t>(state.range(0)));
   const int32_t front = interact::most_anterior_skin_node(m);
@@ -191,8 +192,9 @@ void BM_ToolTipContact(benchmark::State& state) {
   const interact::RoutingOptions routing{.routing = state.range(1) ? interact::Routing::kPaper
                                                                    : interact::Routing::kNone};
   size_t nodes = 0;
+  interact::HapticProxy proxy;
   for (auto _ : state) {
-    const interact::ForceRoute r = interact::load_of_tip(m, m.X, tip, routing);
+    const interact::ForceRoute r = interact::load_of_tip(m, m.X, tip, routing, proxy);
     nodes = r.nodes.size();
     benchmark::DoNotOptimize(r.forces.data());
   }

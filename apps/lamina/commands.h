@@ -167,7 +167,8 @@ struct ServeArgs {
   std::string frame = "ras";  ///< coordinates on the wire: ras (3D Slicer's) or lps (the model's)
   std::string tool_device;    ///< only poses with this device name move the tool; empty = any
   double tip_radius_mm = 5.0;           ///< the tool tip's sphere (the viewer's default)
-  double tip_stiffness_n_per_m = 20.0;  ///< its push per mm inside the skin, N/m = mN/mm
+  double tip_stiffness_n_per_m = 20.0;  ///< its coupling (push per mm inside), N/m = mN/mm
+  double max_force_n = 3.0;             ///< the most the reaction sent back may be, N
   double max_message_mb = 4.0;          ///< larger incoming messages drop their client
   double stall_timeout_s = 5.0;         ///< a client silent this long mid-message is dropped
   int max_clients = 16;

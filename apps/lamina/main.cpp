@@ -242,7 +242,10 @@ int main(int argc, char** argv) {
                  "any)");
   se->add_option("--tip-radius", serve.tip_radius_mm, "tool tip sphere radius, mm (default 5)");
   se->add_option("--tip-stiffness", serve.tip_stiffness_n_per_m,
-                 "tool tip push per mm of skin inside the sphere, N/m = mN/mm (default 20)");
+                 "the virtual coupling between the device and the tool's proxy on the skin "
+                 "(or the paper's push per mm inside), N/m = mN/mm (default 20)");
+  se->add_option("--max-force", serve.max_force_n,
+                 "the reaction sent back never exceeds this, N (default 3)");
   se->add_option("--max-message-mb", serve.max_message_mb,
                  "a client sending a larger message is dropped, MB (default 4)");
   se->add_option("--stall-timeout", serve.stall_timeout_s,

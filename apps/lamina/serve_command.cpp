@@ -47,6 +47,8 @@ void check_args(const ServeArgs& a) {
     throw invalid_input("--tip-radius", "must be in (0, 100] mm");
   if (!(a.tip_stiffness_n_per_m > 0.0 && a.tip_stiffness_n_per_m <= 1e4))
     throw invalid_input("--tip-stiffness", "must be in (0, 1e4] N/m");
+  if (!(a.max_force_n > 0.0 && a.max_force_n <= 100.0))
+    throw invalid_input("--max-force", "must be in (0, 100] N (what a haptic device is sent)");
   if (!(a.max_message_mb > 0.0 && a.max_message_mb <= 1024.0))
     throw invalid_input("--max-message-mb", "must be in (0, 1024] MB");
   if (!(a.stall_timeout_s > 0.0)) throw invalid_input("--stall-timeout", "must be > 0 s");
@@ -137,6 +139,7 @@ int run_serve(const ServeArgs& a) {
   interact::ToolTip tip;
   tip.radius_mm = a.tip_radius_mm;
   tip.stiffness_n_per_m = a.tip_stiffness_n_per_m;
+  tip.max_force_n = a.max_force_n;
   int tool_client = -1;  // whose pose the tip follows
   int64_t poses = 0;
   std::set<std::pair<int, std::string>> noted;  // (client, type) already logged as skipped

@@ -102,16 +102,22 @@ lamina_status lamina_sim_create(const lamina_model* model, const lamina_material
 lamina_status lamina_sim_create_from_scene(const char* scene, lamina_sim** out);
 void lamina_sim_free(lamina_sim* sim);
 
-/* A spherical tool tip at `center_mm` (a game engine's instrument): the skin inside it is
- * pushed out by a penalty force, stiffness (N/m = mN/mm) times the deepest penetration. On a
- * physical tissue (a scene's default, or lamina_sim_create with E and no raw stiffness) that
- * load is spread over every piece of skin inside the sphere and the tool feels exactly minus it
- * (reaction_mn); with the paper's constants it acts on the deepest skin node, routed over its
- * rings and the layers behind it. Call it every frame with the instrument's pose;
- * lamina_sim_clear_tool_tip lifts it off. */
+/* A spherical tool tip at `center_mm` (a game engine's instrument, a haptic device's pose). On
+ * a physical tissue (a scene's default, or lamina_sim_create with E and no raw stiffness) a
+ * proxy sphere follows the pose but stays outside the skin, and a virtual coupling spring of
+ * `stiffness_n_per_m` (N/m = mN/mm) between proxy and pose pushes the skin under the proxy and
+ * the tool back, equal and opposite (reaction_mn), within lamina_sim_set_haptic_limits. With
+ * the paper's constants, stiffness times the penetration of the deepest skin node inside the
+ * sphere, routed over its rings and the layers behind it. Call it every frame with the
+ * instrument's pose; lamina_sim_clear_tool_tip lifts it off. */
 lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3], double radius_mm,
                                       double stiffness_n_per_m);
 lamina_status lamina_sim_clear_tool_tip(lamina_sim* sim);
+/* The haptic rendering's limits for the next lamina_sim_set_tool_tip calls on a physical tissue:
+ * the force on the tool (reaction_mn) never exceeds max_force_n (default 3 N) and changes by at
+ * most max_force_change_n (default 0.05 N) a step. Both must be positive. */
+lamina_status lamina_sim_set_haptic_limits(lamina_sim* sim, double max_force_n,
+                                           double max_force_change_n);
 /* Replaces every force held on skin nodes (count 0 releases them): forces_mn holds 3 * count
  * values, mN, each spread over the skin within 5 mm of its node on a physical tissue (the load
  * is the force), routed the paper's way from its node with the paper's constants. */

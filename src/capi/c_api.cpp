@@ -25,6 +25,7 @@ struct lamina_sim {
   lamina_model model;  // the simulation's own reference (lamina_sim_model hands it out)
   std::unique_ptr<lamina::interact::RealtimeLoop> loop;
   lamina::interact::LoopSnapshot snapshot;  // the state after the last call that stepped
+  double max_force_n = 3.0, max_force_change_n = 0.05;  // the tool tip's haptic limits
 };
 
 namespace {
@@ -275,7 +276,25 @@ lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3]
     tip.center_mm = Eigen::Vector3d(center_mm[0], center_mm[1], center_mm[2]);
     tip.radius_mm = radius_mm;
     tip.stiffness_n_per_m = stiffness_n_per_m;
+    tip.max_force_n = s.max_force_n;
+    tip.max_force_change_n = s.max_force_change_n;
     s.loop->set_tool_tip(tip);
+  });
+}
+
+lamina_status lamina_sim_set_haptic_limits(lamina_sim* sim, double max_force_n,
+                                           double max_force_change_n) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_set_haptic_limits: sim");
+    if (!(max_force_n > 0.0 && std::isfinite(max_force_n)))
+      throw lamina::invalid_input("lamina_sim_set_haptic_limits: max_force_n",
+                                  "is " + std::to_string(max_force_n) + "; a positive force, N");
+    if (!(max_force_change_n > 0.0 && std::isfinite(max_force_change_n)))
+      throw lamina::invalid_input(
+          "lamina_sim_set_haptic_limits: max_force_change_n",
+          "is " + std::to_string(max_force_change_n) + "; a positive force a step, N");
+    s.max_force_n = max_force_n;
+    s.max_force_change_n = max_force_change_n;
   });
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pacer.h"
 
 namespace lamina::interact {
@@ -77,6 +78,8 @@ void RealtimeLoop::set_forces(std::vector<LiveForce> forces) {
 }
 
 void RealtimeLoop::set_tool_tip(const ToolTip& tip) {
+  if (tip.active)
+    if (const auto p = tip_problem(tip)) throw invalid_input("tool tip: " + p->key, p->problem);
   std::lock_guard lock(mutex_);
   new_tip_ = tip;
 }
@@ -130,6 +133,7 @@ void RealtimeLoop::apply_pending() {
   if (reset_requested_) {
     sim::reset(sim_);
     last_stats_ = {};  // an unstable simulation steps again from rest
+    proxy_ = {};       // the tip's proxy is placed afresh on the rest shape
     window_sim_start_s_ = sim_.time_s;
     reset_requested_ = false;
     reroute = true;
@@ -174,8 +178,8 @@ void RealtimeLoop::one_step() {
   clear_loads(sim_, loads_);
   for (const ForceRoute& r : routes_) add_load(sim_, r, loads_);
 
-  // The tool tip: a penalty load where it meets the skin, found afresh every step.
-  tip_route_ = load_of_tip(m, sim_.x, tip_, routing_);
+  // The tool tip: its proxy and coupling (or the paper's penalty), afresh every step.
+  tip_route_ = load_of_tip(m, sim_.x, tip_, routing_, proxy_);
   add_load(sim_, tip_route_, loads_);
   if (tip_route_.contact_node >= 0 && tip_route_.contact_node != tip_contact_ &&
       sim_.options().mode == sim::Mode::kLocal) {
@@ -194,7 +198,7 @@ void RealtimeLoop::one_step() {
     Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
     if (!halted() && routing_.routing == Routing::kNone) {
       for (const ForceRoute& r : routes_) reaction -= total_force(r);
-      reaction -= total_force(tip_route_);
+      reaction += proxy_.device_force_mn;  // the coupling's: bounded, continuous
     } else if (!halted()) {
       reaction = reaction_force(sim_, loads_);
     }

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "lamina/interact/contact.h"
+#include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/tools.h"
 
 namespace lamina::interact {
@@ -45,15 +46,19 @@ ForceRoute load_at_point(const Model& m, const Eigen::MatrixX3d& x, const Eigen:
 }
 
 ForceRoute load_of_tip(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,
-                       const RoutingOptions& o) {
+                       const RoutingOptions& o, HapticProxy& proxy) {
+  if (o.routing == Routing::kNone) return couple_proxy(m, x, tip, proxy);
+  proxy = {};
   if (!tip.active) return {};
-  if (o.routing == Routing::kNone) return sphere_contact(m, x, tip);
   double distance = 0.0;
   const int32_t node = deepest_node_inside(m, x, tip, distance);
   if (node < 0) return {};
   Eigen::Vector3d dir = x.row(node).transpose() - tip.center_mm;
   dir = dir.norm() > 1e-9 ? dir.normalized() : Eigen::Vector3d(0, 1, 0);
-  return route_force(m, x, node, tip.stiffness_n_per_m * (tip.radius_mm - distance) * dir, o);
+  const Eigen::Vector3d push = tip.stiffness_n_per_m * (tip.radius_mm - distance) * dir;
+  proxy.device_force_mn = -push;
+  proxy.touching = true;
+  return route_force(m, x, node, push, o);
 }
 
 Eigen::Vector3d total_force(const ForceRoute& route) {

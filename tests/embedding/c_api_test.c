@@ -119,6 +119,9 @@ int main(void) {
   CHECK(strstr(lamina_last_error(), "skin_nodes[0]") != NULL);
   const double nan_tip[3] = {NAN, 0.0, 0.0};
   CHECK(lamina_sim_set_tool_tip(sim, nan_tip, radius, 200.0) == LAMINA_ERROR_INVALID_INPUT);
+  CHECK(lamina_sim_set_haptic_limits(sim, -1.0, 0.05) == LAMINA_ERROR_INVALID_INPUT);
+  CHECK(lamina_sim_set_haptic_limits(sim, 3.0, 0.0) == LAMINA_ERROR_INVALID_INPUT);
+  CHECK_OK(lamina_sim_set_haptic_limits(sim, 3.0, 0.05));
   CHECK(lamina_sim_step(NULL, 1, &st) == LAMINA_ERROR_INVALID_INPUT);
   CHECK(lamina_sim_positions(sim, x, 3) == LAMINA_ERROR_INVALID_INPUT);
   CHECK(strstr(lamina_last_error(), "needed") != NULL);

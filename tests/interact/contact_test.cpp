@@ -9,6 +9,7 @@
 #include <set>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/realtime_loop.h"
 #include "support/held_sphere.h"
 #include "support/sphere_model.h"
@@ -122,11 +123,12 @@ TEST(Contact, AtRestTheTissuePushesBackWithExactlyTheToolsLoad) {
                               .stiffness_n_per_m = 20.0};
   interact::Loads loads;
   interact::ForceRoute load;
+  interact::HapticProxy proxy;
   int quiet = 0;  // steps in a row below the rest speed
   bool rested = false;
   for (int k = 0; k < 50000 && !rested; ++k) {
     interact::clear_loads(s, loads);
-    load = interact::load_of_tip(m, s.x, tip, kNoRouting);
+    load = interact::load_of_tip(m, s.x, tip, kNoRouting, proxy);
     interact::add_load(s, load, loads);
     quiet = sim::step(s).converged ? quiet + 1 : 0;
     rested = quiet >= 100;

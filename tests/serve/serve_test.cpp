@@ -380,6 +380,9 @@ TEST(Serve, BadOptionsAndABusyPortAreOneLineErrors) {
   const RunResult frame = run_cli(lamina_cli(), dir.path, dir.path, "serve --frame xyz");
   EXPECT_EQ(frame.exit_code, 2);
   EXPECT_NE(frame.err.find("--frame: must be ras or lps, got 'xyz'"), std::string::npos);
+  const RunResult force = run_cli(lamina_cli(), dir.path, dir.path, "serve --max-force -1");
+  EXPECT_EQ(force.exit_code, 2);
+  EXPECT_NE(force.err.find("--max-force: must be in (0, 100] N"), std::string::npos) << force.err;
   // A port someone else listens on: refused before any model is built.
   const int busy = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};

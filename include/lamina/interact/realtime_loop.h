@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/tools.h"
 #include "lamina/sim/simulation.h"
 
@@ -159,6 +160,7 @@ class RealtimeLoop {
   Loads loads_;
   int32_t tip_contact_ = -1;
   ForceRoute tip_route_;  // the tip's load in the last step
+  HapticProxy proxy_;     // the tip's god-object and the force on the device
   double last_publish_s_ = -1.0;
   sim::StepStats last_stats_;
   double window_step_sum_us_ = 0.0;

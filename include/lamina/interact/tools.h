@@ -78,15 +78,25 @@ struct LiveForce {
   double radius_mm = kDefaultPatchRadiusMm;            ///< the patch without routing
 };
 
-/// A spherical tool tip. The tissue inside it is pushed out with a force of stiffness times the
-/// deepest penetration: without routing spread over every skin triangle inside the sphere by its
-/// penetration (contact.h, sphere_contact), the paper's way on the deepest skin node.
+/// A spherical tool tip driven by a device's pose (`center_mm`). Without routing it is rendered
+/// haptically (haptic_proxy.h): a proxy sphere follows the device but stays outside the skin
+/// (god-object), and a virtual coupling spring of `stiffness_n_per_m` between them pushes the
+/// tissue at the proxy's contact and the device back, equal and opposite, bounded by
+/// `max_force_n` and changing by at most `max_force_change_n` a step. With the paper's routing:
+/// stiffness times the penetration of the deepest skin node inside the sphere, routed.
 struct ToolTip {
   bool active = false;
   Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
   double radius_mm = 5.0;
-  double stiffness_n_per_m = 20.0;  ///< penalty: mN per mm of penetration
+  double stiffness_n_per_m = 20.0;   ///< coupling (penalty) stiffness: mN per mm
+  double max_force_n = 3.0;          ///< the force sent back never exceeds this, N
+  double max_force_change_n = 0.05;  ///< ... nor changes by more than this in one step, N
 };
+
+/// What is wrong with a tool tip (a key named as on `lamina serve`'s command line, and the
+/// problem), or nothing: a radius or force limit that is not a positive number, a negative
+/// stiffness, a centre that is not finite.
+std::optional<RoutingProblem> tip_problem(const ToolTip& tip);
 
 /// Where the force line crosses a layer.
 struct Crossing {
@@ -127,11 +137,13 @@ ForceRoute load_at_node(const Model& model, const Eigen::MatrixX3d& x, int32_t n
 ForceRoute load_at_point(const Model& model, const Eigen::MatrixX3d& x,
                          const Eigen::Vector3d& point_mm, const Eigen::Vector3d& force_mn,
                          double radius_mm, const RoutingOptions& options);
-/// A tool tip's penalty load at positions x: contact.h's sphere_contact (kNone), or the paper's:
-/// stiffness x the penetration of the deepest skin node inside the sphere, on that node, routed.
-/// Empty when it touches nothing or is not active.
+struct HapticProxy;
+/// A tool tip's load at positions x, one step: the haptic proxy and its coupling (kNone,
+/// haptic_proxy.h; `proxy` carries it between steps and holds the force on the device), or the
+/// paper's: stiffness x the penetration of the deepest skin node inside the sphere, on that
+/// node, routed (proxy.device_force_mn is minus that push). Empty when it touches nothing.
 ForceRoute load_of_tip(const Model& model, const Eigen::MatrixX3d& x, const ToolTip& tip,
-                       const RoutingOptions& options);
+                       const RoutingOptions& options, HapticProxy& proxy);
 /// The sum of a route's forces, mN: the load on the tissue (without routing, minus the force on
 /// the tool).
 Eigen::Vector3d total_force(const ForceRoute& route);

@@ -1,0 +1,33 @@
+#pragma once
+/// \file
+/// A tool tip rendered to a haptic device: the god-object (Zilles & Salisbury 1995) for a
+/// sphere, and a virtual coupling (Colgate, Stanley & Brown 1995) between it and the device.
+/// The proxy follows the device's pose in steps of at most a quarter of its radius, each step
+/// projected out of the current skin, so it stays on the side it came from (it cannot pop
+/// through a thin edge, and it rests on the surface while the device sinks in). The coupling
+/// spring F = k (proxy - device) is the force on the device, bounded by max_force_n and by
+/// max_force_change_n per step; the tissue receives exactly -F, spread over the skin the proxy
+/// touches (contact.h, spread_on_patch). docs/physics.md, "Haptic rendering".
+
+#include <Eigen/Core>
+
+#include "lamina/interact/tools.h"
+#include "lamina/model/model.h"
+
+namespace lamina::interact {
+
+/// The proxy's state between steps.
+struct HapticProxy {
+  bool placed = false;                                        ///< false until the first step
+  Eigen::Vector3d proxy_mm = Eigen::Vector3d::Zero();         ///< the proxy sphere's centre
+  Eigen::Vector3d device_force_mn = Eigen::Vector3d::Zero();  ///< the last force on the device
+  bool touching = false;  ///< the proxy rests on the skin (its load went to the tissue)
+};
+
+/// One step of the tip at positions x: moves the proxy towards tip.center_mm without entering
+/// the skin, updates the device's force, and returns the tissue's load (empty when the proxy
+/// touches nothing). An inactive tip lifts the proxy off (next step it is placed afresh).
+ForceRoute couple_proxy(const Model& model, const Eigen::MatrixX3d& x, const ToolTip& tip,
+                        HapticProxy& state);
+
+}  // namespace lamina::interact

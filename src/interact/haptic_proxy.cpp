@@ -1,0 +1,119 @@
+#include "lamina/interact/haptic_proxy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "lamina/geometry/closest_on_triangle.h"
+#include "lamina/interact/contact.h"
+#include "skin_samples.h"
+
+namespace lamina::interact {
+namespace {
+
+struct Near {
+  SkinPoint at;
+  Eigen::Vector3d outward = Eigen::Vector3d::Zero();  // the nearest triangle's unit normal
+};
+
+// The skin point nearest to p among `faces`.
+Near nearest_of(const Model& m, const Eigen::MatrixX3d& x, const std::vector<int32_t>& faces,
+                const Eigen::Vector3d& p) {
+  const Eigen::MatrixX3i& F = m.layers[0].F;
+  Near best;
+  for (int32_t f : faces) {
+    const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
+    const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
+    const Eigen::Vector3d q = w[0] * a + w[1] * b + w[2] * c;
+    const double d = (q - p).norm();
+    if (d < best.at.distance_mm) {
+      best.at = {.face = f, .barycentric = w, .point_mm = q, .distance_mm = d};
+      best.outward = (b - a).cross(c - a).normalized();
+    }
+  }
+  return best;
+}
+
+// Pushes p out of the skin to the radius r: along p - q from the nearest point q when p is on
+// the outer side of q's triangle, along the triangle's outward normal when p has gone past it.
+// A few passes settle it in a concave corner, where leaving one triangle enters another.
+void project_out(const Model& m, const Eigen::MatrixX3d& x, const std::vector<int32_t>& faces,
+                 double r, Eigen::Vector3d& p) {
+  for (int pass = 0; pass < 4; ++pass) {
+    const Near n = nearest_of(m, x, faces, p);
+    if (n.at.face < 0 || n.at.distance_mm >= r) return;
+    const Eigen::Vector3d away = p - n.at.point_mm;
+    const bool outside = away.dot(n.outward) > 0.0 && n.at.distance_mm > 1e-9 * r;
+    p = n.at.point_mm + r * (outside ? Eigen::Vector3d(away / n.at.distance_mm) : n.outward);
+  }
+}
+
+}  // namespace
+
+std::optional<RoutingProblem> tip_problem(const ToolTip& t) {
+  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  if (!positive(t.radius_mm)) return RoutingProblem{"radius_mm", "must be > 0 mm"};
+  if (!(t.stiffness_n_per_m >= 0.0 && std::isfinite(t.stiffness_n_per_m)))
+    return RoutingProblem{"stiffness_n_per_m", "must be >= 0 N/m"};
+  if (!positive(t.max_force_n))
+    return RoutingProblem{"max_force_n", "must be > 0 N (the most a device is sent)"};
+  if (!positive(t.max_force_change_n))
+    return RoutingProblem{"max_force_change_n", "must be > 0 N a step"};
+  if (!t.center_mm.allFinite()) return RoutingProblem{"center_mm", "is not finite"};
+  return std::nullopt;
+}
+
+ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,
+                        HapticProxy& s) {
+  if (!tip.active || m.layers.empty()) {
+    s = {};
+    return {};
+  }
+  const double r = tip.radius_mm;
+  const Eigen::Vector3d& device = tip.center_mm;
+  const Eigen::Vector3d start = s.placed ? s.proxy_mm : device;
+
+  // The skin triangles the proxy can meet on its way: it moves within the ball around the
+  // segment from where it was to the device, and a projection moves it by up to r more.
+  thread_local std::vector<int32_t> faces;
+  faces.clear();
+  const Eigen::Vector3d mid = 0.5 * (start + device);
+  const double reach = 2.0 * r + 0.5 * (device - start).norm();
+  const Eigen::MatrixX3i& F = m.layers[0].F;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    if (!detail::box_out_of_reach(mid, reach, x.row(F(f, 0)).transpose(),
+                                  x.row(F(f, 1)).transpose(), x.row(F(f, 2)).transpose()))
+      faces.push_back(static_cast<int32_t>(f));
+
+  // The god-object: from where it was, towards the device in moves of at most r/4, each
+  // projected out of the skin, so that it slides over the surface to the point nearest the
+  // device and never crosses to the other side.
+  Eigen::Vector3d p = start;
+  project_out(m, x, faces, r, p);  // the skin may have moved into it (or the device starts in)
+  const int moves =
+      std::clamp(static_cast<int>(std::ceil((device - p).norm() / (0.25 * r))), 1, 64);
+  for (int k = 0; k < moves; ++k) {
+    Eigen::Vector3d move = device - p;
+    if (move.norm() > 0.25 * r) move *= 0.25 * r / move.norm();
+    p += move;
+    project_out(m, x, faces, r, p);
+  }
+  s.placed = true;
+  s.proxy_mm = p;
+
+  // The coupling: on the device k (proxy - device), bounded, and changing by a bounded step.
+  const double most = 1000.0 * tip.max_force_n, step = 1000.0 * tip.max_force_change_n;
+  Eigen::Vector3d f = tip.stiffness_n_per_m * (p - device);
+  if (f.norm() > most) f *= most / f.norm();
+  Eigen::Vector3d change = f - s.device_force_mn;
+  if (change.norm() > step) change *= step / change.norm();
+  s.device_force_mn += change;
+
+  // The tissue takes exactly minus the device's force where the proxy rests on it.
+  const Near n = nearest_of(m, x, faces, p);
+  s.touching = n.at.face >= 0 && n.at.distance_mm <= r * (1.0 + 1e-6);
+  if (!s.touching || s.device_force_mn.isZero()) return {};
+  return spread_on_patch(m, x, n.at, -s.device_force_mn, r);
+}
+
+}  // namespace lamina::interact
