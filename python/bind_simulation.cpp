@@ -312,13 +312,50 @@ void bind_simulation(py::module_& m) {
           "of the contact, and the tissue's load is exactly the force; with routing='paper' it\n"
           "is routed over the contact's rings and the layers behind it. Returns its index.")
       .def(
+          "add_grasp",
+          [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
+             std::optional<int32_t> vertex, const Eigen::Vector3d& pull_mm, double pull_s,
+             std::optional<double> start_s, double end_s, double radius_mm) {
+            if (point_mm.has_value() == vertex.has_value())
+              throw invalid_input("add_grasp", "give exactly one of point_mm and vertex");
+            if (!pull_mm.allFinite()) throw invalid_input("add_grasp: pull_mm", "is not finite");
+            if (!(pull_s > 0.0 && std::isfinite(pull_s)))
+              throw invalid_input("add_grasp: pull_s",
+                                  fmt::format("must be > 0 s, got {}", pull_s));
+            if (!(radius_mm > 0.0 && std::isfinite(radius_mm)))
+              throw invalid_input("add_grasp: radius_mm",
+                                  fmt::format("must be > 0 mm, got {}", radius_mm));
+            interact::Tool t;
+            t.by_point = point_mm.has_value();
+            if (point_mm) t.point_mm = *point_mm;
+            if (vertex) t.vertex = *vertex;
+            t.start_s = start_s.value_or(p.sim.time_s);
+            t.end_s = end_s;
+            t.radius_mm = radius_mm;
+            t.grasp = true;
+            t.pull_mm = pull_mm;
+            t.pull_s = pull_s;
+            p.driver.tools.push_back(t);
+            return p.driver.tools.size() - 1;
+          },
+          py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
+          py::arg("pull_mm") = Eigen::Vector3d::Zero(), py::arg("pull_s") = 1.0,
+          py::arg("start_s") = py::none(),
+          py::arg("end_s") = std::numeric_limits<double>::infinity(), py::arg("radius_mm") = 4.0,
+          "A grasper: from start_s (default: now) its jaws hold every free skin node within\n"
+          "radius_mm of point_mm (or of skin node `vertex`), move by pull_mm (mm) over pull_s\n"
+          "and hold there, and let go at end_s. With nothing under the jaws the step that closes\n"
+          "them raises lamina.Error. reaction_force_mn() includes its pull. Returns its index.")
+      .def(
           "clear_tools",
           [](PySimulation& p) {
+            for (interact::Grasp& g : p.driver.grasps) interact::open_jaws(p.sim, g);
             p.driver.tools.clear();
             p.driver.routes.clear();
             p.driver.active.clear();
+            p.driver.grasps.clear();
           },
-          "Lifts every tool off.")
+          "Lifts every tool off (graspers let go).")
       .def_property_readonly("tool_count",
                              [](const PySimulation& p) { return p.driver.tools.size(); })
       .def("step", &step_n, py::arg("steps") = 1,
@@ -340,7 +377,7 @@ void bind_simulation(py::module_& m) {
                     peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
                     peaks.abs_volume_change_pct =
                         std::max(peaks.abs_volume_change_pct, std::abs(st.volume_change_pct));
-                    const Eigen::Vector3d r = interact::reaction_force(s, d.loads);
+                    const Eigen::Vector3d r = interact::tools_reaction(s, d);
                     peaks.reaction_mn = std::max(peaks.reaction_mn, r.norm());
                     if (!record) return;
                     t.push_back(s.time_s);
@@ -380,7 +417,7 @@ void bind_simulation(py::module_& m) {
       .def(
           "reaction_force_mn",
           [](const PySimulation& p) {
-            return Eigen::Vector3d(interact::reaction_force(p.sim, p.driver.loads));
+            return Eigen::Vector3d(interact::tools_reaction(p.sim, p.driver));
           },
           "the tissue's push back on the tools in the last step, mN (3 values)")
       .def(

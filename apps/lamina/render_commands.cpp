@@ -78,6 +78,11 @@ int run_view(const ViewArgs& a) {
   // A scene file's tools act from the start, pinned; on a bare model the default poke's node is
   // only watched (plotted), and the user pushes.
   for (const interact::Tool& t : p.scene.tools) {
+    if (t.grasp) {
+      log::warn("{}: the viewer does not play a scene's graspers yet (lamina run and render do)",
+                p.scene.source);
+      continue;
+    }
     int32_t node = t.vertex;
     if (t.by_point)
       node = interact::nearest_skin_node(*p.model, p.model->X, t.point_mm,
@@ -159,9 +164,16 @@ int run_render(const RenderArgs& a) {
   frame.model = &m;
   frame.x = &s.x;
   frame.style = style;
+  int acting = 0;
   for (size_t t = 0; t < driver.tools.size(); ++t) {
     if (t >= driver.active.size() || !driver.active[t]) continue;
+    if (driver.tools[t].grasp) {  // a grasper: marked where its jaws hold the skin
+      for (int32_t node : driver.grasps[t].nodes) render::add_contact_marker(frame, node);
+      ++acting;
+      continue;
+    }
     const int32_t node = driver.routes[t].contact_node;
+    ++acting;
     render::add_force_arrow(frame, node, driver.tools[t].force_mn, 60.0);  // 60 mm per N
     render::add_contact_marker(frame, node);
     if (a.rings) frame.rings.push_back({node, p.scene.routing.locality});
@@ -170,7 +182,7 @@ int run_render(const RenderArgs& a) {
   if (view.distance_mm > 0.0) camera.distance_mm = view.distance_mm;
   render::write_png(render::render_image(renderer, frame, camera, a.size[0], a.size[1]), a.output);
   std::cout << fmt::format("lamina render: wrote {} ({}x{}, t = {:.3g} s, {} tool(s) acting)\n",
-                           a.output, a.size[0], a.size[1], s.time_s, frame.arrows.size());
+                           a.output, a.size[0], a.size[1], s.time_s, acting);
   return 0;
 }
 

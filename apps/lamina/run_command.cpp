@@ -267,7 +267,7 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s
     r.last = sim::step(s);
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     r.step_us.push_back(us);
-    const Eigen::Vector3d reaction = interact::reaction_force(s, driver.loads);
+    const Eigen::Vector3d reaction = interact::tools_reaction(s, driver);
     so_far.max_reaction_mn = std::max(so_far.max_reaction_mn, reaction.norm());
     const int active = static_cast<int>(std::count(driver.active.begin(), driver.active.end(), 1));
     so_far.max_displacement_mm = std::max(so_far.max_displacement_mm, r.last.max_displacement_mm);
@@ -369,6 +369,13 @@ int run_run(const RunArgs& a) {
   std::optional<io::RunCheckpoint> resume;
   if (!a.resume.empty()) resume = io::load_checkpoint(a.resume);
   const RunScene run_scene = load_run_scene(a, resume);
+  // A checkpoint holds the tools' loads, not what a grasper holds: refused, not resumed wrong.
+  if (a.checkpoint_every > 0 || a.stop_after_steps > 0 || resume)
+    for (size_t k = 0; k < run_scene.scene.tools.size(); ++k)
+      if (run_scene.scene.tools[k].grasp)
+        throw invalid_input("tools[" + std::to_string(k) + "].grasp",
+                            "a run with a grasper cannot be checkpointed or resumed yet (run it "
+                            "without --checkpoint-every and --stop-after)");
   check_output_folder(a.output);
   RunProgressReport report{.progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose),
                            .every_s = ::isatty(2) ? 0.1 : 2.0};

@@ -154,10 +154,38 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
   const size_t n = d.tools.size();
   d.routes.resize(n);
   d.active.resize(n, 0);
+  d.grasps.resize(n);
   bool any = false, changed = false;
   for (size_t t = 0; t < n; ++t) {
     const Tool& tool = d.tools[t];
     const bool on = s.time_s >= tool.start_s && s.time_s < tool.end_s;
+    const std::string name = "tools[" + std::to_string(t) + "]";
+    if (tool.grasp) {
+      // A grasper closes, follows its pull (to where it is at the end of this step), opens.
+      const Eigen::Vector3d at =
+          tool.by_point ? tool.point_mm : Eigen::Vector3d(s.x.row(tool.vertex).transpose());
+      if (on && !d.active[t]) {
+        if (!tool.by_point && (tool.vertex < 0 || tool.vertex >= m.layers[0].node_count))
+          throw invalid_input(name + ".vertex", "must be a skin node, 0.." +
+                                                    std::to_string(m.layers[0].node_count - 1) +
+                                                    ", got " + std::to_string(tool.vertex));
+        d.grasps[t].nodes.clear();
+        close_jaws(s, {.center_mm = at, .radius_mm = tool.radius_mm}, d.grasps[t], name);
+        d.touched.insert(d.touched.end(), d.grasps[t].nodes.begin(), d.grasps[t].nodes.end());
+        changed = true;
+      }
+      if (on) {
+        const double reached =
+            std::clamp((s.time_s + s.options().dt_s - tool.start_s) / tool.pull_s, 0.0, 1.0);
+        move_jaws(s, d.grasps[t].closed_at_mm + reached * tool.pull_mm, d.grasps[t]);
+      } else if (d.active[t]) {
+        open_jaws(s, d.grasps[t]);
+      }
+      if (!on && d.active[t]) changed = true;
+      d.active[t] = on;
+      any |= on;
+      continue;
+    }
     if (on && !d.active[t]) {
       // The tool touches down: contact and routing on the current shape, held from then on.
       if (tool.by_point) {
@@ -194,7 +222,7 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
     d.loads.cleared = true;
   }
   for (size_t t = 0; t < n; ++t)
-    if (d.active[t]) add_load(s, d.routes[t], d.loads);
+    if (d.active[t] && !d.tools[t].grasp) add_load(s, d.routes[t], d.loads);
   if (changed && s.options().mode == sim::Mode::kLocal) keep_touched_movable(s, d.touched);
   return any;
 }
@@ -231,6 +259,12 @@ Eigen::Vector3d reaction_force(const sim::Simulation& s, const Loads& loads) {
                              [&](int32_t i) { return s.fixed()[i] || s.f_ext.row(i).isZero(); }),
               nodes.end());
   return sim::internal_force_on(s, nodes);
+}
+
+Eigen::Vector3d tools_reaction(const sim::Simulation& s, const ToolDriver& d) {
+  Eigen::Vector3d r = reaction_force(s, d.loads);
+  for (const Grasp& g : d.grasps) r += grasp_reaction(s, g);
+  return r;
 }
 
 double last_tool_end(const ToolDriver& d) {

@@ -368,7 +368,7 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
     r.require_object(t, path);
     r.warn_unknown(t, path,
                    {"point", "vertex", "force_n", "drag_mm", "gain_n_per_mm", "start_s", "end_s",
-                    "radius_mm"});
+                    "radius_mm", "grasp"});
     interact::Tool tool;
     const bool has_point = t.contains("point"), has_vertex = t.contains("vertex");
     if (has_point == has_vertex)
@@ -381,15 +381,31 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
       tool.vertex = static_cast<int32_t>(
           r.integer(t["vertex"], path + ".vertex", 0, std::numeric_limits<int32_t>::max()));
     }
+    // A grasper: its jaws close on the skin at the point and pull it.
+    if (const auto g = t.find("grasp"); g != t.end()) {
+      const std::string gp = path + ".grasp";
+      r.require_object(*g, gp);
+      r.warn_unknown(*g, gp, {"pull_mm", "pull_s"});
+      for (const char* force_key : {"force_n", "drag_mm", "gain_n_per_mm"})
+        if (t.contains(force_key))
+          r.fail(path + "." + force_key, "a grasper pulls by grasp.pull_mm; it takes no force");
+      tool.grasp = true;
+      if (g->contains("pull_mm")) tool.pull_mm = r.vec3((*g)["pull_mm"], gp + ".pull_mm");
+      read_number(r, *g, gp, "pull_s", tool.pull_s, kPositive, "must be > 0 s");
+    }
     // The force is given directly, or (the paper's interaction) proportional to a drag:
     // force = gain x drag vector.
     const bool has_force = t.contains("force_n"), has_drag = t.contains("drag_mm");
-    if (has_force == has_drag)
+    if (tool.grasp) {
+      // no force: what it pulls is where the jaws go
+    } else if (has_force == has_drag)
       r.fail(path,
              has_force
                  ? "give either \"force_n\" or \"drag_mm\", not both"
                  : "needs \"force_n\": [fx, fy, fz] (newtons) or \"drag_mm\": [dx, dy, dz] (mm)");
-    if (has_force) {
+    if (tool.grasp) {
+      // no force to read
+    } else if (has_force) {
       if (t.contains("gain_n_per_mm"))
         r.fail(path + ".gain_n_per_mm", "only applies with \"drag_mm\"");
       tool.force_mn = kMilliNewtonsPerNewton * r.vec3(t["force_n"], path + ".force_n");
@@ -399,9 +415,12 @@ void read_tools(const Reader& r, const json& j, Scene& s) {
       tool.force_mn = kMilliNewtonsPerNewton * gain * r.vec3(t["drag_mm"], path + ".drag_mm");
     }
     read_number(r, t, path, "start_s", tool.start_s, kNonNegative, "must be >= 0");
-    read_number(r, t, path, "radius_mm", tool.radius_mm, kNonNegative,
-                "must be >= 0 mm (the patch the force is spread over without routing; 0 = a "
-                "point)");
+    read_number(
+        r, t, path, "radius_mm", tool.radius_mm,
+        [&](double v) { return tool.grasp ? v > 0.0 : v >= 0.0; },
+        tool.grasp ? "must be > 0 mm (skin within it is grasped)"
+                   : "must be >= 0 mm (the patch the force is spread over without "
+                     "routing; 0 = a point)");
     // A null end means the tool never lets go (the same as leaving the key out).
     if (t.contains("end_s") && !t["end_s"].is_null()) {
       read_number(
@@ -597,6 +616,19 @@ void check_scene_against_model(const Scene& s, const Model& m) {
     if (!t.by_point && (t.vertex < 0 || t.vertex >= skin_nodes))
       r.fail(path + ".vertex",
              fmt::format("must be a skin node, 0..{}, got {}", skin_nodes - 1, t.vertex));
+    if (t.grasp) {
+      // Something under the jaws at rest, or nothing to hold.
+      const Eigen::Vector3d at = t.by_point ? t.point_mm : Eigen::Vector3d(m.X.row(t.vertex));
+      bool any = false;
+      for (int32_t i = 0; i < skin_nodes && !any; ++i)
+        any = (m.X.row(i).transpose() - at).norm() <= t.radius_mm;
+      if (!any)
+        r.fail(path + (t.by_point ? ".point" : ".vertex"),
+               fmt::format("nothing under the grasper's jaws: no skin node within radius_mm "
+                           "({} mm) of [{}, {}, {}] at rest",
+                           t.radius_mm, at.x(), at.y(), at.z()));
+      continue;
+    }
     // The same contact the tool will make: the nearest skin node for the paper's routing, the
     // nearest point of the skin without it.
     if (t.by_point &&

@@ -192,6 +192,16 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_TRUE(std::isinf(s.tools[1].end_s));  // never lets go
   EXPECT_DOUBLE_EQ(s.tools[0].radius_mm, interact::kDefaultPatchRadiusMm);
   EXPECT_DOUBLE_EQ(s.tools[1].radius_mm, 2.5);
+  EXPECT_FALSE(s.tools[0].grasp);
+  // A grasper: no force, a pull.
+  const Scene g = parse_scene(
+      R"({"tools": [{"point": [1, 2, 3], "grasp": {"pull_mm": [30, 0, 0], "pull_s": 2}}]})",
+      "scene.json");
+  ASSERT_EQ(g.tools.size(), 1u);
+  EXPECT_TRUE(g.tools[0].grasp);
+  EXPECT_EQ(g.tools[0].pull_mm, Eigen::Vector3d(30, 0, 0));
+  EXPECT_DOUBLE_EQ(g.tools[0].pull_s, 2.0);
+  EXPECT_EQ(g.tools[0].force_mn, Eigen::Vector3d::Zero());
   EXPECT_TRUE(std::isinf(s.tools[2].end_s));
 
   ASSERT_EQ(s.fixed.size(), 3u);
@@ -267,6 +277,12 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
       {R"({"tools": [{"vertex": 1, "force_n": [0, 1, 0], "radius_mm": -2}]})",
        "tools[0].radius_mm: must be >= 0 mm"},
       {R"({"solver": {"routing": "copies"}})", "solver.routing: "},
+      {R"({"tools": [{"vertex": 1, "force_n": [0, 1, 0], "grasp": {"pull_mm": [0, 0, 9]}}]})",
+       "tools[0].force_n: a grasper pulls by grasp.pull_mm; it takes no force"},
+      {R"({"tools": [{"vertex": 1, "grasp": {"pull_s": 0}}]})",
+       "tools[0].grasp.pull_s: must be > 0 s"},
+      {R"({"tools": [{"vertex": 1, "grasp": {}, "radius_mm": 0}]})",
+       "tools[0].radius_mm: must be > 0 mm (skin within it is grasped)"},
       {R"({"tools": [{"vertex": 0, "force_n": [0, 1, 0], "start_s": 2, "end_s": 1}]})",
        "tools[0].end_s: must be after start_s (2), got 1"},
       {R"({"tools": {"vertex": 0}})", "tools: expected an array of tools"},
@@ -618,6 +634,12 @@ TEST(CheckSceneAgainstModel, NamesTheKeyThatDoesNotFitTheModel) {
                         "solver": {"locality": 2}})")
                 .rfind("scene.json: tools[0].point: [0, 0, 30] is farther than "
                        "solver.contact_threshold_mm (10 mm)",
+                       0),
+            0u);
+  EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 30], "grasp": {}}],
+                        "solver": {"locality": 2}})")
+                .rfind("scene.json: tools[0].point: nothing under the grasper's jaws: no skin "
+                       "node within radius_mm (5 mm) of [0, 0, 30] at rest",
                        0),
             0u);
   EXPECT_EQ(message(R"({"tools": []})"),  // default locality 4 > the model's 2

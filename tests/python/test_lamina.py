@@ -83,6 +83,27 @@ def test_tool_push_and_reaction(phantom_model):
     assert np.allclose(sim.reaction_force_mn(), 0.0)
 
 
+def test_a_grasp_pulls_the_skin_and_lets_go(phantom_model):
+    # The physical tissue: the grasped node follows the jaws 10 mm and the tissue pulls back.
+    sim = lamina.Simulation(phantom_model, stiffness_n_per_m=0.0, node_mass_kg=0.0,
+                            damping_kg_per_s=0.0, mass_damping_per_s=20.0,
+                            young_modulus_kpa=6.0, integrator="implicit_euler", dt_s=0.001,
+                            fixed=back_nodes(phantom_model))
+    node = front_node(phantom_model)
+    sim.add_grasp(vertex=node, pull_mm=(0.0, -10.0, 0.0), pull_s=0.1, end_s=0.2)
+    sim.step(150)
+    assert sim.x[node, 1] == pytest.approx(phantom_model.X[node, 1] - 10.0, abs=1e-9)
+    r = sim.reaction_force_mn()
+    assert r[1] > 10.0  # pulled out (-y), the tissue pulls the jaws back (+y)
+    result = sim.run()
+    assert result["converged"]
+    assert np.abs(sim.x - phantom_model.X).max() < 0.05
+    with pytest.raises(lamina.Error, match="nothing under the jaws"):
+        far = phantom_model.X.max(axis=0) + 50.0
+        sim.add_grasp(point_mm=far)
+        sim.step()
+
+
 def test_a_case_built_to_explode_raises_unstable(phantom_model):
     """A load far beyond the organ (1e9 N on one node): its steps are refused, then step()
     raises lamina.Error (exit code 5, one line); the state stays finite and reset() steps

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "lamina/interact/grasp.h"
 #include "lamina/model/model.h"
 #include "lamina/sim/simulation.h"
 
@@ -67,8 +68,14 @@ struct Tool {
   double start_s = 0.0;                                ///< acts from this time...
   double end_s = std::numeric_limits<double>::infinity();  ///< ...until this time, s
   /// Without routing: the force is spread over the skin within this distance of the contact
-  /// point (contact.h, spread_on_patch).
+  /// point (contact.h, spread_on_patch). A grasper: the skin nodes within it are taken.
   double radius_mm = kDefaultPatchRadiusMm;
+  /// A grasper instead of a push (grasp.h): at start_s its jaws close at the point (or the
+  /// vertex), the skin under them follows the jaws as they move by pull_mm over pull_s
+  /// (linearly, then held there), and at end_s they open. force_mn is not used.
+  bool grasp = false;
+  Eigen::Vector3d pull_mm = Eigen::Vector3d::Zero();
+  double pull_s = 1.0;
 };
 
 /// A force held on a skin node (a mouse drag, a pinned drag), delivered like a Tool's.
@@ -186,7 +193,8 @@ struct ToolDriver {
   /// Local mode: every node that has received force since the start stays movable, so that a
   /// released region can return to rest.
   std::vector<int32_t> touched;
-  Loads loads;  ///< the nodes apply_tools() gave force
+  Loads loads;                ///< the nodes apply_tools() gave force
+  std::vector<Grasp> grasps;  ///< per tool; what a grasper holds while it acts
   /// Forces held on nodes besides the tools', mN: #nodes by 3, or empty. When given,
   /// apply_tools() starts f_ext from them each step instead of from zero (the Python module's
   /// raw forces, which the tools add to).
@@ -204,6 +212,10 @@ bool apply_tools(sim::Simulation& sim, ToolDriver& driver);
 /// under a held load it balances the load; a haptic device renders it. Costs a pass over the
 /// loaded nodes' springs only.
 Eigen::Vector3d reaction_force(const sim::Simulation& sim, const Loads& loads);
+
+/// The force on every tool at once, mN: the tissue's push back on the pushing tools
+/// (reaction_force() of driver.loads) plus each grasper's pull (grasp_reaction()).
+Eigen::Vector3d tools_reaction(const sim::Simulation& sim, const ToolDriver& driver);
 
 /// The time after which no tool acts any more (0 with no tools; infinity if one never ends).
 double last_tool_end(const ToolDriver& driver);
