@@ -159,21 +159,37 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
   for (size_t t = 0; t < n; ++t) {
     const Tool& tool = d.tools[t];
     const bool on = s.time_s >= tool.start_s && s.time_s < tool.end_s;
-    const std::string name = "tools[" + std::to_string(t) + "]";
-    if (tool.grasp) {
-      // A grasper closes, follows its pull (to where it is at the end of this step), opens.
-      const Eigen::Vector3d at =
-          tool.by_point ? tool.point_mm : Eigen::Vector3d(s.x.row(tool.vertex).transpose());
-      if (on && !d.active[t]) {
-        if (!tool.by_point && (tool.vertex < 0 || tool.vertex >= m.layers[0].node_count))
-          throw invalid_input(name + ".vertex", "must be a skin node, 0.." +
-                                                    std::to_string(m.layers[0].node_count - 1) +
-                                                    ", got " + std::to_string(tool.vertex));
-        d.grasps[t].nodes.clear();
+    if (on && !d.active[t]) {
+      // The tool touches down, on the current shape. A push's contact and routing are held from
+      // then on; a grasper's jaws close on the skin under them.
+      const std::string name = "tools[" + std::to_string(t) + "]";
+      if (!tool.by_point && (tool.vertex < 0 || tool.vertex >= m.layers[0].node_count))
+        throw invalid_input(name + ".vertex", "must be a skin node, 0.." +
+                                                  std::to_string(m.layers[0].node_count - 1) +
+                                                  ", got " + std::to_string(tool.vertex));
+      const std::vector<int32_t>* loaded = nullptr;
+      if (tool.grasp) {
+        const Eigen::Vector3d at =
+            tool.by_point ? tool.point_mm : Eigen::Vector3d(s.x.row(tool.vertex).transpose());
         close_jaws(s, {.center_mm = at, .radius_mm = tool.radius_mm}, d.grasps[t], name);
-        d.touched.insert(d.touched.end(), d.grasps[t].nodes.begin(), d.grasps[t].nodes.end());
-        changed = true;
+        loaded = &d.grasps[t].nodes;
+      } else if (tool.by_point) {
+        d.routes[t] =
+            load_at_point(m, s.x, tool.point_mm, tool.force_mn, tool.radius_mm, d.routing);
+        if (d.routes[t].contact_node < 0)
+          throw invalid_input(name + ".point",
+                              fmt::format("touches no skin within {} mm (contact_threshold_mm)",
+                                          d.routing.contact_threshold_mm));
+        loaded = &d.routes[t].nodes;
+      } else {
+        d.routes[t] = load_at_node(m, s.x, tool.vertex, tool.force_mn, tool.radius_mm, d.routing);
+        loaded = &d.routes[t].nodes;
       }
+      d.touched.insert(d.touched.end(), loaded->begin(), loaded->end());
+      changed = true;
+    }
+    if (tool.grasp) {
+      // The jaws go where the pull puts them at the end of this step; they open at end_s.
       if (on) {
         const double reached =
             std::clamp((s.time_s + s.options().dt_s - tool.start_s) / tool.pull_s, 0.0, 1.0);
@@ -181,30 +197,6 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
       } else if (d.active[t]) {
         open_jaws(s, d.grasps[t]);
       }
-      if (!on && d.active[t]) changed = true;
-      d.active[t] = on;
-      any |= on;
-      continue;
-    }
-    if (on && !d.active[t]) {
-      // The tool touches down: contact and routing on the current shape, held from then on.
-      if (tool.by_point) {
-        d.routes[t] =
-            load_at_point(m, s.x, tool.point_mm, tool.force_mn, tool.radius_mm, d.routing);
-        if (d.routes[t].contact_node < 0)
-          throw invalid_input("tools[" + std::to_string(t) + "].point",
-                              fmt::format("touches no skin within {} mm (contact_threshold_mm)",
-                                          d.routing.contact_threshold_mm));
-      } else {
-        if (tool.vertex < 0 || tool.vertex >= m.layers[0].node_count)
-          throw invalid_input("tools[" + std::to_string(t) + "].vertex",
-                              "must be a skin node, 0.." +
-                                  std::to_string(m.layers[0].node_count - 1) + ", got " +
-                                  std::to_string(tool.vertex));
-        d.routes[t] = load_at_node(m, s.x, tool.vertex, tool.force_mn, tool.radius_mm, d.routing);
-      }
-      d.touched.insert(d.touched.end(), d.routes[t].nodes.begin(), d.routes[t].nodes.end());
-      changed = true;
     }
     if (!on && d.active[t]) changed = true;
     d.active[t] = on;
