@@ -52,6 +52,12 @@ sim::Preconditioner parse_preconditioner(const std::string& name) {
   throw invalid_input("preconditioner", "is '" + name + "'; auto, jacobi or multigrid expected");
 }
 
+sim::TetModel parse_tet_model(const std::string& name) {
+  for (auto t : {sim::TetModel::kSprings, sim::TetModel::kNeoHookean})
+    if (io::tet_model_name(t) == name) return t;
+  throw invalid_input("tet_model", "is '" + name + "'; springs or neo_hookean expected");
+}
+
 interact::Routing parse_routing(const std::string& name) {
   for (auto r : {interact::Routing::kNone, interact::Routing::kPaper})
     if (io::routing_name(r) == name) return r;
@@ -160,7 +166,7 @@ void bind_simulation(py::module_& m) {
       .def(py::init([](std::shared_ptr<Model> model, double stiffness_n_per_m,
                        double damping_kg_per_s, double mass_damping_per_s, double node_mass_kg,
                        double anchor_stiffness_n_per_m, double volume_stiffness_kpa,
-                       double young_modulus_kpa, double poisson_ratio,
+                       double young_modulus_kpa, double poisson_ratio, const std::string& tet_model,
                        const Eigen::Vector3d& gravity_mm_per_s2, const std::string& integrator,
                        double dt_s, double rest_speed_mm_per_s, int64_t max_steps,
                        const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
@@ -185,6 +191,7 @@ void bind_simulation(py::module_& m) {
                                .volume_stiffness_kpa = volume_stiffness_kpa,
                                .young_modulus_kpa = young_modulus_kpa,
                                .poisson_ratio = poisson_ratio,
+                               .tet_model = parse_tet_model(tet_model),
                                .gravity_mm_per_s2 = gravity_mm_per_s2};
              sim::SolverOptions opt{.integrator = parse_integrator(integrator),
                                     .dt_s = dt_s,
@@ -206,7 +213,8 @@ void bind_simulation(py::module_& m) {
            py::arg("damping_kg_per_s") = 3.0, py::arg("mass_damping_per_s") = 0.0,
            py::arg("node_mass_kg") = 1.0, py::arg("anchor_stiffness_n_per_m") = 0.0,
            py::arg("volume_stiffness_kpa") = 0.0, py::arg("young_modulus_kpa") = 0.0,
-           py::arg("poisson_ratio") = 0.45, py::arg("gravity_mm_per_s2") = Eigen::Vector3d::Zero(),
+           py::arg("poisson_ratio") = 0.45, py::arg("tet_model") = "springs",
+           py::arg("gravity_mm_per_s2") = Eigen::Vector3d::Zero(),
            py::arg("integrator") = "semi_implicit_euler", py::arg("dt_s") = 0.01,
            py::arg("rest_speed_mm_per_s") = 0.1, py::arg("max_steps") = 100000,
            py::arg("mode") = "global", py::arg("cg_max_iterations") = 100,
@@ -217,7 +225,8 @@ void bind_simulation(py::module_& m) {
            "A simulation at rest. Defaults are the reference paper's (K = 3 N/m, gamma = 3 kg/s,\n"
            "unit masses, semi-implicit Euler at dt = 0.01 s). young_modulus_kpa (E) > 0 with\n"
            "stiffness_n_per_m = 0 and node_mass_kg = 0 makes the tissue elastic (E, nu) through\n"
-           "the tetrahedra. integrator: semi_implicit_euler, implicit_euler, projective.\n"
+           "the tetrahedra; tet_model: springs (coupled edge springs and volume) or neo_hookean\n"
+           "(stable Neo-Hookean). integrator: semi_implicit_euler, implicit_euler, projective.\n"
            "preconditioner (implicit_euler's CG): auto (Jacobi or multigrid by a trial solve), "
            "jacobi, "
            "multigrid.\n"

@@ -130,6 +130,7 @@ struct PhysicalCase {
   int steps = 0, batches = 0;
   double target_steps_per_second = 0.0;
   sim::Preconditioner preconditioner = sim::Preconditioner::kAuto;
+  sim::TetModel tet_model = sim::TetModel::kSprings;  ///< the tetrahedra's energy
 };
 
 struct PhysicalResult {
@@ -151,6 +152,7 @@ PhysicalResult time_physical(const PhysicalCase& c) {
   scene.build.skin_vertices = c.skin_vertices;
   scene.solver.dt_s = c.dt_s;
   scene.solver.preconditioner = c.preconditioner;
+  scene.tet_model = c.tet_model;
   const auto t0 = Clock::now();
   io::SceneModel built{model::build_model(geometry::make_phantom(), scene.build).model, "phantom"};
   r.build_s = seconds_since(t0);
@@ -270,10 +272,14 @@ int run_bench(const BenchArgs& a) {
   // with the multigrid, the iterations' comparison in the same run.
   const double ms60 = 1.0 / 60.0;
   std::vector<PhysicalCase> cases = {
-      {"paper", 1284, 0.001, a.quick ? 50 : 200, a.quick ? 3 : 5, 1600}};
+      {"paper", 1284, 0.001, a.quick ? 50 : 200, a.quick ? 3 : 5, 1600},
+      {"paper_neo_hookean", 1284, 0.001, a.quick ? 50 : 200, a.quick ? 3 : 5, 1000,
+       sim::Preconditioner::kAuto, sim::TetModel::kNeoHookean}};
   if (!a.quick) {
     const auto jacobi = sim::Preconditioner::kJacobi, multigrid = sim::Preconditioner::kMultigrid;
     cases.push_back({"5k", 5000, 0.001, 50, 5, 500});
+    cases.push_back({"5k_neo_hookean", 5000, 0.001, 50, 5, 500, sim::Preconditioner::kAuto,
+                     sim::TetModel::kNeoHookean});
     cases.push_back({"paper_10ms_jacobi", 1284, 0.01, 50, 5, 100, jacobi});
     cases.push_back({"paper_10ms_multigrid", 1284, 0.01, 50, 5, 100, multigrid});
     cases.push_back({"20k_10ms_jacobi", 10000, 0.01, 5, 3, 100, jacobi});

@@ -31,7 +31,10 @@ struct Row {
   double depth_pct = 0.0, depth_mm = 0.0;
   std::string solver;  // fem_corotational, fem_linear, ms_tets, ms_tet_springs, ms_links, ms_skin
   validate::IndentResult result;
-  validate::FieldError error;  // against fem_corotational at the same depth
+  validate::FieldError error;  // against `reference` at the same depth
+  // The FEM solution the error is measured against: corotational, or Neo-Hookean for the
+  // Neo-Hookean tetrahedra (the same law: what is left is the model's and the meshes' error).
+  std::string reference = "fem_corotational";
 };
 
 // The RMS error in % of the reference's largest displacement (0 for the reference itself).
@@ -58,21 +61,24 @@ void make_elastic(io::Scene& scene) {
 std::string csv_of(const std::vector<Row>& rows) {
   std::string csv =
       "depth_pct,depth_mm,solver,force_n,volume_change_pct,rms_error_mm,max_error_mm,"
-      "rms_error_pct,max_displacement_mm,converged,steps,seconds\n";
+      "rms_error_pct,max_displacement_mm,converged,steps,seconds,reference\n";
   for (const Row& r : rows)
-    csv += fmt::format("{:.4g},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.4g},{:.6g},{},{},{:.3f}\n",
-                       r.depth_pct, r.depth_mm, r.solver, r.result.force_n,
-                       r.result.volume_change_pct, r.error.rms_mm, r.error.max_mm, rms_pct(r.error),
-                       r.result.skin_u.rows() ? r.result.skin_u.rowwise().norm().maxCoeff() : 0.0,
-                       r.result.converged ? 1 : 0, r.result.steps, r.result.seconds);
+    csv +=
+        fmt::format("{:.4g},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.4g},{:.6g},{},{},{:.3f},{}\n",
+                    r.depth_pct, r.depth_mm, r.solver, r.result.force_n, r.result.volume_change_pct,
+                    r.error.rms_mm, r.error.max_mm, rms_pct(r.error),
+                    r.result.skin_u.rows() ? r.result.skin_u.rowwise().norm().maxCoeff() : 0.0,
+                    r.result.converged ? 1 : 0, r.result.steps, r.result.seconds, r.reference);
   return csv;
 }
 
 std::string label_of(const std::string& solver) {
   if (solver == "fem_corotational") return "FEM, corotational (reference)";
   if (solver == "fem_linear") return "FEM, linear";
+  if (solver == "fem_neo_hookean") return "FEM, stable Neo-Hookean";
   if (solver == "ms_tets") return "tetrahedral springs, coupled, + volume (the physical liver)";
   if (solver == "ms_tet_springs") return "tetrahedral springs, independent, + volume";
+  if (solver == "ms_neo_hookean") return "tetrahedra, stable Neo-Hookean";
   if (solver == "ms_links") return "layers and links (as the paper) + volume term";
   return "mass-spring, skin only";
 }
@@ -161,16 +167,28 @@ int run_validate(const ValidateArgs& a) {
   };
   io::Scene links_scene = parsed;
   links_scene.build.structure = model::Structure::kLinks;
+  links_scene.tet_model = sim::TetModel::kSprings;  // links have no tetrahedra
   io::SceneModel links_built = io::make_scene_model(links_scene, volume_read_options, {});
   io::Scene skin_scene = links_scene;
   skin_scene.build.layers = 1;
   io::SceneModel skin_built = io::make_scene_model(skin_scene, volume_read_options, {});
   std::vector<Variant> variants;
   if (m.has_tets()) {
-    variants.push_back({"ms_tets", &m, scene.material});
-    io::Scene springs_scene = parsed;
-    springs_scene.tet_elasticity = model::TetElasticity::kSprings;
-    variants.push_back({"ms_tet_springs", &m, resolved(springs_scene, m)});
+    // The scene's own tetrahedral energy keeps its resolved material; the others are resolved
+    // from the same E and nu.
+    const auto with_model = [&](sim::TetModel tm, model::TetElasticity te) {
+      if (scene.tet_model == tm && scene.tet_elasticity == te) return scene.material;
+      io::Scene s = parsed;
+      s.tet_model = tm;
+      s.tet_elasticity = te;
+      return resolved(s, m);
+    };
+    variants.push_back(
+        {"ms_tets", &m, with_model(sim::TetModel::kSprings, model::TetElasticity::kCoupled)});
+    variants.push_back({"ms_tet_springs", &m,
+                        with_model(sim::TetModel::kSprings, model::TetElasticity::kSprings)});
+    variants.push_back({"ms_neo_hookean", &m,
+                        with_model(sim::TetModel::kNeoHookean, model::TetElasticity::kCoupled)});
   }
   variants.push_back({"ms_links", &links_built.model, resolved(links_scene, links_built.model)});
   sim::Material skin_material = resolved(skin_scene, skin_built.model);
@@ -225,7 +243,8 @@ int run_validate(const ValidateArgs& a) {
                                            scene.elastic_material.poisson_ratio};
   std::vector<Row> rows;
   // Progress: the mesh counts as one job, then each solver at each depth.
-  const double jobs = 1.0 + static_cast<double>(depths.size() * (2 + variants.size()));
+  const bool neo = m.has_tets();  // the Neo-Hookean tetrahedra and their own FEM reference
+  const double jobs = 1.0 + static_cast<double>(depths.size() * ((neo ? 3 : 2) + variants.size()));
   double job = 1.0;
   const auto next = [&](double pct, const std::string& what) {
     report_progress(progress,
@@ -240,24 +259,39 @@ int run_validate(const ValidateArgs& a) {
     Row co{pct,
            d,
            "fem_corotational",
-           validate::indent_fem(mesh, fem_material, ind, d, true, samples, fem_options),
+           validate::indent_fem(mesh, fem_material, ind, d, validate::FemLaw::kCorotational,
+                                samples, fem_options),
            {}};
     co.error.reference_max_mm = co.result.skin_u.rowwise().norm().maxCoeff();
     next(pct, "linear FEM");
-    Row li{
-        pct, d, "fem_linear", validate::indent_fem(mesh, fem_material, ind, d, false, samples), {}};
+    Row li{pct,
+           d,
+           "fem_linear",
+           validate::indent_fem(mesh, fem_material, ind, d, validate::FemLaw::kLinear, samples),
+           {}};
     li.error = validate::field_error(li.result.skin_u, co.result.skin_u);
     rows.push_back(co);
     rows.push_back(li);
+    Row nh{pct, d, "fem_neo_hookean", {}, {}};
+    if (neo) {
+      next(pct, fmt::format("Neo-Hookean FEM on {} tets, {} load steps", mesh.T.rows(),
+                            fem_options.load_steps));
+      nh.result = validate::indent_fem(mesh, fem_material, ind, d, validate::FemLaw::kNeoHookean,
+                                       samples, fem_options);
+      nh.error = validate::field_error(nh.result.skin_u, co.result.skin_u);
+      rows.push_back(nh);
+    }
     for (const Variant& v : variants) {
       // Each model's skin has its own nodes: the reference is sampled at them.
       const ModelLayer& skin = v.model->layers[0];
       const Eigen::MatrixX3d at = v.model->X.middleRows(skin.first_node, skin.node_count);
+      const Row& ref = v.name == "ms_neo_hookean" ? nh : co;
       const Eigen::MatrixX3d reference =
-          v.model == &m ? co.result.skin_u : validate::sample_on_boundary(mesh, co.result.u, at);
+          v.model == &m ? ref.result.skin_u : validate::sample_on_boundary(mesh, ref.result.u, at);
       next(pct, fmt::format("{} ({} nodes) run to rest", v.name, v.model->node_count()));
       Row r{pct, d, v.name, validate::indent_mass_spring(*v.model, v.material, solver, ind, d), {}};
       r.error = validate::field_error(r.result.skin_u, reference);
+      r.reference = ref.solver;
       rows.push_back(r);
     }
   }
@@ -290,6 +324,7 @@ int run_validate(const ValidateArgs& a) {
     o["rms_error_pct"] = rms_pct(r.error);
     o["converged"] = r.result.converged;
     o["seconds"] = r.result.seconds;
+    o["reference"] = r.reference;
     list.push_back(o);
   }
   j["rows"] = list;
@@ -307,6 +342,7 @@ int run_validate(const ValidateArgs& a) {
     write_text(out / "validation.csv", csv_of(rows));
     write_text(out / "summary.json", j.dump(2) + "\n");
     std::vector<std::string> solvers = {"fem_corotational", "fem_linear"};
+    if (neo) solvers.push_back("fem_neo_hookean");
     for (const Variant& v : variants) solvers.push_back(v.name);
     draw_plots(out, solvers, depths);
     log::info(

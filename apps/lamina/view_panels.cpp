@@ -111,10 +111,15 @@ void ViewSession::State::panels() {
           ImGui::InputDouble("Young's modulus E kPa", &material.young_modulus_kpa, 0.5, 2, "%.3g");
       changed |=
           ImGui::InputDouble("Poisson's ratio nu", &material.poisson_ratio, 0.01, 0.05, "%.3f");
-      int coupled = material.tet_elasticity == model::TetElasticity::kCoupled ? 0 : 1;
-      if (ImGui::Combo("tetrahedra", &coupled, "coupled springs\0independent springs\0")) {
-        material.tet_elasticity =
-            coupled == 0 ? model::TetElasticity::kCoupled : model::TetElasticity::kSprings;
+      int energy = material.tet_model == sim::TetModel::kNeoHookean            ? 2
+                   : material.tet_elasticity == model::TetElasticity::kCoupled ? 0
+                                                                               : 1;
+      if (ImGui::Combo("tetrahedra", &energy,
+                       "coupled springs\0independent springs\0stable Neo-Hookean\0")) {
+        material.tet_model = energy == 2 ? sim::TetModel::kNeoHookean : sim::TetModel::kSprings;
+        if (energy < 2)
+          material.tet_elasticity =
+              energy == 0 ? model::TetElasticity::kCoupled : model::TetElasticity::kSprings;
         changed = true;
       }
     } else {

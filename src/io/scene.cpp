@@ -243,7 +243,7 @@ void read_material(const Reader& r, const json& j, Scene& s) {
                  {"stiffness_n_per_m", "damping_kg_per_s", "node_mass_kg",
                   "anchor_stiffness_n_per_m", "gravity_mm_per_s2", "density_g_per_cm3", "density",
                   "mass_damping_per_s", "volume_stiffness_kpa", "young_modulus_kpa",
-                  "poisson_ratio", "damping_ratio", "tet_elasticity"});
+                  "poisson_ratio", "damping_ratio", "tet_elasticity", "model"});
   sim::Material& m = s.material;
   const bool paper = j.contains("stiffness_n_per_m") || j.contains("node_mass_kg");
   if (j.contains("young_modulus_kpa")) {
@@ -269,8 +269,11 @@ void read_material(const Reader& r, const json& j, Scene& s) {
   read_choice(
       r, j, path, "tet_elasticity", s.tet_elasticity,
       {{"coupled", model::TetElasticity::kCoupled}, {"springs", model::TetElasticity::kSprings}});
-  if (j.contains("poisson_ratio") && !s.elastic)
-    r.fail(path + ".poisson_ratio", "needs young_modulus_kpa beside it");
+  read_choice(r, j, path, "model", s.tet_model,
+              {{"springs", sim::TetModel::kSprings}, {"neo_hookean", sim::TetModel::kNeoHookean}});
+  for (const char* key : {"poisson_ratio", "model"})
+    if (j.contains(key) && !s.elastic)
+      r.fail(path + "." + key, "needs young_modulus_kpa beside it");
   read_number(r, j, path, "young_modulus_kpa", s.elastic_material.young_modulus_kpa, kPositive,
               "must be > 0 (healthy liver: about 6 kPa)");
   read_number(
@@ -689,6 +692,10 @@ std::string routing_name(interact::Routing routing) {
   return routing == interact::Routing::kPaper ? "paper" : "none";
 }
 
+std::string tet_model_name(sim::TetModel model) {
+  return model == sim::TetModel::kNeoHookean ? "neo_hookean" : "springs";
+}
+
 std::string mode_name(sim::Mode mode) {
   return mode == sim::Mode::kLocal ? "local" : "global";
 }
@@ -738,6 +745,7 @@ std::string run_summary_json(const RunSummary& s) {
       mj["poisson_ratio"] = m.elastic_material.poisson_ratio;
       mj["structure"] = m.tets ? "tets" : "links";
       if (m.tets) {
+        mj["model"] = tet_model_name(m.tet_model);
         mj["tet_elasticity"] =
             m.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "springs";
         mj["tet_volume_modulus_kpa"] = m.tet_volume_modulus_kpa;

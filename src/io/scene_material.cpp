@@ -27,6 +27,8 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
       // tetrahedron's volume); the volume term between layers is not needed.
       rep.tets = true;
       rep.tet_elasticity = scene.tet_elasticity;
+      rep.tet_model = scene.tet_model;
+      mat.tet_model = scene.tet_model;
       mat.young_modulus_kpa = scene.elastic_material.young_modulus_kpa;
       mat.poisson_ratio = scene.elastic_material.poisson_ratio;
       mat.tet_elasticity = scene.tet_elasticity;
@@ -36,13 +38,26 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
       rep.tet_volume_modulus_kpa = scene.tet_elasticity == model::TetElasticity::kCoupled
                                        ? model::kVolumeShare * lambda
                                        : std::max(0.0, lambda - mu);
-      log::info(
-          "{}: E = {:.3g} kPa, nu = {:.3g} in {} tetrahedra ({} springs; shear modulus "
-          "{:.3g} kPa, volume term {:.3g} kPa per tetrahedron)",
-          scene.source, mat.young_modulus_kpa, mat.poisson_ratio, model.tets.size(),
-          scene.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "independent", mu,
-          rep.tet_volume_modulus_kpa);
+      if (scene.tet_model == sim::TetModel::kNeoHookean) {
+        rep.tet_volume_modulus_kpa = lambda + mu;  // lambda' of J's term
+        log::info(
+            "{}: E = {:.3g} kPa, nu = {:.3g} in {} tetrahedra (stable Neo-Hookean; shear modulus "
+            "{:.3g} kPa, volume term lambda + mu = {:.3g} kPa)",
+            scene.source, mat.young_modulus_kpa, mat.poisson_ratio, model.tets.size(), mu,
+            rep.tet_volume_modulus_kpa);
+      } else {
+        log::info(
+            "{}: E = {:.3g} kPa, nu = {:.3g} in {} tetrahedra ({} springs; shear modulus "
+            "{:.3g} kPa, volume term {:.3g} kPa per tetrahedron)",
+            scene.source, mat.young_modulus_kpa, mat.poisson_ratio, model.tets.size(),
+            scene.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "independent", mu,
+            rep.tet_volume_modulus_kpa);
+      }
     } else {
+      if (scene.tet_model == sim::TetModel::kNeoHookean)
+        throw invalid_input(scene.source,
+                            "material.model neo_hookean needs tetrahedra; the model was built "
+                            "with links (model.structure \"links\"): build it with \"tets\"");
       rep.identification =
           model::identify_springs(model, scene.elastic_material, model.springs.stiffness_n_per_m);
       if (!scene.volume_stiffness_given)

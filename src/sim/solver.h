@@ -162,6 +162,23 @@ struct TetAssembly {
   std::vector<float> block;      ///< per entry 9 (row-major), N/m
 };
 
+/// A block of kTetLanes tetrahedra's Neo-Hookean constants (neo_hookean_term.cpp; nodes in the
+/// TetBlock of the same index). Unused lanes have zero rest volume: no force, no stiffness.
+struct alignas(64) NeoBlock {
+  /// The rest shape functions' gradients of corners 1-3 (rows of Dm^-1), 1/mm: F = sum_c x_c
+  /// grad_c^T, grad_0 = -(grad_1 + grad_2 + grad_3).
+  double grad[9][kTetLanes];
+  double rest_volume_mm3[kTetLanes];
+};
+
+/// A Neo-Hookean block's linearisation at the step's start (implicit Euler's products).
+struct alignas(64) NeoBlockLinear {
+  float f[9][kTetLanes];       ///< F, row-major
+  float cof[9][kTetLanes];     ///< dJ/dF, row-major
+  float volume[kTetLanes];     ///< d(pressure)/dJ, kPa: lambda (+ the guard's modulus when it acts)
+  float curvature[kTetLanes];  ///< the pressure on J's curvature, bounded to keep K positive
+};
+
 /// The tetrahedra (tet_term.cpp): each carries its share of its six edge springs, their
 /// coupling, and resists a change of its signed volume (docs/physics.md). When on, the springs
 /// (all tetrahedron edges) are carried here and the spring passes are skipped.
@@ -177,6 +194,13 @@ struct TetTerm {
   std::vector<int32_t> corner_offsets;  ///< #nodes + 1
   std::vector<int32_t> corners;
   TetAssembly assembly;
+  /// Material::tet_model kNeoHookean: the blocks' energy is stable Neo-Hookean
+  /// (neo_hookean_term.cpp) and `block` keeps only the nodes; force, product and diag rows,
+  /// assembly and active lists are shared.
+  bool neo_hookean = false;
+  double mu_kpa = 0.0, lambda_kpa = 0.0, guard_kpa = 0.0;  ///< the energy's moduli
+  std::vector<NeoBlock> neo;                               ///< per block
+  std::vector<NeoBlockLinear> neo_linear;                  ///< per block (implicit Euler)
 };
 
 /// The volume term between layers (volume_term.cpp; Material::volume_stiffness_kpa).
@@ -389,6 +413,22 @@ void tet_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f)
 void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row);
 /// The tetrahedra's stiffness at rest as 3x3 blocks between rows row_of[node] (-1: held).
 void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, BlockRows& out);
+
+// --- Stable Neo-Hookean tetrahedra (neo_hookean_term.cpp): tet_term.cpp's passes hand their
+// blocks here when TetTerm::neo_hookean. Same meaning as the tet_* functions above. ---
+void setup_neo_hookean(Solver& s);
+void neo_hookean_pass(Solver& s, const Eigen::MatrixX3d& x, bool linearise, int threads,
+                      const Eigen::MatrixX3d* product_of);
+void neo_hookean_product_pass(Solver& s, const Eigen::MatrixX3d& p, int threads);
+/// Block k's 16 3x3 blocks of K (row corner r, column corner c: out[4 r + c][3 a + d], lane l at
+/// [l]) as linearised, for assemble_tets.
+void neo_hookean_block_stiffness(const Solver& s, size_t k, double out[16][9][kTetLanes]);
+Eigen::Matrix<double, 1, 12> neo_hookean_corner_forces(const Solver& s, const Eigen::MatrixX3d& x,
+                                                       int64_t t);
+void neo_hookean_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
+double neo_hookean_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
+/// Tetrahedron t's 12 x 12 stiffness at rest (linear elasticity), N/m.
+Eigen::Matrix<double, 12, 12> neo_hookean_rest_stiffness(const Solver& s, int64_t t);
 
 // --- The volume term between layers (volume_term.cpp). ---
 /// 6 x the signed volume of triangles [begin, end) of the list (of F when list is null).

@@ -23,14 +23,15 @@
 #include <array>
 
 #include "solver.h"
+#include "tet_lanes.h"
 
 namespace lamina::sim::detail {
 
 using model::kTetEdge;
+using namespace lanes_of_tets;
 
 namespace {
 
-constexpr int L = kTetLanes;
 constexpr double kGuardFraction = 0.1;  // the guard acts below this fraction of V0
 // From this many tetrahedra implicit Euler assembles their stiffness once a step (TetAssembly).
 // Measured (docs/benchmarks.md): at 10,014 (the paper-size liver, its element data within the
@@ -58,55 +59,6 @@ constexpr bool corner_table_matches_edges() {
   return true;
 }
 static_assert(corner_table_matches_edges());
-
-// A block's lanes as one value: GCC's and Clang's vector extensions, which compile to one
-// AVX-512 (8 lanes) or AVX2 (4 lanes) instruction per operation. Written out rather than
-// left to the auto-vectoriser, which vectorised these loops only in part (-fopt-info-vec:
-// docs/architecture.md has the measurement).
-typedef double Lanes __attribute__((vector_size(8 * L)));
-typedef float LanesF __attribute__((vector_size(4 * L)));
-
-inline Lanes lanes(const double* p) {
-  Lanes v;
-  __builtin_memcpy(&v, p, sizeof v);
-  return v;
-}
-inline Lanes lanes(const float* p) {
-  LanesF v;
-  __builtin_memcpy(&v, p, sizeof v);
-  return __builtin_convertvector(v, Lanes);
-}
-inline void store(Lanes v, double* p) {
-  __builtin_memcpy(p, &v, sizeof v);
-}
-inline void store(Lanes v, float* p) {
-  const LanesF f = __builtin_convertvector(v, LanesF);
-  __builtin_memcpy(p, &f, sizeof f);
-}
-inline Lanes splat(double x) {
-  return Lanes{} + x;
-}
-inline Lanes sqrt(Lanes v) {
-  Lanes r;
-  for (int l = 0; l < L; ++l) r[l] = std::sqrt(v[l]);  // one vsqrtpd
-  return r;
-}
-inline Lanes max(Lanes a, Lanes b) {
-  return a > b ? a : b;
-}
-
-// The corners' values (positions, or a CG direction) of a block: corner c, axis d at p[3 c + d].
-inline void load_corners(const TetBlock& b, const ConstCols& x, Lanes p[12]) {
-  for (int c = 0; c < 4; ++c) {
-    const int32_t* n = b.node[c];
-    for (int d = 0; d < 3; ++d) {
-      const double* col = d == 0 ? x.x : d == 1 ? x.y : x.z;
-      Lanes v;
-      for (int l = 0; l < L; ++l) v[l] = col[n[l]];
-      p[3 * c + d] = v;
-    }
-  }
-}
 
 // The volume terms (with the guard): each lane's pressure P (corner c feels -P dV/dx_c), its
 // derivative dP/dV, the gradient dV/dx and the volume.
@@ -312,12 +264,6 @@ void block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16]
   }
 }
 
-// A block's lane-major values into its tetrahedra's rows (12 t + 3 c + d).
-inline void store_rows(const Lanes v[12], float* rows) {
-  for (int l = 0; l < L; ++l)
-    for (int k = 0; k < 12; ++k) rows[12 * l + k] = static_cast<float>(v[k][l]);
-}
-
 }  // namespace
 
 void setup_tets(Solver& s) {
@@ -363,11 +309,16 @@ void setup_tets(Solver& s) {
   std::vector<int32_t> fill(t.corner_offsets.begin(), t.corner_offsets.end() - 1);
   for (Eigen::Index q = 0; q < nt; ++q)
     for (int c = 0; c < 4; ++c) t.corners[fill[m.tets.T(q, c)]++] = static_cast<int32_t>(4 * q + c);
+  if (s.material.tet_model == TetModel::kNeoHookean) {
+    t.neo_hookean = true;
+    setup_neo_hookean(s);
+  }
   if (nt >= kAssembleFromTets) setup_tet_assembly(s);
 }
 
 void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads,
               const Eigen::MatrixX3d* product_of) {
+  if (s.tets.neo_hookean) return neo_hookean_pass(s, xm, linearise, threads, product_of);
   TetTerm& tt = s.tets;
   const ConstCols x(xm);
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
@@ -390,6 +341,7 @@ void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads
 }
 
 void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
+  if (s.tets.neo_hookean) return neo_hookean_product_pass(s, pm, threads);
   TetTerm& tt = s.tets;
   const ConstCols p(pm);
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
@@ -423,7 +375,14 @@ void assemble_tets(Solver& s, int threads) {
         for (int l = 0; l < L; ++l) any |= owned(b.node[c][l]);
       if (!any) continue;
       Lanes out[16][9];
-      block_stiffness(b, tt.linear[static_cast<size_t>(k)], out);
+      if (tt.neo_hookean) {
+        double neo[16][9][L];
+        neo_hookean_block_stiffness(s, static_cast<size_t>(k), neo);
+        for (int e = 0; e < 16; ++e)
+          for (int v = 0; v < 9; ++v) out[e][v] = lanes(neo[e][v]);
+      } else {
+        block_stiffness(b, tt.linear[static_cast<size_t>(k)], out);
+      }
       for (int l = 0; l < L && static_cast<int64_t>(k) * L + l < nt; ++l) {
         const int32_t* entry = a.entry.data() + 16 * (static_cast<int64_t>(k) * L + l);
         for (int r = 0; r < 4; ++r) {
@@ -440,6 +399,7 @@ void assemble_tets(Solver& s, int threads) {
 
 Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& xm,
                                                int64_t t) {
+  if (s.tets.neo_hookean) return neo_hookean_corner_forces(s, xm, t);
   const TetBlock& b = s.tets.block[static_cast<size_t>(t / L)];
   Lanes p[12], f[12];
   load_corners(b, ConstCols(xm), p);
@@ -451,6 +411,7 @@ Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::Mat
 
 void tet_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
   if (!s.tets.on) return;
+  if (s.tets.neo_hookean) return neo_hookean_forces(s, xm, f);
   const ConstCols x(xm);
   for (const TetBlock& b : s.tets.block) {
     Lanes p[12], fc[12];
@@ -464,6 +425,7 @@ void tet_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f
 
 double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
   if (!s.tets.on) return 0.0;
+  if (s.tets.neo_hookean) return neo_hookean_energy_mj(s, xm);
   const ConstCols x(xm);
   double e = 0.0;
   for (const TetBlock& b : s.tets.block) {
@@ -489,6 +451,17 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
 
 void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
   if (!s.tets.on) return;
+  if (s.tets.neo_hookean) {
+    // Gershgorin row by row of each tetrahedron's stiffness at rest.
+    std::vector<std::array<double, 3>> r3(row.size(), {0.0, 0.0, 0.0});
+    for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
+      const Eigen::Matrix<double, 12, 12> k = neo_hookean_rest_stiffness(s, t);
+      const Eigen::Matrix<double, 12, 1> sums = k.cwiseAbs().rowwise().sum();
+      for (int v = 0; v < 12; ++v) r3[s.model->tets.T(t, v / 3)][v % 3] += sums[v];
+    }
+    for (size_t n = 0; n < row.size(); ++n) row[n] += std::max({r3[n][0], r3[n][1], r3[n][2]});
+    return;
+  }
   const ConstCols x(s.model->X);
   // Gershgorin row by row: each node's three scalar rows are summed apart and the largest
   // taken at the end (summing each tetrahedron's largest, or bounding a unit vector's entries by
@@ -530,6 +503,23 @@ void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
 
 void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, BlockRows& out) {
   if (!s.tets.on) return;
+  if (s.tets.neo_hookean) {
+    for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
+      const Eigen::Matrix<double, 12, 12> k12 = neo_hookean_rest_stiffness(s, t);
+      for (int a = 0; a < 4; ++a) {
+        const int32_t r = row_of[s.model->tets.T(t, a)];
+        if (r < 0) continue;
+        for (int c = 0; c < 4; ++c) {
+          const int32_t col = row_of[s.model->tets.T(t, c)];
+          if (col < 0) continue;
+          double* block = out.at(r, col);
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) block[3 * i + j] += k12(3 * a + i, 3 * c + j);
+        }
+      }
+    }
+    return;
+  }
   const Eigen::MatrixX3d& X = s.model->X;
   // Each tetrahedron's 12 x 12 matrix summed first, then added to its 16 blocks.
   Eigen::Matrix<double, 12, 12> k12;

@@ -12,6 +12,8 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/LU>
 #include <Eigen/SVD>
@@ -35,6 +37,12 @@ constexpr double kLinearTolerance = 1e-8;
 bool finite_number(double v) {
   return std::isfinite(v);
 }
+
+// A Neo-Hookean element's tangent at the current u: d P / d F over F's nine entries (row-major),
+// projected to positive semi-definite (neo_hookean_stress()).
+struct NeoState {
+  Eigen::Matrix<double, 9, 9> tangent;
+};
 
 // Everything a solve needs, sized once from the mesh and the boundary.
 struct Workspace {
@@ -60,7 +68,9 @@ struct Workspace {
   bool factored = false;     // ldlt holds a factor of some recent K
   double force_scale = 0.0;  // largest force norm met so far, mN (see relative_residual)
 
+  FemLaw law = FemLaw::kLinear;
   std::vector<Eigen::Matrix3d, Eigen::aligned_allocator<Eigen::Matrix3d>> rotation;  // per tet
+  std::vector<NeoState, Eigen::aligned_allocator<NeoState>> neo;  // per tet (Neo-Hookean)
   Eigen::MatrixXd element_force;            // 12 by #T, filled in parallel, summed in a fixed order
   Eigen::VectorXd u, u_saved, f_int, work;  // per dof
   Eigen::VectorXd residual, step, rhs, check, cg_r, cg_z, cg_p;  // per unknown
@@ -263,13 +273,65 @@ void gather(const Workspace& w, Eigen::VectorXd& out) {
       out.segment<3>(3 * (*w.T)(t, a)) += w.element_force.col(t).segment<3>(3 * a);
 }
 
-// Internal forces f_int(u). With `corotate`, also updates each element's rotation from u;
-// without, rotations stay the identity (linear elasticity).
-void internal_forces(Workspace& w, bool corotate) {
+// Stable Neo-Hookean (Smith, de Goes & Kim 2018; the simulation's own energy, src/sim/
+// neo_hookean_term.cpp, without its inversion guard): P = mu F + lambda' (J - alpha) dJ/dF with
+// lambda' = lambda + mu, alpha = 1 + mu / lambda'. Its tangent mu I + lambda' g g^T + p H_J (g =
+// dJ/dF, H_J = d^2 J / dF^2) is indefinite where p H_J outweighs mu; a reference solve can
+// afford the exact projection (a 9 x 9 eigendecomposition per element, its negative eigenvalues
+// set to zero: projected Newton), which the simulation's 1 ms step cannot.
+Eigen::Matrix3d neo_hookean_stress(const Workspace& w, const Eigen::Matrix3d& F, NeoState& s) {
+  const double lambda = w.lambda + w.mu, alpha = 1.0 + w.mu / lambda;
+  Eigen::Matrix3d cof;
+  cof.col(0) = F.col(1).cross(F.col(2));
+  cof.col(1) = F.col(2).cross(F.col(0));
+  cof.col(2) = F.col(0).cross(F.col(1));
+  const double pressure = lambda * (F.determinant() - alpha);
+  Eigen::Matrix<double, 9, 1> g;
+  for (int v = 0; v < 9; ++v) g[v] = cof(v / 3, v % 3);
+  Eigen::Matrix<double, 9, 9> H =
+      w.mu * Eigen::Matrix<double, 9, 9>::Identity() + lambda * g * g.transpose();
+  // d^2 J / dF_aj dF_dl = e_adm e_jln F_mn
+  const auto eps = [](int i, int j, int k) { return 0.5 * (i - j) * (j - k) * (k - i); };
+  for (int a = 0; a < 3; ++a)
+    for (int j = 0; j < 3; ++j)
+      for (int d = 0; d < 3; ++d)
+        for (int l = 0; l < 3; ++l) {
+          double h = 0.0;
+          for (int m = 0; m < 3; ++m)
+            for (int n = 0; n < 3; ++n) h += eps(a, d, m) * eps(j, l, n) * F(m, n);
+          H(3 * a + j, 3 * d + l) += pressure * h;
+        }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(H);
+  s.tangent = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() *
+              eig.eigenvectors().transpose();
+  return w.mu * F + pressure * cof;
+}
+
+// The Neo-Hookean stress increment along a displacement gradient dH (the tangent).
+Eigen::Matrix3d neo_hookean_increment(const NeoState& s, const Eigen::Matrix3d& dH) {
+  Eigen::Matrix<double, 9, 1> d;
+  for (int v = 0; v < 9; ++v) d[v] = dH(v / 3, v % 3);
+  const Eigen::Matrix<double, 9, 1> p = s.tangent * d;
+  Eigen::Matrix3d dP;
+  for (int v = 0; v < 9; ++v) dP(v / 3, v % 3) = p[v];
+  return dP;
+}
+
+// Internal forces f_int(u). The corotational law also updates each element's rotation from u
+// (linear elasticity keeps the identity); Neo-Hookean its NeoState.
+void internal_forces(Workspace& w) {
   const Eigen::Index tets = w.T->rows();
+  const bool corotate = w.law == FemLaw::kCorotational;
 #pragma omp parallel for schedule(static) if (tets > 4096)
   for (Eigen::Index t = 0; t < tets; ++t) {
     const Eigen::Matrix3d Hu = displacement_gradient(w, t, w.u);
+    if (w.law == FemLaw::kNeoHookean) {
+      const Eigen::Matrix3d P =
+          neo_hookean_stress(w, Eigen::Matrix3d::Identity() + Hu, w.neo[static_cast<size_t>(t)]);
+      const Eigen::Matrix<double, 3, 4> f = w.rest_volume[t] * P * w.grad[t].transpose();
+      for (int a = 0; a < 4; ++a) w.element_force.col(t).segment<3>(3 * a) = f.col(a);
+      continue;
+    }
     Eigen::Matrix3d H = Hu;
     if (corotate) {
       const Eigen::Matrix3d F = Eigen::Matrix3d::Identity() + Hu;
@@ -291,6 +353,13 @@ void tangent_product(Workspace& w, const Eigen::VectorXd& d, Eigen::VectorXd& ou
   const Eigen::Index tets = w.T->rows();
 #pragma omp parallel for schedule(static) if (tets > 4096)
   for (Eigen::Index t = 0; t < tets; ++t) {
+    if (w.law == FemLaw::kNeoHookean) {
+      const Eigen::Matrix3d dP =
+          neo_hookean_increment(w.neo[static_cast<size_t>(t)], displacement_gradient(w, t, d));
+      const Eigen::Matrix<double, 3, 4> f = w.rest_volume[t] * dP * w.grad[t].transpose();
+      for (int a = 0; a < 4; ++a) w.element_force.col(t).segment<3>(3 * a) = f.col(a);
+      continue;
+    }
     const Eigen::Matrix3d& R = w.rotation[t];
     const Eigen::Matrix3d H = R.transpose() * displacement_gradient(w, t, d);
     const Eigen::Matrix3d sigma =
@@ -312,10 +381,22 @@ void assemble_tangent(Workspace& w) {
     const double V = w.rest_volume[t];
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) {
-        const Eigen::Matrix3d block =
-            V *
-            (w.lambda * h.row(a).transpose() * h.row(b) + w.mu * h.row(b).transpose() * h.row(a) +
-             w.mu * g.row(a).dot(g.row(b)) * Eigen::Matrix3d::Identity());
+        Eigen::Matrix3d block;
+        if (w.law == FemLaw::kNeoHookean) {
+          // V sum_jl g_a,j T_(ij),(ml) g_b,l
+          const Eigen::Matrix<double, 9, 9>& T = w.neo[static_cast<size_t>(t)].tangent;
+          for (int i = 0; i < 3; ++i)
+            for (int m = 0; m < 3; ++m) {
+              double sum = 0.0;
+              for (int j = 0; j < 3; ++j)
+                for (int l = 0; l < 3; ++l) sum += g(a, j) * T(3 * i + j, 3 * m + l) * g(b, l);
+              block(i, m) = V * sum;
+            }
+        } else {
+          block = V * (w.lambda * h.row(a).transpose() * h.row(b) +
+                       w.mu * h.row(b).transpose() * h.row(a) +
+                       w.mu * g.row(a).dot(g.row(b)) * Eigen::Matrix3d::Identity());
+        }
         for (int i = 0; i < 3; ++i)
           for (int m = 0; m < 3; ++m) {
             const int s = slot[12 * (3 * a + i) + 3 * b + m];
@@ -444,19 +525,22 @@ FemResult solve_linear(const TetMesh& mesh, const FemMaterial& material,
   // Prescribed values first; their forces on the unknowns move to the right-hand side.
   for (size_t d = 0; d < w.constrained.size(); ++d)
     if (w.constrained[d]) w.u[d] = w.target[d];
-  internal_forces(w, /*corotate=*/false);
+  internal_forces(w);
   relative_residual(w, 1.0);
   assemble_tangent(w);
   w.rhs = -w.residual;
   const bool solved = linear_solve(w, 0.1 * kLinearTolerance);
   add_step(w);
-  internal_forces(w, /*corotate=*/false);
+  internal_forces(w);
   const double residual = relative_residual(w, 1.0);
   return finish(mesh, w, 1.0, 1, residual, solved && residual <= kLinearTolerance);
 }
 
-FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
-                             const FemBoundary& boundary, const FemOptions& options) {
+namespace {
+
+// Load steps of Newton-like iterations on the law's tangent (solve_corotational()).
+FemResult solve_nonlinear(const TetMesh& mesh, const FemMaterial& material,
+                          const FemBoundary& boundary, const FemOptions& options, FemLaw law) {
   if (options.load_steps < 1)
     throw invalid_input("fem: options.load_steps",
                         fmt::format("must be >= 1, got {}", options.load_steps));
@@ -468,7 +552,9 @@ FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
                         fmt::format("must be finite and > 0, got {}", options.tolerance));
   Workspace w;
   setup(mesh, material, boundary, w);
-  internal_forces(w, /*corotate=*/true);  // rotations at rest (identity up to round-off)
+  w.law = law;
+  if (law == FemLaw::kNeoHookean) w.neo.assign(static_cast<size_t>(mesh.T.rows()), NeoState{});
+  internal_forces(w);  // rotations at rest (identity up to round-off)
   // Inexact Newton: the inner solve need only beat the outer iteration's own rate of progress
   // (the R K R^T tangent leaves out the rotation's derivative, so that rate is linear, ~0.1).
   constexpr double inner_tolerance = 1e-3;
@@ -486,7 +572,7 @@ FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
       if (w.constrained[d]) w.work[d] = load * w.target[d] - w.u[d];
     if (w.unknowns == 0) {
       w.u += w.work;
-      internal_forces(w, true);
+      internal_forces(w);
       residual = relative_residual(w, load);
       if (!std::isfinite(residual)) return finish(mesh, w, load, iterations, residual, false);
       continue;
@@ -504,13 +590,13 @@ FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
       ++iterations;
       add_step(w);
       if (it == 0) w.u += w.work;
-      internal_forces(w, true);
+      internal_forces(w);
       residual = relative_residual(w, load);
       if (!std::isfinite(residual) || !w.u.allFinite()) {
         // Back to the last finite state; before this step's first update, that is the
         // previous load step's.
         w.u = w.u_saved;
-        internal_forces(w, true);
+        internal_forces(w);
         const double held = it == 0 ? static_cast<double>(s - 1) / options.load_steps : load;
         return finish(mesh, w, held, iterations, std::numeric_limits<double>::infinity(), false);
       }
@@ -524,6 +610,18 @@ FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
     all_converged = all_converged && step_converged;
   }
   return finish(mesh, w, 1.0, iterations, residual, all_converged);
+}
+
+}  // namespace
+
+FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
+                             const FemBoundary& boundary, const FemOptions& options) {
+  return solve_nonlinear(mesh, material, boundary, options, FemLaw::kCorotational);
+}
+
+FemResult solve_neo_hookean(const TetMesh& mesh, const FemMaterial& material,
+                            const FemBoundary& boundary, const FemOptions& options) {
+  return solve_nonlinear(mesh, material, boundary, options, FemLaw::kNeoHookean);
 }
 
 }  // namespace lamina::validate

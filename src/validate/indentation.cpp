@@ -138,7 +138,7 @@ IndentResult indent_mass_spring(const Model& m, const sim::Material& material,
 }
 
 IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material, const Indentation& ind,
-                        double depth_mm, bool corotational, const Eigen::MatrixX3d& samples,
+                        double depth_mm, FemLaw law, const Eigen::MatrixX3d& samples,
                         const FemOptions& options) {
   const auto t0 = Clock::now();
   const Eigen::MatrixX3i F = boundary_faces(mesh);
@@ -159,8 +159,10 @@ IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material, const 
   const Eigen::RowVector3d dir = ind.direction.normalized().transpose();
   bc.driven_displacement_mm =
       (depth_mm * dir).replicate(static_cast<Eigen::Index>(bc.driven.size()), 1);
-  const FemResult fem = corotational ? solve_corotational(mesh, material, bc, options)
-                                     : solve_linear(mesh, material, bc);
+  const FemResult fem =
+      law == FemLaw::kCorotational ? solve_corotational(mesh, material, bc, options)
+      : law == FemLaw::kNeoHookean ? solve_neo_hookean(mesh, material, bc, options)
+                                   : solve_linear(mesh, material, bc);
   IndentResult r;
   r.converged = fem.converged;
   r.steps = fem.iterations;

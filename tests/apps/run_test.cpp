@@ -280,7 +280,7 @@ TEST(LaminaValidate, QuickRunComparesTheModelsWithConvergedFiniteElements) {
     EXPECT_TRUE(fs::exists(dir.path / "out" / f)) << f;
   std::map<std::string, json> by;
   for (const json& row : j["rows"]) by[row["solver"]] = row;
-  ASSERT_EQ(by.size(), 6u);
+  ASSERT_EQ(by.size(), 8u);
   for (const auto& [name, row] : by) EXPECT_TRUE(row["converged"].get<bool>()) << name;
   EXPECT_LT(by["fem_linear"]["rms_error_pct"].get<double>(), 10.0);
   const double fem_force = by["fem_corotational"]["force_n"].get<double>();
@@ -290,6 +290,16 @@ TEST(LaminaValidate, QuickRunComparesTheModelsWithConvergedFiniteElements) {
   EXPECT_NEAR(by["ms_tets"]["force_n"].get<double>() / fem_force, 1.0, 0.25);
   EXPECT_LT(by["ms_tets"]["rms_error_pct"].get<double>(), 10.0);
   EXPECT_LT(by["ms_skin"]["force_n"].get<double>(), 0.2 * fem_force);
+  // The Neo-Hookean tetrahedra against Neo-Hookean FEM (the same law on CGAL's mesh): force
+  // within 15%, skin error within 10%, volume change within 20%.
+  const json& neo = by["ms_neo_hookean"];
+  const json& neo_fem = by["fem_neo_hookean"];
+  EXPECT_EQ(neo["reference"], "fem_neo_hookean");
+  EXPECT_EQ(by["ms_tets"]["reference"], "fem_corotational");
+  EXPECT_NEAR(neo["force_n"].get<double>() / neo_fem["force_n"].get<double>(), 1.0, 0.15);
+  EXPECT_LT(neo["rms_error_pct"].get<double>(), 10.0);
+  EXPECT_NEAR(neo["volume_change_pct"].get<double>() / neo_fem["volume_change_pct"].get<double>(),
+              1.0, 0.2);
   // Volume: the tetrahedra keep it about as FEM does; the skin-only shell loses the most.
   EXPECT_LT(std::abs(by["ms_tets"]["volume_change_pct"].get<double>()),
             std::abs(by["ms_skin"]["volume_change_pct"].get<double>()));

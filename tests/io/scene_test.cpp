@@ -94,6 +94,7 @@ TEST(ParseScene, EmptySceneIsThePhysicalLiver) {
   EXPECT_DOUBLE_EQ(s.elastic_material.young_modulus_kpa, 6.0);
   EXPECT_DOUBLE_EQ(s.elastic_material.poisson_ratio, 0.45);
   EXPECT_EQ(s.tet_elasticity, model::TetElasticity::kCoupled);
+  EXPECT_EQ(s.tet_model, sim::TetModel::kSprings);
   EXPECT_DOUBLE_EQ(s.material.stiffness_n_per_m, 0.0);  // no raw K
   EXPECT_DOUBLE_EQ(s.material.damping_kg_per_s, 0.0);   // damping from a ratio
   EXPECT_DOUBLE_EQ(s.material.node_mass_kg, 0.0);       // lumped masses
@@ -295,6 +296,10 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
       {R"({"material": []})", "material: expected an object {...}, got array []"},
       {R"({"material": {"young_modulus_kpa": 0}})",
        "material.young_modulus_kpa: must be > 0 (healthy liver: about 6 kPa), got 0"},
+      {R"({"material": {"young_modulus_kpa": 6, "model": "mooney"}})",
+       "material.model: expected \"springs\" or \"neo_hookean\", got \"mooney\""},
+      {R"({"material": {"stiffness_n_per_m": 3, "model": "neo_hookean"}})",
+       "material.model: needs young_modulus_kpa beside it"},
       {R"({"material": {"young_modulus_kpa": 6, "poisson_ratio": 0.5}})",
        "material.poisson_ratio: must be in [0, 0.5)"},
       {R"({"material": {"stiffness_n_per_m": 3, "poisson_ratio": 0.45}})",
@@ -433,6 +438,20 @@ TEST(ResolveMaterial, TetrahedraCarryEAndNuThemselves) {
   EXPECT_GT(s.material.mass_damping_per_s, 0.0);
   const sim::Simulation sim = make_scene_simulation(s, m, setup);
   EXPECT_GT(sim.tet_identification().spring_n_per_m.size(), 0u);
+  EXPECT_EQ(s.material.tet_model, sim::TetModel::kSprings);
+
+  // Stable Neo-Hookean in the same tetrahedra: J's modulus is lambda + mu.
+  Model neo_model = test::sphere_model();
+  Scene neo = parse_scene(R"({"material": {"young_modulus_kpa": 6, "model": "neo_hookean"}})",
+                          "scene.json");
+  EXPECT_EQ(neo.tet_model, sim::TetModel::kNeoHookean);
+  const SceneSetup neo_setup = prepare_scene(neo, neo_model);
+  EXPECT_EQ(neo.material.tet_model, sim::TetModel::kNeoHookean);
+  EXPECT_EQ(neo_setup.material.tet_model, sim::TetModel::kNeoHookean);
+  const double mu = 6.0 / 2.9, lambda = 6.0 * 0.45 / (1.45 * 0.1);
+  EXPECT_NEAR(neo_setup.material.tet_volume_modulus_kpa, lambda + mu, 1e-9);
+  EXPECT_NE(run_summary_json({.material = neo_setup.material}).find("\"model\": \"neo_hookean\""),
+            std::string::npos);
 }
 
 // The viewer's Model panel rebuilds the scene at another resolution. The rebuilt model is

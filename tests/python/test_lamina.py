@@ -104,6 +104,30 @@ def test_a_grasp_pulls_the_skin_and_lets_go(phantom_model):
         sim.step()
 
 
+def test_neo_hookean_tissue_dents_and_returns(phantom_model):
+    """tet_model="neo_hookean": the same small-strain stiffness as the coupled springs (the
+    first step's dent within a few percent), back to rest after the push."""
+    dents = {}
+    for tet_model in ("springs", "neo_hookean"):
+        sim = lamina.Simulation(phantom_model, stiffness_n_per_m=0.0, node_mass_kg=0.0,
+                                damping_kg_per_s=0.0, mass_damping_per_s=20.0,
+                                young_modulus_kpa=6.0, tet_model=tet_model,
+                                integrator="implicit_euler", dt_s=0.001,
+                                fixed=back_nodes(phantom_model))
+        node = front_node(phantom_model)
+        sim.f_ext[node] = (0.0, 50.0, 0.0)
+        sim.step(5)
+        dents[tet_model] = sim.x[node, 1] - phantom_model.X[node, 1]
+        sim.f_ext[:] = 0.0
+        assert sim.run()["converged"]
+        assert np.abs(sim.x - phantom_model.X).max() < 0.05
+    assert dents["springs"] > 0.0
+    assert dents["neo_hookean"] == pytest.approx(dents["springs"], rel=0.05)
+    with pytest.raises(lamina.Error, match="springs or neo_hookean"):
+        lamina.Simulation(phantom_model, young_modulus_kpa=6.0, stiffness_n_per_m=0.0,
+                          node_mass_kg=0.0, tet_model="mooney_rivlin")
+
+
 def test_a_case_built_to_explode_raises_unstable(phantom_model):
     """A load far beyond the organ (1e9 N on one node): its steps are refused, then step()
     raises lamina.Error (exit code 5, one line); the state stays finite and reset() steps

@@ -15,6 +15,7 @@
 #include "lamina/sim/simulation.h"
 #include "sim/solver.h"  // white-box: the implicit product
 #include "support/random_rows.h"
+#include "support/tet_checks.h"
 #include "support/tet_phantom.h"
 
 namespace {
@@ -37,16 +38,8 @@ TEST(TetTerm, ForcesSumToZeroVanishAtRestAndAreMinusTheEnergyGradient) {
     const double scale = f.cwiseAbs().maxCoeff();
     ASSERT_GT(scale, 0.0);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(f.col(c).sum() / scale, 0.0, 1e-6) << "axis " << c;
-    for (int node : {0, 21, m.surface_node_count() - 1, m.node_count() - 1})
-      for (int c = 0; c < 3; ++c) {
-        Eigen::MatrixX3d xp = x, xm = x;
-        const double h = 1e-5;
-        xp(node, c) += h;
-        xm(node, c) -= h;
-        const double grad =
-            (sim::elastic_energy(s, xp) - sim::elastic_energy(s, xm)) / (2 * h) * 1e6;
-        EXPECT_NEAR(f(node, c), -grad, 1e-5 * scale) << "node " << node << " axis " << c;
-      }
+    test::expect_forces_are_minus_the_energy_gradient(
+        s, x, f, scale, {0, 21, m.surface_node_count() - 1, m.node_count() - 1});
   }
 }
 
@@ -90,21 +83,28 @@ TEST(ExplicitLimit, IsBelowTheTrueLimitAtRestOfThePhysicalLiver) {
 }
 
 TEST(TetTerm, ASmallHomogeneousStrainStoresTheContinuumsEnergy) {
-  // Coupled springs plus the volume term are linear elasticity at small strain: under
-  // x = (I + eps) X the model stores V (mu eps:eps + lambda/2 tr(eps)^2), V the organ's volume.
+  // Coupled springs plus the volume term, and stable Neo-Hookean, are linear elasticity at small
+  // strain: under x = (I + eps) X the model stores V (mu eps:eps + lambda/2 tr(eps)^2), V the
+  // organ's volume.
   const Model& m = test::tet_phantom();
-  sim::Simulation s = sim::make_simulation(m, test::kTetLiver);
-  const double mu = 6.0 / 2.9, lambda = 6.0 * 0.45 / (1.45 * 0.1);
-  double volume = 0.0;
-  for (double v : s.tet_identification().rest_volume_mm3) volume += v;
-  Eigen::Matrix3d shear = Eigen::Matrix3d::Zero();
-  shear(0, 1) = shear(1, 0) = 1e-4;
-  for (const Eigen::Matrix3d& eps : {Eigen::Matrix3d(Eigen::Vector3d(1e-4, 0, 0).asDiagonal()),
-                                     Eigen::Matrix3d(1e-4 * Eigen::Matrix3d::Identity()), shear}) {
-    const Eigen::MatrixX3d x = m.X * (Eigen::Matrix3d::Identity() + eps).transpose();
-    const double continuum =
-        volume * (mu * eps.squaredNorm() + 0.5 * lambda * eps.trace() * eps.trace());
-    EXPECT_NEAR(sim::elastic_energy(s, x) * 1e6 / continuum, 1.0, 1e-3);  // J -> mN mm
+  for (const auto energy : {sim::TetModel::kSprings, sim::TetModel::kNeoHookean}) {
+    sim::Material mat = test::kTetLiver;
+    mat.tet_model = energy;
+    sim::Simulation s = sim::make_simulation(m, mat);
+    const double mu = 6.0 / 2.9, lambda = 6.0 * 0.45 / (1.45 * 0.1);
+    double volume = 0.0;
+    for (double v : s.tet_identification().rest_volume_mm3) volume += v;
+    Eigen::Matrix3d shear = Eigen::Matrix3d::Zero();
+    shear(0, 1) = shear(1, 0) = 1e-4;
+    for (const Eigen::Matrix3d& eps :
+         {Eigen::Matrix3d(Eigen::Vector3d(1e-4, 0, 0).asDiagonal()),
+          Eigen::Matrix3d(1e-4 * Eigen::Matrix3d::Identity()), shear}) {
+      const Eigen::MatrixX3d x = m.X * (Eigen::Matrix3d::Identity() + eps).transpose();
+      const double continuum =
+          volume * (mu * eps.squaredNorm() + 0.5 * lambda * eps.trace() * eps.trace());
+      EXPECT_NEAR(sim::elastic_energy(s, x) * 1e6 / continuum, 1.0, 1e-3)  // J -> mN mm
+          << (energy == sim::TetModel::kSprings ? "springs" : "neo_hookean");
+    }
   }
 }
 
@@ -143,15 +143,7 @@ TEST(TetTerm, AnInvertedTetrahedronIsPushedBack) {
        .young_modulus_kpa = 6.0,
        .poisson_ratio = 0.45},
       {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.005, .cg_tolerance = 1e-4});
-  Eigen::Index t = 0;
-  while (m.tets.T.row(t).maxCoeff() < m.surface_node_count()) ++t;
-  int c = 0;
-  while (m.tets.T(t, c) < m.surface_node_count()) ++c;
-  const int32_t node = m.tets.T(t, c);
-  Eigen::RowVector3d centroid = Eigen::RowVector3d::Zero();
-  for (int k = 0; k < 4; ++k)
-    if (k != c) centroid += m.X.row(m.tets.T(t, k)) / 3.0;
-  s.x.row(node) = 2.0 * centroid - m.X.row(node);
+  s.x = test::mirror_an_interior_node(m);
   ASSERT_GT(sim::inverted_tets(m, s.x), 0);
   for (int k = 0; k < 400; ++k) sim::step(s);
   EXPECT_EQ(sim::inverted_tets(m, s.x), 0);

@@ -245,6 +245,38 @@ TEST(FemCorotational, LargeCompressionKeepsVolumeAsNuSays) {
   RecordProperty("volume_change_nu_0", std::to_string(comp.volume_mm3 / V0 - 1));
 }
 
+TEST(FemNeoHookean, UniaxialStretchAndCompressionAreTheHomogeneousSolution) {
+  // Frictionless platens: F = diag(s, t, t) exactly. Stable Neo-Hookean's lateral stress
+  // mu t + p s t vanishes for the pressure p = lambda' (s t^2 - alpha) = -mu / s, so
+  // t^2 = (alpha - mu / (lambda' s)) / s, and the nominal axial stress is mu (s - t^2 / s).
+  // (Squeezed by 20% this slender block buckles sideways instead.)
+  const TetMesh m = make_block(kSize, kCells);
+  const double V0 = kSize.prod();
+  for (double nu : {0.3, 0.49})
+    for (double e : {-0.1, 0.3, 0.6}) {
+      const FemMaterial mat{.young_modulus_kpa = 5.0, .poisson_ratio = nu};
+      const double E = mat.young_modulus_kpa;
+      const double mu = E / (2 * (1 + nu)), lambda = E * nu / ((1 + nu) * (1 - 2 * nu)) + mu;
+      const double alpha = 1 + mu / lambda, s = 1 + e;
+      const double t = std::sqrt((alpha - mu / (lambda * s)) / s);
+      // The options lamina validate solves with.
+      const FemResult r = solve_neo_hookean(m, mat, uniaxial(m, kSize, e),
+                                            {.load_steps = 20, .max_newton_iterations = 50});
+      ASSERT_TRUE(r.converged) << "nu " << nu << " e " << e << " residual " << r.residual;
+      const Eigen::Index corner = m.V.rows() - 1;
+      EXPECT_NEAR((kSize.y() + r.u(corner, 1)) / kSize.y(), t, 1e-6) << "nu " << nu << " e " << e;
+      EXPECT_NEAR(r.volume_mm3 / V0, s * t * t, 1e-6) << "nu " << nu << " e " << e;
+      const double force = mu * (s - t * t / s) * kSize.y() * kSize.z();
+      EXPECT_NEAR(sum_reaction_x(m, r, kSize.x()), force, 1e-6 * std::abs(force))
+          << "nu " << nu << " e " << e;
+    }
+  // A tiny strain: linear elasticity.
+  const FemResult lin = solve_linear(m, kSoft, uniaxial(m, kSize, 1e-4));
+  const FemResult neo = solve_neo_hookean(m, kSoft, uniaxial(m, kSize, 1e-4), {});
+  ASSERT_TRUE(neo.converged);
+  EXPECT_LT((neo.u - lin.u).cwiseAbs().maxCoeff(), 1e-3 * lin.u.cwiseAbs().maxCoeff());
+}
+
 TEST(FemCorotational, ReportsMissedTolerance) {
   // A clamped block squeezed by 30% in one step with one iteration cannot be in balance.
   const TetMesh m = make_block(kSize, kCells);

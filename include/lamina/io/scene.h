@@ -75,6 +75,8 @@ struct Scene {
   bool elastic = true;
   model::ElasticMaterial elastic_material;
   model::TetElasticity tet_elasticity = model::TetElasticity::kCoupled;
+  /// material.model: the tetrahedra's energy, "springs" (tet_elasticity) or "neo_hookean".
+  sim::TetModel tet_model = sim::TetModel::kSprings;
   /// >= 0: mass-proportional damping that damps the slowest mode at this ratio (1 = critical).
   /// Unset (< 0) with an elastic material and no damping key: 1.
   double damping_ratio = -1.0;
@@ -155,6 +157,7 @@ struct MaterialReport {
   model::ElasticMaterial elastic_material;
   model::SpringIdentification identification;  ///< valid when elastic without tetrahedra
   model::TetElasticity tet_elasticity = model::TetElasticity::kCoupled;  ///< with tetrahedra
+  sim::TetModel tet_model = sim::TetModel::kSprings;                     ///< with tetrahedra
   double tet_volume_modulus_kpa = 0.0;  ///< the tetrahedra's volume term k_v (with tetrahedra)
   double volume_stiffness_kpa = 0.0;    ///< the volume term in use (0 = off)
   double damping_ratio = -1.0;          ///< the ratio damping was set from (< 0: none)
@@ -256,5 +259,8 @@ std::string mode_name(sim::Mode mode);
 std::string preconditioner_name(sim::Preconditioner preconditioner);
 /// The scene file's spelling of a routing: "none" or "paper".
 std::string routing_name(interact::Routing routing);
+/// The scene file's spelling of a tetrahedral energy (material.model): "springs" or
+/// "neo_hookean".
+std::string tet_model_name(sim::TetModel model);
 
 }  // namespace lamina::io

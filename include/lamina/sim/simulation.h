@@ -53,6 +53,17 @@ enum class Mode : uint8_t {
 };
 
 /// Tissue parameters. Defaults are the reference paper's (K = 3, gamma = 3, unit node masses).
+/// What a tetrahedron stores (Material::tet_model).
+enum class TetModel : uint8_t {
+  /// Its six edge springs, coupled (or not: Material::tet_elasticity), and its signed volume:
+  /// linear elasticity at small strain (model::identify_tets).
+  kSprings,
+  /// Stable Neo-Hookean (Smith, de Goes & Kim 2018): mu/2 (tr C - 3) + lambda'/2 (J - alpha)^2
+  /// with lambda' = lambda + mu, alpha = 1 + mu / lambda': linear elasticity at small strain,
+  /// hyperelastic at large, and the volume carried by J.
+  kNeoHookean,
+};
+
 struct Material {
   /// > 0: every spring gets this Hooke constant (the paper's K), N/m. 0: keep the model's (or,
   /// with young_modulus_kpa, the tetrahedra's identified constants).
@@ -80,6 +91,9 @@ struct Material {
   double young_modulus_kpa = 0.0;
   double poisson_ratio = 0.45;  ///< nu in [0, 0.5), with young_modulus_kpa
   model::TetElasticity tet_elasticity = model::TetElasticity::kCoupled;
+  /// With young_modulus_kpa: the tetrahedra's energy, their springs (tet_elasticity) or stable
+  /// Neo-Hookean (docs/physics.md).
+  TetModel tet_model = TetModel::kSprings;
   /// Gravity, mm/s^2 (Earth: 9810 along -z in LPS for a supine patient is (0, 9810, 0)).
   Eigen::Vector3d gravity_mm_per_s2 = Eigen::Vector3d::Zero();
 };

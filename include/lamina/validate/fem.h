@@ -22,6 +22,13 @@ struct FemMaterial {
   double poisson_ratio = 0.0;      ///< nu, in (-1, 0.5); near 0.5 = nearly incompressible
 };
 
+/// The constitutive law of a nonlinear solve (and of indent_fem()).
+enum class FemLaw : uint8_t {
+  kLinear,        ///< small-strain linear elasticity (solve_linear())
+  kCorotational,  ///< linear elasticity in each element's rotated frame (solve_corotational())
+  kNeoHookean,    ///< stable Neo-Hookean (solve_neo_hookean())
+};
+
 /// Loads and supports. A node is either free, fixed, or driven (not both fixed and driven).
 struct FemBoundary {
   std::vector<int32_t> fixed;   ///< nodes held at their rest position (all three components)
@@ -90,5 +97,14 @@ FemResult solve_linear(const TetMesh& mesh, const FemMaterial& material,
 /// \throws lamina::Error (kInvalidInput) as solve_linear(), and for options out of range
 FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
                              const FemBoundary& boundary, const FemOptions& options);
+
+/// Stable Neo-Hookean (Smith, de Goes & Kim 2018): per element mu/2 (tr C - 3) +
+/// lambda'/2 (J - alpha)^2 with lambda' = lambda + mu, alpha = 1 + mu / lambda' (linear
+/// elasticity at small strain; the simulation's Material::tet_model kNeoHookean without its
+/// inversion guard). Same load steps and Newton-like iterations as solve_corotational(), on a
+/// positive-definite tangent (J's curvature bounded where it would make it indefinite).
+/// @return, \throws as solve_corotational()
+FemResult solve_neo_hookean(const TetMesh& mesh, const FemMaterial& material,
+                            const FemBoundary& boundary, const FemOptions& options);
 
 }  // namespace lamina::validate

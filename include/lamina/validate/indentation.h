@@ -61,10 +61,10 @@ IndentResult indent_mass_spring(const Model& model, const sim::Material& materia
                                 double depth_mm, int ramp = 4);
 
 /// Finite elements: boundary vertices within the indenter radius driven by depth * direction,
-/// vertices within the held slab fixed; linear or corotational; the displacement sampled at
-/// `samples` (rest positions, mm) by the nearest point of the mesh's boundary.
+/// vertices within the held slab fixed; linear, corotational or Neo-Hookean; the displacement
+/// sampled at `samples` (rest positions, mm) by the nearest point of the mesh's boundary.
 IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material,
-                        const Indentation& indentation, double depth_mm, bool corotational,
+                        const Indentation& indentation, double depth_mm, FemLaw law,
                         const Eigen::MatrixX3d& samples, const FemOptions& options = {});
 
 /// The displacement field u of `mesh` at each point of `samples` (rest positions, mm): its value
