@@ -7,6 +7,7 @@
 #include <map>
 
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/interact/contact.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pick.h"
 #include "lamina/interact/tools.h"
@@ -205,5 +206,17 @@ BENCHMARK(BM_ToolTipContact)
     ->ArgsProduct({{1284, 12840}, {0, 1}})
     ->ArgNames({"skin", "paper"})
     ->Unit(benchmark::kMicrosecond);
+
+// Is a point inside the organ, and how deep (interact::depth_under_skin: the skin's winding
+// number and its nearest point): asked once per tool when it comes on, and each step a haptic
+// device spends inside the organ before it is brought out.
+void BM_DepthUnderSkin(benchmark::State& state) {
+  const Model& m = phantom_model(static_cast<int32_t>(state.range(0)));
+  const Eigen::Vector3d inside =
+      m.X.row(interact::most_anterior_skin_node(m)).transpose() + Eigen::Vector3d(0, 5, 0);
+  for (auto _ : state) benchmark::DoNotOptimize(interact::depth_under_skin(m, m.X, inside));
+  state.counters["skin_faces"] = static_cast<double>(m.layers[0].F.rows());
+}
+BENCHMARK(BM_DepthUnderSkin)->Arg(1284)->Arg(12840)->ArgName("skin")->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

@@ -71,6 +71,18 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
   }
   const double r = tip.radius_mm;
   const Eigen::Vector3d& device = tip.center_mm;
+  if (!s.placed) {
+    // Placed only from outside: from inside, the nearest surface may be the far side's.
+    const double depth = depth_under_skin(m, x, device);
+    if (depth > kStartDepthToleranceMm) {
+      s = {};
+      s.started_inside = true;
+      s.start_depth_mm = depth;
+      return {};
+    }
+    s.started_inside = false;
+    s.start_depth_mm = 0.0;
+  }
   const Eigen::Vector3d start = s.placed ? s.proxy_mm : device;
 
   // The skin triangles the proxy can meet on its way: it moves within the ball around the

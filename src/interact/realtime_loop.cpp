@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "lamina/core/error.h"
+#include "lamina/core/log.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pacer.h"
 
@@ -181,6 +182,12 @@ void RealtimeLoop::one_step() {
   // The tool tip: its proxy and coupling (or the paper's penalty), afresh every step.
   tip_route_ = load_of_tip(m, sim_.x, tip_, routing_, proxy_);
   add_load(sim_, tip_route_, loads_);
+  if (proxy_.started_inside && !warned_inside_)
+    log::warn(
+        "tool tip: the device is inside the organ, {:.1f} mm under the skin; the tip touches "
+        "nothing until it is brought out (a tool starts outside the organ)",
+        proxy_.start_depth_mm);
+  warned_inside_ = proxy_.started_inside;
   if (tip_route_.contact_node >= 0 && tip_route_.contact_node != tip_contact_ &&
       sim_.options().mode == sim::Mode::kLocal) {
     touched_.insert(touched_.end(), tip_route_.nodes.begin(), tip_route_.nodes.end());

@@ -8,6 +8,7 @@
 #include <nanoflann.hpp>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/contact.h"
 #include "skin_samples.h"
 
 namespace lamina::interact {
@@ -167,6 +168,14 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
         throw invalid_input(name + ".vertex", "must be a skin node, 0.." +
                                                   std::to_string(m.layers[0].node_count - 1) +
                                                   ", got " + std::to_string(tool.vertex));
+      if (tool.by_point) {
+        const double depth = depth_under_skin(m, s.x, tool.point_mm);
+        if (depth > kStartDepthToleranceMm)
+          throw invalid_input(name + ".point",
+                              fmt::format("is inside the organ, {:.1f} mm under the skin: a tool "
+                                          "starts outside the organ or on its skin",
+                                          depth));
+      }
       const std::vector<int32_t>* loaded = nullptr;
       if (tool.grasp) {
         const Eigen::Vector3d at =

@@ -14,6 +14,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/contact.h"
 
 namespace lamina::io {
 namespace {
@@ -619,6 +620,14 @@ void check_scene_against_model(const Scene& s, const Model& m) {
     if (!t.by_point && (t.vertex < 0 || t.vertex >= skin_nodes))
       r.fail(path + ".vertex",
              fmt::format("must be a skin node, 0..{}, got {}", skin_nodes - 1, t.vertex));
+    if (t.by_point) {
+      const double depth = interact::depth_under_skin(m, m.X, t.point_mm);
+      if (depth > interact::kStartDepthToleranceMm)
+        r.fail(path + ".point",
+               fmt::format("[{}, {}, {}] is inside the organ, {:.1f} mm under the skin at rest: a "
+                           "tool starts outside the organ or on its skin",
+                           t.point_mm.x(), t.point_mm.y(), t.point_mm.z(), depth));
+    }
     if (t.grasp) {
       // Something under the jaws at rest, or nothing to hold.
       const Eigen::Vector3d at = t.by_point ? t.point_mm : Eigen::Vector3d(m.X.row(t.vertex));

@@ -9,6 +9,7 @@
 #include <set>
 
 #include "lamina/core/error.h"
+#include "lamina/geometry/winding_number.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/realtime_loop.h"
 #include "support/held_sphere.h"
@@ -55,6 +56,26 @@ TEST(ClosestSkinPoint, LiesOnTheSkinNoFartherThanAnyNodeAndOnItsTriangle) {
     EXPECT_LE(at.distance_mm, nearest_node + 1e-12);
     EXPECT_GT(at.distance_mm, nearest_node - longest_skin_edge(m));
   }
+}
+
+TEST(DepthUnderSkin, PositiveInsideNegativeOutsideAndTheDistanceToTheSkin) {
+  // The winding number decides the side (1 inside the closed skin, 0 outside), the nearest skin
+  // point the depth: along a line through the sphere's centre, depth falls linearly to zero at
+  // the skin and goes negative beyond it.
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  const Eigen::Vector3d skin = m.X.row(front_node(m)).transpose();
+  const Eigen::Vector3d out = (skin - c).normalized();
+  const double radius = (skin - c).norm();
+  EXPECT_NEAR(geometry::winding_number(m.X, m.layers[0].F, c), 1.0, 1e-9);
+  EXPECT_NEAR(geometry::winding_number(m.X, m.layers[0].F, c + 3.0 * radius * out), 0.0, 1e-9);
+  for (const double along : {0.5, 0.8, 0.95, 1.05, 1.3}) {
+    const Eigen::Vector3d p = c + along * radius * out;
+    const double depth = interact::depth_under_skin(m, m.X, p);
+    EXPECT_EQ(depth > 0.0, along < 1.0) << along;
+    EXPECT_NEAR(std::abs(depth), interact::closest_skin_point(m, m.X, p).distance_mm, 1e-12);
+  }
+  EXPECT_NEAR(interact::depth_under_skin(m, m.X, skin), 0.0, 1e-9);
 }
 
 TEST(SpreadOnPatch, SumsToTheForceOverMoreNodesAsThePatchWidensAndNeverOnTheFarSide) {

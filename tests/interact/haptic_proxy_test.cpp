@@ -137,6 +137,30 @@ TEST(HapticProxy, AStiffCouplingIsBoundedAndRateLimitedAndTheProxyNeverCrosses) 
   EXPECT_LT(r.worst_third_law_mn, 1e-9);
 }
 
+TEST(HapticProxy, ADeviceInsideTheOrganIsNotPlacedUntilBroughtOut) {
+  // From inside, the nearest surface may be the far side's: the proxy waits, nothing is felt
+  // or loaded, and it is placed on the device's side once the device is outside.
+  Eigen::Vector3d c;
+  const Model& m = sphere_model(&c);
+  const Eigen::Vector3d skin = m.X.row(front_node(m)).transpose();
+  const Eigen::Vector3d outward = (skin - c).normalized();
+  interact::ToolTip tip{.active = true, .center_mm = c, .radius_mm = 5.0};
+  interact::HapticProxy proxy;
+  EXPECT_TRUE(interact::couple_proxy(m, m.X, tip, proxy).nodes.empty());
+  EXPECT_FALSE(proxy.placed);
+  EXPECT_TRUE(proxy.started_inside);
+  EXPECT_NEAR(proxy.start_depth_mm, (skin - c).norm(), 0.1 * (skin - c).norm());
+  EXPECT_TRUE(proxy.device_force_mn.isZero());
+  tip.center_mm = skin - 3.0 * outward;  // still 3 mm under the skin
+  interact::couple_proxy(m, m.X, tip, proxy);
+  EXPECT_TRUE(proxy.started_inside);
+  tip.center_mm = skin + 2.0 * outward;  // out, within the tip's radius of the skin: it touches
+  interact::couple_proxy(m, m.X, tip, proxy);
+  EXPECT_TRUE(proxy.placed);
+  EXPECT_FALSE(proxy.started_inside);
+  EXPECT_GT((proxy.proxy_mm - c).dot(outward), (skin - c).norm()) << "placed on the near side";
+}
+
 TEST(HapticProxy, BadLimitsAreRefusedByName) {
   interact::RealtimeLoop loop(test::held_sphere(), kNoRouting, {.real_time = false});
   interact::ToolTip tip{.active = true, .max_force_n = -1.0};

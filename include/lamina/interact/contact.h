@@ -27,6 +27,15 @@ struct SkinPoint {
 SkinPoint closest_skin_point(const Model& model, const Eigen::MatrixX3d& x,
                              const Eigen::Vector3d& p);
 
+/// How far `p` is under the skin at positions x, mm: the distance to the nearest skin point when
+/// p is inside the organ (the skin's winding number at p above 1/2), minus it outside.
+double depth_under_skin(const Model& model, const Eigen::MatrixX3d& x, const Eigen::Vector3d& p);
+
+/// A tool may start this far under the skin (a point picked on the skin, rounded), mm; deeper
+/// it starts inside the organ, which a tool cannot (refused by name: tools[].point, the tool
+/// tip).
+inline constexpr double kStartDepthToleranceMm = 0.5;
+
 /// Skin node `node` as a SkinPoint (one of its triangles, weight 1 on it).
 /// \note Throws lamina::Error (kInvalidInput) when `node` is not a skin node.
 SkinPoint skin_point_at_node(const Model& model, const Eigen::MatrixX3d& x, int32_t node);

@@ -22,11 +22,17 @@ struct HapticProxy {
   Eigen::Vector3d proxy_mm = Eigen::Vector3d::Zero();         ///< the proxy sphere's centre
   Eigen::Vector3d device_force_mn = Eigen::Vector3d::Zero();  ///< the last force on the device
   bool touching = false;  ///< the proxy rests on the skin (its load went to the tissue)
+  /// The device was inside the organ (deeper than kStartDepthToleranceMm) when the tip came on:
+  /// a proxy cannot know which side it entered from, so it is not placed, and nothing is felt
+  /// or loaded, until the device is brought out.
+  bool started_inside = false;
+  double start_depth_mm = 0.0;  ///< how deep, when started_inside
 };
 
 /// One step of the tip at positions x: moves the proxy towards tip.center_mm without entering
 /// the skin, updates the device's force, and returns the tissue's load (empty when the proxy
-/// touches nothing). An inactive tip lifts the proxy off (next step it is placed afresh).
+/// touches nothing). An inactive tip lifts the proxy off (next step it is placed afresh); a
+/// device inside the organ is not placed (HapticProxy::started_inside).
 ForceRoute couple_proxy(const Model& model, const Eigen::MatrixX3d& x, const ToolTip& tip,
                         HapticProxy& state);
 

@@ -159,8 +159,9 @@ class RealtimeLoop {
   std::vector<int32_t> touched_;
   Loads loads_;
   int32_t tip_contact_ = -1;
-  ForceRoute tip_route_;  // the tip's load in the last step
-  HapticProxy proxy_;     // the tip's god-object and the force on the device
+  ForceRoute tip_route_;        // the tip's load in the last step
+  HapticProxy proxy_;           // the tip's god-object and the force on the device
+  bool warned_inside_ = false;  // the device-inside-the-organ warning was logged for this entry
   double last_publish_s_ = -1.0;
   sim::StepStats last_stats_;
   double window_step_sum_us_ = 0.0;
