@@ -1,8 +1,9 @@
 // The generalised winding number: each triangle's signed solid angle at p by Van Oosterom &
 // Strackee's formula, tan(Omega / 2) = a . (b x c) / (|a||b||c| + (a.b)|c| + (b.c)|a| + (c.a)|b|)
 // with a, b, c its corners relative to p. Written here rather than taken from a library: the
-// stack has none (CGAL's Side_of_triangle_mesh builds an AABB tree and a Surface_mesh for what
-// is one query per tool at its start, on a 2.5k-triangle skin: 30 us by this loop).
+// stack has none (CGAL's Side_of_triangle_mesh would build an AABB tree and a Surface_mesh of a
+// skin that moves every step, for what is one query per tool when it comes on). This loop: 119 us
+// on the paper-size skin's 2,554 triangles, 1.18 ms on 25,018 (sim_bench BM_DepthUnderSkin).
 #include "lamina/geometry/winding_number.h"
 
 #include <Eigen/Geometry>

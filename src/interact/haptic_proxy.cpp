@@ -73,11 +73,13 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
   const Eigen::Vector3d& device = tip.center_mm;
   if (!s.placed) {
     // Placed only from outside: from inside, the nearest surface may be the far side's.
+    if (s.started_inside && --s.recheck_in > 0) return {};
     const double depth = depth_under_skin(m, x, device);
     if (depth > kStartDepthToleranceMm) {
       s = {};
       s.started_inside = true;
       s.start_depth_mm = depth;
+      s.recheck_in = kInsideRecheckSteps;
       return {};
     }
     s.started_inside = false;
