@@ -166,6 +166,10 @@ struct ServeArgs {
   double duration_s = 0.0;    ///< > 0: stop after this many wall seconds
   std::string frame = "ras";  ///< coordinates on the wire: ras (3D Slicer's) or lps (the model's)
   std::string tool_device;    ///< only poses with this device name move the tool; empty = any
+  /// Poses with this device name move a grasper (its jaws close on the first, hold and follow);
+  /// any message of this name + "Open" opens it.
+  std::string grasper_device = "LaminaGrasper";
+  double grasper_radius_mm = 4.0;       ///< skin within this distance of the jaws is grasped
   double tip_radius_mm = 5.0;           ///< the tool tip's sphere (the viewer's default)
   double tip_stiffness_n_per_m = 20.0;  ///< its coupling (push per mm inside), N/m = mN/mm
   double max_force_n = 3.0;             ///< the most the reaction sent back may be, N

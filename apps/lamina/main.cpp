@@ -240,6 +240,13 @@ int main(int argc, char** argv) {
   se->add_option("--tool-device", serve.tool_device,
                  "only TRANSFORM/POSITION messages of this device name move the tool (default: "
                  "any)");
+  se->add_option("--grasper-device", serve.grasper_device,
+                 "TRANSFORM/POSITION messages of this device name move a grasper, whose jaws "
+                 "close on the skin at the first and hold it; any message named NAME + \"Open\" "
+                 "opens them (default LaminaGrasper)");
+  se->add_option("--grasper-radius", serve.grasper_radius_mm,
+                 "skin within this distance of the grasper's jaws is held, mm (default 4)")
+      ->check(CLI::PositiveNumber);
   se->add_option("--tip-radius", serve.tip_radius_mm, "tool tip sphere radius, mm (default 5)");
   se->add_option("--tip-stiffness", serve.tip_stiffness_n_per_m,
                  "the virtual coupling between the device and the tool's proxy on the skin "

@@ -43,6 +43,11 @@ void check_args(const ServeArgs& a) {
   if (!(a.duration_s >= 0.0)) throw invalid_input("--duration", "must be >= 0 s");
   if (a.frame != "ras" && a.frame != "lps")
     throw invalid_input("--frame", "must be ras or lps, got '" + a.frame + "'");
+  if (!a.grasper_device.empty() && a.grasper_device == a.tool_device)
+    throw invalid_input("--grasper-device",
+                        "is also --tool-device ('" + a.tool_device + "'): give them two names");
+  if (!(a.grasper_radius_mm > 0.0 && a.grasper_radius_mm <= 100.0))
+    throw invalid_input("--grasper-radius", "must be in (0, 100] mm");
   if (!(a.tip_radius_mm > 0.0 && a.tip_radius_mm <= 100.0))
     throw invalid_input("--tip-radius", "must be in (0, 100] mm");
   if (!(a.tip_stiffness_n_per_m > 0.0 && a.tip_stiffness_n_per_m <= 1e4))
@@ -140,13 +145,40 @@ int run_serve(const ServeArgs& a) {
   tip.radius_mm = a.tip_radius_mm;
   tip.stiffness_n_per_m = a.tip_stiffness_n_per_m;
   tip.max_force_n = a.max_force_n;
-  int tool_client = -1;  // whose pose the tip follows
+  int tool_client = -1;     // whose pose the tip follows
+  int grasper_client = -1;  // whose pose the grasper follows (its jaws closed)
+  const std::string grasper_open = a.grasper_device + "Open";
   int64_t poses = 0;
   std::set<std::pair<int, std::string>> noted;  // (client, type) already logged as skipped
 
+  const auto open_grasper = [&](const std::string& why) {
+    if (grasper_client < 0) return;
+    grasper_client = -1;
+    loop.set_grasper(std::nullopt);
+    log::info("the grasper opens: {}", why);
+  };
   const auto handle = [&](const net::Message& msg) {
     const std::string& type = msg.header.type;
-    if (type == "TRANSFORM" || type == "POSITION") {
+    if (!a.grasper_device.empty() && msg.header.device == grasper_open) {
+      open_grasper(fmt::format("client {} sent {} '{}'", msg.peer, type, grasper_open));
+    } else if (!a.grasper_device.empty() && msg.header.device == a.grasper_device &&
+               (type == "TRANSFORM" || type == "POSITION")) {
+      const interact::Jaws jaws{
+          .center_mm = net::change_frame(net::read_position(type, msg.content, msg.size), frame),
+          .radius_mm = a.grasper_radius_mm};
+      try {
+        loop.set_grasper(jaws);
+      } catch (const Error& e) {  // nothing under the jaws: said, and nothing held
+        if (noted.insert({msg.client, "grasp-miss"}).second)
+          log::warn("OpenIGTLink client {}: {} (further misses are not logged)", msg.peer,
+                    e.what());
+        return;
+      }
+      if (grasper_client != msg.client)
+        log::info("OpenIGTLink client {}: {} '{}' closes the grasper's jaws", msg.peer, type,
+                  msg.header.device);
+      grasper_client = msg.client;
+    } else if (type == "TRANSFORM" || type == "POSITION") {
       const Eigen::Vector3d p = net::read_position(type, msg.content, msg.size);
       if (!a.tool_device.empty() && msg.header.device != a.tool_device) {
         if (noted.insert({msg.client, type + msg.header.device}).second)
@@ -181,6 +213,7 @@ int run_serve(const ServeArgs& a) {
   };
   const auto closed = [&](int client) {
     std::erase_if(noted, [&](const auto& n) { return n.first == client; });
+    if (client == grasper_client) open_grasper("its client has gone");
     if (client != tool_client) return;
     tool_client = -1;
     tip.active = false;

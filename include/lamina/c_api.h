@@ -118,6 +118,13 @@ lamina_status lamina_sim_clear_tool_tip(lamina_sim* sim);
  * most max_force_change_n (default 0.05 N) a step. Both must be positive. */
 lamina_status lamina_sim_set_haptic_limits(lamina_sim* sim, double max_force_n,
                                            double max_force_change_n);
+/* A grasper (a second hand's forceps): the first call closes its jaws at `center_mm` on the skin
+ * within `radius_mm` (every free skin node there is held where it is), later calls move them
+ * there with what they hold (call it every frame with the instrument's pose), and
+ * lamina_sim_release_grasper opens them. The tissue's pull on the held skin joins reaction_mn.
+ * LAMINA_ERROR_INVALID_INPUT, nothing held, when no skin node is within radius_mm. */
+lamina_status lamina_sim_set_grasper(lamina_sim* sim, const double center_mm[3], double radius_mm);
+lamina_status lamina_sim_release_grasper(lamina_sim* sim);
 /* Replaces every force held on skin nodes (count 0 releases them): forces_mn holds 3 * count
  * values, mN, each spread over the skin within 5 mm of its node on a physical tissue (the load
  * is the force), routed the paper's way from its node with the paper's constants. */
@@ -135,6 +142,7 @@ typedef struct lamina_step_stats {
   int32_t at_rest;            /* 1 when no node moves faster than the rest speed */
   int32_t tool_tip_touching;  /* 1 when the tool tip touches the skin */
   int64_t recoveries;         /* steps redone after a non-finite state */
+  int32_t grasped_nodes;      /* skin nodes the grasper holds (0: open) */
 } lamina_step_stats;
 
 /* Takes `steps` steps of the solver's dt on the calling thread; `stats` (may be NULL) gets the
@@ -142,7 +150,7 @@ typedef struct lamina_step_stats {
  * (steps failing in a row, energy growing while no tool acts, a stalled solver): it takes no
  * more steps, and its reaction is zero, until lamina_sim_reset. */
 lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats* stats);
-/* Puts every node back at rest (time 0); tool tip and forces are kept. */
+/* Puts every node back at rest (time 0); tool tip and forces are kept, the grasper opened. */
 lamina_status lamina_sim_reset(lamina_sim* sim);
 
 int32_t lamina_sim_node_count(const lamina_sim* sim);

@@ -282,6 +282,25 @@ lamina_status lamina_sim_set_tool_tip(lamina_sim* sim, const double center_mm[3]
   });
 }
 
+lamina_status lamina_sim_set_grasper(lamina_sim* sim, const double center_mm[3], double radius_mm) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_set_grasper: sim");
+    need(center_mm, "lamina_sim_set_grasper: center_mm");
+    need_finite(center_mm, 3, "lamina_sim_set_grasper: center_mm");
+    if (!(radius_mm > 0.0) || !std::isfinite(radius_mm))
+      throw lamina::invalid_input("lamina_sim_set_grasper: radius_mm",
+                                  "is " + std::to_string(radius_mm) + "; a positive size expected");
+    s.loop->set_grasper(lamina::interact::Jaws{
+        .center_mm = Eigen::Vector3d(center_mm[0], center_mm[1], center_mm[2]),
+        .radius_mm = radius_mm});
+  });
+}
+
+lamina_status lamina_sim_release_grasper(lamina_sim* sim) {
+  return guarded(
+      [&] { need(sim, "lamina_sim_release_grasper: sim").loop->set_grasper(std::nullopt); });
+}
+
 lamina_status lamina_sim_set_haptic_limits(lamina_sim* sim, double max_force_n,
                                            double max_force_change_n) {
   return guarded([&] {
@@ -348,6 +367,7 @@ lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats*
     stats->at_rest = lamina::sim::at_rest(p.stats) ? 1 : 0;
     stats->tool_tip_touching = p.tool_tip_touching ? 1 : 0;
     stats->recoveries = p.recoveries;
+    stats->grasped_nodes = static_cast<int32_t>(p.grasped_nodes.size());
   });
 }
 

@@ -1,5 +1,6 @@
 #include "lamina/interact/realtime_loop.h"
 
+#include <fmt/format.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/grasp.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pacer.h"
 
@@ -85,6 +87,34 @@ void RealtimeLoop::set_tool_tip(const ToolTip& tip) {
   new_tip_ = tip;
 }
 
+void RealtimeLoop::set_grasper(const std::optional<Jaws>& jaws) {
+  if (jaws) {
+    if (!(jaws->radius_mm > 0.0 && std::isfinite(jaws->radius_mm)))
+      throw invalid_input("grasper: radius_mm", "must be > 0 mm");
+    if (!jaws->center_mm.allFinite())
+      throw invalid_input("grasper", "the jaws' position is not finite");
+  }
+  std::lock_guard lock(mutex_);
+  if (jaws && !jaws_closed_) {
+    // Closing: something must be under the jaws now (the loop closes them on the next step's
+    // shape; if the skin moved away in between, it logs one line and leaves them open).
+    bool any = false;
+    {
+      std::lock_guard snap(snapshot_mutex_);
+      const Eigen::MatrixX3d& x = published_.x.rows() ? published_.x : sim_.model().X;
+      for (int32_t i = 0; i < sim_.model().layers[0].node_count && !any; ++i)
+        any = (x.row(i).transpose() - jaws->center_mm).norm() <= jaws->radius_mm;
+    }
+    if (!any)
+      throw invalid_input("grasper", fmt::format("nothing under the jaws: no skin node within {} "
+                                                 "mm of [{:.1f}, {:.1f}, {:.1f}]",
+                                                 jaws->radius_mm, jaws->center_mm.x(),
+                                                 jaws->center_mm.y(), jaws->center_mm.z()));
+  }
+  jaws_closed_ = jaws.has_value();
+  new_jaws_ = jaws;
+}
+
 void RealtimeLoop::set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
                                   const RoutingOptions& routing) {
   // Validate now, on the caller's thread, so that the error reaches the caller.
@@ -132,6 +162,9 @@ void RealtimeLoop::run_steps(int64_t steps) {
 void RealtimeLoop::apply_pending() {
   bool reroute = false;
   if (reset_requested_) {
+    if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);  // rest is the organ's own, unheld
+    jaws_.reset();
+    jaws_closed_ = false;
     sim::reset(sim_);
     last_stats_ = {};  // an unstable simulation steps again from rest
     proxy_ = {};       // the tip's proxy is placed afresh on the rest shape
@@ -156,6 +189,10 @@ void RealtimeLoop::apply_pending() {
     tip_ = *new_tip_;
     new_tip_.reset();
     tip_contact_ = -1;
+  }
+  if (new_jaws_) {
+    jaws_ = *new_jaws_;
+    new_jaws_.reset();
   }
   if (reroute) route_forces();
 }
@@ -194,6 +231,7 @@ void RealtimeLoop::one_step() {
     keep_touched_movable(sim_, touched_);
   }
   tip_contact_ = tip_route_.contact_node;
+  move_grasper();
 
   last_stats_ = sim::step(sim_);
   const double t1 = now_s();
@@ -209,6 +247,8 @@ void RealtimeLoop::one_step() {
     } else if (!halted()) {
       reaction = reaction_force(sim_, loads_);
     }
+    // The grasper feels the tissue's pull on what it holds, in either model.
+    if (!halted() && !grasp_.nodes.empty()) reaction += grasp_reaction(sim_, grasp_);
     std::unique_lock lock(reaction_mutex_, std::defer_lock);
     acquire(lock);
     reaction_ = {reaction, sim_.steps, sim_.time_s};
@@ -230,6 +270,30 @@ void RealtimeLoop::one_step() {
     window_steps_ = 0;
     worst_jitter_us_ = 0.0;
     window_start_s_ = t1;
+  }
+}
+
+// The grasper's jaws where the caller last put them: closed on the current shape when they were
+// open, moved with what they hold, or opened.
+void RealtimeLoop::move_grasper() {
+  if (!jaws_) {
+    if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);
+    return;
+  }
+  if (!grasp_.nodes.empty()) {
+    move_jaws(sim_, jaws_->center_mm, grasp_);
+    return;
+  }
+  try {
+    close_jaws(sim_, *jaws_, grasp_, "grasper");
+  } catch (const Error& e) {  // the skin moved away since set_grasper() checked: stay open
+    log::warn("{}", e.what());
+    jaws_.reset();
+    return;
+  }
+  if (sim_.options().mode == sim::Mode::kLocal) {  // the tissue around the jaws moves
+    touched_.insert(touched_.end(), grasp_.nodes.begin(), grasp_.nodes.end());
+    keep_touched_movable(sim_, touched_);
   }
 }
 
@@ -266,6 +330,7 @@ void RealtimeLoop::publish(bool force) {
   for (const ForceRoute& r : routes_) s.contact_nodes.push_back(r.contact_node);
   if (tip_contact_ >= 0) s.contact_nodes.push_back(tip_contact_);
   s.tool_tip_touching = tip_contact_ >= 0;
+  s.grasped_nodes = grasp_.nodes;
   s.lock_waits = lock_waits_;
   s.longest_lock_wait_us = longest_lock_wait_us_;
   ++s.generation;

@@ -5,13 +5,17 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/realtime_loop.h"
 #include "lamina/interact/run_tools.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
+#include "support/held_sphere.h"
+#include "support/sphere_model.h"
 #include "support/test_paths.h"
 
 namespace {
@@ -110,6 +114,45 @@ TEST(Grasp, NothingUnderTheJawsIsOneClearErrorAndHoldsNothing) {
   }
   EXPECT_TRUE(g.nodes.empty());
   for (bool fixed : s.fixed()) EXPECT_FALSE(fixed) << "nothing was held";
+}
+
+TEST(Grasp, TheRealtimeLoopsGrasperHoldsPullsAndLetsGo) {
+  // The viewer's, serve's and the C API's grasper: the loop closes the jaws on the skin under
+  // them, the held node follows them 10 mm out, the tissue pulls them back (the reaction), and
+  // once open the sphere returns to rest.
+  const Model& m = test::sphere_model();
+  sim::Simulation s = test::tissue_sphere();
+  interact::RealtimeLoop loop(std::move(s), {.routing = interact::Routing::kNone},
+                              {.real_time = false});
+  const int32_t node = test::front_node(m);
+  const Eigen::Vector3d at = m.X.row(node).transpose();
+  const Eigen::Vector3d far = at - Eigen::Vector3d(0.0, 100.0, 0.0);
+  EXPECT_THROW(loop.set_grasper(interact::Jaws{.center_mm = far}), Error) << "nothing there";
+  EXPECT_THROW(loop.set_grasper(interact::Jaws{.center_mm = at, .radius_mm = -1.0}), Error);
+
+  loop.set_grasper(interact::Jaws{.center_mm = at, .radius_mm = 2.0});
+  loop.run_steps(1);
+  interact::LoopSnapshot snap;
+  ASSERT_TRUE(loop.latest(snap));
+  ASSERT_FALSE(snap.grasped_nodes.empty());
+  EXPECT_NE(std::find(snap.grasped_nodes.begin(), snap.grasped_nodes.end(), node),
+            snap.grasped_nodes.end());
+  for (int k = 1; k <= 100; ++k) {  // 10 mm out along -y over 0.1 s
+    loop.set_grasper(interact::Jaws{.center_mm = at - Eigen::Vector3d(0.0, 0.1 * k, 0.0)});
+    loop.run_steps(1);
+  }
+  loop.run_steps(50);
+  loop.latest(snap);
+  EXPECT_NEAR(snap.x(node, 1), at.y() - 10.0, 1e-9) << "the held node follows the jaws";
+  EXPECT_GT(loop.latest_reaction().reaction_mn.y(), 10.0) << "the tissue pulls the jaws back";
+  EXPECT_FALSE(snap.stats.unstable != sim::Instability::kNone);
+
+  loop.set_grasper(std::nullopt);
+  loop.run_steps(3000);
+  loop.latest(snap);
+  EXPECT_TRUE(snap.grasped_nodes.empty());
+  EXPECT_LT((snap.x - m.X).rowwise().norm().maxCoeff(), 0.05) << "back at rest once let go";
+  EXPECT_LT(loop.latest_reaction().reaction_mn.norm(), 1e-9);
 }
 
 }  // namespace

@@ -221,6 +221,46 @@ TEST(Serve, APoseOnTheSkinPushesItAndTheReactionComesBackAgainstThePush) {
   EXPECT_GT(s.max_reaction_mn, 5.0);
 }
 
+// The grasper's own device: a pose named LaminaGrasper closes its jaws on the skin there, later
+// poses pull what it holds, the tissue pulls back (the reaction points into the organ), and a
+// message named LaminaGrasperOpen lets go. A grasp in empty space is one warning and holds
+// nothing.
+TEST(Serve, AGrasperDeviceHoldsPullsAndLetsGo) {
+  TempDir dir;
+  Server server(dir.path, with({"phantom"}));
+  Client hand(server.port());
+  const auto skin = hand.receive("POLYDATA", "LaminaSkin", 30.0);
+  ASSERT_TRUE(skin) << server.log();
+  const Eigen::MatrixX3d rest = polydata_points(*skin);
+  Eigen::Index front = 0;
+  rest.col(1).maxCoeff(&front);  // RAS: the most anterior node
+  const Eigen::Vector3d node = rest.row(front).transpose();
+  hand.send_bytes(transform_bytes("LaminaGrasper", node + Eigen::Vector3d(0, 200, 0)));
+  for (int k = 0; k <= 10; ++k) {  // closes at the node, then 10 mm anterior, out of the organ
+    hand.send_bytes(transform_bytes("LaminaGrasper", node + Eigen::Vector3d(0, k, 0)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto pulled = latest(hand, "POLYDATA", "LaminaSkin", 0.3);
+  ASSERT_TRUE(pulled);
+  EXPECT_NEAR(polydata_points(*pulled)(front, 1), node.y() + 10.0, 1e-3) << server.log();
+  const auto reaction = latest(hand, "TRANSFORM", "LaminaReaction", 0.3);
+  ASSERT_TRUE(reaction);
+  EXPECT_LT(transform_translation(*reaction).y(), -10.0) << "the tissue pulls the jaws back";
+
+  hand.send_bytes(transform_bytes("LaminaGrasperOpen", node));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const auto released = latest(hand, "POLYDATA", "LaminaSkin", 0.3);
+  ASSERT_TRUE(released);
+  EXPECT_LT(std::abs(polydata_points(*released)(front, 1) - node.y()), 1.0);
+  const std::string log = server.log();
+  EXPECT_NE(log.find("nothing under the jaws"), std::string::npos) << log;
+  EXPECT_NE(log.find("closes the grasper's jaws"), std::string::npos) << log;
+  EXPECT_NE(log.find("the grasper opens"), std::string::npos) << log;
+  const Summary s = stop(server);
+  EXPECT_EQ(s.dropped, 0) << server.log();
+}
+
 // A case built to fail: a physical liver whose implicit solver may take one conjugate-gradient
 // iteration a step against a 1e-12 tolerance. Untouched it is at rest (nothing to solve); pushed
 // by a stiff tip (up to 4 N), every solve stops far short, and after

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "lamina/interact/grasp.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/tools.h"
 #include "lamina/sim/simulation.h"
@@ -63,6 +64,7 @@ struct LoopSnapshot {
   Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< tissue's push on the tools, mN
   std::vector<int32_t> contact_nodes;  ///< where each live force and the tool tip act
   bool tool_tip_touching = false;
+  std::vector<int32_t> grasped_nodes;  ///< what the grasper holds (empty: open)
   /// Since the loop was made: how many times the stepping thread found one of its locks held by
   /// a caller (setting forces, copying a snapshot) and the longest it waited for one, us. A
   /// caller holds them only to copy a few values, never while it draws or waits on a network,
@@ -94,6 +96,13 @@ class RealtimeLoop {
   /// Replaces every user force (an empty list releases them all: the organ returns to rest).
   void set_forces(std::vector<LiveForce> forces);
   void set_tool_tip(const ToolTip& tip);
+  /// The grasper: jaws given and open, they close on the skin under them (its free nodes within
+  /// jaws.radius_mm, on the shape of the next step) and hold it; given and closed, they move there
+  /// with what they hold; nullopt opens them. The tissue's pull on the held nodes joins the
+  /// reaction. Throws lamina::Error (kInvalidInput), nothing changing, for a radius or position
+  /// that is not a finite positive number, or when closing with no skin node within the radius
+  /// in the latest snapshot ("nothing under the jaws").
+  void set_grasper(const std::optional<Jaws>& jaws);
   /// New parameters, checked now (throws lamina::Error kInvalidInput, nothing changes), applied
   /// before the next step.
   void set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
@@ -125,6 +134,7 @@ class RealtimeLoop {
   bool halted() const { return last_stats_.unstable != sim::Instability::kNone; }
   void apply_pending();  // under mutex_
   void route_forces();
+  void move_grasper();
   void one_step();
   void publish(bool force);
   void follow_the_clock(double rate_hz);  // dt = 1 / rate in real time
@@ -141,6 +151,8 @@ class RealtimeLoop {
   bool stop_requested_ = false, paused_ = false, reset_requested_ = false;
   std::optional<std::vector<LiveForce>> new_forces_;
   std::optional<ToolTip> new_tip_;
+  std::optional<std::optional<Jaws>> new_jaws_;
+  bool jaws_closed_ = false;  // as the caller last set them (set_grasper's own bookkeeping)
   struct Params {
     sim::Material material;
     sim::SolverOptions solver;
@@ -161,6 +173,8 @@ class RealtimeLoop {
   int32_t tip_contact_ = -1;
   ForceRoute tip_route_;        // the tip's load in the last step
   HapticProxy proxy_;           // the tip's god-object and the force on the device
+  std::optional<Jaws> jaws_;    // the grasper, when closed
+  Grasp grasp_;                 // what it holds
   bool warned_inside_ = false;  // the device-inside-the-organ warning was logged for this entry
   double last_publish_s_ = -1.0;
   sim::StepStats last_stats_;
