@@ -79,8 +79,10 @@ int run_view(const ViewArgs& a) {
   // only watched (plotted), and the user pushes.
   for (const interact::Tool& t : p.scene.tools) {
     if (t.grasp) {
-      log::warn("{}: the viewer does not play a scene's graspers yet (lamina run and render do)",
-                p.scene.source);
+      log::warn(
+          "{}: the viewer does not play a scene's graspers yet (lamina run and render do; G grasps "
+          "by hand)",
+          p.scene.source);
       continue;
     }
     int32_t node = t.vertex;

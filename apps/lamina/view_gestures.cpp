@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pick.h"
 #include "lamina/render/camera.h"
@@ -25,6 +26,8 @@ const char* gesture_name(Gesture g) {
       return "a drag";
     case Gesture::kTool:
       return "a tool-tip move";
+    case Gesture::kGrasp:
+      return "a grasp";
     case Gesture::kNone:
       break;
   }
@@ -42,8 +45,14 @@ void ViewSession::State::handle_key(const std::string& key) {
   } else if (key == "c") {
     pinned.clear();
     update_forces();
+    if (grasp_held) loop->set_grasper(std::nullopt);
+    grasp_held = false;
   } else if (key == "t") {
     tool_mode = !tool_mode;
+    grasp_mode = false;
+  } else if (key == "g") {
+    grasp_mode = !grasp_mode;
+    tool_mode = false;
   }
 }
 
@@ -58,7 +67,25 @@ void ViewSession::State::start_left_gesture(const render::Input& in) {
   if (have_x) hit = interact::pick_skin(vm->model, snap.x, ray.origin, ray.direction);
   const std::string where = fmt::format("press at ({:.0f}, {:.0f}) of {}x{}", in.mouse_px.x(),
                                         in.mouse_px.y(), size.x(), size.y());
-  if (tool_mode) {
+  if (grasp_mode && hit.node >= 0) {
+    // The jaws close on the picked node and the skin around it; the drag moves them.
+    jaws.center_mm = snap.x.row(hit.node).transpose();
+    try {
+      loop->set_grasper(jaws);
+    } catch (const Error& e) {
+      last_press = where + ": " + e.what();
+      log::debug("lamina view: {}", last_press);
+      return;
+    }
+    gesture = Gesture::kGrasp;
+    grasp_held = false;
+    grab_point = jaws.center_mm;
+    watched = hit.node;
+    last_press = where + ": grasp node " + std::to_string(hit.node);
+  } else if (grasp_mode) {
+    gesture = Gesture::kOrbit;
+    last_press = where + ": grasper mode, missed the organ: orbit";
+  } else if (tool_mode) {
     gesture = Gesture::kTool;
     tool_depth_mm =
         hit.node >= 0 ? hit.distance_mm - tip.radius_mm : (camera.target - ray.origin).norm();
@@ -129,6 +156,22 @@ void ViewSession::State::handle_mouse(const render::Input& in) {
         released_at_sim_s = snap.time_s;
       }
       update_forces();
+      break;
+    }
+    case Gesture::kGrasp: {
+      // Retraction: the jaws follow the mouse in the plane facing the eye at the grasp point.
+      const Eigen::Vector2d d = in.mouse_px - press_pos;
+      jaws.center_mm =
+          grab_point + render::drag_in_view_plane(camera, size.y(), grab_point, d.x(), d.y());
+      loop->set_grasper(jaws);
+      if (!left_down) {
+        gesture = Gesture::kNone;
+        grasp_held = in.shift;  // Shift+release keeps holding, as it pins a drag
+        if (!grasp_held) {
+          loop->set_grasper(std::nullopt);
+          released_at_sim_s = snap.time_s;
+        }
+      }
       break;
     }
     case Gesture::kTool: {

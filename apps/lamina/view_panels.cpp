@@ -89,11 +89,20 @@ void ViewSession::State::panels() {
 
   bool changed = false;
   if (ImGui::CollapsingHeader("Interaction", ImGuiTreeNodeFlags_DefaultOpen)) {
-    int mode = tool_mode ? 1 : 0;
+    int mode = grasp_mode ? 2 : tool_mode ? 1 : 0;
     ImGui::RadioButton("drag (paper)", &mode, 0);
     ImGui::SameLine();
     ImGui::RadioButton("tool tip (T)", &mode, 1);
+    ImGui::SameLine();
+    ImGui::RadioButton("grasper (G)", &mode, 2);
     tool_mode = mode == 1;
+    grasp_mode = mode == 2;
+    if (grasp_mode) {
+      float jr = static_cast<float>(jaws.radius_mm);
+      if (ImGui::SliderFloat("jaws radius mm", &jr, 1.0f, 20.0f)) jaws.radius_mm = jr;
+      ImGui::Text("%zu skin node(s) held%s", snap.grasped_nodes.size(),
+                  grasp_held ? " (Shift+release kept it; C lets go)" : "");
+    }
     ImGui::InputDouble("gain N/mm", &options.gain_n_per_mm, 0.01, 0.1, "%.3f");
     options.gain_n_per_mm = std::clamp(options.gain_n_per_mm, 0.0, 10.0);
     ImGui::Text("%zu pinned force(s); Shift+release pins a drag", pinned.size());

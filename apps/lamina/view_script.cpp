@@ -74,12 +74,12 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
           throw invalid_input(at, "expected a number of wheel clicks");
         ev.scroll = value.get<double>();
       } else if (key == "mode") {
-        if (value != "drag" && value != "tool")
-          throw invalid_input(at, "expected \"drag\" or \"tool\"");
+        if (value != "drag" && value != "tool" && value != "grasp")
+          throw invalid_input(at, "expected \"drag\", \"tool\" or \"grasp\"");
         ev.mode = value.get<std::string>();
       } else if (key == "key") {
-        if (value != "r" && value != "space" && value != "c" && value != "t")
-          throw invalid_input(at, "expected \"r\", \"space\", \"c\" or \"t\"");
+        if (value != "r" && value != "space" && value != "c" && value != "t" && value != "g")
+          throw invalid_input(at, "expected \"r\", \"space\", \"c\", \"t\" or \"g\"");
         ev.key = value.get<std::string>();
       } else if (key == "screenshot") {
         if (!value.is_string() || value.get<std::string>().empty())

@@ -174,7 +174,10 @@ void ViewSession::State::act_on_script(double t) {
     script.resume(t);
   }
   for (const ScriptEvent& e : script.play(t, render::window_size())) {
-    if (!e.mode.empty()) tool_mode = e.mode == "tool";
+    if (!e.mode.empty()) {
+      tool_mode = e.mode == "tool";
+      grasp_mode = e.mode == "grasp";
+    }
     if (!e.screenshot.empty()) save_screenshot(e.screenshot);
     if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
     if (e.rebuild_layers > 0) {
@@ -241,6 +244,7 @@ void ViewSession::State::show_state() {
       f.rings.push_back({lf.node, routing.locality});
   }
   for (int32_t node : snap.contact_nodes) render::add_contact_marker(f, node);
+  for (int32_t node : snap.grasped_nodes) render::add_contact_marker(f, node);
   if (tip.active) f.markers.push_back({tip.center_mm, tip.radius_mm, {0.7f, 0.75f, 0.8f, 1.0f}});
   render::set_overlays(kModelName, {std::move(f.rings), std::move(f.arrows), std::move(f.markers)});
 }

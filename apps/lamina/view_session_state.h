@@ -21,7 +21,7 @@ namespace lamina::cli {
 
 using Clock = std::chrono::steady_clock;
 
-enum class Gesture { kNone, kOrbit, kPan, kDrag, kTool };
+enum class Gesture { kNone, kOrbit, kPan, kDrag, kTool, kGrasp };
 
 // A fixed-length history for the live plots.
 struct History {
@@ -60,7 +60,12 @@ struct ViewSession::State {
 
   // Interaction.
   bool tool_mode = false;
+  bool grasp_mode = false;  // a left press grasps the skin, the drag retracts it (G)
   Gesture gesture = Gesture::kNone;
+  // The grasper's jaws, while closed: about forceps' width (a 4 mm radius takes one node of the
+  // paper-size skin's 10 mm mesh and pulls a spike).
+  interact::Jaws jaws{.radius_mm = 10.0};
+  bool grasp_held = false;  // closed and left holding (Shift+release); C opens it
   Eigen::Vector2d press_pos = Eigen::Vector2d::Zero(), last_pos = Eigen::Vector2d::Zero();
   int32_t drag_node = -1;
   Eigen::Vector3d grab_point = Eigen::Vector3d::Zero();

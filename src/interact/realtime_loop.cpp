@@ -111,6 +111,7 @@ void RealtimeLoop::set_grasper(const std::optional<Jaws>& jaws) {
                                                  jaws->radius_mm, jaws->center_mm.x(),
                                                  jaws->center_mm.y(), jaws->center_mm.z()));
   }
+  if (jaws && !jaws_closed_) new_close_ = *jaws;
   jaws_closed_ = jaws.has_value();
   new_jaws_ = jaws;
 }
@@ -164,6 +165,9 @@ void RealtimeLoop::apply_pending() {
   if (reset_requested_) {
     if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);  // rest is the organ's own, unheld
     jaws_.reset();
+    close_at_.reset();
+    new_close_.reset();
+    new_jaws_.reset();
     jaws_closed_ = false;
     sim::reset(sim_);
     last_stats_ = {};  // an unstable simulation steps again from rest
@@ -189,6 +193,11 @@ void RealtimeLoop::apply_pending() {
     tip_ = *new_tip_;
     new_tip_.reset();
     tip_contact_ = -1;
+  }
+  if (new_close_) {  // closed anew: whatever the jaws held before (an open not seen) goes
+    if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);
+    close_at_ = *new_close_;
+    new_close_.reset();
   }
   if (new_jaws_) {
     jaws_ = *new_jaws_;
@@ -278,6 +287,7 @@ void RealtimeLoop::one_step() {
 void RealtimeLoop::move_grasper() {
   if (!jaws_) {
     if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);
+    close_at_.reset();
     return;
   }
   if (!grasp_.nodes.empty()) {
@@ -285,12 +295,15 @@ void RealtimeLoop::move_grasper() {
     return;
   }
   try {
-    close_jaws(sim_, *jaws_, grasp_, "grasper");
+    close_jaws(sim_, close_at_ ? *close_at_ : *jaws_, grasp_, "grasper");
   } catch (const Error& e) {  // the skin moved away since set_grasper() checked: stay open
     log::warn("{}", e.what());
     jaws_.reset();
+    close_at_.reset();
     return;
   }
+  close_at_.reset();
+  move_jaws(sim_, jaws_->center_mm, grasp_);       // where the caller has moved them since
   if (sim_.options().mode == sim::Mode::kLocal) {  // the tissue around the jaws moves
     touched_.insert(touched_.end(), grasp_.nodes.begin(), grasp_.nodes.end());
     keep_touched_movable(sim_, touched_);

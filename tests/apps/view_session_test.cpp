@@ -111,6 +111,15 @@ class ViewSessionTest : public ::testing::Test {
     }
     ASSERT_TRUE(simulate_for(s, hold_s));
   }
+  // Shift held while the left button goes up (each in its own frame, as a hand does it).
+  static void shift_release(ViewSession& s) {
+    render::inject(InputEvent::key_down("shift"));
+    s.frame();
+    render::inject(InputEvent::release(MouseButton::kLeft));
+    s.frame();
+    render::inject(InputEvent::key_up("shift"));
+    s.frame();
+  }
 };
 
 TEST_F(ViewSessionTest, ADragOnTheOrganDentsItAndReleaseLetsItReturnToRest) {
@@ -149,13 +158,7 @@ TEST_F(ViewSessionTest, ShiftAtReleasePinsTheForceUntilC) {
   ViewSession s(fast_options(), sphere_view_model());
   s.start();
   drag_from_centre(s, 120.0, 5.0);
-  // Shift held while the button goes up (each in its own frame, as a hand does it).
-  render::inject(InputEvent::key_down("shift"));
-  s.frame();
-  render::inject(InputEvent::release(MouseButton::kLeft));
-  s.frame();
-  render::inject(InputEvent::key_up("shift"));
-  s.frame();
+  shift_release(s);
   ASSERT_TRUE(simulate_for(s, 3.0));
   EXPECT_EQ(s.report()["pinned_forces"], 1);
   const double pinned = largest_displacement(s);
@@ -168,6 +171,38 @@ TEST_F(ViewSessionTest, ShiftAtReleasePinsTheForceUntilC) {
   EXPECT_EQ(s.report()["pinned_forces"], 0);
   ASSERT_TRUE(frames_until(s, [&] { return largest_displacement(s) < 0.05 * pinned; }))
       << "C did not release the pinned force";
+}
+
+TEST_F(ViewSessionTest, TheGrasperHoldsTheSkinItPressesFollowsTheDragAndLetsGo) {
+  // G, then a press on the organ: the jaws close on the picked node and the skin around it; the
+  // drag moves them (the held skin follows, marked), release opens them and the organ returns;
+  // Shift+release keeps holding until C.
+  ViewSession s(fast_options(), sphere_view_model());
+  s.start();
+  render::inject(InputEvent::key_down("g"));
+  render::inject(InputEvent::key_up("g"));
+  s.frame();
+  drag_from_centre(s, 120.0, 1.0);
+  EXPECT_THAT(s.last_press(), HasSubstr("grasp node"));
+  ASSERT_FALSE(s.snapshot().grasped_nodes.empty());
+  const double pulled = largest_displacement(s);
+  EXPECT_GT(pulled, 2.0) << "the held skin did not follow the jaws";
+  s.frame();
+  EXPECT_GE(render::last_frame()[0].overlays.markers.size(), s.snapshot().grasped_nodes.size())
+      << "the held nodes are marked";
+  shift_release(s);
+  ASSERT_TRUE(simulate_for(s, 1.0));
+  EXPECT_FALSE(s.snapshot().grasped_nodes.empty()) << "Shift+release keeps holding";
+  EXPECT_GT(largest_displacement(s), 0.9 * pulled);
+  render::inject(InputEvent::key_down("c"));
+  render::inject(InputEvent::key_up("c"));
+  s.frame();
+  ASSERT_TRUE(frames_until(s,
+                           [&] {
+                             return s.snapshot().grasped_nodes.empty() &&
+                                    largest_displacement(s) < 0.05 * pulled;
+                           }))
+      << "C did not let go: " << largest_displacement(s) << " mm";
 }
 
 TEST_F(ViewSessionTest, APressOffTheOrganOrbitsInsteadOfPushing) {

@@ -155,4 +155,22 @@ TEST(Grasp, TheRealtimeLoopsGrasperHoldsPullsAndLetsGo) {
   EXPECT_LT(loop.latest_reaction().reaction_mn.norm(), 1e-9);
 }
 
+TEST(Grasp, MovesMadeBeforeTheLoopsNextStepStillCloseWhereTheJawsFirstWere) {
+  // A fast hand: the jaws close and move 5 mm before the loop steps once. They close where they
+  // were first, so the held node is carried the whole 5 mm (closing at the last position would
+  // leave it where it was).
+  const Model& m = test::sphere_model();
+  interact::RealtimeLoop loop(test::tissue_sphere(), {.routing = interact::Routing::kNone},
+                              {.real_time = false});
+  const int32_t node = test::front_node(m);
+  const Eigen::Vector3d at = m.X.row(node).transpose();
+  loop.set_grasper(interact::Jaws{.center_mm = at, .radius_mm = 2.0});
+  for (int k = 1; k <= 5; ++k)
+    loop.set_grasper(interact::Jaws{.center_mm = at - Eigen::Vector3d(0.0, k, 0.0)});
+  loop.run_steps(1);
+  interact::LoopSnapshot snap;
+  loop.latest(snap);
+  EXPECT_NEAR(snap.x(node, 1), at.y() - 5.0, 1e-9);
+}
+
 }  // namespace

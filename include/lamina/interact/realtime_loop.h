@@ -97,9 +97,10 @@ class RealtimeLoop {
   void set_forces(std::vector<LiveForce> forces);
   void set_tool_tip(const ToolTip& tip);
   /// The grasper: jaws given and open, they close on the skin under them (its free nodes within
-  /// jaws.radius_mm, on the shape of the next step) and hold it; given and closed, they move there
-  /// with what they hold; nullopt opens them. The tissue's pull on the held nodes joins the
-  /// reaction. Throws lamina::Error (kInvalidInput), nothing changing, for a radius or position
+  /// jaws.radius_mm, at that position, on the shape of the next step) and hold it; given and
+  /// closed, they move there with what they hold (moves made before the loop's next step still
+  /// close at the first position); nullopt opens them. The tissue's pull on the held nodes joins
+  /// the reaction. Throws lamina::Error (kInvalidInput), nothing changing, for a radius or position
   /// that is not a finite positive number, or when closing with no skin node within the radius
   /// in the latest snapshot ("nothing under the jaws").
   void set_grasper(const std::optional<Jaws>& jaws);
@@ -152,7 +153,8 @@ class RealtimeLoop {
   std::optional<std::vector<LiveForce>> new_forces_;
   std::optional<ToolTip> new_tip_;
   std::optional<std::optional<Jaws>> new_jaws_;
-  bool jaws_closed_ = false;  // as the caller last set them (set_grasper's own bookkeeping)
+  std::optional<Jaws> new_close_;  // where the jaws were when the caller closed them
+  bool jaws_closed_ = false;       // as the caller last set them (set_grasper's own bookkeeping)
   struct Params {
     sim::Material material;
     sim::SolverOptions solver;
@@ -171,11 +173,12 @@ class RealtimeLoop {
   std::vector<int32_t> touched_;
   Loads loads_;
   int32_t tip_contact_ = -1;
-  ForceRoute tip_route_;        // the tip's load in the last step
-  HapticProxy proxy_;           // the tip's god-object and the force on the device
-  std::optional<Jaws> jaws_;    // the grasper, when closed
-  Grasp grasp_;                 // what it holds
-  bool warned_inside_ = false;  // the device-inside-the-organ warning was logged for this entry
+  ForceRoute tip_route_;          // the tip's load in the last step
+  HapticProxy proxy_;             // the tip's god-object and the force on the device
+  std::optional<Jaws> jaws_;      // the grasper, when closed: where the caller last put it
+  std::optional<Jaws> close_at_;  // where they close (the caller's first position), not yet done
+  Grasp grasp_;                   // what it holds
+  bool warned_inside_ = false;    // the device-inside-the-organ warning was logged for this entry
   double last_publish_s_ = -1.0;
   sim::StepStats last_stats_;
   double window_step_sum_us_ = 0.0;
