@@ -75,7 +75,7 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
     // Placed only from outside: from inside, the nearest surface may be the far side's.
     if (s.started_inside && --s.recheck_in > 0) return {};
     const double depth = depth_under_skin(m, x, device);
-    if (depth > kStartDepthToleranceMm) {
+    if (depth > start_depth_limit_mm(r)) {
       s = {};
       s.started_inside = true;
       s.start_depth_mm = depth;

@@ -170,7 +170,7 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
                                                   ", got " + std::to_string(tool.vertex));
       if (tool.by_point) {
         const double depth = depth_under_skin(m, s.x, tool.point_mm);
-        if (depth > kStartDepthToleranceMm)
+        if (depth > start_depth_limit_mm(tool.radius_mm))
           throw invalid_input(name + ".point",
                               fmt::format("is inside the organ, {:.1f} mm under the skin: a tool "
                                           "starts outside the organ or on its skin",

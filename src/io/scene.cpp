@@ -622,7 +622,7 @@ void check_scene_against_model(const Scene& s, const Model& m) {
              fmt::format("must be a skin node, 0..{}, got {}", skin_nodes - 1, t.vertex));
     if (t.by_point) {
       const double depth = interact::depth_under_skin(m, m.X, t.point_mm);
-      if (depth > interact::kStartDepthToleranceMm)
+      if (depth > interact::start_depth_limit_mm(t.radius_mm))
         r.fail(path + ".point",
                fmt::format("[{}, {}, {}] is inside the organ, {:.1f} mm under the skin at rest: a "
                            "tool starts outside the organ or on its skin",

@@ -133,11 +133,11 @@ TEST(HapticProxy, ADeviceInsideTheOrganIsNotPlacedUntilBroughtOut) {
   EXPECT_TRUE(proxy.started_inside);
   EXPECT_NEAR(proxy.start_depth_mm, (skin - c).norm(), 0.1 * (skin - c).norm());
   EXPECT_TRUE(proxy.device_force_mn.isZero());
-  tip.center_mm = skin - 3.0 * outward;  // still 3 mm under the skin
+  tip.center_mm = skin - 8.0 * outward;  // still 8 mm under the skin, deeper than the radius
   for (int k = 0; k < interact::kInsideRecheckSteps; ++k)
     interact::couple_proxy(m, m.X, tip, proxy);
   EXPECT_TRUE(proxy.started_inside);
-  EXPECT_NEAR(proxy.start_depth_mm, 3.0, 0.5) << "checked again within kInsideRecheckSteps";
+  EXPECT_NEAR(proxy.start_depth_mm, 8.0, 0.5) << "checked again within kInsideRecheckSteps";
   tip.center_mm = skin + 2.0 * outward;  // out, within the tip's radius of the skin: it touches
   int steps = 0;
   while (!proxy.placed && steps++ < interact::kInsideRecheckSteps)

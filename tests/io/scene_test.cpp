@@ -655,14 +655,18 @@ TEST(CheckSceneAgainstModel, NamesTheKeyThatDoesNotFitTheModel) {
                        "solver.contact_threshold_mm (10 mm)",
                        0),
             0u);
-  EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 0], "force_n": [0, 1, 0]}],
+  EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 0], "force_n": [0, 1, 0], "radius_mm": 0.5}],
                         "solver": {"locality": 2}})"),
             "scene.json: tools[0].point: [0, 0, 0] is inside the organ, 1.2 mm under the skin at "
             "rest: a tool starts outside the organ or on its skin");
-  EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 1.9], "force_n": [0, 1, 0]}],
+  EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 0], "force_n": [0, 1, 0], "radius_mm": 2}],
                         "solver": {"locality": 2}})"),
             "")
-      << "0.06 mm under the skin: a point picked on it";
+      << "1.2 mm under the skin: within the tool's 2 mm radius, a press";
+  EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 1.3], "force_n": [0, 1, 0], "radius_mm": 0.5}],
+                        "solver": {"locality": 2}})"),
+            "")
+      << "0.4 mm under the skin: a point picked on it and rounded";
   EXPECT_EQ(message(R"({"tools": [{"point": [0, 0, 30], "grasp": {}}],
                         "solver": {"locality": 2}})")
                 .rfind("scene.json: tools[0].point: nothing under the grasper's jaws: no skin "

@@ -31,10 +31,13 @@ SkinPoint closest_skin_point(const Model& model, const Eigen::MatrixX3d& x,
 /// p is inside the organ (the skin's winding number at p above 1/2), minus it outside.
 double depth_under_skin(const Model& model, const Eigen::MatrixX3d& x, const Eigen::Vector3d& p);
 
-/// A tool may start this far under the skin (a point picked on the skin, rounded), mm; deeper
-/// it starts inside the organ, which a tool cannot (refused by name: tools[].point, the tool
-/// tip).
-inline constexpr double kStartDepthToleranceMm = 0.5;
+/// How far under the skin a tool of radius `radius_mm` may start: its radius (a press: the
+/// sphere or patch still reaches the skin from outside) or 1 mm (a point picked on the skin and
+/// rounded), whichever is more. Deeper it starts inside the organ, which a tool cannot (refused
+/// by name: tools[].point, the tool tip).
+inline double start_depth_limit_mm(double radius_mm) {
+  return radius_mm > 1.0 ? radius_mm : 1.0;
+}
 
 /// Skin node `node` as a SkinPoint (one of its triangles, weight 1 on it).
 /// \note Throws lamina::Error (kInvalidInput) when `node` is not a skin node.

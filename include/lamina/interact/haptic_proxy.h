@@ -22,7 +22,8 @@ struct HapticProxy {
   Eigen::Vector3d proxy_mm = Eigen::Vector3d::Zero();         ///< the proxy sphere's centre
   Eigen::Vector3d device_force_mn = Eigen::Vector3d::Zero();  ///< the last force on the device
   bool touching = false;  ///< the proxy rests on the skin (its load went to the tissue)
-  /// The device was inside the organ (deeper than kStartDepthToleranceMm) when the tip came on:
+  /// The device was inside the organ (its centre deeper than start_depth_limit_mm(radius)) when
+  /// the tip came on:
   /// a proxy cannot know which side it entered from, so it is not placed, and nothing is felt
   /// or loaded, until the device is brought out.
   bool started_inside = false;
