@@ -41,7 +41,7 @@ bool finite_number(double v) {
 // A Neo-Hookean element's tangent at the current u: d P / d F over F's nine entries (row-major),
 // projected to positive semi-definite (neo_hookean_stress()).
 struct NeoState {
-  Eigen::Matrix<double, 9, 9> tangent;
+  Eigen::Matrix<double, 9, 9> tangent = Eigen::Matrix<double, 9, 9>::Zero();
 };
 
 // Everything a solve needs, sized once from the mesh and the boundary.
