@@ -36,6 +36,13 @@ void close_jaws(sim::Simulation& s, const Jaws& jaws, Grasp& grasp, const std::s
   sim::hold_nodes(s, grasp.nodes, grasp.targets);
 }
 
+bool anything_under_jaws(const Model& m, const Eigen::MatrixX3d& x, const Jaws& jaws) {
+  const double r2 = jaws.radius_mm * jaws.radius_mm;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if ((x.row(i).transpose() - jaws.center_mm).squaredNorm() <= r2) return true;
+  return false;
+}
+
 void move_jaws(sim::Simulation& s, const Eigen::Vector3d& center_mm, Grasp& grasp) {
   if (grasp.nodes.empty()) return;
   grasp.targets = grasp.offsets.rowwise() + center_mm.transpose();

@@ -101,9 +101,8 @@ void RealtimeLoop::set_grasper(const std::optional<Jaws>& jaws) {
     bool any = false;
     {
       std::lock_guard snap(snapshot_mutex_);
-      const Eigen::MatrixX3d& x = published_.x.rows() ? published_.x : sim_.model().X;
-      for (int32_t i = 0; i < sim_.model().layers[0].node_count && !any; ++i)
-        any = (x.row(i).transpose() - jaws->center_mm).norm() <= jaws->radius_mm;
+      any = anything_under_jaws(sim_.model(), published_.x.rows() ? published_.x : sim_.model().X,
+                                *jaws);
     }
     if (!any)
       throw invalid_input("grasper", fmt::format("nothing under the jaws: no skin node within {} "

@@ -15,6 +15,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/contact.h"
+#include "lamina/interact/grasp.h"
 
 namespace lamina::io {
 namespace {
@@ -631,10 +632,7 @@ void check_scene_against_model(const Scene& s, const Model& m) {
     if (t.grasp) {
       // Something under the jaws at rest, or nothing to hold.
       const Eigen::Vector3d at = t.by_point ? t.point_mm : Eigen::Vector3d(m.X.row(t.vertex));
-      bool any = false;
-      for (int32_t i = 0; i < skin_nodes && !any; ++i)
-        any = (m.X.row(i).transpose() - at).norm() <= t.radius_mm;
-      if (!any)
+      if (!interact::anything_under_jaws(m, m.X, {.center_mm = at, .radius_mm = t.radius_mm}))
         r.fail(path + (t.by_point ? ".point" : ".vertex"),
                fmt::format("nothing under the grasper's jaws: no skin node within radius_mm "
                            "({} mm) of [{}, {}, {}] at rest",

@@ -264,6 +264,23 @@ void block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16]
   }
 }
 
+// A tetrahedron's 12 x 12 stiffness added to the 3x3 blocks between its corners' rows
+// (row_of[node]; -1: left out), for either energy.
+void add_element_blocks(const Eigen::Matrix<double, 12, 12>& k12, const int32_t corner[4],
+                        const std::vector<int32_t>& row_of, BlockRows& out) {
+  for (int a = 0; a < 4; ++a) {
+    const int32_t r = row_of[corner[a]];
+    if (r < 0) continue;
+    for (int c = 0; c < 4; ++c) {
+      const int32_t col = row_of[corner[c]];
+      if (col < 0) continue;
+      double* block = out.at(r, col);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) block[3 * i + j] += k12(3 * a + i, 3 * c + j);
+    }
+  }
+}
+
 }  // namespace
 
 void setup_tets(Solver& s) {
@@ -506,17 +523,8 @@ void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
   if (s.tets.neo_hookean) {
     for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
       const Eigen::Matrix<double, 12, 12> k12 = neo_hookean_rest_stiffness(s, t);
-      for (int a = 0; a < 4; ++a) {
-        const int32_t r = row_of[s.model->tets.T(t, a)];
-        if (r < 0) continue;
-        for (int c = 0; c < 4; ++c) {
-          const int32_t col = row_of[s.model->tets.T(t, c)];
-          if (col < 0) continue;
-          double* block = out.at(r, col);
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) block[3 * i + j] += k12(3 * a + i, 3 * c + j);
-        }
-      }
+      const Eigen::Vector4i corner = s.model->tets.T.row(t).transpose();
+      add_element_blocks(k12, corner.data(), row_of, out);
     }
     return;
   }
@@ -547,17 +555,8 @@ void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
       for (int k = 0; k < 6; ++k)
         for (int m = 0; m < 6; ++m) Q(k, m) = b.q[qi(k, m)][l];
       k12.noalias() += J.transpose() * Q * J;
-      for (int a = 0; a < 4; ++a) {
-        const int32_t r = row_of[b.node[a][l]];
-        if (r < 0) continue;
-        for (int c = 0; c < 4; ++c) {
-          const int32_t col = row_of[b.node[c][l]];
-          if (col < 0) continue;
-          double* block = out.at(r, col);
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) block[3 * i + j] += k12(3 * a + i, 3 * c + j);
-        }
-      }
+      const int32_t corner[4] = {b.node[0][l], b.node[1][l], b.node[2][l], b.node[3][l]};
+      add_element_blocks(k12, corner, row_of, out);
     }
   }
 }

@@ -34,6 +34,11 @@ struct Grasp {
 ///   the point and the radius), or for a radius that is not a positive number; nothing is held.
 void close_jaws(sim::Simulation& sim, const Jaws& jaws, Grasp& grasp, const std::string& what);
 
+/// Whether any skin node at positions x lies within jaws.radius_mm of jaws.center_mm: the check
+/// made before jaws are asked to close (a scene at rest, the realtime loop's caller), where
+/// close_jaws() itself will run later, on another shape.
+bool anything_under_jaws(const Model& model, const Eigen::MatrixX3d& x, const Jaws& jaws);
+
 /// Moves the held nodes with the jaws' centre (their offsets kept). Cheap every step: the
 /// nodes are held already (sim::hold_nodes moves them and refreshes only their positions).
 void move_jaws(sim::Simulation& sim, const Eigen::Vector3d& center_mm, Grasp& grasp);

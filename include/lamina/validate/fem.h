@@ -101,8 +101,9 @@ FemResult solve_corotational(const TetMesh& mesh, const FemMaterial& material,
 /// Stable Neo-Hookean (Smith, de Goes & Kim 2018): per element mu/2 (tr C - 3) +
 /// lambda'/2 (J - alpha)^2 with lambda' = lambda + mu, alpha = 1 + mu / lambda' (linear
 /// elasticity at small strain; the simulation's Material::tet_model kNeoHookean without its
-/// inversion guard). Same load steps and Newton-like iterations as solve_corotational(), on a
-/// positive-definite tangent (J's curvature bounded where it would make it indefinite).
+/// inversion guard). Same load steps and Newton-like iterations as solve_corotational(), on each
+/// element's exact tangent projected to positive semi-definite (its negative eigenvalues set to
+/// zero: projected Newton).
 /// @return, \throws as solve_corotational()
 FemResult solve_neo_hookean(const TetMesh& mesh, const FemMaterial& material,
                             const FemBoundary& boundary, const FemOptions& options);
