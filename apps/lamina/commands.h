@@ -128,6 +128,9 @@ struct ValidateArgs {
   /// The indenter's radius, mm; 0: 1.6 spring lengths, at least 8 mm (so it follows the mesh; a
   /// study across resolutions fixes it)
   double indenter_radius_mm = 0.0;
+  bool tool_only = false;  ///< only the tool case (the sphere tip against FEM pressed alike)
+  /// The tool case's sphere: pressure per mm of penetration, kPa/mm; 0: 10 E / radius
+  double sphere_stiffness_kpa_per_mm = 0.0;
   bool stability = false;  ///< the stability suite instead of the finite-element comparison
   /// Diagnostic: the finite elements on the model's own tetrahedra instead of an independent
   /// mesh (separates the model's error from the discretisation's).

@@ -301,6 +301,13 @@ int main(int argc, char** argv) {
                  "the indenter's radius, mm (default: 1.6 spring lengths, at least 8 mm; fix it to "
                  "compare resolutions)")
       ->check(CLI::Range(1.0, 100.0));
+  va->add_flag("--tool-only", val.tool_only,
+               "only the tool case: the sphere tip pressing the skin through the contact code "
+               "against finite elements pressed by the same sphere law");
+  va->add_option("--sphere-stiffness", val.sphere_stiffness_kpa_per_mm,
+                 "the tool case's contact stiffness, kPa per mm of penetration (default: "
+                 "10 E / radius)")
+      ->check(CLI::Range(1e-3, 1e4));
   va->add_flag("--stability", val.stability,
                "the stability suite: indentations to 50%, pulls, several tools, dt sweeps per "
                "integrator, each released and checked (finite, layer order, energy, rest)");

@@ -24,15 +24,14 @@ inline bool box_out_of_reach(const Eigen::Vector3d& centre, double reach, const 
   return gap.squaredNorm() > reach * reach;
 }
 
-// Calls visit(face, barycentric, point, area) at sample points of every skin triangle that
-// comes within `reach` of `centre`. Each such triangle is cut into k x k similar pieces (k^2
-// samples at the pieces' centroids, each standing for area / k^2), k chosen so that a piece is
-// no wider than spacing(face, barycentric weights of its point nearest to the centre, that
-// point's distance) (at most 16 cuts an edge).
-template <class Spacing, class Visit>
-void sample_skin_near(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& centre,
-                      double reach, Spacing&& spacing, Visit&& visit) {
-  const Eigen::MatrixX3i& F = m.layers[0].F;
+// Calls visit(face, barycentric, point, area) at sample points of every triangle of F (rows
+// index x: the skin, or a finite-element mesh's boundary) that comes within `reach` of `centre`.
+// Each such triangle is cut into k x k similar pieces (k^2 samples at the pieces' centroids,
+// each standing for area / k^2), k = cuts(face, barycentric weights of its point nearest to the
+// centre, that point's distance, the triangle's longest edge), clamped to 1..16.
+template <class Cuts, class Visit>
+void sample_faces_near(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x,
+                       const Eigen::Vector3d& centre, double reach, Cuts&& cuts, Visit&& visit) {
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
     if (box_out_of_reach(centre, reach, a, b, c)) continue;
@@ -41,8 +40,7 @@ void sample_skin_near(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Ve
     if (distance > reach) continue;
     const double longest =
         std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
-    const double h = spacing(static_cast<int32_t>(f), w, distance);
-    const int k = h > 0.0 ? std::clamp(static_cast<int>(std::ceil(longest / h)), 1, 16) : 16;
+    const int k = std::clamp(cuts(static_cast<int32_t>(f), w, distance, longest), 1, 16);
     const double area = 0.5 * (b - a).cross(c - a).norm() / (k * k);
     const double inv = 1.0 / k;
     for (int i = 0; i < k; ++i)
@@ -58,6 +56,19 @@ void sample_skin_near(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Ve
         }
       }
   }
+}
+
+// The same over the model's skin.
+template <class Cuts, class Visit>
+void sample_skin_near(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& centre,
+                      double reach, Cuts&& cuts, Visit&& visit) {
+  sample_faces_near(m.layers[0].F, x, centre, reach, std::forward<Cuts>(cuts),
+                    std::forward<Visit>(visit));
+}
+
+// Cuts so that a piece is no wider than `spacing` (mm) on an edge of length `longest`.
+inline int cuts_for(double longest, double spacing) {
+  return spacing > 0.0 ? static_cast<int>(std::min(std::ceil(longest / spacing), 16.0)) : 16;
 }
 
 // Per-node force parts merged into a route (nodes ascending, each once). `parts` is reused

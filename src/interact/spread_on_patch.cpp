@@ -27,7 +27,9 @@ ForceRoute spread_on_patch(const Model& m, const Eigen::MatrixX3d& x, const Skin
     const double r2 = radius_mm * radius_mm;
     detail::sample_skin_near(
         m, x, at.point_mm, radius_mm,
-        [&](int32_t, const Eigen::Vector3d&, double) { return radius_mm / 3.0; },
+        [&](int32_t, const Eigen::Vector3d&, double, double longest) {
+          return detail::cuts_for(longest, radius_mm / 3.0);
+        },
         [&](int32_t f, const Eigen::Vector3d& bary, const Eigen::Vector3d& y, double area) {
           const double q = 1.0 - (y - at.point_mm).squaredNorm() / r2;
           if (q <= 0.0 || normal(f).dot(facing) <= 0.0) return;

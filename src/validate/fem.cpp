@@ -24,6 +24,7 @@
 #include <string>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/sphere_pressure.h"
 
 namespace lamina::validate {
 namespace {
@@ -71,6 +72,14 @@ struct Workspace {
   FemLaw law = FemLaw::kLinear;
   std::vector<Eigen::Matrix3d, Eigen::aligned_allocator<Eigen::Matrix3d>> rotation;  // per tet
   std::vector<NeoState, Eigen::aligned_allocator<NeoState>> neo;  // per tet (Neo-Hookean)
+  // The pressing sphere (FemBoundary::sphere): its boundary faces, where its centre is now, the
+  // pieces it pressed at the last internal_forces() and the positions they were found at.
+  const Eigen::MatrixX3d* V = nullptr;
+  std::optional<interact::PressingSphere> sphere;
+  Eigen::Vector3d sphere_start = Eigen::Vector3d::Zero(), sphere_end = Eigen::Vector3d::Zero();
+  Eigen::MatrixX3i faces;
+  std::vector<interact::PressedPiece> pieces;
+  Eigen::MatrixX3d x;
   Eigen::MatrixXd element_force;            // 12 by #T, filled in parallel, summed in a fixed order
   Eigen::VectorXd u, u_saved, f_int, work;  // per dof
   Eigen::VectorXd residual, step, rhs, check, cg_r, cg_z, cg_p;  // per unknown
@@ -115,6 +124,12 @@ void check_inputs(const TetMesh& mesh, const FemMaterial& material, const FemBou
         fmt::format("must be empty or #V ({}) rows, got {}", n, b.nodal_force_mn.rows()));
   if (!b.nodal_force_mn.allFinite())
     throw invalid_input("fem: boundary.nodal_force_mn", "has a non-finite value");
+  if (b.sphere) {
+    if (const auto problem = interact::sphere_problem(*b.sphere))
+      throw invalid_input(fmt::format("fem: boundary.sphere.{}", problem->first), problem->second);
+    if (!b.sphere_start_mm.allFinite())
+      throw invalid_input("fem: boundary.sphere_start_mm", "is not finite");
+  }
 }
 
 // Validates, then builds the dof numbering, rest gradients and the sparsity pattern.
@@ -125,6 +140,15 @@ void setup(const TetMesh& mesh, const FemMaterial& material, const FemBoundary& 
   w.mu = E / (2.0 * (1.0 + nu));
   w.nodes = static_cast<int>(mesh.V.rows());
   w.T = &mesh.T;
+  w.V = &mesh.V;
+  if (b.sphere) {
+    w.sphere = b.sphere;
+    w.sphere_start = b.sphere_start_mm;
+    w.sphere_end = b.sphere->center_mm;
+    w.sphere->center_mm = w.sphere_start;  // load steps move it on
+    w.faces = boundary_faces(mesh);
+    w.x.resize(mesh.V.rows(), 3);
+  }
   const int dofs = 3 * w.nodes;
   const Eigen::Index tets = mesh.T.rows();
 
@@ -317,6 +341,18 @@ Eigen::Matrix3d neo_hookean_increment(const NeoState& s, const Eigen::Matrix3d& 
   return dP;
 }
 
+// The sphere's push at the current u, taken off f_int: a load that follows the surface, so it
+// belongs with the forces that depend on u (the residual and reactions see it there).
+void press(Workspace& w) {
+  if (!w.sphere) return;
+  for (int v = 0; v < w.nodes; ++v)
+    w.x.row(v) = w.V->row(v) + Eigen::RowVector3d(w.u[3 * v], w.u[3 * v + 1], w.u[3 * v + 2]);
+  interact::press_sphere(w.x, *w.V, w.faces, *w.sphere, w.pieces);
+  for (const interact::PressedPiece& p : w.pieces)
+    for (int c = 0; c < 3; ++c)
+      w.f_int.segment<3>(3 * w.faces(p.face, c)) -= p.barycentric[c] * p.force_mn;
+}
+
 // Internal forces f_int(u). The corotational law also updates each element's rotation from u
 // (linear elasticity keeps the identity); Neo-Hookean its NeoState.
 void internal_forces(Workspace& w) {
@@ -345,6 +381,7 @@ void internal_forces(Workspace& w) {
     for (int a = 0; a < 4; ++a) w.element_force.col(t).segment<3>(3 * a) = f.col(a);
   }
   gather(w, w.f_int);
+  press(w);
 }
 
 // out = K_t d, the tangent (sum of R K_e R^T) times a displacement field, matrix-free: the
@@ -403,6 +440,23 @@ void assemble_tangent(Workspace& w) {
             if (s >= 0) values[s] += block(i, m);
           }
       }
+  }
+  // The sphere: each piece's k n n^T between its triangle's corners, by their weights. The
+  // corners share a boundary tet, so every entry is in the pattern already.
+  const int* outer = w.K.outerIndexPtr();
+  const int* inner = w.K.innerIndexPtr();
+  for (const interact::PressedPiece& p : w.pieces) {
+    const Eigen::Matrix3d nn = p.stiffness_mn_per_mm * p.normal * p.normal.transpose();
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int i = 0; i < 3; ++i)
+          for (int m = 0; m < 3; ++m) {
+            const int r = w.free_index[3 * w.faces(p.face, a) + i];
+            const int c = w.free_index[3 * w.faces(p.face, b) + m];
+            if (r < 0 || c < 0) continue;
+            const int* at = std::lower_bound(inner + outer[c], inner + outer[c + 1], r);
+            values[at - inner] += p.barycentric[a] * p.barycentric[b] * nn(i, m);
+          }
   }
 }
 
@@ -513,6 +567,7 @@ FemResult finish(const TetMesh& mesh, const Workspace& w, double load, int itera
   result.residual = residual;
   result.converged = converged && result.u.allFinite();
   result.volume_mm3 = tet_volume(mesh, mesh.V + result.u);
+  result.sphere_push_mn = interact::pressed_total(w.pieces);
   return result;
 }
 
@@ -520,6 +575,9 @@ FemResult finish(const TetMesh& mesh, const Workspace& w, double load, int itera
 
 FemResult solve_linear(const TetMesh& mesh, const FemMaterial& material,
                        const FemBoundary& boundary) {
+  if (boundary.sphere)
+    throw invalid_input("fem: boundary.sphere",
+                        "a pressing sphere needs a nonlinear solve (corotational or Neo-Hookean)");
   Workspace w;
   setup(mesh, material, boundary, w);
   // Prescribed values first; their forces on the unknowns move to the right-hand side.
@@ -564,6 +622,10 @@ FemResult solve_nonlinear(const TetMesh& mesh, const FemMaterial& material,
   bool all_converged = true;
   for (int s = 1; s <= options.load_steps; ++s) {
     const double load = static_cast<double>(s) / options.load_steps;
+    if (w.sphere) {  // the sphere's centre takes this step's place; its push follows
+      w.sphere->center_mm = w.sphere_start + load * (w.sphere_end - w.sphere_start);
+      internal_forces(w);
+    }
     // Predictor: move the prescribed components to this step's values and let the first solve
     // account for them through the tangent (K_fc du_c on the right-hand side), rather than
     // jumping them alone, which would crush the boundary layer of elements.

@@ -1,5 +1,7 @@
 #include "lamina/validate/indentation.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -8,7 +10,9 @@
 
 #include "lamina/core/clock.h"
 #include "lamina/core/error.h"
+#include "lamina/core/log.h"
 #include "lamina/geometry/closest_on_triangle.h"
+#include "lamina/interact/contact.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/layer_normals.h"
 
@@ -51,6 +55,32 @@ Eigen::MatrixX3d sample_on_faces(const TetMesh& mesh, const Eigen::MatrixX3i& F,
     }
   }
   return out;
+}
+
+// Where the indentation's sphere first touches the surface (x, F) coming along its direction
+// to the contact point: from a start clear of the surface, farther back until it is.
+Eigen::Vector3d first_touch(const Eigen::MatrixX3d& x, const Eigen::MatrixX3i& F,
+                            const Indentation& ind, const std::string& what) {
+  const Eigen::Vector3d d = ind.direction.normalized();
+  const double r = ind.radius_mm;
+  for (double back = 2.0 * r; back <= 64.0 * r; back *= 2.0) {
+    const Eigen::Vector3d from = ind.contact_mm - back * d;
+    if (const auto touch =
+            interact::sphere_first_touch(x, F, from, d, r, back + ind.organ_depth_mm + r))
+      return *touch;
+  }
+  throw invalid_input(what, fmt::format("the indenter sphere ({} mm) finds no clear path to the "
+                                        "contact point along the indentation's direction",
+                                        r));
+}
+
+// The skin's displacement and the organ's volume change of a model at positions x.
+void measure_model(const Model& m, const Eigen::MatrixX3d& x, IndentResult& r) {
+  const ModelLayer& skin = m.layers[0];
+  r.skin_u = x.middleRows(skin.first_node, skin.node_count) -
+             m.X.middleRows(skin.first_node, skin.node_count);
+  const double v0 = sim::layer_volume(m, m.X, 0);
+  r.volume_change_pct = 100.0 * (sim::layer_volume(m, x, 0) - v0) / v0;
 }
 
 }  // namespace
@@ -128,11 +158,7 @@ IndentResult indent_mass_spring(const Model& m, const sim::Material& material,
   double push = 0.0;
   for (int32_t i : patch) push -= f.row(i).dot(dir);
   r.force_n = push / 1000.0;  // mN -> N
-  const ModelLayer& skin = m.layers[0];
-  r.skin_u = s.x.middleRows(skin.first_node, skin.node_count) -
-             m.X.middleRows(skin.first_node, skin.node_count);
-  const double v0 = sim::layer_volume(m, m.X, 0);
-  r.volume_change_pct = 100.0 * (sim::layer_volume(m, s.x, 0) - v0) / v0;
+  measure_model(m, s.x, r);
   r.seconds = seconds_since(t0);
   return r;
 }
@@ -169,6 +195,82 @@ IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material, const 
   double push = 0.0;
   for (int32_t v : bc.driven) push += fem.reaction_mn.row(v).dot(dir);
   r.force_n = push / 1000.0;
+  const double v0 = tet_volume(mesh, mesh.V);
+  r.volume_change_pct = 100.0 * (fem.volume_mm3 - v0) / v0;
+  r.skin_u = sample_on_faces(mesh, F, fem.u, samples);
+  r.u = fem.u;
+  r.seconds = seconds_since(t0);
+  return r;
+}
+
+IndentResult press_mass_spring(const Model& m, const sim::Material& material,
+                               sim::SolverOptions solver, const Indentation& ind, double depth_mm,
+                               double travel_s) {
+  const auto t0 = Clock::now();
+  solver.mode = sim::Mode::kGlobal;
+  sim::Simulation s = sim::make_simulation(m, material, solver);
+  sim::fix_nodes(
+      s, sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm));
+  const Eigen::Vector3d dir = ind.direction.normalized();
+  const Eigen::Vector3d touch = first_touch(m.X, m.layers[0].F, ind, m.source);
+  interact::PressingSphere sphere{.center_mm = touch,
+                                  .radius_mm = ind.radius_mm,
+                                  .stiffness_kpa_per_mm = ind.sphere_stiffness_kpa_per_mm};
+  IndentResult r;
+  interact::ForceRoute route;
+  const auto load = [&] {  // the sphere's push on the current skin, into f_ext
+    route = interact::sphere_contact(m, s.x, sphere);
+    s.f_ext.setZero();
+    for (size_t k = 0; k < route.nodes.size(); ++k)
+      s.f_ext.row(route.nodes[k]) = route.forces.row(static_cast<Eigen::Index>(k));
+  };
+  // The sphere moves on at a steady speed (a jump would hit the skin with the whole
+  // penetration's force in one explicit step), then stays while the model comes to rest.
+  const auto moving = static_cast<int64_t>(std::ceil(travel_s / s.options().dt_s));
+  sim::RestStreak rest{.needed = sim::quiet_steps(s)};
+  bool settled = false;
+  for (int64_t n = 0; n < solver.max_steps && !settled; ++n) {
+    sphere.center_mm = touch + (depth_mm * std::min<double>(n + 1, moving) / moving) * dir;
+    load();
+    const sim::StepStats st = sim::step(s);
+    if (st.failed) break;
+    settled = n + 1 >= moving && rest.update(st);
+  }
+  r.converged = settled;
+  load();
+  r.steps = s.steps;
+  r.force_n = interact::total_force(route).dot(dir) / 1000.0;  // mN -> N
+  measure_model(m, s.x, r);
+  r.seconds = seconds_since(t0);
+  return r;
+}
+
+IndentResult press_fem(const TetMesh& mesh, const FemMaterial& material, const Indentation& ind,
+                       double depth_mm, FemLaw law, const Eigen::MatrixX3d& samples,
+                       const FemOptions& options) {
+  const auto t0 = Clock::now();
+  const Eigen::MatrixX3i F = boundary_faces(mesh);
+  FemBoundary bc;
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
+    if (in_slab(mesh.V.row(v).transpose(), ind)) bc.fixed.push_back(static_cast<int32_t>(v));
+  bc.driven_displacement_mm.resize(0, 3);
+  bc.sphere_start_mm = first_touch(mesh.V, F, ind, "finite-element mesh");
+  bc.sphere = interact::PressingSphere{
+      .center_mm = bc.sphere_start_mm + depth_mm * ind.direction.normalized(),
+      .radius_mm = ind.radius_mm,
+      .stiffness_kpa_per_mm = ind.sphere_stiffness_kpa_per_mm};
+  const FemResult fem = law == FemLaw::kNeoHookean
+                            ? solve_neo_hookean(mesh, material, bc, options)
+                            : solve_corotational(mesh, material, bc, options);
+  if (!fem.converged)
+    log::warn(
+        "validate: the sphere-pressed FEM missed its tolerance {:g} (residual {:.3g} after "
+        "{} solves)",
+        options.tolerance, fem.residual, fem.iterations);
+  IndentResult r;
+  r.converged = fem.converged;
+  r.steps = fem.iterations;
+  r.force_n = fem.sphere_push_mn.dot(ind.direction.normalized()) / 1000.0;
   const double v0 = tet_volume(mesh, mesh.V);
   r.volume_change_pct = 100.0 * (fem.volume_mm3 - v0) / v0;
   r.skin_u = sample_on_faces(mesh, F, fem.u, samples);

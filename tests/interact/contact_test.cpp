@@ -104,28 +104,32 @@ TEST(SpreadOnPatch, SumsToTheForceOverMoreNodesAsThePatchWidensAndNeverOnTheFarS
   EXPECT_THROW(interact::skin_point_at_node(m, m.X, m.layers[0].node_count), Error);
 }
 
-TEST(SphereContact, PushesWithStiffnessTimesTheDeepestPenetrationAlongTheSkinsNormal) {
+TEST(SphereContact, PassesEachPressedPiecesForceToItsTrianglesCornersAndIsContinuous) {
   Eigen::Vector3d c;
   const Model& m = sphere_model(&c);
   const int32_t node = front_node(m);
-  interact::ToolTip tip{.active = true, .radius_mm = 8.0, .stiffness_n_per_m = 20.0};
+  interact::PressingSphere sphere{.radius_mm = 8.0, .stiffness_kpa_per_mm = 2.0};
   // Outside, not touching: nothing.
-  tip.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 9.0, 0);
-  EXPECT_TRUE(interact::sphere_contact(m, m.X, tip).nodes.empty());
-  // 3 mm into the pole (the skin's nearest point may lie a little off the node).
-  tip.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 5.0, 0);
-  const interact::SkinPoint deepest = interact::closest_skin_point(m, m.X, tip.center_mm);
-  const interact::ForceRoute r = interact::sphere_contact(m, m.X, tip);
+  sphere.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 9.0, 0);
+  EXPECT_TRUE(interact::sphere_contact(m, m.X, sphere).nodes.empty());
+  // 3 mm into the pole.
+  sphere.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 5.0, 0);
+  const interact::ForceRoute r = interact::sphere_contact(m, m.X, sphere);
+  std::vector<interact::PressedPiece> pieces;
+  interact::press_sphere(m.X, m.X, m.layers[0].F, sphere, pieces);
   const Eigen::Vector3d total = interact::total_force(r);
-  EXPECT_NEAR(total.norm(), 20.0 * (8.0 - deepest.distance_mm), 1e-9);
+  EXPECT_LT((total - interact::pressed_total(pieces)).norm(), 1e-9 * total.norm())
+      << "the nodes carry exactly what the pieces were pressed with";
   EXPECT_GT(total.y() / total.norm(), std::cos(10.0 * M_PI / 180.0)) << "pushed inward (+y)";
   EXPECT_GT(r.nodes.size(), 3u) << "an 8 mm sphere 3 mm deep covers more than one triangle";
   for (int32_t i : r.nodes) EXPECT_LT(i, m.layers[0].node_count);
-  // Continuous: a 1 um move of the tool changes its force by about k x 1 um.
-  interact::ToolTip moved = tip;
+  EXPECT_GE(r.contact_node, 0);
+  // Continuous: a 1 um move changes the push by about its stiffness x 1 um, not by a jump.
+  interact::PressingSphere moved = sphere;
   moved.center_mm.y() += 1e-3;
   const Eigen::Vector3d total2 = interact::total_force(interact::sphere_contact(m, m.X, moved));
-  EXPECT_LT((total2 - total).norm(), 20.0 * 1e-3 * 3.0);
+  EXPECT_GT(total2.y(), total.y()) << "deeper pushes harder";
+  EXPECT_LT((total2 - total).norm(), 1e-2 * total.norm());
 }
 
 // At rest under a held tool the tissue's push on the loaded nodes is minus the load, and the

@@ -277,6 +277,50 @@ TEST(FemNeoHookean, UniaxialStretchAndCompressionAreTheHomogeneousSolution) {
   EXPECT_LT((neo.u - lin.u).cwiseAbs().maxCoeff(), 1e-3 * lin.u.cwiseAbs().maxCoeff());
 }
 
+// A block on a fixed floor pressed from above by the sphere tool's law: the solve converges,
+// the floor holds exactly the sphere's push, the push points into the block and grows with
+// depth, and a sphere pressed to the same depth on the block's middle meets no shear.
+TEST(FemSphere, PressedBlockConvergesAndTheFloorHoldsTheSpheresPush) {
+  const Eigen::Vector3d size(40.0, 40.0, 20.0);
+  const TetMesh m = make_block(size, Eigen::Vector3i(10, 10, 5));
+  FemBoundary b;
+  b.fixed = nodes_where(m, [](const Eigen::Vector3d& p) { return p.z() < 1e-9; });
+  b.driven_displacement_mm.resize(0, 3);
+  const double r = 8.0;
+  b.sphere_start_mm = Eigen::Vector3d(20.0, 20.0, size.z() + r);  // touching the top
+  double last = 0.0;
+  for (FemLaw law : {FemLaw::kCorotational, FemLaw::kNeoHookean})
+    for (double depth : {1.0, 3.0}) {
+      SCOPED_TRACE(::testing::Message()
+                   << "depth " << depth << (law == FemLaw::kNeoHookean ? " NH" : " corotational"));
+      b.sphere = lamina::interact::PressingSphere{
+          .center_mm = b.sphere_start_mm - Eigen::Vector3d(0, 0, depth),
+          .radius_mm = r,
+          .stiffness_kpa_per_mm = 2.0};
+      const FemResult res = law == FemLaw::kNeoHookean ? solve_neo_hookean(m, kSoft, b, {})
+                                                       : solve_corotational(m, kSoft, b, {});
+      EXPECT_TRUE(res.converged) << "residual " << res.residual << " after " << res.iterations;
+      const Eigen::Vector3d push = res.sphere_push_mn;
+      EXPECT_LT(push.z(), 0.0) << "down into the block";
+      EXPECT_LT(push.head<2>().norm(), 0.02 * push.norm());
+      Eigen::Vector3d held = Eigen::Vector3d::Zero();
+      for (int32_t v : b.fixed) held += res.reaction_mn.row(v).transpose();
+      EXPECT_LT((held + push).norm(), 1e-5 * push.norm()) << "the floor holds the push";
+      // The top under the sphere sinks, by less than the sphere travelled (a penalty).
+      const Eigen::Index top =
+          static_cast<Eigen::Index>(nodes_where(m, [&](const Eigen::Vector3d& p) {
+            return (p - Eigen::Vector3d(20.0, 20.0, size.z())).norm() < 1e-9;
+          })[0]);
+      EXPECT_LT(res.u(top, 2), 0.0);
+      EXPECT_GT(res.u(top, 2), -depth);
+      if (depth > 1.0) EXPECT_GT(-push.z(), 2.0 * last);
+      last = -push.z();
+    }
+  EXPECT_THROW(solve_linear(m, kSoft, b), Error);
+  b.sphere->stiffness_kpa_per_mm = 0.0;
+  EXPECT_THROW(solve_corotational(m, kSoft, b, {}), Error);
+}
+
 TEST(FemCorotational, ReportsMissedTolerance) {
   // A clamped block squeezed by 30% in one step with one iteration cannot be in balance.
   const TetMesh m = make_block(kSize, kCells);

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "lamina/interact/sphere_pressure.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/model.h"
 
@@ -51,11 +52,12 @@ SkinPoint skin_point_at_node(const Model& model, const Eigen::MatrixX3d& x, int3
 ForceRoute spread_on_patch(const Model& model, const Eigen::MatrixX3d& x, const SkinPoint& at,
                            const Eigen::Vector3d& force_mn, double radius_mm);
 
-/// A sphere pushing the skin (penalty contact). Its load is stiffness times the deepest
-/// penetration (radius minus the distance from the centre to the skin), directed and spread by
-/// the penetration over every piece of skin inside the sphere, each piece pushed away from the
-/// centre: a flat skin is pushed along its normal, a curved one by what the sphere covers.
-/// Empty (no nodes) when the sphere does not reach the skin. The tool feels minus the sum.
-ForceRoute sphere_contact(const Model& model, const Eigen::MatrixX3d& x, const ToolTip& tip);
+/// A rigid sphere pressing the skin (press_sphere(): a penalty per unit area, frictionless),
+/// each pressed piece passing its force to its triangle's corners by barycentric weights. The
+/// forces sum to the pieces' total (the tissue's load; the sphere feels minus it). Empty (no
+/// nodes) when the sphere does not reach the skin. `lamina validate`'s tool case drives it
+/// against finite elements pressed by the same law.
+ForceRoute sphere_contact(const Model& model, const Eigen::MatrixX3d& x,
+                          const PressingSphere& sphere);
 
 }  // namespace lamina::interact

@@ -4,14 +4,16 @@
 /// the mass-spring model against: small-strain linear elasticity, and corotational elasticity
 /// (Mueller et al. 2002, Felippa's element-independent corotational frame; SOFA's
 /// TetrahedronFEMForceField "polar"), which is exact for rigid motions and so stays valid under
-/// large rotations. Pure Eigen.
+/// large rotations. Pure Eigen (with interact::press_sphere(), the sphere tool's contact law).
 ///
 /// Units: mm, kPa (= mN/mm^2), mN. Everything is quasi-static: no mass, no time.
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
+#include "lamina/interact/sphere_pressure.h"
 #include "lamina/validate/tet_mesh.h"
 
 namespace lamina::validate {
@@ -39,6 +41,12 @@ struct FemBoundary {
   /// slide (and contract) in y and z. Its entry in driven_displacement_mm is ignored.
   Eigen::Array<bool, Eigen::Dynamic, 3> driven_mask;
   Eigen::MatrixX3d nodal_force_mn;  ///< #V by 3 external force on each node, mN; or empty
+  /// Optional: a rigid, frictionless sphere pressing the mesh's boundary faces by the same
+  /// penalty per unit area as the simulation's sphere tool (interact::press_sphere()). Its
+  /// centre moves from `sphere_start_mm` to `sphere->center_mm` in equal parts over the load
+  /// steps (nonlinear solves only). The tangent adds each pressed piece's normal stiffness.
+  std::optional<interact::PressingSphere> sphere;
+  Eigen::Vector3d sphere_start_mm = Eigen::Vector3d::Zero();
 };
 
 /// Options of the nonlinear (corotational) solve.
@@ -65,6 +73,8 @@ struct FemResult {
   double residual = 0.0;    ///< final relative residual (see FemOptions::tolerance)
   bool converged = false;   ///< every load step reached the tolerance, and the result is finite
   double volume_mm3 = 0.0;  ///< deformed volume, tet_volume(mesh, V + u)
+  /// With FemBoundary::sphere: the sphere's push on the body at the end, mN (it feels minus it).
+  Eigen::Vector3d sphere_push_mn = Eigen::Vector3d::Zero();
 };
 
 /// Small-strain linear elasticity: solves K u = f with the Dirichlet components eliminated
@@ -77,7 +87,8 @@ struct FemResult {
 /// \note Nodes used by no tet have no stiffness: they are left at their prescribed (or zero)
 ///   displacement and a force on them is an error.
 /// \throws lamina::Error (kInvalidInput) for invalid material, a bad index, non-finite or
-///   mis-sized input, an inverted or flat rest tet, or no constraint at all
+///   mis-sized input, an inverted or flat rest tet, no constraint at all, or a sphere (contact
+///   is nonlinear: solve_corotational() or solve_neo_hookean())
 FemResult solve_linear(const TetMesh& mesh, const FemMaterial& material,
                        const FemBoundary& boundary);
 

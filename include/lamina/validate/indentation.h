@@ -26,6 +26,9 @@ struct Indentation {
   Eigen::Vector3d held_point_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d held_normal = Eigen::Vector3d::UnitY();
   double held_distance_mm = 10.0;
+  /// The tool case (press_mass_spring(), press_fem()): the sphere's pressure per mm of
+  /// penetration, kPa/mm (interact::PressingSphere); its radius is `radius_mm`.
+  double sphere_stiffness_kpa_per_mm = 1.0;
 };
 
 /// The paper's poke as an indentation of `model`: the most anterior skin node (smallest y),
@@ -66,6 +69,25 @@ IndentResult indent_mass_spring(const Model& model, const sim::Material& materia
 IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material,
                         const Indentation& indentation, double depth_mm, FemLaw law,
                         const Eigen::MatrixX3d& samples, const FemOptions& options = {});
+
+/// The tool case, mass-spring: a rigid sphere of the indentation's radius comes along
+/// `direction` to the contact point and, from where it first touches the rest skin, moves on by
+/// `depth_mm` at a steady speed over `travel_s` of simulated time, pressing the skin through the
+/// simulation's sphere contact (interact::sphere_contact(), recomputed every step on the current
+/// skin), then stays until the model is at rest. The force is the sphere's push along
+/// `direction`.
+/// \note Throws lamina::Error (kInvalidInput) when the sphere cannot start clear of the skin or
+///   never touches it along the line.
+IndentResult press_mass_spring(const Model& model, const sim::Material& material,
+                               sim::SolverOptions solver, const Indentation& indentation,
+                               double depth_mm, double travel_s = 1.0);
+
+/// The tool case, finite elements: the same sphere, law and travel beyond its first touch of the
+/// mesh's own rest boundary (FemBoundary::sphere), the held slab fixed; corotational or
+/// Neo-Hookean.
+IndentResult press_fem(const TetMesh& mesh, const FemMaterial& material,
+                       const Indentation& indentation, double depth_mm, FemLaw law,
+                       const Eigen::MatrixX3d& samples, const FemOptions& options = {});
 
 /// The displacement field u of `mesh` at each point of `samples` (rest positions, mm): its value
 /// at the nearest point of the mesh's boundary (barycentric on the boundary triangle).
