@@ -65,7 +65,8 @@ void press_sphere(const Eigen::MatrixX3d& x, const Eigen::MatrixX3d& rest,
                           .barycentric = bary,
                           .force_mn = (pressure * area) * n,
                           .normal = n,
-                          .stiffness_mn_per_mm = k * std::min(depth / soft, 1.0) * area});
+                          .stiffness_mn_per_mm = k * std::min(depth / soft, 1.0) * area,
+                          .distance_mm = d});
       });
 }
 

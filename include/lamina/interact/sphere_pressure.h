@@ -34,10 +34,12 @@ struct PressedPiece {
   Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();  ///< weights of F(face, 0..2)
   Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();     ///< on the surface, out of the sphere
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();       ///< unit, from the centre to the piece
-  /// The force's stiffness along `normal`, mN/mm (pressure stiffness x the piece's area): moving
-  /// the piece by dy changes its force by about -stiffness n n^T dy (the sphere's curvature
-  /// term, which softens, is left out: what an implicit solve needs is positive semi-definite).
+  /// The force's stiffness along `normal`, mN/mm (the pressure's slope x the piece's area):
+  /// moving the piece by dy changes its force by -stiffness n n^T dy, plus
+  /// |force| / distance (I - n n^T) dy as the force turns with the normal (a softening a solve
+  /// may add near its answer: validate's FEM does), plus the change of the piece's area.
   double stiffness_mn_per_mm = 0.0;
+  double distance_mm = 0.0;  ///< from the sphere's centre to the piece, mm
 };
 
 /// What is wrong with a sphere's parameters (the field and why), or nothing.

@@ -44,7 +44,9 @@ struct FemBoundary {
   /// Optional: a rigid, frictionless sphere pressing the mesh's boundary faces by the same
   /// penalty per unit area as the simulation's sphere tool (interact::press_sphere()). Its
   /// centre moves from `sphere_start_mm` to `sphere->center_mm` in equal parts over the load
-  /// steps (nonlinear solves only). The tangent adds each pressed piece's normal stiffness.
+  /// steps (nonlinear solves only). The tangent adds each pressed piece's normal stiffness, and
+  /// its sideways softening (the force turning with the normal) once the relative residual is
+  /// below 1e-3. FemResult::converged then means the last load step reached the tolerance.
   std::optional<interact::PressingSphere> sphere;
   Eigen::Vector3d sphere_start_mm = Eigen::Vector3d::Zero();
 };
