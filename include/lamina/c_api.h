@@ -72,7 +72,15 @@ typedef struct lamina_material {
   double young_modulus_kpa;    /* E, kPa; 0 = off */
   double poisson_ratio;        /* nu in [0, 0.5) */
   double volume_stiffness_kpa; /* bulk modulus of the volume term between layers; 0 = off */
+  int32_t tet_model;           /* a lamina_tet_model: what the tetrahedra store with E, nu */
 } lamina_material;
+
+/* The tetrahedra's elastic energy (a scene's material.model) when young_modulus_kpa is set on a
+ * model with tetrahedra. */
+typedef enum lamina_tet_model {
+  LAMINA_TETS_SPRINGS = 0,    /* coupled springs and a volume term per tetrahedron (default) */
+  LAMINA_TETS_NEO_HOOKEAN = 1 /* stable Neo-Hookean per tetrahedron (docs/physics.md) */
+} lamina_tet_model;
 
 typedef enum lamina_integrator {
   LAMINA_SEMI_IMPLICIT_EULER = 0, /* the paper's; cheap, stable only for small dt */

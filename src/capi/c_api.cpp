@@ -93,6 +93,13 @@ lamina::sim::Material to_material(const lamina_material& m) {
   out.young_modulus_kpa = m.young_modulus_kpa;
   out.poisson_ratio = m.poisson_ratio;
   out.volume_stiffness_kpa = m.volume_stiffness_kpa;
+  if (m.tet_model != LAMINA_TETS_SPRINGS && m.tet_model != LAMINA_TETS_NEO_HOOKEAN)
+    throw lamina::invalid_input(
+        "lamina_material.tet_model",
+        "is " + std::to_string(m.tet_model) +
+            "; LAMINA_TETS_SPRINGS (0) or LAMINA_TETS_NEO_HOOKEAN (1) expected");
+  out.tet_model = m.tet_model == LAMINA_TETS_NEO_HOOKEAN ? lamina::sim::TetModel::kNeoHookean
+                                                         : lamina::sim::TetModel::kSprings;
   return out;
 }
 
@@ -205,8 +212,14 @@ lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz
 void lamina_material_defaults(lamina_material* material) {
   if (material == nullptr) return;
   const lamina::sim::Material d;
-  *material = {d.stiffness_n_per_m, d.damping_kg_per_s, d.node_mass_kg,
-               d.young_modulus_kpa, d.poisson_ratio,    d.volume_stiffness_kpa};
+  *material = {d.stiffness_n_per_m,
+               d.damping_kg_per_s,
+               d.node_mass_kg,
+               d.young_modulus_kpa,
+               d.poisson_ratio,
+               d.volume_stiffness_kpa,
+               d.tet_model == lamina::sim::TetModel::kNeoHookean ? LAMINA_TETS_NEO_HOOKEAN
+                                                                 : LAMINA_TETS_SPRINGS};
 }
 
 void lamina_solver_defaults(lamina_solver* solver) {

@@ -163,6 +163,34 @@ int main(void) {
   CHECK(lamina_sim_create(lamina_sim_model(sim), &material, NULL, NULL, 0, &bad) ==
         LAMINA_ERROR_INVALID_INPUT);
   printf("refused as expected: %s\n", lamina_last_error());
+  /* Neo-Hookean tetrahedra from the material struct: a physical tissue (E, lumped masses) whose
+   * tetrahedra store stable Neo-Hookean steps under a tool tip, and a model number that is not
+   * one is refused by name. */
+  lamina_material neo;
+  lamina_material_defaults(&neo);
+  CHECK(neo.tet_model == LAMINA_TETS_SPRINGS);
+  neo.stiffness_n_per_m = 0.0;
+  neo.node_mass_kg = 0.0;
+  neo.young_modulus_kpa = 6.0;
+  neo.poisson_ratio = 0.45;
+  neo.tet_model = LAMINA_TETS_NEO_HOOKEAN;
+  lamina_solver neo_solver;
+  lamina_solver_defaults(&neo_solver);
+  neo_solver.integrator = LAMINA_IMPLICIT_EULER;
+  neo_solver.dt_s = 0.001;
+  lamina_sim* neo_sim = NULL;
+  CHECK_OK(lamina_sim_create(lamina_sim_model(sim), &neo, &neo_solver, NULL, 0, &neo_sim));
+  const double neo_tip[3] = {rest[3 * front], rest[3 * front + 1] - radius + 2.0,
+                             rest[3 * front + 2]};
+  CHECK_OK(lamina_sim_set_tool_tip(neo_sim, neo_tip, radius, 200.0));
+  lamina_step_stats neo_st;
+  CHECK_OK(lamina_sim_step(neo_sim, 50, &neo_st));
+  CHECK(neo_st.max_displacement_mm > 0.0 && neo_st.max_displacement_mm < 10.0);
+  lamina_sim_free(neo_sim);
+  neo.tet_model = 7;
+  CHECK(lamina_sim_create(lamina_sim_model(sim), &neo, NULL, NULL, 0, &bad) ==
+        LAMINA_ERROR_INVALID_INPUT);
+  CHECK(bad == NULL && strstr(lamina_last_error(), "tet_model") != NULL);
   /* A success clears the message. */
   CHECK_OK(lamina_sim_step(sim, 1, NULL));
   CHECK(lamina_last_error()[0] == '\0');
