@@ -79,10 +79,17 @@ int run_view(const ViewArgs& a) {
   // only watched (plotted), and the user pushes.
   for (const interact::Tool& t : p.scene.tools) {
     if (t.grasp) {
-      log::warn(
-          "{}: the viewer does not play a scene's graspers yet (lamina run and render do; G grasps "
-          "by hand)",
-          p.scene.source);
+      if (vm.grasper) {
+        log::warn("{}: the viewer plays one grasper (the scene's first); the others are left out",
+                  p.scene.source);
+        continue;
+      }
+      vm.grasper = t;
+      if (!t.by_point) vm.grasper->point_mm = p.model->X.row(t.vertex).transpose();
+      if (vm.watched_node < 0)  // its displacement is what the plot shows
+        vm.watched_node =
+            t.by_point ? interact::nearest_skin_node(*p.model, p.model->X, t.point_mm, t.radius_mm)
+                       : t.vertex;
       continue;
     }
     int32_t node = t.vertex;

@@ -38,7 +38,10 @@ const char* gesture_name(Gesture g) {
 
 void ViewSession::State::handle_key(const std::string& key) {
   if (key == "r") {
-    loop->reset();
+    loop->reset();  // opens the jaws; the scene's grasper closes again at its start
+    grasp_held = false;
+    scene_grasp = vm->grasper.has_value();
+    scene_grasp_since_s = -1.0;
   } else if (key == "space") {
     paused = !paused;
     loop->set_paused(paused);
@@ -47,6 +50,7 @@ void ViewSession::State::handle_key(const std::string& key) {
     update_forces();
     if (grasp_held) loop->set_grasper(std::nullopt);
     grasp_held = false;
+    scene_grasp = false;
   } else if (key == "t") {
     tool_mode = !tool_mode;
     grasp_mode = false;
@@ -68,7 +72,12 @@ void ViewSession::State::start_left_gesture(const render::Input& in) {
   const std::string where = fmt::format("press at ({:.0f}, {:.0f}) of {}x{}", in.mouse_px.x(),
                                         in.mouse_px.y(), size.x(), size.y());
   if (grasp_mode && hit.node >= 0) {
-    // The jaws close on the picked node and the skin around it; the drag moves them.
+    // The jaws close on the picked node and the skin around it; the drag moves them. A grasp
+    // still holding (Shift-held, or the scene's) opens first: set_grasper on closed jaws would
+    // carry what they hold to the new point.
+    if (grasp_held) loop->set_grasper(std::nullopt);
+    grasp_held = false;
+    scene_grasp = false;
     jaws.center_mm = snap.x.row(hit.node).transpose();
     try {
       loop->set_grasper(jaws);

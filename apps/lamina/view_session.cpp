@@ -135,6 +135,8 @@ void ViewSession::State::start_loop() {
   sent = pinned;
   loop->set_forces(pinned);
   loop->set_paused(paused);
+  scene_grasp = vm->grasper.has_value();
+  scene_grasp_since_s = -1.0;
   snap = {};
   loop->latest(snap);
   shown_generation = ~uint64_t{0};
@@ -164,6 +166,47 @@ void ViewSession::State::update_forces() {
   if (same) return;
   sent = now;
   loop->set_forces(now);
+}
+
+// The scene's grasper, once a frame while it plays: closed at its point, then its jaws where
+// its pull has them by the simulated time since. A reset opens the jaws; the loop may do that
+// before this frame's snapshot shows the clock going back, and a move of open jaws is a close
+// where they are now (refused off the skin): either way they close again at the point.
+constexpr int kSceneGraspTries = 60;  // frames (about a second) a refused close is retried
+
+void ViewSession::State::play_scene_grasper() {
+  if (!scene_grasp || !vm->grasper || gesture == Gesture::kGrasp) return;
+  const interact::Tool& g = *vm->grasper;
+  const auto close = [&] {
+    loop->set_grasper(std::nullopt);  // a close, not a move of what the jaws may hold
+    loop->set_grasper(interact::Jaws{.center_mm = g.point_mm, .radius_mm = g.radius_mm});
+    scene_grasp_since_s = snap.time_s;
+  };
+  if (scene_grasp_since_s >= 0.0 && snap.time_s < scene_grasp_since_s) scene_grasp_since_s = -1.0;
+  try {
+    if (scene_grasp_since_s < 0.0) {
+      close();
+    } else {
+      const double t = snap.time_s - scene_grasp_since_s;
+      const double f = g.pull_s > 0.0 ? std::clamp(t / g.pull_s, 0.0, 1.0) : 1.0;
+      try {
+        loop->set_grasper(
+            interact::Jaws{.center_mm = g.point_mm + f * g.pull_mm, .radius_mm = g.radius_mm});
+      } catch (const Error&) {
+        close();  // opened by a reset the snapshot does not show yet
+      }
+    }
+    grasp_held = true;
+    scene_grasp_refusals = 0;
+  } catch (const Error& e) {
+    // Just after a reset the loop may still show the pulled shape, with nothing at the point:
+    // try again for a few frames before saying so.
+    scene_grasp_since_s = -1.0;
+    if (++scene_grasp_refusals < kSceneGraspTries) return;
+    log::warn("{}: the scene's grasper: {}", vm->source, e.what());
+    last_press = std::string("the scene's grasper: ") + e.what();
+    scene_grasp = false;
+  }
 }
 
 // The script's events due by t: their input is injected by the player (the engine applies it at
@@ -209,6 +252,7 @@ void ViewSession::State::on_frame() {
   watch_instability();
   record_plots();
   adopt_rebuilt();
+  play_scene_grasper();
 
   const render::Input& in = render::input();
   if (!in.ui_wants_keyboard)

@@ -49,6 +49,10 @@ struct ViewModel {
   std::string source;  ///< shown in the title bar and panels
   /// Forces acting from the start (pinned), e.g. a scene's tools: skin node and force in mN.
   std::vector<std::pair<int32_t, Eigen::Vector3d>> pinned;
+  /// A scene's grasper (its first): its jaws close at its point when the session starts, follow
+  /// its pull over pull_s of simulated time and then hold, as a Shift-held grasp (C opens them,
+  /// R closes them again at the start, a new grasp replaces them). Its point is resolved.
+  std::optional<interact::Tool> grasper;
   int32_t watched_node = -1;  ///< node whose displacement is plotted at first; -1 = first pinned
 };
 

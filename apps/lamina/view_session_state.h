@@ -65,7 +65,10 @@ struct ViewSession::State {
   // The grasper's jaws, while closed: about forceps' width (a 4 mm radius takes one node of the
   // paper-size skin's 10 mm mesh and pulls a spike).
   interact::Jaws jaws{.radius_mm = 10.0};
-  bool grasp_held = false;  // closed and left holding (Shift+release); C opens it
+  bool grasp_held = false;   // closed and left holding (Shift+release); C opens it
+  bool scene_grasp = false;  // the scene's grasper (ViewModel::grasper) is playing its pull
+  double scene_grasp_since_s = -1.0;  // simulated time it closed at; -1 = to close
+  int scene_grasp_refusals = 0;       // closes refused in a row (retried after a reset)
   Eigen::Vector2d press_pos = Eigen::Vector2d::Zero(), last_pos = Eigen::Vector2d::Zero();
   int32_t drag_node = -1;
   Eigen::Vector3d grab_point = Eigen::Vector3d::Zero();
@@ -127,6 +130,7 @@ struct ViewSession::State {
   void start_loop();
   void push_parameters();
   void update_forces();
+  void play_scene_grasper();
   void on_frame();
   void show_state();  // positions, style and overlays to the engine
   // view_gestures.cpp

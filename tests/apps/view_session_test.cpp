@@ -205,6 +205,49 @@ TEST_F(ViewSessionTest, TheGrasperHoldsTheSkinItPressesFollowsTheDragAndLetsGo) 
       << "C did not let go: " << largest_displacement(s) << " mm";
 }
 
+TEST_F(ViewSessionTest, AScenesGrasperClosesAtStartPullsHoldsAndClosesAgainAfterAReset) {
+  // A scene's grasper on the front of the sphere: from the start its jaws hold the skin there
+  // and pull it 6 mm forward over 1 s, then hold; R puts the organ at rest and the grasper
+  // closes again and pulls again; C lets go and the organ returns.
+  ViewModel vm = sphere_view_model();
+  Eigen::Index front = 0;
+  vm.model.X.topRows(vm.model.layers[0].node_count).col(1).minCoeff(&front);
+  interact::Tool g;
+  g.grasp = true;
+  g.by_point = true;
+  g.point_mm = vm.model.X.row(front).transpose();
+  g.radius_mm = 4.0;
+  g.pull_mm = Eigen::Vector3d(0.0, -6.0, 0.0);
+  g.pull_s = 1.0;
+  vm.grasper = g;
+  const Eigen::Vector3d rest = vm.model.X.row(front).transpose();
+  ViewSession s(fast_options(), std::move(vm));
+  s.start();
+  const auto front_moved = [&] {
+    const Eigen::MatrixX3d& x = s.snapshot().x;
+    return x.rows() > front ? (x.row(front).transpose() - rest).y() : 0.0;
+  };
+  ASSERT_TRUE(frames_until(s, [&] { return !s.snapshot().grasped_nodes.empty(); }));
+  ASSERT_TRUE(simulate_for(s, 2.0));
+  EXPECT_NEAR(front_moved(), -6.0, 0.5) << "pulled by pull_mm and held";
+  EXPECT_FALSE(s.snapshot().grasped_nodes.empty());
+  render::inject(InputEvent::key_down("r"));
+  render::inject(InputEvent::key_up("r"));
+  s.frame();
+  // The clock starts again from 0 (the loop outruns the frames: only its restart is seen).
+  const double before = s.snapshot().time_s;
+  ASSERT_TRUE(frames_until(s, [&] { return s.snapshot().time_s < before; }));
+  ASSERT_TRUE(simulate_for(s, 2.0));
+  EXPECT_NEAR(front_moved(), -6.0, 0.5) << "closed again at the start after R";
+  EXPECT_FALSE(s.snapshot().grasped_nodes.empty());
+  render::inject(InputEvent::key_down("c"));
+  render::inject(InputEvent::key_up("c"));
+  s.frame();
+  ASSERT_TRUE(frames_until(
+      s, [&] { return s.snapshot().grasped_nodes.empty() && std::abs(front_moved()) < 0.3; }))
+      << "C did not let go: " << front_moved() << " mm";
+}
+
 TEST_F(ViewSessionTest, APressOffTheOrganOrbitsInsteadOfPushing) {
   ViewSession s(fast_options(), sphere_view_model());
   s.start();
