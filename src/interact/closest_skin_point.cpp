@@ -7,19 +7,8 @@
 namespace lamina::interact {
 
 SkinPoint closest_skin_point(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& p) {
-  SkinPoint best;
-  if (m.layers.empty()) return best;
-  const Eigen::MatrixX3i& F = m.layers[0].F;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
-    if (best.face >= 0 && detail::box_out_of_reach(p, best.distance_mm, a, b, c)) continue;
-    const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
-    const Eigen::Vector3d q = w[0] * a + w[1] * b + w[2] * c;
-    const double d = (q - p).norm();
-    if (d < best.distance_mm)
-      best = {.face = static_cast<int32_t>(f), .barycentric = w, .point_mm = q, .distance_mm = d};
-  }
-  return best;
+  if (m.layers.empty()) return {};
+  return detail::closest_on_faces(m.layers[0].F, x, p);
 }
 
 SkinPoint skin_point_at_node(const Model& m, const Eigen::MatrixX3d& x, int32_t node) {

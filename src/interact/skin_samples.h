@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "lamina/geometry/closest_on_triangle.h"
+#include "lamina/interact/contact.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/model.h"
 
@@ -22,6 +23,23 @@ inline bool box_out_of_reach(const Eigen::Vector3d& centre, double reach, const 
   const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
   const Eigen::Vector3d gap = (lo - centre).cwiseMax(centre - hi).cwiseMax(0.0);
   return gap.squaredNorm() > reach * reach;
+}
+
+// The point of the triangles F (rows index x) nearest to p: brute force with a box reject per
+// triangle (the skin moves every step, so a search tree would be rebuilt per query).
+inline SkinPoint closest_on_faces(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x,
+                                  const Eigen::Vector3d& p) {
+  SkinPoint best;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
+    if (best.face >= 0 && box_out_of_reach(p, best.distance_mm, a, b, c)) continue;
+    const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
+    const Eigen::Vector3d q = w[0] * a + w[1] * b + w[2] * c;
+    const double d = (q - p).norm();
+    if (d < best.distance_mm)
+      best = {.face = static_cast<int32_t>(f), .barycentric = w, .point_mm = q, .distance_mm = d};
+  }
+  return best;
 }
 
 // Calls visit(face, barycentric, point, area) at sample points of every triangle of F (rows

@@ -2,28 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "lamina/geometry/closest_on_triangle.h"
 #include "skin_samples.h"
 
 namespace lamina::interact {
-namespace {
-
-// The distance from p to the nearest triangle of (x, F).
-double distance_to_surface(const Eigen::MatrixX3d& x, const Eigen::MatrixX3i& F,
-                           const Eigen::Vector3d& p) {
-  double best = std::numeric_limits<double>::infinity();
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
-    if (std::isfinite(best) && detail::box_out_of_reach(p, best, a, b, c)) continue;
-    const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
-    best = std::min(best, (w[0] * a + w[1] * b + w[2] * c - p).norm());
-  }
-  return best;
-}
-
-}  // namespace
 
 std::optional<std::pair<const char*, const char*>> sphere_problem(const PressingSphere& s) {
   if (!(s.radius_mm > 0.0 && std::isfinite(s.radius_mm))) return {{"radius_mm", "must be > 0 mm"}};
@@ -82,7 +65,7 @@ std::optional<Eigen::Vector3d> sphere_first_touch(const Eigen::MatrixX3d& x,
                                                   const Eigen::Vector3d& direction,
                                                   double radius_mm, double travel_mm) {
   const auto clear = [&](double t) {
-    return distance_to_surface(x, F, from_mm + t * direction) > radius_mm;
+    return detail::closest_on_faces(F, x, from_mm + t * direction).distance_mm > radius_mm;
   };
   if (!clear(0.0)) return std::nullopt;
   // March in steps of half the radius to the first centre that touches, then bisect: a sphere

@@ -74,6 +74,16 @@ Eigen::Vector3d first_touch(const Eigen::MatrixX3d& x, const Eigen::MatrixX3i& F
                                         r));
 }
 
+// The FEM answer's volume change and its displacement, whole and sampled at `samples` on the
+// boundary faces F.
+void measure_fem(const TetMesh& mesh, const Eigen::MatrixX3i& F, const FemResult& fem,
+                 const Eigen::MatrixX3d& samples, IndentResult& r) {
+  const double v0 = tet_volume(mesh, mesh.V);
+  r.volume_change_pct = 100.0 * (fem.volume_mm3 - v0) / v0;
+  r.skin_u = sample_on_faces(mesh, F, fem.u, samples);
+  r.u = fem.u;
+}
+
 // The skin's displacement and the organ's volume change of a model at positions x.
 void measure_model(const Model& m, const Eigen::MatrixX3d& x, IndentResult& r) {
   const ModelLayer& skin = m.layers[0];
@@ -195,10 +205,7 @@ IndentResult indent_fem(const TetMesh& mesh, const FemMaterial& material, const 
   double push = 0.0;
   for (int32_t v : bc.driven) push += fem.reaction_mn.row(v).dot(dir);
   r.force_n = push / 1000.0;
-  const double v0 = tet_volume(mesh, mesh.V);
-  r.volume_change_pct = 100.0 * (fem.volume_mm3 - v0) / v0;
-  r.skin_u = sample_on_faces(mesh, F, fem.u, samples);
-  r.u = fem.u;
+  measure_fem(mesh, F, fem, samples, r);
   r.seconds = seconds_since(t0);
   return r;
 }
@@ -271,10 +278,7 @@ IndentResult press_fem(const TetMesh& mesh, const FemMaterial& material, const I
   r.converged = fem.converged;
   r.steps = fem.iterations;
   r.force_n = fem.sphere_push_mn.dot(ind.direction.normalized()) / 1000.0;
-  const double v0 = tet_volume(mesh, mesh.V);
-  r.volume_change_pct = 100.0 * (fem.volume_mm3 - v0) / v0;
-  r.skin_u = sample_on_faces(mesh, F, fem.u, samples);
-  r.u = fem.u;
+  measure_fem(mesh, F, fem, samples, r);
   r.seconds = seconds_since(t0);
   return r;
 }
