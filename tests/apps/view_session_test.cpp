@@ -237,8 +237,15 @@ TEST_F(ViewSessionTest, AScenesGrasperClosesAtStartPullsHoldsAndClosesAgainAfter
   // The clock starts again from 0 (the loop outruns the frames: only its restart is seen).
   const double before = s.snapshot().time_s;
   ASSERT_TRUE(frames_until(s, [&] { return s.snapshot().time_s < before; }));
-  ASSERT_TRUE(simulate_for(s, 2.0));
-  EXPECT_NEAR(front_moved(), -6.0, 0.5) << "closed again at the start after R";
+  // Under load the close after R can land up to about a second of simulated time late (the
+  // loop may still show the pulled shape, and the close is retried): wait for the pull, then
+  // check it holds.
+  ASSERT_TRUE(frames_until(
+      s,
+      [&] { return !s.snapshot().grasped_nodes.empty() && std::abs(front_moved() + 6.0) < 0.5; }))
+      << "closed again at the start after R: " << front_moved() << " mm";
+  ASSERT_TRUE(simulate_for(s, 1.0));
+  EXPECT_NEAR(front_moved(), -6.0, 0.5) << "held after the pull";
   EXPECT_FALSE(s.snapshot().grasped_nodes.empty());
   render::inject(InputEvent::key_down("c"));
   render::inject(InputEvent::key_up("c"));
