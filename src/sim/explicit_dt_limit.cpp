@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 
+#include "force_terms.h"
 #include "solver.h"
 
 namespace lamina::sim {
@@ -21,14 +22,9 @@ double explicit_dt_limit(const Simulation& sim) {
   // as an indenter holds new positions (a new setup) every step and the rows cost a pass over
   // every tetrahedron; which nodes are held is applied below.
   if (s.row_limit_version != s.stiffness_version) {
-    std::vector<double> row(s.support.stiffness_n_per_m);  // support and anchors, N/m
-    const Springs& sp = m.springs;
-    for (size_t e = 0; !s.tets.on && e < sp.size(); ++e) {  // else inside the tetrahedra
-      row[sp.i[e]] += 2.0 * s.springs.stiffness_n_per_m[e];
-      row[sp.j[e]] += 2.0 * s.springs.stiffness_n_per_m[e];
-    }
-    if (s.material.volume_stiffness_kpa > 0.0) detail::add_volume_stiffness_rows(s, row);
-    detail::add_tet_stiffness_rows(s, row);
+    std::vector<double> row(static_cast<size_t>(m.node_count()), 0.0);  // N/m
+    for_each_term(detail::Terms{}, s,
+                  [&](auto term) { decltype(term)::add_stiffness_rows(s, row); });
     s.row_limit_s.assign(static_cast<size_t>(m.node_count()),
                          std::numeric_limits<double>::infinity());
     for (int32_t i = 0; i < m.node_count(); ++i) {

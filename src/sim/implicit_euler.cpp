@@ -11,6 +11,7 @@
 #include <array>
 #include <chrono>
 
+#include "force_terms.h"
 #include "lamina/core/log.h"
 #include "preconditioner.h"
 #include "spring_lanes_product.h"

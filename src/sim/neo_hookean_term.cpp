@@ -21,8 +21,10 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
+#include "force_terms.h"
 #include "lamina/core/error.h"
 #include "solver.h"
 #include "tet_lanes.h"
@@ -197,7 +199,7 @@ Eigen::Matrix<double, 3, 4> grads_of(const TetTerm& tt, int64_t t, double& v0) {
 
 }  // namespace
 
-void setup_neo_hookean(Solver& s) {
+void NeoHookeanTets::setup(Solver& s) {
   TetTerm& t = s.tets;
   const Model& m = *s.model;
   const double mu = t.id.shear_modulus_kpa, lambda = t.id.lame_lambda_kpa;
@@ -224,8 +226,8 @@ void setup_neo_hookean(Solver& s) {
   t.neo_linear.assign(t.block.size(), NeoBlockLinear{});
 }
 
-void neo_hookean_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads,
-                      const Eigen::MatrixX3d* product_of) {
+void NeoHookeanTets::pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads,
+                          const Eigen::MatrixX3d* product_of) {
   TetTerm& tt = s.tets;
   const ConstCols x(xm);
   const Moduli k = moduli(tt);
@@ -247,7 +249,7 @@ void neo_hookean_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int
              });
 }
 
-void neo_hookean_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
+void NeoHookeanTets::product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
   TetTerm& tt = s.tets;
   const ConstCols p(pm);
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
@@ -262,7 +264,7 @@ void neo_hookean_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads
              });
 }
 
-void neo_hookean_block_stiffness(const Solver& s, size_t k, double out[16][9][kTetLanes]) {
+void NeoHookeanTets::block_stiffness(const Solver& s, size_t k, double out[16][9][kTetLanes]) {
   const TetTerm& tt = s.tets;
   const NeoBlockLinear& lin = tt.neo_linear[k];
   for (int l = 0; l < L; ++l) {
@@ -280,7 +282,7 @@ void neo_hookean_block_stiffness(const Solver& s, size_t k, double out[16][9][kT
   }
 }
 
-Eigen::Matrix<double, 12, 12> neo_hookean_rest_stiffness(const Solver& s, int64_t t) {
+Eigen::Matrix<double, 12, 12> NeoHookeanTets::rest_element(const Solver& s, int64_t t) {
   // At rest F = dJ/dF = I and the pressure is exactly -mu: linear elasticity, positive
   // semi-definite as it stands (its zero modes are the rigid motions).
   const TetTerm& tt = s.tets;
@@ -297,8 +299,8 @@ Eigen::Matrix<double, 12, 12> neo_hookean_rest_stiffness(const Solver& s, int64_
   return K;
 }
 
-Eigen::Matrix<double, 1, 12> neo_hookean_corner_forces(const Solver& s, const Eigen::MatrixX3d& xm,
-                                                       int64_t t) {
+Eigen::Matrix<double, 1, 12> NeoHookeanTets::corner_forces(const Solver& s,
+                                                           const Eigen::MatrixX3d& xm, int64_t t) {
   const auto b = static_cast<size_t>(t / L);
   Lanes p[12], f[12];
   load_corners(s.tets.block[b], ConstCols(xm), p);
@@ -308,7 +310,7 @@ Eigen::Matrix<double, 1, 12> neo_hookean_corner_forces(const Solver& s, const Ei
   return out;
 }
 
-void neo_hookean_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
+void NeoHookeanTets::forces(Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
   const ConstCols x(xm);
   const Moduli k = moduli(s.tets);
   for (size_t b = 0; b < s.tets.block.size(); ++b) {
@@ -321,7 +323,7 @@ void neo_hookean_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::Matr
   }
 }
 
-double neo_hookean_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
+double NeoHookeanTets::energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
   const ConstCols x(xm);
   const Moduli k = moduli(s.tets);
   double e = 0.0;
@@ -343,6 +345,25 @@ double neo_hookean_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
     }
   }
   return e;
+}
+
+void NeoHookeanTets::add_stiffness_rows(const Solver& s, std::vector<double>& row) {
+  // Gershgorin row by row of each tetrahedron's stiffness at rest: each node's three scalar rows
+  // summed apart, the largest taken at the end (as the coupled springs').
+  std::vector<std::array<double, 3>> r3(row.size(), {0.0, 0.0, 0.0});
+  for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
+    const Eigen::Matrix<double, 12, 1> sums = rest_element(s, t).cwiseAbs().rowwise().sum();
+    for (int v = 0; v < 12; ++v) r3[s.model->tets.T(t, v / 3)][v % 3] += sums[v];
+  }
+  for (size_t n = 0; n < row.size(); ++n) row[n] += std::max({r3[n][0], r3[n][1], r3[n][2]});
+}
+
+void NeoHookeanTets::add_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
+                                        BlockRows& out) {
+  for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
+    const Eigen::Vector4i corner = s.model->tets.T.row(t).transpose();
+    add_element_blocks(rest_element(s, t), corner.data(), row_of, out);
+  }
 }
 
 }  // namespace lamina::sim::detail

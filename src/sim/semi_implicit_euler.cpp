@@ -4,6 +4,7 @@
 // movable nodes' old state goes to x_prev/v_prev first (the step's rollback).
 #include <chrono>
 
+#include "force_terms.h"
 #include "solver.h"
 
 namespace lamina::sim::detail {

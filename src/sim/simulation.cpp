@@ -268,7 +268,8 @@ void set_parameters(Simulation& sim, const Material& material, const SolverOptio
   s.options = options;
   const bool tets_changed = material.young_modulus_kpa != old.young_modulus_kpa ||
                             material.poisson_ratio != old.poisson_ratio ||
-                            material.tet_elasticity != old.tet_elasticity;
+                            material.tet_elasticity != old.tet_elasticity ||
+                            material.tet_model != old.tet_model;
   if (tets_changed || material.node_mass_kg != old.node_mass_kg ||
       material.stiffness_n_per_m != old.stiffness_n_per_m ||
       material.volume_stiffness_kpa != old.volume_stiffness_kpa ||

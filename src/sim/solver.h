@@ -379,56 +379,21 @@ inline void gather_springs(const Solver& s, int32_t i, double& fx, double& fy, d
 void spring_product(const Solver& s, int32_t i, const ConstCols& p, double& kx, double& ky,
                     double& kz);
 void spring_diagonal(const Solver& s, int32_t i, double& d0, double& d1, double& d2);
-double spring_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);  ///< mN mm = 1e-6 J
 
-// --- The tetrahedra (tet_term.cpp). ---
+// --- The tetrahedra (tet_term.cpp; their energies' passes: force_terms.h). ---
+/// The tables every energy of the tetrahedra shares (identification, nodes, rows, corners), then
+/// the energy's own constants (force_terms.h: TetEnergies).
 void setup_tets(Solver& s);
-/// Each active tetrahedron's corner forces at x into tets.force. With `linearise`, also what
-/// implicit Euler's products need (tets.linear) and its Jacobi diagonal (tets.diag), and with
-/// `product_of` (linearise only) the first product K p into tets.product in the same sweep,
-/// while the block's constants are in cache (tet_product_pass()).
-void tet_pass(Solver& s, const Eigen::MatrixX3d& x, bool linearise, int threads,
-              const Eigen::MatrixX3d* product_of = nullptr);
-/// Each active tetrahedron's share of (K p) at its corners into tets.product (springs and
-/// coupling along the linearised directions, clamped geometric term, the volume term's
-/// Gauss-Newton part).
-void tet_product_pass(Solver& s, const Eigen::MatrixX3d& p, int threads);
 /// Node i's corners of a per-tetrahedron buffer (tets.force, product or diag) added to f (below).
 inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
                         double& fz);
-double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
 /// The active tetrahedra's 16 blocks of K each summed into tets.assembly (after tet_pass with
-/// linearise); each thread adds to the rows of its range of nodes.
+/// linearise); each thread adds to the rows of its range of nodes (tet_assembly.cpp).
 void assemble_tets(Solver& s, int threads);
 /// tets.assembly's pattern (the nodes joined by a tetrahedron) and each tetrahedron's entries.
 void setup_tet_assembly(Solver& s);
 /// The assembled (K p)_i of the tetrahedra, added to k.
 inline void assembled_tet_product(const Solver& s, int32_t i, const ConstCols& p, double* k);
-/// One tetrahedron's corner forces at any x (not the hot path).
-Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& x,
-                                               int64_t t);
-/// The tetrahedra's forces at any x over the whole model, added to f (not the hot path).
-void tet_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
-/// Each node's Gershgorin row sum of the tetrahedra's stiffness at rest, added to row (N/m).
-void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row);
-/// The tetrahedra's stiffness at rest as 3x3 blocks between rows row_of[node] (-1: held).
-void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, BlockRows& out);
-
-// --- Stable Neo-Hookean tetrahedra (neo_hookean_term.cpp): tet_term.cpp's passes hand their
-// blocks here when TetTerm::neo_hookean. Same meaning as the tet_* functions above. ---
-void setup_neo_hookean(Solver& s);
-void neo_hookean_pass(Solver& s, const Eigen::MatrixX3d& x, bool linearise, int threads,
-                      const Eigen::MatrixX3d* product_of);
-void neo_hookean_product_pass(Solver& s, const Eigen::MatrixX3d& p, int threads);
-/// Block k's 16 3x3 blocks of K (row corner r, column corner c: out[4 r + c][3 a + d], lane l at
-/// [l]) as linearised, for assemble_tets.
-void neo_hookean_block_stiffness(const Solver& s, size_t k, double out[16][9][kTetLanes]);
-Eigen::Matrix<double, 1, 12> neo_hookean_corner_forces(const Solver& s, const Eigen::MatrixX3d& x,
-                                                       int64_t t);
-void neo_hookean_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
-double neo_hookean_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
-/// Tetrahedron t's 12 x 12 stiffness at rest (linear elasticity), N/m.
-Eigen::Matrix<double, 12, 12> neo_hookean_rest_stiffness(const Solver& s, int64_t t);
 
 // --- The volume term between layers (volume_term.cpp). ---
 /// 6 x the signed volume of triangles [begin, end) of the list (of F when list is null).
@@ -448,12 +413,6 @@ double region_stiffness(const Solver& s, size_t r);
 /// The volume term's stiffness along p: (H p)_i = multiplier[layer of i] * gradient_i.
 void volume_multipliers(const Solver& s, const Eigen::MatrixX3d& p, int threads,
                         double* multiplier);
-/// Adds to each node's Gershgorin row sum (N/m) the volume term's (explicit_dt_limit()).
-void add_volume_stiffness_rows(const Solver& s, std::vector<double>& row);
-/// The volume term's energy at x, mN mm (kPa mm^3).
-double volume_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
-/// The volume term's forces at any x over the whole model, added to f (not the hot path).
-void volume_forces(const Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
 /// The volume term's force on node i (from update_volume_term), added to f.
 inline void add_volume_force(const Solver& s, int32_t i, double& fx, double& fy, double& fz) {
   const int32_t layer = s.model->layer_of[i];
@@ -478,7 +437,6 @@ SparseRows rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, i
 
 // --- Support: anchors and the elastic support (support_term.cpp). ---
 void setup_support(Solver& s);
-double support_energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
 
 // --- Integrators (one file each). ---
 /// y = (M + h gamma + h^2 K) p on the movable nodes, K as the last implicit step linearised it;

@@ -4,6 +4,7 @@
 // exactly opposite and no two threads ever write the same value.
 #include <Eigen/Geometry>
 
+#include "force_terms.h"
 #include "solver.h"
 #include "spring_kernel.h"
 
@@ -141,7 +142,7 @@ void spring_diagonal(const Solver& s, int32_t i, double& d0, double& d1, double&
   }
 }
 
-double spring_energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
+double EdgeSprings::energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
   const Springs& sp = s.model->springs;
   double e = 0.0;
   for (size_t k = 0; k < sp.size(); ++k) {
@@ -149,6 +150,58 @@ double spring_energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
     e += 0.5 * s.springs.stiffness_n_per_m[k] * l * l;  // N/m * mm^2 = 1e-3 N mm = 1e-6 J
   }
   return e;
+}
+
+void EdgeSprings::forces(Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f) {
+  // Every spring, not only the active ones: this is the whole model's force at any x.
+  const Springs& sp = s.model->springs;
+  const auto springs = static_cast<int64_t>(sp.size());
+  const int T = threads_for_springs(springs);
+  const ConstCols p(x);
+  Cols fs(s.springs.force);
+  for_slices(springs, T, [&](int64_t begin, int64_t end, int) {
+    spring_kernel<double>(begin, end, nullptr, sp.i.data(), sp.j.data(), sp.rest_length_mm.data(),
+                          s.springs.stiffness_n_per_m.data(), p.x, p.y, p.z, fs.x, fs.y, fs.z);
+  });
+  for_slices(x.rows(), T, [&](int64_t begin, int64_t end, int) {
+    for (int64_t i = begin; i < end; ++i) {
+      double fx = 0.0, fy = 0.0, fz = 0.0;
+      gather_springs(s, static_cast<int32_t>(i), fx, fy, fz);
+      f(i, 0) += fx, f(i, 1) += fy, f(i, 2) += fz;
+    }
+  });
+}
+
+void EdgeSprings::add_stiffness_rows(const Solver& s, std::vector<double>& row) {
+  // 2 k at each end: k u u^T in its own block and minus that in the other end's, each counted
+  // as k (its largest entry; the explicit limit's estimate since the paper model, which the
+  // stability watch backs).
+  const Springs& sp = s.model->springs;
+  for (size_t e = 0; e < sp.size(); ++e) {
+    row[sp.i[e]] += 2.0 * s.springs.stiffness_n_per_m[e];
+    row[sp.j[e]] += 2.0 * s.springs.stiffness_n_per_m[e];
+  }
+}
+
+void EdgeSprings::add_rest_stiffness(const Solver& s, const std::vector<int32_t>& row,
+                                     BlockRows& K) {
+  // k u u^T per spring, at its rest length (no geometric term).
+  const Model& m = *s.model;
+  const Springs& sp = m.springs;
+  for (size_t e = 0; e < sp.size(); ++e) {
+    const int32_t a = row[sp.i[e]], b = row[sp.j[e]];
+    if (a < 0 && b < 0) continue;
+    const Eigen::Vector3d u = (m.X.row(sp.j[e]) - m.X.row(sp.i[e])).normalized();
+    const Eigen::Matrix3d k = s.springs.stiffness_n_per_m[e] * u * u.transpose();
+    const auto add = [&](int32_t r, int32_t c, double sign) {
+      double* block = K.at(r, c);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) block[3 * i + j] += sign * k(i, j);
+    };
+    if (a >= 0) add(a, a, 1.0);
+    if (b >= 0) add(b, b, 1.0);
+    if (a >= 0 && b >= 0) add(a, b, -1.0), add(b, a, -1.0);
+  }
 }
 
 }  // namespace lamina::sim::detail

@@ -2,9 +2,11 @@
 // model, after setup_tets() (it reads each node's corners). Each node's row holds its own block
 // first, then one block per node it shares a tetrahedron with, in increasing order; each
 // tetrahedron keeps the entries of its 16 corner pairs, so that assemble_tets() adds its blocks
-// without searching.
+// without searching. assemble_tets() sums each step's blocks into it, for whichever energy the
+// tetrahedra store.
 #include <algorithm>
 
+#include "force_terms.h"
 #include "solver.h"
 
 namespace lamina::sim::detail {
@@ -44,6 +46,42 @@ void setup_tet_assembly(Solver& s) {
     }
   a.block.assign(9 * a.column.size(), 0.0f);
   a.on = true;
+}
+
+void assemble_tets(Solver& s, int threads) {
+  TetTerm& tt = s.tets;
+  TetAssembly& a = tt.assembly;
+  const auto nt = static_cast<int64_t>(s.model->tets.size());
+  float* __restrict blocks = a.block.data();
+  // Each thread owns a range of node rows and adds only to them: a block of tetrahedra with
+  // corners in both ranges is computed by both threads (no atomics, no second buffer), and each
+  // row sums its tetrahedra in the same order whatever the thread count.
+  for_slices(s.model->node_count(), threads, [&](int64_t lo, int64_t hi, int) {
+    const auto owned = [&](int32_t i) { return i >= lo && i < hi; };
+    std::fill(blocks + 9 * static_cast<int64_t>(a.offsets[lo]),
+              blocks + 9 * static_cast<int64_t>(a.offsets[hi]), 0.0f);
+    for (const int32_t k : s.active_tets) {
+      const TetBlock& b = tt.block[static_cast<size_t>(k)];
+      bool any = false;
+      for (int c = 0; c < 4; ++c)
+        for (int l = 0; l < kTetLanes; ++l) any |= owned(b.node[c][l]);
+      if (!any) continue;
+      double out[16][9][kTetLanes];
+      with_tet_energy(s, [&](auto energy) {
+        decltype(energy)::block_stiffness(s, static_cast<size_t>(k), out);
+      });
+      for (int l = 0; l < kTetLanes && static_cast<int64_t>(k) * kTetLanes + l < nt; ++l) {
+        const int32_t* entry = a.entry.data() + 16 * (static_cast<int64_t>(k) * kTetLanes + l);
+        for (int r = 0; r < 4; ++r) {
+          if (!owned(b.node[r][l])) continue;
+          for (int c = 0; c < 4; ++c) {
+            float* o = blocks + 9 * static_cast<int64_t>(entry[4 * r + c]);
+            for (int v = 0; v < 9; ++v) o[v] += static_cast<float>(out[4 * r + c][v][l]);
+          }
+        }
+      }
+    }
+  });
 }
 
 }  // namespace lamina::sim::detail

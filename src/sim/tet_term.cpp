@@ -22,6 +22,7 @@
 #include <Eigen/SparseCore>
 #include <array>
 
+#include "force_terms.h"
 #include "solver.h"
 #include "tet_lanes.h"
 
@@ -219,7 +220,7 @@ void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[1
 //   K_rc = dP/dV g_r g_c^T + sum_k,m s_kr s_mc Q_km w_k w_m^T
 //          + sum_k s_kr s_kc geo_k (I - w_k w_k^T).
 // The coupling's sum goes through z_kc = sum_m s_mc Q_km w_m (three edges meet at each corner).
-void block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16][9]) {
+void linear_block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16][9]) {
   Lanes g[12], w[6][3], q[21];
   for (int v = 0; v < 12; ++v) g[v] = lanes(lin.grad[v]);
   for (int k = 0; k < 6; ++k)
@@ -264,8 +265,8 @@ void block_stiffness(const TetBlock& b, const TetBlockLinear& lin, Lanes out[16]
   }
 }
 
-// A tetrahedron's 12 x 12 stiffness added to the 3x3 blocks between its corners' rows
-// (row_of[node]; -1: left out), for either energy.
+}  // namespace
+
 void add_element_blocks(const Eigen::Matrix<double, 12, 12>& k12, const int32_t corner[4],
                         const std::vector<int32_t>& row_of, BlockRows& out) {
   for (int a = 0; a < 4; ++a) {
@@ -280,8 +281,6 @@ void add_element_blocks(const Eigen::Matrix<double, 12, 12>& k12, const int32_t 
     }
   }
 }
-
-}  // namespace
 
 void setup_tets(Solver& s) {
   TetTerm& t = s.tets;
@@ -302,18 +301,8 @@ void setup_tets(Solver& s) {
   TetBlock empty{};
   for (int l = 0; l < L; ++l) empty.rest_volume_mm3[l] = 1.0;
   t.block.assign(blocks, empty);
-  for (Eigen::Index q = 0; q < nt; ++q) {
-    TetBlock& b = t.block[static_cast<size_t>(q / L)];
-    const int l = static_cast<int>(q % L);
-    for (int c = 0; c < 4; ++c) b.node[c][l] = m.tets.T(q, c);
-    for (int k = 0; k < 6; ++k)
-      b.rest_length_mm[k][l] =
-          m.springs.rest_length_mm[static_cast<size_t>(t.id.tet_springs(q, k))];
-    for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(t.id.q_n_per_m(q, v));
-    b.rest_volume_mm3[l] = t.id.rest_volume_mm3[static_cast<size_t>(q)];
-    b.volume_stiffness[l] = t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
-    b.guard_stiffness[l] = t.id.guard_modulus_kpa / b.rest_volume_mm3[l];
-  }
+  for (Eigen::Index q = 0; q < nt; ++q)
+    for (int c = 0; c < 4; ++c) t.block[static_cast<size_t>(q / L)].node[c][q % L] = m.tets.T(q, c);
   t.linear.assign(blocks, TetBlockLinear{});
   // Rows for every lane of every block (the unused lanes' are written and never read).
   for (TetRows* rows : {&t.force, &t.product, &t.diag}) rows->assign(12 * L * blocks, 0.0f);
@@ -326,16 +315,29 @@ void setup_tets(Solver& s) {
   std::vector<int32_t> fill(t.corner_offsets.begin(), t.corner_offsets.end() - 1);
   for (Eigen::Index q = 0; q < nt; ++q)
     for (int c = 0; c < 4; ++c) t.corners[fill[m.tets.T(q, c)]++] = static_cast<int32_t>(4 * q + c);
-  if (s.material.tet_model == TetModel::kNeoHookean) {
-    t.neo_hookean = true;
-    setup_neo_hookean(s);
-  }
+  t.neo_hookean = s.material.tet_model == TetModel::kNeoHookean;
+  with_tet_energy(s, [&](auto energy) { decltype(energy)::setup(s); });
   if (nt >= kAssembleFromTets) setup_tet_assembly(s);
 }
 
-void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads,
-              const Eigen::MatrixX3d* product_of) {
-  if (s.tets.neo_hookean) return neo_hookean_pass(s, xm, linearise, threads, product_of);
+void CoupledTets::setup(Solver& s) {
+  TetTerm& t = s.tets;
+  const Model& m = *s.model;
+  for (Eigen::Index q = 0; q < m.tets.size(); ++q) {
+    TetBlock& b = t.block[static_cast<size_t>(q / L)];
+    const int l = static_cast<int>(q % L);
+    for (int k = 0; k < 6; ++k)
+      b.rest_length_mm[k][l] =
+          m.springs.rest_length_mm[static_cast<size_t>(t.id.tet_springs(q, k))];
+    for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(t.id.q_n_per_m(q, v));
+    b.rest_volume_mm3[l] = t.id.rest_volume_mm3[static_cast<size_t>(q)];
+    b.volume_stiffness[l] = t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
+    b.guard_stiffness[l] = t.id.guard_modulus_kpa / b.rest_volume_mm3[l];
+  }
+}
+
+void CoupledTets::pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads,
+                       const Eigen::MatrixX3d* product_of) {
   TetTerm& tt = s.tets;
   const ConstCols x(xm);
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
@@ -357,8 +359,7 @@ void tet_pass(Solver& s, const Eigen::MatrixX3d& xm, bool linearise, int threads
              });
 }
 
-void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
-  if (s.tets.neo_hookean) return neo_hookean_product_pass(s, pm, threads);
+void CoupledTets::product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
   TetTerm& tt = s.tets;
   const ConstCols p(pm);
   for_slices(static_cast<int64_t>(s.active_tets.size()), threads,
@@ -373,50 +374,15 @@ void tet_product_pass(Solver& s, const Eigen::MatrixX3d& pm, int threads) {
              });
 }
 
-void assemble_tets(Solver& s, int threads) {
-  TetTerm& tt = s.tets;
-  TetAssembly& a = tt.assembly;
-  const auto nt = static_cast<int64_t>(s.model->tets.size());
-  float* __restrict blocks = a.block.data();
-  // Each thread owns a range of node rows and adds only to them: a block of tetrahedra with
-  // corners in both ranges is computed by both threads (no atomics, no second buffer), and each
-  // row sums its tetrahedra in the same order whatever the thread count.
-  for_slices(s.model->node_count(), threads, [&](int64_t lo, int64_t hi, int) {
-    const auto owned = [&](int32_t i) { return i >= lo && i < hi; };
-    std::fill(blocks + 9 * static_cast<int64_t>(a.offsets[lo]),
-              blocks + 9 * static_cast<int64_t>(a.offsets[hi]), 0.0f);
-    for (const int32_t k : s.active_tets) {
-      const TetBlock& b = tt.block[static_cast<size_t>(k)];
-      bool any = false;
-      for (int c = 0; c < 4; ++c)
-        for (int l = 0; l < L; ++l) any |= owned(b.node[c][l]);
-      if (!any) continue;
-      Lanes out[16][9];
-      if (tt.neo_hookean) {
-        double neo[16][9][L];
-        neo_hookean_block_stiffness(s, static_cast<size_t>(k), neo);
-        for (int e = 0; e < 16; ++e)
-          for (int v = 0; v < 9; ++v) out[e][v] = lanes(neo[e][v]);
-      } else {
-        block_stiffness(b, tt.linear[static_cast<size_t>(k)], out);
-      }
-      for (int l = 0; l < L && static_cast<int64_t>(k) * L + l < nt; ++l) {
-        const int32_t* entry = a.entry.data() + 16 * (static_cast<int64_t>(k) * L + l);
-        for (int r = 0; r < 4; ++r) {
-          if (!owned(b.node[r][l])) continue;
-          for (int c = 0; c < 4; ++c) {
-            float* o = blocks + 9 * static_cast<int64_t>(entry[4 * r + c]);
-            for (int v = 0; v < 9; ++v) o[v] += static_cast<float>(out[4 * r + c][v][l]);
-          }
-        }
-      }
-    }
-  });
+void CoupledTets::block_stiffness(const Solver& s, size_t k, double out[16][9][kTetLanes]) {
+  Lanes o[16][9];
+  linear_block_stiffness(s.tets.block[k], s.tets.linear[k], o);
+  for (int e = 0; e < 16; ++e)
+    for (int v = 0; v < 9; ++v) store(o[e][v], out[e][v]);
 }
 
-Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::MatrixX3d& xm,
-                                               int64_t t) {
-  if (s.tets.neo_hookean) return neo_hookean_corner_forces(s, xm, t);
+Eigen::Matrix<double, 1, 12> CoupledTets::corner_forces(const Solver& s, const Eigen::MatrixX3d& xm,
+                                                        int64_t t) {
   const TetBlock& b = s.tets.block[static_cast<size_t>(t / L)];
   Lanes p[12], f[12];
   load_corners(b, ConstCols(xm), p);
@@ -426,9 +392,7 @@ Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eigen::Mat
   return out;
 }
 
-void tet_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
-  if (!s.tets.on) return;
-  if (s.tets.neo_hookean) return neo_hookean_forces(s, xm, f);
+void CoupledTets::forces(Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
   const ConstCols x(xm);
   for (const TetBlock& b : s.tets.block) {
     Lanes p[12], fc[12];
@@ -440,9 +404,7 @@ void tet_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f
   }
 }
 
-double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
-  if (!s.tets.on) return 0.0;
-  if (s.tets.neo_hookean) return neo_hookean_energy_mj(s, xm);
+double CoupledTets::energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
   const ConstCols x(xm);
   double e = 0.0;
   for (const TetBlock& b : s.tets.block) {
@@ -466,19 +428,7 @@ double tet_energy_mj(const Solver& s, const Eigen::MatrixX3d& xm) {
   return e;
 }
 
-void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
-  if (!s.tets.on) return;
-  if (s.tets.neo_hookean) {
-    // Gershgorin row by row of each tetrahedron's stiffness at rest.
-    std::vector<std::array<double, 3>> r3(row.size(), {0.0, 0.0, 0.0});
-    for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
-      const Eigen::Matrix<double, 12, 12> k = neo_hookean_rest_stiffness(s, t);
-      const Eigen::Matrix<double, 12, 1> sums = k.cwiseAbs().rowwise().sum();
-      for (int v = 0; v < 12; ++v) r3[s.model->tets.T(t, v / 3)][v % 3] += sums[v];
-    }
-    for (size_t n = 0; n < row.size(); ++n) row[n] += std::max({r3[n][0], r3[n][1], r3[n][2]});
-    return;
-  }
+void CoupledTets::add_stiffness_rows(const Solver& s, std::vector<double>& row) {
   const ConstCols x(s.model->X);
   // Gershgorin row by row: each node's three scalar rows are summed apart and the largest
   // taken at the end (summing each tetrahedron's largest, or bounding a unit vector's entries by
@@ -518,16 +468,8 @@ void add_tet_stiffness_rows(const Solver& s, std::vector<double>& row) {
   for (size_t n = 0; n < row.size(); ++n) row[n] += std::max({r3[n][0], r3[n][1], r3[n][2]});
 }
 
-void add_tet_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of, BlockRows& out) {
-  if (!s.tets.on) return;
-  if (s.tets.neo_hookean) {
-    for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
-      const Eigen::Matrix<double, 12, 12> k12 = neo_hookean_rest_stiffness(s, t);
-      const Eigen::Vector4i corner = s.model->tets.T.row(t).transpose();
-      add_element_blocks(k12, corner.data(), row_of, out);
-    }
-    return;
-  }
+void CoupledTets::add_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
+                                     BlockRows& out) {
   const Eigen::MatrixX3d& X = s.model->X;
   // Each tetrahedron's 12 x 12 matrix summed first, then added to its 16 blocks.
   Eigen::Matrix<double, 12, 12> k12;

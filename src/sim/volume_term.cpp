@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 
+#include "force_terms.h"
 #include "solver.h"
 
 namespace lamina::sim::detail {
@@ -152,7 +153,7 @@ void volume_multipliers(const Solver& s, const Eigen::MatrixX3d& pm, int threads
   }
 }
 
-void add_volume_stiffness_rows(const Solver& s, std::vector<double>& row) {
+void LayerVolume::add_stiffness_rows(const Solver& s, std::vector<double>& row) {
   const Model& m = *s.model;
   const size_t layers = m.layers.size();
   const ConstCols x(m.X);
@@ -174,8 +175,7 @@ void add_volume_stiffness_rows(const Solver& s, std::vector<double>& row) {
   }
 }
 
-double volume_energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
-  if (!(s.material.volume_stiffness_kpa > 0.0)) return 0.0;
+double LayerVolume::energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
   const Model& m = *s.model;
   std::vector<double> now(m.layers.size());
   for (size_t k = 0; k < m.layers.size(); ++k) now[k] = layer_volume(m, x, static_cast<int32_t>(k));
@@ -188,8 +188,7 @@ double volume_energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
   return e;
 }
 
-void volume_forces(const Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
-  if (!(s.material.volume_stiffness_kpa > 0.0)) return;
+void LayerVolume::forces(Solver& s, const Eigen::MatrixX3d& xm, Eigen::MatrixX3d& f) {
   const Model& m = *s.model;
   const size_t layers = m.layers.size();
   std::array<double, kMaxLayers> now{}, jump{};

@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "lamina/sim/simulation.h"
+#include "sim/force_terms.h"
 #include "sim/preconditioner.h"
 #include "sim/solver.h"  // white box: the hierarchy and its build count
 #include "support/random_rows.h"
@@ -195,8 +196,8 @@ TEST(Multigrid, RestStiffnessIsTheForcesDerivativeAtRest) {
     if (row[i] >= 0) pv.segment<3>(3 * row[i]) = p.row(i).transpose(), pm.row(i) = p.row(i);
   const double e = 1e-5;
   Eigen::MatrixX3d plus = Eigen::MatrixX3d::Zero(m.node_count(), 3), minus = plus;
-  sim::detail::tet_forces(s.solver(), m.X + e * pm, plus);
-  sim::detail::tet_forces(s.solver(), m.X - e * pm, minus);
+  sim::detail::CoupledTets::forces(s.solver(), m.X + e * pm, plus);
+  sim::detail::CoupledTets::forces(s.solver(), m.X - e * pm, minus);
   const Eigen::VectorXd Kp = K * pv;
   double worst = 0.0, scale = 0.0;
   for (int32_t i = 0; i < m.node_count(); ++i) {

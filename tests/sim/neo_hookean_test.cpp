@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "lamina/sim/simulation.h"
+#include "sim/force_terms.h"
 #include "sim/solver.h"  // white box: the element stiffness
 #include "support/random_rows.h"
 #include "support/tet_checks.h"
@@ -71,7 +72,7 @@ TEST(NeoHookean, RestStiffnessIsTheCoupledSpringsLinearElasticity) {
 // Block k's 16 corner blocks as one 12 x 12 for lane l.
 Eigen::Matrix<double, 12, 12> element(const sim::detail::Solver& s, size_t k, int l) {
   double out[16][9][sim::detail::kTetLanes];
-  sim::detail::neo_hookean_block_stiffness(s, k, out);
+  sim::detail::NeoHookeanTets::block_stiffness(s, k, out);
   Eigen::Matrix<double, 12, 12> K;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c)

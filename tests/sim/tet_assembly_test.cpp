@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "lamina/sim/simulation.h"
+#include "sim/force_terms.h"
 #include "sim/solver.h"  // white box: both products side by side
 #include "support/random_rows.h"
 #include "support/tet_phantom.h"
