@@ -180,31 +180,41 @@ void BM_PickSkin(benchmark::State& state) {
 BENCHMARK(BM_PickSkin)->Arg(1284)->Arg(12840)->Unit(benchmark::kMicrosecond);
 
 // A tool tip's contact, once per step at 1 kHz: the 5 mm sphere 2 mm into the most anterior
-// skin; without routing its haptic proxy slides to the surface and the coupling's load is
-// spread over the patch it rests on (interact::couple_proxy), against the paper's tip on its
-// deepest node routed over rings and layers (arg 1 = the paper's).
+// skin, moving 0.1 mm a step (100 mm/s) back and forth over 8 mm along the skin. Without routing
+// its haptic proxy slides on the surface and the coupling's load is spread over the patch it
+// rests on (interact::couple_proxy), its skin triangles from the proxy's neighbour list
+// (contact 0), or from a scan of the whole skin every step as before the list (contact 1, the
+// reference); the paper's tip on its deepest node routed over rings and layers (contact 2).
 void BM_ToolTipContact(benchmark::State& state) {
   const Model& m = phantom_model(static_cast<int32_t>(state.range(0)));
+  const int contact = static_cast<int>(state.range(1));
   const int32_t front = interact::most_anterior_skin_node(m);
-  const interact::ToolTip tip{.active = true,
-                              .center_mm = m.X.row(front).transpose() - Eigen::Vector3d(0, 3, 0),
-                              .radius_mm = 5.0,
-                              .stiffness_n_per_m = 20.0};
-  const interact::RoutingOptions routing{.routing = state.range(1) ? interact::Routing::kPaper
-                                                                   : interact::Routing::kNone};
+  interact::ToolTip tip{.active = true,
+                        .center_mm = m.X.row(front).transpose() - Eigen::Vector3d(0, 3, 0),
+                        .radius_mm = 5.0,
+                        .stiffness_n_per_m = 20.0};
+  const Eigen::Vector3d start = tip.center_mm;
+  const interact::RoutingOptions routing{.routing = contact == 2 ? interact::Routing::kPaper
+                                                                 : interact::Routing::kNone};
   size_t nodes = 0;
+  int64_t step = 0;
   interact::HapticProxy proxy;
   for (auto _ : state) {
+    const int64_t k = step++ % 160;  // 80 steps out, 80 back
+    tip.center_mm = start + Eigen::Vector3d(0.1 * static_cast<double>(k < 80 ? k : 160 - k), 0, 0);
+    if (contact == 1) proxy.near.reach_mm = -1.0;
     const interact::ForceRoute r = interact::load_of_tip(m, m.X, tip, routing, proxy);
     nodes = r.nodes.size();
     benchmark::DoNotOptimize(r.forces.data());
   }
   state.counters["skin_faces"] = static_cast<double>(m.layers[0].F.rows());
   state.counters["loaded_nodes"] = static_cast<double>(nodes);
+  state.counters["scans_per_1000_steps"] = 1000.0 * static_cast<double>(proxy.near.scans) /
+                                           static_cast<double>(std::max<int64_t>(step, 1));
 }
 BENCHMARK(BM_ToolTipContact)
-    ->ArgsProduct({{1284, 12840}, {0, 1}})
-    ->ArgNames({"skin", "paper"})
+    ->ArgsProduct({{1284, 12840}, {0, 1, 2}})
+    ->ArgNames({"skin", "contact"})
     ->Unit(benchmark::kMicrosecond);
 
 // Is a point inside the organ, and how deep (interact::depth_under_skin: the skin's winding

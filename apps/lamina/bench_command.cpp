@@ -290,7 +290,8 @@ int run_bench(const BenchArgs& a) {
   // The physical liver in real time at every size a user picks: paper size and 5,000 skin
   // vertices at a haptic loop's 1 ms, about 43k and 100k nodes at a display's 16.7 ms, each with
   // the preconditioner `auto` chooses; paper size, 22k and 48k nodes at 10 ms with Jacobi and
-  // with the multigrid, the iterations' comparison in the same run.
+  // with the multigrid, the iterations' comparison in the same run; the Neo-Hookean tissue at
+  // paper size, 5k, 22k, 43k and 100k.
   const double ms60 = 1.0 / 60.0;
   std::vector<PhysicalCase> cases = {
       {"paper", 1284, 0.001, a.quick ? 50 : 200, a.quick ? 3 : 5, 1600},
@@ -309,6 +310,13 @@ int run_bench(const BenchArgs& a) {
     cases.push_back({"43k_10ms_multigrid", 20000, 0.01, 5, 3, 100, multigrid});
     cases.push_back({"43k", 20000, ms60, 10, 3, 60});
     cases.push_back({"100k", 47000, ms60, 5, 3, 20});
+    // Neo-Hookean tissue at the clinical sizes too, beside the coupled springs' cases above.
+    cases.push_back({"20k_10ms_neo_hookean", 10000, 0.01, 10, 3, 100, sim::Preconditioner::kAuto,
+                     sim::TetModel::kNeoHookean});
+    cases.push_back({"43k_neo_hookean", 20000, ms60, 10, 3, 60, sim::Preconditioner::kAuto,
+                     sim::TetModel::kNeoHookean});
+    cases.push_back({"100k_neo_hookean", 47000, ms60, 5, 3, 20, sim::Preconditioner::kAuto,
+                     sim::TetModel::kNeoHookean});
   }
   if (!a.physical.empty()) {
     std::vector<PhysicalCase> chosen;

@@ -34,6 +34,13 @@ Near nearest_of(const Model& m, const Eigen::MatrixX3d& x, const std::vector<int
   return best;
 }
 
+// Forgets the proxy (placed afresh next time), keeping its neighbour list and its buffers.
+void lift(HapticProxy& s) {
+  SkinNeighbourhood near = std::move(s.near);
+  s = {};
+  s.near = std::move(near);
+}
+
 // Pushes p out of the skin to the radius r: along p - q from the nearest point q when p is on
 // the outer side of q's triangle, along the triangle's outward normal when p has gone past it.
 // A few passes settle it in a concave corner, where leaving one triangle enters another.
@@ -66,7 +73,7 @@ std::optional<RoutingProblem> tip_problem(const ToolTip& t) {
 ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,
                         HapticProxy& s) {
   if (!tip.active || m.layers.empty()) {
-    s = {};
+    lift(s);
     return {};
   }
   const double r = tip.radius_mm;
@@ -76,7 +83,7 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
     if (s.started_inside && --s.recheck_in > 0) return {};
     const double depth = depth_under_skin(m, x, device);
     if (depth > start_depth_limit_mm(r)) {
-      s = {};
+      lift(s);
       s.started_inside = true;
       s.start_depth_mm = depth;
       s.recheck_in = kInsideRecheckSteps;
@@ -88,16 +95,20 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
   const Eigen::Vector3d start = s.placed ? s.proxy_mm : device;
 
   // The skin triangles the proxy can meet on its way: it moves within the ball around the
-  // segment from where it was to the device, and a projection moves it by up to r more.
+  // segment from where it was to the device, and a projection moves it by up to r more. The
+  // load's patch reaches r beyond the proxy's contact (within r of the proxy, which a
+  // projection may carry r past that ball): the neighbour list covers both, and the
+  // proxy's own moves look only at the triangles within their reach.
   thread_local std::vector<int32_t> faces;
   faces.clear();
   const Eigen::Vector3d mid = 0.5 * (start + device);
   const double reach = 2.0 * r + 0.5 * (device - start).norm();
+  const std::vector<int32_t>& listed = skin_faces_near(m, x, mid, reach + 2.0 * r, s.near);
   const Eigen::MatrixX3i& F = m.layers[0].F;
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
+  for (const int32_t f : listed)
     if (!detail::box_out_of_reach(mid, reach, x.row(F(f, 0)).transpose(),
                                   x.row(F(f, 1)).transpose(), x.row(F(f, 2)).transpose()))
-      faces.push_back(static_cast<int32_t>(f));
+      faces.push_back(f);
 
   // The god-object: from where it was, towards the device in moves of at most r/4, each
   // projected out of the skin, so that it slides over the surface to the point nearest the
@@ -127,7 +138,7 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
   const Near n = nearest_of(m, x, faces, p);
   s.touching = n.at.face >= 0 && n.at.distance_mm <= r * (1.0 + 1e-6);
   if (!s.touching || s.device_force_mn.isZero()) return {};
-  return spread_on_patch(m, x, n.at, -s.device_force_mn, r);
+  return detail::spread_on_listed(m, x, n.at, -s.device_force_mn, r, &listed);
 }
 
 }  // namespace lamina::interact

@@ -25,20 +25,32 @@ inline bool box_out_of_reach(const Eigen::Vector3d& centre, double reach, const 
   return gap.squaredNorm() > reach * reach;
 }
 
-// The point of the triangles F (rows index x) nearest to p: brute force with a box reject per
-// triangle (the skin moves every step, so a search tree would be rebuilt per query).
+// Calls visit(f) for each row f of F, or for each entry of `list` when one is given (the
+// triangles a SkinNeighbourhood found near a point).
+template <class Visit>
+void for_faces(const Eigen::MatrixX3i& F, const std::vector<int32_t>* list, Visit&& visit) {
+  if (list)
+    for (const int32_t f : *list) visit(static_cast<Eigen::Index>(f));
+  else
+    for (Eigen::Index f = 0; f < F.rows(); ++f) visit(f);
+}
+
+// The point of the triangles F (rows index x; only the listed ones when `list` is given) nearest
+// to p: brute force with a box reject per triangle (the skin moves every step, so a search tree
+// would be rebuilt per query; a haptic tip asking every step keeps a SkinNeighbourhood).
 inline SkinPoint closest_on_faces(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x,
-                                  const Eigen::Vector3d& p) {
+                                  const Eigen::Vector3d& p,
+                                  const std::vector<int32_t>* list = nullptr) {
   SkinPoint best;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+  for_faces(F, list, [&](Eigen::Index f) {
     const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
-    if (best.face >= 0 && box_out_of_reach(p, best.distance_mm, a, b, c)) continue;
+    if (best.face >= 0 && box_out_of_reach(p, best.distance_mm, a, b, c)) return;
     const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
     const Eigen::Vector3d q = w[0] * a + w[1] * b + w[2] * c;
     const double d = (q - p).norm();
     if (d < best.distance_mm)
       best = {.face = static_cast<int32_t>(f), .barycentric = w, .point_mm = q, .distance_mm = d};
-  }
+  });
   return best;
 }
 
@@ -46,16 +58,18 @@ inline SkinPoint closest_on_faces(const Eigen::MatrixX3i& F, const Eigen::Matrix
 // index x: the skin, or a finite-element mesh's boundary) that comes within `reach` of `centre`.
 // Each such triangle is cut into k x k similar pieces (k^2 samples at the pieces' centroids,
 // each standing for area / k^2), k = cuts(face, barycentric weights of its point nearest to the
-// centre, that point's distance, the triangle's longest edge), clamped to 1..16.
+// centre, that point's distance, the triangle's longest edge), clamped to 1..16. With `list`,
+// only the listed triangles are looked at (a superset of those within reach).
 template <class Cuts, class Visit>
 void sample_faces_near(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x,
-                       const Eigen::Vector3d& centre, double reach, Cuts&& cuts, Visit&& visit) {
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+                       const Eigen::Vector3d& centre, double reach, Cuts&& cuts, Visit&& visit,
+                       const std::vector<int32_t>* list = nullptr) {
+  for_faces(F, list, [&](Eigen::Index f) {
     const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
-    if (box_out_of_reach(centre, reach, a, b, c)) continue;
+    if (box_out_of_reach(centre, reach, a, b, c)) return;
     const Eigen::Vector3d w = geometry::closest_on_triangle(centre, a, b, c);
     const double distance = (w[0] * a + w[1] * b + w[2] * c - centre).norm();
-    if (distance > reach) continue;
+    if (distance > reach) return;
     const double longest =
         std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
     const int k = std::clamp(cuts(static_cast<int32_t>(f), w, distance, longest), 1, 16);
@@ -73,16 +87,23 @@ void sample_faces_near(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x,
                 area);
         }
       }
-  }
+  });
 }
 
 // The same over the model's skin.
 template <class Cuts, class Visit>
 void sample_skin_near(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& centre,
-                      double reach, Cuts&& cuts, Visit&& visit) {
+                      double reach, Cuts&& cuts, Visit&& visit,
+                      const std::vector<int32_t>* list = nullptr) {
   sample_faces_near(m.layers[0].F, x, centre, reach, std::forward<Cuts>(cuts),
-                    std::forward<Visit>(visit));
+                    std::forward<Visit>(visit), list);
 }
+
+// spread_on_patch over the listed skin triangles only (a superset of those within radius_mm of
+// the contact point; nullptr: all), for a caller that keeps a SkinNeighbourhood.
+ForceRoute spread_on_listed(const Model& model, const Eigen::MatrixX3d& x, const SkinPoint& at,
+                            const Eigen::Vector3d& force_mn, double radius_mm,
+                            const std::vector<int32_t>* list);
 
 // Cuts so that a piece is no wider than `spacing` (mm) on an edge of length `longest`.
 inline int cuts_for(double longest, double spacing) {

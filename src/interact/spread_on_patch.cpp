@@ -7,6 +7,12 @@ namespace lamina::interact {
 
 ForceRoute spread_on_patch(const Model& m, const Eigen::MatrixX3d& x, const SkinPoint& at,
                            const Eigen::Vector3d& force_mn, double radius_mm) {
+  return detail::spread_on_listed(m, x, at, force_mn, radius_mm, nullptr);
+}
+
+ForceRoute detail::spread_on_listed(const Model& m, const Eigen::MatrixX3d& x, const SkinPoint& at,
+                                    const Eigen::Vector3d& force_mn, double radius_mm,
+                                    const std::vector<int32_t>* list) {
   ForceRoute route;
   if (at.face < 0) return route;
   const Eigen::MatrixX3i& F = m.layers[0].F;
@@ -37,7 +43,8 @@ ForceRoute spread_on_patch(const Model& m, const Eigen::MatrixX3d& x, const Skin
           total += w;
           for (int c = 0; c < 3; ++c)
             if (bary[c] != 0.0) parts.emplace_back(F(f, c), Eigen::Vector3d::Constant(w * bary[c]));
-        });
+        },
+        list);
   }
   if (!(total > 0.0)) {  // a point load: the contact point's own triangle
     parts.clear();

@@ -4,13 +4,14 @@
 // forces are minus its energy's gradient, its rest stiffness is its forces' derivative at rest,
 // its explicit-limit rows cover its own diagonal, and only the support pushes the organ as a
 // whole.
+#include "sim/force_terms.h"  // white box: the terms one by one
+
 #include <gtest/gtest.h>
 
 #include <string>
 
 #include "lamina/sim/simulation.h"
 #include "sim/block_rows.h"
-#include "sim/force_terms.h"  // white box: the terms one by one
 #include "sim/solver.h"
 #include "support/random_rows.h"
 #include "support/tet_phantom.h"

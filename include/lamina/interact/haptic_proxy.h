@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "lamina/interact/skin_neighbourhood.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/model.h"
 
@@ -29,6 +30,9 @@ struct HapticProxy {
   bool started_inside = false;
   double start_depth_mm = 0.0;  ///< how deep, when started_inside
   int32_t recheck_in = 0;       ///< steps until started_inside is checked again
+  /// The skin triangles near the proxy, kept between steps (kept, too, while the tip is off:
+  /// the list checks itself against the skin's positions).
+  SkinNeighbourhood near;
 };
 
 /// While a device stays inside the organ its depth is checked every this many steps (16 ms at
