@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "io/scene_names.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/contact.h"
@@ -154,10 +155,11 @@ void read_number(const Reader& r, const json& object, const std::string& path, c
   out = v;
 }
 
-// Reads a string key that must be one of `choices` (name, value); leaves `out` alone if absent.
-template <class Enum>
+// Reads a string key that must be one of `choices`' spellings (scene_names.h); leaves `out` alone
+// if absent.
+template <class Enum, size_t N>
 void read_choice(const Reader& r, const json& object, const std::string& path, const char* key,
-                 Enum& out, std::initializer_list<std::pair<const char*, Enum>> choices) {
+                 Enum& out, const detail::Spelling<Enum> (&choices)[N]) {
   const auto it = object.find(key);
   if (it == object.end()) return;
   const std::string p = Reader::join(path, key);
@@ -169,7 +171,7 @@ void read_choice(const Reader& r, const json& object, const std::string& path, c
       out = value;
       return;
     }
-    const char* sep = k == 0 ? "" : k + 1 == choices.size() ? " or " : ", ";
+    const char* sep = k == 0 ? "" : k + 1 == N ? " or " : ", ";
     expected += sep + ("\"" + std::string(name) + "\"");
     ++k;
   }
@@ -220,8 +222,7 @@ void read_model(const Reader& r, const json& j, Scene& s) {
                   "links", "tet_radius_edge_ratio", "tet_min_dihedral_deg"});
   model::BuildOptions& o = s.build;
   s.structure_given = b->contains("structure");
-  read_choice(r, *b, bp, "structure", o.structure,
-              {{"tets", model::Structure::kTetrahedra}, {"links", model::Structure::kLinks}});
+  read_choice(r, *b, bp, "structure", o.structure, detail::kStructures);
   // Ranges are build_model's (check_build_options), checked here so messages name the key.
   read_integer(r, *b, bp, "layers", o.layers, 1, 16);
   read_integer(r, *b, bp, "skin_vertices", o.skin_vertices, 50, 5'000'000);
@@ -268,11 +269,8 @@ void read_material(const Reader& r, const json& j, Scene& s) {
     s.routing.routing = p.routing.routing;
     if (!s.structure_given) s.build.structure = p.build.structure;
   }
-  read_choice(
-      r, j, path, "tet_elasticity", s.tet_elasticity,
-      {{"coupled", model::TetElasticity::kCoupled}, {"springs", model::TetElasticity::kSprings}});
-  read_choice(r, j, path, "model", s.tet_model,
-              {{"springs", sim::TetModel::kSprings}, {"neo_hookean", sim::TetModel::kNeoHookean}});
+  read_choice(r, j, path, "tet_elasticity", s.tet_elasticity, detail::kTetElasticities);
+  read_choice(r, j, path, "model", s.tet_model, detail::kTetModels);
   for (const char* key : {"poisson_ratio", "model"})
     if (j.contains(key) && !s.elastic)
       r.fail(path + "." + key, "needs young_modulus_kpa beside it");
@@ -324,10 +322,7 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
                   "cg_tolerance", "preconditioner", "projective_iterations"});
   sim::SolverOptions& o = s.solver;
   s.integrator_given = j.contains("integrator");
-  read_choice(r, j, path, "integrator", o.integrator,
-              {{"semi_implicit_euler", sim::Integrator::kSemiImplicitEuler},
-               {"implicit_euler", sim::Integrator::kImplicitEuler},
-               {"projective", sim::Integrator::kProjective}});
+  read_choice(r, j, path, "integrator", o.integrator, detail::kIntegrators);
   read_number(r, j, path, "dt_s", o.dt_s, kPositive, "must be > 0");
   // "At rest" is a speed, so that it does not depend on dt. The paper's threshold is a move per
   // step: the same test at the scene's dt (exactly: a step moves a node by dt times its new
@@ -341,18 +336,13 @@ void read_solver(const Reader& r, const json& j, Scene& s) {
   read_number(r, j, path, "threshold_mm", threshold_mm, kPositive, "must be > 0");
   if (threshold_mm > 0.0) o.rest_speed_mm_per_s = threshold_mm / o.dt_s;
   read_integer(r, j, path, "max_steps", o.max_steps, 1, std::numeric_limits<int64_t>::max());
-  read_choice(r, j, path, "mode", o.mode,
-              {{"global", sim::Mode::kGlobal}, {"local", sim::Mode::kLocal}});
+  read_choice(r, j, path, "mode", o.mode, detail::kModes);
   read_integer(r, j, path, "cg_max_iterations", o.cg_max_iterations, 1, 1'000'000);
   read_number(r, j, path, "cg_tolerance", o.cg_tolerance, kPositive, "must be > 0");
-  read_choice(r, j, path, "preconditioner", o.preconditioner,
-              {{"auto", sim::Preconditioner::kAuto},
-               {"jacobi", sim::Preconditioner::kJacobi},
-               {"multigrid", sim::Preconditioner::kMultigrid}});
+  read_choice(r, j, path, "preconditioner", o.preconditioner, detail::kPreconditioners);
   read_integer(r, j, path, "projective_iterations", o.projective_iterations, 1, 10'000);
   interact::RoutingOptions& ro = s.routing;
-  read_choice(r, j, path, "routing", ro.routing,
-              {{"none", interact::Routing::kNone}, {"paper", interact::Routing::kPaper}});
+  read_choice(r, j, path, "routing", ro.routing, detail::kRoutings);
   read_integer(r, j, path, "locality", ro.locality, 1, 64);
   read_integer(r, j, path, "penetration_depth", ro.penetration_depth, 1, 1'000'000);
   read_number(r, j, path, "ring_attenuation", ro.ring_attenuation, kFraction,
@@ -674,37 +664,23 @@ std::vector<int32_t> fixed_scene_nodes(const Scene& s, const Model& m) {
 }
 
 std::string integrator_name(sim::Integrator integrator) {
-  switch (integrator) {
-    case sim::Integrator::kImplicitEuler:
-      return "implicit_euler";
-    case sim::Integrator::kProjective:
-      return "projective";
-    default:
-      return "semi_implicit_euler";
-  }
+  return std::string(detail::name_of(detail::kIntegrators, integrator));
 }
 
 std::string preconditioner_name(sim::Preconditioner preconditioner) {
-  switch (preconditioner) {
-    case sim::Preconditioner::kJacobi:
-      return "jacobi";
-    case sim::Preconditioner::kMultigrid:
-      return "multigrid";
-    default:
-      return "auto";
-  }
+  return std::string(detail::name_of(detail::kPreconditioners, preconditioner));
 }
 
 std::string routing_name(interact::Routing routing) {
-  return routing == interact::Routing::kPaper ? "paper" : "none";
+  return std::string(detail::name_of(detail::kRoutings, routing));
 }
 
 std::string tet_model_name(sim::TetModel model) {
-  return model == sim::TetModel::kNeoHookean ? "neo_hookean" : "springs";
+  return std::string(detail::name_of(detail::kTetModels, model));
 }
 
 std::string mode_name(sim::Mode mode) {
-  return mode == sim::Mode::kLocal ? "local" : "global";
+  return std::string(detail::name_of(detail::kModes, mode));
 }
 
 std::string run_summary_json(const RunSummary& s) {
@@ -750,11 +726,12 @@ std::string run_summary_json(const RunSummary& s) {
     if (m.elastic) {
       mj["young_modulus_kpa"] = m.elastic_material.young_modulus_kpa;
       mj["poisson_ratio"] = m.elastic_material.poisson_ratio;
-      mj["structure"] = m.tets ? "tets" : "links";
+      mj["structure"] = std::string(detail::name_of(
+          detail::kStructures, m.tets ? model::Structure::kTetrahedra : model::Structure::kLinks));
       if (m.tets) {
         mj["model"] = tet_model_name(m.tet_model);
         mj["tet_elasticity"] =
-            m.tet_elasticity == model::TetElasticity::kCoupled ? "coupled" : "springs";
+            std::string(detail::name_of(detail::kTetElasticities, m.tet_elasticity));
         mj["tet_volume_modulus_kpa"] = m.tet_volume_modulus_kpa;
       } else {
         mj["shear_modulus_kpa"] = m.identification.shear_modulus_kpa;
