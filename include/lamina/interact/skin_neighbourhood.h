@@ -19,7 +19,7 @@ namespace lamina::interact {
 struct SkinNeighbourhood {
   std::vector<int32_t> faces;  ///< rows of layers[0].F within reach_mm of centre_mm at the scan
   Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
-  double reach_mm = -1.0;      ///< the listed reach, margin included; < 0: no scan yet
+  double reach_mm = -1.0;         ///< the listed reach, margin included; < 0: no scan yet
   Eigen::MatrixX3d skin_at_scan;  ///< the skin's node positions at the scan
   int64_t scans = 0;              ///< whole-skin scans so far
 };
