@@ -68,6 +68,21 @@ struct Rings {
   }
 };
 
+/// A surface the tetrahedra carry (a fine display skin, a vessel, a tumour): each vertex keeps
+/// the four corners of its rest tetrahedron and its barycentric weights there, so that at node
+/// positions x it lies at sum_c weights(v, c) x(corners(v, c)) (model::embedded_positions). A
+/// vertex in no tetrahedron follows the nearest one (its weights then extrapolate: some are
+/// negative).
+struct EmbeddedSurface {
+  std::string name;          ///< "display_skin", or the structure's name
+  int32_t label = 0;         ///< the segmentation label it came from (0: the organ's own skin)
+  Eigen::MatrixX3d V;        ///< rest positions, mm
+  Eigen::MatrixX3i F;        ///< triangles (rows of V), outward winding
+  Eigen::MatrixX4i corners;  ///< per vertex: the nodes of its tetrahedron
+  Eigen::MatrixX4d weights;  ///< per vertex: their barycentric weights, summing to 1
+  int32_t outside = 0;       ///< vertices in no tetrahedron at rest (they follow the nearest)
+};
+
 /// The model. Nodes are ordered by layer: layer 0 (the skin) first; the interior nodes of the
 /// tetrahedra (on no layer) come last.
 struct Model {
@@ -79,6 +94,8 @@ struct Model {
   Springs springs;
   Tets tets;  ///< empty for a model whose layers are joined by links only
   Rings rings;
+  /// Surfaces carried by the tetrahedra, drawn (and touched) instead of, or inside, the skin.
+  std::vector<EmbeddedSurface> embedded;
   double density_kg_per_mm3 = 1.06e-6;  ///< used to lump the masses (liver: 1.06 g/cm^3)
   std::string source;                   ///< what it was built from (path or "built-in phantom")
 

@@ -1,0 +1,28 @@
+#pragma once
+/// \file
+/// Surfaces carried by the tetrahedra (SOFA's BarycentricMapping, iMSTK's tetrahedra-to-triangles
+/// map): a fine display skin, vessels and tumours inside the organ, deformed with it.
+
+#include <Eigen/Core>
+#include <string>
+
+#include "lamina/model/model.h"
+
+namespace lamina::model {
+
+/// The surface (V, F) at rest, embedded in the model's rest tetrahedra: each vertex's tetrahedron
+/// and barycentric weights; a vertex in no tetrahedron takes the one whose centroid is nearest
+/// (counted in EmbeddedSurface::outside). Throws lamina::Error (kInvalidInput) naming `name` when
+/// the model has no tetrahedra, the surface is empty, a triangle indexes no vertex or a vertex
+/// is not finite.
+EmbeddedSurface embed_surface(const Model& model, const Eigen::MatrixX3d& V,
+                              const Eigen::MatrixX3i& F, const std::string& name,
+                              int32_t label = 0);
+
+/// The embedded surface's vertices at node positions x: out = W x, four weights a row. Threaded
+/// over the vertices; `out` is resized only when its size differs (no allocation frame to
+/// frame).
+void embedded_positions(const EmbeddedSurface& surface, const Eigen::MatrixX3d& x,
+                        Eigen::MatrixX3d& out);
+
+}  // namespace lamina::model
