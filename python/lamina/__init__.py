@@ -9,13 +9,45 @@ Arrays are numpy views of the library's own memory (docs/python.md).
     sim.add_tool(vertex=0, force_mn=(0, 300, 0), end_s=1.0)
     print(sim.run())                                           # steps until the organ rests
 """
+import glob
 import json
 import os
 import shutil
 import subprocess
+import sys
 
-from ._lamina import (Error, Mask, Model, Simulation, StepStats, __version__, build_model,
-                      load_model, nodes_near_plane, phantom, read_mask, scene_simulation)
+_HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def _cannot_import(what, cause, remedy):
+    """One ImportError that names this interpreter, where lamina was found, what is missing and
+    what to do: pybind11's own is a bare 'initialization failed'."""
+    return ImportError("lamina cannot be imported: %s (%s). Interpreter: %s (Python %d.%d); "
+                       "lamina found at %s. %s" % (what, cause, sys.executable,
+                                                   sys.version_info[0], sys.version_info[1],
+                                                   _HERE, remedy))
+
+
+try:  # the compiled module hands out numpy arrays: without numpy it cannot initialise
+    import numpy  # noqa: F401
+except ImportError as _e:
+    raise _cannot_import(
+        "numpy is missing", _e,
+        "Install numpy for this interpreter (apt-get install python3-numpy for Debian's "
+        "/usr/bin/python3, or this interpreter's `-m pip install numpy`), or run the Python "
+        "lamina was built with.") from None
+
+try:
+    from ._lamina import (Error, Mask, Model, Simulation, StepStats, __version__, build_model,
+                          load_model, nodes_near_plane, phantom, read_mask, scene_simulation)
+except ImportError as _e:
+    _built = sorted(os.path.basename(p) for p in glob.glob(os.path.join(_HERE, "_lamina*.so")))
+    raise _cannot_import(
+        "its compiled module did not load", _e,
+        "Compiled modules here: %s; a module built for another Python version (its file name "
+        "says which) or a library it links that this system lacks gives this. Rebuild lamina "
+        "with this interpreter (cmake -DPython3_EXECUTABLE=%s) or run the one it was built "
+        "with." % (", ".join(_built) or "none", sys.executable)) from _e
 
 __all__ = ["Error", "Mask", "Model", "Simulation", "StepStats", "__version__", "build_model",
            "load_model", "nodes_near_plane", "phantom", "read_mask", "scene_simulation",
@@ -35,7 +67,7 @@ def run_scene(scene="phantom", *, paper=False, until_s=float("inf")):
 def executable():
     """The `lamina` command-line tool beside this module: $LAMINA_EXECUTABLE, the install's
     bin/lamina, the build tree's, or the first on PATH."""
-    here = os.path.dirname(os.path.abspath(__file__))
+    here = _HERE
     candidates = [os.environ.get("LAMINA_EXECUTABLE", "")]
     # installed: PREFIX/lib/pythonX.Y/dist-packages/lamina -> PREFIX/bin/lamina
     candidates.append(os.path.join(here, "..", "..", "..", "..", "bin", "lamina"))

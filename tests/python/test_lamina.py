@@ -273,3 +273,34 @@ def test_readme_python_example_runs():
     text = (REPO / "README.md").read_text()
     code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     exec(compile(code, "README.md", "exec"), {})
+
+
+def _import_lamina_where(blocked):
+    """`import lamina` in a fresh interpreter (this one, the same path) with `blocked` made
+    unimportable; its exit code and stderr."""
+    import os
+    import sys
+    code = "import sys; sys.modules[%r] = None; import lamina" % blocked
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    return done.returncode, done.stderr
+
+
+def test_import_without_numpy_names_the_interpreter_and_what_to_do():
+    import sys
+    code, err = _import_lamina_where("numpy")
+    assert code != 0
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("ImportError: lamina cannot be imported: numpy is missing"), last
+    assert sys.executable in last and "lamina found at" in last
+    assert "python3-numpy" in last and "pip install numpy" in last
+
+
+def test_a_compiled_module_that_does_not_load_is_named_with_the_files_found():
+    import sys
+    code, err = _import_lamina_where("lamina._lamina")
+    assert code != 0
+    last = err.strip().splitlines()[-1]
+    assert "its compiled module did not load" in last, last
+    assert re.search(r"_lamina\.cpython-\d+[^ ,]*\.so", last), last
+    assert "-DPython3_EXECUTABLE=" + sys.executable in last
