@@ -78,12 +78,19 @@ int run_phantom(const PhantomArgs& a) {
   check_output(a.output, {".nii", ".nii.gz", ".nrrd", ".mha", ".mhd"}, "image");
   const LabelVolume v = geometry::make_phantom(a.options);
   io::write_label_volume(v, a.output);
-  int64_t inside = 0;
-  for (int32_t l : v.labels) inside += l != 0;
+  int64_t count[4] = {0, 0, 0, 0};
+  for (int32_t l : v.labels) ++count[std::clamp(l, 0, 3)];
+  const auto ml = [&](int64_t n) {
+    return static_cast<double>(n) * v.frame.voxel_volume_mm3() / 1000.0;
+  };
   log::info("wrote {}: {} x {} x {} voxels at {} x {} x {} mm, organ {:.1f} mL", a.output,
             v.frame.size[0], v.frame.size[1], v.frame.size[2], v.frame.spacing_mm[0],
-            v.frame.spacing_mm[1], v.frame.spacing_mm[2],
-            static_cast<double>(inside) * v.frame.voxel_volume_mm3() / 1000.0);
+            v.frame.spacing_mm[1], v.frame.spacing_mm[2], ml(count[1] + count[2] + count[3]));
+  if (a.options.anatomy)
+    log::info("labels: {} liver {:.1f} mL, {} vessel tree {:.1f} mL, {} tumour {:.1f} mL",
+              geometry::kPhantomLiver, ml(count[geometry::kPhantomLiver]), geometry::kPhantomVessel,
+              ml(count[geometry::kPhantomVessel]), geometry::kPhantomTumour,
+              ml(count[geometry::kPhantomTumour]));
   return 0;
 }
 

@@ -90,6 +90,9 @@ int main(int argc, char** argv) {
       ->required();
   ph->add_option("--spacing", spacing, "voxel size in mm: MM or X,Y,Z (default 1.5)");
   ph->add_option("--size", size, "grid size in voxels NX,NY,NZ (default: fits the organ)");
+  ph->add_flag("--labels", phantom.options.anatomy,
+               "also the anatomy inside, a label each: 1 liver, 2 vessel tree (entering at the "
+               "hilum), 3 tumour; the organ is their union");
 
   cli::BuildArgs build;
   auto& bo = build.options;

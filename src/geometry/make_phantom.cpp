@@ -30,7 +30,45 @@ double smooth_subtract(double a, double b, double k) {
 constexpr double kLo[3] = {-125.0, -66.0, -63.0};
 constexpr double kHi[3] = {120.0, 80.0, 70.0};
 
+// Distance from p to the segment ab minus the radius: negative inside the capsule.
+double capsule(double x, double y, double z, const double a[3], const double b[3], double r) {
+  const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double ap[3] = {x - a[0], y - a[1], z - a[2]};
+  const double t = std::clamp((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) /
+                                  (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]),
+                              0.0, 1.0);
+  const double d[3] = {ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]};
+  return std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - r;
+}
+
+// The vessel tree, segment by segment (mm, organ frame): the trunk from below the hilum (it is
+// clipped to the organ, so it enters through the visceral surface) to its bifurcation, a branch
+// into each lobe, and two more into each lobe's depth.
+struct Segment {
+  double a[3], b[3], r;
+};
+constexpr Segment kVessels[] = {
+    {{-12, 28, -80}, {-14, 14, -22}, 6.5},  // trunk, through the hilum
+    {{-14, 14, -22}, {-55, 8, -8}, 4.5},    // right branch
+    {{-14, 14, -22}, {22, 2, -2}, 4.5},     // left branch
+    {{-55, 8, -8}, {-88, 2, 10}, 3.0},      // right lobe, lateral
+    {{-55, 8, -8}, {-60, 26, -26}, 3.0},    // right lobe, posterior-inferior
+    {{22, 2, -2}, {62, -14, 14}, 3.0},      // left lobe, lateral
+    {{22, 2, -2}, {38, 18, 14}, 3.0},       // left lobe, posterior
+};
+constexpr double kTumourCentre[3] = {-60, -18, 32};
+constexpr double kTumourRadius = 15.0;
+
 }  // namespace
+
+int32_t phantom_anatomy(double x, double y, double z) {
+  const double t[3] = {x - kTumourCentre[0], y - kTumourCentre[1], z - kTumourCentre[2]};
+  if (t[0] * t[0] + t[1] * t[1] + t[2] * t[2] < kTumourRadius * kTumourRadius)
+    return kPhantomTumour;
+  for (const Segment& v : kVessels)
+    if (capsule(x, y, z, v.a, v.b, v.r) < 0.0) return kPhantomVessel;
+  return kPhantomLiver;
+}
 
 double phantom_implicit(double x, double y, double z) {
   // Right lobe: the bulk of the liver, on the patient's right (x < 0), tall and deep.
@@ -51,7 +89,7 @@ double phantom_implicit(double x, double y, double z) {
 
 LabelVolume make_phantom(const PhantomOptions& options) {
   LabelVolume v;
-  v.source = "built-in phantom";
+  v.source = options.anatomy ? "built-in phantom with anatomy" : "built-in phantom";
   GridFrame& f = v.frame;
   f.spacing_mm = options.spacing_mm;
   for (int a = 0; a < 3; ++a) {
@@ -80,7 +118,9 @@ LabelVolume make_phantom(const PhantomOptions& options) {
       for (int64_t i = 0; i < f.size[0]; ++i) {
         const double x = f.origin_mm[0] + static_cast<double>(i) * f.spacing_mm[0];
         if (x < kLo[0] || x > kHi[0]) continue;
-        if (phantom_implicit(x, y, z) < 0.0) v.labels[static_cast<size_t>(f.index(i, j, k))] = 1;
+        if (phantom_implicit(x, y, z) < 0.0)
+          v.labels[static_cast<size_t>(f.index(i, j, k))] =
+              options.anatomy ? phantom_anatomy(x, y, z) : kPhantomLiver;
       }
     }
   }

@@ -89,8 +89,7 @@ Eigen::Vector3d centroid(const Model& m, int32_t t) {
 }
 
 // The tetrahedron containing p (its weights all >= -1e-9), or -1.
-int32_t containing(const Model& m, const TetGrid& g, const Eigen::Vector3d& p,
-                   Eigen::Vector4d& w) {
+int32_t containing(const Model& m, const TetGrid& g, const Eigen::Vector3d& p, Eigen::Vector4d& w) {
   const int64_t k = g.index(g.cell_of(p));
   for (int32_t q = g.offsets[k]; q < g.offsets[k + 1]; ++q) {
     w = barycentric(m, g.tets[q], p);
@@ -163,7 +162,7 @@ void embedded_positions(const EmbeddedSurface& s, const Eigen::MatrixX3d& x,
                         Eigen::MatrixX3d& out) {
   const Eigen::Index n = s.weights.rows();
   if (out.rows() != n) out.resize(n, 3);
-  const int* c = s.corners.data();    // column-major: corner k of vertex v at [k n + v]
+  const int* c = s.corners.data();     // column-major: corner k of vertex v at [k n + v]
   const double* w = s.weights.data();  // the same
   const double *x0 = x.col(0).data(), *x1 = x.col(1).data(), *x2 = x.col(2).data();
   double *o0 = out.col(0).data(), *o1 = out.col(1).data(), *o2 = out.col(2).data();

@@ -475,6 +475,31 @@ int64_t count_obj_lines(const std::string& text, const std::string& tag) {
   return n;
 }
 
+TEST(CliWorkflow, APhantomWithLabelsCarriesItsAnatomyAndBuildsTheSameOrgan) {
+  TempDir dir;
+  RunResult r = run_lamina(dir, "phantom --labels -o A.nii.gz --spacing 3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("labels: 1 liver"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("2 vessel tree"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("3 tumour"), std::string::npos) << r.err;
+  const LabelVolume v = io::read_label_volume((dir.work / "A.nii.gz").string());
+  int64_t count[4] = {0, 0, 0, 0};
+  for (int32_t l : v.labels) {
+    ASSERT_GE(l, 0);
+    ASSERT_LE(l, 3);
+    ++count[l];
+  }
+  EXPECT_GT(count[2], 0);
+  EXPECT_GT(count[3], 0);
+  // Any non-zero voxel is the organ: it builds as the plain phantom does.
+  r = run_lamina(dir, "build A.nii.gz -o A.vtu --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  write_small_phantom(dir, "P.nii.gz");
+  const RunResult plain = run_lamina(dir, "build P.nii.gz -o P.vtu --json");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(json::parse(r.out).at("nodes"), json::parse(plain.out).at("nodes"));
+}
+
 TEST(CliWorkflow, PhantomBuildInfoExport) {
   TempDir dir;
   RunResult r = run_lamina(dir, "phantom -o P.nii.gz --spacing 3");

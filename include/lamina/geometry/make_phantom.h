@@ -17,7 +17,15 @@ struct PhantomOptions {
   /// Grid size in voxels; {0,0,0} = just large enough for the organ plus a 6 mm margin. A grid
   /// smaller than the organ crops it (the organ then touches the scan edge, as in real scans).
   std::array<int64_t, 3> size{0, 0, 0};
+  /// Also the anatomy inside the organ, each a label of its own (kPhantomVessel,
+  /// kPhantomTumour); the organ is their union with kPhantomLiver, the same voxels either way.
+  bool anatomy = false;
 };
+
+/// The phantom's labels with `anatomy` (lamina phantom --labels; docs/cli.md).
+inline constexpr int32_t kPhantomLiver = 1;   ///< the parenchyma
+inline constexpr int32_t kPhantomVessel = 2;  ///< a portal-vein-like tree entering at the hilum
+inline constexpr int32_t kPhantomTumour = 3;  ///< a 15 mm-radius tumour in the right lobe
 
 /// Samples the liver-like phantom: a large right lobe and a thinner left lobe blended
 /// smoothly, a concave visceral (inferior) surface and a gallbladder fossa; not convex, not a
@@ -26,6 +34,12 @@ struct PhantomOptions {
 /// @param[in] options  spacing and grid size
 /// @return the label volume, source "built-in phantom"
 LabelVolume make_phantom(const PhantomOptions& options = {});
+
+/// The anatomy's label at a point of the organ (mm, organ frame): kPhantomTumour,
+/// kPhantomVessel or kPhantomLiver. The vessel tree runs from the hilum on the visceral
+/// (inferior) surface up into both lobes in three generations (radii 6.5, 4.5 and 3 mm); the
+/// tumour lies in the right lobe, clear of the tree and of the surface.
+int32_t phantom_anatomy(double x, double y, double z);
 
 /// Signed implicit function of the phantom at a point (mm, organ frame): negative inside.
 /// Not an exact distance, but Lipschitz-bounded near the surface.
