@@ -33,11 +33,20 @@ void plot(const std::string& label, const History& h) {
                    ImVec2(std::max(ImGui::GetContentRegionAvail().x, 100.0f), 70));
 }
 
+// The left panel's place and width, pixels (where the viewer first puts it).
+constexpr float kPanelMargin = 10.0f, kPanelWidth = 440.0f;
+
 }  // namespace
 
+void ViewSession::State::frame_organ(const Model& m) const {
+  const Eigen::Vector2i size = render::window_size();
+  render::camera() = render::frame_beside_panels(
+      m, size.x(), size.y(), static_cast<int>(2.0f * kPanelMargin + kPanelWidth), 0);
+}
+
 void ViewSession::State::panels() {
-  ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(440, 0), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(kPanelMargin, kPanelMargin), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(kPanelWidth, 0), ImGuiCond_FirstUseEver);
   ImGui::Begin("Lamina");
   const Model& m = vm->model;
   ImGui::TextWrapped("%s", vm->source.c_str());
@@ -225,7 +234,7 @@ void ViewSession::State::panels() {
     ImGui::Checkbox("rings of contacts (fig. 2)", &show_rings);
     ImGui::SliderFloat("arrow mm per N", &arrow_mm_per_n, 5.0f, 300.0f, "%.0f",
                        ImGuiSliderFlags_Logarithmic);
-    if (ImGui::Button("Fit view")) render::camera() = render::fit_camera(m);
+    if (ImGui::Button("Fit view")) frame_organ(m);
   }
   if (ImGui::CollapsingHeader("Model")) {
     ImGui::BeginDisabled(!options.rebuild || rebuilding);

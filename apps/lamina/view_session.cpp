@@ -59,6 +59,7 @@ void ViewSession::start() {
   if (!render::is_initialized())
     throw Error(ErrorKind::kInternal, "ViewSession::start() before render::init()");
   render::register_model(kModelName, v.vm->model);
+  v.frame_organ(v.vm->model);  // in the part of the window the left panel leaves free
   v.start_loop();
   v.start_time = Clock::now();
   v.started = true;

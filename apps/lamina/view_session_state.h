@@ -139,6 +139,8 @@ struct ViewSession::State {
   void start_left_gesture(const render::Input& in);
   // view_panels.cpp
   void panels();
+  /// The camera that frames the organ right of the left panel (its first view, "Fit view").
+  void frame_organ(const Model& m) const;
   void record_plots();
   // view_rebuild.cpp
   void start_rebuild();

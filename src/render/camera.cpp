@@ -43,6 +43,23 @@ Camera fit_camera(const Model& model, double azimuth_deg, double elevation_deg) 
   return c;
 }
 
+Camera frame_beside_panels(const Model& model, int width, int height, int left_px, int right_px,
+                           double azimuth_deg, double elevation_deg) {
+  Camera c = fit_camera(model, azimuth_deg, elevation_deg);
+  const double w = std::max(width, 1), h = std::max(height, 1);
+  const double left = std::clamp<double>(left_px, 0.0, 0.8 * w);
+  const double right = std::clamp<double>(right_px, 0.0, 0.8 * w - left);
+  const double free = w - left - right;
+  c.shift_x = (left - right) / w;  // the free columns' centre, from the viewport's, in half-widths
+  // The sphere's half-angle must fit 95% of the free half-width as well as of the half-height.
+  const double radius = c.distance_mm * std::sin(0.5 * c.fov_deg * kDegree) * 0.95;
+  const double tan_half_free = std::tan(0.5 * c.fov_deg * kDegree) * free / h;
+  const double sin_half =
+      std::min(std::sin(0.5 * c.fov_deg * kDegree), std::sin(std::atan(tan_half_free)));
+  c.distance_mm = radius / sin_half / 0.95;
+  return c;
+}
+
 Eigen::Vector3d eye_direction(const Camera& c) {
   const double az = c.azimuth_deg * kDegree,
                el = std::clamp(c.elevation_deg, -89.0, 89.0) * kDegree;
@@ -69,6 +86,7 @@ Eigen::Matrix4d projection_matrix(const Camera& c, double aspect, double scene_r
   const double t = 1.0 / std::tan(0.5 * c.fov_deg * kDegree);
   Eigen::Matrix4d p = Eigen::Matrix4d::Zero();
   p(0, 0) = t / std::max(aspect, 1e-6);
+  p(0, 2) = -c.shift_x;  // x_ndc += shift_x (w = -z)
   p(1, 1) = t;
   p(2, 2) = -(far_plane + near_plane) / (far_plane - near_plane);
   p(2, 3) = -2.0 * far_plane * near_plane / (far_plane - near_plane);
@@ -80,7 +98,8 @@ Ray pixel_ray(const Camera& c, int width, int height, double px, double py) {
   const Basis b = basis(c);
   const double tan_half = std::tan(0.5 * c.fov_deg * kDegree);
   const double aspect = static_cast<double>(std::max(width, 1)) / std::max(height, 1);
-  const double x = 2.0 * px / std::max(width, 1) - 1.0, y = 1.0 - 2.0 * py / std::max(height, 1);
+  const double x = 2.0 * px / std::max(width, 1) - 1.0 - c.shift_x,
+               y = 1.0 - 2.0 * py / std::max(height, 1);
   Ray r;
   r.origin = b.eye;
   r.direction =

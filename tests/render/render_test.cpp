@@ -80,6 +80,42 @@ TEST(Camera, ProjectionMapsAPixelRayBackToItsPixel) {
   }
 }
 
+TEST(Camera, FramedBesidePanelsEveryNodeIsDrawnInTheFreeColumns) {
+  // The viewer's 1400 x 900 window with its 460 px left panel: the organ in the columns right of
+  // it, centred there, and the lens shift agreeing with the picking rays.
+  const Model& m = phantom_model();
+  const int w = 1400, h = 900, left = 460;
+  const Camera c = frame_beside_panels(m, w, h, left, 0);
+  EXPECT_NEAR(c.shift_x, 460.0 / 1400.0, 1e-12);
+  const Eigen::Matrix4d pv = projection_matrix(c, double(w) / h, 300.0) * view_matrix(c);
+  const auto pixel = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector4d clip = pv * p.homogeneous();
+    return Eigen::Vector2d((clip.x() / clip.w() + 1) * 0.5 * w,
+                           (1 - clip.y() / clip.w()) * 0.5 * h);
+  };
+  double lo = w, hi = 0;
+  for (Eigen::Index i = 0; i < m.X.rows(); ++i) {
+    const Eigen::Vector2d q = pixel(m.X.row(i).transpose());
+    lo = std::min(lo, q.x()), hi = std::max(hi, q.x());
+    ASSERT_GE(q.y(), 0.0);
+    ASSERT_LE(q.y(), h);
+  }
+  EXPECT_GT(lo, left) << "no node under the panel";
+  EXPECT_LT(hi, w);
+  EXPECT_NEAR(pixel(c.target).x(), 0.5 * (left + w), 1e-6) << "centred in the free columns";
+  // The ray through a pixel still projects back to it, and the target's pixel's ray hits it.
+  for (auto [px, py] : {std::pair{500.0, 50.0}, {1300.0, 850.0}, {930.0, 450.0}}) {
+    const Ray r = pixel_ray(c, w, h, px, py);
+    const Eigen::Vector2d back = pixel(r.origin + c.distance_mm * r.direction);
+    EXPECT_NEAR(back.x(), px, 1e-6);
+    EXPECT_NEAR(back.y(), py, 1e-6);
+  }
+  // With nothing covered it is fit_camera at that aspect.
+  const Camera plain = frame_beside_panels(m, w, h, 0, 0);
+  EXPECT_EQ(plain.shift_x, 0.0);
+  EXPECT_NEAR(plain.distance_mm, fit_camera(m).distance_mm, 1e-9);
+}
+
 TEST(Camera, AnteriorViewHasPatientLeftOnTheRightAndHeadUp) {
   Camera c;
   c.azimuth_deg = 0;

@@ -19,10 +19,21 @@ struct Camera {
   double elevation_deg = 20.0;
   double distance_mm = 400.0;
   double fov_deg = 35.0;  ///< vertical field of view
+  /// Where the target is drawn across the viewport: 0 at its centre, +1 at its right edge (a
+  /// lens shift, so orbiting still turns about the target). A viewer whose panels cover part of
+  /// the window frames the organ in the rest (frame_beside_panels).
+  double shift_x = 0.0;
 };
 
 /// A camera at the default angles that frames the model's rest shape, with a margin.
 Camera fit_camera(const Model& model, double azimuth_deg = -30.0, double elevation_deg = 20.0);
+
+/// fit_camera for a width x height viewport whose columns [0, left_px) and [width - right_px,
+/// width) are covered (by panels): the model's bounding sphere is centred in the columns between
+/// and fills at most 95% of their width and of the height. left_px = right_px = 0 is fit_camera
+/// at that aspect.
+Camera frame_beside_panels(const Model& model, int width, int height, int left_px, int right_px,
+                           double azimuth_deg = -30.0, double elevation_deg = 20.0);
 
 /// Unit vector from the target towards the eye.
 Eigen::Vector3d eye_direction(const Camera& camera);
