@@ -27,8 +27,8 @@ double edge_for_triangles(double area_mm2, double triangles) {
 
 SurfaceMesh display_skin(const Mask& mask, int64_t triangles) {
   if (triangles < 100)
-    throw invalid_input("--display-triangles", "must be at least 100, got " +
-                                                   std::to_string(triangles));
+    throw invalid_input("--display-triangles",
+                        "must be at least 100, got " + std::to_string(triangles));
   // Two voxels of background around it: the isosurface closes inside the grid.
   const DistanceField sdf = signed_distance(pad_mask(mask, 2));
   // No adaptivity: merging flat polygons first (OpenVDB's 0.3) made the 100k-triangle skin 1.6x

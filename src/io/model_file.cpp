@@ -102,6 +102,10 @@ void check_savable(const Model& m, const std::string& path) {
   if (!ok)
     throw Error(ErrorKind::kInternal,
                 path + ": cannot save: the model's arrays disagree in size or index range");
+  // Not yet in the format: refused rather than dropped, so that no file silently loses them.
+  if (!m.embedded.empty())
+    throw invalid_input(path, "cannot save: model files do not store embedded surfaces (\"" +
+                                  m.embedded.front().name + "\") yet; save the model without them");
 }
 
 // --- Reading: a scanner for the XML that save_model() writes, not a general XML parser. ---

@@ -205,6 +205,22 @@ TEST(ModelFile, FileIsVtkUnstructuredGrid) {
   EXPECT_EQ(fs::directory_iterator(dir.path)->path().filename(), "model.vtu");  // no temp left
 }
 
+TEST(ModelFile, AModelWithEmbeddedSurfacesIsRefusedNotSavedWithoutThem) {
+  // The format has no place for them yet: saving must not drop them silently, nor leave a file.
+  const TempDir dir;
+  Model model = make_test_model();
+  model.embedded.push_back({.name = "portal vein"});
+  try {
+    save_model(model, dir.file("model.vtu"));
+    ADD_FAILURE() << "saved";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::kInvalidInput);
+    EXPECT_NE(std::string(e.what()).find("embedded surfaces (\"portal vein\")"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(fs::is_empty(dir.path));
+}
+
 TEST(ModelFile, TruncatedFileThrows) {
   const TempDir dir;
   const std::string path = dir.file("model.vtu");
