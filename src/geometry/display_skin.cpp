@@ -1,57 +1,140 @@
-// The display skin: the same pipeline as the simulation's skin (signed distance, OpenVDB's
-// isosurface, CGAL's remeshing), but on the mask's own grid and to a triangle budget rather than
-// a vertex count, so that it follows the segmentation to under a voxel.
+// The display skin and the structures' surfaces: the mask's signed distance on its own grid,
+// sampled onto a grid whose spacing gives about the triangle budget, OpenVDB's isosurface there,
+// then Taubin smoothing. No remeshing: CGAL's isotropic remeshing of the voxel-resolution
+// isosurface took 16 s on a 512 x 512 x 130 mask against a 3 s budget (docs/benchmarks.md);
+// this takes about one second, most of it the distance transform.
 #include "lamina/geometry/display_skin.h"
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/extract_isosurface.h"
 #include "lamina/geometry/mask_filters.h"
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/geometry/prepare_mask.h"
-#include "lamina/geometry/remesh.h"
+#include "lamina/geometry/smooth_surface.h"
 
 namespace lamina::geometry {
 namespace {
 
-// The edge of near-equilateral triangles that tile `area_mm2` in `triangles` (each
-// sqrt(3)/4 L^2); CGAL's remeshing keeps edges between 4/5 and 4/3 of its target, so the count
-// is then corrected once from the one achieved.
-double edge_for_triangles(double area_mm2, double triangles) {
-  return std::sqrt(4.0 * area_mm2 / (std::sqrt(3.0) * triangles));
+// Trilinear sample of `field` at continuous index (x, y, z), clamped to the grid: points beyond
+// it take the border's values, which are outside (positive) on a padded mask.
+float sample(const DistanceField& field, double x, double y, double z) {
+  const auto& n = field.frame.size;
+  const double p[3] = {std::clamp(x, 0.0, static_cast<double>(n[0] - 1)),
+                       std::clamp(y, 0.0, static_cast<double>(n[1] - 1)),
+                       std::clamp(z, 0.0, static_cast<double>(n[2] - 1))};
+  int64_t c[3];
+  double t[3];
+  for (int a = 0; a < 3; ++a) {
+    c[a] = std::min(static_cast<int64_t>(p[a]), std::max<int64_t>(n[a] - 2, 0));
+    t[a] = p[a] - static_cast<double>(c[a]);
+  }
+  const auto at = [&](int64_t di, int64_t dj, int64_t dk) {
+    const int64_t i = std::min(c[0] + di, n[0] - 1), j = std::min(c[1] + dj, n[1] - 1),
+                  k = std::min(c[2] + dk, n[2] - 1);
+    return static_cast<double>(field.phi[static_cast<size_t>(field.frame.index(i, j, k))]);
+  };
+  const auto lerp = [](double a, double b, double s) { return a + s * (b - a); };
+  const double y0 =
+      lerp(lerp(at(0, 0, 0), at(1, 0, 0), t[0]), lerp(at(0, 1, 0), at(1, 1, 0), t[0]), t[1]);
+  const double y1 =
+      lerp(lerp(at(0, 0, 1), at(1, 0, 1), t[0]), lerp(at(0, 1, 1), at(1, 1, 1), t[0]), t[1]);
+  return static_cast<float>(lerp(y0, y1, t[2]));
+}
+
+// `fine` sampled on a grid of cubic cells `h_mm` wide over the same box, one cell wider on
+// every side so that the surface closes inside it whatever h is.
+DistanceField resample(const DistanceField& fine, double h_mm) {
+  DistanceField out;
+  out.frame = fine.frame;
+  const auto& sp = fine.frame.spacing_mm;
+  double step[3];
+  for (int a = 0; a < 3; ++a) {
+    out.frame.spacing_mm[a] = h_mm;
+    step[a] = h_mm / sp[a];  // fine voxels a coarse cell
+    out.frame.size[a] =
+        static_cast<int64_t>(std::ceil(static_cast<double>(fine.frame.size[a] - 1) / step[a])) + 3;
+  }
+  const auto o = fine.frame.to_physical(-step[0], -step[1], -step[2]);
+  out.frame.origin_mm = {o[0], o[1], o[2]};
+  out.phi.resize(static_cast<size_t>(out.frame.voxel_count()));
+  const auto& n = out.frame.size;
+#pragma omp parallel for schedule(static)
+  for (int64_t k = 0; k < n[2]; ++k)
+    for (int64_t j = 0; j < n[1]; ++j)
+      for (int64_t i = 0; i < n[0]; ++i)
+        out.phi[static_cast<size_t>(out.frame.index(i, j, k))] =
+            sample(fine, static_cast<double>(i - 1) * step[0], static_cast<double>(j - 1) * step[1],
+                   static_cast<double>(k - 1) * step[2]);
+  return out;
+}
+
+// The mask's boundary area estimated from its exposed voxel faces: a staircase over-counts a
+// smooth surface by about the mean of |nx| + |ny| + |nz| over directions, 1.5.
+double boundary_area_mm2(const Mask& mask) {
+  const auto& f = mask.frame;
+  const double face[3] = {f.spacing_mm[1] * f.spacing_mm[2], f.spacing_mm[0] * f.spacing_mm[2],
+                          f.spacing_mm[0] * f.spacing_mm[1]};
+  double area = 0.0;
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i) {
+        if (!mask.inside[static_cast<size_t>(f.index(i, j, k))]) continue;
+        const int64_t c[3] = {i, j, k};
+        for (int a = 0; a < 3; ++a)
+          for (int64_t d : {-1, 1}) {
+            int64_t m[3] = {c[0], c[1], c[2]};
+            m[a] += d;
+            if (m[a] < 0 || m[a] >= f.size[a] ||
+                !mask.inside[static_cast<size_t>(f.index(m[0], m[1], m[2]))])
+              area += face[a];
+          }
+      }
+  return area / 1.5;
+}
+
+SurfaceMesh budget_surface(const Mask& mask, int64_t triangles, bool largest_only,
+                           const std::string& what) {
+  if (triangles < 100)
+    throw invalid_input(
+        what, "the triangle budget must be at least 100, got " + std::to_string(triangles));
+  const double area = boundary_area_mm2(mask);
+  if (area <= 0.0) throw invalid_input(what, "the mask has no surface");
+  // Two voxels of background around it: the distance is exact up to the border.
+  const DistanceField fine = signed_distance(pad_mask(mask, 2));
+  const double coarsest =
+      *std::max_element(mask.frame.spacing_mm.begin(), mask.frame.spacing_mm.end());
+  // A dual-contouring isosurface has about 3 triangles per h^2 of surface (measured on the
+  // phantom and TotalSegmentator's liver); the count is then corrected from the one achieved.
+  double h = std::sqrt(3.0 * area / static_cast<double>(triangles));
+  SurfaceMesh surface;
+  for (int round = 0; round < 4; ++round) {
+    surface = extract_isosurface(resample(fine, h), 0.0);
+    if (largest_only) surface = largest_piece(surface);
+    const double ratio = static_cast<double>(surface.F.rows()) / static_cast<double>(triangles);
+    if (surface.F.rows() == 0 || std::abs(ratio - 1.0) <= 0.03) break;
+    h *= std::sqrt(ratio);
+  }
+  if (surface.F.rows() == 0) throw invalid_input(what, "the mask has no surface");
+  // The staircase of the voxels is up to one (largest) voxel deep; its wavelength in edges
+  // grows as h shrinks below it, and a diffusion reaches sqrt(iterations) edges: so about
+  // 5 (coarsest / h)^2 pairs, at least 5 for the dual contour's own wiggles.
+  const double r = coarsest / h;
+  taubin_smooth(surface, std::clamp(static_cast<int>(std::ceil(5.0 * r * r)), 5, 60));
+  return surface;
 }
 
 }  // namespace
 
 SurfaceMesh display_skin(const Mask& mask, int64_t triangles) {
-  if (triangles < 100)
-    throw invalid_input("--display-triangles",
-                        "must be at least 100, got " + std::to_string(triangles));
-  // Two voxels of background around it: the isosurface closes inside the grid.
-  const DistanceField sdf = signed_distance(pad_mask(mask, 2));
-  // No adaptivity: merging flat polygons first (OpenVDB's 0.3) made the 100k-triangle skin 1.6x
-  // slower on the 1.5 mm phantom (splitting them again costs the remesher more) and its volume
-  // error 0.8% instead of 0.06%.
-  SurfaceMesh raw = extract_isosurface(sdf, 0.0);
-  if (raw.F.rows() == 0) throw invalid_input("display skin", "the mask has no surface");
-  std::vector<SurfaceMesh> parts = split_components(raw);
-  if (parts.size() > 1) {
-    std::sort(parts.begin(), parts.end(), [](const SurfaceMesh& a, const SurfaceMesh& b) {
-      return enclosed_volume(a) > enclosed_volume(b);
-    });
-    raw = parts.front();
-  }
-  const double area = measure_mesh(raw).area_mm2;
-  double edge = edge_for_triangles(area, static_cast<double>(triangles));
-  SurfaceMesh skin = remesh(raw, {.target_edge_mm = edge});
-  const double ratio = static_cast<double>(skin.F.rows()) / static_cast<double>(triangles);
-  if (std::abs(ratio - 1.0) > 0.05) {
-    edge *= std::sqrt(ratio);
-    skin = remesh(raw, {.target_edge_mm = edge});
-  }
-  return skin;
+  return budget_surface(mask, triangles, true, "--display-triangles");
+}
+
+SurfaceMesh structure_surface(const Mask& mask, int64_t triangles, const std::string& name) {
+  return budget_surface(mask, triangles, false, name);
 }
 
 }  // namespace lamina::geometry

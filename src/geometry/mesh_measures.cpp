@@ -72,6 +72,19 @@ std::vector<SurfaceMesh> split_components(const SurfaceMesh& in) {
   return out;
 }
 
+SurfaceMesh largest_piece(const SurfaceMesh& mesh, int* pieces) {
+  std::vector<SurfaceMesh> parts = split_components(mesh);
+  if (pieces) *pieces = static_cast<int>(parts.size());
+  if (parts.size() <= 1) return mesh;
+  double best = -std::numeric_limits<double>::infinity();
+  size_t keep = 0;
+  for (size_t p = 0; p < parts.size(); ++p) {
+    const double v = enclosed_volume(parts[p]);
+    if (v > best) best = v, keep = p;
+  }
+  return std::move(parts[keep]);
+}
+
 SurfaceMesh merge_meshes(const std::vector<SurfaceMesh>& meshes) {
   SurfaceMesh out;
   Eigen::Index nv = 0, nf = 0;

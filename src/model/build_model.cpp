@@ -183,15 +183,10 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   const double adaptivity = 3.0 * coarsest <= edge ? kIsosurfaceAdaptivity : 0.0;
   SurfaceMesh raw = geometry::extract_isosurface(sdf, 0.0, adaptivity);
   {
-    auto parts = geometry::split_components(raw);
-    if (parts.size() > 1) {
-      std::sort(parts.begin(), parts.end(), [](const auto& a, const auto& b) {
-        return geometry::enclosed_volume(a) > geometry::enclosed_volume(b);
-      });
-      rep.warnings.push_back(
-          fmt::format("skin: kept the largest of {} surface pieces", parts.size()));
-      raw = parts.front();
-    }
+    int pieces = 0;
+    raw = geometry::largest_piece(raw, &pieces);
+    if (pieces > 1)
+      rep.warnings.push_back(fmt::format("skin: kept the largest of {} surface pieces", pieces));
   }
   if (raw.F.rows() == 0) throw invalid_input(name, "no surface could be extracted from the mask");
   edge = edge_for_vertex_count(geometry::measure_mesh(raw).area_mm2, opt.skin_vertices);

@@ -43,6 +43,10 @@ std::vector<int> face_components(const Eigen::MatrixX3i& F, Eigen::Index vertex_
 /// Splits a mesh into its components (vertices renumbered per component, order kept).
 std::vector<SurfaceMesh> split_components(const SurfaceMesh& mesh);
 
+/// The piece of `mesh` that encloses the largest volume (the mesh itself when it is one piece).
+/// @param[out] pieces  optional: how many pieces there were
+SurfaceMesh largest_piece(const SurfaceMesh& mesh, int* pieces = nullptr);
+
 /// Concatenates meshes (vertex indices offset).
 SurfaceMesh merge_meshes(const std::vector<SurfaceMesh>& meshes);
 
