@@ -4,10 +4,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
@@ -94,12 +96,47 @@ int run_phantom(const PhantomArgs& a) {
   return 0;
 }
 
+namespace {
+
+// "TEXT=NAME" split at its first '='; NAME is empty without one.
+std::pair<std::string, std::string> split_name(const std::string& entry) {
+  const size_t eq = entry.find('=');
+  if (eq == std::string::npos) return {entry, ""};
+  return {entry.substr(0, eq), entry.substr(eq + 1)};
+}
+
+// --label, --embed and --embed-mask into the build options; the masks are read here.
+model::BuildOptions with_structures(const BuildArgs& a) {
+  model::BuildOptions o = a.options;
+  if (a.labels.size() == 1) o.label = a.labels[0];
+  if (a.labels.size() > 1) o.labels = a.labels;
+  for (const std::string& entry : a.embed) {
+    const auto [text, name] = split_name(entry);
+    int32_t label = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), label);
+    if (ec != std::errc() || end != text.data() + text.size())
+      throw invalid_input("--embed", "'" + entry + "' is not LABEL[=NAME] with LABEL a number");
+    o.embed.push_back({.name = name, .label = label});
+  }
+  for (const std::string& entry : a.embed_masks) {
+    const auto [path, name] = split_name(entry);
+    auto mask = std::make_shared<const LabelVolume>(read_input(path));
+    o.embed.push_back(
+        {.name = name.empty() ? std::filesystem::path(path).stem().stem().string() : name,
+         .mask = std::move(mask)});
+  }
+  return o;
+}
+
+}  // namespace
+
 int run_build(const BuildArgs& a) {
   check_output(a.output, {".vtu"}, "model");
   model::check_build_options(a.options);
   const LabelVolume volume = read_input(a.input);
+  const model::BuildOptions options = with_structures(a);
   const model::BuildResult built =
-      model::build_model(volume, a.options, a.quiet ? ProgressFn{} : stderr_progress(a.verbose));
+      model::build_model(volume, options, a.quiet ? ProgressFn{} : stderr_progress(a.verbose));
   // The table lists the warnings itself; with --json they go to stderr, stdout stays JSON.
   if (a.json)
     for (const auto& w : built.report.warnings) log::warn("{}: {}", volume.source, w);

@@ -46,6 +46,9 @@ struct BuildArgs {
   bool json = false;
   bool quiet = false;
   bool verbose = false;
+  std::vector<int32_t> labels;           ///< --label: one, or several (their union)
+  std::vector<std::string> embed;        ///< --embed LABEL[=NAME] entries
+  std::vector<std::string> embed_masks;  ///< --embed-mask FILE[=NAME] entries
   model::BuildOptions options;
 };
 int run_build(const BuildArgs& args);

@@ -107,7 +107,22 @@ int main(int argc, char** argv) {
   bu->add_option("--layers", bo.layers, "number of layers S, skin included (default 2)");
   bu->add_option("--skin-vertices", bo.skin_vertices, "target skin vertex count (default 1284)");
   bu->add_option("--layer-depth", bo.layer_depth_mm, "depth between layers in mm (default: auto)");
-  bu->add_option("--label", bo.label, "label to model (default: any non-zero voxel)");
+  bu->add_option("--label", build.labels,
+                 "label(s) to model, e.g. 1 or 1,5: the organ is their union (default: any "
+                 "non-zero voxel)")
+      ->delimiter(',');
+  bu->add_option("--display-triangles", bo.display_triangles,
+                 "triangles of the display skin drawn instead of the simulation's skin, carried "
+                 "by the tetrahedra; 0 = none (default 100000)");
+  bu->add_option("--embed", build.embed,
+                 "structures inside the organ from labels of the same segmentation, carried by "
+                 "the tetrahedra: LABEL[=NAME],... e.g. 2=vessels,3=tumour")
+      ->delimiter(',');
+  bu->add_option("--embed-mask", build.embed_masks,
+                 "a structure from a separate mask on the segmentation's grid: FILE[=NAME] "
+                 "(repeatable)");
+  bu->add_option("--structure-triangles", bo.structure_triangles,
+                 "triangles of each embedded structure's surface (default 20000)");
   bu->add_option("--locality", bo.locality, "BFS rings precomputed per node (default 4)");
   bu->add_option("--structure", bo.structure,
                  "what fills the organ between the layers: tets (default; tetrahedra whose edges "

@@ -60,7 +60,12 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
   if (static_cast<int64_t>(volume.labels.size()) != f.voxel_count())
     throw invalid_input(name, "label buffer does not match the image size");
 
-  // Select the label and find its bounding box in one pass.
+  // Select the label(s) and find the bounding box in one pass.
+  const auto selects = [&](int32_t l) {
+    if (!options.labels.empty())
+      return std::find(options.labels.begin(), options.labels.end(), l) != options.labels.end();
+    return options.label == 0 ? l != 0 : l == options.label;
+  };
   std::vector<uint8_t> selected(volume.labels.size());
   std::array<int64_t, 3> lo{f.size[0], f.size[1], f.size[2]}, hi{-1, -1, -1};
   int64_t count = 0;
@@ -70,7 +75,7 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
       int64_t row_lo = -1, row_hi = -1;
       for (int64_t i = 0; i < f.size[0]; ++i) {
         const int32_t l = volume.labels[static_cast<size_t>(row + i)];
-        const bool in = options.label == 0 ? l != 0 : l == options.label;
+        const bool in = l != 0 && selects(l);
         selected[static_cast<size_t>(row + i)] = in;
         if (in) {
           if (row_lo < 0) row_lo = i;
@@ -83,6 +88,10 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
         hi = {std::max(hi[0], row_hi), std::max(hi[1], j), std::max(hi[2], k)};
       }
     }
+  for (int32_t l : options.labels)
+    if (std::find(volume.labels.begin(), volume.labels.end(), l) == volume.labels.end())
+      throw invalid_input(name, "label " + std::to_string(l) + " is absent (labels present: " +
+                                    present_labels(volume.labels) + ")");
   if (count == 0) {
     if (options.label != 0)
       throw invalid_input(name, "label " + std::to_string(options.label) +
@@ -99,10 +108,11 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
 
   out.mask = crop_and_pad(f, selected, lo, hi, std::max(1, options.pad_voxels));
   selected = {};
-  const ComponentStats cc = keep_largest_component(out.mask);
+  const ComponentStats cc =
+      options.clean ? keep_largest_component(out.mask) : ComponentStats{1, count, 0};
   r.components = cc.components;
   r.dropped_voxels = cc.dropped_voxels;
-  r.cavity_voxels_filled = fill_cavities(out.mask);
+  r.cavity_voxels_filled = options.clean ? fill_cavities(out.mask) : 0;
   r.kept_voxels = cc.kept_voxels + r.cavity_voxels_filled;
   r.kept_volume_ml = static_cast<double>(r.kept_voxels) * f.voxel_volume_mm3() / 1000.0;
 

@@ -22,6 +22,14 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
                   {"max_rest_length_mm", s.max_rest_length_mm}};
   j["interior_nodes"] = s.interior_nodes;
   j["structure"] = s.tets.count > 0 ? "tets" : "links";
+  j["embedded"] = nlohmann::json::array();
+  for (const auto& e : s.embedded)
+    j["embedded"].push_back({{"name", e.name},
+                             {"label", e.label},
+                             {"vertices", e.vertices},
+                             {"faces", e.faces},
+                             {"outside", e.outside},
+                             {"volume_ml", e.volume_ml}});
   if (s.tets.count > 0)
     j["tets"] = {{"count", s.tets.count},
                  {"min_dihedral_deg", s.tets.min_dihedral_deg},
@@ -129,6 +137,10 @@ std::string summary_table(const model::ModelSummary& s, const model::BuildReport
         l.index, depth, q.vertices, q.faces, q.volume_mm3 / 1000.0, q.mean_edge_mm, q.min_angle_deg,
         q.components, q.closed ? "yes" : "NO", q.manifold ? "yes" : "NO", l.nested ? "yes" : "NO");
   }
+  for (const auto& e : s.embedded)
+    out += fmt::format("  embedded {} (label {}): {} vertices, {} triangles, {:.1f} mL{}\n", e.name,
+                       e.label, e.vertices, e.faces, e.volume_ml,
+                       e.outside > 0 ? fmt::format(", {} outside the tetrahedra", e.outside) : "");
   if (b)
     for (const auto& w : b->warnings) out += "  note: " + w + "\n";
   return out;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <numeric>
 
+#include "build_embedded.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/geometry/extract_isosurface.h"
@@ -124,6 +125,16 @@ void check_build_options(const BuildOptions& o) {
     throw invalid_input("--structure", "must be tets or links");
   if (!(o.tet_radius_edge_ratio >= 1.2 && o.tet_radius_edge_ratio <= 10.0))
     throw invalid_input("tet_radius_edge_ratio", "must be between 1.2 and 10");
+  if (o.display_triangles != 0 && (o.display_triangles < 100 || o.display_triangles > 10'000'000))
+    throw invalid_input(
+        "--display-triangles",
+        "must be 0 (none) or between 100 and 10000000, got " + std::to_string(o.display_triangles));
+  if (o.structure_triangles < 100 || o.structure_triangles > 10'000'000)
+    throw invalid_input("--structure-triangles", "must be between 100 and 10000000, got " +
+                                                     std::to_string(o.structure_triangles));
+  for (int32_t l : o.labels)
+    if (l <= 0)
+      throw invalid_input("--label", "labels are positive integers, got " + std::to_string(l));
   if (!(o.tet_min_dihedral_deg >= 0.0 && o.tet_min_dihedral_deg <= 18.0))
     throw invalid_input("tet_min_dihedral_deg", "must be between 0 and 18 degrees");
 }
@@ -131,6 +142,7 @@ void check_build_options(const BuildOptions& o) {
 BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
                         const ProgressFn& progress) {
   check_build_options(opt);
+  detail::check_embedding(volume, opt);
   const auto t0 = Clock::now();
   BuildResult result;
   BuildReport& rep = result.report;
@@ -141,7 +153,8 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
 
   // 1. Mask: label, largest component, cavities, crop.
   report_progress(progress, "preparing mask", 0.0);
-  geometry::PreparedMask prepared = geometry::prepare_mask(volume, {.label = opt.label});
+  geometry::PreparedMask prepared =
+      geometry::prepare_mask(volume, {.label = opt.label, .labels = opt.labels});
   rep.mask = prepared.report;
   rep.mask_volume_ml = prepared.report.kept_volume_ml;
   timer.done("mask");
@@ -154,7 +167,9 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   const std::array<int, 3> factors =
       geometry::working_grid_factors(prepared.mask.frame.spacing_mm, edge);
   Mask work = geometry::downsample_mask(prepared.mask, factors);
-  prepared.mask = {};
+  // The display skin (the last stage) is made at the mask's own resolution.
+  const bool display_skin = opt.display_triangles > 0 && opt.structure == Structure::kTetrahedra;
+  if (!display_skin) prepared.mask = {};
   work = geometry::pad_mask(work, 2);
   // Downsampling can break a thin bridge or close a pocket: clean once more on the coarse grid.
   const auto cc = geometry::keep_largest_component(work);
@@ -356,6 +371,13 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   report_progress(progress, "rings", 0.95);
   m.rings = compute_rings(m, opt.locality);
   timer.done("rings");
+
+  // 8. The display skin and the structures, carried by the tetrahedra.
+  if (display_skin || !opt.embed.empty()) {
+    report_progress(progress, "display skin and structures", 0.97);
+    detail::add_embedded(m, volume, prepared.mask, opt, rep);
+    timer.done("embedded surfaces");
+  }
 
   rep.skin_volume_error_pct =
       100.0 * (enclosed[0] / 1000.0 - rep.mask_volume_ml) / rep.mask_volume_ml;

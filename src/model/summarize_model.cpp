@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <numeric>
 
+#include "lamina/geometry/mesh_measures.h"
 #include "lamina/geometry/remesh.h"
 
 namespace lamina::model {
@@ -30,6 +31,13 @@ ModelSummary summarize_model(const Model& model, const BuildReport* build) {
                                     : s.volume_springs)++;
   s.interior_nodes = model.node_count() - model.surface_node_count();
   if (model.has_tets()) s.tets = geometry::measure_tets(model.X, model.tets.T);
+  for (const EmbeddedSurface& e : model.embedded)
+    s.embedded.push_back({.name = e.name,
+                          .label = e.label,
+                          .vertices = e.V.rows(),
+                          .faces = e.F.rows(),
+                          .outside = e.outside,
+                          .volume_ml = geometry::enclosed_volume({e.V, e.F}) / 1000.0});
   s.total_mass_kg = std::accumulate(model.mass_kg.begin(), model.mass_kg.end(), 0.0);
   s.locality = model.rings.locality;
   s.ring_entries = static_cast<int64_t>(model.rings.members.size());

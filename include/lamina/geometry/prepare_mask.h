@@ -4,6 +4,7 @@
 /// component, fill cavities, pad.
 
 #include <cstdint>
+#include <vector>
 
 #include "lamina/core/grid.h"
 
@@ -11,7 +12,13 @@ namespace lamina::geometry {
 
 /// Options for prepare_mask().
 struct MaskOptions {
-  int32_t label = 0;        ///< label to select; 0 = any non-zero label
+  int32_t label = 0;  ///< label to select; 0 = any non-zero label
+  /// When not empty: the union of these labels is selected (`label` is ignored), and each must
+  /// be present.
+  std::vector<int32_t> labels;
+  /// Keep the largest component and fill cavities (an organ). false: every piece as it is (an
+  /// embedded structure: a vessel tree in several pieces, a tumour with a necrotic core).
+  bool clean = true;
   int pad_voxels = 1;       ///< background margin kept around the organ's bounding box, voxels
   int64_t min_voxels = 27;  ///< fewer voxels than this cannot make a meaningful surface
 };

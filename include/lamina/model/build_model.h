@@ -2,6 +2,7 @@
 /// \file
 /// From a segmentation to the multi-layer mass-spring model: the whole model-building pipeline.
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,15 +25,34 @@ enum class Structure : uint8_t {
   kLinks,
 };
 
+/// A structure carried inside the organ by its tetrahedra (a vessel tree, a tumour): a surface
+/// extracted from a label of the organ's own segmentation, or from a separate mask on its grid,
+/// embedded in the model (Model::embedded).
+struct EmbedStructure {
+  std::string name;   ///< how it is shown and saved; empty = "label N"
+  int32_t label = 0;  ///< its label; 0 (separate masks only) = every non-zero voxel
+  /// nullptr: a label of the organ's own segmentation; else a separate mask, which must lie on
+  /// the organ's grid (same size, spacing, origin and directions).
+  std::shared_ptr<const LabelVolume> mask;
+};
+
 /// Options for build_model(). Defaults reproduce the reference paper's layers, filled with
 /// tetrahedra.
 struct BuildOptions {
   Structure structure = Structure::kTetrahedra;  ///< what joins the layers
   int32_t label = 0;                             ///< label to model; 0 = any non-zero voxel
-  int32_t layers = 2;            ///< S: layer 0 is the skin, 1..S-1 nested inside; 1..16
-  int32_t skin_vertices = 1284;  ///< target skin vertex count (the paper's model size)
-  double layer_depth_mm = 0.0;   ///< depth between layers; 0 = auto (max depth / (S+1))
-  int32_t locality = 4;          ///< N: BFS rings 0..N-1 precomputed per node
+  /// When not empty: the organ is the union of these labels (`label` is ignored).
+  std::vector<int32_t> labels;
+  /// Triangles of the display skin (the organ's surface at the mask's own resolution, carried
+  /// by the tetrahedra and drawn instead of the simulation's skin); 0 = none. Needs tetrahedra:
+  /// a kLinks model gets none.
+  int64_t display_triangles = 100000;
+  std::vector<EmbedStructure> embed;    ///< structures carried inside the organ
+  int64_t structure_triangles = 20000;  ///< triangle budget of each structure's surface
+  int32_t layers = 2;                   ///< S: layer 0 is the skin, 1..S-1 nested inside; 1..16
+  int32_t skin_vertices = 1284;         ///< target skin vertex count (the paper's model size)
+  double layer_depth_mm = 0.0;          ///< depth between layers; 0 = auto (max depth / (S+1))
+  int32_t locality = 4;                 ///< N: BFS rings 0..N-1 precomputed per node
   int32_t inter_layer_links =
       3;  ///< each node links to this many nearest nodes per neighbour layer
   double density_kg_per_mm3 = 1.06e-6;  ///< tissue density (liver 1.06 g/cm^3 = 1.06e-6 kg/mm^3)
@@ -52,6 +72,15 @@ struct LayerBuildInfo {
   bool nested = true;                ///< strictly inside the layer outside it
 };
 
+/// One embedded surface as built.
+struct EmbeddedBuildInfo {
+  std::string name;
+  int32_t label = 0;
+  int64_t vertices = 0, faces = 0;
+  int32_t outside = 0;     ///< vertices in no tetrahedron at rest (they follow the nearest)
+  double volume_ml = 0.0;  ///< the surface's enclosed volume
+};
+
 /// What the build did and measured, besides the model itself.
 struct BuildReport {
   std::string input;
@@ -60,13 +89,14 @@ struct BuildReport {
   double max_depth_mm = 0.0;                   ///< deepest point inside the organ
   double target_edge_mm = 0.0;                 ///< edge length all layers were remeshed to
   int32_t layers_requested = 0;
-  std::vector<LayerBuildInfo> layers;  ///< one per built layer
-  std::vector<std::string> warnings;   ///< vanished/split layers, dropped pieces
-  double mask_volume_ml = 0.0;         ///< voxel volume of the prepared mask
-  double skin_volume_error_pct = 0.0;  ///< (skin volume - mask volume) / mask volume
-  geometry::TetQuality tets;           ///< the tetrahedra at rest (count 0 for kLinks)
-  int32_t interior_nodes = 0;          ///< nodes the tetrahedral mesher added (on no layer)
-  double build_seconds = 0.0;          ///< wall time of build_model (no file reading)
+  std::vector<LayerBuildInfo> layers;       ///< one per built layer
+  std::vector<std::string> warnings;        ///< vanished/split layers, dropped pieces
+  double mask_volume_ml = 0.0;              ///< voxel volume of the prepared mask
+  double skin_volume_error_pct = 0.0;       ///< (skin volume - mask volume) / mask volume
+  geometry::TetQuality tets;                ///< the tetrahedra at rest (count 0 for kLinks)
+  int32_t interior_nodes = 0;               ///< nodes the tetrahedral mesher added (on no layer)
+  std::vector<EmbeddedBuildInfo> embedded;  ///< the display skin first, then each structure
+  double build_seconds = 0.0;               ///< wall time of build_model (no file reading)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< per stage, in order
 };
 

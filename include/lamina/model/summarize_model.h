@@ -3,6 +3,7 @@
 /// A model's vital statistics: what `lamina build` and `lamina info` print.
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "lamina/geometry/measure_tets.h"
@@ -22,6 +23,15 @@ struct LayerSummary {
   double min_gap_mm = 0.0;         ///< closest approach to the layer outside it
 };
 
+/// One surface carried by the tetrahedra (Model::embedded).
+struct EmbeddedSummary {
+  std::string name;
+  int32_t label = 0;
+  int64_t vertices = 0, faces = 0;
+  int32_t outside = 0;     ///< vertices in no tetrahedron at rest
+  double volume_ml = 0.0;  ///< enclosed volume at rest
+};
+
 /// The whole model's statistics.
 struct ModelSummary {
   int64_t nodes = 0;
@@ -35,6 +45,7 @@ struct ModelSummary {
   int64_t ring_entries = 0;  ///< total stored ring members (CSR size)
   double min_rest_length_mm = 0.0, max_rest_length_mm = 0.0;
   std::vector<LayerSummary> layers;
+  std::vector<EmbeddedSummary> embedded;  ///< the display skin and structures, in model order
 };
 
 /// One layer as a standalone mesh (vertex indices local to the layer), at rest or at positions x

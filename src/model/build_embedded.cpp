@@ -1,0 +1,120 @@
+#include "build_embedded.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/display_skin.h"
+#include "lamina/geometry/mesh_measures.h"
+#include "lamina/model/embed_surface.h"
+
+namespace lamina::model::detail {
+namespace {
+
+std::string structure_name(const EmbedStructure& s) {
+  return s.name.empty() ? "label " + std::to_string(s.label) : s.name;
+}
+
+// Where a structure's voxels come from, for messages: its own mask file or the segmentation.
+const LabelVolume& source_of(const EmbedStructure& s, const LabelVolume& organ) {
+  return s.mask ? *s.mask : organ;
+}
+
+std::string describe(const GridFrame& f) {
+  return fmt::format("{}x{}x{} voxels of {:g}x{:g}x{:g} mm at ({:g}, {:g}, {:g})", f.size[0],
+                     f.size[1], f.size[2], f.spacing_mm[0], f.spacing_mm[1], f.spacing_mm[2],
+                     f.origin_mm[0], f.origin_mm[1], f.origin_mm[2]);
+}
+
+// Same voxels in space: sizes equal, spacing, origin and directions to a micrometre.
+bool same_grid(const GridFrame& a, const GridFrame& b) {
+  if (a.size != b.size) return false;
+  for (int c = 0; c < 3; ++c)
+    if (std::abs(a.spacing_mm[c] - b.spacing_mm[c]) > 1e-3 ||
+        std::abs(a.origin_mm[c] - b.origin_mm[c]) > 1e-3)
+      return false;
+  for (int c = 0; c < 9; ++c)
+    if (std::abs(a.direction[c] - b.direction[c]) > 1e-6) return false;
+  return true;
+}
+
+bool is_organ_label(int32_t label, const BuildOptions& o) {
+  if (!o.labels.empty())
+    return std::find(o.labels.begin(), o.labels.end(), label) != o.labels.end();
+  return o.label != 0 && label == o.label;
+}
+
+}  // namespace
+
+void check_embedding(const LabelVolume& volume, const BuildOptions& o) {
+  if (o.embed.empty()) return;
+  if (o.structure != Structure::kTetrahedra)
+    throw invalid_input("--embed",
+                        "embedded structures are carried by tetrahedra; build with "
+                        "--structure tets");
+  std::set<std::string> names;
+  for (const EmbedStructure& s : o.embed) {
+    const LabelVolume& v = source_of(s, volume);
+    const std::string file = v.source.empty() ? std::string("input") : v.source;
+    const std::string what = "structure '" + structure_name(s) + "'";
+    if (!names.insert(structure_name(s)).second)
+      throw invalid_input(file, "two structures are named '" + structure_name(s) +
+                                    "'; give each its own name (LABEL=NAME)");
+    if (structure_name(s).find('\n') != std::string::npos)
+      throw invalid_input(file, what + ": a name cannot hold a line break");
+    if (s.mask) {
+      if (!same_grid(s.mask->frame, volume.frame))
+        throw invalid_input(file, what + ": its grid (" + describe(s.mask->frame) +
+                                      ") is not the segmentation's (" + describe(volume.frame) +
+                                      "); resample the mask onto " + volume.source);
+    } else {
+      if (s.label == 0)
+        throw invalid_input(file, "--embed label 0 is the background; name a structure's label");
+      if (is_organ_label(s.label, o))
+        throw invalid_input(file, "label " + std::to_string(s.label) + " (" + what +
+                                      ") is also the organ's (--label); a structure must be a "
+                                      "label of its own");
+    }
+    const bool present =
+        s.label == 0
+            ? std::any_of(v.labels.begin(), v.labels.end(), [](int32_t l) { return l != 0; })
+            : std::find(v.labels.begin(), v.labels.end(), s.label) != v.labels.end();
+    if (!present)
+      throw invalid_input(file, s.label == 0 ? what + ": the mask is empty (no non-zero voxel)"
+                                             : "label " + std::to_string(s.label) + " (" + what +
+                                                   ") is absent or empty");
+  }
+}
+
+void add_embedded(Model& m, const LabelVolume& volume, const Mask& organ, const BuildOptions& o,
+                  BuildReport& report) {
+  if (!m.has_tets()) return;
+  const auto add = [&](const SurfaceMesh& surface, const std::string& name, int32_t label) {
+    m.embedded.push_back(embed_surface(m, surface.V, surface.F, name, label));
+    const EmbeddedSurface& e = m.embedded.back();
+    report.embedded.push_back({.name = name,
+                               .label = label,
+                               .vertices = e.V.rows(),
+                               .faces = e.F.rows(),
+                               .outside = e.outside,
+                               .volume_ml = geometry::enclosed_volume(surface) / 1000.0});
+    if (e.outside > 0)
+      report.warnings.push_back(fmt::format(
+          "{}: {} of {} vertices lie outside the organ's tetrahedra; they follow the nearest one",
+          name, e.outside, e.V.rows()));
+  };
+  if (o.display_triangles > 0)
+    add(geometry::display_skin(organ, o.display_triangles), "display_skin", 0);
+  for (const EmbedStructure& s : o.embed) {
+    const LabelVolume& v = source_of(s, volume);
+    geometry::MaskOptions select{.label = s.label, .clean = false, .min_voxels = 1};
+    const Mask mask = geometry::prepare_mask(v, select).mask;
+    add(geometry::structure_surface(mask, o.structure_triangles, structure_name(s)),
+        structure_name(s), s.label);
+  }
+}
+
+}  // namespace lamina::model::detail
