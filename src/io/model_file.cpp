@@ -6,9 +6,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <map>
 #include <ostream>
@@ -20,27 +17,25 @@
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
+#include "model_file_internal.h"
 #include "read_file.h"
 
 namespace lamina::io {
-namespace {
+namespace detail {
 
 uint32_t crc(uint32_t c, const void* data, size_t bytes) {
   return static_cast<uint32_t>(crc32_z(c, static_cast<const Bytef*>(data), bytes));
 }
 
-}  // namespace
+std::string in_quotes(std::string_view text) {
+  std::string q(text.substr(0, 40));
+  for (char& c : q)
+    if (static_cast<unsigned char>(c) < 0x20) c = '?';
+  return "'" + q + (text.size() > 40 ? "...'" : "'");
+}
 
 namespace {
 
-// Version 2 added interior nodes (layer -1, after the layers) and tetrahedra (VTK_TETRA cells
-// after the springs, counted by tet_count). Version 1 files (layers joined by links) still load.
-constexpr int32_t kFormatVersion = 2;
-constexpr uint8_t kVtkLine = 3;
-constexpr uint8_t kVtkTriangle = 5;
-constexpr uint8_t kVtkTetra = 10;
-constexpr uint8_t kCellKindTriangle = 0;  // springs are 1 + SpringKind
-constexpr uint8_t kCellKindTetra = 4;
 constexpr size_t kValuesPerLine = 12;  // a multiple of 3, so point rows stay whole
 
 template <class T>
@@ -57,79 +52,6 @@ template <class T>
 void append_number(std::string& s, T value) {
   char buf[32];
   s.append(buf, std::to_chars(buf, buf + sizeof buf, value).ptr);
-}
-
-std::string str(double value) {
-  std::string s;
-  append_number(s, value);
-  return s;
-}
-
-// Field data has no points or cells to count its tuples by, so VTK wants NumberOfTuples there.
-template <class T>
-void write_array(std::ostream& out, const char* indent, const std::string& name,
-                 const std::vector<T>& values, size_t components = 1, bool field_data = false) {
-  std::string s =
-      std::string(indent) + "<DataArray type=\"" + vtk_type<T>() + "\" Name=\"" + name + "\"";
-  if (components > 1) s += " NumberOfComponents=\"" + std::to_string(components) + "\"";
-  if (field_data) s += " NumberOfTuples=\"" + std::to_string(values.size() / components) + "\"";
-  s += " format=\"ascii\">\n";
-  for (size_t k = 0; k < values.size(); ++k) {
-    if (k % kValuesPerLine == 0) {
-      if (s.size() > (size_t{1} << 20)) out << std::exchange(s, {});  // bound the buffer
-      s.append(indent).append("  ");
-    } else {
-      s += ' ';
-    }
-    append_number(s, values[k]);
-    if (k % kValuesPerLine == kValuesPerLine - 1 || k + 1 == values.size()) s += '\n';
-  }
-  out << s << indent << "</DataArray>\n";
-}
-
-// Only what would make save_model() itself read out of bounds; load_model() checks the rest.
-void check_savable(const Model& m, const std::string& path) {
-  const size_t n = static_cast<size_t>(m.node_count());
-  const Springs& s = m.springs;
-  bool ok = m.mass_kg.size() == n && m.layer_of.size() == n && m.fixed.size() == n &&
-            s.j.size() == s.size() && s.rest_length_mm.size() == s.size() &&
-            s.stiffness_n_per_m.size() == s.size() && s.kind.size() == s.size() &&
-            m.tets.region.size() == static_cast<size_t>(m.tets.size());
-  for (size_t k = 0; ok && k < s.size(); ++k) ok = s.i[k] >= 0 && static_cast<size_t>(s.i[k]) < n;
-  for (size_t k = 0; ok && k < m.layer_of.size(); ++k) ok = m.layer_of[k] >= kInteriorNode;
-  ok = ok && (m.tets.size() == 0 ||
-              (m.tets.T.minCoeff() >= 0 && m.tets.T.maxCoeff() < static_cast<int>(n)));
-  if (!ok)
-    throw Error(ErrorKind::kInternal,
-                path + ": cannot save: the model's arrays disagree in size or index range");
-  // Not yet in the format: refused rather than dropped, so that no file silently loses them.
-  if (!m.embedded.empty())
-    throw invalid_input(path, "cannot save: model files do not store embedded surfaces (\"" +
-                                  m.embedded.front().name + "\") yet; save the model without them");
-}
-
-// --- Reading: a scanner for the XML that save_model() writes, not a general XML parser. ---
-
-using Attributes = std::map<std::string, std::string, std::less<>>;
-
-struct XmlArray {
-  Attributes attributes;
-  std::string_view text;  // the values, pointing into the file's text
-};
-
-struct VtuFile {
-  std::string type;  // VTKFile's type attribute
-  Attributes piece;  // attributes of the (only) Piece
-  int pieces = 0;
-  std::map<std::string, XmlArray> arrays;  // keyed "Section/Name", e.g. "PointData/mass_kg"
-};
-
-// Untrusted text quoted in a message: short, and on one line.
-std::string in_quotes(std::string_view text) {
-  std::string q(text.substr(0, 40));
-  for (char& c : q)
-    if (static_cast<unsigned char>(c) < 0x20) c = '?';
-  return "'" + q + (text.size() > 40 ? "...'" : "'");
 }
 
 bool is_space(char c) {
@@ -151,6 +73,181 @@ Attributes parse_attributes(std::string_view tag) {
   }
   return attributes;
 }
+
+int64_t parse_integer(const std::string& path, std::string_view text, const std::string& what) {
+  int64_t value = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || end != text.data() + text.size() || text.empty())
+    throw invalid_input(path, what + " is " + in_quotes(text) + ", expected an integer");
+  return value;
+}
+
+const XmlArray& find_array(const std::string& path, const VtuFile& f, const std::string& key) {
+  const auto it = f.arrays.find(key);
+  if (it == f.arrays.end()) throw invalid_input(path, "missing array " + in_quotes(key));
+  return it->second;
+}
+
+}  // namespace
+
+std::string str(double value) {
+  std::string s;
+  append_number(s, value);
+  return s;
+}
+
+template <class T>
+void write_array(std::ostream& out, const char* indent, const std::string& name,
+                 const std::vector<T>& values, size_t components, bool field_data) {
+  std::string s =
+      std::string(indent) + "<DataArray type=\"" + vtk_type<T>() + "\" Name=\"" + name + "\"";
+  if (components > 1) s += " NumberOfComponents=\"" + std::to_string(components) + "\"";
+  if (field_data) s += " NumberOfTuples=\"" + std::to_string(values.size() / components) + "\"";
+  s += " format=\"ascii\">\n";
+  for (size_t k = 0; k < values.size(); ++k) {
+    if (k % kValuesPerLine == 0) {
+      if (s.size() > (size_t{1} << 20)) out << std::exchange(s, {});  // bound the buffer
+      s.append(indent).append("  ");
+    } else {
+      s += ' ';
+    }
+    append_number(s, values[k]);
+    if (k % kValuesPerLine == kValuesPerLine - 1 || k + 1 == values.size()) s += '\n';
+  }
+  out << s << indent << "</DataArray>\n";
+}
+
+int64_t tuple_count(const std::string& path, const VtuFile& f, const std::string& key) {
+  const XmlArray& a = find_array(path, f, key);
+  const auto it = a.attributes.find("NumberOfTuples");
+  const int64_t count = parse_integer(path, it == a.attributes.end() ? "" : it->second,
+                                      "NumberOfTuples of array " + in_quotes(key));
+  if (count < 0 || count > std::numeric_limits<int32_t>::max())
+    throw invalid_input(path,
+                        "array " + in_quotes(key) + " claims " + std::to_string(count) + " tuples");
+  return count;
+}
+
+template <class T>
+std::vector<T> read_values(const std::string& path, const VtuFile& f, const std::string& key,
+                           int64_t count, int components) {
+  const XmlArray& a = find_array(path, f, key);
+  const auto attribute = [&](const char* name, const char* fallback) {
+    const auto it = a.attributes.find(name);
+    return it == a.attributes.end() ? std::string(fallback) : it->second;
+  };
+  if (attribute("type", "") != vtk_type<T>())
+    throw invalid_input(path, "array " + in_quotes(key) + " has type " +
+                                  in_quotes(attribute("type", "")) + ", expected " + vtk_type<T>());
+  if (attribute("format", "") != "ascii")
+    throw invalid_input(path, "array " + in_quotes(key) + " has format " +
+                                  in_quotes(attribute("format", "")) + ", only ascii is supported");
+  if (attribute("NumberOfComponents", "1") != std::to_string(components))
+    throw invalid_input(path, "array " + in_quotes(key) + " must have " +
+                                  std::to_string(components) + " component(s)");
+  std::vector<T> values;
+  const char* p = a.text.data();
+  const char* const end = p + a.text.size();
+  while (true) {
+    while (p < end && is_space(*p)) ++p;
+    if (p == end) break;
+    T value{};
+    const auto [next, ec] = std::from_chars(p, end, value);
+    if (ec != std::errc() || (next < end && !is_space(*next))) {
+      const char* token_end = p;
+      while (token_end < end && !is_space(*token_end)) ++token_end;
+      throw invalid_input(path, "array " + in_quotes(key) + " value " +
+                                    std::to_string(values.size()) + " is " +
+                                    in_quotes({p, token_end}) + ", not a " + vtk_type<T>());
+    }
+    values.push_back(value);
+    p = next;
+  }
+  if (static_cast<int64_t>(values.size()) != count)
+    throw invalid_input(path, "array " + in_quotes(key) + " has " + std::to_string(values.size()) +
+                                  " values, expected " + std::to_string(count) +
+                                  " (truncated or corrupt file?)");
+  return values;
+}
+
+// The four types the format uses, for model_file_embedded.cpp too.
+template void write_array(std::ostream&, const char*, const std::string&,
+                          const std::vector<double>&, size_t, bool);
+template void write_array(std::ostream&, const char*, const std::string&,
+                          const std::vector<int64_t>&, size_t, bool);
+template void write_array(std::ostream&, const char*, const std::string&,
+                          const std::vector<int32_t>&, size_t, bool);
+template void write_array(std::ostream&, const char*, const std::string&,
+                          const std::vector<uint8_t>&, size_t, bool);
+template std::vector<double> read_values(const std::string&, const VtuFile&, const std::string&,
+                                         int64_t, int);
+template std::vector<int64_t> read_values(const std::string&, const VtuFile&, const std::string&,
+                                          int64_t, int);
+template std::vector<int32_t> read_values(const std::string&, const VtuFile&, const std::string&,
+                                          int64_t, int);
+template std::vector<uint8_t> read_values(const std::string&, const VtuFile&, const std::string&,
+                                          int64_t, int);
+
+void PieceArrays::add_cell(uint8_t type, uint8_t kind, int32_t layer,
+                           std::initializer_list<int64_t> nodes, double rest, double k) {
+  connectivity.insert(connectivity.end(), nodes);
+  offsets.push_back(static_cast<int64_t>(connectivity.size()));
+  types.push_back(type);
+  cell_kind.push_back(kind);
+  cell_layer.push_back(layer);
+  rest_length.push_back(rest);
+  stiffness.push_back(k);
+}
+
+const int64_t* CellWalker::next(int64_t size, uint8_t type, uint8_t kind_min, uint8_t kind_max,
+                                const std::string& expected) {
+  ++cell;
+  const int t = piece.types[cell], kind = piece.cell_kind[cell];
+  if (t != type || kind < kind_min || kind > kind_max)
+    throw invalid_input(path, "cell " + std::to_string(cell) + ": VTK cell type " +
+                                  std::to_string(t) + " with cell_kind " + std::to_string(kind) +
+                                  " does not agree with the expected " + expected);
+  if (piece.offsets[cell] != end + size)
+    throw invalid_input(path, "cell " + std::to_string(cell) + ": offset " +
+                                  std::to_string(piece.offsets[cell]) + ", expected " +
+                                  std::to_string(end + size));
+  end += size;
+  return piece.connectivity.data() + (end - size);
+}
+
+}  // namespace detail
+
+namespace {
+
+using namespace detail;
+
+// Version 3 added the embedded surfaces (their vertices as points after the nodes, their
+// triangles as cells after the tetrahedra). A model without any is still written as version 2,
+// the oldest layout that holds it, so that builds from before version 3 read it too.
+// Version 2 added interior nodes (layer -1, after the layers) and tetrahedra (VTK_TETRA cells
+// after the springs, counted by tet_count). Version 1 files (layers joined by links) still load.
+constexpr int32_t kFormatVersion = 3;
+constexpr int32_t kFormatVersionWithoutEmbedded = 2;
+
+// Only what would make save_model() itself read out of bounds; load_model() checks the rest.
+void check_savable(const Model& m, const std::string& path) {
+  const size_t n = static_cast<size_t>(m.node_count());
+  const Springs& s = m.springs;
+  bool ok = m.mass_kg.size() == n && m.layer_of.size() == n && m.fixed.size() == n &&
+            s.j.size() == s.size() && s.rest_length_mm.size() == s.size() &&
+            s.stiffness_n_per_m.size() == s.size() && s.kind.size() == s.size() &&
+            m.tets.region.size() == static_cast<size_t>(m.tets.size());
+  for (size_t k = 0; ok && k < s.size(); ++k) ok = s.i[k] >= 0 && static_cast<size_t>(s.i[k]) < n;
+  for (size_t k = 0; ok && k < m.layer_of.size(); ++k) ok = m.layer_of[k] >= kInteriorNode;
+  ok = ok && (m.tets.size() == 0 ||
+              (m.tets.T.minCoeff() >= 0 && m.tets.T.maxCoeff() < static_cast<int>(n)));
+  if (!ok)
+    throw Error(ErrorKind::kInternal,
+                path + ": cannot save: the model's arrays disagree in size or index range");
+  check_embedded_savable(m, path);
+}
+
+// --- Reading: a scanner for the XML that save_model() writes, not a general XML parser. ---
 
 // Finds the DataArrays of `s` (the text of `path`); the result points into `s`.
 VtuFile scan_vtu(const std::string& path, std::string_view s) {
@@ -205,75 +302,6 @@ VtuFile scan_vtu(const std::string& path, std::string_view s) {
   return f;
 }
 
-int64_t parse_integer(const std::string& path, std::string_view text, const std::string& what) {
-  int64_t value = 0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc() || end != text.data() + text.size() || text.empty())
-    throw invalid_input(path, what + " is " + in_quotes(text) + ", expected an integer");
-  return value;
-}
-
-const XmlArray& find_array(const std::string& path, const VtuFile& f, const std::string& key) {
-  const auto it = f.arrays.find(key);
-  if (it == f.arrays.end()) throw invalid_input(path, "missing array " + in_quotes(key));
-  return it->second;
-}
-
-// Field data arrays say how many tuples they hold.
-int64_t tuple_count(const std::string& path, const VtuFile& f, const std::string& key) {
-  const XmlArray& a = find_array(path, f, key);
-  const auto it = a.attributes.find("NumberOfTuples");
-  const int64_t count = parse_integer(path, it == a.attributes.end() ? "" : it->second,
-                                      "NumberOfTuples of array " + in_quotes(key));
-  if (count < 0 || count > std::numeric_limits<int32_t>::max())
-    throw invalid_input(path,
-                        "array " + in_quotes(key) + " claims " + std::to_string(count) + " tuples");
-  return count;
-}
-
-// The values of array `key`, which must have type T, ASCII format and exactly `count` values.
-template <class T>
-std::vector<T> read_values(const std::string& path, const VtuFile& f, const std::string& key,
-                           int64_t count, int components = 1) {
-  const XmlArray& a = find_array(path, f, key);
-  const auto attribute = [&](const char* name, const char* fallback) {
-    const auto it = a.attributes.find(name);
-    return it == a.attributes.end() ? std::string(fallback) : it->second;
-  };
-  if (attribute("type", "") != vtk_type<T>())
-    throw invalid_input(path, "array " + in_quotes(key) + " has type " +
-                                  in_quotes(attribute("type", "")) + ", expected " + vtk_type<T>());
-  if (attribute("format", "") != "ascii")
-    throw invalid_input(path, "array " + in_quotes(key) + " has format " +
-                                  in_quotes(attribute("format", "")) + ", only ascii is supported");
-  if (attribute("NumberOfComponents", "1") != std::to_string(components))
-    throw invalid_input(path, "array " + in_quotes(key) + " must have " +
-                                  std::to_string(components) + " component(s)");
-  std::vector<T> values;
-  const char* p = a.text.data();
-  const char* const end = p + a.text.size();
-  while (true) {
-    while (p < end && is_space(*p)) ++p;
-    if (p == end) break;
-    T value{};
-    const auto [next, ec] = std::from_chars(p, end, value);
-    if (ec != std::errc() || (next < end && !is_space(*next))) {
-      const char* token_end = p;
-      while (token_end < end && !is_space(*token_end)) ++token_end;
-      throw invalid_input(path, "array " + in_quotes(key) + " value " +
-                                    std::to_string(values.size()) + " is " +
-                                    in_quotes({p, token_end}) + ", not a " + vtk_type<T>());
-    }
-    values.push_back(value);
-    p = next;
-  }
-  if (static_cast<int64_t>(values.size()) != count)
-    throw invalid_input(path, "array " + in_quotes(key) + " has " + std::to_string(values.size()) +
-                                  " values, expected " + std::to_string(count) +
-                                  " (truncated or corrupt file?)");
-  return values;
-}
-
 bool positive_finite(double x) {
   return std::isfinite(x) && x > 0.0;
 }
@@ -283,9 +311,13 @@ bool positive_finite(double x) {
 void save_model(const Model& m, const std::string& path) {
   check_savable(m, path);
   const int32_t n = m.node_count();
-  std::vector<double> points(3 * static_cast<size_t>(n));
+  PieceArrays piece;
+  piece.points.resize(3 * static_cast<size_t>(n));
   for (int32_t v = 0; v < n; ++v)
-    for (int c = 0; c < 3; ++c) points[3 * static_cast<size_t>(v) + c] = m.X(v, c);
+    for (int c = 0; c < 3; ++c) piece.points[3 * static_cast<size_t>(v) + c] = m.X(v, c);
+  piece.point_layer = m.layer_of;
+  piece.mass_kg = m.mass_kg;
+  piece.fixed = m.fixed;
 
   std::vector<int32_t> first_node, node_count, face_count;
   for (const ModelLayer& layer : m.layers) {
@@ -294,50 +326,38 @@ void save_model(const Model& m, const std::string& path) {
     face_count.push_back(static_cast<int32_t>(layer.F.rows()));
   }
 
-  // Cells: every layer's triangles, then every spring as a line; the CellData arrays run
-  // alongside. VTK's offsets say where each cell's nodes end in `connectivity`.
-  std::vector<int64_t> connectivity, offsets;
-  std::vector<uint8_t> types, cell_kind;
-  std::vector<int32_t> cell_layer;
-  std::vector<double> rest_length, stiffness;
-  const auto end_cell = [&](uint8_t type, uint8_t kind, int32_t layer, double rest, double k) {
-    offsets.push_back(static_cast<int64_t>(connectivity.size()));
-    types.push_back(type);
-    cell_kind.push_back(kind);
-    cell_layer.push_back(layer);
-    rest_length.push_back(rest);
-    stiffness.push_back(k);
-  };
+  // Cells: every layer's triangles, then every spring as a line, then the tetrahedra; the
+  // CellData arrays run alongside.
   for (int32_t l = 0; l < m.layer_count(); ++l) {
     const Eigen::MatrixX3i& F = m.layers[l].F;
-    for (Eigen::Index t = 0; t < F.rows(); ++t) {
-      connectivity.insert(connectivity.end(), {F(t, 0), F(t, 1), F(t, 2)});
-      end_cell(kVtkTriangle, kCellKindTriangle, l, 0.0, 0.0);
-    }
+    for (Eigen::Index t = 0; t < F.rows(); ++t)
+      piece.add_cell(kVtkTriangle, kCellKindTriangle, l, {F(t, 0), F(t, 1), F(t, 2)});
   }
   const Springs& s = m.springs;
-  for (size_t k = 0; k < s.size(); ++k) {
-    connectivity.insert(connectivity.end(), {s.i[k], s.j[k]});
-    end_cell(kVtkLine, static_cast<uint8_t>(1 + static_cast<int>(s.kind[k])), m.layer_of[s.i[k]],
-             s.rest_length_mm[k], s.stiffness_n_per_m[k]);
-  }
-  // Tetrahedra last; their cell `layer` is their region (the shell just inside that layer).
-  for (Eigen::Index t = 0; t < m.tets.T.rows(); ++t) {
-    connectivity.insert(connectivity.end(),
-                        {m.tets.T(t, 0), m.tets.T(t, 1), m.tets.T(t, 2), m.tets.T(t, 3)});
-    end_cell(kVtkTetra, kCellKindTetra, m.tets.region[static_cast<size_t>(t)], 0.0, 0.0);
-  }
+  for (size_t k = 0; k < s.size(); ++k)
+    piece.add_cell(kVtkLine, static_cast<uint8_t>(1 + static_cast<int>(s.kind[k])),
+                   m.layer_of[s.i[k]], {s.i[k], s.j[k]}, s.rest_length_mm[k],
+                   s.stiffness_n_per_m[k]);
+  // Their cell `layer` is their region (the shell just inside that layer).
+  const Eigen::MatrixX4i& T = m.tets.T;
+  for (Eigen::Index t = 0; t < T.rows(); ++t)
+    piece.add_cell(kVtkTetra, kCellKindTetra, m.tets.region[static_cast<size_t>(t)],
+                   {T(t, 0), T(t, 1), T(t, 2), T(t, 3)});
+  // Last, after the nodes and after the tetrahedra, so that everything before them is laid out
+  // as in version 2.
+  add_embedded(m, piece);
   const std::vector<uint8_t> source(m.source.begin(), m.source.end());
+  const int32_t version = m.embedded.empty() ? kFormatVersionWithoutEmbedded : kFormatVersion;
 
   write_file_atomically(path, [&](std::ostream& out) {
     const char* const field = "      ";
-    const char* const piece = "        ";
+    const char* const indent = "        ";
     out << "<?xml version=\"1.0\"?>\n"
            "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
            "header_type=\"UInt64\">\n"
            "  <UnstructuredGrid>\n"
            "    <FieldData>\n";
-    write_array(out, field, "lamina_format_version", std::vector<int32_t>{kFormatVersion}, 1, true);
+    write_array(out, field, "lamina_format_version", std::vector<int32_t>{version}, 1, true);
     write_array(out, field, "ring_locality", std::vector<int32_t>{m.rings.locality}, 1, true);
     write_array(out, field, "density_kg_per_mm3", std::vector<double>{m.density_kg_per_mm3}, 1,
                 true);
@@ -345,26 +365,29 @@ void save_model(const Model& m, const std::string& path) {
     write_array(out, field, "layer_node_count", node_count, 1, true);
     write_array(out, field, "layer_face_count", face_count, 1, true);
     write_array(out, field, "tet_count", std::vector<int64_t>{m.tets.size()}, 1, true);
+    write_embedded_field_data(out, field, m);
     write_array(out, field, "source", source, 1, true);
     write_array(out, field, "content_crc32",
                 std::vector<int64_t>{static_cast<int64_t>(model_fingerprint(m))}, 1, true);
     out << "    </FieldData>\n"
-        << "    <Piece NumberOfPoints=\"" << n << "\" NumberOfCells=\"" << types.size() << "\">\n"
+        << "    <Piece NumberOfPoints=\"" << piece.points.size() / 3 << "\" NumberOfCells=\""
+        << piece.types.size() << "\">\n"
         << "      <PointData>\n";
-    write_array(out, piece, "layer", m.layer_of);
-    write_array(out, piece, "mass_kg", m.mass_kg);
-    write_array(out, piece, "fixed", m.fixed);
+    write_array(out, indent, "layer", piece.point_layer);
+    write_array(out, indent, "mass_kg", piece.mass_kg);
+    write_array(out, indent, "fixed", piece.fixed);
+    write_embedded_point_data(out, indent, m);
     out << "      </PointData>\n      <CellData>\n";
-    write_array(out, piece, "cell_kind", cell_kind);
-    write_array(out, piece, "layer", cell_layer);
-    write_array(out, piece, "rest_length_mm", rest_length);
-    write_array(out, piece, "stiffness_n_per_m", stiffness);
+    write_array(out, indent, "cell_kind", piece.cell_kind);
+    write_array(out, indent, "layer", piece.cell_layer);
+    write_array(out, indent, "rest_length_mm", piece.rest_length);
+    write_array(out, indent, "stiffness_n_per_m", piece.stiffness);
     out << "      </CellData>\n      <Points>\n";
-    write_array(out, piece, "Points", points, 3);
+    write_array(out, indent, "Points", piece.points, 3);
     out << "      </Points>\n      <Cells>\n";
-    write_array(out, piece, "connectivity", connectivity);
-    write_array(out, piece, "offsets", offsets);
-    write_array(out, piece, "types", types);
+    write_array(out, indent, "connectivity", piece.connectivity);
+    write_array(out, indent, "offsets", piece.offsets);
+    write_array(out, indent, "types", piece.types);
     out << "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
   });
 }
@@ -378,9 +401,9 @@ Model load_model(const std::string& path) {
   if (!f.arrays.contains("FieldData/lamina_format_version"))
     throw bad("not a Lamina model (no lamina_format_version field)");
   const int32_t version = read_values<int32_t>(path, f, "FieldData/lamina_format_version", 1)[0];
-  if (version != 1 && version != kFormatVersion)
+  if (version < 1 || version > kFormatVersion)
     throw bad("unsupported Lamina model format version " + std::to_string(version) +
-              " (this build reads versions 1 and " + std::to_string(kFormatVersion) + ")");
+              " (this build reads versions 1 to " + std::to_string(kFormatVersion) + ")");
   if (f.type != "UnstructuredGrid" || f.pieces != 1)
     throw bad("expected a VTK UnstructuredGrid with exactly one Piece");
   const auto piece_count = [&](const char* name, int64_t max) {
@@ -390,10 +413,18 @@ Model load_model(const std::string& path) {
     if (count < 0 || count > max) throw bad(std::string(name) + " is out of range");
     return count;
   };
-  const int64_t n = piece_count("NumberOfPoints", std::numeric_limits<int32_t>::max());
+  const int64_t points_in_file = piece_count("NumberOfPoints", std::numeric_limits<int32_t>::max());
   const int64_t cells = piece_count("NumberOfCells", int64_t{1} << 60);
 
   Model m;
+  // Version 3: the embedded surfaces' vertices are the last points, their triangles the last
+  // cells; everything before them is laid out as in version 2.
+  const EmbeddedLayout embedded =
+      version >= 3 ? read_embedded_fields(path, f, m) : EmbeddedLayout{};
+  if (embedded.vertices > points_in_file)
+    throw bad("the embedded surfaces hold " + std::to_string(embedded.vertices) +
+              " vertices but the file has only " + std::to_string(points_in_file) + " points");
+  const int64_t n = points_in_file - embedded.vertices;  // the model's nodes
   m.rings.locality = read_values<int32_t>(path, f, "FieldData/ring_locality", 1)[0];
   if (m.rings.locality < 0) throw bad("ring_locality must be >= 0");
   m.density_kg_per_mm3 = read_values<double>(path, f, "FieldData/density_kg_per_mm3", 1)[0];
@@ -427,17 +458,27 @@ Model load_model(const std::string& path) {
               std::to_string(n) + " points");
   const int64_t tet_count =
       version == 1 ? 0 : read_values<int64_t>(path, f, "FieldData/tet_count", 1)[0];
-  if (tet_count < 0 || triangles + tet_count > cells)
-    throw bad("layer_face_count and tet_count add up to " + std::to_string(triangles + tet_count) +
+  if (tet_count < 0 || triangles + tet_count + embedded.faces > cells)
+    throw bad("layer_face_count, tet_count and embedded_face_count add up to " +
+              std::to_string(triangles + tet_count + embedded.faces) +
               " cells but the file has only " + std::to_string(cells));
   if (next_node != n && tet_count == 0)
     throw bad("the file has " + std::to_string(n - next_node) +
               " node(s) on no layer but no tetrahedra to hold them");
+  // A surface is carried by the tetrahedra's corners: without them it has nothing to follow.
+  if (!m.embedded.empty() && tet_count == 0)
+    throw bad("embedded surfaces need tetrahedra, and the model has none");
 
-  const auto points = read_values<double>(path, f, "Points/Points", 3 * n, 3);
-  m.layer_of = read_values<int32_t>(path, f, "PointData/layer", n);
-  m.mass_kg = read_values<double>(path, f, "PointData/mass_kg", n);
-  m.fixed = read_values<uint8_t>(path, f, "PointData/fixed", n);
+  // Every point's values; the nodes' are checked here, the embedded vertices' further down.
+  PieceArrays piece;
+  piece.points = read_values<double>(path, f, "Points/Points", 3 * points_in_file, 3);
+  piece.point_layer = read_values<int32_t>(path, f, "PointData/layer", points_in_file);
+  piece.mass_kg = read_values<double>(path, f, "PointData/mass_kg", points_in_file);
+  piece.fixed = read_values<uint8_t>(path, f, "PointData/fixed", points_in_file);
+  const std::vector<double>& points = piece.points;
+  m.layer_of.assign(piece.point_layer.begin(), piece.point_layer.begin() + n);
+  m.mass_kg.assign(piece.mass_kg.begin(), piece.mass_kg.begin() + n);
+  m.fixed.assign(piece.fixed.begin(), piece.fixed.begin() + n);
   m.X.resize(n, 3);
   for (int32_t v = 0, l = 0; v < n; ++v) {
     while (l < layer_count && v >= first[l] + count[l]) ++l;
@@ -453,39 +494,30 @@ Model load_model(const std::string& path) {
     if (m.fixed[v] > 1) throw bad(node + "fixed must be 0 or 1");
   }
 
-  const int64_t spring_count = cells - triangles - tet_count;
-  const auto connectivity = read_values<int64_t>(path, f, "Cells/connectivity",
-                                                 3 * triangles + 2 * spring_count + 4 * tet_count);
-  const auto offsets = read_values<int64_t>(path, f, "Cells/offsets", cells);
-  const auto types = read_values<uint8_t>(path, f, "Cells/types", cells);
-  const auto kinds = read_values<uint8_t>(path, f, "CellData/cell_kind", cells);
-  const auto cell_layer = read_values<int32_t>(path, f, "CellData/layer", cells);
-  const auto rest = read_values<double>(path, f, "CellData/rest_length_mm", cells);
-  const auto stiffness = read_values<double>(path, f, "CellData/stiffness_n_per_m", cells);
+  if (version >= 3) read_embedded_points(path, f, piece, embedded, static_cast<int32_t>(n), m);
 
-  // Walks the cells in order, checking each one's type, kind and offset; returns its first node.
-  int64_t cell = 0, at = 0;
-  const auto next_cell = [&](int64_t size, const std::string& expected) {
-    const int type = types[cell], kind = kinds[cell];
-    const bool ok = size == 2   ? type == kVtkLine && kind >= 1 && kind <= 3
-                    : size == 3 ? type == kVtkTriangle && kind == kCellKindTriangle
-                                : type == kVtkTetra && kind == kCellKindTetra;
-    if (!ok)
-      throw bad("cell " + std::to_string(cell) + ": VTK cell type " + std::to_string(type) +
-                " with cell_kind " + std::to_string(kind) + " does not agree with the expected " +
-                expected);
-    if (offsets[cell] != at + size)
-      throw bad("cell " + std::to_string(cell) + ": offset " + std::to_string(offsets[cell]) +
-                ", expected " + std::to_string(at + size));
-    at += size;
-    return connectivity.data() + (at - size);
-  };
+  const int64_t spring_count = cells - triangles - tet_count - embedded.faces;
+  piece.connectivity =
+      read_values<int64_t>(path, f, "Cells/connectivity",
+                           3 * triangles + 2 * spring_count + 4 * tet_count + 3 * embedded.faces);
+  piece.offsets = read_values<int64_t>(path, f, "Cells/offsets", cells);
+  piece.types = read_values<uint8_t>(path, f, "Cells/types", cells);
+  piece.cell_kind = read_values<uint8_t>(path, f, "CellData/cell_kind", cells);
+  piece.cell_layer = read_values<int32_t>(path, f, "CellData/layer", cells);
+  piece.rest_length = read_values<double>(path, f, "CellData/rest_length_mm", cells);
+  piece.stiffness = read_values<double>(path, f, "CellData/stiffness_n_per_m", cells);
+  const std::vector<int32_t>& cell_layer = piece.cell_layer;
+  const std::vector<double>&rest = piece.rest_length, &stiffness = piece.stiffness;
+
+  CellWalker cells_in_order{path, piece};
+  const int64_t& cell = cells_in_order.cell;
   for (int32_t l = 0; l < layer_count; ++l) {
     ModelLayer& layer = m.layers[l];
     layer.F.resize(faces[l], 3);
     const std::string expected = "triangle of layer " + std::to_string(l) + " (type 5, kind 0)";
-    for (int32_t t = 0; t < faces[l]; ++t, ++cell) {
-      const int64_t* corner = next_cell(3, expected);
+    for (int32_t t = 0; t < faces[l]; ++t) {
+      const int64_t* corner =
+          cells_in_order.next(3, kVtkTriangle, kCellKindTriangle, kCellKindTriangle, expected);
       for (int c = 0; c < 3; ++c) {
         if (corner[c] < layer.first_node || corner[c] >= layer.first_node + layer.node_count)
           throw bad("triangle " + std::to_string(t) + " of layer " + std::to_string(l) +
@@ -501,14 +533,14 @@ Model load_model(const std::string& path) {
   }
 
   Springs& s = m.springs;
-  for (int64_t k = 0; k < spring_count; ++k, ++cell) {
-    const int64_t* node = next_cell(2, "spring (type 3, kind 1, 2 or 3)");
+  for (int64_t k = 0; k < spring_count; ++k) {
+    const int64_t* node = cells_in_order.next(2, kVtkLine, 1, 3, "spring (type 3, kind 1, 2 or 3)");
     const std::string spring = "spring " + std::to_string(k) + ": ";
     if (node[0] < 0 || node[0] >= node[1] || node[1] >= n)
       throw bad(spring + "joins nodes " + std::to_string(node[0]) + " and " +
                 std::to_string(node[1]) + "; expected 0 <= i < j < " + std::to_string(n));
     const auto i = static_cast<int32_t>(node[0]), j = static_cast<int32_t>(node[1]);
-    const auto kind = static_cast<SpringKind>(kinds[cell] - 1);
+    const auto kind = static_cast<SpringKind>(piece.cell_kind[cell] - 1);
     const bool same_layer = m.layer_of[i] == m.layer_of[j] && m.layer_of[i] != kInteriorNode;
     if ((kind == SpringKind::kIntraLayer && !same_layer) ||
         (kind == SpringKind::kInterLayer &&
@@ -539,8 +571,9 @@ Model load_model(const std::string& path) {
   // Tetrahedra: four distinct nodes, positive volume at rest, a region that is a layer.
   m.tets.T.resize(tet_count, 4);
   m.tets.region.resize(static_cast<size_t>(tet_count));
-  for (int64_t t = 0; t < tet_count; ++t, ++cell) {
-    const int64_t* node = next_cell(4, "tetrahedron (type 10, kind 4)");
+  for (int64_t t = 0; t < tet_count; ++t) {
+    const int64_t* node = cells_in_order.next(4, kVtkTetra, kCellKindTetra, kCellKindTetra,
+                                              "tetrahedron (type 10, kind 4)");
     const std::string tet = "tetrahedron " + std::to_string(t) + ": ";
     for (int c = 0; c < 4; ++c) {
       if (node[c] < 0 || node[c] >= n)
@@ -555,6 +588,7 @@ Model load_model(const std::string& path) {
       throw bad(tet + "region " + std::to_string(cell_layer[cell]) + " is not a layer");
     m.tets.region[static_cast<size_t>(t)] = cell_layer[cell];
   }
+  if (version >= 3) read_embedded_cells(path, cells_in_order, embedded, static_cast<int32_t>(n), m);
   // Every value above passed its own check; the checksum catches one changed to another valid
   // value (an edited position or stiffness). Files written before it existed have none.
   if (f.arrays.contains("FieldData/content_crc32")) {
@@ -584,7 +618,9 @@ uint32_t model_fingerprint(const Model& m) {
     c = crc(c, m.tets.T.data(), static_cast<size_t>(m.tets.T.size()) * sizeof(int));
     c = crc(c, m.tets.region.data(), m.tets.region.size() * sizeof(int32_t));
   }
-  return c;
+  // Models without embedded surfaces keep the checksum version 2 gave them (checkpoints name
+  // their model by it).
+  return m.embedded.empty() ? c : embedded_fingerprint(c, m);
 }
 
 }  // namespace lamina::io
