@@ -101,7 +101,10 @@ void add_embedded(Model& m, const LabelVolume& volume, const Mask& organ, const 
                                .faces = e.F.rows(),
                                .outside = e.outside,
                                .volume_ml = geometry::enclosed_volume(surface) / 1000.0});
-    if (e.outside > 0)
+    // The display skin lies on the mask's boundary, outside the coarse skin's flat faces wherever
+    // the organ is convex: its outside vertices are expected (counted, not warned about). A
+    // structure's are worth a note: it reaches beyond the organ.
+    if (e.outside > 0 && label != 0)
       report.warnings.push_back(fmt::format(
           "{}: {} of {} vertices lie outside the organ's tetrahedra; they follow the nearest one",
           name, e.outside, e.V.rows()));
