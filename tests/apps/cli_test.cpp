@@ -500,6 +500,40 @@ TEST(CliWorkflow, APhantomWithLabelsCarriesItsAnatomyAndBuildsTheSameOrgan) {
   EXPECT_EQ(json::parse(r.out).at("nodes"), json::parse(plain.out).at("nodes"));
 }
 
+// Issue 33: `lamina build --embed` makes the display skin and the structures, the model file
+// keeps them (info lists them), and a bad embedding writes nothing and exits 2.
+TEST(CliWorkflow, BuildEmbedsTheAnatomyAndRefusesBadEmbeddings) {
+  TempDir dir;
+  ASSERT_EQ(run_lamina(dir, "phantom --labels -o A.nii.gz --spacing 3").exit_code, 0);
+  RunResult r = run_lamina(dir,
+                           "build A.nii.gz -o A.vtu --json --display-triangles 4000 "
+                           "--structure-triangles 1000 --embed 2=vessels,3=tumour");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json built = json::parse(r.out).at("embedded");
+  ASSERT_EQ(built.size(), 3u) << r.out;
+  EXPECT_EQ(built[0].at("name"), "display_skin");
+  EXPECT_NEAR(built[0].at("faces").get<double>(), 4000.0, 0.05 * 4000.0);
+  EXPECT_EQ(built[1].at("name"), "vessels");
+  EXPECT_EQ(built[2].at("name"), "tumour");
+  EXPECT_EQ(built[2].at("outside"), 0);
+  r = run_lamina(dir, "info A.vtu --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(json::parse(r.out).at("embedded"), built);
+
+  const char* bad[][2] = {{"--embed 7=portal", "label 7"},
+                          {"--label 1 --embed 1", "also the organ's"},
+                          {"--embed two", "--embed"},
+                          {"--embed-mask missing.nii.gz", "missing.nii.gz"},
+                          {"--structure links --embed 2", "tetrahedra"}};
+  for (const auto& [args, says] : bad) {
+    r = run_lamina(dir, std::string("build A.nii.gz -o B.vtu ") + args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_NE(r.err.find(says), std::string::npos) << args << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir.work / "B.vtu")) << args;
+  }
+}
+
 TEST(CliWorkflow, PhantomBuildInfoExport) {
   TempDir dir;
   RunResult r = run_lamina(dir, "phantom -o P.nii.gz --spacing 3");
