@@ -56,6 +56,35 @@ inline constexpr auto in_output = at<&Scene::output, Member>;
 
 constexpr int64_t kInt32Max = std::numeric_limits<int32_t>::max();
 
+// model.build.embed[k]: a structure of the same segmentation, {"label": L, "name": "vessels"}.
+void read_embed(const Value& v, Scene& s) {
+  using Embed = model::EmbedStructure;
+  static const Keys<Embed> kKeys = {
+      {"label", integer(&Embed::label, 1, kInt32Max)},
+      {"name", [](const Value& n, Embed& e) { e.name = n.string(); }},
+  };
+  if (!v.data.is_array())
+    v.fail("expected an array of structures [{\"label\": 2, \"name\": \"vessels\"}, ...], got " +
+           Reader::describe(v.data));
+  for (size_t k = 0; k < v.data.size(); ++k) {
+    const std::string path = v.path + "[" + std::to_string(k) + "]";
+    const Object in = open_object(v.in.r, v.data[k], path, kKeys);
+    if (!in.has("label")) in.r.fail(path, "needs \"label\": the structure's label");
+    Embed e;
+    read_keys(in, kKeys, e);
+    s.build.embed.push_back(std::move(e));
+  }
+}
+
+// model.build.labels: the organ as the union of several labels.
+void read_labels(const Value& v, Scene& s) {
+  if (!v.data.is_array() || v.data.empty())
+    v.fail("expected an array of labels [1, 5], got " + Reader::describe(v.data));
+  for (size_t k = 0; k < v.data.size(); ++k)
+    s.build.labels.push_back(static_cast<int32_t>(
+        v.in.r.integer(v.data[k], v.path + "[" + std::to_string(k) + "]", 1, kInt32Max)));
+}
+
 // model.build: how the model is built from its mask.
 void read_build(const Value& v, Scene& s) {
   // Ranges are build_model's (check_build_options), checked here so messages name the key.
@@ -67,6 +96,10 @@ void read_build(const Value& v, Scene& s) {
       {"layer_depth_mm",
        number(in_build<&Build::layer_depth_mm>, non_negative, "must be >= 0 (0 = automatic)")},
       {"label", integer(in_build<&Build::label>, 0, kInt32Max)},
+      {"labels", read_labels},
+      {"display_triangles", integer(in_build<&Build::display_triangles>, 0, 10'000'000)},
+      {"structure_triangles", integer(in_build<&Build::structure_triangles>, 100, 10'000'000)},
+      {"embed", read_embed},
       {"locality", integer(in_build<&Build::locality>, 1, 64)},
       {"links", integer(in_build<&Build::inter_layer_links>, 1, 16)},
       {"tet_radius_edge_ratio",

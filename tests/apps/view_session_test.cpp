@@ -1,4 +1,4 @@
-// `lamina view`'s session (apps/lamina/view_session.h) on the viewer engine's mock backend: no
+// `lamina view`'s session (apps/lamina/view/view_session.h) on the viewer engine's mock backend: no
 // display, no OpenGL, input injected through the same queue a window feeds. A drag on the organ
 // dents it and release lets it return to rest; Shift at release pins the force; a press off the
 // organ orbits the camera and pushes nothing; a press on a panel is the panel's; a scripted

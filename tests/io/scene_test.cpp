@@ -223,6 +223,33 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_FALSE(s.output.metrics_every_step);
 }
 
+TEST(ParseScene, TheBuildNamesTheAnatomyToEmbed) {
+  const Scene s = parse_scene(R"({"model": {"build": {"labels": [1, 2, 3],
+      "display_triangles": 0, "structure_triangles": 500,
+      "embed": [{"label": 2, "name": "vessels"}, {"label": 3}]}}})",
+                              "scene.json");
+  EXPECT_EQ(s.build.labels, (std::vector<int32_t>{1, 2, 3}));
+  EXPECT_EQ(s.build.display_triangles, 0);
+  EXPECT_EQ(s.build.structure_triangles, 500);
+  ASSERT_EQ(s.build.embed.size(), 2u);
+  EXPECT_EQ(s.build.embed[0].name, "vessels");
+  EXPECT_EQ(s.build.embed[0].label, 2);
+  EXPECT_EQ(s.build.embed[1].name, "");
+  EXPECT_EQ(s.build.embed[1].label, 3);
+  EXPECT_EQ(parse_scene("{}", "scene.json").build.display_triangles, 100000);
+  EXPECT_NE(parse_error(R"({"model": {"build": {"embed": [{"name": "x"}]}}})")
+                .find("model.build.embed[0]: needs \"label\""),
+            std::string::npos);
+  EXPECT_NE(parse_error(R"({"model": {"build": {"embed": [{"label": 0}]}}})")
+                .find("model.build.embed[0].label"),
+            std::string::npos);
+  EXPECT_NE(parse_error(R"({"model": {"build": {"labels": []}}})").find("model.build.labels"),
+            std::string::npos);
+  EXPECT_NE(
+      parse_error(R"({"model": {"build": {"embed": {"label": 2}}}})").find("model.build.embed"),
+      std::string::npos);
+}
+
 TEST(ParseScene, ToolForcesAreNewtonsInTheFileAndMilliNewtonsInside) {
   const Scene s =
       parse_scene(R"({"tools": [{"vertex": 0, "force_n": [0.05, -1, 2e-3]}]})", "scene.json");
