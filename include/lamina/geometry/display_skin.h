@@ -13,7 +13,8 @@ namespace lamina::geometry {
 
 /// The zero isosurface of the mask's signed distance (taken on the mask's own grid, not the
 /// working grid the simulation's layers are meshed on), sampled on a grid of cubic cells sized
-/// so that the isosurface has about `triangles` triangles (within 3%, checked and corrected),
+/// so that the isosurface has about `triangles` triangles (within 3%, checked and corrected;
+/// at most about one per voxel-sized patch of the boundary: the mask's own resolution),
 /// its largest piece, then Taubin-smoothed to take out the voxel staircase. Closed, manifold,
 /// outward. Throws lamina::Error (kInvalidInput) for a budget below 100 or an empty mask.
 SurfaceMesh display_skin(const Mask& mask, int64_t triangles);
