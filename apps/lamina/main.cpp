@@ -159,8 +159,10 @@ int main(int argc, char** argv) {
   ru->add_flag("--paper", run.paper,
                "no scene file: the reference paper's setup instead (layers and links, K = 3 N/m, "
                "gamma = 3 kg/s, unit masses, semi-implicit Euler at 10 ms)");
-  ru->add_option("-o,--output", run.output,
-                 "output folder (created): metrics.csv, summary.json, skin.pvd, frames/")
+  ru->add_option(
+        "-o,--output", run.output,
+        "output folder (created): metrics.csv, summary.json, skin.pvd, a .pvd per embedded "
+        "surface (display_skin.pvd, vessels.pvd, ...), frames/")
       ->required();
   ru->add_flag("--json", run.json, "also print the summary as one JSON object on stdout");
   ru->add_flag("--realtime", run.realtime,

@@ -60,6 +60,32 @@ lamina_status lamina_model_skin_triangles(const lamina_model* model, int32_t* in
 /* Copies the rest positions, mm, interleaved, into `xyz` (capacity >= 3 * node_count). */
 lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz, int64_t capacity);
 
+/* ---- embedded surfaces ----------------------------------------------------------------- */
+
+/* Surfaces carried by the model's tetrahedra (docs/model_format.md): the display skin
+ * ("display_skin", label 0: the organ's fine surface), structures inside the organ ("vessels",
+ * "tumour": `lamina build --embed`). Each vertex follows its tetrahedron: a weighted sum of four
+ * nodes (W x). Surface k is 0 .. embedded_count - 1. */
+typedef struct lamina_embedded_info {
+  const char* name;       /* "display_skin", or the structure's; valid while the model lives */
+  int32_t label;          /* the segmentation label it came from (0: the organ's own skin) */
+  int32_t vertex_count;   /* its vertices */
+  int32_t triangle_count; /* its triangles */
+  int32_t outside;        /* vertices in no tetrahedron at rest (they follow the nearest) */
+} lamina_embedded_info;
+
+int32_t lamina_model_embedded_count(const lamina_model* model);
+/* LAMINA_ERROR_INVALID_INPUT for a k outside 0 .. embedded_count - 1 (as for every call below). */
+lamina_status lamina_model_embedded_info(const lamina_model* model, int32_t k,
+                                         lamina_embedded_info* info);
+/* Copies surface k's triangles, 3 vertex indices each (0 .. vertex_count - 1), outward winding,
+ * into `indices` (capacity >= 3 * triangle_count). */
+lamina_status lamina_model_embedded_triangles(const lamina_model* model, int32_t k,
+                                              int32_t* indices, int64_t capacity);
+/* Copies surface k's rest positions, mm, interleaved (capacity >= 3 * vertex_count). */
+lamina_status lamina_model_embedded_rest_positions(const lamina_model* model, int32_t k,
+                                                   double* xyz, int64_t capacity);
+
 /* ---- simulations ----------------------------------------------------------------------- */
 
 /* Tissue parameters; lamina_material_defaults() gives the reference paper's (K = 3 N/m,
@@ -166,6 +192,11 @@ int32_t lamina_sim_node_count(const lamina_sim* sim);
 const lamina_model* lamina_sim_model(const lamina_sim* sim);
 /* Copies the current positions, mm, interleaved, into `xyz` (capacity >= 3 * node_count). */
 lamina_status lamina_sim_positions(const lamina_sim* sim, double* xyz, int64_t capacity);
+/* Writes embedded surface k's deformed positions (W x of the current positions), mm,
+ * interleaved, into `xyz` (capacity >= 3 * vertex_count): a vertex buffer to upload each frame.
+ * Allocates only on the first call for a surface. */
+lamina_status lamina_sim_embedded_positions(lamina_sim* sim, int32_t k, double* xyz,
+                                            int64_t capacity);
 
 #ifdef __cplusplus
 }

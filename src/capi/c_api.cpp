@@ -8,6 +8,7 @@
 #include <memory>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "lamina/core/error.h"
 #include "lamina/interact/realtime_loop.h"
@@ -15,6 +16,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
 
 struct lamina_model {
@@ -26,6 +28,7 @@ struct lamina_sim {
   std::unique_ptr<lamina::interact::RealtimeLoop> loop;
   lamina::interact::LoopSnapshot snapshot;  // the state after the last call that stepped
   double max_force_n = 3.0, max_force_change_n = 0.05;  // the tool tip's haptic limits
+  std::vector<Eigen::MatrixX3d> embedded_x;  // W x per embedded surface, kept between calls
 };
 
 namespace {
@@ -75,6 +78,17 @@ void need_capacity(int64_t capacity, int64_t needed, const char* what) {
                                           std::to_string(needed) + " are needed");
 }
 
+// Embedded surface k of a model, or an error naming `what` and the range.
+const lamina::EmbeddedSurface& need_embedded(const lamina_model* model, int32_t k,
+                                             const std::string& what) {
+  const lamina::Model& m = *need(model, (what + ": model").c_str()).model;
+  if (k < 0 || static_cast<size_t>(k) >= m.embedded.size())
+    throw lamina::invalid_input(what + ": k", "is " + std::to_string(k) + "; the model has " +
+                                                  std::to_string(m.embedded.size()) +
+                                                  " embedded surfaces");
+  return m.embedded[static_cast<size_t>(k)];
+}
+
 void need_finite(const double* v, int n, const char* what) {
   for (int k = 0; k < n; ++k)
     if (!std::isfinite(v[k])) throw lamina::invalid_input(what, "is not finite");
@@ -83,6 +97,11 @@ void need_finite(const double* v, int n, const char* what) {
 void copy_points(const Eigen::MatrixX3d& p, double* xyz) {
   for (Eigen::Index i = 0; i < p.rows(); ++i)
     for (int c = 0; c < 3; ++c) xyz[3 * i + c] = p(i, c);
+}
+
+void copy_triangles(const Eigen::MatrixX3i& f, int32_t* indices) {
+  for (Eigen::Index t = 0; t < f.rows(); ++t)
+    for (int c = 0; c < 3; ++c) indices[3 * t + c] = f(t, c);
 }
 
 lamina::sim::Material to_material(const lamina_material& m) {
@@ -194,8 +213,44 @@ lamina_status lamina_model_skin_triangles(const lamina_model* model, int32_t* in
         need(model, "lamina_model_skin_triangles: model").model->layers[0].F;
     need(indices, "lamina_model_skin_triangles: indices");
     need_capacity(capacity, 3 * f.rows(), "lamina_model_skin_triangles: indices");
-    for (Eigen::Index t = 0; t < f.rows(); ++t)
-      for (int c = 0; c < 3; ++c) indices[3 * t + c] = f(t, c);
+    copy_triangles(f, indices);
+  });
+}
+
+int32_t lamina_model_embedded_count(const lamina_model* model) {
+  return model ? static_cast<int32_t>(model->model->embedded.size()) : 0;
+}
+
+lamina_status lamina_model_embedded_info(const lamina_model* model, int32_t k,
+                                         lamina_embedded_info* info) {
+  return guarded([&] {
+    const lamina::EmbeddedSurface& e = need_embedded(model, k, "lamina_model_embedded_info");
+    need(info, "lamina_model_embedded_info: info") = {
+        .name = e.name.c_str(),
+        .label = e.label,
+        .vertex_count = static_cast<int32_t>(e.V.rows()),
+        .triangle_count = static_cast<int32_t>(e.F.rows()),
+        .outside = e.outside};
+  });
+}
+
+lamina_status lamina_model_embedded_triangles(const lamina_model* model, int32_t k,
+                                              int32_t* indices, int64_t capacity) {
+  return guarded([&] {
+    const Eigen::MatrixX3i& f = need_embedded(model, k, "lamina_model_embedded_triangles").F;
+    need(indices, "lamina_model_embedded_triangles: indices");
+    need_capacity(capacity, 3 * f.rows(), "lamina_model_embedded_triangles: indices");
+    copy_triangles(f, indices);
+  });
+}
+
+lamina_status lamina_model_embedded_rest_positions(const lamina_model* model, int32_t k,
+                                                   double* xyz, int64_t capacity) {
+  return guarded([&] {
+    const Eigen::MatrixX3d& v = need_embedded(model, k, "lamina_model_embedded_rest_positions").V;
+    need(xyz, "lamina_model_embedded_rest_positions: xyz");
+    need_capacity(capacity, 3 * v.rows(), "lamina_model_embedded_rest_positions: xyz");
+    copy_points(v, xyz);
   });
 }
 
@@ -407,6 +462,20 @@ lamina_status lamina_sim_positions(const lamina_sim* sim, double* xyz, int64_t c
     need(xyz, "lamina_sim_positions: xyz");
     need_capacity(capacity, 3 * s.snapshot.x.rows(), "lamina_sim_positions: xyz");
     copy_points(s.snapshot.x, xyz);
+  });
+}
+
+lamina_status lamina_sim_embedded_positions(lamina_sim* sim, int32_t k, double* xyz,
+                                            int64_t capacity) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_embedded_positions: sim");
+    const lamina::EmbeddedSurface& e = need_embedded(&s.model, k, "lamina_sim_embedded_positions");
+    need(xyz, "lamina_sim_embedded_positions: xyz");
+    need_capacity(capacity, 3 * e.V.rows(), "lamina_sim_embedded_positions: xyz");
+    s.embedded_x.resize(s.model.model->embedded.size());
+    Eigen::MatrixX3d& out = s.embedded_x[static_cast<size_t>(k)];
+    lamina::model::embedded_positions(e, s.snapshot.x, out);
+    copy_points(out, xyz);
   });
 }
 

@@ -431,6 +431,7 @@ void read_output(const Value& v, Scene& s) {
                                   "must be >= 0 (0 = first and final frames only)")},
       {"all_layers", boolean(in_output<&SceneOutput::all_layers>)},
       {"obj", boolean(in_output<&SceneOutput::obj>)},
+      {"embedded", boolean(in_output<&SceneOutput::embedded>)},
       {"metrics_every_step", boolean(in_output<&SceneOutput::metrics_every_step>)},
   };
   read_object(v.in.r, v.data, v.path, kKeys, s);

@@ -22,6 +22,8 @@
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/embed_surface.h"
+#include "support/embedded_phantom.h"
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
 #include "support/test_paths.h"
@@ -404,6 +406,15 @@ TEST(LaminaRun, OutputFolderThatIsAFileIsExitThree) {
   EXPECT_EQ(read_text(dir.file("taken")), "x");
 }
 
+std::string fmt_layer(int32_t k) {
+  return "layer" + std::to_string(k) + ".pvd";
+}
+
+std::string six_digits(size_t f) {
+  std::string s = std::to_string(f);
+  return std::string(6 - std::min<size_t>(6, s.size()), '0') + s;
+}
+
 // A small phantom model (400 skin vertices), the paper's anterior poke, and optionally a second
 // tool pressing the top of the right lobe down at the same time.
 std::string small_scene(bool second_tool) {
@@ -422,6 +433,64 @@ std::string small_scene(bool second_tool) {
     scene["tools"].push_back(
         {{"point", {-39.9, 8.9, 66.3}}, {"force_n", {0, 0, -0.4}}, {"end_s", 1.0}});
   return scene.dump(2);
+}
+
+// Each embedded surface of the model gets its own series beside the skin's, frame for frame:
+// at rest its rest positions, later W x of the run's nodes (every layer is written, so x is
+// known wherever a vertex's four nodes are all on layers).
+TEST(LaminaRun, EveryEmbeddedSurfaceGetsASeriesAtWx) {
+  test::TempDir dir;
+  const Model& m = test::embedded_phantom();
+  ASSERT_EQ(m.embedded.size(), 3u);
+  json scene = json::parse(small_scene(false));
+  scene["model"] = {{"model", test::save_embedded_phantom(dir.file("model.vtu"))}};
+  scene["output"] = {{"frame_interval_s", 0.2}, {"all_layers", true}};
+  std::ofstream(dir.file("scene.json")) << scene.dump(2);
+  const RunResult run = run_lamina(dir, "-q run scene.json -o out");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json summary = check_run_folder(dir.path / "out");
+  const auto skin = read_pvd(dir.path / "out" / "skin.pvd");
+  ASSERT_GT(skin.size(), 4u);
+
+  std::vector<std::vector<std::pair<double, std::string>>> layers;
+  for (int32_t k = 0; k < m.layer_count(); ++k)
+    layers.push_back(read_pvd(dir.path / "out" / (k == 0 ? "skin.pvd" : fmt_layer(k))));
+  // x at frame f on the layers' nodes; NaN on the interior nodes (on no layer).
+  const auto nodes_at = [&](size_t f) {
+    Eigen::MatrixX3d x = Eigen::MatrixX3d::Constant(m.node_count(), 3, NAN);
+    for (int32_t k = 0; k < m.layer_count(); ++k) {
+      const ModelLayer& l = m.layers[static_cast<size_t>(k)];
+      x.middleRows(l.first_node, l.node_count) =
+          read_vtp_points(dir.path / "out" / layers[static_cast<size_t>(k)][f].second);
+    }
+    return x;
+  };
+  const Eigen::MatrixX3d x_end = nodes_at(4);  // pressed (t = 0.8 s)
+  for (const EmbeddedSurface& e : m.embedded) {
+    SCOPED_TRACE(e.name);
+    const auto frames = read_pvd(dir.path / "out" / (e.name + ".pvd"));
+    ASSERT_EQ(frames.size(), skin.size());
+    for (size_t f = 0; f < frames.size(); ++f) {
+      EXPECT_EQ(frames[f].first, skin[f].first);
+      EXPECT_EQ(frames[f].second, "frames/" + e.name + "_" + six_digits(f) + ".vtp");
+    }
+    const Eigen::MatrixX3d rest = read_vtp_points(dir.path / "out" / frames.front().second);
+    ASSERT_EQ(rest.rows(), e.V.rows());
+    EXPECT_LT((rest - e.V).cwiseAbs().maxCoeff(), 1e-9);
+    const Eigen::MatrixX3d pressed = read_vtp_points(dir.path / "out" / frames[4].second);
+    Eigen::MatrixX3d expected;
+    model::embedded_positions(e, x_end, expected);
+    int64_t checked = 0;
+    for (Eigen::Index v = 0; v < expected.rows(); ++v) {
+      if (!expected.row(v).allFinite()) continue;  // a corner inside, on no layer
+      EXPECT_LT((pressed.row(v) - expected.row(v)).norm(), 1e-9) << "vertex " << v;
+      ++checked;
+    }
+    if (e.name == "display_skin") {  // the skin's own: all but a few vertices on layer nodes
+      EXPECT_GT(checked, e.V.rows() / 2);
+      EXPECT_GT((pressed - rest).rowwise().norm().maxCoeff(), 1.0) << "the poke moved it";
+    }
+  }
 }
 
 TEST(LaminaRun, TwoToolsAtOnceBothDeformTheSkin) {

@@ -123,6 +123,7 @@ TEST(ParseScene, EmptySceneIsThePhysicalLiver) {
   EXPECT_FALSE(s.output.all_layers);
   EXPECT_FALSE(s.output.obj);
   EXPECT_TRUE(s.output.metrics_every_step);
+  EXPECT_TRUE(s.output.embedded);
 }
 
 TEST(ParseScene, ReadsEveryKey) {
@@ -149,7 +150,7 @@ TEST(ParseScene, ReadsEveryKey) {
                            {"plane": {"point": [1, 2, 3], "normal": [1, 0, 0]},
                             "nodes": [9]}]},
     "output": {"frame_interval_s": 0.2, "all_layers": true, "obj": true,
-               "metrics_every_step": false}
+               "metrics_every_step": false, "embedded": false}
   })",
                               "scene.json");
   EXPECT_EQ(log.text(), "");  // every key is known
@@ -221,6 +222,7 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_TRUE(s.output.all_layers);
   EXPECT_TRUE(s.output.obj);
   EXPECT_FALSE(s.output.metrics_every_step);
+  EXPECT_FALSE(s.output.embedded);
 }
 
 TEST(ParseScene, TheBuildNamesTheAnatomyToEmbed) {

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -12,6 +13,7 @@
 #include <iostream>
 #include <optional>
 #include <regex>
+#include <set>
 #include <thread>
 
 #include "commands.h"
@@ -26,6 +28,7 @@
 #include "lamina/io/mesh_file.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/summary_json.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/model/summarize_model.h"
 #include "lamina/sim/simulation.h"
 
@@ -34,32 +37,53 @@ namespace {
 
 namespace fs = std::filesystem;
 // Frames of an earlier run in the same folder would be mistaken for this run's (a longer earlier
-// run leaves higher-numbered files); only names this command writes are removed, and a resumed
-// run keeps the `keep` frames written before its checkpoint.
-void remove_stale_frames(const fs::path& frames, int32_t keep) {
-  static const std::regex kFrameName(R"((skin|layer[0-9]+)_([0-9]{6})\.(vtp|obj))");
+// run leaves higher-numbered files); only names this command writes are removed (`series`: the
+// series' names), and a resumed run keeps the `keep` frames written before its checkpoint.
+void remove_stale_frames(const fs::path& frames, const std::set<std::string>& series,
+                         int32_t keep) {
+  static const std::regex kFrameName(R"((.+)_([0-9]{6})\.(vtp|obj))");
   std::error_code ec;
   std::smatch match;
   for (const auto& e : fs::directory_iterator(frames, ec)) {
     const std::string name = e.path().filename().string();
     if (e.is_regular_file(ec) && std::regex_match(name, match, kFrameName) &&
-        std::stoi(match[2].str()) >= keep)
+        series.contains(match[1].str()) && std::stoi(match[2].str()) >= keep)
       fs::remove(e.path(), ec);
   }
 }
 
-// One VTK time series: a layer's mesh written at every frame, listed in NAME.pvd.
+// A series' file name for an embedded surface: its name with anything but letters, digits,
+// '-', '_' and '.' made '_' ("label 2" -> "label_2"), and made unique among `taken` (a
+// structure named "skin" becomes "skin_2").
+std::string series_name(const std::string& surface, const std::set<std::string>& taken) {
+  std::string name = surface;
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_' && c != '.') c = '_';
+  if (name.empty() || name.front() == '.') name.insert(0, "_");
+  const std::string base = name;
+  for (int k = 2; taken.contains(name); ++k) name = base + "_" + std::to_string(k);
+  return name;
+}
+
+// One VTK time series: a layer's or an embedded surface's mesh written at every frame, listed in
+// NAME.pvd.
 struct Series {
-  std::string name;  // "skin", "layer1", ...
-  int32_t layer = 0;
-  SurfaceMesh mesh;  // connectivity fixed, positions updated per frame
+  std::string name;       // "skin", "layer1", ..., then the embedded surfaces' ("vessels")
+  int32_t layer = 0;      // the layer shown, when embedded < 0
+  int32_t embedded = -1;  // else the embedded surface shown (Model::embedded), at W x
+  SurfaceMesh mesh;       // connectivity fixed, positions updated per frame (buffer reused)
   std::vector<std::pair<double, std::string>> files;  // time (s), path relative to OUTDIR
 };
 
 void write_frame(Series& series, const sim::Simulation& s, const fs::path& out, int32_t index,
                  bool obj) {
-  const ModelLayer& layer = s.model().layers[static_cast<size_t>(series.layer)];
-  series.mesh.V = s.x.middleRows(layer.first_node, layer.node_count);
+  if (series.embedded >= 0) {
+    model::embedded_positions(s.model().embedded[static_cast<size_t>(series.embedded)], s.x,
+                              series.mesh.V);
+  } else {
+    const ModelLayer& layer = s.model().layers[static_cast<size_t>(series.layer)];
+    series.mesh.V = s.x.middleRows(layer.first_node, layer.node_count);
+  }
   const std::string stem = fmt::format("frames/{}_{:06d}", series.name, index);
   io::write_mesh(series.mesh, (out / (stem + ".vtp")).string());
   if (obj) io::write_mesh(series.mesh, (out / (stem + ".obj")).string());
@@ -122,8 +146,8 @@ void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simul
   if (!all_ok(k.touched) || !all_ok(k.loads.nodes)) throw bad("names a node outside the model");
   if (k.frames.size() != series.size() ||
       std::any_of(k.frames.begin(), k.frames.end(), [](const auto& f) { return f.empty(); }))
-    throw bad("lists frames of " + std::to_string(k.frames.size()) + " layers, the scene writes " +
-              std::to_string(series.size()));
+    throw bad("lists frames of " + std::to_string(k.frames.size()) +
+              " series, the scene and model write " + std::to_string(series.size()));
   if (k.progress.loop_step < 0 || k.progress.frame < 1 || !std::isfinite(k.progress.next_frame_s))
     throw bad("its progress counters are out of range");
   sim::restore_state(s, k.state);
@@ -173,14 +197,24 @@ struct RunOutputs {
 
   RunOutputs(const fs::path& folder, const io::Scene& scene, const Model& m, int32_t keep_frames)
       : out(folder), obj(scene.output.obj) {
-    create_folder(out / "frames");
-    remove_stale_frames(out / "frames", keep_frames);
+    std::set<std::string> names;
     for (int32_t k = 0; k < (scene.output.all_layers ? m.layer_count() : 1); ++k) {
       Series& se = series.emplace_back();
       se.name = k == 0 ? "skin" : "layer" + std::to_string(k);
       se.layer = k;
       se.mesh = model::layer_mesh(m, k);
+      names.insert(se.name);
     }
+    for (size_t k = 0; k < (scene.output.embedded ? m.embedded.size() : 0); ++k) {
+      Series& se = series.emplace_back();
+      se.name = series_name(m.embedded[k].name, names);
+      se.embedded = static_cast<int32_t>(k);
+      se.mesh.V = m.embedded[k].V;
+      se.mesh.F = m.embedded[k].F;
+      names.insert(se.name);
+    }
+    create_folder(out / "frames");
+    remove_stale_frames(out / "frames", names, keep_frames);
   }
 
   void write_frames(const sim::Simulation& s, io::RunProgress& so_far) {
@@ -335,20 +369,23 @@ void summarize_timing(LoopResult& loop, const RunArgs& a, io::RunSummary& sum) {
   }
 }
 
-void print_run(const io::RunSummary& sum, const std::string& output, size_t series,
-               int32_t frames) {
+void print_run(const io::RunSummary& sum, const std::string& output,
+               const std::vector<Series>& series, int32_t frames) {
+  std::string files;
+  for (const Series& se : series)
+    if (se.layer == 0 || se.embedded >= 0) files += (files.empty() ? "" : ", ") + se.name + ".pvd";
+  if (series.size() > 1 && series[1].embedded < 0) files += ", layer*.pvd";
   std::cout << fmt::format(
       "lamina run: {} on {} ({} nodes, {} layers)\n"
       "  {} after {} steps ({:.2f} s simulated) in {:.2f} s; {:.0f} steps/s\n"
       "  max displacement {:.3g} mm, max |volume change| {:.3g}%, final rest error {:.3g} mm\n"
-      "  wrote {}: metrics.csv, summary.json, {}.pvd ({} frames)\n",
+      "  wrote {}: metrics.csv, summary.json, {} ({} frames)\n",
       sum.scene, sum.model, sum.nodes, sum.layers,
       sum.converged ? "converged"
       : sum.stopped ? "stopped for a resume"
                     : "NOT converged",
       sum.steps, sum.sim_seconds, sum.wall_seconds, sum.steps_per_second, sum.max_displacement_mm,
-      sum.max_abs_volume_change_pct, sum.final_rest_error_mm, output,
-      series > 1 ? "skin.pvd, layer*" : "skin", frames);
+      sum.max_abs_volume_change_pct, sum.final_rest_error_mm, output, files, frames);
   if (sum.realtime)
     std::cout << fmt::format(
         "  realtime: {:.0f} steps/s achieved of {:.0f} ({:.2f}x real time{}); step start late by "
@@ -505,7 +542,7 @@ int run_run(const RunArgs& a) {
   if (a.json)
     std::cout << json << "\n";
   else
-    print_run(sum, a.output, outputs.series.size(), so_far.frame);
+    print_run(sum, a.output, outputs.series, so_far.frame);
   return 0;
 }
 

@@ -38,6 +38,9 @@ struct SceneOutput {
   double frame_interval_s = 0.05;
   bool all_layers = false;  ///< a series per layer, not only the skin
   bool obj = false;         ///< OBJ frames beside the .vtp ones
+  /// A series per embedded surface of the model (display skin, structures) at W x. A
+  /// 100k-triangle display skin is about 7.5 MB of ASCII .vtp a frame: false skips them.
+  bool embedded = true;
   /// true: one metrics.csv row per step; false: one per frame.
   bool metrics_every_step = true;
 };
