@@ -432,6 +432,7 @@ void read_output(const Value& v, Scene& s) {
       {"all_layers", boolean(in_output<&SceneOutput::all_layers>)},
       {"obj", boolean(in_output<&SceneOutput::obj>)},
       {"embedded", boolean(in_output<&SceneOutput::embedded>)},
+      {"display_skin", boolean(in_output<&SceneOutput::display_skin>)},
       {"metrics_every_step", boolean(in_output<&SceneOutput::metrics_every_step>)},
   };
   read_object(v.in.r, v.data, v.path, kKeys, s);

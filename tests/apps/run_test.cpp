@@ -444,7 +444,7 @@ TEST(LaminaRun, EveryEmbeddedSurfaceGetsASeriesAtWx) {
   ASSERT_EQ(m.embedded.size(), 3u);
   json scene = json::parse(small_scene(false));
   scene["model"] = {{"model", test::save_embedded_phantom(dir.file("model.vtu"))}};
-  scene["output"] = {{"frame_interval_s", 0.2}, {"all_layers", true}};
+  scene["output"] = {{"frame_interval_s", 0.2}, {"all_layers", true}, {"display_skin", true}};
   std::ofstream(dir.file("scene.json")) << scene.dump(2);
   const RunResult run = run_lamina(dir, "-q run scene.json -o out");
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -491,6 +491,20 @@ TEST(LaminaRun, EveryEmbeddedSurfaceGetsASeriesAtWx) {
       EXPECT_GT((pressed - rest).rowwise().norm().maxCoeff(), 1.0) << "the poke moved it";
     }
   }
+}
+
+// By default the structures get their series and the (heavy) display skin does not.
+TEST(LaminaRun, TheDisplaySkinSeriesIsWrittenOnlyWhenAskedFor) {
+  test::TempDir dir;
+  json scene = json::parse(small_scene(false));
+  scene["model"] = {{"model", test::save_embedded_phantom(dir.file("model.vtu"))}};
+  scene["output"] = {{"frame_interval_s", 0.5}};
+  std::ofstream(dir.file("scene.json")) << scene.dump(2);
+  const RunResult run = run_lamina(dir, "-q run scene.json -o out");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(fs::exists(dir.path / "out" / "vessels.pvd"));
+  EXPECT_TRUE(fs::exists(dir.path / "out" / "tumour.pvd"));
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "display_skin.pvd"));
 }
 
 TEST(LaminaRun, TwoToolsAtOnceBothDeformTheSkin) {

@@ -205,7 +205,9 @@ struct RunOutputs {
       se.mesh = model::layer_mesh(m, k);
       names.insert(se.name);
     }
-    for (size_t k = 0; k < (scene.output.embedded ? m.embedded.size() : 0); ++k) {
+    for (size_t k = 0; k < m.embedded.size(); ++k) {
+      const bool skin = m.embedded[k].label == 0 && m.embedded[k].name == "display_skin";
+      if (!(skin ? scene.output.display_skin : scene.output.embedded)) continue;
       Series& se = series.emplace_back();
       se.name = series_name(m.embedded[k].name, names);
       se.embedded = static_cast<int32_t>(k);

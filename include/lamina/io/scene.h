@@ -38,9 +38,13 @@ struct SceneOutput {
   double frame_interval_s = 0.05;
   bool all_layers = false;  ///< a series per layer, not only the skin
   bool obj = false;         ///< OBJ frames beside the .vtp ones
-  /// A series per embedded surface of the model (display skin, structures) at W x. A
-  /// 100k-triangle display skin is about 7.5 MB of ASCII .vtp a frame: false skips them.
+  /// A series per embedded structure of the model (vessels, tumour: `lamina build --embed`) at
+  /// W x; false skips them.
   bool embedded = true;
+  /// A series of the display skin too, at W x. Off by default: it is the organ's surface at the
+  /// mask's resolution, about 2.7 MB of ASCII .vtp a frame on the built-in phantom (36k
+  /// triangles) and 7.5 MB on a 512^2 mask (100k): 80-230 MB for the default poke's frames.
+  bool display_skin = false;
   /// true: one metrics.csv row per step; false: one per frame.
   bool metrics_every_step = true;
 };
