@@ -156,6 +156,10 @@ void EmbeddedDrawing::prepare(const Frame& fr, const SkinColoring& coloring) {
 
 void EmbeddedDrawing::draw_structures(const Frame& fr, GLint u_lit) {
   glUniform1i(u_lit, 1);
+  // Closed and wound outward: their back faces are hidden, and a software rasteriser (llvmpipe)
+  // spends half the time it would on them.
+  glEnable(GL_CULL_FACE);
+  glCullFace(GL_BACK);
   for (size_t i = 0; i < surfaces_.size(); ++i) {
     if (static_cast<int32_t>(i) == display_skin_ || !drawn(fr, i)) continue;
     const Eigen::Vector3f c = i < fr.style.embedded.size() ? fr.style.embedded[i].color
@@ -164,6 +168,7 @@ void EmbeddedDrawing::draw_structures(const Frame& fr, GLint u_lit) {
     glVertexAttrib4f(2, c[0], c[1], c[2], 1.0f);
     glDrawElements(GL_TRIANGLES, surfaces_[i].indices, GL_UNSIGNED_INT, nullptr);
   }
+  glDisable(GL_CULL_FACE);
   glBindVertexArray(0);
 }
 
