@@ -105,8 +105,10 @@ struct RenderArgs {
   std::string inner = "hidden";  ///< hidden, translucent, wireframe
   std::string color = "organ";   ///< organ, displacement
   bool springs = false;
-  bool rings = false;  ///< colour the contacts' BFS rings (paper fig. 2)
-  bool white = false;  ///< white background (print)
+  bool rings = false;               ///< colour the contacts' BFS rings (paper fig. 2)
+  bool white = false;               ///< white background (print)
+  std::string display_skin = "on";  ///< on: the model's display skin in place of layer 0; off
+  std::string structures = "all";   ///< embedded structures shown: all, none or NAME[,NAME...]
   bool verbose = false;
 };
 /// Renders one picture without a window (EGL surfaceless).

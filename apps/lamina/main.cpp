@@ -209,6 +209,12 @@ int main(int argc, char** argv) {
   re->add_flag("--springs", rend.springs, "draw every spring");
   re->add_flag("--rings", rend.rings, "colour each contact's BFS rings (the paper's figure 2)");
   re->add_flag("--white", rend.white, "white background (for print)");
+  re->add_option("--display-skin", rend.display_skin,
+                 "on (default): draw the model's fine display skin, if it has one, in place of "
+                 "the simulation's skin; off: the simulation's skin");
+  re->add_option("--structures", rend.structures,
+                 "embedded structures to draw inside a translucent skin: all (default), none, or "
+                 "names (vessels,tumour)");
 
   cli::FiguresArgs figs;
   auto* fi = app.add_subcommand(

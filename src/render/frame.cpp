@@ -12,6 +12,39 @@ Eigen::Vector4f ring_color(int32_t level) {
   return {c[0], c[1], c[2], 1.0f};
 }
 
+EmbeddedLook embedded_look(const Model& model, size_t index) {
+  // Blue-violet vessels and a yellow-green tumour (the labels of make_phantom's anatomy), then
+  // colours apart from the organ's red-brown and from each other.
+  static const float kPalette[][3] = {{0.35f, 0.40f, 0.95f}, {0.80f, 0.90f, 0.20f},
+                                      {0.20f, 0.80f, 0.75f}, {0.85f, 0.45f, 0.90f},
+                                      {0.95f, 0.95f, 0.95f}, {0.30f, 0.75f, 0.30f}};
+  EmbeddedLook look;
+  if (index >= model.embedded.size()) return look;
+  const int32_t label = model.embedded[index].label;
+  const auto& c = kPalette[static_cast<size_t>(std::max(label - 2, 0)) % 6];
+  look.color = {c[0], c[1], c[2]};
+  return look;
+}
+
+int32_t display_skin_index(const Model& model) {
+  for (size_t i = 0; i < model.embedded.size(); ++i)
+    if (model.embedded[i].name == "display_skin") return static_cast<int32_t>(i);
+  return -1;
+}
+
+Style default_style(const Model& model) {
+  Style style;
+  for (size_t i = 0; i < model.embedded.size(); ++i)
+    style.embedded.push_back(embedded_look(model, i));
+  const bool structures =
+      model.embedded.size() > (display_skin_index(model) >= 0 ? size_t{1} : size_t{0});
+  if (structures) {
+    style.skin_alpha = 0.45f;
+    style.inner = InnerLayers::kHidden;
+  }
+  return style;
+}
+
 namespace {
 
 const Eigen::MatrixX3d& positions(const Frame& f) {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "draw_embedded.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/mesh_measures.h"
 
@@ -137,16 +138,6 @@ void add_arrow(std::vector<OverlayVertex>& out, const Arrow& a, double scene_rad
   }
 }
 
-// Displacement as heat on the organ: its own colour at rest, through orange to pale yellow at the
-// top of the range; monotonic in lightness, so it reads in greyscale and for colour-blind viewers.
-Eigen::Vector4f displacement_color(const Eigen::Vector3f& organ, float t) {
-  t = std::clamp(t, 0.0f, 1.0f);
-  const Eigen::Vector3f mid(0.95f, 0.50f, 0.10f), top(1.0f, 0.95f, 0.55f);
-  const Eigen::Vector3f c =
-      t < 0.5f ? organ + (mid - organ) * (2.0f * t) : mid + (top - mid) * (2.0f * t - 1.0f);
-  return {c[0], c[1], c[2], 1.0f};
-}
-
 }  // namespace
 
 struct Renderer::Impl {
@@ -165,7 +156,10 @@ struct Renderer::Impl {
   Range intra_springs, inter_springs;
 
   std::vector<float> pos, normal, color;  // per node, reused
-  bool vertices_sent = false;             // the vertex buffers hold this model's vertices
+  std::vector<int8_t> ring_level;         // per node: the ring colouring it, -1 = none; reused
+  SkinColoring skin_coloring;             // how the display skin follows the skin's colours
+  EmbeddedDrawing embedded;
+  bool vertices_sent = false;  // the vertex buffers hold this model's vertices
   std::vector<OverlayVertex> overlay;
 
   void upload_model(const Model& m) {
@@ -215,6 +209,8 @@ struct Renderer::Impl {
     pos.resize(n * 3);
     normal.resize(n * 3);
     color.resize(n * 4);
+    ring_level.resize(n);
+    embedded.upload_model(m);
   }
 
   // Positions, smooth normals (area-weighted face normals, per layer) and colours, per node.
@@ -258,14 +254,19 @@ struct Renderer::Impl {
       }
       for (int q = 0; q < 4; ++q) color[4 * i + q] = c[q];
     }
+    skin_coloring.displacement_range_mm = st.coloring == Coloring::kDisplacement ? range : 0.0f;
+    skin_coloring.ring_level = fr.rings.empty() ? nullptr : &ring_level;
+    if (!fr.rings.empty()) std::fill(ring_level.begin(), ring_level.end(), int8_t{-1});
     for (const RingHighlight& h : fr.rings) {
       if (h.node < 0 || h.node >= n) continue;
       const int32_t levels = std::min(h.levels, m.rings.locality);
       for (int32_t r = levels - 1; r >= 0; --r) {  // inner rings drawn last, so they win
         const Eigen::Vector4f c = ring_color(r);
         const int32_t* ring = m.rings.ring(h.node, r);
-        for (int64_t q = 0; q < m.rings.ring_size(h.node, r); ++q)
+        for (int64_t q = 0; q < m.rings.ring_size(h.node, r); ++q) {
           for (int s = 0; s < 4; ++s) color[4 * ring[q] + s] = c[s];
+          ring_level[ring[q]] = static_cast<int8_t>(r);
+        }
       }
     }
   }
@@ -388,7 +389,9 @@ void Renderer::draw(const Frame& fr, const Camera& camera, int width, int height
     glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * 4 * sizeof(float)),
                     r.color.data());
     r.vertices_sent = true;
+    r.embedded.mark_stale();
   }
+  r.embedded.prepare(fr, r.skin_coloring);
 
   const double scene_radius =
       pass.scene_radius_mm > 0.0 ? pass.scene_radius_mm : render::scene_radius(m, camera);
@@ -407,7 +410,11 @@ void Renderer::draw(const Frame& fr, const Camera& camera, int width, int height
   glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
   glDisable(GL_CULL_FACE);
 
-  // 1. Inner layers, deepest first.
+  // 1. Structures inside the organ (embedded surfaces), opaque: drawn before anything
+  // translucent, so that a translucent layer or skin blends over them.
+  r.embedded.draw_structures(fr, r.u_lit);
+  glBindVertexArray(r.vao);
+  // 2. Inner layers, deepest first.
   const bool see_inside = st.inner != InnerLayers::kHidden;
   for (int32_t k = m.layer_count() - 1; k >= 1 && see_inside; --k) {
     if (st.inner == InnerLayers::kWireframe) {
@@ -423,12 +430,12 @@ void Renderer::draw(const Frame& fr, const Camera& camera, int width, int height
       glUniform1f(r.u_alpha, 1.0f);
     }
   }
-  // 2. Springs.
+  // 3. Springs.
   if (st.springs) {
     r.draw_lines(r.intra_springs, {0.75f, 0.75f, 0.75f, 0.6f});
     r.draw_lines(r.inter_springs, {0.35f, 0.6f, 1.0f, 0.8f});
   }
-  // 3. Overlays: arrows and spheres, opaque, so they show through a translucent skin.
+  // 4. Overlays: arrows and spheres, opaque, so they show through a translucent skin.
   r.overlay.clear();
   for (const Arrow& a : fr.arrows) add_arrow(r.overlay, a, scene_radius);
   for (const Marker& mk : fr.markers) add_sphere(r.overlay, mk);
@@ -441,8 +448,9 @@ void Renderer::draw(const Frame& fr, const Camera& camera, int width, int height
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(r.overlay.size()));
     glBindVertexArray(r.vao);
   }
-  // 4. The skin, pushed back a little so its wireframe wins the depth test; translucent skins
-  // draw front faces only and leave the depth buffer to what is inside.
+  // 5. The skin (the display skin in its place when shown), pushed back a little so its wireframe
+  // wins the depth test; translucent skins draw front faces only and leave the depth buffer to what
+  // is inside.
   glUniform1i(r.u_lit, 1);
   glEnable(GL_POLYGON_OFFSET_FILL);
   glPolygonOffset(1.0f, 1.0f);
@@ -453,7 +461,8 @@ void Renderer::draw(const Frame& fr, const Camera& camera, int width, int height
     glDepthMask(GL_FALSE);
     glUniform1f(r.u_alpha, std::max(st.skin_alpha, 0.0f));
   }
-  r.draw_elements(GL_TRIANGLES, r.triangles[0]);
+  if (!r.embedded.draw_display_skin(fr)) r.draw_elements(GL_TRIANGLES, r.triangles[0]);
+  glBindVertexArray(r.vao);
   glDepthMask(GL_TRUE);
   glDisable(GL_CULL_FACE);
   glDisable(GL_POLYGON_OFFSET_FILL);

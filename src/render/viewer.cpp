@@ -103,6 +103,7 @@ std::vector<DrawItem> draw_items(ViewerState& s, bool count_as_frame) {
     item.name = &name;
     item.frame.model = st.model.get();
     item.frame.x = &st.x;
+    for (const Eigen::MatrixX3d& e : st.embedded_x) item.frame.embedded_x.push_back(&e);
     item.frame.rings = st.overlays.rings;
     item.frame.arrows = st.overlays.arrows;
     item.frame.markers = st.overlays.markers;

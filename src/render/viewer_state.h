@@ -21,6 +21,7 @@ namespace lamina::render {
 struct Structure {
   std::unique_ptr<Model> model;  // stable address: the GL backend caches its buffers by it
   Eigen::MatrixX3d x;
+  std::vector<Eigen::MatrixX3d> embedded_x;  // per model->embedded: its vertices at x, reused
   Overlays overlays;
   Style style;
   bool dirty = true;  // vertices (positions, normals, colours) changed since the last upload

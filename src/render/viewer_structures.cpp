@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "lamina/core/error.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/render/viewer.h"
 #include "viewer_state.h"
 
@@ -54,8 +55,16 @@ bool same_rings(const std::vector<RingHighlight>& a, const std::vector<RingHighl
   return true;
 }
 
+bool same_looks(const std::vector<EmbeddedLook>& a, const std::vector<EmbeddedLook>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (a[i].visible != b[i].visible || a[i].color != b[i].color) return false;
+  return true;
+}
+
 bool same_style(const Style& a, const Style& b) {
-  return a.inner == b.inner && a.skin_alpha == b.skin_alpha &&
+  return a.display_skin == b.display_skin && same_looks(a.embedded, b.embedded) &&
+         a.inner == b.inner && a.skin_alpha == b.skin_alpha &&
          a.skin_wireframe == b.skin_wireframe && a.springs == b.springs &&
          a.coloring == b.coloring && a.displacement_range_mm == b.displacement_range_mm &&
          a.background == b.background && a.organ_color == b.organ_color;
@@ -79,8 +88,9 @@ void register_model(const std::string& name, const Model& model) {
   ViewerState& s = viewer_state("register_model");
   check_model(name, model);
   auto it = s.structures.find(name);
+  const bool replaced = it != s.structures.end();
   Style style;
-  if (it != s.structures.end()) {
+  if (replaced) {
     style = it->second.style;  // a replaced model keeps how it was shown
     s.backend->forget(name);
     s.structures.erase(it);
@@ -88,7 +98,8 @@ void register_model(const std::string& name, const Model& model) {
   Structure st;
   st.model = std::make_unique<Model>(model);
   st.x = st.model->X;
-  st.style = style;
+  for (const EmbeddedSurface& e : st.model->embedded) st.embedded_x.push_back(e.V);
+  st.style = replaced ? style : default_style(model);
   s.structures.emplace(name, std::move(st));
   if (!s.camera_fitted) {
     s.camera = fit_camera(model);
@@ -118,6 +129,9 @@ void update_positions(const std::string& name, const Eigen::MatrixX3d& x) {
         "update_positions", name,
         fmt::format("position row {} is not finite ({}, {}, {})", i, x(i, 0), x(i, 1), x(i, 2)));
   st.x = x;
+  // The embedded surfaces follow here, once per update, into buffers of fixed size.
+  for (size_t i = 0; i < st.embedded_x.size(); ++i)
+    model::embedded_positions(st.model->embedded[i], st.x, st.embedded_x[i]);
   st.dirty = true;
   ++st.stats.updates;
 }
@@ -125,6 +139,16 @@ void update_positions(const std::string& name, const Eigen::MatrixX3d& x) {
 const Eigen::MatrixX3d& positions(const std::string& name) {
   ViewerState& s = viewer_state("positions");
   return find_structure(s, name, "positions").x;
+}
+
+const std::vector<Eigen::MatrixX3d>& embedded_positions(const std::string& name) {
+  ViewerState& s = viewer_state("embedded_positions");
+  return find_structure(s, name, "embedded_positions").embedded_x;
+}
+
+const Style& style(const std::string& name) {
+  ViewerState& s = viewer_state("style");
+  return find_structure(s, name, "style").style;
 }
 
 void set_overlays(const std::string& name, Overlays overlays) {

@@ -16,6 +16,9 @@
 #include <fstream>
 #include <thread>
 
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/model/build_model.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/render/viewer.h"
 #include "support/sphere_model.h"
 #include "support/temp_dir.h"
@@ -408,6 +411,71 @@ TEST_F(ViewSessionTest, AScriptWaitsForTheOrganToSettleAfterItsRelease) {
   EXPECT_GE(s.report()["max_displacement_3s_after_release_mm"].get<double>(), 0.0)
       << "the script went on before the 3 simulated seconds after the release";
   s.finish();
+}
+
+}  // namespace
+}  // namespace lamina::cli
+
+namespace lamina::cli {
+namespace {
+
+// The phantom with its anatomy, small: a display skin and two structures inside.
+ViewModel anatomy_view_model() {
+  model::BuildOptions o;
+  o.display_triangles = 5000;
+  o.structure_triangles = 3000;
+  o.embed = {{.name = "vessels", .label = 2}, {.name = "tumour", .label = 3}};
+  ViewModel vm;
+  vm.model =
+      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}, .anatomy = true}), o)
+          .model;
+  vm.fixed = posterior_cap(vm.model);
+  vm.source = "the phantom's anatomy";
+  return vm;
+}
+
+TEST_F(ViewSessionTest, TheDisplaySkinAndStructuresFollowTheDragAndTheDisplayKeyToggles) {
+  ViewSession s(fast_options(), anatomy_view_model());
+  ASSERT_EQ(s.model().embedded.size(), 3u);
+  s.start();
+  s.frame();
+  // Shown as default_style says: the display skin, both structures, a translucent skin.
+  const std::string name = ViewSession::kModelName;
+  EXPECT_TRUE(render::style(name).display_skin);
+  ASSERT_EQ(render::style(name).embedded.size(), 3u);
+  EXPECT_TRUE(render::style(name).embedded[1].visible && render::style(name).embedded[2].visible);
+  EXPECT_LT(render::style(name).skin_alpha, 1.0f);
+
+  drag_from_centre(s, 120.0, 1.0);
+  EXPECT_THAT(s.last_press(), HasSubstr("drag node"));
+  for (int k = 0; k < 3; ++k) {  // the drag still acting, frame after frame
+    s.frame();
+    const Eigen::MatrixX3d& x = render::positions(name);
+    ASSERT_GT((x - s.model().X).rowwise().norm().maxCoeff(), 0.5) << "the drag moved nothing";
+    const std::vector<Eigen::MatrixX3d>& drawn = render::embedded_positions(name);
+    ASSERT_EQ(drawn.size(), 3u);
+    for (size_t i = 0; i < drawn.size(); ++i) {
+      Eigen::MatrixX3d expected;
+      model::embedded_positions(s.model().embedded[i], x, expected);
+      EXPECT_TRUE(drawn[i] == expected) << s.model().embedded[i].name << " after frame " << k;
+      EXPECT_GT((drawn[i] - s.model().embedded[i].V).rowwise().norm().maxCoeff(), 0.01)
+          << s.model().embedded[i].name << " did not move with the organ";
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+
+  render::inject(InputEvent::key_down("d"));
+  s.frame();
+  EXPECT_FALSE(render::style(name).display_skin) << "D did not switch to the simulation's skin";
+  render::inject(InputEvent::key_up("d"));
+  render::inject(InputEvent::key_down("d"));
+  s.frame();
+  EXPECT_TRUE(render::style(name).display_skin);
+  s.finish();
+  const nlohmann::json r = s.report();
+  EXPECT_EQ(r["display_skin"], true);
+  ASSERT_EQ(r["embedded_drawn"].size(), 3u);
+  EXPECT_EQ(r["embedded_drawn"][1]["name"], "vessels");
 }
 
 }  // namespace

@@ -212,6 +212,41 @@ TEST(Render, WritesAPictureWithNoDisplayAndRejectsBadOptions) {
   EXPECT_FALSE(fs::exists(dir.path / "picture.jpg"));
 }
 
+// Whether two files hold the same bytes (a PNG of the same picture is the same file).
+bool same_file(const fs::path& a, const fs::path& b) {
+  return test::read_text(a) == test::read_text(b);
+}
+
+TEST(Render, DrawsTheDisplaySkinAndStructuresAsAskedAndRefusesBadChoices) {
+  test::TempDir dir;
+  const std::string lamina = quoted(test::lamina_cli());
+  auto r = run_shell(dir, lamina + " phantom --labels --spacing 3 -o ph.nii.gz && " + lamina +
+                              " build ph.nii.gz --display-triangles 5000 --structure-triangles "
+                              "3000 --embed 2=vessels,3=tumour -o m.vtu");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string render = "env -u DISPLAY " + lamina + " render m.vtu --size 240x180 -o ";
+  for (const char* args :
+       {"all.png", "named.png --structures vessels,tumour", "none.png --structures none",
+        "vessels.png --structures vessels", "sim.png --structures none --display-skin off"}) {
+    r = run_shell(dir, render + args);
+    ASSERT_EQ(r.exit_code, 0) << args << ": " << r.err;
+  }
+  EXPECT_TRUE(same_file(dir.path / "all.png", dir.path / "named.png"));
+  EXPECT_FALSE(same_file(dir.path / "all.png", dir.path / "none.png"));
+  EXPECT_FALSE(same_file(dir.path / "all.png", dir.path / "vessels.png"));
+  EXPECT_FALSE(same_file(dir.path / "none.png", dir.path / "vessels.png"));
+  EXPECT_FALSE(same_file(dir.path / "none.png", dir.path / "sim.png"));
+
+  r = run_shell(dir, render + "bad.png --display-skin maybe");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--display-skin: expected on or off"), std::string::npos) << r.err;
+  r = run_shell(dir, render + "bad.png --structures liver");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("no structure 'liver' (it has: vessels, tumour)"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir.path / "bad.png"));
+}
+
 TEST(Figures, QuickRunWritesEveryFigureAndItsData) {
   test::TempDir dir;
   const auto r = run_shell(dir, quoted(test::lamina_cli()) + " figures --quick -o figs");

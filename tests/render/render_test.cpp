@@ -8,6 +8,7 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/render/camera.h"
 #include "lamina/render/offscreen.h"
 #include "lamina/render/renderer.h"
@@ -20,6 +21,19 @@ const Model& phantom_model() {
     model::BuildOptions o;
     o.layers = 3;
     return model::build_model(geometry::make_phantom(), o).model;
+  }();
+  return m;
+}
+
+// The phantom with its anatomy: a display skin and two structures (vessels, tumour), small.
+const Model& anatomy_model() {
+  static const Model m = [] {
+    model::BuildOptions o;
+    o.display_triangles = 5000;
+    o.structure_triangles = 3000;
+    o.embed = {{.name = "vessels", .label = 2}, {.name = "tumour", .label = 3}};
+    return model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}, .anatomy = true}), o)
+        .model;
   }();
   return m;
 }
@@ -198,6 +212,128 @@ TEST_F(Headless, DeformedStateAndOverlaysRenderDifferently) {
   inside.style.skin_alpha = 0.3f;
   inside.style.springs = true;
   EXPECT_GT(differing_fraction(a, render_image(*renderer_, inside, cam, 320, 240)), 0.02);
+}
+
+// The mean pixel of what differs from the background.
+Eigen::Vector2d coverage_centroid(const Image& img, const Eigen::Vector4f& background) {
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  double n = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      const uint8_t* p = img.pixel(x, y);
+      int diff = 0;
+      for (int c = 0; c < 3; ++c)
+        diff = std::max(diff, std::abs(p[c] - static_cast<int>(std::lround(255 * background[c]))));
+      if (diff > 3) sum += Eigen::Vector2d(x, y), ++n;
+    }
+  return n > 0 ? Eigen::Vector2d(sum / n) : Eigen::Vector2d(-1, -1);
+}
+
+TEST_F(Headless, StructuresShowThroughTheSkinWhereTheyAre) {
+  ASSERT_NE(renderer_, nullptr);
+  const Model& m = anatomy_model();
+  ASSERT_EQ(m.embedded.size(), 3u);
+  ASSERT_EQ(display_skin_index(m), 0);
+  Frame shown;
+  shown.model = &m;
+  shown.style = default_style(m);
+  EXPECT_LT(shown.style.skin_alpha, 1.0f) << "structures need a translucent skin by default";
+  Frame hidden = shown;
+  for (size_t i = 1; i < m.embedded.size(); ++i) hidden.style.embedded[i].visible = false;
+  const Camera cam = fit_camera(m);
+  const int w = 320, h = 240;
+  const Image a = render_image(*renderer_, shown, cam, w, h);
+  const Image b = render_image(*renderer_, hidden, cam, w, h);
+  EXPECT_GT(differing_fraction(a, b), 0.01) << "the structures are not seen through the skin";
+
+  // Every pixel that changed lies where a structure projects (its screen bounding box).
+  const Eigen::Matrix4d pv =
+      projection_matrix(cam, double(w) / h, 1.3 * scene_radius(m, cam)) * view_matrix(cam);
+  Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+  for (size_t i = 1; i < m.embedded.size(); ++i)
+    for (Eigen::Index v = 0; v < m.embedded[i].V.rows(); ++v) {
+      const Eigen::Vector4d c = pv * m.embedded[i].V.row(v).transpose().homogeneous();
+      const Eigen::Vector2d px((c.x() / c.w() + 1) * 0.5 * w, (1 - c.y() / c.w()) * 0.5 * h);
+      lo = lo.cwiseMin(px), hi = hi.cwiseMax(px);
+    }
+  size_t changed = 0, outside = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const uint8_t *p = a.pixel(x, y), *q = b.pixel(x, y);
+      if (std::max({std::abs(p[0] - q[0]), std::abs(p[1] - q[1]), std::abs(p[2] - q[2])}) <= 8)
+        continue;
+      ++changed;
+      if (x < lo.x() - 2 || x > hi.x() + 2 || y < lo.y() - 2 || y > hi.y() + 2) ++outside;
+    }
+  EXPECT_GT(changed, 0u);
+  EXPECT_LE(outside, changed / 100) << "pixels changed away from the structures";
+
+  // Hiding one structure changes only part of what hiding both does.
+  Frame no_tumour = shown;
+  no_tumour.style.embedded[2].visible = false;
+  const double one = differing_fraction(a, render_image(*renderer_, no_tumour, cam, w, h));
+  EXPECT_GT(one, 0.001);
+  EXPECT_LT(one, differing_fraction(a, b));
+}
+
+TEST_F(Headless, DisplaySkinOffDrawsTheSimulationsSkin) {
+  ASSERT_NE(renderer_, nullptr);
+  const Model& m = anatomy_model();
+  Model bare = m;  // the same model without embedded surfaces: layer 0 is its skin
+  bare.embedded.clear();
+  const Camera cam = fit_camera(m);
+  Frame display;
+  display.model = &m;  // opaque skin, no structures: the skins alone are compared
+  for (size_t i = 0; i < m.embedded.size(); ++i) display.style.embedded.push_back({false, {}});
+  Frame simulation = display;
+  simulation.style.display_skin = false;
+  Frame layer0;
+  layer0.model = &bare;
+  const Image d = render_image(*renderer_, display, cam, 320, 240);
+  const Image s = render_image(*renderer_, simulation, cam, 320, 240);
+  const Image l = render_image(*renderer_, layer0, cam, 320, 240);
+  EXPECT_EQ(differing_fraction(s, l), 0.0) << "display_skin = false is not layer 0's drawing";
+  EXPECT_GT(differing_fraction(d, l), 0.01) << "the display skin was not drawn";
+  // Both are the organ: about the same coverage of the picture.
+  const double cd = coverage(d, display.style.background).fraction,
+               cl = coverage(l, layer0.style.background).fraction;
+  EXPECT_GT(cl, 0.1);
+  EXPECT_NEAR(cd, cl, 0.1 * cl);
+}
+
+TEST_F(Headless, EmbeddedSurfacesAreDrawnWhereTheirPositionsSay) {
+  ASSERT_NE(renderer_, nullptr);
+  const Model& m = anatomy_model();
+  const Camera cam = fit_camera(m);
+  // The whole organ moved along the camera's right by a tenth of its size.
+  const Eigen::Vector3d right = view_matrix(cam).block<1, 3>(0, 0).transpose();
+  const double size = (m.X.colwise().maxCoeff() - m.X.colwise().minCoeff()).norm();
+  const Eigen::MatrixX3d x = m.X.rowwise() + (0.1 * size * right).transpose();
+  std::vector<Eigen::MatrixX3d> ex(m.embedded.size());
+  Frame rest, moved, stale;  // stale: moved nodes, but embedded positions given at rest
+  rest.model = moved.model = stale.model = &m;
+  moved.x = stale.x = &x;
+  for (size_t i = 0; i < m.embedded.size(); ++i) {
+    model::embedded_positions(m.embedded[i], x, ex[i]);
+    moved.embedded_x.push_back(&ex[i]);
+    stale.embedded_x.push_back(&m.embedded[i].V);
+  }
+  rest.style = moved.style = stale.style = default_style(m);
+  rest.style.skin_alpha = moved.style.skin_alpha = stale.style.skin_alpha = 1.0f;
+  const Eigen::Vector4f bg = rest.style.background;
+  const Eigen::Vector2d c0 = coverage_centroid(render_image(*renderer_, rest, cam, 320, 240), bg);
+  const Eigen::Vector2d c1 = coverage_centroid(render_image(*renderer_, moved, cam, 320, 240), bg);
+  const Eigen::Vector2d c2 = coverage_centroid(render_image(*renderer_, stale, cam, 320, 240), bg);
+  EXPECT_GT(c1.x() - c0.x(), 10.0) << "the display skin did not follow its positions";
+  EXPECT_NEAR(c1.y(), c0.y(), 3.0);
+  // Given positions are the ones drawn (the display skin hides the moved simulation skin)...
+  EXPECT_LT(std::abs(c2.x() - c0.x()), 2.0);
+  // ... and none given: the renderer computes them from x, to the same picture.
+  Frame computed = moved;
+  computed.embedded_x.clear();
+  EXPECT_EQ(differing_fraction(render_image(*renderer_, moved, cam, 320, 240),
+                               render_image(*renderer_, computed, cam, 320, 240)),
+            0.0);
 }
 
 TEST_F(Headless, WritesAPng) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <sstream>
 
 #include "commands.h"
 #include "lamina/core/error.h"
@@ -131,29 +132,64 @@ int run_view(const ViewArgs& a) {
   return session.run();
 }
 
+namespace {
+
+// The model's default style (render::default_style: a translucent skin over its structures), then
+// the options. The structures' names are checked against the model.
+render::Style render_style(const RenderArgs& a, const Model& m, render::InnerLayers inner) {
+  render::Style style = render::default_style(m);
+  style.display_skin = a.display_skin == "on";
+  const int32_t skin = render::display_skin_index(m);
+  bool any = false;
+  if (a.structures != "all") {
+    std::vector<std::string> names;
+    std::istringstream list(a.structures == "none" ? "" : a.structures);
+    for (std::string n; std::getline(list, n, ',');) names.push_back(n);
+    for (size_t i = 0; i < m.embedded.size(); ++i)
+      style.embedded[i].visible = std::count(names.begin(), names.end(), m.embedded[i].name) > 0;
+    for (const std::string& n : names) {
+      const auto it = std::find_if(m.embedded.begin(), m.embedded.end(),
+                                   [&](const EmbeddedSurface& e) { return e.name == n; });
+      if (it == m.embedded.end() || it - m.embedded.begin() == skin) {
+        std::string known;
+        for (size_t i = 0; i < m.embedded.size(); ++i)
+          if (static_cast<int32_t>(i) != skin)
+            known += (known.empty() ? "" : ", ") + m.embedded[i].name;
+        throw invalid_input("--structures", "the model has no structure '" + n + "' (it has: " +
+                                                (known.empty() ? "none" : known) + ")");
+      }
+    }
+  }
+  for (size_t i = 0; i < m.embedded.size(); ++i)
+    any = any || (static_cast<int32_t>(i) != skin && style.embedded[i].visible);
+  style.inner = inner;
+  style.skin_alpha = inner != render::InnerLayers::kHidden ? 0.35f : any ? 0.45f : 1.0f;
+  style.coloring =
+      a.color == "displacement" ? render::Coloring::kDisplacement : render::Coloring::kOrgan;
+  style.springs = a.springs;
+  if (a.white) style.background = {1.0f, 1.0f, 1.0f, 1.0f};
+  return style;
+}
+
+}  // namespace
+
 int run_render(const RenderArgs& a) {
   check_output(a.output, {".png"}, "picture");
   if (!(a.at_s >= 0.0) || !std::isfinite(a.at_s))
     throw invalid_input("--at", "must be a time >= 0 s");
-  render::Style style;
-  if (a.inner == "hidden")
-    style.inner = render::InnerLayers::kHidden;
-  else if (a.inner == "translucent")
-    style.inner = render::InnerLayers::kTranslucent;
+  render::InnerLayers inner = render::InnerLayers::kHidden;
+  if (a.inner == "translucent")
+    inner = render::InnerLayers::kTranslucent;
   else if (a.inner == "wireframe")
-    style.inner = render::InnerLayers::kWireframe;
-  else
+    inner = render::InnerLayers::kWireframe;
+  else if (a.inner != "hidden")
     throw invalid_input("--inner",
                         "expected hidden, translucent or wireframe, got '" + a.inner + "'");
-  if (style.inner != render::InnerLayers::kHidden) style.skin_alpha = 0.35f;
-  if (a.color == "organ")
-    style.coloring = render::Coloring::kOrgan;
-  else if (a.color == "displacement")
-    style.coloring = render::Coloring::kDisplacement;
-  else
+  if (a.color != "organ" && a.color != "displacement")
     throw invalid_input("--color", "expected organ or displacement, got '" + a.color + "'");
-  style.springs = a.springs;
-  if (a.white) style.background = {1.0f, 1.0f, 1.0f, 1.0f};
+  if (a.display_skin != "on" && a.display_skin != "off")
+    throw invalid_input("--display-skin", "expected on or off, got '" + a.display_skin + "'");
+  if (a.structures.empty()) throw invalid_input("--structures", "expected all, none or names");
   const CameraOption view = parse_camera(a.camera);  // checked before the (slow) model
 
   // The context first: with no EGL, say so before spending seconds on a model.
@@ -172,7 +208,8 @@ int run_render(const RenderArgs& a) {
   render::Frame frame;
   frame.model = &m;
   frame.x = &s.x;
-  frame.style = style;
+  frame.style = render_style(a, m, inner);
+
   int acting = 0;
   for (size_t t = 0; t < driver.tools.size(); ++t) {
     if (t >= driver.active.size() || !driver.active[t]) continue;

@@ -57,6 +57,8 @@ void ViewSession::State::handle_key(const std::string& key) {
   } else if (key == "g") {
     grasp_mode = !grasp_mode;
     tool_mode = false;
+  } else if (key == "d") {
+    style.display_skin = !style.display_skin;  // the display skin or the simulation's
   }
 }
 

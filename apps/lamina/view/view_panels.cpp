@@ -44,6 +44,32 @@ void ViewSession::State::frame_organ(const Model& m) const {
       m, size.x(), size.y(), static_cast<int>(2.0f * kPanelMargin + kPanelWidth), 0);
 }
 
+// The model's embedded surfaces: the display skin in place of the simulation's, and each
+// structure inside the organ shown or not, in its colour.
+void ViewSession::State::embedded_panel(const Model& m) {
+  const int32_t skin = render::display_skin_index(m);
+  if (skin >= 0) {
+    const EmbeddedSurface& e = m.embedded[skin];
+    ImGui::Checkbox("display skin", &style.display_skin);
+    ImGui::SameLine();
+    ImGui::TextDisabled("%lld triangles (simulation's: %lld)", static_cast<long long>(e.F.rows()),
+                        static_cast<long long>(m.layers[0].F.rows()));
+  }
+  style.embedded.resize(m.embedded.size());
+  for (size_t i = 0; i < m.embedded.size(); ++i) {
+    if (static_cast<int32_t>(i) == skin) continue;
+    const EmbeddedSurface& e = m.embedded[i];
+    ImGui::PushID(static_cast<int>(i));
+    ImGui::ColorEdit3("##colour", style.embedded[i].color.data(), ImGuiColorEditFlags_NoInputs);
+    ImGui::SameLine();
+    ImGui::Checkbox(e.name.c_str(), &style.embedded[i].visible);
+    ImGui::SameLine();
+    ImGui::TextDisabled("%lld vertices, %lld triangles", static_cast<long long>(e.V.rows()),
+                        static_cast<long long>(e.F.rows()));
+    ImGui::PopID();
+  }
+}
+
 void ViewSession::State::panels() {
   ImGui::SetNextWindowPos(ImVec2(kPanelMargin, kPanelMargin), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(kPanelWidth, 0), ImGuiCond_FirstUseEver);
@@ -226,6 +252,7 @@ void ViewSession::State::panels() {
       style.skin_alpha = style.inner == render::InnerLayers::kHidden ? 1.0f : 0.35f;
     }
     ImGui::SliderFloat("skin opacity", &style.skin_alpha, 0.05f, 1.0f);
+    embedded_panel(m);
     ImGui::Checkbox("skin wireframe", &style.skin_wireframe);
     ImGui::SameLine();
     ImGui::Checkbox("springs", &style.springs);

@@ -48,6 +48,10 @@ void ViewSession::State::adopt_rebuilt() {
   loop.reset();  // the loop points into the old model: stop it before replacing the model
   vm = std::move(next);
   render::register_model(kModelName, vm->model);  // replaces the old one, style kept
+  // ... but for its embedded surfaces, which are the new model's own.
+  style.embedded.clear();
+  for (size_t i = 0; i < vm->model.embedded.size(); ++i)
+    style.embedded.push_back(render::embedded_look(vm->model, i));
   if (vm->material) material = *vm->material;
   gesture = Gesture::kNone;
   // The last drag's record names nodes of the old model, which mean nothing (or lie outside)

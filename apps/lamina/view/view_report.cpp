@@ -90,6 +90,21 @@ nlohmann::json ViewSession::State::report() const {
   j["pinned_forces"] = pinned.size();
   j["nodes"] = vm->model.node_count();
   j["layers"] = vm->model.layer_count();
+  // The embedded surfaces drawn at the end (the display skin and the visible structures).
+  const Model& m = vm->model;
+  const int32_t skin = render::display_skin_index(m);
+  j["display_skin"] = skin >= 0 && style.display_skin;
+  j["embedded_drawn"] = nlohmann::json::array();
+  for (size_t i = 0; i < m.embedded.size(); ++i) {
+    const bool drawn = static_cast<int32_t>(i) == skin
+                           ? style.display_skin
+                           : i >= style.embedded.size() || style.embedded[i].visible;
+    if (drawn)
+      j["embedded_drawn"].push_back({{"name", m.embedded[i].name},
+                                     {"label", m.embedded[i].label},
+                                     {"vertices", m.embedded[i].V.rows()},
+                                     {"triangles", m.embedded[i].F.rows()}});
+  }
   j["rebuilds"] = rebuilds;
   j["screenshots"] = screenshots;
   return j;

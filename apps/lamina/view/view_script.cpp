@@ -78,8 +78,9 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
           throw invalid_input(at, "expected \"drag\", \"tool\" or \"grasp\"");
         ev.mode = value.get<std::string>();
       } else if (key == "key") {
-        if (value != "r" && value != "space" && value != "c" && value != "t" && value != "g")
-          throw invalid_input(at, "expected \"r\", \"space\", \"c\", \"t\" or \"g\"");
+        if (value != "r" && value != "space" && value != "c" && value != "t" && value != "g" &&
+            value != "d")
+          throw invalid_input(at, "expected \"r\", \"space\", \"c\", \"t\", \"g\" or \"d\"");
         ev.key = value.get<std::string>();
       } else if (key == "screenshot") {
         if (!value.is_string() || value.get<std::string>().empty())

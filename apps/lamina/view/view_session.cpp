@@ -59,6 +59,8 @@ void ViewSession::start() {
   if (!render::is_initialized())
     throw Error(ErrorKind::kInternal, "ViewSession::start() before render::init()");
   render::register_model(kModelName, v.vm->model);
+  v.style = render::default_style(v.vm->model);  // a translucent skin over its structures
+  v.inner_choice = static_cast<int>(v.style.inner);
   v.frame_organ(v.vm->model);  // in the part of the window the left panel leaves free
   v.start_loop();
   v.start_time = Clock::now();

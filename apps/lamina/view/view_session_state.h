@@ -139,6 +139,7 @@ struct ViewSession::State {
   void start_left_gesture(const render::Input& in);
   // view_panels.cpp
   void panels();
+  void embedded_panel(const Model& m);  // the Display panel's embedded surfaces
   /// The camera that frames the organ right of the left panel (its first view, "Fit view").
   void frame_organ(const Model& m) const;
   void record_plots();

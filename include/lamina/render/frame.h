@@ -20,6 +20,12 @@ enum class Coloring : uint8_t {
   kDisplacement,  ///< distance from rest: organ colour (0), orange, pale yellow (the range's top)
 };
 
+/// How one of the model's embedded surfaces (Model::embedded) is drawn.
+struct EmbeddedLook {
+  bool visible = true;
+  Eigen::Vector3f color{0.0f, 0.0f, 0.0f};  ///< a structure's; the display skin takes the skin's
+};
+
 /// Drawing choices, all live in the viewer's "Display" panel.
 struct Style {
   InnerLayers inner = InnerLayers::kTranslucent;
@@ -30,7 +36,25 @@ struct Style {
   float displacement_range_mm = 0.0f;  ///< kDisplacement: the red end; 0 = the frame's largest
   Eigen::Vector4f background{0.12f, 0.13f, 0.16f, 1.0f};
   Eigen::Vector3f organ_color{0.60f, 0.22f, 0.17f};  ///< liver red-brown
+  /// The model's "display_skin" (an embedded surface at the segmentation's resolution), when it
+  /// has one, is drawn in place of layer 0's triangles; false: the simulation's own skin.
+  bool display_skin = true;
+  /// One per Model::embedded entry (the display skin's `visible` is ignored: display_skin
+  /// decides). Missing entries are drawn as embedded_look() says.
+  std::vector<EmbeddedLook> embedded;
 };
+
+/// The default look of the model's embedded surface `index`: visible, coloured from a fixed
+/// palette by its label (vessels 2: blue-violet, tumour 3: yellow-green; other labels cycle).
+EmbeddedLook embedded_look(const Model& model, size_t index);
+
+/// The style a model is first shown with: Style{}, and when it carries structures (embedded
+/// surfaces other than the display skin) a skin of opacity 0.45 with the inner layers hidden, so
+/// that the structures are seen through it; `embedded` filled by embedded_look().
+Style default_style(const Model& model);
+
+/// The index of the model's embedded "display_skin" in Model::embedded, or -1.
+int32_t display_skin_index(const Model& model);
 
 /// The BFS rings 0..levels-1 of a node, coloured level by level as in the paper's figure 2.
 struct RingHighlight {
@@ -55,6 +79,10 @@ struct Marker {
 struct Frame {
   const Model* model = nullptr;
   const Eigen::MatrixX3d* x = nullptr;  ///< #nodes by 3 positions, mm; nullptr = rest shape
+  /// One per Model::embedded entry: its #V by 3 deformed vertices, mm, when the caller has them
+  /// (model::embedded_positions of x); missing or nullptr: the renderer computes them from x
+  /// (its rest positions V when x is nullptr).
+  std::vector<const Eigen::MatrixX3d*> embedded_x;
   std::vector<RingHighlight> rings;
   std::vector<Arrow> arrows;
   std::vector<Marker> markers;

@@ -73,7 +73,8 @@ void check_display();
 // ---- structures ---------------------------------------------------------------------------
 
 /// Registers (or replaces) a model to show under `name`, drawn at its rest positions until
-/// update_positions(). The engine keeps its own copy.
+/// update_positions(). The engine keeps its own copy. A new name is shown with
+/// default_style(model); a replaced model keeps its style.
 /// \note Throws lamina::Error (kInvalidInput) naming the structure and what arrived when the
 ///   model cannot be drawn: no nodes, no layers, a non-finite rest position, a face or spring
 ///   naming a node that does not exist.
@@ -90,6 +91,10 @@ bool has_model(const std::string& name);
 void update_positions(const std::string& name, const Eigen::MatrixX3d& x);
 /// The positions the model is drawn at (its rest positions until update_positions()).
 const Eigen::MatrixX3d& positions(const std::string& name);
+/// Its embedded surfaces' vertices as drawn, one #V by 3 matrix per Model::embedded entry:
+/// model::embedded_positions() of positions(name), computed by update_positions() into buffers
+/// allocated at registration (rest positions until then).
+const std::vector<Eigen::MatrixX3d>& embedded_positions(const std::string& name);
 
 /// What is drawn over a model this frame: the contacts' BFS rings, force arrows, spheres (the
 /// tool tip, contacts). Frame's add_force_arrow() and add_contact_marker() compute them.
@@ -103,6 +108,8 @@ struct Overlays {
 void set_overlays(const std::string& name, Overlays overlays);
 /// Replaces a model's drawing style (the first model's background clears the view).
 void set_style(const std::string& name, const Style& style);
+/// A model's drawing style (default_style(model) until set_style()).
+const Style& style(const std::string& name);
 
 // ---- frames -------------------------------------------------------------------------------
 
