@@ -166,6 +166,9 @@ struct ServeArgs {
   std::string host = "127.0.0.1";        ///< address to listen on (0.0.0.0: every interface)
   int port = 18944;                      ///< OpenIGTLink's (and 3D Slicer's) default; 0 = any
   double send_hz = 30.0;                 ///< POLYDATA messages per second; 0 = only on request
+  /// POLYDATA messages per second of each embedded surface (display skin, structures: tens of
+  /// thousands of triangles each); 0 = only on request.
+  double embedded_hz = 10.0;
   /// Reaction-force messages per second, at most one per step (1000: every step of the 1 kHz
   /// loop, a haptic device's rate); 0 = one with each POLYDATA batch.
   double reaction_hz = 1000.0;

@@ -251,6 +251,9 @@ int main(int argc, char** argv) {
   se->add_option("--send-hz", serve.send_hz,
                  "POLYDATA messages per second to every client (default 30; 0 = only in answer "
                  "to GET_POLYDATA)");
+  se->add_option("--embedded-hz", serve.embedded_hz,
+                 "POLYDATA messages per second of each embedded surface, named as in the model "
+                 "(display_skin, vessels, ...) (default 10; 0 = only in answer to GET_POLYDATA)");
   se->add_option("--reaction-hz", serve.reaction_hz,
                  "reaction-force messages per second, at most one per step (default 1000: every "
                  "step at 1 kHz; 0 = one with each POLYDATA batch)");

@@ -11,7 +11,10 @@
 #include <regex>
 #include <sstream>
 
+#include "lamina/io/model_file.h"
+#include "lamina/model/embed_surface.h"
 #include "serve_support.h"
+#include "support/embedded_phantom.h"
 #include "support/temp_dir.h"
 
 namespace lamina::test {
@@ -133,8 +136,10 @@ TEST(Serve, TheExamplePolyDataClientGetsTheWholeSkin) {
   const nlohmann::json summary = nlohmann::json::parse(built.out);
   const int64_t vertices = summary["layers"][0]["vertices"], faces = summary["layers"][0]["faces"];
 
-  // --send-hz 0: nothing is pushed, so each answer is the next message the client reads.
-  Server server(dir.path, with({"phantom", "--send-hz", "0", "--reaction-hz", "0"}));
+  // --send-hz 0 --embedded-hz 0: nothing is pushed, so each answer is the next message the client
+  // reads.
+  Server server(dir.path,
+                with({"phantom", "--send-hz", "0", "--embedded-hz", "0", "--reaction-hz", "0"}));
   Child client({IGTL_POLYDATA_CLIENT, "127.0.0.1", std::to_string(server.port())},
                dir.path / "client_out.txt", dir.path / "client_err.txt");
   ASSERT_EQ(client.wait(30.0), 0);
@@ -294,6 +299,86 @@ TEST(Serve, AnUnstableSimulationIsLoggedResetAndEndsWithExitFive) {
   EXPECT_NE(server.log().find("time(s) during the session"), std::string::npos) << server.log();
 }
 
+// The embedded surfaces of the model served (a display skin, vessels, a tumour) each stream as a
+// POLYDATA named after the surface, W x of the served state: at rest exactly the rest surface's
+// (as float32), and the display skin dents where a pose pushes the skin.
+TEST(Serve, EachEmbeddedSurfaceStreamsAsAPolyDataNamedAfterIt) {
+  TempDir dir;
+  const std::string path = save_embedded_phantom(dir.file("embedded.vtu"));
+  const Model m = io::load_model(path);
+  ASSERT_EQ(m.embedded.size(), 3u);
+  Server server(dir.path, with({path, "--embedded-hz", "20"}));
+  Client tool(server.port()), watcher(server.port());
+  std::vector<Eigen::MatrixX3d> rest;
+  for (const EmbeddedSurface& e : m.embedded) {
+    const auto message = watcher.receive("POLYDATA", e.name, 30.0);
+    ASSERT_TRUE(message) << e.name << "\n" << server.log();
+    const auto polydata = unpack<igtl::PolyDataMessage>(*message);
+    ASSERT_EQ(polydata->GetPoints()->GetNumberOfPoints(), e.V.rows()) << e.name;
+    ASSERT_EQ(polydata->GetPolygons()->GetNumberOfCells(), e.F.rows()) << e.name;
+    for (const Eigen::Index f : {Eigen::Index{0}, e.F.rows() / 2, e.F.rows() - 1}) {
+      igtlUint32 cell[3] = {0, 0, 0};
+      ASSERT_EQ(polydata->GetPolygons()->GetCell(static_cast<unsigned int>(f), cell), 1);
+      EXPECT_EQ(Eigen::Vector3i(cell[0], cell[1], cell[2]), e.F.row(f).transpose()) << e.name;
+    }
+    // Nothing has touched the organ: the served x is the rest X, sent in RAS as float32 (about
+    // 1e-5 mm at 100 mm from the origin).
+    Eigen::MatrixX3d expected;
+    model::embedded_positions(e, m.X, expected);
+    expected.leftCols(2) *= -1.0;
+    rest.push_back(polydata_points(*message));
+    EXPECT_LT((rest.back() - expected).cwiseAbs().maxCoeff(), 1e-4) << e.name;
+  }
+
+  // The skin's most anterior node pushed 2 mm in, as in the test above.
+  const auto skin = tool.receive("POLYDATA", "LaminaSkin", 30.0);
+  ASSERT_TRUE(skin);
+  const Eigen::MatrixX3d skin_rest = polydata_points(*skin);
+  Eigen::Index front = 0;
+  skin_rest.col(1).maxCoeff(&front);  // RAS: the most anterior node
+  const Eigen::Vector3d push_direction(0, -1, 0);
+  tool.send_bytes(
+      transform_bytes("Needle", skin_rest.row(front).transpose() + Eigen::Vector3d(0, 3, 0)));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const auto pushed = latest(watcher, "POLYDATA", "display_skin", 0.3);
+  ASSERT_TRUE(pushed);
+  const Eigen::MatrixX3d moved = polydata_points(*pushed) - rest[0];
+  Eigen::Index most = 0;
+  const double max_moved = moved.rowwise().norm().maxCoeff(&most);
+  EXPECT_GT(max_moved, 0.1) << server.log();
+  EXPECT_GT(moved.row(most).dot(push_direction.transpose()), 0.0) << moved.row(most);
+
+  const Summary s = stop(server);
+  EXPECT_EQ(s.dropped, 0) << server.log();
+  EXPECT_NE(server.log().find("POLYDATA 'display_skin': "), std::string::npos) << server.log();
+}
+
+// --embedded-hz 0: no embedded surface is streamed, the skin still is, and a GET_POLYDATA naming
+// one is answered with it.
+TEST(Serve, EmbeddedHzZeroStreamsNoneAndAnswersARequest) {
+  TempDir dir;
+  const std::string path = save_embedded_phantom(dir.file("embedded.vtu"));
+  Server server(dir.path, with({path, "--embedded-hz", "0"}));
+  Client client(server.port());
+  ASSERT_TRUE(client.receive("POLYDATA", "LaminaSkin", 30.0)) << server.log();
+  int skins = 0, others = 0;
+  const auto t0 = Clock::now();
+  while (seconds_since(t0) < 0.5) {
+    const std::optional<Received> r = client.receive(0.1);
+    if (!r) continue;
+    skins += r->device == "LaminaSkin";
+    others += r->type == "POLYDATA" && r->device != "LaminaSkin";
+  }
+  EXPECT_GT(skins, 5);
+  EXPECT_EQ(others, 0);
+  client.send_bytes(header_bytes(1, "GET_POLYDATA", "tumour", 0, {}));
+  const auto tumour = client.receive("POLYDATA", "tumour", 5.0);
+  ASSERT_TRUE(tumour) << server.log();
+  EXPECT_EQ(polydata_points(*tumour).rows(), embedded_phantom().embedded[2].V.rows());
+  const Summary s = stop(server);
+  EXPECT_EQ(s.dropped, 0) << server.log();
+}
+
 // Each bad client gets one log line naming it and its problem, and loses its connection; the
 // simulation keeps its pace and the next well-behaved client is served.
 // The reaction force streams every step (a haptic client's 1 kHz), the surfaces at 30 Hz.
@@ -417,6 +502,18 @@ TEST(Serve, BadOptionsAndABusyPortAreOneLineErrors) {
   const RunResult hz = run_cli(lamina_cli(), dir.path, dir.path, "serve --send-hz -1");
   EXPECT_EQ(hz.exit_code, 2);
   EXPECT_NE(hz.err.find("--send-hz: must be in [0, 1000]"), std::string::npos) << hz.err;
+  for (const std::string& bad : {"-1", "1e9"}) {
+    const RunResult embedded =
+        run_cli(lamina_cli(), dir.path, dir.path, "serve --embedded-hz " + bad);
+    EXPECT_EQ(embedded.exit_code, 2) << bad;
+    EXPECT_NE(embedded.err.find("--embedded-hz: must be in [0, 1000]"), std::string::npos)
+        << embedded.err;
+    EXPECT_EQ(std::count(embedded.err.begin(), embedded.err.end(), '\n'), 1) << embedded.err;
+  }
+  // Not a number: refused by the option parser, as for every option (its line, then its hint).
+  const RunResult word = run_cli(lamina_cli(), dir.path, dir.path, "serve --embedded-hz fast");
+  EXPECT_EQ(word.exit_code, 2);
+  EXPECT_NE(word.err.find("--embedded-hz = fast"), std::string::npos) << word.err;
   const RunResult frame = run_cli(lamina_cli(), dir.path, dir.path, "serve --frame xyz");
   EXPECT_EQ(frame.exit_code, 2);
   EXPECT_NE(frame.err.find("--frame: must be ras or lps, got 'xyz'"), std::string::npos);

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -47,8 +48,14 @@ struct Client {
   bool have_header = false;  // `header` is read; `in` holds its body so far
   Header header;
   Clock::time_point last_byte;
-  std::deque<std::pair<Packed, size_t>> out;  // queued messages; bytes written of the first
-  size_t out_bytes = 0;                       // still to write
+  struct Queued {
+    Packed message;
+    size_t written = 0;  // bytes of it sent
+    int stream = -1;     // a Stream, or -1 for a reply
+  };
+  std::deque<Queued> out;
+  size_t out_bytes = 0;                      // still to write
+  std::array<int, kStreams> streamed_out{};  // queued messages of each stream
   bool gone = false;
 };
 
@@ -184,13 +191,16 @@ struct Server::State {
 
   void write_to(Client& c) {
     while (!c.out.empty() && !c.gone) {
-      auto& [message, written] = c.out.front();
+      auto& [message, written, stream] = c.out.front();
       const ssize_t n = ::send(c.fd, message->data() + written, message->size() - written,
                                MSG_NOSIGNAL | MSG_DONTWAIT);
       if (n > 0) {
         written += static_cast<size_t>(n);
         c.out_bytes -= static_cast<size_t>(n);
-        if (written == message->size()) c.out.pop_front();
+        if (written == message->size()) {
+          if (stream >= 0) --c.streamed_out[static_cast<size_t>(stream)];
+          c.out.pop_front();
+        }
         continue;
       }
       if (n < 0 && errno == EINTR) continue;
@@ -202,9 +212,10 @@ struct Server::State {
     }
   }
 
-  void queue(Client& c, const Packed& message) {
+  void queue(Client& c, const Packed& message, int stream = -1) {
     if (c.gone) return;
-    c.out.emplace_back(message, 0);
+    c.out.push_back({message, 0, stream});
+    if (stream >= 0) ++c.streamed_out[static_cast<size_t>(stream)];
     c.out_bytes += message->size();
     ++counters.messages_out;
     counters.bytes_out += static_cast<int64_t>(message->size());
@@ -312,14 +323,15 @@ void Server::send(int client, const Packed& message) {
     if (c->id == client) state_->queue(*c, message);
 }
 
-void Server::stream(const std::vector<Packed>& batch) {
+void Server::stream(const std::vector<Packed>& batch, Stream stream) {
+  const auto s = static_cast<size_t>(stream);
   for (auto& c : state_->clients) {
     if (c->gone) continue;
-    if (c->out_bytes > 0) {
+    if (c->streamed_out[s] > 0) {
       ++state_->counters.frames_skipped;
       continue;
     }
-    for (const Packed& m : batch) state_->queue(*c, m);
+    for (const Packed& m : batch) state_->queue(*c, m, static_cast<int>(s));
   }
 }
 

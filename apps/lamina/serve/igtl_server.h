@@ -47,6 +47,13 @@ struct ServerCounters {
   int64_t frames_skipped = 0;  ///< streamed batches not sent to a client still busy with one
 };
 
+/// What streamed messages belong to, each skipped for a busy client on its own.
+enum class Stream : uint8_t {
+  kSurfaces,  ///< the layers' POLYDATA and the reaction (--send-hz, --reaction-hz)
+  kEmbedded,  ///< the embedded surfaces' POLYDATA (--embedded-hz)
+};
+inline constexpr size_t kStreams = 2;
+
 class Server {
  public:
   /// Listens on options.host:options.port.
@@ -72,8 +79,9 @@ class Server {
   /// Queues a reply for one client.
   void send(int client, const Packed& message);
   /// Queues a batch of streamed messages for every client, except one that has not yet taken
-  /// the previous batch (a slow client gets fewer frames, never a growing queue).
-  void stream(const std::vector<Packed>& batch);
+  /// the previous batch of the same stream (a slow client gets fewer frames, never a growing
+  /// queue; a large message of one stream does not make a client miss the other's).
+  void stream(const std::vector<Packed>& batch, Stream stream);
 
   int client_count() const;
   const ServerCounters& counters() const;

@@ -1,6 +1,5 @@
 #include "igtl_wire.h"
 
-#include <igtlPolyDataMessage.h>
 #include <igtlTimeStamp.h>
 #include <igtlTransformMessage.h>
 #include <igtl_header.h>
@@ -8,6 +7,9 @@
 #include <igtl_transform.h>
 #include <igtl_util.h>
 
+#include <algorithm>
+#include <cassert>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 
@@ -149,37 +151,78 @@ Packed pack_transform(const std::string& device, const Eigen::Vector3d& t) {
   return packed_bytes(*message);
 }
 
-struct PolyDataPacker::Message {
-  igtl::PolyDataMessage::Pointer message;
-  igtl::PolyDataPointArray::Pointer points;
-};
+namespace {
 
-PolyDataPacker::PolyDataPacker(std::string device, const Eigen::MatrixX3i& F, int32_t points)
-    : device_(std::move(device)), points_(points), message_(std::make_unique<Message>()) {
-  message_->message = igtl::PolyDataMessage::New();
-  message_->message->SetDeviceName(device_.c_str());
-  message_->points = igtl::PolyDataPointArray::New();
-  message_->points->SetNumberOfPoints(points);
-  igtl::PolyDataCellArray::Pointer polygons = igtl::PolyDataCellArray::New();
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    igtlUint32 cell[3] = {static_cast<igtlUint32>(F(f, 0)), static_cast<igtlUint32>(F(f, 1)),
-                          static_cast<igtlUint32>(F(f, 2))};
-    polygons->AddCell(3, cell);
-  }
-  message_->message->SetPoints(message_->points);
-  message_->message->SetPolygons(polygons);
+void put_u32(uint8_t* at, uint32_t v) {
+  at[0] = static_cast<uint8_t>(v >> 24);
+  at[1] = static_cast<uint8_t>(v >> 16);
+  at[2] = static_cast<uint8_t>(v >> 8);
+  at[3] = static_cast<uint8_t>(v);
 }
 
-PolyDataPacker::~PolyDataPacker() = default;
-PolyDataPacker::PolyDataPacker(PolyDataPacker&&) noexcept = default;
-PolyDataPacker& PolyDataPacker::operator=(PolyDataPacker&&) noexcept = default;
+void put_u64(uint8_t* at, uint64_t v) {
+  put_u32(at, static_cast<uint32_t>(v >> 32));
+  put_u32(at + 4, static_cast<uint32_t>(v));
+}
 
-Packed PolyDataPacker::pack(const Eigen::MatrixX3d& points) {
+uint64_t timestamp_now() {
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                      std::chrono::system_clock::now().time_since_epoch())
+                      .count();
+  const auto seconds = static_cast<uint64_t>(ns / 1000000000);
+  return seconds << 32 | igtl_nanosec_to_frac(static_cast<igtl_uint32>(ns % 1000000000));
+}
+
+// POLYDATA's body: a header of ten counts and sizes, the points (float32 x, y, z), then the
+// vertices, lines, polygons and strips as (n, i1 ... in) lists, then attributes; only points and
+// polygons here. The header's time stamp (offset 34), body size (42) and CRC (50) follow the
+// version (2 bytes), type (12) and device name (20).
+constexpr size_t kTimestampAt = 34, kBodySizeAt = 42, kCrcAt = 50;
+constexpr size_t kPolyHeaderBytes = 10 * 4;
+
+}  // namespace
+
+PolyDataPacker::PolyDataPacker(std::string device, const Eigen::MatrixX3i& F, int32_t points)
+    : device_(std::move(device)), points_(points) {
+  const auto triangles = static_cast<size_t>(F.rows());
+  const size_t points_bytes = static_cast<size_t>(points) * 12, polygon_bytes = triangles * 16;
+  const size_t body = kPolyHeaderBytes + points_bytes + polygon_bytes;
+  message_ = std::make_shared<std::vector<uint8_t>>(kHeaderBytes + body, 0);
+  uint8_t* m = message_->data();
+  m[1] = 1;  // header version 1
+  std::memcpy(m + 2, "POLYDATA", 8);
+  std::memcpy(m + 14, device_.data(), std::min<size_t>(device_.size(), IGTL_HEADER_NAME_SIZE));
+  put_u64(m + kBodySizeAt, body);
+  const uint32_t counts[10] = {
+      static_cast<uint32_t>(points),        0, 0, 0, 0, static_cast<uint32_t>(triangles),
+      static_cast<uint32_t>(polygon_bytes), 0, 0, 0};
+  for (int i = 0; i < 10; ++i) put_u32(m + kHeaderBytes + 4 * i, counts[i]);
+  uint8_t* cell = m + kHeaderBytes + kPolyHeaderBytes + points_bytes;
+  for (size_t f = 0; f < triangles; ++f, cell += 16) {
+    put_u32(cell, 3);
+    for (int c = 0; c < 3; ++c)
+      put_u32(cell + 4 + 4 * c, static_cast<uint32_t>(F(static_cast<Eigen::Index>(f), c)));
+  }
+}
+
+Packed PolyDataPacker::pack(const Eigen::Ref<const Eigen::MatrixX3d>& points, Frame frame,
+                            uint64_t timestamp) {
+  assert(points.rows() == points_);
+  // A client still sending the last message keeps it; this one starts from a copy of the layout.
+  if (message_.use_count() > 1) message_ = std::make_shared<std::vector<uint8_t>>(*message_);
+  uint8_t* m = message_->data();
+  const float sign = frame == Frame::kRas ? -1.0f : 1.0f;  // RAS: x and y change sign
+  uint8_t* at = m + kHeaderBytes + kPolyHeaderBytes;
   for (int32_t i = 0; i < points_; ++i)
-    message_->points->SetPoint(i, static_cast<float>(points(i, 0)),
-                               static_cast<float>(points(i, 1)), static_cast<float>(points(i, 2)));
-  stamp_now(*message_->message);
-  return packed_bytes(*message_->message);
+    for (int c = 0; c < 3; ++c, at += 4) {
+      const float v = static_cast<float>(points(i, c)) * (c < 2 ? sign : 1.0f);
+      uint32_t bits;
+      std::memcpy(&bits, &v, 4);
+      put_u32(at, bits);
+    }
+  put_u64(m + kTimestampAt, timestamp != 0 ? timestamp : timestamp_now());
+  put_u64(m + kCrcAt, crc64(m + kHeaderBytes, message_->size() - kHeaderBytes, 0));
+  return message_;
 }
 
 }  // namespace lamina::cli::net

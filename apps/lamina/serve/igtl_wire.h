@@ -62,27 +62,28 @@ using Packed = std::shared_ptr<const std::vector<uint8_t>>;
 /// A TRANSFORM with identity rotation and translation `t` (header version 1, wall-clock time).
 Packed pack_transform(const std::string& device, const Eigen::Vector3d& t);
 
-/// POLYDATA messages of one surface whose triangles never change: the cells are set once and
-/// only the points are written again for each message.
+/// POLYDATA messages of one surface whose triangles never change. The whole message is laid out
+/// once, cells included; each pack() writes only the points, the time stamp and the CRC, in place
+/// when no client still holds the previous message (no allocation frame to frame).
+/// \note The bytes are those igtl::PolyDataMessage packs (header version 1, no attributes).
 class PolyDataPacker {
  public:
-  /// @param[in] device  the device name the messages carry
+  /// @param[in] device  the device name the messages carry (at most 20 characters)
   /// @param[in] F       #F by 3 triangles, indices into the points given to pack()
   /// @param[in] points  how many points each message has
   PolyDataPacker(std::string device, const Eigen::MatrixX3i& F, int32_t points);
-  ~PolyDataPacker();
-  PolyDataPacker(PolyDataPacker&&) noexcept;
-  PolyDataPacker& operator=(PolyDataPacker&&) noexcept;
 
-  /// Packs `points` (#points by 3, mm, already in the wire frame) with the triangles.
-  Packed pack(const Eigen::MatrixX3d& points);
+  /// Packs `points` (#points by 3, mm, in the model's LPS frame), written in `frame`, with the
+  /// triangles. `timestamp` is OpenIGTLink's (seconds << 32 | fraction); 0 = now.
+  Packed pack(const Eigen::Ref<const Eigen::MatrixX3d>& points, Frame frame,
+              uint64_t timestamp = 0);
   const std::string& device() const { return device_; }
+  size_t message_bytes() const { return message_->size(); }
 
  private:
-  struct Message;  // the library's message, kept between packs
   std::string device_;
   int32_t points_ = 0;
-  std::unique_ptr<Message> message_;
+  std::shared_ptr<std::vector<uint8_t>> message_;  // header, then body; shared with the queues
 };
 
 }  // namespace lamina::cli::net

@@ -17,6 +17,7 @@
 #include "lamina/core/log.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/io/scene.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
 
 namespace lamina::cli {
@@ -36,6 +37,8 @@ double seconds(Clock::duration d) {
 void check_args(const ServeArgs& a) {
   if (!(a.send_hz >= 0.0 && a.send_hz <= 1000.0))
     throw invalid_input("--send-hz", "must be in [0, 1000] messages per second");
+  if (!(a.embedded_hz >= 0.0 && a.embedded_hz <= 1000.0))
+    throw invalid_input("--embedded-hz", "must be in [0, 1000] messages per second");
   if (!(a.reaction_hz >= 0.0 && a.reaction_hz <= 1e5))
     throw invalid_input("--reaction-hz", "must be in [0, 1e5] messages per second");
   if (!(a.rate_hz > 0.0 && a.rate_hz <= 1e5))
@@ -66,15 +69,11 @@ std::string layer_device(int32_t k) {
   return k == 0 ? "LaminaSkin" : "LaminaLayer" + std::to_string(k);
 }
 
-// A GET_POLYDATA names a layer by its device name; any other name means the skin (the
-// protocol's example client asks as "Client").
-int32_t requested_layer(const std::string& device, int32_t layers) {
-  for (int32_t k = 1; k < layers; ++k)
-    if (device == layer_device(k)) return k;
-  return 0;
-}
+// OpenIGTLink's device names hold at most this many characters.
+constexpr size_t kMaxDeviceName = 20;
 
-// Turns the simulation's snapshot into messages, packing each surface's triangles once.
+// Turns the simulation's snapshot into messages: the layers' (LaminaSkin, LaminaLayerK) and the
+// embedded surfaces' (named as in the model), each packer laid out once with its triangles.
 class Outgoing {
  public:
   Outgoing(const Model& m, net::Frame frame) : model_(m), frame_(frame) {
@@ -82,30 +81,96 @@ class Outgoing {
       const ModelLayer& layer = m.layers[static_cast<size_t>(k)];
       // The model's triangles index every node; a message indexes its own points.
       const Eigen::MatrixX3i F = layer.F.array() - layer.first_node;
-      packers_.emplace_back(layer_device(k), F, layer.node_count);
+      layers_.emplace_back(layer_device(k), F, layer.node_count);
+    }
+    for (const EmbeddedSurface& e : m.embedded) {
+      // A name the wire cannot carry, or one that another message already has, would reach a
+      // client as some other surface: said, and that surface is not sent.
+      const bool taken = e.name == kReactionDevice || requested_layer(e.name) > 0 ||
+                         e.name == layer_device(0) || find_embedded(e.name) >= 0;
+      if (e.name.empty() || e.name.size() > kMaxDeviceName || taken) {
+        log::warn(
+            "the embedded surface '{}' is not sent over OpenIGTLink: {} (rename it in the "
+            "scene's build.embed)",
+            e.name,
+            taken ? "another message has that device name"
+                  : fmt::format("a device name has 1 to {} characters", kMaxDeviceName));
+        continue;
+      }
+      embedded_.push_back({&e, net::PolyDataPacker(e.name, e.F, static_cast<int32_t>(e.V.rows())),
+                           Eigen::MatrixX3d()});
     }
   }
 
-  net::Packed surface(const interact::LoopSnapshot& snap, int32_t k) {
-    const ModelLayer& layer = model_.layers[static_cast<size_t>(k)];
-    points_.resize(layer.node_count, 3);
-    for (int32_t i = 0; i < layer.node_count; ++i)
-      points_.row(i) =
-          net::change_frame(snap.x.row(layer.first_node + i).transpose(), frame_).transpose();
-    return packers_[static_cast<size_t>(k)].pack(points_);
+  // A GET_POLYDATA names a layer (LaminaLayerK) or an embedded surface; any other name means the
+  // skin (the protocol's example client asks as "Client").
+  net::Packed requested(const interact::LoopSnapshot& snap, const std::string& device) {
+    const int32_t e = find_embedded(device);
+    return e >= 0 ? embedded(snap, e) : layer(snap, requested_layer(device));
   }
+
+  net::Packed layer(const interact::LoopSnapshot& snap, int32_t k) {
+    const ModelLayer& l = model_.layers[static_cast<size_t>(k)];
+    return layers_[static_cast<size_t>(k)].pack(snap.x.middleRows(l.first_node, l.node_count),
+                                                frame_);
+  }
+
+  // The embedded surface's points W x; its buffers are kept from one frame to the next.
+  net::Packed embedded(const interact::LoopSnapshot& snap, int32_t e) {
+    Embedded& out = embedded_[static_cast<size_t>(e)];
+    const auto t0 = Clock::now();
+    model::embedded_positions(*out.surface, snap.x, out.points);
+    net::Packed message = out.packer.pack(out.points, frame_);
+    out.pack_s += seconds(Clock::now() - t0);
+    ++out.packs;
+    return message;
+  }
+  int32_t embedded_count() const { return static_cast<int32_t>(embedded_.size()); }
 
   net::Packed reaction(const Eigen::Vector3d& reaction_mn) const {
     return net::pack_transform(kReactionDevice, net::change_frame(reaction_mn, frame_));
   }
 
+  // One line per embedded surface sent: its size on the wire and what a frame of it cost.
+  void log_embedded(bool at_exit) const {
+    for (const Embedded& e : embedded_) {
+      if (at_exit && e.packs == 0) continue;
+      const std::string cost =
+          at_exit ? fmt::format(", {:.2f} ms per message to compute and pack ({} messages)",
+                                1e3 * e.pack_s / static_cast<double>(e.packs), e.packs)
+                  : "";
+      log::info("POLYDATA '{}': {} points, {} triangles, {:.0f} kB a message{}", e.packer.device(),
+                e.surface->V.rows(), e.surface->F.rows(),
+                static_cast<double>(e.packer.message_bytes()) / 1e3, cost);
+    }
+  }
+
   static constexpr const char* kReactionDevice = "LaminaReaction";
 
  private:
+  struct Embedded {
+    const EmbeddedSurface* surface;
+    net::PolyDataPacker packer;
+    Eigen::MatrixX3d points;  // W x, mm, LPS
+    double pack_s = 0.0;      // time spent on W x and packing, s
+    int64_t packs = 0;
+  };
+
+  int32_t requested_layer(const std::string& device) const {
+    for (int32_t k = 1; k < model_.layer_count(); ++k)
+      if (device == layer_device(k)) return k;
+    return 0;
+  }
+  int32_t find_embedded(const std::string& device) const {
+    for (size_t e = 0; e < embedded_.size(); ++e)
+      if (embedded_[e].packer.device() == device) return static_cast<int32_t>(e);
+    return -1;
+  }
+
   const Model& model_;
   net::Frame frame_;
-  std::vector<net::PolyDataPacker> packers_;
-  Eigen::MatrixX3d points_;
+  std::vector<net::PolyDataPacker> layers_;
+  std::vector<Embedded> embedded_;
 };
 
 }  // namespace
@@ -140,6 +205,7 @@ int run_serve(const ServeArgs& a) {
   const net::Frame frame = a.frame == "lps" ? net::Frame::kLps : net::Frame::kRas;
   Outgoing outgoing(m, frame);
   const int32_t streamed_layers = a.all_layers ? m.layer_count() : 1;
+  outgoing.log_embedded(false);
 
   interact::ToolTip tip;
   tip.radius_mm = a.tip_radius_mm;
@@ -197,8 +263,7 @@ int run_serve(const ServeArgs& a) {
     } else if (type == "GET_POLYDATA") {
       interact::LoopSnapshot snap;
       loop.latest(snap);
-      server.send(msg.client,
-                  outgoing.surface(snap, requested_layer(msg.header.device, m.layer_count())));
+      server.send(msg.client, outgoing.requested(snap, msg.header.device));
     } else if (type == "GET_TRANS") {
       interact::LoopSnapshot snap;
       loop.latest(snap);
@@ -245,6 +310,10 @@ int run_serve(const ServeArgs& a) {
   const auto reaction_tick = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(1.0 / std::max(a.reaction_hz, 1e-3)));
   auto next_reaction = start;
+  const auto embedded_tick = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / std::max(a.embedded_hz, 1e-3)));
+  auto next_embedded = start;
+  std::vector<net::Packed> embedded_batch;
   int64_t reaction_sent_step = -1;
   auto next_tick = start;
   auto next_behind_warning = start;
@@ -261,6 +330,8 @@ int run_serve(const ServeArgs& a) {
     if (a.duration_s > 0.0 && now >= deadline) break;
     double wait_s = std::min(seconds(next_tick - now), 0.1);
     if (a.reaction_hz > 0.0) wait_s = std::min(wait_s, seconds(next_reaction - now));
+    if (a.embedded_hz > 0.0 && outgoing.embedded_count() > 0)
+      wait_s = std::min(wait_s, seconds(next_embedded - now));
     if (a.duration_s > 0.0) wait_s = std::min(wait_s, seconds(deadline - now));
     server.poll(std::max(wait_s, 0.0), handle, closed);
     if (a.reaction_hz > 0.0 && Clock::now() >= next_reaction) {
@@ -269,8 +340,21 @@ int run_serve(const ServeArgs& a) {
       const interact::ReactionSample r = loop.latest_reaction();
       max_reaction_mn = std::max(max_reaction_mn, r.reaction_mn.norm());
       if (r.steps != reaction_sent_step && server.client_count() > 0) {
-        server.stream({outgoing.reaction(r.reaction_mn)});
+        server.stream({outgoing.reaction(r.reaction_mn)}, net::Stream::kSurfaces);
         reaction_sent_step = r.steps;
+      }
+    }
+    // The embedded surfaces are heavier (tens of thousands of triangles): their own rate and
+    // their own stream, so that a client still taking one never misses a skin or a reaction.
+    if (a.embedded_hz > 0.0 && outgoing.embedded_count() > 0 && Clock::now() >= next_embedded) {
+      next_embedded += embedded_tick;
+      if (next_embedded < Clock::now()) next_embedded = Clock::now() + embedded_tick;
+      if (server.client_count() > 0) {
+        loop.latest(snap);
+        embedded_batch.clear();
+        for (int32_t e = 0; e < outgoing.embedded_count(); ++e)
+          embedded_batch.push_back(outgoing.embedded(snap, e));
+        server.stream(embedded_batch, net::Stream::kEmbedded);
       }
     }
     if (Clock::now() < next_tick) continue;
@@ -300,9 +384,9 @@ int run_serve(const ServeArgs& a) {
     }
     if (a.send_hz > 0.0 && server.client_count() > 0) {
       std::vector<net::Packed> batch;
-      for (int32_t k = 0; k < streamed_layers; ++k) batch.push_back(outgoing.surface(snap, k));
+      for (int32_t k = 0; k < streamed_layers; ++k) batch.push_back(outgoing.layer(snap, k));
       if (a.reaction_hz == 0.0) batch.push_back(outgoing.reaction(snap.reaction_mn));
-      server.stream(batch);
+      server.stream(batch, net::Stream::kSurfaces);
     }
     // The loop measures real time over one-second windows; each new window is judged once.
     const uint64_t window =
@@ -334,6 +418,7 @@ int run_serve(const ServeArgs& a) {
         "the simulation ran at {:.2f}x real time over the whole run; a lower --rate, a smaller "
         "model or, on a busy machine, --threads 1 keeps up",
         rtf);
+  outgoing.log_embedded(true);
   const net::ServerCounters& c = server.counters();
   fmt::print(stderr,
              "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "

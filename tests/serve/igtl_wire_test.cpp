@@ -1,0 +1,88 @@
+// The server's own POLYDATA packing (laid out once, points rewritten in place) against the
+// OpenIGTLink library's igtl::PolyDataMessage: the same bytes, header and CRC included.
+#include "igtl_wire.h"
+
+#include <gtest/gtest.h>
+#include <igtlPolyDataMessage.h>
+#include <igtlTimeStamp.h>
+#include <igtl_util.h>
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace lamina::test {
+namespace {
+
+constexpr uint32_t kSeconds = 1700000000, kNanoseconds = 123456789;
+
+std::vector<uint8_t> library_bytes(const std::string& device, const Eigen::MatrixX3i& F,
+                                   const Eigen::MatrixX3d& P) {
+  igtl::PolyDataMessage::Pointer m = igtl::PolyDataMessage::New();
+  m->SetDeviceName(device.c_str());
+  igtl::PolyDataPointArray::Pointer points = igtl::PolyDataPointArray::New();
+  points->SetNumberOfPoints(static_cast<int>(P.rows()));
+  for (int i = 0; i < P.rows(); ++i)
+    points->SetPoint(i, static_cast<float>(P(i, 0)), static_cast<float>(P(i, 1)),
+                     static_cast<float>(P(i, 2)));
+  igtl::PolyDataCellArray::Pointer polygons = igtl::PolyDataCellArray::New();
+  for (int f = 0; f < F.rows(); ++f) {
+    igtlUint32 cell[3] = {static_cast<igtlUint32>(F(f, 0)), static_cast<igtlUint32>(F(f, 1)),
+                          static_cast<igtlUint32>(F(f, 2))};
+    polygons->AddCell(3, cell);
+  }
+  m->SetPoints(points);
+  m->SetPolygons(polygons);
+  igtl::TimeStamp::Pointer t = igtl::TimeStamp::New();
+  t->SetTime(kSeconds, kNanoseconds);
+  m->SetTimeStamp(t);
+  m->Pack();
+  const auto* bytes = static_cast<const uint8_t*>(m->GetPackPointer());
+  return {bytes, bytes + m->GetPackSize()};
+}
+
+// Where two messages first differ ("none" if they are equal), for a failure's message.
+std::string first_difference(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+    if (a[i] != b[i])
+      return "byte " + std::to_string(i) + ": " + std::to_string(a[i]) + " vs " +
+             std::to_string(b[i]);
+  return a.size() == b.size()
+             ? "none"
+             : std::to_string(a.size()) + " vs " + std::to_string(b.size()) + " bytes";
+}
+
+TEST(Serve, ThePolyDataPackerWritesTheLibrarysBytesAndReusesItsBuffer) {
+  Eigen::MatrixX3i F(3, 3);
+  F << 0, 1, 2, 0, 2, 3, 3, 2, 4;
+  Eigen::MatrixX3d P = Eigen::MatrixX3d::Random(5, 3) * 100.0;
+  // The library keeps seconds and nanoseconds; the wire has seconds and 2^-32 s.
+  const uint64_t timestamp = (uint64_t{kSeconds} << 32) | igtl_nanosec_to_frac(kNanoseconds);
+  cli::net::PolyDataPacker packer("display_skin", F, 5);
+  // RAS on the wire: the library is given the points already changed.
+  Eigen::MatrixX3d ras = P;
+  ras.leftCols(2) *= -1.0;
+  cli::net::Packed first = packer.pack(P, cli::net::Frame::kRas, timestamp);
+  EXPECT_EQ(first_difference(*first, library_bytes("display_skin", F, ras)), "none");
+  EXPECT_EQ(packer.message_bytes(), first->size());
+  const void* buffer = first->data();
+
+  // Still held (a client is sending it): the next message is a new buffer, the first unchanged.
+  P.array() += 1.0;
+  cli::net::Packed second = packer.pack(P, cli::net::Frame::kLps, timestamp);
+  EXPECT_NE(second->data(), buffer);
+  EXPECT_EQ(first_difference(*first, library_bytes("display_skin", F, ras)), "none");
+  EXPECT_EQ(first_difference(*second, library_bytes("display_skin", F, P)), "none");
+  // Released: the next message is written in place.
+  const void* reused = second->data();
+  first.reset();
+  second.reset();
+  P.array() += 1.0;
+  const cli::net::Packed third = packer.pack(P, cli::net::Frame::kLps, timestamp);
+  EXPECT_EQ(third->data(), reused);
+  EXPECT_EQ(first_difference(*third, library_bytes("display_skin", F, P)), "none");
+}
+
+}  // namespace
+}  // namespace lamina::test
