@@ -103,11 +103,15 @@ SurfaceMesh budget_surface(const Mask& mask, int64_t triangles, bool largest_onl
         what, "the triangle budget must be at least 100, got " + std::to_string(triangles));
   const double area = boundary_area_mm2(mask);
   if (area <= 0.0) throw invalid_input(what, "the mask has no surface");
-  // No finer than the voxels: about one triangle per voxel-sized patch of surface (the voxel's
-  // mean size, the cube root of its volume). A budget beyond that adds triangles, not detail.
+  // No finer than the voxels. The organ's skin: about one triangle per voxel-sized patch of
+  // surface (the voxel's mean size, the cube root of its volume), beyond which a budget adds
+  // triangles, not detail. A structure (a vessel a few voxels wide) keeps cells down to one
+  // voxel: three triangles a patch.
   const double voxel_mm = std::cbrt(mask.frame.voxel_volume_mm3());
+  const double per_patch = largest_only ? 1.0 : 3.0;
   triangles = std::min<int64_t>(
-      triangles, std::max<int64_t>(100, static_cast<int64_t>(area / (voxel_mm * voxel_mm))));
+      triangles,
+      std::max<int64_t>(100, static_cast<int64_t>(per_patch * area / (voxel_mm * voxel_mm))));
   // Two voxels of background around it: the distance is exact up to the border.
   const DistanceField fine = signed_distance(pad_mask(mask, 2));
   const double coarsest =

@@ -18,7 +18,10 @@ inline const Model& sphere_model(Eigen::Vector3d* centre = nullptr,
     const auto p = v.frame.to_physical(24.5, 24.5, 24.5);
     c = Eigen::Vector3d(p[0], p[1], p[2]);
     paint_sphere(v, p, 20.0, 1);
-    return model::build_model(v, {.structure = s, .skin_vertices = 600, .layer_depth_mm = 8.0})
+    return model::build_model(v, {.structure = s,
+                                  .display_triangles = 0,
+                                  .skin_vertices = 600,
+                                  .layer_depth_mm = 8.0})
         .model;
   };
   if (structure == model::Structure::kTetrahedra) {

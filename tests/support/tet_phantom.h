@@ -13,9 +13,9 @@
 namespace lamina::test {
 
 inline const Model& tet_phantom() {
-  static const Model m =
-      model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}), {.skin_vertices = 400})
-          .model;
+  static const Model m = model::build_model(geometry::make_phantom({.spacing_mm = {3, 3, 3}}),
+                                            {.display_triangles = 0, .skin_vertices = 400})
+                             .model;
   return m;
 }
 

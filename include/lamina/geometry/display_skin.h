@@ -20,7 +20,8 @@ namespace lamina::geometry {
 SurfaceMesh display_skin(const Mask& mask, int64_t triangles);
 
 /// The same for a structure carried inside the organ (a vessel tree, a tumour): every piece is
-/// kept. `name` names the structure in errors.
+/// kept, and the cells go down to the voxel's size (three times the skin's triangles per voxel
+/// of surface) so that thin vessels stay whole. `name` names the structure in errors.
 SurfaceMesh structure_surface(const Mask& mask, int64_t triangles, const std::string& name);
 
 }  // namespace lamina::geometry
