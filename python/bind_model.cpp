@@ -5,6 +5,10 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <array>
+#include <filesystem>
+#include <variant>
+
 #include "bindings.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
@@ -19,26 +23,15 @@ namespace py = pybind11;
 namespace lamina::python {
 namespace {
 
-// A read-only numpy view of `data` (rows x cols, strides in bytes) kept alive by `owner`.
-template <class T>
-py::array view(const T* data, std::vector<py::ssize_t> shape, std::vector<py::ssize_t> strides,
-               py::handle owner) {
-  py::array a(py::dtype::of<T>(), std::move(shape), std::move(strides), data, owner);
-  py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
-  return a;
-}
-
-// An Eigen column-major matrix (rows x 3 or 4) as an (rows, cols) view.
-template <class M>
-py::array matrix_view(const M& x, py::handle owner) {
-  using T = typename M::Scalar;
-  const auto s = static_cast<py::ssize_t>(sizeof(T));
-  return view(x.data(), {x.rows(), x.cols()}, {s, s * x.rows()}, owner);
-}
-
 template <class T>
 py::array vector_view(const std::vector<T>& v, py::handle owner) {
   return view(v.data(), {static_cast<py::ssize_t>(v.size())}, {sizeof(T)}, owner);
+}
+
+// A getter for a matrix member of a bound type T: a read-only view that keeps `self` alive.
+template <class T, class M>
+auto field_view(M T::*field) {
+  return [field](py::object self) { return matrix_view(self.cast<const T&>().*field, self); };
 }
 
 ProgressFn python_progress(const py::object& callback) {
@@ -47,6 +40,62 @@ ProgressFn python_progress(const py::object& callback) {
     py::gil_scoped_acquire gil;
     callback(std::string(stage), fraction);
   };
+}
+
+// A Mask (copied: the build shares it) or a path read as read_mask reads it.
+std::shared_ptr<const LabelVolume> mask_of(const py::handle& what) {
+  if (py::isinstance<py::str>(what))
+    return std::make_shared<const LabelVolume>(io::read_input(what.cast<std::string>()));
+  return std::make_shared<const LabelVolume>(what.cast<const LabelVolume&>());
+}
+
+// build_model's `embed` entries, as `lamina build --embed` / `--embed-mask` take them: a label
+// of the same segmentation (an int, or (label, name)), a separate mask ((Mask or path, name)),
+// or a dict with `label`, `name` and `mask` (each optional but one of label and mask).
+model::EmbedStructure embed_structure(const py::handle& entry, size_t k) {
+  const std::string what = "build_model: embed[" + std::to_string(k) + "]";
+  const auto refuse = [&]() -> model::EmbedStructure {
+    throw invalid_input(what, "is " + py::repr(entry).cast<std::string>() +
+                                  "; a label, (label, name), (Mask or path, name) or a dict "
+                                  "with label, name, mask expected");
+  };
+  model::EmbedStructure s;
+  py::object mask = py::none();
+  if (py::isinstance<py::int_>(entry) && !py::isinstance<py::bool_>(entry)) {
+    s.label = entry.cast<int32_t>();
+  } else if (py::isinstance<py::tuple>(entry) || py::isinstance<py::list>(entry)) {
+    const auto t = py::reinterpret_borrow<py::sequence>(entry);
+    if (t.size() != 2 || !py::isinstance<py::str>(t[1])) return refuse();
+    s.name = t[1].cast<std::string>();
+    if (py::isinstance<py::int_>(t[0]) && !py::isinstance<py::bool_>(t[0]))
+      s.label = t[0].cast<int32_t>();
+    else if (py::isinstance<py::str>(t[0]) || py::isinstance<LabelVolume>(t[0]))
+      mask = t[0];
+    else
+      return refuse();
+  } else if (py::isinstance<py::dict>(entry)) {
+    const auto d = py::reinterpret_borrow<py::dict>(entry);
+    for (const auto& [key, value] : d) {
+      const std::string name = py::str(key);
+      if (name == "label")
+        s.label = value.cast<int32_t>();
+      else if (name == "name")
+        s.name = value.cast<std::string>();
+      else if (name == "mask")
+        mask = py::reinterpret_borrow<py::object>(value);
+      else
+        throw invalid_input(what, "has key '" + name + "'; label, name and mask expected");
+    }
+    if (mask.is_none() && s.label == 0) return refuse();
+  } else {
+    return refuse();
+  }
+  if (!mask.is_none()) {
+    s.mask = mask_of(mask);
+    // As the CLI names --embed-mask FILE: the file's name without its extensions.
+    if (s.name.empty()) s.name = std::filesystem::path(s.mask->source).stem().stem().string();
+  }
+  return s;
 }
 
 }  // namespace
@@ -89,7 +138,45 @@ void bind_model(py::module_& m) {
       "Reads a segmentation: NIfTI, NRRD, MetaImage, a DICOM folder, or 'phantom'.\n"
       "Headers are checked (docs/errors.md); raises lamina.Error naming the file and field.");
   m.def(
-      "phantom", [] { return geometry::make_phantom(); }, "The built-in liver-like phantom mask.");
+      "phantom",
+      [](const std::variant<double, std::array<double, 3>>& spacing_mm, bool anatomy) {
+        geometry::PhantomOptions o;
+        if (const double* s = std::get_if<double>(&spacing_mm))
+          o.spacing_mm = {*s, *s, *s};
+        else
+          o.spacing_mm = std::get<std::array<double, 3>>(spacing_mm);
+        o.anatomy = anatomy;
+        return geometry::make_phantom(o);
+      },
+      py::kw_only(), py::arg("spacing_mm") = 1.5, py::arg("anatomy") = false,
+      "The built-in liver-like phantom mask. spacing_mm: voxel size, one value or (i, j, k);\n"
+      "anatomy: labels 1 liver, 2 a vessel tree, 3 a tumour (lamina phantom --labels), the\n"
+      "organ their union; else label 1.");
+
+  py::class_<EmbeddedSurface>(
+      m, "EmbeddedSurface",
+      "A surface carried by the model's tetrahedra (the display skin, a structure inside the\n"
+      "organ): vertex v lies at sum_c weights[v, c] * x[corners[v, c]]. Arrays are read-only\n"
+      "views of the model's memory.")
+      .def_readonly("name", &EmbeddedSurface::name, "'display_skin', or the structure's name")
+      .def_readonly("label", &EmbeddedSurface::label,
+                    "the segmentation label it came from (0: the organ's own skin)")
+      .def_readonly("outside", &EmbeddedSurface::outside,
+                    "vertices in no tetrahedron at rest (they follow the nearest)")
+      .def_property_readonly("V", field_view(&EmbeddedSurface::V),
+                             "rest positions, (vertices, 3) float64, mm")
+      .def_property_readonly("F", field_view(&EmbeddedSurface::F),
+                             "triangles, (faces, 3) int32 rows of V, outward")
+      .def_property_readonly("corners", field_view(&EmbeddedSurface::corners),
+                             "each vertex's tetrahedron, (vertices, 4) int32 node indices")
+      .def_property_readonly(
+          "weights", field_view(&EmbeddedSurface::weights),
+          "barycentric weights of the corners, (vertices, 4) float64, summing to 1")
+      .def("__repr__", [](const EmbeddedSurface& e) {
+        return "<lamina.EmbeddedSurface '" + e.name + "' label " + std::to_string(e.label) + ", " +
+               std::to_string(e.V.rows()) + " vertices, " + std::to_string(e.F.rows()) +
+               " triangles>";
+      });
 
   py::class_<Model, std::shared_ptr<Model>>(m, "Model",
                                             "A multi-layer mass-spring model (mm, kg). Arrays are "
@@ -136,6 +223,17 @@ void bind_model(py::module_& m) {
           "tets",
           [](py::object self) { return matrix_view(self.cast<const Model&>().tets.T, self); },
           "tetrahedra, (tets, 4) int32 node indices, positively oriented at rest")
+      .def_property_readonly(
+          "embedded",
+          [](py::object self) {
+            // References into the model, each keeping it alive (its arrays are views).
+            py::list out;
+            for (const EmbeddedSurface& e : self.cast<const Model&>().embedded)
+              out.append(py::cast(&e, py::return_value_policy::reference_internal, self));
+            return out;
+          },
+          "surfaces carried by the tetrahedra: a list of EmbeddedSurface, the display skin\n"
+          "('display_skin') first when built, then the structures (build_model's embed)")
       .def_readonly("source", &Model::source)
       .def(
           "summary",
@@ -156,7 +254,13 @@ void bind_model(py::module_& m) {
   m.def(
       "build_model",
       [](py::object input, int layers, int skin_vertices, int locality, double density_kg_per_mm3,
-         double stiffness_n_per_m, int label, py::object progress) {
+         double stiffness_n_per_m, int label, const std::vector<int32_t>& labels,
+         int64_t display_triangles, const py::sequence& embed, int64_t structure_triangles,
+         py::object progress) {
+        if (label != 0 && !labels.empty())
+          throw invalid_input(
+              "build_model: label",
+              "is " + std::to_string(label) + " with labels also given; give one of them");
         model::BuildOptions o;
         o.layers = layers;
         o.skin_vertices = skin_vertices;
@@ -164,6 +268,10 @@ void bind_model(py::module_& m) {
         o.density_kg_per_mm3 = density_kg_per_mm3;
         o.stiffness_n_per_m = stiffness_n_per_m;
         o.label = label;
+        o.labels = labels;
+        o.display_triangles = display_triangles;
+        o.structure_triangles = structure_triangles;
+        for (size_t k = 0; k < embed.size(); ++k) o.embed.push_back(embed_structure(embed[k], k));
         const LabelVolume volume = py::isinstance<py::str>(input)
                                        ? io::read_input(input.cast<std::string>())
                                        : input.cast<LabelVolume>();
@@ -174,10 +282,18 @@ void bind_model(py::module_& m) {
       py::arg("mask") = "phantom", py::kw_only(), py::arg("layers") = 2,
       py::arg("skin_vertices") = 1284, py::arg("locality") = 4,
       py::arg("density_kg_per_mm3") = 1.06e-6, py::arg("stiffness_n_per_m") = 3.0,
-      py::arg("label") = 0, py::arg("progress") = py::none(),
+      py::arg("label") = 0, py::arg("labels") = std::vector<int32_t>{},
+      py::arg("display_triangles") = 100000, py::arg("embed") = py::list(),
+      py::arg("structure_triangles") = 20000, py::arg("progress") = py::none(),
       "Builds a multi-layer model from a Mask or a path ('phantom' = the built-in one).\n"
       "layers: S (skin + S-1 inner layers); skin_vertices: target skin node count;\n"
-      "locality: N, BFS rings per node; label: 0 = any non-zero voxel.\n"
+      "locality: N, BFS rings per node; label: 0 = any non-zero voxel; labels: the organ is\n"
+      "the union of these (instead of label).\n"
+      "display_triangles: the display skin's triangles (capped at the mask's resolution;\n"
+      "0 = none). embed: structures carried inside the organ, each a label of the same mask\n"
+      "(2 or (2, 'vessels')), a separate mask on its grid ((Mask or path, 'tumour')), or a\n"
+      "dict with label, name, mask; structure_triangles: each one's triangle budget.\n"
+      "They are Model.embedded.\n"
       "progress: callable(stage: str, fraction: float), or None.");
   m.def(
       "load_model",

@@ -8,12 +8,14 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <variant>
 
 #include "bindings.h"
 #include "lamina/core/error.h"
 #include "lamina/interact/run_tools.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
+#include "lamina/model/embed_surface.h"
 
 namespace py = pybind11;
 
@@ -28,6 +30,9 @@ struct PySimulation {
   interact::ToolDriver driver;
   sim::StepStats last;
   std::string scene;  // the scene it came from, if any
+  // W x per embedded surface, refreshed by embedded_positions(); sized once by wire(), so each
+  // buffer stays where the views handed out point.
+  std::vector<Eigen::MatrixX3d> embedded_x;
 };
 
 sim::Integrator parse_integrator(const std::string& name) {
@@ -66,6 +71,27 @@ interact::Routing parse_routing(const std::string& name) {
 
 void wire(PySimulation& p) {
   p.driver.held_forces = Eigen::MatrixX3d::Zero(p.model->node_count(), 3);
+  p.embedded_x.resize(p.model->embedded.size());
+}
+
+// The embedded surface an index or a name selects: IndexError / KeyError listing the names.
+size_t embedded_index(const Model& model, const std::variant<int64_t, std::string>& which) {
+  std::string names;
+  for (const EmbeddedSurface& e : model.embedded)
+    names += (names.empty() ? "'" : ", '") + e.name + "'";
+  const std::string known = model.embedded.empty() ? "the model has no embedded surfaces"
+                                                   : "the model's embedded surfaces are " + names;
+  const int64_t count = static_cast<int64_t>(model.embedded.size());
+  if (const int64_t* k = std::get_if<int64_t>(&which)) {
+    if (*k < 0 || *k >= count)
+      throw py::index_error(
+          fmt::format("embedded_positions: surface {} is not 0..{}; {}", *k, count - 1, known));
+    return static_cast<size_t>(*k);
+  }
+  const std::string& name = std::get<std::string>(which);
+  for (size_t k = 0; k < model.embedded.size(); ++k)
+    if (model.embedded[k].name == name) return k;
+  throw py::key_error(fmt::format("embedded_positions: no surface '{}'; {}", name, known));
 }
 
 // An unstable simulation is an error in Python, never a StepStats to overlook: lamina.Error
@@ -202,7 +228,7 @@ void bind_simulation(py::module_& m) {
                                     .cg_tolerance = cg_tolerance,
                                     .preconditioner = parse_preconditioner(preconditioner)};
              auto p = std::make_unique<PySimulation>(
-                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}});
+                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}, {}});
              p->driver.routing = ro;
              sim::fix_nodes(p->sim, nodes_of(fixed));
              sim::prepare_solver(p->sim);  // the multigrid now, not in the first step
@@ -248,6 +274,24 @@ void bind_simulation(py::module_& m) {
           [](PySimulation& p, const Eigen::MatrixX3d& f) { p.driver.held_forces = f; },
           py::return_value_policy::reference_internal,
           "raw external forces held on nodes, (nodes, 3) mN, a view; kept from step to step")
+      .def(
+          "embedded_positions",
+          [](py::object self, const std::variant<int64_t, std::string>& which) {
+            PySimulation& p = self.cast<PySimulation&>();
+            const size_t k = embedded_index(*p.model, which);
+            Eigen::MatrixX3d& out = p.embedded_x[k];
+            {
+              py::gil_scoped_release release;
+              model::embedded_positions(p.model->embedded[k], p.sim.x, out);
+            }
+            return matrix_view(out, self);
+          },
+          py::arg("surface"),
+          "Embedded surface `surface` (an index into model.embedded or its name) at the current\n"
+          "positions: W x, (vertices, 3) float64, mm, a read-only view of a buffer this\n"
+          "simulation keeps per surface. The next call for that surface overwrites it (copy to\n"
+          "keep one); valid while the simulation lives. Only the first call for a surface\n"
+          "allocates. A bad index raises IndexError, a bad name KeyError, naming the surfaces.")
       .def_property_readonly("time_s", [](const PySimulation& p) { return p.sim.time_s; })
       .def_property_readonly("steps", [](const PySimulation& p) { return p.sim.steps; })
       .def_property_readonly("recoveries", [](const PySimulation& p) { return p.sim.recoveries; })
@@ -453,7 +497,7 @@ void bind_simulation(py::module_& m) {
           return io::make_ready_scene(scene);
         }();
         auto p = std::make_unique<PySimulation>(PySimulation{
-            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source});
+            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source, {}});
         p->driver = io::make_tool_driver(ready.scene);
         wire(*p);
         return p;

@@ -1,10 +1,32 @@
 #pragma once
 // Shared by the binding files of the Python module: each registers one part of the API.
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+
+#include <vector>
 
 namespace lamina::python {
 
 void bind_model(pybind11::module_& m);       // masks, models (bind_model.cpp)
 void bind_simulation(pybind11::module_& m);  // simulations, tools, scenes (bind_simulation.cpp)
+
+// A read-only numpy view of `data` (shape, strides in bytes) kept alive by `owner`: numpy's
+// base is `owner`, so the memory lives as long as any view of it.
+template <class T>
+pybind11::array view(const T* data, std::vector<pybind11::ssize_t> shape,
+                     std::vector<pybind11::ssize_t> strides, pybind11::handle owner) {
+  namespace py = pybind11;
+  py::array a(py::dtype::of<T>(), std::move(shape), std::move(strides), data, owner);
+  py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return a;
+}
+
+// An Eigen column-major matrix (rows x 3 or 4) as a read-only (rows, cols) view.
+template <class M>
+pybind11::array matrix_view(const M& x, pybind11::handle owner) {
+  using T = typename M::Scalar;
+  const auto s = static_cast<pybind11::ssize_t>(sizeof(T));
+  return view(x.data(), {x.rows(), x.cols()}, {s, s * x.rows()}, owner);
+}
 
 }  // namespace lamina::python

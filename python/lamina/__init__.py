@@ -38,8 +38,9 @@ except ImportError as _e:
         "lamina was built with.") from None
 
 try:
-    from ._lamina import (Error, Mask, Model, Simulation, StepStats, __version__, build_model,
-                          load_model, nodes_near_plane, phantom, read_mask, scene_simulation)
+    from ._lamina import (EmbeddedSurface, Error, Mask, Model, Simulation, StepStats,
+                          __version__, build_model, load_model, nodes_near_plane, phantom,
+                          read_mask, scene_simulation)
 except ImportError as _e:
     _built = sorted(os.path.basename(p) for p in glob.glob(os.path.join(_HERE, "_lamina*.so")))
     raise _cannot_import(
@@ -49,7 +50,7 @@ except ImportError as _e:
         "with this interpreter (cmake -DPython3_EXECUTABLE=%s) or run the one it was built "
         "with." % (", ".join(_built) or "none", sys.executable)) from _e
 
-__all__ = ["Error", "Mask", "Model", "Simulation", "StepStats", "__version__", "build_model",
+__all__ = ["EmbeddedSurface", "Error", "Mask", "Model", "Simulation", "StepStats", "__version__", "build_model",
            "load_model", "nodes_near_plane", "phantom", "read_mask", "scene_simulation",
            "run_scene", "validate", "executable"]
 

@@ -165,6 +165,154 @@ def test_multigrid_preconditioner_takes_the_same_steps(phantom_model):
         lamina.Simulation(phantom_model, preconditioner="amg")
 
 
+@pytest.fixture(scope="module")
+def anatomy_model():
+    """The phantom with its anatomy at 3 mm, a small display skin, the vessels and the tumour
+    embedded (about 1 s to build)."""
+    mask = lamina.phantom(spacing_mm=3.0, anatomy=True)
+    return lamina.build_model(mask, skin_vertices=400, display_triangles=3000,
+                              structure_triangles=800, embed=[(2, "vessels"), (3, "tumour")])
+
+
+def deform(w, c, x):
+    """W x in numpy: each vertex the weighted sum of its tetrahedron's four nodes."""
+    return (w[:, :, None] * x[c]).sum(1)
+
+
+def test_phantom_anatomy_has_its_labels():
+    plain = lamina.phantom(spacing_mm=3.0)
+    mask = lamina.phantom(spacing_mm=3.0, anatomy=True)
+    assert mask.spacing_mm == [3.0, 3.0, 3.0] and mask.shape == plain.shape
+    assert set(np.unique(plain.labels)) == {0, 1}
+    assert set(np.unique(mask.labels)) == {0, 1, 2, 3}
+    # The organ is the union of the anatomy's labels: the same voxels either way, and so the
+    # same model from labels=[1, 2, 3] as from any non-zero voxel.
+    assert np.array_equal(mask.labels > 0, plain.labels > 0)
+    union = lamina.build_model(mask, labels=[1, 2, 3], skin_vertices=400, display_triangles=0)
+    anyl = lamina.build_model(mask, label=0, skin_vertices=400, display_triangles=0)
+    assert np.array_equal(union.X, anyl.X)
+    # labels=[3] models the tumour alone: a ball of 15 mm radius.
+    tumour = lamina.build_model(mask, labels=[3], skin_vertices=400, display_triangles=0)
+    assert (np.ptp(tumour.X, axis=0) < 33.0).all() and (np.ptp(anyl.X, axis=0) > 100.0).any()
+
+
+def test_embedded_surfaces_are_read_only_views_of_the_model(anatomy_model):
+    m = anatomy_model
+    e = m.embedded
+    assert [s.name for s in e] == ["display_skin", "vessels", "tumour"]
+    assert [s.label for s in e] == [0, 2, 3]
+    for k, s in enumerate(e):
+        n = s.V.shape[0]
+        assert s.V.shape == (n, 3) and s.V.dtype == np.float64 and n > 0
+        assert s.F.shape[1] == 3 and s.F.dtype == np.int32
+        assert s.F.min() >= 0 and s.F.max() < n
+        assert s.corners.shape == (n, 4) and s.corners.dtype == np.int32
+        assert s.corners.min() >= 0 and s.corners.max() < m.node_count
+        assert s.weights.shape == (n, 4) and s.weights.dtype == np.float64
+        assert np.allclose(s.weights.sum(1), 1.0, atol=1e-12)
+        assert 0 <= s.outside <= n
+        # At rest the weights give back the rest positions.
+        assert np.allclose(deform(s.weights, s.corners, m.X), s.V, atol=1e-9)
+        for a in (s.V, s.F, s.corners, s.weights):
+            assert not a.flags.writeable
+            with pytest.raises(ValueError):
+                a[0, 0] = 0
+        assert np.shares_memory(s.V, m.embedded[k].V)  # two reads: the same memory
+    # The display skin: about the triangles asked for, capped at the mask's resolution.
+    assert 1000 < e[0].F.shape[0] <= 3300
+    assert e[1].F.shape[0] <= 900 and e[2].F.shape[0] <= 900
+    # The structures lie inside the organ's bounds.
+    lo, hi = m.X.min(0), m.X.max(0)
+    for s in e[1:]:
+        assert (s.V.min(0) > lo - 1.0).all() and (s.V.max(0) < hi + 1.0).all()
+
+
+def test_embedded_views_keep_the_model_alive():
+    mask = lamina.phantom(spacing_mm=3.0, anatomy=True)
+    # A label of the organ's mask, and a separate mask (here the same one) as a dict.
+    model = lamina.build_model(mask, skin_vertices=400, display_triangles=1000,
+                               embed=[3, {"mask": mask, "label": 2, "name": "tree"}],
+                               structure_triangles=400)
+    assert [(s.name, s.label) for s in model.embedded] == [
+        ("display_skin", 0), ("label 3", 3), ("tree", 2)]  # no name given: the library's
+    v = model.embedded[1].V
+    rest = v.copy()
+    del model
+    import gc
+    gc.collect()
+    assert np.array_equal(v, rest)  # still the model's memory, not freed
+
+
+def test_embedded_positions_follow_the_nodes(anatomy_model):
+    m = anatomy_model
+    sim = lamina.Simulation(m, integrator="implicit_euler", fixed=back_nodes(m))
+    for k, s in enumerate(m.embedded):
+        assert np.allclose(sim.embedded_positions(k), s.V, rtol=0, atol=1e-9)
+    sim.add_tool(vertex=front_node(m), force_mn=(0.0, 300.0, 0.0))
+    sim.step(30)
+    x = sim.x.copy()
+    moved = 0.0
+    for k, s in enumerate(m.embedded):
+        got = sim.embedded_positions(s.name)
+        assert got.shape == s.V.shape and got.dtype == np.float64
+        assert np.allclose(got, deform(s.weights, s.corners, x), rtol=0, atol=1e-12)
+        assert np.array_equal(got, sim.embedded_positions(k))  # by index, the same
+        moved = max(moved, np.abs(got - s.V).max())
+    assert moved > 0.5  # the push carried the surfaces along
+
+
+def test_embedded_positions_is_one_buffer_per_surface(anatomy_model):
+    m = anatomy_model
+    sim = lamina.Simulation(m, fixed=back_nodes(m))
+    a = sim.embedded_positions("tumour")
+    assert not a.flags.writeable
+    with pytest.raises(ValueError):
+        a[0, 0] = 0.0
+    sim.x[:, 0] += 2.0  # a rigid shift of every node
+    b = sim.embedded_positions("tumour")
+    # The same buffer, refreshed in place: the earlier view sees the new positions.
+    assert np.shares_memory(a, b) and a.ctypes.data == b.ctypes.data
+    assert np.allclose(a[:, 0], m.embedded[2].V[:, 0] + 2.0, rtol=0, atol=1e-9)
+    assert a.base is b.base
+    # Another surface has a buffer of its own.
+    assert not np.shares_memory(sim.embedded_positions("vessels"), a)
+    del sim
+    import gc
+    gc.collect()
+    assert np.isfinite(a).all()  # the view keeps the simulation's buffer alive
+
+
+def test_embedded_errors_name_the_surfaces(anatomy_model):
+    sim = lamina.Simulation(anatomy_model)
+    with pytest.raises(KeyError, match="'display_skin', 'vessels', 'tumour'"):
+        sim.embedded_positions("liver")
+    with pytest.raises(IndexError, match=r"surface 3 is not 0\.\.2.*'tumour'"):
+        sim.embedded_positions(3)
+    with pytest.raises(IndexError):
+        sim.embedded_positions(-1)
+    mask = lamina.phantom(spacing_mm=3.0, anatomy=True)
+    with pytest.raises(lamina.Error, match=r"embed\[1\]"):
+        lamina.build_model(mask, embed=[2, (2.5, "x")])
+    with pytest.raises(lamina.Error, match="key 'colour'"):
+        lamina.build_model(mask, embed=[{"label": 2, "colour": "red"}])
+    with pytest.raises(lamina.Error, match="give one of them"):
+        lamina.build_model(mask, label=1, labels=[1, 2])
+    bare = lamina.build_model(mask, skin_vertices=400, display_triangles=0)
+    assert bare.embedded == []
+    with pytest.raises(IndexError, match="no embedded surfaces"):
+        lamina.Simulation(bare).embedded_positions(0)
+
+
+def test_embedded_surfaces_survive_save_and_load(anatomy_model, tmp_path):
+    path = tmp_path / "anatomy.vtu"
+    anatomy_model.save(str(path))
+    loaded = lamina.load_model(str(path))
+    assert [s.name for s in loaded.embedded] == [s.name for s in anatomy_model.embedded]
+    for a, b in zip(loaded.embedded, anatomy_model.embedded):
+        assert a.label == b.label and np.array_equal(a.F, b.F)
+        assert np.allclose(a.V, b.V, rtol=0, atol=1e-9)
+
+
 def test_run_scene_matches_the_command_line(tmp_path, cli):
     """lamina.run_scene() is `lamina run` without the files: the same steps, the same peaks."""
     done = subprocess.run([cli, "-q", "run", "--json", "-o", str(tmp_path / "run")],
