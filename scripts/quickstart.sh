@@ -19,8 +19,12 @@ mkdir -p out
 "$lamina" export out/liver_model.vtu --layer 1 -o out/liver_layer1.obj
 "$lamina" render out/liver_model.vtu --inner wireframe -o out/liver_model.png
 "$lamina" render out/liver_phantom.nii.gz --at 1 --rings -o out/liver_poke.png
+# The phantom with its anatomy: a vessel tree and a tumour carried inside by the tetrahedra.
+"$lamina" phantom --labels -o out/liver_anatomy.nii.gz
+"$lamina" build out/liver_anatomy.nii.gz --embed 2=vessels,3=tumour -o out/liver_anatomy.vtu
+"$lamina" render out/liver_anatomy.vtu -o out/liver_anatomy.png
 echo
-echo "Done. Pictures: out/liver_model.png, out/liver_poke.png. Open out/liver_model.vtu in"
+echo "Done. Pictures: out/liver_model.png, out/liver_poke.png, out/liver_anatomy.png. Open out/liver_model.vtu in"
 echo "ParaView, or the meshes out/liver_skin.obj and out/liver_layer1.obj in any mesh viewer."
 echo "With a display: $lamina view  (drag the organ with the mouse)."
 echo "Run the tests with: ctest --preset release -j2"
