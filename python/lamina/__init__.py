@@ -37,6 +37,15 @@ except ImportError as _e:
         "/usr/bin/python3, or this interpreter's `-m pip install numpy`), or run the Python "
         "lamina was built with.") from None
 
+# OpenMP threads spin at a barrier for GOMP_SPINCOUNT iterations (libgomp's default 300,000)
+# before they sleep: two lamina processes on a 2-core machine, or lamina beside anything else,
+# then spin on the cores the other needs (lamina.run_scene took 53 s instead of 7 s on a loaded
+# machine). The command-line tool bounds it to 3,000 for the same reason (apps/lamina/main.cpp).
+# libgomp reads the variable when it loads, which is the import below; a user's own setting is
+# left alone.
+if "GOMP_SPINCOUNT" not in os.environ and "OMP_WAIT_POLICY" not in os.environ:
+    os.environ["GOMP_SPINCOUNT"] = "3000"
+
 try:
     from ._lamina import (EmbeddedSurface, Error, Mask, Model, Simulation, StepStats,
                           __version__, build_model, load_model, nodes_near_plane, phantom,

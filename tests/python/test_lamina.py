@@ -434,6 +434,24 @@ def _import_lamina_where(blocked):
     return done.returncode, done.stderr
 
 
+def _spin_after_import(extra_env):
+    """GOMP_SPINCOUNT as a fresh interpreter sees it after `import lamina`."""
+    import os
+    import sys
+    env = {k: v for k, v in os.environ.items() if k not in ("GOMP_SPINCOUNT", "OMP_WAIT_POLICY")}
+    env.update(extra_env, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    code = "import os, lamina; print(os.environ.get('GOMP_SPINCOUNT'))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.strip()
+
+
+def test_import_bounds_openmps_spin_unless_the_user_set_it():
+    assert _spin_after_import({}) == "3000"
+    assert _spin_after_import({"GOMP_SPINCOUNT": "77"}) == "77"
+    assert _spin_after_import({"OMP_WAIT_POLICY": "active"}) == "None"
+
+
 def test_import_without_numpy_names_the_interpreter_and_what_to_do():
     import sys
     code, err = _import_lamina_where("numpy")
