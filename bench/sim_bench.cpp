@@ -13,6 +13,7 @@
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
 #include "sim/solver.h"  // white box: the tetrahedra's assembly switched per run
 
@@ -179,6 +180,28 @@ void BM_PickSkin(benchmark::State& state) {
 }
 BENCHMARK(BM_PickSkin)->Arg(1284)->Arg(12840)->Unit(benchmark::kMicrosecond);
 
+// The tip's steps, timed: from where `tip` starts it slides 8 mm along x and back (80 steps
+// each way), its proxy's load computed each step at rest positions; `forget_list`: a scan of the
+// whole surface every step. Counters: the last step's loaded nodes, scans per 1000 steps.
+void slide_tip(benchmark::State& state, const Model& m, interact::ToolTip tip,
+               const interact::RoutingOptions& routing, bool forget_list) {
+  const Eigen::Vector3d start = tip.center_mm;
+  size_t nodes = 0;
+  int64_t step = 0;
+  interact::HapticProxy proxy;
+  for (auto _ : state) {
+    const int64_t k = step++ % 160;  // 80 steps out, 80 back
+    tip.center_mm = start + Eigen::Vector3d(0.1 * static_cast<double>(k < 80 ? k : 160 - k), 0, 0);
+    if (forget_list) proxy.near.reach_mm = -1.0;
+    const interact::ForceRoute r = interact::load_of_tip(m, m.X, tip, routing, proxy);
+    nodes = r.nodes.size();
+    benchmark::DoNotOptimize(r.forces.data());
+  }
+  state.counters["loaded_nodes"] = static_cast<double>(nodes);
+  state.counters["scans_per_1000_steps"] = 1000.0 * static_cast<double>(proxy.near.scans) /
+                                           static_cast<double>(std::max<int64_t>(step, 1));
+}
+
 // A tool tip's contact, once per step at 1 kHz: the 5 mm sphere 2 mm into the most anterior
 // skin, moving 0.1 mm a step (100 mm/s) back and forth over 8 mm along the skin. Without routing
 // its haptic proxy slides on the surface and the coupling's load is spread over the patch it
@@ -193,28 +216,38 @@ void BM_ToolTipContact(benchmark::State& state) {
                         .center_mm = m.X.row(front).transpose() - Eigen::Vector3d(0, 3, 0),
                         .radius_mm = 5.0,
                         .stiffness_n_per_m = 20.0};
-  const Eigen::Vector3d start = tip.center_mm;
   const interact::RoutingOptions routing{.routing = contact == 2 ? interact::Routing::kPaper
                                                                  : interact::Routing::kNone};
-  size_t nodes = 0;
-  int64_t step = 0;
-  interact::HapticProxy proxy;
-  for (auto _ : state) {
-    const int64_t k = step++ % 160;  // 80 steps out, 80 back
-    tip.center_mm = start + Eigen::Vector3d(0.1 * static_cast<double>(k < 80 ? k : 160 - k), 0, 0);
-    if (contact == 1) proxy.near.reach_mm = -1.0;
-    const interact::ForceRoute r = interact::load_of_tip(m, m.X, tip, routing, proxy);
-    nodes = r.nodes.size();
-    benchmark::DoNotOptimize(r.forces.data());
-  }
+  slide_tip(state, m, tip, routing, contact == 1);
   state.counters["skin_faces"] = static_cast<double>(m.layers[0].F.rows());
-  state.counters["loaded_nodes"] = static_cast<double>(nodes);
-  state.counters["scans_per_1000_steps"] = 1000.0 * static_cast<double>(proxy.near.scans) /
-                                           static_cast<double>(std::max<int64_t>(step, 1));
 }
 BENCHMARK(BM_ToolTipContact)
     ->ArgsProduct({{1284, 12840}, {0, 1, 2}})
     ->ArgNames({"skin", "contact"})
+    ->Unit(benchmark::kMicrosecond);
+
+// The haptic tip's step on a tetrahedral phantom that carries a display skin (about 36k
+// triangles at the phantom's 1.5 mm): touching it (touch 0, the default: contact on the fine
+// surface, its load to the nodes by W transposed) against touching the simulation's skin
+// (touch 1, the reference), the tip sliding 8 mm and back pressed 3 mm in.
+void BM_ToolTipOnDisplaySkin(benchmark::State& state) {
+  const Model& m = phantom_model(static_cast<int32_t>(state.range(0)), true);
+  const bool fine = state.range(1) == 0;
+  const int32_t front = interact::most_anterior_skin_node(m);
+  interact::ToolTip tip{.active = true,
+                        .center_mm = m.X.row(front).transpose() + Eigen::Vector3d(0, 3, 0),
+                        .radius_mm = 5.0,
+                        .stiffness_n_per_m = 20.0};
+  interact::RoutingOptions routing{.routing = interact::Routing::kNone};
+  routing.touch = fine ? interact::Touch::kDisplaySkin : interact::Touch::kSkin;
+  slide_tip(state, m, tip, routing, false);
+  const int32_t shown = model::display_skin_index(m);
+  state.counters["faces"] = static_cast<double>(
+      fine && shown >= 0 ? m.embedded[static_cast<size_t>(shown)].F.rows() : m.layers[0].F.rows());
+}
+BENCHMARK(BM_ToolTipOnDisplaySkin)
+    ->ArgsProduct({{1284, 12840}, {0, 1}})
+    ->ArgNames({"skin", "touch"})
     ->Unit(benchmark::kMicrosecond);
 
 // Is a point inside the organ, and how deep (interact::depth_under_skin: the skin's winding

@@ -6,7 +6,6 @@
 #include <pybind11/stl.h>
 
 #include <array>
-#include <filesystem>
 #include <variant>
 
 #include "bindings.h"
@@ -90,11 +89,7 @@ model::EmbedStructure embed_structure(const py::handle& entry, size_t k) {
   } else {
     return refuse();
   }
-  if (!mask.is_none()) {
-    s.mask = mask_of(mask);
-    // As the CLI names --embed-mask FILE: the file's name without its extensions.
-    if (s.name.empty()) s.name = std::filesystem::path(s.mask->source).stem().stem().string();
-  }
+  if (!mask.is_none()) s.mask = mask_of(mask);  // unnamed: named after its file, as the CLI's
   return s;
 }
 

@@ -69,6 +69,12 @@ interact::Routing parse_routing(const std::string& name) {
   throw invalid_input("routing", "is '" + name + "'; none or paper expected");
 }
 
+interact::Touch parse_touch(const std::string& name) {
+  for (auto t : {interact::Touch::kDisplaySkin, interact::Touch::kSkin})
+    if (io::touch_name(t) == name) return t;
+  throw invalid_input("touch", "is '" + name + "'; display_skin or skin expected");
+}
+
 void wire(PySimulation& p) {
   p.driver.held_forces = Eigen::MatrixX3d::Zero(p.model->node_count(), 3);
   p.embedded_x.resize(p.model->embedded.size());
@@ -198,7 +204,7 @@ void bind_simulation(py::module_& m) {
                        const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
                        const std::string& preconditioner, const std::optional<std::string>& routing,
                        int32_t locality, int32_t penetration_depth, double contact_threshold_mm,
-                       const std::vector<int64_t>& fixed) {
+                       const std::string& touch, const std::vector<int64_t>& fixed) {
              if (!model) throw invalid_input("Simulation: model", "is None");
              // Checked before the simulation is made (its solver setup can take seconds).
              // The physical tissue (E given) conserves force; the paper's constants route.
@@ -207,7 +213,8 @@ void bind_simulation(py::module_& m) {
                  .routing = parse_routing(routing.value_or(elastic ? "none" : "paper")),
                  .locality = locality,
                  .penetration_depth = penetration_depth,
-                 .contact_threshold_mm = contact_threshold_mm};
+                 .contact_threshold_mm = contact_threshold_mm,
+                 .touch = parse_touch(touch)};
              interact::check_routing(ro, model->rings.locality);
              sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
                                .damping_kg_per_s = damping_kg_per_s,
@@ -247,7 +254,7 @@ void bind_simulation(py::module_& m) {
            py::arg("cg_tolerance") = 1e-6, py::arg("preconditioner") = "auto",
            py::arg("routing") = py::none(), py::arg("locality") = 4,
            py::arg("penetration_depth") = 4, py::arg("contact_threshold_mm") = 10.0,
-           py::arg("fixed") = std::vector<int64_t>{},
+           py::arg("touch") = "display_skin", py::arg("fixed") = std::vector<int64_t>{},
            "A simulation at rest. Defaults are the reference paper's (K = 3 N/m, gamma = 3 kg/s,\n"
            "unit masses, semi-implicit Euler at dt = 0.01 s). young_modulus_kpa (E) > 0 with\n"
            "stiffness_n_per_m = 0 and node_mass_kg = 0 makes the tissue elastic (E, nu) through\n"
@@ -259,6 +266,8 @@ void bind_simulation(py::module_& m) {
            "routing: none (a tool's force spread over the skin it touches, conserved; the\n"
            "default with young_modulus_kpa) or paper (the paper's rings and copies; the default\n"
            "with its constants).\n"
+           "touch: display_skin (without routing, tools touch the model's display skin when it\n"
+           "has one; its load reaches the nodes by the embedding's weights) or skin.\n"
            "fixed: node indices held at rest (without them a push moves the organ bodily).")
       .def_property_readonly("model", [](const PySimulation& p) { return p.model; })
       .def_property(

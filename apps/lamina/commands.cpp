@@ -120,10 +120,9 @@ model::BuildOptions with_structures(const BuildArgs& a) {
   }
   for (const std::string& entry : a.embed_masks) {
     const auto [path, name] = split_name(entry);
-    auto mask = std::make_shared<const LabelVolume>(read_input(path));
+    // Unnamed, it is named after the file (build_model's EmbedStructure::name).
     o.embed.push_back(
-        {.name = name.empty() ? std::filesystem::path(path).stem().stem().string() : name,
-         .mask = std::move(mask)});
+        {.name = name, .mask = std::make_shared<const LabelVolume>(read_input(path))});
   }
   return o;
 }

@@ -72,36 +72,12 @@ DistanceField resample(const DistanceField& fine, double h_mm) {
   return out;
 }
 
-// The mask's boundary area estimated from its exposed voxel faces: a staircase over-counts a
-// smooth surface by about the mean of |nx| + |ny| + |nz| over directions, 1.5.
-double boundary_area_mm2(const Mask& mask) {
-  const auto& f = mask.frame;
-  const double face[3] = {f.spacing_mm[1] * f.spacing_mm[2], f.spacing_mm[0] * f.spacing_mm[2],
-                          f.spacing_mm[0] * f.spacing_mm[1]};
-  double area = 0.0;
-  for (int64_t k = 0; k < f.size[2]; ++k)
-    for (int64_t j = 0; j < f.size[1]; ++j)
-      for (int64_t i = 0; i < f.size[0]; ++i) {
-        if (!mask.inside[static_cast<size_t>(f.index(i, j, k))]) continue;
-        const int64_t c[3] = {i, j, k};
-        for (int a = 0; a < 3; ++a)
-          for (int64_t d : {-1, 1}) {
-            int64_t m[3] = {c[0], c[1], c[2]};
-            m[a] += d;
-            if (m[a] < 0 || m[a] >= f.size[a] ||
-                !mask.inside[static_cast<size_t>(f.index(m[0], m[1], m[2]))])
-              area += face[a];
-          }
-      }
-  return area / 1.5;
-}
-
 SurfaceMesh budget_surface(const Mask& mask, int64_t triangles, bool largest_only,
                            const std::string& what) {
   if (triangles < 100)
     throw invalid_input(
         what, "the triangle budget must be at least 100, got " + std::to_string(triangles));
-  const double area = boundary_area_mm2(mask);
+  const double area = mask_boundary_area_mm2(mask);
   if (area <= 0.0) throw invalid_input(what, "the mask has no surface");
   // No finer than the voxels. The organ's skin: about one triangle per voxel-sized patch of
   // surface (the voxel's mean size, the cube root of its volume), beyond which a budget adds

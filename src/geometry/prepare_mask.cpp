@@ -131,4 +131,27 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
   return out;
 }
 
+double mask_boundary_area_mm2(const Mask& mask) {
+  const auto& f = mask.frame;
+  const double face[3] = {f.spacing_mm[1] * f.spacing_mm[2], f.spacing_mm[0] * f.spacing_mm[2],
+                          f.spacing_mm[0] * f.spacing_mm[1]};
+  const int64_t stride[3] = {1, f.size[0], f.size[0] * f.size[1]};
+  double area = 0.0;
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i) {
+        const int64_t v = f.index(i, j, k);
+        const int64_t at[3] = {i, j, k};
+        for (int a = 0; a < 3; ++a) {
+          // The face below voxel v along axis a: between it and its neighbour there, or, on the
+          // grid's first slice, between it and the background beyond; and the last slice's top.
+          const bool in = mask.inside[static_cast<size_t>(v)] != 0;
+          const bool below = at[a] > 0 && mask.inside[static_cast<size_t>(v - stride[a])] != 0;
+          if (in != below) area += face[a];
+          if (in && at[a] == f.size[a] - 1) area += face[a];
+        }
+      }
+  return area / 1.5;
+}
+
 }  // namespace lamina::geometry

@@ -8,7 +8,7 @@ namespace lamina::interact {
 
 SkinPoint closest_skin_point(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& p) {
   if (m.layers.empty()) return {};
-  return detail::closest_on_faces(m.layers[0].F, x, p);
+  return detail::closest_on_faces(detail::skin_view(m, x), p);
 }
 
 SkinPoint skin_point_at_node(const Model& m, const Eigen::MatrixX3d& x, int32_t node) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "lamina/geometry/closest_on_triangle.h"
@@ -16,19 +17,21 @@ struct Near {
   Eigen::Vector3d outward = Eigen::Vector3d::Zero();  // the nearest triangle's unit normal
 };
 
-// The skin point nearest to p among `faces`.
-Near nearest_of(const Model& m, const Eigen::MatrixX3d& x, const std::vector<int32_t>& faces,
+// The surface's point nearest to p among the gathered triangles `close` lists: a triangle whose
+// box is farther than the best so far is skipped before its closest point is solved. (Starting
+// from the last answer's triangle was tried: slower, 58 us against 47 us a step on the
+// phantom's display skin, sim_bench BM_ToolTipOnDisplaySkin.)
+Near nearest_of(const detail::Gathered& g, const std::vector<uint32_t>& close,
                 const Eigen::Vector3d& p) {
-  const Eigen::MatrixX3i& F = m.layers[0].F;
   Near best;
-  for (int32_t f : faces) {
-    const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
-    const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
-    const Eigen::Vector3d q = w[0] * a + w[1] * b + w[2] * c;
+  for (const uint32_t k : close) {
+    if (best.at.face >= 0 && g.out_of_reach(k, p, best.at.distance_mm)) continue;
+    const Eigen::Vector3d w = geometry::closest_on_triangle(p, g.a[k], g.b[k], g.c[k]);
+    const Eigen::Vector3d q = w[0] * g.a[k] + w[1] * g.b[k] + w[2] * g.c[k];
     const double d = (q - p).norm();
     if (d < best.at.distance_mm) {
-      best.at = {.face = f, .barycentric = w, .point_mm = q, .distance_mm = d};
-      best.outward = (b - a).cross(c - a).normalized();
+      best.at = {.face = g.face[k], .barycentric = w, .point_mm = q, .distance_mm = d};
+      best.outward = (g.b[k] - g.a[k]).cross(g.c[k] - g.a[k]).normalized();
     }
   }
   return best;
@@ -37,17 +40,19 @@ Near nearest_of(const Model& m, const Eigen::MatrixX3d& x, const std::vector<int
 // Forgets the proxy (placed afresh next time), keeping its neighbour list and its buffers.
 void lift(HapticProxy& s) {
   SkinNeighbourhood near = std::move(s.near);
+  Eigen::MatrixX3d surface = std::move(s.surface_mm);
   s = {};
   s.near = std::move(near);
+  s.surface_mm = std::move(surface);
 }
 
-// Pushes p out of the skin to the radius r: along p - q from the nearest point q when p is on
+// Pushes p out of the surface to the radius r: along p - q from the nearest point q when p is on
 // the outer side of q's triangle, along the triangle's outward normal when p has gone past it.
 // A few passes settle it in a concave corner, where leaving one triangle enters another.
-void project_out(const Model& m, const Eigen::MatrixX3d& x, const std::vector<int32_t>& faces,
-                 double r, Eigen::Vector3d& p) {
+void project_out(const detail::Gathered& g, const std::vector<uint32_t>& close, double r,
+                 Eigen::Vector3d& p) {
   for (int pass = 0; pass < 4; ++pass) {
-    const Near n = nearest_of(m, x, faces, p);
+    const Near n = nearest_of(g, close, p);
     if (n.at.face < 0 || n.at.distance_mm >= r) return;
     const Eigen::Vector3d away = p - n.at.point_mm;
     const bool outside = away.dot(n.outward) > 0.0 && n.at.distance_mm > 1e-9 * r;
@@ -71,17 +76,18 @@ std::optional<RoutingProblem> tip_problem(const ToolTip& t) {
 }
 
 ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,
-                        HapticProxy& s) {
+                        HapticProxy& s, Touch touch) {
   if (!tip.active || m.layers.empty()) {
     lift(s);
     return {};
   }
+  const detail::SurfaceView surface = detail::touch_view(m, x, touch);
   const double r = tip.radius_mm;
   const Eigen::Vector3d& device = tip.center_mm;
   if (!s.placed) {
     // Placed only from outside: from inside, the nearest surface may be the far side's.
     if (s.started_inside && --s.recheck_in > 0) return {};
-    const double depth = depth_under_skin(m, x, device);
+    const double depth = detail::depth_under(surface, device, s.surface_mm);
     if (depth > start_depth_limit_mm(r)) {
       lift(s);
       s.started_inside = true;
@@ -94,34 +100,35 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
   }
   const Eigen::Vector3d start = s.placed ? s.proxy_mm : device;
 
-  // The skin triangles the proxy can meet on its way: it moves within the ball around the
+  // The surface's triangles the proxy can meet on its way: it moves within the ball around the
   // segment from where it was to the device, and a projection moves it by up to r more. The
   // load's patch reaches r beyond the proxy's contact (within r of the proxy, which a
   // projection may carry r past that ball): the neighbour list covers both, and the
   // proxy's own moves look only at the triangles within their reach.
-  thread_local std::vector<int32_t> faces;
-  faces.clear();
   const Eigen::Vector3d mid = 0.5 * (start + device);
   const double reach = 2.0 * r + 0.5 * (device - start).norm();
-  const std::vector<int32_t>& listed = skin_faces_near(m, x, mid, reach + 2.0 * r, s.near);
-  const Eigen::MatrixX3i& F = m.layers[0].F;
-  for (const int32_t f : listed)
-    if (!detail::box_out_of_reach(mid, reach, x.row(F(f, 0)).transpose(),
-                                  x.row(F(f, 1)).transpose(), x.row(F(f, 2)).transpose()))
-      faces.push_back(f);
+  detail::faces_near(surface, mid, reach + 2.0 * r, s.near);  // s.near lists them
+  // Gathered once a step: the load's patch (reach + 2r) and, listed in `close`, the moves'.
+  thread_local detail::Gathered near;
+  thread_local std::vector<uint32_t> close;
+  thread_local std::vector<Eigen::Vector3d> vertices;
+  near.gather_listed(surface, s.near, mid, reach + 2.0 * r, vertices);
+  close.clear();
+  for (size_t k = 0; k < near.size(); ++k)
+    if (!near.out_of_reach(k, mid, reach)) close.push_back(static_cast<uint32_t>(k));
 
   // The god-object: from where it was, towards the device in moves of at most r/4, each
-  // projected out of the skin, so that it slides over the surface to the point nearest the
-  // device and never crosses to the other side.
+  // projected out of the surface, so that it slides over it to the point nearest the device and
+  // never crosses to the other side.
   Eigen::Vector3d p = start;
-  project_out(m, x, faces, r, p);  // the skin may have moved into it (or the device starts in)
+  project_out(near, close, r, p);  // the surface may have moved into it (or the device starts in)
   const int moves =
       std::clamp(static_cast<int>(std::ceil((device - p).norm() / (0.25 * r))), 1, 64);
   for (int k = 0; k < moves; ++k) {
     Eigen::Vector3d move = device - p;
     if (move.norm() > 0.25 * r) move *= 0.25 * r / move.norm();
     p += move;
-    project_out(m, x, faces, r, p);
+    project_out(near, close, r, p);
   }
   s.placed = true;
   s.proxy_mm = p;
@@ -135,10 +142,10 @@ ForceRoute couple_proxy(const Model& m, const Eigen::MatrixX3d& x, const ToolTip
   s.device_force_mn += change;
 
   // The tissue takes exactly minus the device's force where the proxy rests on it.
-  const Near n = nearest_of(m, x, faces, p);
+  const Near n = nearest_of(near, close, p);
   s.touching = n.at.face >= 0 && n.at.distance_mm <= r * (1.0 + 1e-6);
   if (!s.touching || s.device_force_mn.isZero()) return {};
-  return detail::spread_on_listed(m, x, n.at, -s.device_force_mn, r, &listed);
+  return detail::spread_on_gathered(surface, near, n.at, -s.device_force_mn, r);
 }
 
 }  // namespace lamina::interact

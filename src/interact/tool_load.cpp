@@ -5,6 +5,7 @@
 #include "lamina/interact/contact.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/tools.h"
+#include "skin_samples.h"
 
 namespace lamina::interact {
 namespace {
@@ -30,7 +31,13 @@ ForceRoute load_at_node(const Model& m, const Eigen::MatrixX3d& x, int32_t node,
                         const Eigen::Vector3d& force_mn, double radius_mm,
                         const RoutingOptions& o) {
   if (o.routing == Routing::kPaper) return route_force(m, x, node, force_mn, o);
-  return spread_on_patch(m, x, skin_point_at_node(m, x, node), force_mn, radius_mm);
+  const SkinPoint at = skin_point_at_node(m, x, node);
+  const detail::SurfaceView touched = detail::touch_view(m, x, o.touch);
+  if (!touched.carried) return spread_on_patch(m, x, at, force_mn, radius_mm);
+  // On the display skin: at its point nearest to the node (the node lies on the simulation's
+  // skin, at most a few mm inside the display skin).
+  return detail::spread_on_listed(touched, detail::closest_on_faces(touched, at.point_mm), force_mn,
+                                  radius_mm, nullptr);
 }
 
 ForceRoute load_at_point(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& point_mm,
@@ -40,14 +47,15 @@ ForceRoute load_at_point(const Model& m, const Eigen::MatrixX3d& x, const Eigen:
     const int32_t node = nearest_skin_node(m, x, point_mm, o.contact_threshold_mm);
     return node < 0 ? ForceRoute{} : route_force(m, x, node, force_mn, o);
   }
-  const SkinPoint at = closest_skin_point(m, x, point_mm);
+  const detail::SurfaceView touched = detail::touch_view(m, x, o.touch);
+  const SkinPoint at = detail::closest_on_faces(touched, point_mm);
   if (!(at.distance_mm <= o.contact_threshold_mm)) return {};
-  return spread_on_patch(m, x, at, force_mn, radius_mm);
+  return detail::spread_on_listed(touched, at, force_mn, radius_mm, nullptr);
 }
 
 ForceRoute load_of_tip(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,
                        const RoutingOptions& o, HapticProxy& proxy) {
-  if (o.routing == Routing::kNone) return couple_proxy(m, x, tip, proxy);
+  if (o.routing == Routing::kNone) return couple_proxy(m, x, tip, proxy, o.touch);
   proxy = {};
   if (!tip.active) return {};
   double distance = 0.0;

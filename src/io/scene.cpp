@@ -139,6 +139,10 @@ std::string routing_name(interact::Routing routing) {
   return std::string(detail::name_of(detail::kRoutings, routing));
 }
 
+std::string touch_name(interact::Touch touch) {
+  return std::string(detail::name_of(detail::kTouches, touch));
+}
+
 std::string tet_model_name(sim::TetModel model) {
   return std::string(detail::name_of(detail::kTetModels, model));
 }

@@ -34,6 +34,8 @@ inline constexpr Spelling<sim::Preconditioner> kPreconditioners[] = {
     {"multigrid", sim::Preconditioner::kMultigrid}};
 inline constexpr Spelling<interact::Routing> kRoutings[] = {{"none", interact::Routing::kNone},
                                                             {"paper", interact::Routing::kPaper}};
+inline constexpr Spelling<interact::Touch> kTouches[] = {
+    {"display_skin", interact::Touch::kDisplaySkin}, {"skin", interact::Touch::kSkin}};
 
 /// The spelling of `value` in `names`; a value the table does not hold (only a cast could make
 /// one) gets the first spelling, the default each name function has always fallen back to.

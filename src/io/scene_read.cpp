@@ -257,6 +257,7 @@ void read_solver(const Value& v, Scene& s) {
       {"preconditioner", choice(in_solver<&Solver::preconditioner>, detail::kPreconditioners)},
       {"projective_iterations", integer(in_solver<&Solver::projective_iterations>, 1, 10'000)},
       {"routing", choice(in_routing<&Routing::routing>, detail::kRoutings)},
+      {"touch", choice(in_routing<&Routing::touch>, detail::kTouches)},
       {"locality", integer(in_routing<&Routing::locality>, 1, 64)},
       {"penetration_depth", integer(in_routing<&Routing::penetration_depth>, 1, 1'000'000)},
       {"ring_attenuation",

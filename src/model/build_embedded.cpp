@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <set>
 
 #include "lamina/core/error.h"
@@ -15,7 +16,10 @@ namespace lamina::model::detail {
 namespace {
 
 std::string structure_name(const EmbedStructure& s) {
-  return s.name.empty() ? "label " + std::to_string(s.label) : s.name;
+  if (!s.name.empty()) return s.name;
+  if (s.mask && !s.mask->source.empty())
+    return std::filesystem::path(s.mask->source).stem().stem().string();
+  return "label " + std::to_string(s.label);
 }
 
 // Where a structure's voxels come from, for messages: its own mask file or the segmentation.

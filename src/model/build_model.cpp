@@ -33,24 +33,6 @@ using Clock = std::chrono::steady_clock;
 // nothing and costs 1.1% of volume, hence the condition.
 constexpr double kIsosurfaceAdaptivity = 0.3;
 
-// Surface area of a binary mask estimated from its exposed voxel faces. For a smooth surface the
-// staircase overestimates the true area by 3/2 on average over orientations (Cauchy-Crofton),
-// hence the correction; this only sets the remeshing target, which is then refined.
-double estimate_surface_area(const Mask& m) {
-  const auto& s = m.frame.spacing_mm;
-  const double face[3] = {s[1] * s[2], s[0] * s[2], s[0] * s[1]};
-  double area = 0.0;
-  const int64_t stride[3] = {1, m.frame.size[0], m.frame.size[0] * m.frame.size[1]};
-  for (int64_t k = 1; k < m.frame.size[2]; ++k)
-    for (int64_t j = 1; j < m.frame.size[1]; ++j)
-      for (int64_t i = 1; i < m.frame.size[0]; ++i) {
-        const int64_t v = m.frame.index(i, j, k);
-        for (int a = 0; a < 3; ++a)
-          if (m.inside[v] != m.inside[v - stride[a]]) area += face[a];
-      }
-  return area / 1.5;
-}
-
 // Target edge length for n vertices covering `area`: a closed genus-0 mesh has about 2n
 // triangles of area sqrt(3)/4 * L^2 each. CGAL's isotropic remeshing keeps edges between 4/5
 // and 4/3 of its target and settles at a mean about 8% below it (measured on the phantom and
@@ -162,7 +144,7 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   // 2. Working grid: about four voxels per target edge is enough for the remesher to find the
   // surface to well under an edge; finer input is box-filtered down (saves time and memory on
   // clinical 0.6 mm scans), coarser input is used as is.
-  const double area0 = estimate_surface_area(prepared.mask);
+  const double area0 = geometry::mask_boundary_area_mm2(prepared.mask);
   double edge = edge_for_vertex_count(area0, opt.skin_vertices);
   const std::array<int, 3> factors =
       geometry::working_grid_factors(prepared.mask.frame.spacing_mm, edge);

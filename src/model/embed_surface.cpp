@@ -179,4 +179,11 @@ void embedded_positions(const EmbeddedSurface& s, const Eigen::MatrixX3d& x,
   }
 }
 
+int32_t display_skin_index(const Model& model) {
+  for (size_t i = 0; i < model.embedded.size(); ++i)
+    if (model.embedded[i].label == 0 && model.embedded[i].name == "display_skin")
+      return static_cast<int32_t>(i);
+  return -1;
+}
+
 }  // namespace lamina::model

@@ -45,7 +45,7 @@ void EmbeddedDrawing::upload_model(const Model& m) {
       glGenBuffers(1, &s.ebo);
     }
   }
-  display_skin_ = display_skin_index(m);
+  display_skin_ = model::display_skin_index(m);
   std::vector<uint32_t> idx;
   for (size_t i = 0; i < surfaces_.size(); ++i) {
     const EmbeddedSurface& e = m.embedded[i];

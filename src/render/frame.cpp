@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "lamina/model/embed_surface.h"
+
 namespace lamina::render {
 
 Eigen::Vector4f ring_color(int32_t level) {
@@ -26,18 +28,12 @@ EmbeddedLook embedded_look(const Model& model, size_t index) {
   return look;
 }
 
-int32_t display_skin_index(const Model& model) {
-  for (size_t i = 0; i < model.embedded.size(); ++i)
-    if (model.embedded[i].name == "display_skin") return static_cast<int32_t>(i);
-  return -1;
-}
-
 Style default_style(const Model& model) {
   Style style;
   for (size_t i = 0; i < model.embedded.size(); ++i)
     style.embedded.push_back(embedded_look(model, i));
-  const bool structures =
-      model.embedded.size() > (display_skin_index(model) >= 0 ? size_t{1} : size_t{0});
+  const bool structures = model.embedded.size() >
+                          (lamina::model::display_skin_index(model) >= 0 ? size_t{1} : size_t{0});
   if (structures) {
     style.skin_alpha = 0.45f;
     style.inner = InnerLayers::kHidden;

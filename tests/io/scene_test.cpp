@@ -109,8 +109,9 @@ TEST(ParseScene, EmptySceneIsThePhysicalLiver) {
   EXPECT_EQ(s.solver.mode, sim::Mode::kGlobal);
   // The physical tissue conserves a tool's force: no routed copies.
   EXPECT_EQ(s.routing.routing, interact::Routing::kNone);
-  EXPECT_EQ(s.routing.locality, 4);           // N
-  EXPECT_EQ(s.routing.penetration_depth, 4);  // P
+  EXPECT_EQ(s.routing.touch, interact::Touch::kDisplaySkin);  // tools touch what is drawn
+  EXPECT_EQ(s.routing.locality, 4);                           // N
+  EXPECT_EQ(s.routing.penetration_depth, 4);                  // P
   EXPECT_DOUBLE_EQ(s.routing.ring_attenuation, 0.5);
   EXPECT_DOUBLE_EQ(s.routing.crossing_attenuation, 0.95);
   EXPECT_DOUBLE_EQ(s.routing.contact_threshold_mm, 10.0);
@@ -140,7 +141,8 @@ TEST(ParseScene, ReadsEveryKey) {
                "max_steps": 1e5, "mode": "local", "routing": "paper", "locality": 3,
                "penetration_depth": 2,
                "ring_attenuation": 0.25, "crossing_attenuation": 0.9,
-               "contact_threshold_mm": 4, "cg_max_iterations": 50, "cg_tolerance": 1e-8},
+               "contact_threshold_mm": 4, "cg_max_iterations": 50, "cg_tolerance": 1e-8,
+               "touch": "skin"},
     "tools": [{"vertex": 7, "force_n": [0, 0.05, 0], "start_s": 0.5, "end_s": 1.5},
               {"point": [1, -2, 3.5], "force_n": [-0.001, 0, 0.002], "radius_mm": 2.5},
               {"vertex": 0, "force_n": [0, 0, 1], "end_s": null}],
@@ -181,6 +183,7 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_DOUBLE_EQ(s.routing.ring_attenuation, 0.25);
   EXPECT_DOUBLE_EQ(s.routing.crossing_attenuation, 0.9);
   EXPECT_DOUBLE_EQ(s.routing.contact_threshold_mm, 4.0);
+  EXPECT_EQ(s.routing.touch, interact::Touch::kSkin);
 
   ASSERT_EQ(s.tools.size(), 3u);
   EXPECT_FALSE(s.default_tool);
@@ -307,6 +310,7 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
       {R"({"tools": [{"vertex": 1, "force_n": [0, 1, 0], "radius_mm": -2}]})",
        "tools[0].radius_mm: must be >= 0 mm"},
       {R"({"solver": {"routing": "copies"}})", "solver.routing: "},
+      {R"({"solver": {"touch": "vessels"}})", "solver.touch: "},
       {R"({"tools": [{"vertex": 1, "force_n": [0, 1, 0], "grasp": {"pull_mm": [0, 0, 9]}}]})",
        "tools[0].force_n: a grasper pulls by grasp.pull_mm; it takes no force"},
       {R"({"tools": [{"vertex": 1, "grasp": {"pull_s": 0}}]})",

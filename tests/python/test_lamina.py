@@ -261,6 +261,28 @@ def test_embedded_positions_follow_the_nodes(anatomy_model):
     assert moved > 0.5  # the push carried the surfaces along
 
 
+def test_a_tool_touches_the_display_skin_unless_told_the_skin(anatomy_model):
+    m = anatomy_model
+    skin = m.embedded[0]
+    assert skin.name == "display_skin"
+    v = int(skin.V[:, 1].argmin())  # the display skin's front
+    point = skin.V[v] - np.array([0.0, 1.0, 0.0])  # 1 mm in front of it
+    moved = {}
+    for touch in ("display_skin", "skin"):
+        sim = lamina.Simulation(m, young_modulus_kpa=6.0, stiffness_n_per_m=0.0,
+                                node_mass_kg=0.0, integrator="implicit_euler", dt_s=0.001,
+                                touch=touch, fixed=back_nodes(m))
+        sim.add_tool(point_mm=point, force_mn=(20.0, 150.0, -30.0), radius_mm=0.0)
+        sim.step(5)
+        moved[touch] = sim.x - m.X
+        loaded = np.flatnonzero(np.abs(moved[touch]).sum(1) > 1e-9)
+        assert loaded.size > 0
+    # The point load acts at another point (the display skin's, not layer 0's): another motion.
+    assert np.abs(moved["display_skin"] - moved["skin"]).max() > 1e-6
+    with pytest.raises(lamina.Error, match="touch: is 'vessels'; display_skin or skin expected"):
+        lamina.Simulation(m, touch="vessels")
+
+
 def test_embedded_positions_is_one_buffer_per_surface(anatomy_model):
     m = anatomy_model
     sim = lamina.Simulation(m, fixed=back_nodes(m))

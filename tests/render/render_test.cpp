@@ -233,7 +233,7 @@ TEST_F(Headless, StructuresShowThroughTheSkinWhereTheyAre) {
   ASSERT_NE(renderer_, nullptr);
   const Model& m = anatomy_model();
   ASSERT_EQ(m.embedded.size(), 3u);
-  ASSERT_EQ(display_skin_index(m), 0);
+  ASSERT_EQ(model::display_skin_index(m), 0);
   Frame shown;
   shown.model = &m;
   shown.style = default_style(m);

@@ -24,19 +24,24 @@ inline sim::Simulation held_sphere(const sim::SolverOptions& options = {}) {
   return s;
 }
 
-/// The same sphere as physical tissue (E = 6 kPa, nu = 0.45, 1.06 g/cm^3 lumped, alpha = 20/s),
-/// implicit Euler at 1 ms: a haptic loop's step.
+/// Physical soft tissue (E = 6 kPa, nu = 0.45, 1.06 g/cm^3 lumped, alpha = 20/s) under implicit
+/// Euler at 1 ms: a haptic loop's step.
+inline sim::Simulation soft_tissue(const Model& m) {
+  const sim::Material material{.stiffness_n_per_m = 0.0,
+                               .damping_kg_per_s = 0.0,
+                               .mass_damping_per_s = 20.0,
+                               .node_mass_kg = 0.0,
+                               .young_modulus_kpa = 6.0,
+                               .poisson_ratio = 0.45};
+  return sim::make_simulation(m, material,
+                              {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001});
+}
+
+/// The same sphere as soft tissue.
 inline sim::Simulation tissue_sphere() {
   Eigen::Vector3d c;
   const Model& m = sphere_model(&c);
-  sim::Material material{.stiffness_n_per_m = 0.0,
-                         .damping_kg_per_s = 0.0,
-                         .mass_damping_per_s = 20.0,
-                         .node_mass_kg = 0.0,
-                         .young_modulus_kpa = 6.0,
-                         .poisson_ratio = 0.45};
-  sim::Simulation s = sim::make_simulation(
-      m, material, {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001});
+  sim::Simulation s = soft_tissue(m);
   std::vector<int32_t> fixed;
   for (int32_t i = 0; i < m.node_count(); ++i)
     if (m.X(i, 1) > c.y() + 12.0) fixed.push_back(i);

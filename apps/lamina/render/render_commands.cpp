@@ -12,6 +12,7 @@
 #include "lamina/core/log.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/render/camera.h"
 #include "lamina/render/offscreen.h"
 #include "lamina/render/renderer.h"
@@ -139,7 +140,7 @@ namespace {
 render::Style render_style(const RenderArgs& a, const Model& m, render::InnerLayers inner) {
   render::Style style = render::default_style(m);
   style.display_skin = a.display_skin == "on";
-  const int32_t skin = render::display_skin_index(m);
+  const int32_t skin = model::display_skin_index(m);
   bool any = false;
   if (a.structures != "all") {
     std::vector<std::string> names;

@@ -206,7 +206,7 @@ struct RunOutputs {
       names.insert(se.name);
     }
     for (size_t k = 0; k < m.embedded.size(); ++k) {
-      const bool skin = m.embedded[k].label == 0 && m.embedded[k].name == "display_skin";
+      const bool skin = static_cast<int32_t>(k) == model::display_skin_index(m);
       if (!(skin ? scene.output.display_skin : scene.output.embedded)) continue;
       Series& se = series.emplace_back();
       se.name = series_name(m.embedded[k].name, names);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 
+#include "lamina/model/embed_surface.h"
 #include "lamina/render/camera.h"
 #include "view_session_state.h"
 
@@ -47,7 +48,7 @@ void ViewSession::State::frame_organ(const Model& m) const {
 // The model's embedded surfaces: the display skin in place of the simulation's, and each
 // structure inside the organ shown or not, in its colour.
 void ViewSession::State::embedded_panel(const Model& m) {
-  const int32_t skin = render::display_skin_index(m);
+  const int32_t skin = model::display_skin_index(m);
   if (skin >= 0) {
     const EmbeddedSurface& e = m.embedded[skin];
     ImGui::Checkbox("display skin", &style.display_skin);
@@ -241,6 +242,15 @@ void ViewSession::State::panels() {
     ImGui::EndDisabled();
     changed |=
         ImGui::InputDouble("contact threshold mm", &routing.contact_threshold_mm, 1, 5, "%.1f");
+    // Without routing, tools touch the display skin (what is drawn) when the model has one.
+    ImGui::BeginDisabled(routing.routing == interact::Routing::kPaper ||
+                         model::display_skin_index(m) < 0);
+    int touch = routing.touch == interact::Touch::kSkin ? 1 : 0;
+    if (ImGui::Combo("touch", &touch, "display skin\0simulation skin\0")) {
+      routing.touch = touch == 1 ? interact::Touch::kSkin : interact::Touch::kDisplaySkin;
+      changed = true;
+    }
+    ImGui::EndDisabled();
   }
   if (changed) push_parameters();
   if (!param_error.empty())

@@ -9,6 +9,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/io/mesh_file.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/model/summarize_model.h"
 #include "view_session_state.h"
 
@@ -92,7 +93,7 @@ nlohmann::json ViewSession::State::report() const {
   j["layers"] = vm->model.layer_count();
   // The embedded surfaces drawn at the end (the display skin and the visible structures).
   const Model& m = vm->model;
-  const int32_t skin = render::display_skin_index(m);
+  const int32_t skin = model::display_skin_index(m);
   j["display_skin"] = skin >= 0 && style.display_skin;
   j["embedded_drawn"] = nlohmann::json::array();
   for (size_t i = 0; i < m.embedded.size(); ++i) {

@@ -53,4 +53,9 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options 
 /// Returns `mask` with `pad` background voxels added on every side (origin moved accordingly).
 Mask pad_mask(const Mask& mask, int pad);
 
+/// The mask's boundary area, mm^2, estimated from its exposed voxel faces (beyond the grid is
+/// background): a staircase over-counts a smooth surface by the mean of |nx| + |ny| + |nz| over
+/// directions, 1.5, which is divided out. Sizes the skin's and the display skin's triangles.
+double mask_boundary_area_mm2(const Mask& mask);
+
 }  // namespace lamina::geometry

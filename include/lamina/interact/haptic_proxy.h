@@ -30,9 +30,11 @@ struct HapticProxy {
   bool started_inside = false;
   double start_depth_mm = 0.0;  ///< how deep, when started_inside
   int32_t recheck_in = 0;       ///< steps until started_inside is checked again
-  /// The skin triangles near the proxy, kept between steps (kept, too, while the tip is off:
-  /// the list checks itself against the skin's positions).
+  /// The touched surface's triangles near the proxy, kept between steps (kept, too, while the
+  /// tip is off: the list checks itself against the surface's positions).
   SkinNeighbourhood near;
+  /// Scratch: a display skin's vertex positions, when a start inside is checked on it.
+  Eigen::MatrixX3d surface_mm;
 };
 
 /// While a device stays inside the organ its depth is checked every this many steps (16 ms at
@@ -41,10 +43,12 @@ struct HapticProxy {
 inline constexpr int32_t kInsideRecheckSteps = 16;
 
 /// One step of the tip at positions x: moves the proxy towards tip.center_mm without entering
-/// the skin, updates the device's force, and returns the tissue's load (empty when the proxy
-/// touches nothing). An inactive tip lifts the proxy off (next step it is placed afresh); a
-/// device inside the organ is not placed (HapticProxy::started_inside).
+/// the surface `touch` names (the display skin, when the model has one, by default), updates
+/// the device's force, and returns the tissue's load (empty when the proxy touches nothing). On
+/// a display skin the load reaches the nodes by the embedding's weights (W transposed): the
+/// same total force and moment. An inactive tip lifts the proxy off (next step it is placed
+/// afresh); a device inside the organ is not placed (HapticProxy::started_inside).
 ForceRoute couple_proxy(const Model& model, const Eigen::MatrixX3d& x, const ToolTip& tip,
-                        HapticProxy& state);
+                        HapticProxy& state, Touch touch = Touch::kDisplaySkin);
 
 }  // namespace lamina::interact

@@ -17,11 +17,22 @@
 namespace lamina::interact {
 
 struct SkinNeighbourhood {
-  std::vector<int32_t> faces;  ///< rows of layers[0].F within reach_mm of centre_mm at the scan
+  std::vector<int32_t> faces;  ///< rows of the surface's F within reach_mm of centre_mm at the scan
   Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
   double reach_mm = -1.0;         ///< the listed reach, margin included; < 0: no scan yet
-  Eigen::MatrixX3d skin_at_scan;  ///< the skin's node positions at the scan
-  int64_t scans = 0;              ///< whole-skin scans so far
+  Eigen::MatrixX3d skin_at_scan;  ///< the carrying nodes' positions at the scan
+  int64_t scans = 0;              ///< whole-surface scans so far
+  /// For a surface the tetrahedra carry (a display skin): which one, the nodes that carry it
+  /// (ascending), and the most any of its vertices moves per mm its carrying nodes move (the
+  /// largest sum of |weights| of a vertex; 1 inside its tetrahedron).
+  const EmbeddedSurface* carried = nullptr;
+  std::vector<int32_t> carriers;
+  double carried_gain = 1.0;
+  /// For a carried surface: the listed triangles' vertices (ascending, each once) and, per
+  /// listed triangle, its corners as indices into them, so that a step computes each vertex's
+  /// W x once rather than once per triangle.
+  std::vector<int32_t> vertices;
+  std::vector<int32_t> local_corners;
 };
 
 /// Every skin triangle that comes within `reach_mm` of `centre_mm` at positions x, and maybe a

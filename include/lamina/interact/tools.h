@@ -30,6 +30,15 @@ enum class Routing {
 
 /// How a tool's force is distributed. Defaults reproduce the paper's figure 3 (N = 4, P = 4);
 /// a physical scene sets `routing` to kNone (io::Scene's default).
+/// Which surface a tool without routing touches (its contact and the patch its force spreads
+/// over; the paper's routing always touches the skin's nodes).
+enum class Touch {
+  /// The model's display skin when it has one (the fine surface the viewer draws; its force
+  /// reaches the nodes by the embedding's weights, W transposed), else the skin.
+  kDisplaySkin,
+  kSkin,  ///< the simulation's skin, layer 0
+};
+
 struct RoutingOptions {
   Routing routing = Routing::kPaper;
   int32_t locality =
@@ -41,6 +50,7 @@ struct RoutingOptions {
       0.95;  ///< crossing k (0 = the contact) receives crossing_attenuation^k of the force
   double contact_threshold_mm =
       10.0;  ///< a tool point farther than this from the skin touches nothing
+  Touch touch = Touch::kDisplaySkin;  ///< the surface tools touch without routing
 };
 
 /// What is wrong with routing options for a model whose rings reach `rings_locality`: the key

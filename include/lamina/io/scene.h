@@ -266,6 +266,8 @@ std::string mode_name(sim::Mode mode);
 std::string preconditioner_name(sim::Preconditioner preconditioner);
 /// The scene file's spelling of a routing: "none" or "paper".
 std::string routing_name(interact::Routing routing);
+/// "display_skin" or "skin" (solver.touch).
+std::string touch_name(interact::Touch touch);
 /// The scene file's spelling of a tetrahedral energy (material.model): "springs" or
 /// "neo_hookean".
 std::string tet_model_name(sim::TetModel model);

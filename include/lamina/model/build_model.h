@@ -29,7 +29,9 @@ enum class Structure : uint8_t {
 /// extracted from a label of the organ's own segmentation, or from a separate mask on its grid,
 /// embedded in the model (Model::embedded).
 struct EmbedStructure {
-  std::string name;   ///< how it is shown and saved; empty = "label N"
+  /// How it is shown and saved; empty = the mask file's name without its extensions (a separate
+  /// mask), or "label N".
+  std::string name;
   int32_t label = 0;  ///< its label; 0 (separate masks only) = every non-zero voxel
   /// nullptr: a label of the organ's own segmentation; else a separate mask, which must lie on
   /// the organ's grid (same size, spacing, origin and directions).

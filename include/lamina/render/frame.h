@@ -53,9 +53,6 @@ EmbeddedLook embedded_look(const Model& model, size_t index);
 /// that the structures are seen through it; `embedded` filled by embedded_look().
 Style default_style(const Model& model);
 
-/// The index of the model's embedded "display_skin" in Model::embedded, or -1.
-int32_t display_skin_index(const Model& model);
-
 /// The BFS rings 0..levels-1 of a node, coloured level by level as in the paper's figure 2.
 struct RingHighlight {
   int32_t node = -1;
