@@ -60,10 +60,16 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
   if (static_cast<int64_t>(volume.labels.size()) != f.voxel_count())
     throw invalid_input(name, "label buffer does not match the image size");
 
-  // Select the label(s) and find the bounding box in one pass.
+  // Select the label(s), note which of the listed ones are present, and find the bounding box,
+  // in one pass.
+  std::vector<uint8_t> listed_present(options.labels.size(), 0);
   const auto selects = [&](int32_t l) {
-    if (!options.labels.empty())
-      return std::find(options.labels.begin(), options.labels.end(), l) != options.labels.end();
+    if (!options.labels.empty()) {
+      const auto at = std::find(options.labels.begin(), options.labels.end(), l);
+      if (at == options.labels.end()) return false;
+      listed_present[static_cast<size_t>(at - options.labels.begin())] = 1;
+      return true;
+    }
     return options.label == 0 ? l != 0 : l == options.label;
   };
   std::vector<uint8_t> selected(volume.labels.size());
@@ -88,10 +94,11 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
         hi = {std::max(hi[0], row_hi), std::max(hi[1], j), std::max(hi[2], k)};
       }
     }
-  for (int32_t l : options.labels)
-    if (std::find(volume.labels.begin(), volume.labels.end(), l) == volume.labels.end())
-      throw invalid_input(name, "label " + std::to_string(l) + " is absent (labels present: " +
-                                    present_labels(volume.labels) + ")");
+  for (size_t k = 0; k < options.labels.size(); ++k)
+    if (!listed_present[k])
+      throw invalid_input(name, "label " + std::to_string(options.labels[k]) +
+                                    " is absent (labels present: " + present_labels(volume.labels) +
+                                    ")");
   if (count == 0) {
     if (options.label != 0)
       throw invalid_input(name, "label " + std::to_string(options.label) +
