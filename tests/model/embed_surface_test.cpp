@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <iostream>
 
 #include "lamina/core/error.h"
 #include "support/random_rows.h"
@@ -64,7 +65,7 @@ TEST(EmbedSurface, AVertexOnANodeFollowsItUnderAnyDeformation) {
   EXPECT_LT((out - x.topRows(V.rows())).cwiseAbs().maxCoeff(), 1e-9);
 }
 
-TEST(EmbedSurface, VerticesOutsideFollowTheNearestTetrahedronAndAreCounted) {
+TEST(EmbedSurface, VerticesOutsideFollowTheTetrahedronTheyAreLeastOutsideOfAndAreCounted) {
   const Model& m = test::tet_phantom();
   Eigen::MatrixX3d V;
   Eigen::MatrixX3i F;
@@ -78,8 +79,11 @@ TEST(EmbedSurface, VerticesOutsideFollowTheNearestTetrahedronAndAreCounted) {
   Eigen::MatrixX3d out;
   model::embedded_positions(e, m.X, out);
   EXPECT_LT((out - outer).cwiseAbs().maxCoeff(), 1e-9) << "extrapolated, still exact at rest";
-  // Its tetrahedron is near: every weight within a few units (not a far element's extrapolation).
-  EXPECT_LT(e.weights.cwiseAbs().maxCoeff(), 5.0);
+  // Its tetrahedron is the one it is least outside of: the weights extrapolate mildly (the
+  // nearest centroid alone gave this grown skin sums of |weights| up to 3.8; now 1.74).
+  const double gain = e.weights.cwiseAbs().rowwise().sum().maxCoeff();
+  std::cout << "largest sum of |weights| of a vertex: " << gain << "\n";
+  EXPECT_LT(gain, 2.0);
 }
 
 TEST(EmbedSurface, BadInputIsRefusedByName) {

@@ -11,10 +11,11 @@
 namespace lamina::model {
 
 /// The surface (V, F) at rest, embedded in the model's rest tetrahedra: each vertex's tetrahedron
-/// and barycentric weights; a vertex in no tetrahedron takes the one whose centroid is nearest
-/// (counted in EmbeddedSurface::outside). Throws lamina::Error (kInvalidInput) naming `name` when
-/// the model has no tetrahedra, the surface is empty, a triangle indexes no vertex or a vertex
-/// is not finite.
+/// and barycentric weights; a vertex in no tetrahedron takes, among those around its nearest
+/// centroid, the one it is least outside of (largest smallest weight: the mildest
+/// extrapolation), counted in EmbeddedSurface::outside. Throws lamina::Error (kInvalidInput) naming
+/// `name` when the model has no tetrahedra, the surface is empty, a triangle indexes no vertex or a
+/// vertex is not finite.
 EmbeddedSurface embed_surface(const Model& model, const Eigen::MatrixX3d& V,
                               const Eigen::MatrixX3i& F, const std::string& name,
                               int32_t label = 0);

@@ -71,8 +71,8 @@ struct Rings {
 /// A surface the tetrahedra carry (a fine display skin, a vessel, a tumour): each vertex keeps
 /// the four corners of its rest tetrahedron and its barycentric weights there, so that at node
 /// positions x it lies at sum_c weights(v, c) x(corners(v, c)) (model::embedded_positions). A
-/// vertex in no tetrahedron follows the nearest one (its weights then extrapolate: some are
-/// negative).
+/// vertex in no tetrahedron follows a near one, the one it is least outside of (its weights then
+/// extrapolate: some are negative, all still summing to 1).
 struct EmbeddedSurface {
   std::string name;          ///< "display_skin", or the structure's name
   int32_t label = 0;         ///< the segmentation label it came from (0: the organ's own skin)
