@@ -3,6 +3,8 @@
 // embeddings refused before any work with one line naming the file and the label.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <iostream>
 #include <memory>
 
 #include "lamina/core/error.h"
@@ -170,6 +172,45 @@ TEST(BuildEmbedded, UnderTheDefaultPokeTheStructuresMoveWithTheTissue) {
   EXPECT_GT(moved, 0.1 * dent) << "tumour " << moved << " mm, skin " << dent << " mm, "
                                << (m.embedded[2].V.row(near) - m.X.row(poked)).norm()
                                << " mm apart";
+}
+
+// A push over the vessel tree (the skin node nearest to it, towards it): the vessel under the
+// dent moves with it, by the tetrahedra that carry it.
+TEST(BuildEmbedded, AVesselUnderAPushMovesWithTheDent) {
+  test::TempDir dir;
+  const std::string path = dir.file("anatomy.nii.gz");
+  io::write_label_volume(anatomy(3.0), path);
+  io::Scene scene;
+  scene.input = path;
+  scene.build = with_structures();
+  const io::ReadyScene ready = io::make_ready_scene(scene);
+  const Model& m = *ready.model;
+  const EmbeddedSurface& vessels = m.embedded.at(1);
+  ASSERT_EQ(vessels.name, "vessels");
+  // The skin node nearest to the tree, and the tree's vertex nearest to that node.
+  const int32_t skin = m.layers[0].node_count;
+  double best = 1e300;
+  int32_t node = -1;
+  Eigen::Index vertex = 0;
+  for (int32_t i = 0; i < skin; ++i) {
+    Eigen::Index v = 0;
+    const double d = (vessels.V.rowwise() - m.X.row(i)).rowwise().squaredNorm().minCoeff(&v);
+    if (d < best) best = d, node = i, vertex = v;
+  }
+  const Eigen::Vector3d towards = (vessels.V.row(vertex) - m.X.row(node)).transpose().normalized();
+  interact::ToolDriver driver = io::make_tool_driver(ready.scene);
+  driver.tools = {{.vertex = node, .force_mn = 400.0 * towards, .end_s = 1.0}};
+  sim::Simulation s = io::make_scene_simulation(ready);
+  interact::run_tools(s, driver, 0.8, false);  // mid-push
+  const double dent = (s.x.row(node) - m.X.row(node)).dot(towards.transpose());
+  ASSERT_GT(dent, 1.0) << "the push dents the skin over the tree";
+  Eigen::MatrixX3d x;
+  model::embedded_positions(vessels, s.x, x);
+  const double moved = (x.row(vertex) - vessels.V.row(vertex)).dot(towards.transpose());
+  EXPECT_GT(moved, 0.5 * dent) << "vessel " << moved << " mm, skin " << dent << " mm, "
+                               << std::sqrt(best) << " mm apart";
+  std::cout << "skin dented " << dent << " mm; the vessel " << std::sqrt(best)
+            << " mm under it moved " << moved << " mm\n";
 }
 
 }  // namespace
