@@ -32,14 +32,18 @@ double farthest_move(const Eigen::MatrixX3d& x, const Eigen::MatrixX3d& at_scan,
   return std::sqrt(most);
 }
 
-// A carried surface's nodes (ascending, each once) and its vertices' largest sum of |weights|.
-void take_carriers(const EmbeddedSurface& e, SkinNeighbourhood& near) {
-  near.carried = &e;
-  near.carriers.assign(e.corners.data(), e.corners.data() + e.corners.size());
+// Another surface: its carrying nodes (ascending, each once) and its vertices' largest sum of
+// |weights| when the tetrahedra carry it (e), none and 1 for the skin (nullptr); no list yet.
+void take_carriers(const EmbeddedSurface* e, SkinNeighbourhood& near) {
+  near.carried = e;
+  near.carriers.clear();
+  near.carried_gain = 1.0;
+  near.reach_mm = -1.0;
+  if (!e) return;
+  near.carriers.assign(e->corners.data(), e->corners.data() + e->corners.size());
   std::sort(near.carriers.begin(), near.carriers.end());
   near.carriers.erase(std::unique(near.carriers.begin(), near.carriers.end()), near.carriers.end());
-  near.carried_gain = e.weights.rows() > 0 ? e.weights.cwiseAbs().rowwise().sum().maxCoeff() : 1.0;
-  near.reach_mm = -1.0;
+  if (e->weights.rows() > 0) near.carried_gain = e->weights.cwiseAbs().rowwise().sum().maxCoeff();
 }
 
 }  // namespace
@@ -56,16 +60,7 @@ const std::vector<int32_t>& skin_faces_near(const Model& m, const Eigen::MatrixX
 
 const std::vector<int32_t>& detail::faces_near(const SurfaceView& s, const Eigen::Vector3d& centre,
                                                double reach, SkinNeighbourhood& near) {
-  if (s.carried != near.carried) {
-    if (s.carried) {
-      take_carriers(*s.carried, near);  // once per surface: the list is kept from then on
-    } else {
-      near.carried = nullptr;
-      near.carriers.clear();
-      near.carried_gain = 1.0;
-      near.reach_mm = -1.0;
-    }
-  }
+  if (s.carried != near.carried) take_carriers(s.carried, near);  // once per surface
   const Eigen::Index rows =
       s.carried ? static_cast<Eigen::Index>(near.carriers.size()) : s.skin_nodes;
   if (near.reach_mm >= 0.0 && near.skin_at_scan.rows() == rows) {

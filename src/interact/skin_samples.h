@@ -142,18 +142,16 @@ void sample_triangle(int32_t f, const Eigen::Vector3d& a, const Eigen::Vector3d&
     }
 }
 
-// sample_triangle over every triangle of the surface s (the skin, or a finite-element mesh's
-// boundary) that comes within `reach` of `centre`. With `list`, only the listed triangles are
-// looked at (a superset of those within reach).
+// sample_triangle over every triangle of F (rows index x: the skin, or a finite-element mesh's
+// boundary) that comes within `reach` of `centre`.
 template <class Cuts, class Visit>
-void sample_faces_near(const SurfaceView& s, const Eigen::Vector3d& centre, double reach,
-                       Cuts&& cuts, Visit&& visit, const std::vector<int32_t>* list = nullptr) {
-  const Eigen::MatrixX3i& F = s.F;
-  for_faces(F, list, [&](Eigen::Index f) {
-    const Eigen::Vector3d a = s.vertex(F(f, 0)), b = s.vertex(F(f, 1)), c = s.vertex(F(f, 2));
-    if (box_out_of_reach(centre, reach, a, b, c)) return;
+void sample_faces_near(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x,
+                       const Eigen::Vector3d& centre, double reach, Cuts&& cuts, Visit&& visit) {
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = x.row(F(f, 0)), b = x.row(F(f, 1)), c = x.row(F(f, 2));
+    if (box_out_of_reach(centre, reach, a, b, c)) continue;
     sample_triangle(static_cast<int32_t>(f), a, b, c, centre, reach, cuts, visit);
-  });
+  }
 }
 
 // Triangles of a surface with their corners and bounding boxes at the current positions,
@@ -166,13 +164,10 @@ struct Gathered {
   // The triangles (all of s's, or the listed ones) whose boxes come within `reach` of `centre`.
   void gather(const SurfaceView& s, const std::vector<int32_t>* list, const Eigen::Vector3d& centre,
               double reach) {
-    face.clear(), a.clear(), b.clear(), c.clear(), lo.clear(), hi.clear();
+    clear();
     for_faces(s.F, list, [&](Eigen::Index f) {
-      const Eigen::Vector3d p = s.vertex(s.F(f, 0)), q = s.vertex(s.F(f, 1)),
-                            r = s.vertex(s.F(f, 2));
-      if (box_out_of_reach(centre, reach, p, q, r)) return;
-      face.push_back(static_cast<int32_t>(f)), a.push_back(p), b.push_back(q), c.push_back(r);
-      lo.push_back(p.cwiseMin(q).cwiseMin(r)), hi.push_back(p.cwiseMax(q).cwiseMax(r));
+      keep(static_cast<int32_t>(f), s.vertex(s.F(f, 0)), s.vertex(s.F(f, 1)), s.vertex(s.F(f, 2)),
+           centre, reach);
     });
   }
   // The triangles `near` lists (faces_near's last answer for s) within `reach` of `centre`; on a
@@ -183,37 +178,33 @@ struct Gathered {
     if (!s.carried) return gather(s, &near.faces, centre, reach);
     scratch.resize(near.vertices.size());
     for (size_t v = 0; v < near.vertices.size(); ++v) scratch[v] = s.vertex(near.vertices[v]);
-    face.clear(), a.clear(), b.clear(), c.clear(), lo.clear(), hi.clear();
-    for (size_t k = 0; k < near.faces.size(); ++k) {
-      const Eigen::Vector3d& p = scratch[static_cast<size_t>(near.local_corners[3 * k])];
-      const Eigen::Vector3d& q = scratch[static_cast<size_t>(near.local_corners[3 * k + 1])];
-      const Eigen::Vector3d& r = scratch[static_cast<size_t>(near.local_corners[3 * k + 2])];
-      if (box_out_of_reach(centre, reach, p, q, r)) continue;
-      face.push_back(near.faces[k]), a.push_back(p), b.push_back(q), c.push_back(r);
-      lo.push_back(p.cwiseMin(q).cwiseMin(r)), hi.push_back(p.cwiseMax(q).cwiseMax(r));
-    }
+    clear();
+    const auto corner = [&](size_t k) -> const Eigen::Vector3d& {
+      return scratch[static_cast<size_t>(near.local_corners[k])];
+    };
+    for (size_t k = 0; k < near.faces.size(); ++k)
+      keep(near.faces[k], corner(3 * k), corner(3 * k + 1), corner(3 * k + 2), centre, reach);
   }
   size_t size() const { return face.size(); }
   // True when no point of entry k is within `reach` of p.
   bool out_of_reach(size_t k, const Eigen::Vector3d& p, double reach) const {
     return (lo[k] - p).cwiseMax(p - hi[k]).cwiseMax(0.0).squaredNorm() > reach * reach;
   }
+
+ private:
+  void clear() { face.clear(), a.clear(), b.clear(), c.clear(), lo.clear(), hi.clear(); }
+  // Triangle f (corners p, q, r) as an entry, when its box comes within `reach` of `centre`.
+  void keep(int32_t f, const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& r,
+            const Eigen::Vector3d& centre, double reach) {
+    if (box_out_of_reach(centre, reach, p, q, r)) return;
+    face.push_back(f), a.push_back(p), b.push_back(q), c.push_back(r);
+    lo.push_back(p.cwiseMin(q).cwiseMin(r)), hi.push_back(p.cwiseMax(q).cwiseMax(r));
+  }
 };
 
-// The same over triangles F whose rows index x.
-template <class Cuts, class Visit>
-void sample_faces_near(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x,
-                       const Eigen::Vector3d& centre, double reach, Cuts&& cuts, Visit&& visit,
-                       const std::vector<int32_t>* list = nullptr) {
-  sample_faces_near(SurfaceView{.F = F, .x = x}, centre, reach, std::forward<Cuts>(cuts),
-                    std::forward<Visit>(visit), list);
-}
-
-// spread_on_patch on the surface s (`at` a point of it), over its listed triangles only (a
-// superset of those within radius_mm of the contact point; nullptr: all).
-ForceRoute spread_on_listed(const SurfaceView& s, const SkinPoint& at,
-                            const Eigen::Vector3d& force_mn, double radius_mm,
-                            const std::vector<int32_t>* list);
+// spread_on_patch on the surface s (`at` a point of it).
+ForceRoute spread_on_surface(const SurfaceView& s, const SkinPoint& at,
+                             const Eigen::Vector3d& force_mn, double radius_mm);
 
 // The same over gathered triangles (a superset of those within radius_mm of the contact point),
 // for a caller that has gathered them already.

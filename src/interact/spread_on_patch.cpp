@@ -31,15 +31,14 @@ struct Shares {
 
 ForceRoute spread_on_patch(const Model& m, const Eigen::MatrixX3d& x, const SkinPoint& at,
                            const Eigen::Vector3d& force_mn, double radius_mm) {
-  return detail::spread_on_listed(detail::skin_view(m, x), at, force_mn, radius_mm, nullptr);
+  return detail::spread_on_surface(detail::skin_view(m, x), at, force_mn, radius_mm);
 }
 
-ForceRoute detail::spread_on_listed(const SurfaceView& s, const SkinPoint& at,
-                                    const Eigen::Vector3d& force_mn, double radius_mm,
-                                    const std::vector<int32_t>* list) {
+ForceRoute detail::spread_on_surface(const SurfaceView& s, const SkinPoint& at,
+                                     const Eigen::Vector3d& force_mn, double radius_mm) {
   if (at.face < 0) return {};
   thread_local Gathered g;
-  g.gather(s, list, at.point_mm, std::max(radius_mm, 0.0));
+  g.gather(s, nullptr, at.point_mm, std::max(radius_mm, 0.0));
   return spread_on_gathered(s, g, at, force_mn, radius_mm);
 }
 

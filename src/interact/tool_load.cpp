@@ -36,8 +36,8 @@ ForceRoute load_at_node(const Model& m, const Eigen::MatrixX3d& x, int32_t node,
   if (!touched.carried) return spread_on_patch(m, x, at, force_mn, radius_mm);
   // On the display skin: at its point nearest to the node (the node lies on the simulation's
   // skin, at most a few mm inside the display skin).
-  return detail::spread_on_listed(touched, detail::closest_on_faces(touched, at.point_mm), force_mn,
-                                  radius_mm, nullptr);
+  return detail::spread_on_surface(touched, detail::closest_on_faces(touched, at.point_mm),
+                                   force_mn, radius_mm);
 }
 
 ForceRoute load_at_point(const Model& m, const Eigen::MatrixX3d& x, const Eigen::Vector3d& point_mm,
@@ -50,7 +50,7 @@ ForceRoute load_at_point(const Model& m, const Eigen::MatrixX3d& x, const Eigen:
   const detail::SurfaceView touched = detail::touch_view(m, x, o.touch);
   const SkinPoint at = detail::closest_on_faces(touched, point_mm);
   if (!(at.distance_mm <= o.contact_threshold_mm)) return {};
-  return detail::spread_on_listed(touched, at, force_mn, radius_mm, nullptr);
+  return detail::spread_on_surface(touched, at, force_mn, radius_mm);
 }
 
 ForceRoute load_of_tip(const Model& m, const Eigen::MatrixX3d& x, const ToolTip& tip,

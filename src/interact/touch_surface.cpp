@@ -17,15 +17,14 @@ detail::SurfaceView detail::touch_view(const Model& m, const Eigen::MatrixX3d& x
 
 double detail::depth_under(const SurfaceView& s, const Eigen::Vector3d& p,
                            Eigen::MatrixX3d& scratch) {
-  const double distance = closest_on_faces(s, p).distance_mm;
-  double winding = 0.0;
   if (s.carried) {
-    model::embedded_positions(*s.carried, s.x, scratch);  // W x, threaded; sized once
-    winding = geometry::winding_number(scratch, s.F, p);
-  } else {
-    winding = geometry::winding_number(s.x, s.F, p);
+    // Every vertex is read: their positions W x once (threaded; `scratch` sized once), then the
+    // plain surface's depth.
+    model::embedded_positions(*s.carried, s.x, scratch);
+    return depth_under(SurfaceView{.F = s.F, .x = scratch}, p, scratch);
   }
-  return winding > 0.5 ? distance : -distance;
+  const double distance = closest_on_faces(s, p).distance_mm;
+  return geometry::winding_number(s.x, s.F, p) > 0.5 ? distance : -distance;
 }
 
 }  // namespace lamina::interact

@@ -114,7 +114,7 @@ void add_embedded(Model& m, const LabelVolume& volume, const Mask& organ, const 
           name, e.outside, e.V.rows()));
   };
   if (o.display_triangles > 0)
-    add(geometry::display_skin(organ, o.display_triangles), "display_skin", 0);
+    add(geometry::display_skin(organ, o.display_triangles), kDisplaySkinName, 0);
   for (const EmbedStructure& s : o.embed) {
     const LabelVolume& v = source_of(s, volume);
     geometry::MaskOptions select{.label = s.label, .clean = false, .min_voxels = 1};

@@ -100,7 +100,7 @@ Eigen::Vector3d centroid(const Model& m, int32_t t) {
 }
 
 // The tetrahedron containing p (its weights all >= -1e-9), or -1.
-int32_t containing(const Model& m, const TetGrid& g, const Eigen::Vector3d& p, Eigen::Vector4d& w) {
+int32_t containing(const TetGrid& g, const Eigen::Vector3d& p, Eigen::Vector4d& w) {
   const int64_t k = g.index(g.cell_of(p));
   for (int32_t q = g.offsets[k]; q < g.offsets[k + 1]; ++q) {
     w = barycentric(g, g.tets[q], p);
@@ -183,7 +183,7 @@ EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const E
   for (Eigen::Index v = 0; v < V.rows(); ++v) {
     const Eigen::Vector3d p = V.row(v).transpose();
     Eigen::Vector4d w;
-    int32_t t = containing(m, g, p, w);
+    int32_t t = containing(g, p, w);
     if (t < 0) {
       t = least_outside(m, g, p, w);
       ++outside;
@@ -218,7 +218,7 @@ void embedded_positions(const EmbeddedSurface& s, const Eigen::MatrixX3d& x,
 
 int32_t display_skin_index(const Model& model) {
   for (size_t i = 0; i < model.embedded.size(); ++i)
-    if (model.embedded[i].label == 0 && model.embedded[i].name == "display_skin")
+    if (model.embedded[i].label == 0 && model.embedded[i].name == kDisplaySkinName)
       return static_cast<int32_t>(i);
   return -1;
 }

@@ -37,6 +37,17 @@ model::BuildOptions with_structures() {
   return o;
 }
 
+// The default scene on the 3 mm phantom with anatomy, written to `dir` and built with the
+// structures, as `lamina run` would.
+io::ReadyScene anatomy_scene(const test::TempDir& dir) {
+  const std::string path = dir.file("anatomy.nii.gz");
+  io::write_label_volume(anatomy(3.0), path);
+  io::Scene scene;
+  scene.input = path;
+  scene.build = with_structures();
+  return io::make_ready_scene(scene);
+}
+
 TEST(BuildEmbedded, TheDisplaySkinAndStructuresAreCarriedByTheTetrahedra) {
   const model::BuildResult built = model::build_model(anatomy(3.0), with_structures());
   const Model& m = built.model;
@@ -139,12 +150,7 @@ TEST(BuildEmbedded, BadEmbeddingsAreRefusedByFileAndLabel) {
 // tumour, which lies under the poked (most anterior) skin, moves back with the dent.
 TEST(BuildEmbedded, UnderTheDefaultPokeTheStructuresMoveWithTheTissue) {
   test::TempDir dir;
-  const std::string path = dir.file("anatomy.nii.gz");
-  io::write_label_volume(anatomy(3.0), path);
-  io::Scene scene;
-  scene.input = path;
-  scene.build = with_structures();
-  const io::ReadyScene ready = io::make_ready_scene(scene);
+  const io::ReadyScene ready = anatomy_scene(dir);
   const Model& m = *ready.model;
   ASSERT_EQ(m.embedded.size(), 3u);
   interact::ToolDriver driver = io::make_tool_driver(ready.scene);
@@ -178,12 +184,7 @@ TEST(BuildEmbedded, UnderTheDefaultPokeTheStructuresMoveWithTheTissue) {
 // dent moves with it, by the tetrahedra that carry it.
 TEST(BuildEmbedded, AVesselUnderAPushMovesWithTheDent) {
   test::TempDir dir;
-  const std::string path = dir.file("anatomy.nii.gz");
-  io::write_label_volume(anatomy(3.0), path);
-  io::Scene scene;
-  scene.input = path;
-  scene.build = with_structures();
-  const io::ReadyScene ready = io::make_ready_scene(scene);
+  const io::ReadyScene ready = anatomy_scene(dir);
   const Model& m = *ready.model;
   const EmbeddedSurface& vessels = m.embedded.at(1);
   ASSERT_EQ(vessels.name, "vessels");

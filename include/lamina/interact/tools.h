@@ -28,8 +28,6 @@ enum class Routing {
   kNone,   ///< the contact's load as it is: force conserved (the physical tissue's default)
 };
 
-/// How a tool's force is distributed. Defaults reproduce the paper's figure 3 (N = 4, P = 4);
-/// a physical scene sets `routing` to kNone (io::Scene's default).
 /// Which surface a tool without routing touches (its contact and the patch its force spreads
 /// over; the paper's routing always touches the skin's nodes).
 enum class Touch {
@@ -39,6 +37,8 @@ enum class Touch {
   kSkin,  ///< the simulation's skin, layer 0
 };
 
+/// How a tool's force is distributed. Defaults reproduce the paper's figure 3 (N = 4, P = 4);
+/// a physical scene sets `routing` to kNone (io::Scene's default).
 struct RoutingOptions {
   Routing routing = Routing::kPaper;
   int32_t locality =

@@ -20,7 +20,11 @@ EmbeddedSurface embed_surface(const Model& model, const Eigen::MatrixX3d& V,
                               const Eigen::MatrixX3i& F, const std::string& name,
                               int32_t label = 0);
 
-/// The index of the model's embedded "display_skin" (label 0) in Model::embedded, or -1.
+/// The name `lamina build` gives the display skin it embeds (label 0).
+inline constexpr const char* kDisplaySkinName = "display_skin";
+
+/// The index of the model's embedded display skin (kDisplaySkinName, label 0) in
+/// Model::embedded, or -1.
 int32_t display_skin_index(const Model& model);
 
 /// The embedded surface's vertices at node positions x: out = W x, four weights a row. Threaded
