@@ -15,6 +15,7 @@
 #include "lamina/io/scene_model.h"
 #include "lamina/io/summary_json.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/model/summarize_model.h"
 
 namespace py = pybind11;
@@ -134,25 +135,30 @@ void bind_model(py::module_& m) {
       "Headers are checked (docs/errors.md); raises lamina.Error naming the file and field.");
   m.def(
       "phantom",
-      [](const std::variant<double, std::array<double, 3>>& spacing_mm, bool anatomy) {
+      [](const std::variant<double, std::array<double, 3>>& spacing_mm, bool anatomy,
+         bool carved_out) {
         geometry::PhantomOptions o;
         if (const double* s = std::get_if<double>(&spacing_mm))
           o.spacing_mm = {*s, *s, *s};
         else
           o.spacing_mm = std::get<std::array<double, 3>>(spacing_mm);
         o.anatomy = anatomy;
+        o.carved_out = carved_out;
         return geometry::make_phantom(o);
       },
       py::kw_only(), py::arg("spacing_mm") = 1.5, py::arg("anatomy") = false,
+      py::arg("carved_out") = false,
       "The built-in liver-like phantom mask. spacing_mm: voxel size, one value or (i, j, k);\n"
       "anatomy: labels 1 liver, 2 a vessel tree, 3 a tumour (lamina phantom --labels), the\n"
-      "organ their union; else label 1.");
+      "organ their union; carved_out: the anatomy as most labelmaps store it (lamina phantom\n"
+      "--carved-out): 1 parenchyma only, 2 portal vein (its trunk beyond the organ), 3 tumours,\n"
+      "4 hepatic veins, 5 inferior vena cava; build it with label=1 and embed; else label 1.");
 
   py::class_<EmbeddedSurface>(
       m, "EmbeddedSurface",
       "A surface carried by the model's tetrahedra (the display skin, a structure inside the\n"
-      "organ): vertex v lies at sum_c weights[v, c] * x[corners[v, c]]. Arrays are read-only\n"
-      "views of the model's memory.")
+      "organ): vertex v lies at sum_c weights[v, c] * x[corners[v, c]] + offsets[v]. Arrays\n"
+      "are read-only views of the model's memory.")
       .def_readonly("name", &EmbeddedSurface::name, "'display_skin', or the structure's name")
       .def_readonly("label", &EmbeddedSurface::label,
                     "the segmentation label it came from (0: the organ's own skin)")
@@ -167,6 +173,22 @@ void bind_model(py::module_& m) {
       .def_property_readonly(
           "weights", field_view(&EmbeddedSurface::weights),
           "barycentric weights of the corners, (vertices, 4) float64, summing to 1")
+      .def_property_readonly(
+          "offsets",
+          [](const EmbeddedSurface& e) -> py::array_t<double> {
+            // Stored only when some vertex has one; zeros otherwise, so W x + offsets always works.
+            py::array_t<double> out({static_cast<py::ssize_t>(e.V.rows()), py::ssize_t{3}});
+            auto o = out.mutable_unchecked<2>();
+            for (Eigen::Index v = 0; v < e.V.rows(); ++v)
+              for (int c = 0; c < 3; ++c) o(v, c) = e.offsets.rows() > 0 ? e.offsets(v, c) : 0.0;
+            return out;
+          },
+          "rest-space offsets added to W x, (vertices, 3) float64, mm: zero but for vertices\n"
+          "far outside the tetrahedra (a vessel's trunk beyond the organ), which follow them by\n"
+          "translation (a copy)")
+      .def_property_readonly("max_amplification", &model::max_amplification,
+                             "the largest sum of |weights|: no vertex moves more than this many\n"
+                             "times its tetrahedron's largest node motion (at most 2)")
       .def("__repr__", [](const EmbeddedSurface& e) {
         return "<lamina.EmbeddedSurface '" + e.name + "' label " + std::to_string(e.label) + ", " +
                std::to_string(e.V.rows()) + " vertices, " + std::to_string(e.F.rows()) +

@@ -93,6 +93,10 @@ int main(int argc, char** argv) {
   ph->add_flag("--labels", phantom.options.anatomy,
                "also the anatomy inside, a label each: 1 liver, 2 vessel tree (entering at the "
                "hilum), 3 tumour; the organ is their union");
+  ph->add_flag("--carved-out", phantom.options.carved_out,
+               "the anatomy as most labelmaps store it (implies --labels): 1 liver parenchyma "
+               "only, 2 portal vein (its trunk leaving the organ), 3 tumour, 4 hepatic veins, "
+               "5 inferior vena cava (mostly outside the organ); build it with --label 1 --embed");
 
   cli::BuildArgs build;
   auto& bo = build.options;

@@ -59,6 +59,37 @@ constexpr Segment kVessels[] = {
 constexpr double kTumourCentre[3] = {-60, -18, 32};
 constexpr double kTumourRadius = 15.0;
 
+// The carved-out variant's own vessels. The portal trunk continues below the hilum to beyond the
+// scan's lower edge. The inferior vena cava runs up the organ's back, to the patient's right of
+// the midline, a little forward as it rises: in a groove of the right lobe about a third of its
+// width deep where the organ is thickest, clear of it above and below, from edge to edge of the
+// scan. Three hepatic veins (right, middle, left) drain into it from the organ's upper part,
+// clear of the portal tree and of the tumour by at least 4 mm.
+// A second, subcapsular lesion in the left lobe (carved-out variant only): its centre 4 mm under
+// the upper surface, so that it bulges 6 mm out of the organ, as LiTS's exophytic tumours do.
+constexpr double kLesionCentre[3] = {60, -14, 43.5};
+constexpr double kLesionRadius = 10.0;
+constexpr Segment kPortalTrunkBelow = {{-11, 36, -140}, {-12, 28, -80}, 6.5};
+constexpr Segment kVenaCava = {{-20, 80, -140}, {-16, 58, 150}, 10.0};
+constexpr Segment kHepaticVeins[] = {
+    {{-17, 64, 36}, {-52, 30, 33}, 5.0},   // right hepatic vein, trunk
+    {{-52, 30, 33}, {-88, -2, 28}, 3.5},   //   and its lateral part
+    {{-17, 64, 36}, {-30, 10, 22}, 4.5},   // middle hepatic vein, trunk
+    {{-30, 10, 22}, {-36, -38, 16}, 3.0},  //   towards the gallbladder fossa
+    {{-17, 64, 38}, {10, 30, 38}, 4.5},    // left hepatic vein, trunk
+    {{10, 30, 38}, {40, -4, 34}, 3.0},     //   into the left lobe
+};
+
+// True when p is inside the capsule; the box test first, since the carved-out grid evaluates
+// every voxel against every segment.
+bool in_segment(double x, double y, double z, const Segment& s) {
+  const double p[3] = {x, y, z};
+  for (int a = 0; a < 3; ++a)
+    if (p[a] < std::min(s.a[a], s.b[a]) - s.r || p[a] > std::max(s.a[a], s.b[a]) + s.r)
+      return false;
+  return capsule(x, y, z, s.a, s.b, s.r) < 0.0;
+}
+
 }  // namespace
 
 int32_t phantom_anatomy(double x, double y, double z) {
@@ -68,6 +99,22 @@ int32_t phantom_anatomy(double x, double y, double z) {
   for (const Segment& v : kVessels)
     if (capsule(x, y, z, v.a, v.b, v.r) < 0.0) return kPhantomVessel;
   return kPhantomLiver;
+}
+
+int32_t phantom_carved_structure(double x, double y, double z) {
+  const double t[3] = {x - kTumourCentre[0], y - kTumourCentre[1], z - kTumourCentre[2]};
+  if (t[0] * t[0] + t[1] * t[1] + t[2] * t[2] < kTumourRadius * kTumourRadius)
+    return kPhantomTumour;
+  const double u[3] = {x - kLesionCentre[0], y - kLesionCentre[1], z - kLesionCentre[2]};
+  if (u[0] * u[0] + u[1] * u[1] + u[2] * u[2] < kLesionRadius * kLesionRadius)
+    return kPhantomTumour;
+  if (in_segment(x, y, z, kPortalTrunkBelow)) return kPhantomVessel;
+  for (const Segment& v : kVessels)
+    if (in_segment(x, y, z, v)) return kPhantomVessel;
+  for (const Segment& v : kHepaticVeins)
+    if (in_segment(x, y, z, v)) return kPhantomHepaticVeins;
+  if (in_segment(x, y, z, kVenaCava)) return kPhantomVenaCava;
+  return 0;
 }
 
 double phantom_implicit(double x, double y, double z) {
@@ -89,7 +136,10 @@ double phantom_implicit(double x, double y, double z) {
 
 LabelVolume make_phantom(const PhantomOptions& options) {
   LabelVolume v;
-  v.source = options.anatomy ? "built-in phantom with anatomy" : "built-in phantom";
+  const bool carved = options.carved_out;  // implies the anatomy
+  v.source = carved            ? "built-in phantom with carved-out anatomy"
+             : options.anatomy ? "built-in phantom with anatomy"
+                               : "built-in phantom";
   GridFrame& f = v.frame;
   f.spacing_mm = options.spacing_mm;
   for (int a = 0; a < 3; ++a) {
@@ -111,16 +161,24 @@ LabelVolume make_phantom(const PhantomOptions& options) {
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t k = 0; k < f.size[2]; ++k) {
     const double z = f.origin_mm[2] + static_cast<double>(k) * f.spacing_mm[2];
-    if (z < kLo[2] || z > kHi[2]) continue;
+    const bool z_in = z >= kLo[2] && z <= kHi[2];
+    if (!z_in && !carved) continue;
     for (int64_t j = 0; j < f.size[1]; ++j) {
       const double y = f.origin_mm[1] + static_cast<double>(j) * f.spacing_mm[1];
-      if (y < kLo[1] || y > kHi[1]) continue;
+      const bool y_in = y >= kLo[1] && y <= kHi[1];
+      if (!y_in && !carved) continue;
       for (int64_t i = 0; i < f.size[0]; ++i) {
         const double x = f.origin_mm[0] + static_cast<double>(i) * f.spacing_mm[0];
-        if (x < kLo[0] || x > kHi[0]) continue;
-        if (phantom_implicit(x, y, z) < 0.0)
-          v.labels[static_cast<size_t>(f.index(i, j, k))] =
-              options.anatomy ? phantom_anatomy(x, y, z) : kPhantomLiver;
+        const bool in_box = z_in && y_in && x >= kLo[0] && x <= kHi[0];
+        int32_t& label = v.labels[static_cast<size_t>(f.index(i, j, k))];
+        if (carved) {
+          // A structure's voxel is the structure's, in the organ or beyond it; the rest of the
+          // organ is parenchyma.
+          label = phantom_carved_structure(x, y, z);
+          if (label == 0 && in_box && phantom_implicit(x, y, z) < 0.0) label = kPhantomLiver;
+        } else if (in_box && phantom_implicit(x, y, z) < 0.0) {
+          label = options.anatomy ? phantom_anatomy(x, y, z) : kPhantomLiver;
+        }
       }
     }
   }

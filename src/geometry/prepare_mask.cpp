@@ -109,6 +109,17 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
 
   PreparedMask out;
   MaskReport& r = out.report;
+  if (options.structures) {
+    if (options.structures->size() != volume.labels.size())
+      throw invalid_input(name, "the structures' buffer does not match the image size");
+    r.structures =
+        add_enclosed_structures(f, selected, *options.structures, options.structure_count, lo, hi);
+    if (r.structures.organ_own == 0)
+      throw invalid_input(name,
+                          "every voxel selected as the organ is an embedded structure's; the "
+                          "organ needs a label of its own (name it with --label)");
+    count += r.structures.added;
+  }
   r.label = options.label;
   r.selected_voxels = count;
   for (int a = 0; a < 3; ++a) r.touches_scan_border |= lo[a] == 0 || hi[a] == f.size[a] - 1;
@@ -133,7 +144,7 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
               static_cast<double>(cc.dropped_voxels) * f.voxel_volume_mm3() / 1000.0);
   if (r.cavity_voxels_filled > 0)
     log::info("{}: filled {} cavity voxels", name, r.cavity_voxels_filled);
-  if (r.touches_scan_border)
+  if (r.touches_scan_border && options.clean)  // a structure (not clean) may leave the scan
     log::info("{}: the organ touches the scan border; padded so its surface closes", name);
   return out;
 }

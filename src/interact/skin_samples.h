@@ -23,7 +23,8 @@ namespace lamina::interact::detail {
 // sum_c W(v, c) x(corners(v, c))). Contact is found on it alike; a force at a point of it goes to
 // its triangle's corners by barycentric weights and, on a carried surface, on to the nodes by W
 // transposed. Both maps are affine with weights summing to 1, so the nodes receive the same
-// total force and the same moment about any point as the surface did.
+// total force and the same moment about any point as the surface did (but for a carried vertex
+// with an offset, far outside the tetrahedra, whose load acts at its offset-free point).
 struct SurfaceView {
   const Eigen::MatrixX3i& F;
   const Eigen::MatrixX3d& x;
@@ -35,6 +36,7 @@ struct SurfaceView {
     Eigen::Vector3d p = Eigen::Vector3d::Zero();
     for (int c = 0; c < 4; ++c)
       p += carried->weights(v, c) * x.row(carried->corners(v, c)).transpose();
+    if (carried->offsets.rows() > v) p += carried->offsets.row(v).transpose();
     return p;
   }
   // Calls add(node, share) for each node that carries `share` of vertex v (itself, on the skin).

@@ -221,12 +221,15 @@ namespace {
 
 using namespace detail;
 
+// Version 4 added the offsets of embedded vertices far outside the tetrahedra (embed_offset); a
+// model whose surfaces have none is still written as version 3.
 // Version 3 added the embedded surfaces (their vertices as points after the nodes, their
 // triangles as cells after the tetrahedra). A model without any is still written as version 2,
 // the oldest layout that holds it, so that builds from before version 3 read it too.
 // Version 2 added interior nodes (layer -1, after the layers) and tetrahedra (VTK_TETRA cells
 // after the springs, counted by tet_count). Version 1 files (layers joined by links) still load.
-constexpr int32_t kFormatVersion = 3;
+constexpr int32_t kFormatVersion = 4;
+constexpr int32_t kFormatVersionWithoutOffsets = 3;
 constexpr int32_t kFormatVersionWithoutEmbedded = 2;
 
 // Only what would make save_model() itself read out of bounds; load_model() checks the rest.
@@ -347,7 +350,9 @@ void save_model(const Model& m, const std::string& path) {
   // as in version 2.
   add_embedded(m, piece);
   const std::vector<uint8_t> source(m.source.begin(), m.source.end());
-  const int32_t version = m.embedded.empty() ? kFormatVersionWithoutEmbedded : kFormatVersion;
+  const int32_t version = m.embedded.empty()        ? kFormatVersionWithoutEmbedded
+                          : has_embedded_offsets(m) ? kFormatVersion
+                                                    : kFormatVersionWithoutOffsets;
 
   write_file_atomically(path, [&](std::ostream& out) {
     const char* const field = "      ";
@@ -494,7 +499,8 @@ Model load_model(const std::string& path) {
     if (m.fixed[v] > 1) throw bad(node + "fixed must be 0 or 1");
   }
 
-  if (version >= 3) read_embedded_points(path, f, piece, embedded, static_cast<int32_t>(n), m);
+  if (version >= 3)
+    read_embedded_points(path, f, piece, embedded, static_cast<int32_t>(n), version >= 4, m);
 
   const int64_t spring_count = cells - triangles - tet_count - embedded.faces;
   piece.connectivity =

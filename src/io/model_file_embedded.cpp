@@ -37,7 +37,8 @@ void check_embedded_savable(const Model& m, const std::string& path) {
       throw invalid_input(path, "cannot save: embedded surface " + std::to_string(s) +
                                     " has the name " + in_quotes(e.name) +
                                     "; a name must be non-empty and on one line");
-    if (e.corners.rows() != e.V.rows() || e.weights.rows() != e.V.rows())
+    if (e.corners.rows() != e.V.rows() || e.weights.rows() != e.V.rows() ||
+        (e.offsets.rows() != 0 && e.offsets.rows() != e.V.rows()))
       throw Error(ErrorKind::kInternal, path + ": cannot save: " + surface_named(m, s) +
                                             " has arrays that disagree in size");
     points += e.V.rows();
@@ -66,6 +67,12 @@ void add_embedded(const Model& m, PieceArrays& piece) {
   }
 }
 
+bool has_embedded_offsets(const Model& m) {
+  for (const EmbeddedSurface& e : m.embedded)
+    if (e.offsets.rows() > 0) return true;
+  return false;
+}
+
 void write_embedded_point_data(std::ostream& out, const char* indent, const Model& m) {
   if (m.embedded.empty()) return;
   // A node is no embedded vertex: corners -1, weights 0.
@@ -79,6 +86,12 @@ void write_embedded_point_data(std::ostream& out, const char* indent, const Mode
       }
   write_array(out, indent, "embed_corners", corners, 4);
   write_array(out, indent, "embed_weights", weights, 4);
+  if (!has_embedded_offsets(m)) return;
+  std::vector<double> offsets(3 * static_cast<size_t>(m.node_count()), 0.0);
+  for (const EmbeddedSurface& e : m.embedded)
+    for (Eigen::Index v = 0; v < e.V.rows(); ++v)
+      for (int c = 0; c < 3; ++c) offsets.push_back(e.offsets.rows() > 0 ? e.offsets(v, c) : 0.0);
+  write_array(out, indent, "embed_offset", offsets, 3);
 }
 
 void write_embedded_field_data(std::ostream& out, const char* indent, const Model& m) {
@@ -141,15 +154,22 @@ EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, M
 }
 
 void read_embedded_points(const std::string& path, const VtuFile& f, const PieceArrays& piece,
-                          const EmbeddedLayout& layout, int32_t n, Model& m) {
+                          const EmbeddedLayout& layout, int32_t n, bool with_offsets, Model& m) {
   const auto bad = [&](const std::string& problem) { return invalid_input(path, problem); };
   const int64_t points = n + layout.vertices;
   const auto corners = read_values<int64_t>(path, f, "PointData/embed_corners", 4 * points, 4);
   const auto weights = read_values<double>(path, f, "PointData/embed_weights", 4 * points, 4);
+  const auto offsets = with_offsets
+                           ? read_values<double>(path, f, "PointData/embed_offset", 3 * points, 3)
+                           : std::vector<double>{};
   for (int64_t k = 0; k < 4 * static_cast<int64_t>(n); ++k)
     if (corners[k] != -1 || weights[k] != 0.0)
       throw bad("node " + std::to_string(k / 4) +
                 ": embed_corners must be -1 and embed_weights 0 (a node is no embedded vertex)");
+  for (int64_t k = 0; k < 3 * static_cast<int64_t>(n) && with_offsets; ++k)
+    if (offsets[k] != 0.0)
+      throw bad("node " + std::to_string(k / 3) +
+                ": embed_offset must be 0 (a node is no embedded vertex)");
 
   int64_t p = n;  // the point of the file
   for (size_t s = 0; s < m.embedded.size(); ++s) {
@@ -158,6 +178,9 @@ void read_embedded_points(const std::string& path, const VtuFile& f, const Piece
     e.V.resize(count, 3);
     e.corners.resize(count, 4);
     e.weights.resize(count, 4);
+    e.offsets.resize(0, 3);
+    bool any_offset = false;
+    if (with_offsets) e.offsets.setZero(count, 3);
     for (int32_t v = 0; v < count; ++v, ++p) {
       const std::string vertex = surface_named(m, s) + " vertex " + std::to_string(v) + ": ";
       if (piece.point_layer[p] != kEmbeddedVertexLayer || piece.mass_kg[p] != 0.0 ||
@@ -183,7 +206,20 @@ void read_embedded_points(const std::string& path, const VtuFile& f, const Piece
       }
       if (!(std::abs(sum - 1.0) <= kWeightSumTolerance))
         throw bad(vertex + "weights sum to " + str(sum) + ", expected 1 (within 1e-9)");
+      if (!with_offsets) continue;
+      for (int c = 0; c < 3; ++c) {
+        e.offsets(v, c) = offsets[3 * p + c];
+        if (!std::isfinite(e.offsets(v, c))) throw bad(vertex + "an offset is not finite");
+        any_offset |= e.offsets(v, c) != 0.0;
+      }
+      // The bound the offsets keep (model.h): a file may not extrapolate further.
+      const double amplification = e.weights.row(v).cwiseAbs().sum();
+      if (!(amplification <= kMaxAmplification + kWeightSumTolerance) &&
+          e.offsets.row(v).squaredNorm() > 0.0)
+        throw bad(vertex + "has an offset but weights whose sizes sum to " + str(amplification) +
+                  ", more than " + str(kMaxAmplification));
     }
+    if (!any_offset) e.offsets.resize(0, 3);  // no offset: none stored, as embed_surface makes it
   }
 }
 
@@ -226,6 +262,9 @@ uint32_t embedded_fingerprint(uint32_t c, const Model& m) {
     c = crc(c, e.F.data(), static_cast<size_t>(e.F.size()) * sizeof(int));
     c = crc(c, e.corners.data(), static_cast<size_t>(e.corners.size()) * sizeof(int));
     c = crc(c, e.weights.data(), static_cast<size_t>(e.weights.size()) * sizeof(double));
+    // Surfaces without offsets keep the checksum version 3 gave them.
+    if (e.offsets.rows() > 0)
+      c = crc(c, e.offsets.data(), static_cast<size_t>(e.offsets.size()) * sizeof(double));
   }
   return c;
 }

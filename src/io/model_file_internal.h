@@ -100,7 +100,10 @@ uint32_t crc(uint32_t c, const void* data, size_t bytes);
 void check_embedded_savable(const Model& m, const std::string& path);
 // Appends every surface's vertices as points after the nodes and its triangles as cells.
 void add_embedded(const Model& m, PieceArrays& piece);
-// embed_corners and embed_weights over all points; nothing for a model without surfaces.
+// Whether any embedded surface has offsets (a version 4 file).
+bool has_embedded_offsets(const Model& m);
+// embed_corners and embed_weights over all points, embed_offset when any surface has offsets;
+// nothing for a model without surfaces.
 void write_embedded_point_data(std::ostream& out, const char* indent, const Model& m);
 // The per-surface FieldData arrays; nothing for a model without surfaces.
 void write_embedded_field_data(std::ostream& out, const char* indent, const Model& m);
@@ -113,9 +116,10 @@ struct EmbeddedLayout {
 // Reads and checks the FieldData arrays; m.embedded gets each surface's name, label and outside.
 EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, Model& m);
 // The points from `n` on are the surfaces' vertices: checks their point data, reads
-// embed_corners and embed_weights (checking the nodes' entries too), fills V, corners, weights.
+// embed_corners and embed_weights (checking the nodes' entries too), and with `offsets` (version
+// 4) embed_offset; fills V, corners, weights, offsets.
 void read_embedded_points(const std::string& path, const VtuFile& f, const PieceArrays& piece,
-                          const EmbeddedLayout& layout, int32_t n, Model& m);
+                          const EmbeddedLayout& layout, int32_t n, bool offsets, Model& m);
 // The cells after the tetrahedra: each surface's triangles, on its own vertices.
 void read_embedded_cells(const std::string& path, CellWalker& cells, const EmbeddedLayout& layout,
                          int32_t n, Model& m);

@@ -29,6 +29,8 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
                              {"vertices", e.vertices},
                              {"faces", e.faces},
                              {"outside", e.outside},
+                             {"offset", e.offset},
+                             {"max_amplification", e.max_amplification},
                              {"volume_ml", e.volume_ml}});
   if (s.tets.count > 0)
     j["tets"] = {{"count", s.tets.count},
@@ -79,6 +81,17 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
                  {"cavity_voxels_filled", m.cavity_voxels_filled},
                  {"touches_scan_border", m.touches_scan_border},
                  {"volume_ml", b->mask_volume_ml}};
+    // Structures carved out of the organ's label: their voxels inside it count as organ.
+    if (!m.structures.voxels.empty()) {
+      j["mask"]["structure_voxels_taken_in"] = m.structures.added;
+      json st = json::array();
+      for (size_t k = 0; k < m.structures.voxels.size(); ++k)
+        st.push_back({{"name", k < b->structure_names.size() ? b->structure_names[k] : ""},
+                      {"voxels", m.structures.voxels[k]},
+                      {"inside_organ", m.structures.inside[k]},
+                      {"beside_organ", m.structures.beside[k]}});
+      j["mask"]["structures"] = st;
+    }
     j["skin_volume_error_pct"] = b->skin_volume_error_pct;
     j["layers_requested"] = b->layers_requested;
     j["working_spacing_mm"] = b->working_spacing_mm;
@@ -140,7 +153,11 @@ std::string summary_table(const model::ModelSummary& s, const model::BuildReport
   for (const auto& e : s.embedded)
     out += fmt::format("  embedded {} (label {}): {} vertices, {} triangles, {:.1f} mL{}\n", e.name,
                        e.label, e.vertices, e.faces, e.volume_ml,
-                       e.outside > 0 ? fmt::format(", {} outside the tetrahedra", e.outside) : "");
+                       e.outside > 0
+                           ? fmt::format(", {} outside the tetrahedra ({} by an offset), moving at "
+                                         "most {:.2f}x their tetrahedron",
+                                         e.outside, e.offset, e.max_amplification)
+                           : "");
   if (b)
     for (const auto& w : b->warnings) out += "  note: " + w + "\n";
   return out;

@@ -15,13 +15,6 @@
 namespace lamina::model::detail {
 namespace {
 
-std::string structure_name(const EmbedStructure& s) {
-  if (!s.name.empty()) return s.name;
-  if (s.mask && !s.mask->source.empty())
-    return std::filesystem::path(s.mask->source).stem().stem().string();
-  return "label " + std::to_string(s.label);
-}
-
 // Where a structure's voxels come from, for messages: its own mask file or the segmentation.
 const LabelVolume& source_of(const EmbedStructure& s, const LabelVolume& organ) {
   return s.mask ? *s.mask : organ;
@@ -53,8 +46,17 @@ bool is_organ_label(int32_t label, const BuildOptions& o) {
 
 }  // namespace
 
+std::string structure_name(const EmbedStructure& s) {
+  if (!s.name.empty()) return s.name;
+  if (s.mask && !s.mask->source.empty())
+    return std::filesystem::path(s.mask->source).stem().stem().string();
+  return "label " + std::to_string(s.label);
+}
+
 void check_embedding(const LabelVolume& volume, const BuildOptions& o) {
   if (o.embed.empty()) return;
+  if (o.embed.size() > 255)
+    throw invalid_input("--embed", fmt::format("at most 255 structures, got {}", o.embed.size()));
   if (o.structure != Structure::kTetrahedra)
     throw invalid_input("--embed",
                         "embedded structures are carried by tetrahedra; build with "
@@ -90,6 +92,60 @@ void check_embedding(const LabelVolume& volume, const BuildOptions& o) {
       throw invalid_input(file, s.label == 0 ? what + ": the mask is empty (no non-zero voxel)"
                                              : "label " + std::to_string(s.label) + " (" + what +
                                                    ") is absent or empty");
+  }
+}
+
+std::vector<uint8_t> structure_voxels(const LabelVolume& volume, const BuildOptions& o) {
+  if (o.embed.empty()) return {};
+  std::vector<uint8_t> out(volume.labels.size(), 0);
+  // Labels of the organ's own segmentation, in one pass; separate masks one pass each.
+  std::vector<std::pair<int32_t, uint8_t>> by_label;
+  for (size_t s = 0; s < o.embed.size(); ++s)
+    if (!o.embed[s].mask) by_label.emplace_back(o.embed[s].label, static_cast<uint8_t>(s + 1));
+  const int64_t n = static_cast<int64_t>(volume.labels.size());
+  if (!by_label.empty()) {
+#pragma omp parallel for schedule(static)
+    for (int64_t v = 0; v < n; ++v) {
+      const int32_t l = volume.labels[static_cast<size_t>(v)];
+      if (l == 0) continue;
+      for (const auto& [label, index] : by_label)
+        if (l == label) {
+          out[static_cast<size_t>(v)] = index;
+          break;
+        }
+    }
+  }
+  for (size_t s = 0; s < o.embed.size(); ++s) {
+    const EmbedStructure& e = o.embed[s];
+    if (!e.mask) continue;
+    const std::vector<int32_t>& labels = e.mask->labels;
+    const uint8_t index = static_cast<uint8_t>(s + 1);
+#pragma omp parallel for schedule(static)
+    for (int64_t v = 0; v < n; ++v) {
+      const int32_t l = labels[static_cast<size_t>(v)];
+      if (out[static_cast<size_t>(v)] == 0 && (e.label == 0 ? l != 0 : l == e.label))
+        out[static_cast<size_t>(v)] = index;
+    }
+  }
+  return out;
+}
+
+void check_structures_in_organ(const LabelVolume& volume, const BuildOptions& o,
+                               const geometry::MaskReport& mask) {
+  const geometry::EnclosedCounts& c = mask.structures;
+  for (size_t s = 0; s < o.embed.size() && s < c.voxels.size(); ++s) {
+    if (c.inside[s] > 0 || c.beside[s] > 0) continue;
+    const EmbedStructure& e = o.embed[s];
+    const LabelVolume& v = source_of(e, volume);
+    const std::string file = v.source.empty() ? std::string("input") : v.source;
+    const std::string what =
+        (e.label != 0 ? "label " + std::to_string(e.label) + " (structure '" : "structure '") +
+        structure_name(e) + (e.label != 0 ? "')" : "'");
+    throw invalid_input(
+        file, fmt::format("{}: none of its {} voxels lies inside the organ or within {} voxels "
+                          "of it; a structure to embed must be in the organ (is it another "
+                          "organ's label?)",
+                          what, c.voxels[s], geometry::kBesideVoxels));
   }
 }
 

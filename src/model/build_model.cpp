@@ -135,9 +135,21 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
 
   // 1. Mask: label, largest component, cavities, crop.
   report_progress(progress, "preparing mask", 0.0);
-  geometry::PreparedMask prepared =
-      geometry::prepare_mask(volume, {.label = opt.label, .labels = opt.labels});
+  // Structures carved out of the organ's label (a voxel is liver or vessel or tumour) count as
+  // organ where the organ encloses them.
+  geometry::PreparedMask prepared;
+  {
+    const std::vector<uint8_t> structures = detail::structure_voxels(volume, opt);
+    prepared =
+        geometry::prepare_mask(volume, {.label = opt.label,
+                                        .labels = opt.labels,
+                                        .structures = structures.empty() ? nullptr : &structures,
+                                        .structure_count = static_cast<int32_t>(opt.embed.size())});
+  }
+  detail::check_structures_in_organ(volume, opt, prepared.report);
   rep.mask = prepared.report;
+  for (const EmbedStructure& s : opt.embed)
+    rep.structure_names.push_back(detail::structure_name(s));
   rep.mask_volume_ml = prepared.report.kept_volume_ml;
   timer.done("mask");
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "lamina/core/error.h"
+#include "lamina/geometry/closest_on_triangle.h"
 
 namespace lamina::model {
 namespace {
@@ -163,6 +164,50 @@ int32_t least_outside(const Model& m, const TetGrid& g, const Eigen::Vector3d& p
   return best;
 }
 
+// The sum of |weights| of w0 + s (w1 - w0): how much a vertex with those weights can amplify its
+// tetrahedron's motion.
+double amplification(const Eigen::Vector4d& w0, const Eigen::Vector4d& w1, double s) {
+  return (w0 + s * (w1 - w0)).cwiseAbs().sum();
+}
+
+// A vertex at p, outside tetrahedron t with weights w (summing to 1) whose sizes sum to more than
+// kMaxAmplification: the weights of the point q + s (p - q), q the tetrahedron's point nearest p,
+// with s the largest in [0, 1] that keeps the sum at kMaxAmplification (it is 1 at q, where all
+// weights are >= 0, and convex in s, so one crossing), and the offset (1 - s) (p - q) that puts
+// the vertex back at p. Its motion is then that point's: a translation of the vertex by at most
+// kMaxAmplification times its tetrahedron's largest node motion.
+Eigen::Vector3d limit_amplification(const Model& m, int32_t t, const Eigen::Vector3d& p,
+                                    Eigen::Vector4d& w) {
+  // The nearest point on the tetrahedron's faces (p is outside it), as weights of its corners.
+  static constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  Eigen::Vector3d corner[4];
+  for (int c = 0; c < 4; ++c) corner[c] = m.X.row(m.tets.T(t, c)).transpose();
+  Eigen::Vector4d wq = Eigen::Vector4d::Zero();
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& f : kFaces) {
+    const Eigen::Vector3d b =
+        geometry::closest_on_triangle(p, corner[f[0]], corner[f[1]], corner[f[2]]);
+    const Eigen::Vector3d q = b[0] * corner[f[0]] + b[1] * corner[f[1]] + b[2] * corner[f[2]];
+    if ((q - p).squaredNorm() < best) {
+      best = (q - p).squaredNorm();
+      wq.setZero();
+      for (int k = 0; k < 3; ++k) wq[f[k]] = b[k];
+    }
+  }
+  // A hair under the bound, so that the rounding of the weights below cannot take it over.
+  const double bound = kMaxAmplification * (1.0 - 1e-12);
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (amplification(wq, w, mid) <= bound ? lo : hi) = mid;
+  }
+  const Eigen::Vector4d ws = wq + lo * (w - wq);
+  Eigen::Vector3d q = Eigen::Vector3d::Zero();
+  for (int c = 0; c < 4; ++c) q += ws[c] * corner[c];
+  w = ws;
+  return p - q;
+}
+
 }  // namespace
 
 EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
@@ -178,8 +223,9 @@ EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const E
   s.corners.resize(V.rows(), 4);
   s.weights.resize(V.rows(), 4);
   const TetGrid g = make_grid(m);
-  int32_t outside = 0;
-#pragma omp parallel for schedule(dynamic, 256) reduction(+ : outside)
+  Eigen::MatrixX3d offsets = Eigen::MatrixX3d::Zero(V.rows(), 3);
+  int32_t outside = 0, offset = 0;
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : outside, offset)
   for (Eigen::Index v = 0; v < V.rows(); ++v) {
     const Eigen::Vector3d p = V.row(v).transpose();
     Eigen::Vector4d w;
@@ -187,11 +233,16 @@ EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const E
     if (t < 0) {
       t = least_outside(m, g, p, w);
       ++outside;
+      if (w.cwiseAbs().sum() > kMaxAmplification) {
+        offsets.row(v) = limit_amplification(m, t, p, w).transpose();
+        ++offset;
+      }
     }
     s.corners.row(v) = m.tets.T.row(t);
     s.weights.row(v) = w.transpose();
   }
   s.outside = outside;
+  if (offset > 0) s.offsets = std::move(offsets);
   return s;
 }
 
@@ -214,6 +265,16 @@ void embedded_positions(const EmbeddedSurface& s, const Eigen::MatrixX3d& x,
     }
     o0[v] = a, o1[v] = b, o2[v] = d;
   }
+  if (s.offsets.rows() == n) out += s.offsets;
+}
+
+double max_amplification(const EmbeddedSurface& s) {
+  return s.weights.rows() == 0 ? 0.0 : s.weights.cwiseAbs().rowwise().sum().maxCoeff();
+}
+
+int32_t offset_vertices(const EmbeddedSurface& s) {
+  if (s.offsets.rows() == 0) return 0;
+  return static_cast<int32_t>((s.offsets.rowwise().squaredNorm().array() > 0.0).count());
 }
 
 int32_t display_skin_index(const Model& model) {

@@ -6,6 +6,7 @@
 
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/geometry/remesh.h"
+#include "lamina/model/embed_surface.h"
 
 namespace lamina::model {
 
@@ -37,6 +38,8 @@ ModelSummary summarize_model(const Model& model, const BuildReport* build) {
                           .vertices = e.V.rows(),
                           .faces = e.F.rows(),
                           .outside = e.outside,
+                          .offset = offset_vertices(e),
+                          .max_amplification = max_amplification(e),
                           .volume_ml = geometry::enclosed_volume({e.V, e.F}) / 1000.0});
   s.total_mass_kg = std::accumulate(model.mass_kg.begin(), model.mass_kg.end(), 0.0);
   s.locality = model.rings.locality;

@@ -1,8 +1,9 @@
-// Embedded surfaces in the model file (format version 3, docs/model_format.md): a model's display
-// skin, a tumour inside it and a surface outside every tetrahedron come back bit for bit; a model
-// without any is still written as version 2 with the checksum it always had; a name that would
-// not read back is refused on save; and a file whose surfaces are inconsistent is refused on load
-// with one line naming the problem.
+// Embedded surfaces in the model file (format versions 3 and 4, docs/model_format.md): a model's
+// display skin, a tumour inside it and a surface outside every tetrahedron (far enough out to
+// follow by offsets: version 4) come back bit for bit; a model without offsets is still written
+// as version 3, one without surfaces as version 2 with the checksum it always had; a name that
+// would not read back is refused on save; and a file whose surfaces are inconsistent is refused on
+// load with one line naming the problem.
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -30,7 +31,8 @@ namespace fs = std::filesystem;
 
 // The phantom with three surfaces: its own skin ("display_skin", label 0), a small octahedron
 // at the centre of its nodes ("tumour", label 3) and one beyond its right side ("probe", in no
-// tetrahedron: its weights extrapolate, some negative).
+// tetrahedron: its weights extrapolate, some negative, and 20 mm out, some vertices follow by
+// offsets).
 Model with_surfaces() {
   Model m = tet_phantom();
   const ModelLayer& skin = m.layers[0];
@@ -43,6 +45,14 @@ Model with_surfaces() {
   const SurfaceMesh probe = octahedron(4.0, beyond);
   m.embedded.push_back(model::embed_surface(m, probe.V, probe.F, "probe", 7));
   return m;
+}
+
+// The probe's first vertex that follows by an offset.
+Eigen::Index first_offset(const Model& m) {
+  const Eigen::MatrixX3d& o = m.embedded[2].offsets;
+  for (Eigen::Index v = 0; v < o.rows(); ++v)
+    if (o.row(v).squaredNorm() > 0.0) return v;
+  return 0;
 }
 
 int64_t point_count(const Model& m) {
@@ -75,6 +85,7 @@ TEST(ModelFileEmbedded, SurfacesRoundTripBitExactly) {
   const Model m = with_surfaces();
   ASSERT_EQ(m.embedded[2].outside, 6);  // the probe exercises extrapolated weights
   ASSERT_LT(m.embedded[2].weights.minCoeff(), 0.0);
+  ASSERT_GT(model::offset_vertices(m.embedded[2]), 0);  // and offsets
   const std::string path = dir.file("model.vtu");
   save_model(m, path);
   const Model loaded = load_model(path);
@@ -84,7 +95,7 @@ TEST(ModelFileEmbedded, SurfacesRoundTripBitExactly) {
 
   const std::string text = file_text(path);
   EXPECT_NE(text.find("Name=\"lamina_format_version\" NumberOfTuples=\"1\" format=\"ascii\">\n"
-                      "        3\n"),
+                      "        4\n"),
             std::string::npos);
   int64_t cells = static_cast<int64_t>(m.springs.size()) + m.tets.size();
   for (const ModelLayer& l : m.layers) cells += l.F.rows();
@@ -92,6 +103,21 @@ TEST(ModelFileEmbedded, SurfacesRoundTripBitExactly) {
   EXPECT_NE(text.find("<Piece NumberOfPoints=\"" + std::to_string(point_count(m)) +
                       "\" NumberOfCells=\"" + std::to_string(cells) + "\">"),
             std::string::npos);
+}
+
+TEST(ModelFileEmbedded, AModelWithoutOffsetsIsStillWrittenAsVersionThree) {
+  // Builds from before version 4 read it: no vertex far enough out to need an offset.
+  const TempDir dir;
+  Model m = with_surfaces();
+  m.embedded.pop_back();
+  const std::string path = dir.file("model.vtu");
+  save_model(m, path);
+  const std::string text = file_text(path);
+  EXPECT_NE(text.find("Name=\"lamina_format_version\" NumberOfTuples=\"1\" format=\"ascii\">\n"
+                      "        3\n"),
+            std::string::npos);
+  EXPECT_EQ(text.find("embed_offset"), std::string::npos);
+  expect_same_model(m, load_model(path));
 }
 
 TEST(ModelFileEmbedded, AModelWithoutSurfacesIsStillWrittenAsVersionTwo) {
@@ -184,6 +210,16 @@ TEST(ModelFileEmbedded, InconsistentSurfacesAreRefusedOnLoad) {
        "embedded surface 2 ('probe') triangle 0 uses point " + std::to_string(probe - 1)},
       {[](Model& m) { m.embedded[1].outside = 7; },
        "embedded surface 1 ('tumour') has 6 vertices, 8 triangles and 7 vertices outside"},
+      {[](Model& m) { m.embedded[2].offsets(first_offset(m), 2) = std::nan(""); },
+       "embedded surface 2 ('probe') vertex " + std::to_string(first_offset(base)) +
+           ": an offset is not finite"},
+      // Weights that would amplify the motion more than the offsets exist to prevent.
+      {[](Model& m) {
+         const Eigen::Index v = first_offset(m);
+         m.embedded[2].weights(v, 0) += 3.0, m.embedded[2].weights(v, 1) -= 3.0;
+       },
+       "embedded surface 2 ('probe') vertex " + std::to_string(first_offset(base)) +
+           ": has an offset but weights whose sizes sum to"},
   };
   expect_each_refused_on_load(path, with_surfaces, cases);
 }
@@ -210,6 +246,7 @@ TEST(ModelFileEmbedded, EditedFilesAreRefusedOnLoad) {
                                                        " must have layer -2"},
       {replace_value(text, "embed_corners", 0, "0"),
        "node 0: embed_corners must be -1 and embed_weights 0"},
+      {replace_value(text, "embed_offset", 4, "0.5"), "node 1: embed_offset must be 0"},
       // The last cell, the probe's last triangle, claims to be a layer's triangle.
       {replace_value(text, "cell_kind", -1, "0"),
        "VTK cell type 5 with cell_kind 0 does not agree with the expected triangle of embedded "

@@ -68,6 +68,8 @@ inline void expect_same_model(const Model& a, const Model& b) {
     ASSERT_EQ(e.weights.rows(), f.weights.rows()) << e.name;
     expect_bitwise_equal(as_vector(e.V), as_vector(f.V), "embedded V");
     expect_bitwise_equal(as_vector(e.weights), as_vector(f.weights), "embedded weights");
+    ASSERT_EQ(e.offsets.rows(), f.offsets.rows()) << e.name;
+    expect_bitwise_equal(as_vector(e.offsets), as_vector(f.offsets), "embedded offsets");
   }
 }
 

@@ -20,12 +20,24 @@ struct PhantomOptions {
   /// Also the anatomy inside the organ, each a label of its own (kPhantomVessel,
   /// kPhantomTumour); the organ is their union with kPhantomLiver, the same voxels either way.
   bool anatomy = false;
+  /// The anatomy (implies `anatomy`) in the layout most multi-label liver segmentations are stored
+  /// in (IRCAD, the Decathlon's hepatic-vessel task, 3D Slicer labelmaps), each voxel liver *or* a
+  /// structure, with the vessels as they are in a patient: the portal vein's trunk leaves the
+  /// organ through the hilum and runs on to the scan's lower edge, hepatic veins
+  /// (kPhantomHepaticVeins) drain into the inferior vena cava (kPhantomVenaCava), which lies in
+  /// a groove of the organ's back and runs from the scan's lower edge to its upper one; a second
+  /// tumour (10 mm radius) lies under the left lobe's upper surface and bulges 6 mm out. Label 1
+  /// is the parenchyma alone; the organ (the voxels of the phantom without anatomy) is label 1
+  /// with the structures' parts inside it.
+  bool carved_out = false;
 };
 
 /// The phantom's labels with `anatomy` (lamina phantom --labels; docs/cli.md).
 inline constexpr int32_t kPhantomLiver = 1;   ///< the parenchyma
 inline constexpr int32_t kPhantomVessel = 2;  ///< a portal-vein-like tree entering at the hilum
 inline constexpr int32_t kPhantomTumour = 3;  ///< a 15 mm-radius tumour in the right lobe
+inline constexpr int32_t kPhantomHepaticVeins = 4;  ///< carved_out: three veins to the vena cava
+inline constexpr int32_t kPhantomVenaCava = 5;      ///< carved_out: mostly outside the organ
 
 /// Samples the liver-like phantom: a large right lobe and a thinner left lobe blended
 /// smoothly, a concave visceral (inferior) surface and a gallbladder fossa; not convex, not a
@@ -40,6 +52,11 @@ LabelVolume make_phantom(const PhantomOptions& options = {});
 /// (inferior) surface up into both lobes in three generations (radii 6.5, 4.5 and 3 mm); the
 /// tumour lies in the right lobe, clear of the tree and of the surface.
 int32_t phantom_anatomy(double x, double y, double z);
+
+/// The carved-out variant's structure at a point (mm, organ frame), inside the organ or not:
+/// kPhantomTumour (both lesions), kPhantomVessel (its trunk unclipped), kPhantomHepaticVeins,
+/// kPhantomVenaCava, or 0 for none.
+int32_t phantom_carved_structure(double x, double y, double z);
 
 /// Signed implicit function of the phantom at a point (mm, organ frame): negative inside.
 /// Not an exact distance, but Lipschitz-bounded near the surface.

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "lamina/core/grid.h"
+#include "lamina/geometry/enclosed_structures.h"
 
 namespace lamina::geometry {
 
@@ -19,8 +20,14 @@ struct MaskOptions {
   /// Keep the largest component and fill cavities (an organ). false: every piece as it is (an
   /// embedded structure: a vessel tree in several pieces, a tumour with a necrotic core).
   bool clean = true;
-  int pad_voxels = 1;       ///< background margin kept around the organ's bounding box, voxels
-  int64_t min_voxels = 27;  ///< fewer voxels than this cannot make a meaningful surface
+  /// Structures to carry inside the organ (an embedded label, or a separate mask): #voxels of
+  /// the volume's grid, s + 1 where structure s lies and 0 elsewhere; nullptr = none. The organ
+  /// takes in the structure voxels it encloses (add_enclosed_structures()), so that a label map
+  /// with its vessels and tumours carved out of the organ's label gives the whole organ.
+  const std::vector<uint8_t>* structures = nullptr;
+  int32_t structure_count = 0;  ///< structures in `structures`
+  int pad_voxels = 1;           ///< background margin kept around the organ's bounding box, voxels
+  int64_t min_voxels = 27;      ///< fewer voxels than this cannot make a meaningful surface
 };
 
 /// What prepare_mask() did, for the build report.
@@ -33,6 +40,7 @@ struct MaskReport {
   bool touches_scan_border = false;  ///< the organ reached the image edge (padding closed it)
   int64_t kept_voxels = 0;           ///< voxels in the final mask
   double kept_volume_ml = 0.0;       ///< their volume, mL
+  EnclosedCounts structures;         ///< with MaskOptions::structures: what the organ took in
 };
 
 /// A cleaned mask and the report of the cleaning.
@@ -46,8 +54,8 @@ struct PreparedMask {
 /// closed surface.
 /// @param[in] volume   the segmentation; volume.source names it in errors
 /// @param[in] options  label and padding
-/// \note Throws lamina::Error (kInvalidInput) when the label is absent, the mask is empty, or
-///   the organ has fewer than options.min_voxels voxels.
+/// \note Throws lamina::Error (kInvalidInput) when the label is absent, the mask is empty, the
+///   organ has fewer than options.min_voxels voxels, or every voxel selected is a structure's.
 PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options = {});
 
 /// Returns `mask` with `pad` background voxels added on every side (origin moved accordingly).

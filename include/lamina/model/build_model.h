@@ -98,7 +98,9 @@ struct BuildReport {
   geometry::TetQuality tets;                ///< the tetrahedra at rest (count 0 for kLinks)
   int32_t interior_nodes = 0;               ///< nodes the tetrahedral mesher added (on no layer)
   std::vector<EmbeddedBuildInfo> embedded;  ///< the display skin first, then each structure
-  double build_seconds = 0.0;               ///< wall time of build_model (no file reading)
+  /// The structures' names in BuildOptions::embed order (mask.structures' entries)
+  std::vector<std::string> structure_names;
+  double build_seconds = 0.0;  ///< wall time of build_model (no file reading)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< per stage, in order
 };
 

@@ -70,9 +70,13 @@ struct Rings {
 
 /// A surface the tetrahedra carry (a fine display skin, a vessel, a tumour): each vertex keeps
 /// the four corners of its rest tetrahedron and its barycentric weights there, so that at node
-/// positions x it lies at sum_c weights(v, c) x(corners(v, c)) (model::embedded_positions). A
-/// vertex in no tetrahedron follows a near one, the one it is least outside of (its weights then
-/// extrapolate: some are negative, all still summing to 1).
+/// positions x it lies at sum_c weights(v, c) x(corners(v, c)) + offsets(v)
+/// (model::embedded_positions). A vertex in no tetrahedron follows a near one, the one it is
+/// least outside of: its weights then extrapolate (some are negative, all still summing to 1),
+/// but never so far that the sum of their sizes exceeds kMaxAmplification. A vertex farther out
+/// (a vessel's trunk beyond the organ) takes the weights of a point between it and its
+/// tetrahedron's nearest point, and a fixed rest-space offset to itself: it follows that point
+/// by translation, moving at most kMaxAmplification times as far as the tetrahedron's nodes.
 struct EmbeddedSurface {
   std::string name;          ///< "display_skin", or the structure's name
   int32_t label = 0;         ///< the segmentation label it came from (0: the organ's own skin)
@@ -80,8 +84,15 @@ struct EmbeddedSurface {
   Eigen::MatrixX3i F;        ///< triangles (rows of V), outward winding
   Eigen::MatrixX4i corners;  ///< per vertex: the nodes of its tetrahedron
   Eigen::MatrixX4d weights;  ///< per vertex: their barycentric weights, summing to 1
-  int32_t outside = 0;       ///< vertices in no tetrahedron at rest (they follow the nearest)
+  /// Per vertex: the rest-space offset added to W x, mm; empty when no vertex has one (every
+  /// vertex inside the tetrahedra or near them). Zero rows for the vertices without.
+  Eigen::MatrixX3d offsets;
+  int32_t outside = 0;  ///< vertices in no tetrahedron at rest (they follow the nearest)
 };
+
+/// No embedded vertex moves more than this many times the largest motion of its tetrahedron's
+/// nodes: the bound on the sum of |weights| (|sum_c w_c d_c| <= sum_c |w_c| max_c |d_c|).
+inline constexpr double kMaxAmplification = 2.0;
 
 /// The model. Nodes are ordered by layer: layer 0 (the skin) first; the interior nodes of the
 /// tetrahedra (on no layer) come last.

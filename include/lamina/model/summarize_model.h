@@ -28,7 +28,11 @@ struct EmbeddedSummary {
   std::string name;
   int32_t label = 0;
   int64_t vertices = 0, faces = 0;
-  int32_t outside = 0;     ///< vertices in no tetrahedron at rest
+  int32_t outside = 0;  ///< vertices in no tetrahedron at rest
+  int32_t offset = 0;   ///< those so far out that they follow by a rest offset
+  /// The largest sum of |weights|: no vertex moves more than this many times the largest motion
+  /// of its tetrahedron's nodes (at most kMaxAmplification)
+  double max_amplification = 0.0;
   double volume_ml = 0.0;  ///< enclosed volume at rest
 };
 
