@@ -22,7 +22,7 @@ mkdir -p out
 # The phantom with its anatomy: a vessel tree and a tumour carried inside by the tetrahedra.
 "$lamina" phantom --labels -o out/liver_anatomy.nii.gz
 "$lamina" build out/liver_anatomy.nii.gz --embed 2=vessels,3=tumour -o out/liver_anatomy.vtu
-"$lamina" render out/liver_anatomy.vtu -o out/liver_anatomy.png
+"$lamina" render out/liver_anatomy.vtu --legend -o out/liver_anatomy.png
 echo
 echo "Done. Pictures: out/liver_model.png, out/liver_poke.png, out/liver_anatomy.png. Open out/liver_model.vtu in"
 echo "ParaView, or the meshes out/liver_skin.obj and out/liver_layer1.obj in any mesh viewer."

@@ -80,11 +80,24 @@ int run_phantom(const PhantomArgs& a) {
   check_output(a.output, {".nii", ".nii.gz", ".nrrd", ".mha", ".mhd"}, "image");
   const LabelVolume v = geometry::make_phantom(a.options);
   io::write_label_volume(v, a.output);
-  int64_t count[4] = {0, 0, 0, 0};
-  for (int32_t l : v.labels) ++count[std::clamp(l, 0, 3)];
+  int64_t count[6] = {0, 0, 0, 0, 0, 0};
+  for (int32_t l : v.labels) ++count[std::clamp(l, 0, 5)];
   const auto ml = [&](int64_t n) {
     return static_cast<double>(n) * v.frame.voxel_volume_mm3() / 1000.0;
   };
+  if (a.options.carved_out) {
+    // The organ is not a union of labels here: its label and the structures' parts inside it.
+    log::info(
+        "wrote {}: {} x {} x {} voxels at {} x {} x {} mm, each voxel the liver or a "
+        "structure (build it with --label 1 --embed 2=portal_vein,3=tumours,...)",
+        a.output, v.frame.size[0], v.frame.size[1], v.frame.size[2], v.frame.spacing_mm[0],
+        v.frame.spacing_mm[1], v.frame.spacing_mm[2]);
+    log::info(
+        "labels: 1 liver {:.1f} mL, 2 portal vein {:.1f} mL, 3 tumours {:.1f} mL, 4 hepatic "
+        "veins {:.1f} mL, 5 vena cava {:.1f} mL",
+        ml(count[1]), ml(count[2]), ml(count[3]), ml(count[4]), ml(count[5]));
+    return 0;
+  }
   log::info("wrote {}: {} x {} x {} voxels at {} x {} x {} mm, organ {:.1f} mL", a.output,
             v.frame.size[0], v.frame.size[1], v.frame.size[2], v.frame.spacing_mm[0],
             v.frame.spacing_mm[1], v.frame.spacing_mm[2], ml(count[1] + count[2] + count[3]));

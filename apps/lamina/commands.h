@@ -109,6 +109,7 @@ struct RenderArgs {
   bool white = false;               ///< white background (print)
   std::string display_skin = "on";  ///< on: the model's display skin in place of layer 0; off
   std::string structures = "all";   ///< embedded structures shown: all, none or NAME[,NAME...]
+  bool legend = false;              ///< the organ and each structure shown, named in its colour
   bool verbose = false;
 };
 /// Renders one picture without a window (EGL surfaceless).

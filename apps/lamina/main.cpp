@@ -219,6 +219,8 @@ int main(int argc, char** argv) {
   re->add_option("--structures", rend.structures,
                  "embedded structures to draw inside a translucent skin: all (default), none, or "
                  "names (vessels,tumour)");
+  re->add_flag("--legend", rend.legend,
+               "name the organ and each structure drawn, in its colour (top right)");
 
   cli::FiguresArgs figs;
   auto* fi = app.add_subcommand(

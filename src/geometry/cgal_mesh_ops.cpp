@@ -95,6 +95,22 @@ bool self_intersects(const SurfaceMesh& mesh) {
   return PMP::does_self_intersect(m);
 }
 
+SelfIntersection find_self_intersection(const SurfaceMesh& mesh) {
+  SelfIntersection out;
+  if (mesh.F.rows() == 0) return out;
+  const Mesh m = to_cgal(mesh, /*repair=*/false);
+  if (m.number_of_faces() != static_cast<size_t>(mesh.F.rows())) return out;
+  std::vector<std::pair<Mesh::Face_index, Mesh::Face_index>> pairs;
+  PMP::self_intersections(m, std::back_inserter(pairs));
+  // to_cgal() keeps the faces in order, so a CGAL face index is a row of F.
+  for (const auto& [a, b] : pairs)
+    for (const auto f : {static_cast<Eigen::Index>(a.idx()), static_cast<Eigen::Index>(b.idx())})
+      for (int c = 0; c < 3; ++c) out.where += mesh.V.row(mesh.F(f, c)).transpose() / 6.0;
+  out.pairs = static_cast<int64_t>(pairs.size());
+  if (out.pairs > 0) out.where /= static_cast<double>(out.pairs);
+  return out;
+}
+
 SurfaceDistance surface_distance(const SurfaceMesh& from, const SurfaceMesh& to) {
   SurfaceDistance d;
   if (from.V.rows() == 0 || to.F.rows() == 0) return d;

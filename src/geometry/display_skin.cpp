@@ -81,9 +81,13 @@ DistanceField resample(const DistanceField& fine, double h_mm) {
 // a quarter voxel, so a surface far off (a piece dropped by largest_only) is not inflated.
 void match_volume(SurfaceMesh& s, double target_mm3, double cap_mm) {
   for (int round = 0; round < 3; ++round) {
-    const MeshQuality q = measure_mesh(s);
-    if (q.area_mm2 <= 0.0) return;
-    const double d = std::clamp((target_mm3 - q.volume_mm3) / q.area_mm2, -cap_mm, cap_mm);
+    double area = 0.0;
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+      area += 0.5 * (s.V.row(s.F(f, 1)) - s.V.row(s.F(f, 0)))
+                        .cross(s.V.row(s.F(f, 2)) - s.V.row(s.F(f, 0)))
+                        .norm();
+    if (area <= 0.0) return;
+    const double d = std::clamp((target_mm3 - enclosed_volume(s)) / area, -cap_mm, cap_mm);
     if (std::abs(d) < 1e-6) return;
     Eigen::MatrixX3d n = Eigen::MatrixX3d::Zero(s.V.rows(), 3);
     for (Eigen::Index f = 0; f < s.F.rows(); ++f) {

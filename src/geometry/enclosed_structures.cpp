@@ -13,8 +13,8 @@ namespace {
 
 // The 13 directions whose first non-zero component is positive; each with its opposite spans
 // the 26 neighbours.
-constexpr int kLines[13][3] = {{1, 0, 0},  {0, 1, 0},   {0, 0, 1},  {1, 1, 0},  {1, -1, 0},
-                               {1, 0, 1},  {1, 0, -1},  {0, 1, 1},  {0, 1, -1}, {1, 1, 1},
+constexpr int kLines[13][3] = {{1, 0, 0},  {0, 1, 0},  {0, 0, 1},  {1, 1, 0},  {1, -1, 0},
+                               {1, 0, 1},  {1, 0, -1}, {0, 1, 1},  {0, 1, -1}, {1, 1, 1},
                                {1, 1, -1}, {1, -1, 1}, {1, -1, -1}};
 
 enum : uint8_t { kOther = 0, kOrgan = 1, kStructure = 2 };
@@ -28,8 +28,8 @@ struct Region {
 
 // Whether a ray from region voxel (i, j, k) in direction d meets the organ before anything
 // that is neither organ nor structure, or the region's edge.
-bool hits(const Region& r, const std::vector<uint8_t>& cls, int64_t i, int64_t j, int64_t k,
-          int dx, int dy, int dz) {
+bool hits(const Region& r, const std::vector<uint8_t>& cls, int64_t i, int64_t j, int64_t k, int dx,
+          int dy, int dz) {
   for (;;) {
     i += dx, j += dy, k += dz;
     if (i < 0 || j < 0 || k < 0 || i >= r.n[0] || j >= r.n[1] || k >= r.n[2]) return false;
@@ -124,8 +124,8 @@ EnclosedCounts add_enclosed_structures(const GridFrame& f, std::vector<uint8_t>&
   for (int64_t k = 0; k < f.size[2]; ++k)
     for (int64_t j = 0; j < f.size[1]; ++j) {
       const int64_t row = f.index(0, j, k);
-      const bool row_in = k >= r.lo[2] && k < r.lo[2] + r.n[2] && j >= r.lo[1] &&
-                          j < r.lo[1] + r.n[1];
+      const bool row_in =
+          k >= r.lo[2] && k < r.lo[2] + r.n[2] && j >= r.lo[1] && j < r.lo[1] + r.n[1];
       for (int64_t i = 0; i < f.size[0]; ++i) {
         const size_t g = static_cast<size_t>(row + i);
         const uint8_t s = structures[g];

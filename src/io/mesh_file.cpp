@@ -40,7 +40,9 @@ void append_le(std::string& s, T value) {
   for (size_t b = 0; b < sizeof(T); ++b) s += static_cast<char>((bits >> (8 * b)) & 0xff);
 }
 
-std::string obj_text(const SurfaceMesh& mesh) {
+using Color = std::optional<model::Rgb8>;
+
+std::string obj_text(const SurfaceMesh& mesh, const Color&) {
   std::string s = "# written by Lamina\n";
   for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) {
     s += "v";
@@ -55,14 +57,18 @@ std::string obj_text(const SurfaceMesh& mesh) {
   return s;
 }
 
-std::string ply_bytes(const SurfaceMesh& mesh) {
+std::string ply_bytes(const SurfaceMesh& mesh, const Color& color) {
   std::string s = "ply\nformat binary_little_endian 1.0\ncomment written by Lamina, units mm\n";
   s += "element vertex " + std::to_string(mesh.V.rows()) +
        "\nproperty double x\nproperty double y\nproperty double z\n";
+  if (color) s += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   s += "element face " + std::to_string(mesh.F.rows()) +
        "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) {
     for (int c = 0; c < 3; ++c) append_le(s, mesh.V(v, c));
+    if (color)
+      for (const uint8_t channel : *color) s += static_cast<char>(channel);
+  }
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
     s += static_cast<char>(3);
     for (int c = 0; c < 3; ++c) append_le(s, static_cast<int32_t>(mesh.F(f, c)));
@@ -70,7 +76,7 @@ std::string ply_bytes(const SurfaceMesh& mesh) {
   return s;
 }
 
-std::string vtp_text(const SurfaceMesh& mesh) {
+std::string vtp_text(const SurfaceMesh& mesh, const Color& color) {
   const auto rows = [](Eigen::Index count, int per_row, const auto& value) {
     std::string s;
     for (Eigen::Index r = 0; r < count; ++r) {
@@ -94,7 +100,16 @@ std::string vtp_text(const SurfaceMesh& mesh) {
          "format=\"ascii\">\n" +
          rows(mesh.V.rows(), 3, [&](Eigen::Index r, int c) { return mesh.V(r, c); }) +
          "        </DataArray>\n"
-         "      </Points>\n"
+         "      </Points>\n" +
+         // For ParaView: colour by "color" with Map Scalars off draws the structure's colour.
+         (color
+              ? "      <PointData>\n"
+                "        <DataArray type=\"UInt8\" Name=\"color\" NumberOfComponents=\"3\" "
+                "format=\"ascii\">\n" +
+                    rows(mesh.V.rows(), 3, [&](Eigen::Index, int c) { return int{(*color)[c]}; }) +
+                    "        </DataArray>\n"
+                    "      </PointData>\n"
+              : std::string()) +
          "      <Polys>\n"
          "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n" +
          rows(mesh.F.rows(), 3, [&](Eigen::Index r, int c) { return int64_t{mesh.F(r, c)}; }) +
@@ -108,7 +123,7 @@ std::string vtp_text(const SurfaceMesh& mesh) {
          "</VTKFile>\n";
 }
 
-std::string stl_bytes(const SurfaceMesh& mesh) {
+std::string stl_bytes(const SurfaceMesh& mesh, const Color&) {
   // A binary STL header must not start with "solid": readers would take the file for ASCII STL.
   std::string s = "Lamina binary STL, units mm";
   s.resize(80, ' ');
@@ -152,9 +167,9 @@ bool parse_whole(std::string_view text, T& value) {
 
 }  // namespace
 
-void write_mesh(const SurfaceMesh& mesh, const std::string& path) {
+void write_mesh(const SurfaceMesh& mesh, const std::string& path, const Color& color) {
   const std::string ext = lowercase_extension(path);
-  std::string (*encode)(const SurfaceMesh&) = nullptr;
+  std::string (*encode)(const SurfaceMesh&, const Color&) = nullptr;
   if (ext == ".obj") encode = obj_text;
   if (ext == ".ply") encode = ply_bytes;
   if (ext == ".vtp") encode = vtp_text;
@@ -164,7 +179,7 @@ void write_mesh(const SurfaceMesh& mesh, const std::string& path) {
   if (mesh.F.size() > 0 && (mesh.F.minCoeff() < 0 || mesh.F.maxCoeff() >= mesh.V.rows()))
     throw invalid_input(path, "cannot write a mesh whose faces use vertices outside [0, " +
                                   std::to_string(mesh.V.rows()) + ")");
-  const std::string bytes = encode(mesh);
+  const std::string bytes = encode(mesh, color);
   write_file_atomically(
       path, [&](std::ostream& out) { out.write(bytes.data(), std::ssize(bytes)); }, true);
 }

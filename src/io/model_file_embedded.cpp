@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "lamina/core/error.h"
+#include "lamina/model/structure_colors.h"
 #include "model_file_internal.h"
 
 namespace lamina::io::detail {
@@ -86,6 +87,18 @@ void write_embedded_point_data(std::ostream& out, const char* indent, const Mode
       }
   write_array(out, indent, "embed_corners", corners, 4);
   write_array(out, indent, "embed_weights", weights, 4);
+  // For ParaView, not read back: the organ's colour on the nodes and each surface's on its
+  // vertices (model::structure_colors), so that colouring by "color" with Map Scalars off shows
+  // the anatomy as the viewer does.
+  std::vector<uint8_t> color;
+  color.reserve(3 * (static_cast<size_t>(m.node_count()) + weights.size() / 4));
+  for (int32_t v = 0; v < m.node_count(); ++v)
+    color.insert(color.end(), model::kOrganColor.begin(), model::kOrganColor.end());
+  const std::vector<model::Rgb8> colors = model::structure_colors(m);
+  for (size_t s = 0; s < m.embedded.size(); ++s)
+    for (Eigen::Index v = 0; v < m.embedded[s].V.rows(); ++v)
+      color.insert(color.end(), colors[s].begin(), colors[s].end());
+  write_array(out, indent, "color", color, 3);
   if (!has_embedded_offsets(m)) return;
   std::vector<double> offsets(3 * static_cast<size_t>(m.node_count()), 0.0);
   for (const EmbeddedSurface& e : m.embedded)

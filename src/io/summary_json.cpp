@@ -97,6 +97,7 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
     j["working_spacing_mm"] = b->working_spacing_mm;
     j["target_edge_mm"] = b->target_edge_mm;
     j["max_depth_mm"] = b->max_depth_mm;
+    j["skin_genus"] = b->skin_genus;
     json stages = json::object();
     for (const auto& [name, sec] : b->stage_seconds) stages[name] = sec;
     j["stage_seconds"] = stages;

@@ -10,6 +10,7 @@
 #include <numeric>
 
 #include "build_embedded.h"
+#include "explain_failure.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/geometry/extract_isosurface.h"
@@ -148,6 +149,17 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   }
   detail::check_structures_in_organ(volume, opt, prepared.report);
   rep.mask = prepared.report;
+  // An organ named by its label(s) in a map that carves other structures out of it, not
+  // embedded: the model would have a dent or a tunnel wherever they run (and if the skin cannot
+  // be made because of them, the refusal names them: explain_mesh_failure).
+  if (opt.label != 0 || !opt.labels.empty()) {
+    const detail::LabelsInside inside = detail::labels_inside_organ(volume, opt, 0.25);
+    if (!inside.text.empty())
+      rep.warnings.push_back(inside.text +
+                             ": structures carved out of it leave tunnels and craters in the "
+                             "organ; " +
+                             inside.advice());
+  }
   for (const EmbedStructure& s : opt.embed)
     rep.structure_names.push_back(detail::structure_name(s));
   rep.mask_volume_ml = prepared.report.kept_volume_ml;
@@ -198,6 +210,9 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
       rep.warnings.push_back(fmt::format("skin: kept the largest of {} surface pieces", pieces));
   }
   if (raw.F.rows() == 0) throw invalid_input(name, "no surface could be extracted from the mask");
+  // Tunnels through the organ (a vessel carved out of its label and not embedded): the model
+  // would have a hole there, and a thin one breaks the skin's remeshing below.
+  rep.skin_genus = detail::surface_genus(raw);
   edge = edge_for_vertex_count(geometry::measure_mesh(raw).area_mm2, opt.skin_vertices);
   SurfaceMesh skin = geometry::remesh(raw, {.target_edge_mm = edge});
   const double ratio = static_cast<double>(skin.V.rows()) / opt.skin_vertices;
@@ -206,6 +221,10 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
     skin = geometry::remesh(raw, {.target_edge_mm = edge});
   }
   rep.target_edge_mm = edge;
+  if (rep.skin_genus > 0)
+    rep.warnings.push_back(fmt::format(
+        "the organ's surface has {} tunnel(s) through it (genus {}): the model has a hole there",
+        rep.skin_genus, rep.skin_genus));
   timer.done("skin");
 
   std::vector<SurfaceMesh> layers{skin};
@@ -279,13 +298,18 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   for (size_t k = 0; k < layers.size(); ++k) {
     const geometry::MeshQuality q = geometry::measure_mesh(layers[k]);
     const bool crossed = geometry::self_intersects(layers[k]);
-    if (!q.closed || !q.manifold || !q.outward || q.degenerate_faces > 0 || crossed)
-      throw Error(
-          ErrorKind::kInternal,
-          fmt::format("{}: layer {} failed its mesh checks (closed {}, manifold {}, outward "
-                      "{}, degenerate faces {}, self-intersecting {}); try a different "
-                      "--skin-vertices",
-                      name, k, q.closed, q.manifold, q.outward, q.degenerate_faces, crossed));
+    std::vector<std::string> failed;
+    if (!q.closed) failed.emplace_back("not closed");
+    if (!q.manifold) failed.emplace_back("not manifold");
+    if (!q.outward) failed.emplace_back("inside out");
+    if (q.degenerate_faces > 0)
+      failed.push_back(fmt::format("{} degenerate faces", q.degenerate_faces));
+    if (crossed) failed.emplace_back("self-intersecting");
+    if (!failed.empty())
+      throw invalid_input(
+          name, detail::explain_mesh_failure(volume, opt, rep, static_cast<int32_t>(k),
+                                             fmt::format("{}", fmt::join(failed, ", ")), layers[k],
+                                             rep.skin_genus));
   }
   timer.done("checks");
 

@@ -29,6 +29,7 @@ struct TetGrid {
   // barycentric weights are one 3x3 product (a point outside tries dozens of tetrahedra).
   std::vector<Eigen::Vector3d> origin;
   std::vector<Eigen::Matrix3d> inverse;
+  std::vector<Eigen::Vector3d> centroid;  // for the nearest-centroid search of outside points
 
   Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const {
     Eigen::Vector3i c;
@@ -77,7 +78,11 @@ TetGrid make_grid(const Model& m) {
     each_cell(t, [&](int64_t k) { g.tets[fill[k]++] = static_cast<int32_t>(t); });
   g.origin.resize(static_cast<size_t>(nt));
   g.inverse.resize(static_cast<size_t>(nt));
+  g.centroid.resize(static_cast<size_t>(nt));
   for (Eigen::Index t = 0; t < nt; ++t) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 4; ++k) c += m.X.row(m.tets.T(t, k)).transpose();
+    g.centroid[static_cast<size_t>(t)] = 0.25 * c;
     const Eigen::Vector3d a = m.X.row(m.tets.T(t, 0)).transpose();
     Eigen::Matrix3d D;
     for (int c = 1; c < 4; ++c) D.col(c - 1) = m.X.row(m.tets.T(t, c)).transpose() - a;
@@ -94,12 +99,6 @@ Eigen::Vector4d barycentric(const TetGrid& g, int32_t t, const Eigen::Vector3d& 
   return Eigen::Vector4d(1.0 - l.sum(), l[0], l[1], l[2]);
 }
 
-Eigen::Vector3d centroid(const Model& m, int32_t t) {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (int k = 0; k < 4; ++k) c += m.X.row(m.tets.T(t, k)).transpose();
-  return 0.25 * c;
-}
-
 // The tetrahedron containing p (its weights all >= -1e-9), or -1.
 int32_t containing(const TetGrid& g, const Eigen::Vector3d& p, Eigen::Vector4d& w) {
   const int64_t k = g.index(g.cell_of(p));
@@ -112,7 +111,7 @@ int32_t containing(const TetGrid& g, const Eigen::Vector3d& p, Eigen::Vector4d& 
 
 // The tetrahedron whose centroid is nearest to p: the grid's cells in growing shells around p's
 // cell, until a shell can hold nothing nearer than the best found.
-int32_t nearest(const Model& m, const TetGrid& g, const Eigen::Vector3d& p) {
+int32_t nearest(const TetGrid& g, const Eigen::Vector3d& p) {
   const Eigen::Vector3i at = g.cell_of(p);
   const Eigen::Vector3d clamped = p.cwiseMax(g.lo).cwiseMin(g.lo + g.cell * g.n.cast<double>());
   const double outside = (p - clamped).norm();  // p beyond the grid's box
@@ -120,7 +119,8 @@ int32_t nearest(const Model& m, const TetGrid& g, const Eigen::Vector3d& p) {
   double best_d = std::numeric_limits<double>::infinity();
   const int most = g.n.maxCoeff();
   for (int r = 0; r <= most; ++r) {
-    if (best >= 0 && outside + (r - 1) * g.cell > best_d) break;
+    const double reach = outside + (r - 1) * g.cell;  // nearest a shell's cells can be
+    if (best >= 0 && reach > 0.0 && reach * reach > best_d) break;
     for (int z = at[2] - r; z <= at[2] + r; ++z)
       for (int y = at[1] - r; y <= at[1] + r; ++y)
         for (int x = at[0] - r; x <= at[0] + r; ++x) {
@@ -129,7 +129,7 @@ int32_t nearest(const Model& m, const TetGrid& g, const Eigen::Vector3d& p) {
           if (x < 0 || y < 0 || z < 0 || x >= g.n[0] || y >= g.n[1] || z >= g.n[2]) continue;
           const int64_t k = g.index(Eigen::Vector3i(x, y, z));
           for (int32_t q = g.offsets[k]; q < g.offsets[k + 1]; ++q) {
-            const double d = (centroid(m, g.tets[q]) - p).norm();
+            const double d = (g.centroid[static_cast<size_t>(g.tets[q])] - p).squaredNorm();
             if (d < best_d) best_d = d, best = g.tets[q];
           }
         }
@@ -146,11 +146,11 @@ int32_t nearest(const Model& m, const TetGrid& g, const Eigen::Vector3d& p) {
 // centroid alone, 2.0 this way).
 int32_t least_outside(const Model& m, const TetGrid& g, const Eigen::Vector3d& p,
                       Eigen::Vector4d& w) {
-  const int32_t first = nearest(m, g, p);
+  const int32_t first = nearest(g, p);
   w = barycentric(g, first, p);
   int32_t best = first;
   double best_min = w.minCoeff();
-  const Eigen::Vector3i at = g.cell_of(centroid(m, first));
+  const Eigen::Vector3i at = g.cell_of(g.centroid[static_cast<size_t>(first)]);
   const Eigen::Vector3i from = (at.array() - 1).max(0), to = (at.array() + 1).min(g.n.array() - 1);
   for (int z = from[2]; z <= to[2]; ++z)
     for (int y = from[1]; y <= to[1]; ++y)

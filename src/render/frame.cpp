@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "lamina/model/embed_surface.h"
+#include "lamina/model/structure_colors.h"
 
 namespace lamina::render {
 
@@ -15,16 +16,10 @@ Eigen::Vector4f ring_color(int32_t level) {
 }
 
 EmbeddedLook embedded_look(const Model& model, size_t index) {
-  // Blue-violet vessels and a yellow-green tumour (the labels of make_phantom's anatomy), then
-  // colours apart from the organ's red-brown and from each other.
-  static const float kPalette[][3] = {{0.35f, 0.40f, 0.95f}, {0.80f, 0.90f, 0.20f},
-                                      {0.20f, 0.80f, 0.75f}, {0.85f, 0.45f, 0.90f},
-                                      {0.95f, 0.95f, 0.95f}, {0.30f, 0.75f, 0.30f}};
   EmbeddedLook look;
   if (index >= model.embedded.size()) return look;
-  const int32_t label = model.embedded[index].label;
-  const auto& c = kPalette[static_cast<size_t>(std::max(label - 2, 0)) % 6];
-  look.color = {c[0], c[1], c[2]};
+  const lamina::model::Rgb8 c = lamina::model::structure_colors(model)[index];
+  look.color = {c[0] / 255.0f, c[1] / 255.0f, c[2] / 255.0f};
   return look;
 }
 

@@ -534,6 +534,37 @@ TEST(CliWorkflow, BuildEmbedsTheAnatomyAndRefusesBadEmbeddings) {
   }
 }
 
+// Issue 46: the carved-out phantom (each voxel liver or a structure, the vessels leaving the
+// organ) builds with --label 1 and its structures embedded: the organ whole, each structure
+// reported, none amplifying its tetrahedron's motion; an organ of structures alone is refused.
+TEST(CliWorkflow, ACarvedOutLabelMapBuildsWithItsStructuresEmbedded) {
+  TempDir dir;
+  RunResult r = run_lamina(dir, "phantom --carved-out -o C.nii.gz --spacing 3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("5 vena cava"), std::string::npos) << r.err;
+  r = run_lamina(dir,
+                 "build C.nii.gz -o C.vtu --json --label 1 --display-triangles 4000 "
+                 "--structure-triangles 1000 "
+                 "--embed 2=portal_vein,3=tumours,4=hepatic_veins,5=vena_cava");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json built = json::parse(r.out);
+  const json& structures = built.at("mask").at("structures");
+  ASSERT_EQ(structures.size(), 4u) << r.out;
+  EXPECT_EQ(structures[3].at("name"), "vena_cava");
+  EXPECT_LT(structures[3].at("inside_organ").get<int64_t>(),
+            structures[3].at("voxels").get<int64_t>() / 2);
+  EXPECT_GT(built.at("mask").at("structure_voxels_taken_in").get<int64_t>(), 0);
+  for (const json& e : built.at("embedded")) EXPECT_LE(e.at("max_amplification"), 2.0) << e;
+  EXPECT_GT(built.at("embedded")[4].at("offset").get<int64_t>(), 0);
+  r = run_lamina(dir, "build C.nii.gz -o D.vtu --embed 1=a,2=b,3=c,4=d,5=e");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("every voxel selected as the organ is an embedded structure's"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir.work / "D.vtu"));
+}
+
 TEST(CliWorkflow, PhantomBuildInfoExport) {
   TempDir dir;
   RunResult r = run_lamina(dir, "phantom -o P.nii.gz --spacing 3");

@@ -23,6 +23,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/embed_surface.h"
+#include "lamina/model/structure_colors.h"
 #include "support/embedded_phantom.h"
 #include "support/run_cli.h"
 #include "support/temp_dir.h"
@@ -490,6 +491,16 @@ TEST(LaminaRun, EveryEmbeddedSurfaceGetsASeriesAtWx) {
       EXPECT_GT(checked, e.V.rows() / 2);
       EXPECT_GT((pressed - rest).rowwise().norm().maxCoeff(), 1.0) << "the poke moved it";
     }
+    // Each frame carries the surface's colour for ParaView (issue 46), the model's own.
+    std::ifstream vtp(dir.path / "out" / frames[4].second);
+    const std::string text((std::istreambuf_iterator<char>(vtp)), std::istreambuf_iterator<char>());
+    const model::Rgb8 c = model::structure_colors(m)[static_cast<size_t>(&e - m.embedded.data())];
+    const size_t at = text.find("Name=\"color\" NumberOfComponents=\"3\"");
+    ASSERT_NE(at, std::string::npos);
+    EXPECT_NE(text.find(std::to_string(c[0]) + " " + std::to_string(c[1]) + " " +
+                            std::to_string(c[2]) + "\n",
+                        at),
+              std::string::npos);
   }
 }
 

@@ -84,9 +84,8 @@ TEST(EnclosedStructures, AVesselTunnelOpenAtTheSurfaceIsTakenInUpToTheOrgansOutl
 TEST(EnclosedStructures, ATumourAtTheSurfaceFillsItsCraterButNotItsBulge) {
   // A sphere centred on the upper face (k = 29.5): half in the organ, half bulging out.
   Scene s;
-  s.carve(1, [](double i, double j, double k) {
-    return std::hypot(i - 20, j - 20, k - 29.5) <= 6.0;
-  });
+  s.carve(1,
+          [](double i, double j, double k) { return std::hypot(i - 20, j - 20, k - 29.5) <= 6.0; });
   s.run(1);
   EXPECT_EQ(s.differences_from_cube(), 0);
 }

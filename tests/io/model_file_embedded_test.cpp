@@ -97,6 +97,10 @@ TEST(ModelFileEmbedded, SurfacesRoundTripBitExactly) {
   EXPECT_NE(text.find("Name=\"lamina_format_version\" NumberOfTuples=\"1\" format=\"ascii\">\n"
                       "        4\n"),
             std::string::npos);
+  // For ParaView (not read back): the organ's colour on the nodes, each surface's on its points.
+  EXPECT_NE(text.find("Name=\"color\" NumberOfComponents=\"3\" format=\"ascii\">\n"
+                      "          153 56 43 153 56 43"),
+            std::string::npos);
   int64_t cells = static_cast<int64_t>(m.springs.size()) + m.tets.size();
   for (const ModelLayer& l : m.layers) cells += l.F.rows();
   for (const EmbeddedSurface& e : m.embedded) cells += e.F.rows();

@@ -1,8 +1,13 @@
 // lamina build's display skin and embedded structures (issue 33): made from the phantom with
 // anatomy, carried by the tetrahedra, deformed exactly as W x under the default poke, and bad
-// embeddings refused before any work with one line naming the file and the label.
+// embeddings refused before any work with one line naming the file and the label. Issue 46:
+// label maps with the structures carved out of the organ's label (IRCAD's layout, LiTS's, and
+// TotalSegmentator's with its structures beside the liver) build as the whole organ, each
+// structure closed and enclosing its voxels' volume, none of them moving more than twice as far
+// as its tetrahedron.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -16,6 +21,7 @@
 #include "lamina/model/build_model.h"
 #include "lamina/model/embed_surface.h"
 #include "support/temp_dir.h"
+#include "support/test_paths.h"
 
 namespace {
 
@@ -166,6 +172,7 @@ TEST(BuildEmbedded, UnderTheDefaultPokeTheStructuresMoveWithTheTissue) {
     for (Eigen::Index v = 0; v < e.V.rows(); ++v) {
       Eigen::RowVector3d w = Eigen::RowVector3d::Zero();
       for (int c = 0; c < 4; ++c) w += e.weights(v, c) * s.x.row(e.corners(v, c));
+      if (e.offsets.rows() > 0) w += e.offsets.row(v);
       ASSERT_LT((x.row(v) - w).norm(), 1e-12 * (1.0 + w.norm())) << e.name << " vertex " << v;
     }
   }
@@ -212,6 +219,189 @@ TEST(BuildEmbedded, AVesselUnderAPushMovesWithTheDent) {
                                << std::sqrt(best) << " mm apart";
   std::cout << "skin dented " << dent << " mm; the vessel " << std::sqrt(best)
             << " mm under it moved " << moved << " mm\n";
+}
+
+// --- Issue 46: carved-out label maps. ---
+
+int64_t count_label(const LabelVolume& v, int32_t label) {
+  return std::count(v.labels.begin(), v.labels.end(), label);
+}
+
+int64_t count_non_zero(const LabelVolume& v) {
+  return std::count_if(v.labels.begin(), v.labels.end(), [](int32_t l) { return l != 0; });
+}
+
+// The carved-out phantom at 1.2 mm, the finest at which a test builds in about a second and
+// the organ's label alone still fails (its tunnels cross the skin: ExplainFailure).
+const LabelVolume& carved() {
+  static const LabelVolume v = [] {
+    LabelVolume c = geometry::make_phantom({.spacing_mm = {1.2, 1.2, 1.2}, .carved_out = true});
+    c.source = "carved.nii.gz";
+    return c;
+  }();
+  return v;
+}
+
+// The organ without anatomy on the same grid: the ground truth of "the organ".
+const LabelVolume& whole() {
+  static const LabelVolume v = geometry::make_phantom({.spacing_mm = {1.2, 1.2, 1.2}});
+  return v;
+}
+
+model::BuildOptions carved_options() {
+  model::BuildOptions o;
+  o.label = geometry::kPhantomLiver;
+  o.display_triangles = 5000;
+  o.structure_triangles = 3000;
+  o.embed = {{.name = "portal vein", .label = geometry::kPhantomVessel},
+             {.name = "tumours", .label = geometry::kPhantomTumour},
+             {.name = "hepatic veins", .label = geometry::kPhantomHepaticVeins},
+             {.name = "vena cava", .label = geometry::kPhantomVenaCava}};
+  return o;
+}
+
+const model::BuildResult& ircad() {
+  static const model::BuildResult r = model::build_model(carved(), carved_options());
+  return r;
+}
+
+// Each embedded structure: closed, manifold and outward, enclosing its voxels' volume within 3%;
+// no vertex amplifying its tetrahedron's motion more than 2x.
+void expect_structures_whole(const model::BuildResult& r, const LabelVolume& v,
+                             const model::BuildOptions& o) {
+  ASSERT_EQ(r.model.embedded.size(), o.embed.size() + 1);
+  for (size_t s = 0; s < o.embed.size(); ++s) {
+    const EmbeddedSurface& e = r.model.embedded[s + 1];
+    const geometry::MeshQuality q = geometry::measure_mesh({e.V, e.F});
+    EXPECT_TRUE(q.closed && q.manifold && q.outward) << e.name;
+    const double voxels_mm3 =
+        static_cast<double>(count_label(v, o.embed[s].label)) * v.frame.voxel_volume_mm3();
+    EXPECT_NEAR(q.volume_mm3, voxels_mm3, 0.03 * voxels_mm3) << e.name;
+  }
+  for (const EmbeddedSurface& e : r.model.embedded)
+    EXPECT_LE(model::max_amplification(e), kMaxAmplification) << e.name;
+}
+
+TEST(CarvedOut, IrcadsLayoutBuildsTheWholeOrganWithItsStructuresInside) {
+  const model::BuildResult& r = ircad();
+  // The organ: its label and the structures' voxels inside it, within 1% of the phantom's
+  // organ (the vena cava's share of the groove in its back stays out: 0.5% here).
+  const double organ = static_cast<double>(count_non_zero(whole()));
+  EXPECT_NEAR(static_cast<double>(r.report.mask.kept_voxels), organ, 0.01 * organ);
+  EXPECT_EQ(r.report.mask.cavity_voxels_filled, 0) << "the structures fill the organ, not this";
+  expect_structures_whole(r, carved(), carved_options());
+  // The tumours lie inside (but for the 6 mm bulge of the subcapsular one), the vena cava and
+  // the portal trunk largely outside; each structure is reported.
+  const geometry::EnclosedCounts& c = r.report.mask.structures;
+  ASSERT_EQ(c.voxels.size(), 4u);
+  EXPECT_GT(c.inside[1], 0.9 * static_cast<double>(c.voxels[1]));
+  EXPECT_LT(c.inside[3], 0.2 * static_cast<double>(c.voxels[3]));
+  EXPECT_LT(c.inside[0], c.voxels[0]);
+  EXPECT_EQ(r.report.structure_names[3], "vena cava");
+  EXPECT_EQ(r.report.skin_genus, 0);
+  // The vena cava's far vertices follow by offsets.
+  EXPECT_GT(model::offset_vertices(r.model.embedded[4]), r.model.embedded[4].V.rows() / 2);
+}
+
+TEST(CarvedOut, LitsLayoutATumourCarvedOutOfTheLiverBuildsTheWholeOrgan) {
+  // LiTS stores liver (vessels included) and tumour: the phantom's organ as label 1, both
+  // lesions as label 3, the subcapsular one reaching the surface and bulging out of it.
+  LabelVolume lits = whole();
+  lits.source = "lits.nii.gz";
+  for (size_t v = 0; v < lits.labels.size(); ++v)
+    if (carved().labels[v] == geometry::kPhantomTumour) lits.labels[v] = geometry::kPhantomTumour;
+  model::BuildOptions o;
+  o.label = geometry::kPhantomLiver;
+  o.display_triangles = 5000;
+  o.structure_triangles = 3000;
+  o.embed = {{.name = "tumour", .label = geometry::kPhantomTumour}};
+  const model::BuildResult r = model::build_model(lits, o);
+  const double organ = static_cast<double>(count_non_zero(whole()));
+  EXPECT_NEAR(static_cast<double>(r.report.mask.kept_voxels), organ, 0.01 * organ);
+  // The crater the subcapsular lesion leaves in label 1 is closed across at the organ's outline;
+  // only its bulge beyond the outline (5% of the tumours' voxels) stays out.
+  const geometry::EnclosedCounts& c = r.report.mask.structures;
+  int64_t in_outline = 0;
+  for (size_t v = 0; v < lits.labels.size(); ++v)
+    in_outline += lits.labels[v] == geometry::kPhantomTumour && carved().labels[v] != 0 &&
+                  whole().labels[v] != 0;
+  EXPECT_LT(in_outline, c.voxels[0]) << "the lesion bulges out";
+  EXPECT_NEAR(static_cast<double>(c.inside[0]), static_cast<double>(in_outline),
+              0.01 * static_cast<double>(in_outline));
+  expect_structures_whole(r, lits, o);
+}
+
+TEST(CarvedOut, TotalSegmentatorsNeighboursBesideTheLiverStillBuild) {
+  // Its structures lie beside the liver, not carved out of it: the liver takes in little.
+  LabelVolume v =
+      io::read_label_volume(test::shared_data("liver_totalseg_example_3mm_labels.nii.gz"));
+  model::BuildOptions o;
+  o.label = 1;
+  o.display_triangles = 5000;
+  o.structure_triangles = 3000;
+  o.embed = {{.name = "portal vein", .label = 2},
+             {.name = "vena cava", .label = 3},
+             {.name = "gallbladder", .label = 4}};
+  const model::BuildResult r = model::build_model(v, o);
+  const double liver = static_cast<double>(count_label(v, 1));
+  EXPECT_NEAR(static_cast<double>(r.report.mask.kept_voxels), liver, 0.01 * liver);
+  expect_structures_whole(r, v, o);
+}
+
+TEST(CarvedOut, NoEmbeddedVertexMovesMoreThanTwiceItsTetrahedron) {
+  // The IRCAD build poked as `lamina run` pokes by default: the vena cava, mostly outside the
+  // organ, moves with it without amplifying its tetrahedra's motion.
+  test::TempDir dir;
+  const std::string path = dir.file("carved.nii.gz");
+  io::write_label_volume(carved(), path);
+  io::Scene scene;
+  scene.input = path;
+  scene.build = carved_options();
+  const io::ReadyScene ready = io::make_ready_scene(scene);
+  const Model& m = *ready.model;
+  interact::ToolDriver driver = io::make_tool_driver(ready.scene);
+  sim::Simulation s = io::make_scene_simulation(ready);
+  interact::run_tools(s, driver, 0.8, false);  // mid-push
+  double worst = 0.0, largest = 0.0;
+  for (const EmbeddedSurface& e : m.embedded) {
+    Eigen::MatrixX3d x;
+    model::embedded_positions(e, s.x, x);
+    for (Eigen::Index v = 0; v < e.V.rows(); ++v) {
+      double corner_motion = 0.0;
+      for (int c = 0; c < 4; ++c)
+        corner_motion =
+            std::max(corner_motion, (s.x.row(e.corners(v, c)) - m.X.row(e.corners(v, c))).norm());
+      const double motion = (x.row(v) - e.V.row(v)).norm();
+      largest = std::max(largest, motion);
+      if (corner_motion > 1e-6) worst = std::max(worst, motion / corner_motion);
+      ASSERT_LE(motion, kMaxAmplification * corner_motion + 1e-9) << e.name << " vertex " << v;
+    }
+  }
+  EXPECT_GT(largest, 1.0) << "the poke moved the structures";
+  std::cout << "largest motion " << largest << " mm; largest amplification " << worst << "\n";
+}
+
+TEST(CarvedOut, AStructureOutsideTheOrganOrAnOrganOfStructuresAloneIsRefused) {
+  // A blob in the scan's corner, far from the organ, as a structure.
+  LabelVolume v = carved();
+  for (int64_t k = 0; k < 4; ++k)
+    for (int64_t j = 0; j < 4; ++j)
+      for (int64_t i = 0; i < 4; ++i) v.labels[static_cast<size_t>(v.frame.index(i, j, k))] = 9;
+  model::BuildOptions o = carved_options();
+  o.embed.push_back({.name = "kidney", .label = 9});
+  std::string what = refusal(v, o);
+  EXPECT_NE(what.find("carved.nii.gz"), std::string::npos) << what;
+  EXPECT_NE(what.find("label 9 (structure 'kidney'): none of its 64 voxels lies inside the organ"),
+            std::string::npos)
+      << what;
+  // Every label embedded and the organ any non-zero one: it would be structures alone.
+  o = carved_options();
+  o.label = 0;
+  o.embed.push_back({.name = "parenchyma", .label = geometry::kPhantomLiver});
+  what = refusal(carved(), o);
+  EXPECT_NE(what.find("every voxel selected as the organ is an embedded structure's"),
+            std::string::npos)
+      << what;
 }
 
 }  // namespace

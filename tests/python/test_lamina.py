@@ -174,9 +174,10 @@ def anatomy_model():
                               structure_triangles=800, embed=[(2, "vessels"), (3, "tumour")])
 
 
-def deform(w, c, x):
-    """W x in numpy: each vertex the weighted sum of its tetrahedron's four nodes."""
-    return (w[:, :, None] * x[c]).sum(1)
+def deform(s, x):
+    """W x + offsets in numpy: each vertex the weighted sum of its tetrahedron's four nodes, plus
+    its rest offset (zero but far outside the tetrahedra)."""
+    return (s.weights[:, :, None] * x[s.corners]).sum(1) + s.offsets
 
 
 def test_phantom_anatomy_has_its_labels():
@@ -211,8 +212,9 @@ def test_embedded_surfaces_are_read_only_views_of_the_model(anatomy_model):
         assert s.weights.shape == (n, 4) and s.weights.dtype == np.float64
         assert np.allclose(s.weights.sum(1), 1.0, atol=1e-12)
         assert 0 <= s.outside <= n
+        assert s.offsets.shape == (n, 3) and s.max_amplification <= 2.0
         # At rest the weights give back the rest positions.
-        assert np.allclose(deform(s.weights, s.corners, m.X), s.V, atol=1e-9)
+        assert np.allclose(deform(s, m.X), s.V, atol=1e-9)
         for a in (s.V, s.F, s.corners, s.weights):
             assert not a.flags.writeable
             with pytest.raises(ValueError):
@@ -243,6 +245,28 @@ def test_embedded_views_keep_the_model_alive():
     assert np.array_equal(v, rest)  # still the model's memory, not freed
 
 
+def test_a_carved_out_label_map_builds_as_the_organ_with_its_structures_inside():
+    """Issue 46: the liver's label with its vessels and tumours carved out of it (IRCAD's
+    layout): label=1 and the structures embedded give the whole organ, not one with tunnels."""
+    carved = lamina.phantom(spacing_mm=3.0, carved_out=True)
+    whole = lamina.phantom(spacing_mm=3.0)
+    labels = carved.labels
+    assert sorted(np.unique(labels)) == [0, 1, 2, 3, 4, 5]
+    m = lamina.build_model(carved, label=1, skin_vertices=400, display_triangles=3000,
+                           structure_triangles=800,
+                           embed=[(2, "portal vein"), (3, "tumours"), (4, "hepatic veins"),
+                                  (5, "vena cava")])
+    organ_ml = np.count_nonzero(whole.labels) * 27.0 / 1000.0
+    skin = m.embedded[0]
+    volume = lambda V, F: np.einsum("ij,ij->i", V[F[:, 0]],
+                                    np.cross(V[F[:, 1]], V[F[:, 2]])).sum() / 6000.0
+    assert abs(volume(skin.V, skin.F) - organ_ml) <= 0.02 * organ_ml
+    # The vena cava lies mostly outside: its far vertices follow by offsets, none amplified.
+    cava = m.embedded[4]
+    assert cava.name == "vena cava" and np.count_nonzero(np.abs(cava.offsets).sum(1)) > 0
+    assert max(s.max_amplification for s in m.embedded) <= 2.0
+
+
 def test_embedded_positions_follow_the_nodes(anatomy_model):
     m = anatomy_model
     sim = lamina.Simulation(m, integrator="implicit_euler", fixed=back_nodes(m))
@@ -255,7 +279,7 @@ def test_embedded_positions_follow_the_nodes(anatomy_model):
     for k, s in enumerate(m.embedded):
         got = sim.embedded_positions(s.name)
         assert got.shape == s.V.shape and got.dtype == np.float64
-        assert np.allclose(got, deform(s.weights, s.corners, x), rtol=0, atol=1e-12)
+        assert np.allclose(got, deform(s, x), rtol=0, atol=1e-12)
         assert np.array_equal(got, sim.embedded_positions(k))  # by index, the same
         moved = max(moved, np.abs(got - s.V).max())
     assert moved > 0.5  # the push carried the surfaces along

@@ -9,7 +9,9 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/embed_surface.h"
+#include "lamina/model/structure_colors.h"
 #include "lamina/render/camera.h"
+#include "lamina/render/legend.h"
 #include "lamina/render/offscreen.h"
 #include "lamina/render/renderer.h"
 
@@ -274,6 +276,92 @@ TEST_F(Headless, StructuresShowThroughTheSkinWhereTheyAre) {
   const double one = differing_fraction(a, render_image(*renderer_, no_tumour, cam, w, h));
   EXPECT_GT(one, 0.001);
   EXPECT_LT(one, differing_fraction(a, b));
+}
+
+// Issue 46: each structure in its own colour by name, and a legend naming them in it: the
+// picture's top-right corner holds a swatch of every structure's colour, and nothing else of the
+// picture changes.
+TEST_F(Headless, TheLegendNamesEachStructureInItsColour) {
+  ASSERT_NE(renderer_, nullptr);
+  const Model& m = anatomy_model();
+  Frame f;
+  f.model = &m;
+  f.style = default_style(m);
+  const std::vector<LegendEntry> entries = legend_entries(f);
+  ASSERT_EQ(entries.size(), 3u);
+  EXPECT_EQ(entries[0].name, "organ");
+  EXPECT_EQ(entries[1].name, "vessels");
+  EXPECT_EQ(entries[2].name, "tumour");
+  // The style's colours are the structures' by name: vessels the vein blue, tumour yellow.
+  EXPECT_EQ(model::structure_colors(m)[1], *model::color_by_name("vessels"));
+  EXPECT_EQ(model::structure_colors(m)[2], *model::color_by_name("tumour"));
+  const Camera cam = fit_camera(m);
+  const int w = 640, h = 480;
+  const Image plain = render_image(*renderer_, f, cam, w, h);
+  const Image legend = render_image(
+      [&](int ww, int hh) {
+        renderer_->draw(f, cam, ww, hh);
+        draw_legend(entries, ww, hh);
+      },
+      w, h);
+  // Where the two differ: only in the top-right quarter.
+  int changed = 0, elsewhere = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const uint8_t *p = plain.pixel(x, y), *q = legend.pixel(x, y);
+      if (std::max({std::abs(p[0] - q[0]), std::abs(p[1] - q[1]), std::abs(p[2] - q[2])}) <= 8)
+        continue;
+      ++changed;
+      if (x < w / 2 || y > h / 2) ++elsewhere;
+    }
+  EXPECT_GT(changed, 500);
+  EXPECT_EQ(elsewhere, 0);
+  // Each entry's swatch: pixels of exactly its colour in the legend's corner.
+  for (const LegendEntry& e : entries) {
+    int found = 0;
+    for (int y = 0; y < h / 2; ++y)
+      for (int x = w / 2; x < w; ++x) {
+        const uint8_t* p = legend.pixel(x, y);
+        bool same = true;
+        for (int c = 0; c < 3; ++c)
+          same &= std::abs(p[c] - static_cast<int>(std::lround(255 * e.color[c]))) <= 2;
+        found += same;
+      }
+    EXPECT_GT(found, 20) << e.name;
+  }
+  // No structures, no legend.
+  Frame bare;
+  bare.model = &phantom_model();
+  EXPECT_TRUE(legend_entries(bare).empty());
+}
+
+TEST(StructureColors, NamesGiveTheConventionsAndNoTwoStructuresShareOne) {
+  // Slicer's and TotalSegmentator's names, any case or separator.
+  EXPECT_EQ(*model::color_by_name("Portal_Vein"), *model::color_by_name("portal vein"));
+  EXPECT_EQ(*model::color_by_name("portal_vein_and_splenic_vein"),
+            *model::color_by_name("portal vein"));
+  EXPECT_NE(*model::color_by_name("portal vein"), *model::color_by_name("hepatic veins"));
+  EXPECT_NE(*model::color_by_name("hepatic veins"), *model::color_by_name("inferior_vena_cava"));
+  EXPECT_EQ(*model::color_by_name("IVC"), *model::color_by_name("inferior_vena_cava"));
+  EXPECT_EQ(*model::color_by_name("liver_tumor"), *model::color_by_name("tumours"));
+  EXPECT_EQ(*model::color_by_name("lesion 2"), *model::color_by_name("HCC"));
+  EXPECT_EQ(*model::color_by_name("hepatic artery"), *model::color_by_name("aorta"));
+  EXPECT_NE(*model::color_by_name("bile ducts"), *model::color_by_name("gallbladder"));
+  EXPECT_FALSE(model::color_by_name("segment IV").has_value());
+  // A model: the display skin the organ's colour; two vein trees of one blue and two unknown
+  // names all come out different.
+  Model m;
+  for (const char* name : {"display_skin", "vessels", "hepatic veins", "segment 2", "segment 3"}) {
+    EmbeddedSurface e;
+    e.name = name;
+    m.embedded.push_back(e);
+  }
+  const std::vector<model::Rgb8> c = model::structure_colors(m);
+  ASSERT_EQ(c.size(), 5u);
+  EXPECT_EQ(c[0], model::kOrganColor);
+  EXPECT_EQ(c[1], *model::color_by_name("vessels"));
+  for (size_t i = 1; i < c.size(); ++i)
+    for (size_t j = i + 1; j < c.size(); ++j) EXPECT_NE(c[i], c[j]) << i << " " << j;
 }
 
 TEST_F(Headless, DisplaySkinOffDrawsTheSimulationsSkin) {

@@ -14,6 +14,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/render/camera.h"
+#include "lamina/render/legend.h"
 #include "lamina/render/offscreen.h"
 #include "lamina/render/renderer.h"
 #include "lamina/render/viewer.h"
@@ -227,7 +228,15 @@ int run_render(const RenderArgs& a) {
   }
   render::Camera camera = render::fit_camera(m, view.azimuth_deg, view.elevation_deg);
   if (view.distance_mm > 0.0) camera.distance_mm = view.distance_mm;
-  render::write_png(render::render_image(renderer, frame, camera, a.size[0], a.size[1]), a.output);
+  const std::vector<render::LegendEntry> legend =
+      a.legend ? render::legend_entries(frame) : std::vector<render::LegendEntry>{};
+  render::write_png(render::render_image(
+                        [&](int w, int h) {
+                          renderer.draw(frame, camera, w, h);
+                          render::draw_legend(legend, w, h);
+                        },
+                        a.size[0], a.size[1]),
+                    a.output);
   std::cout << fmt::format("lamina render: wrote {} ({}x{}, t = {:.3g} s, {} tool(s) acting)\n",
                            a.output, a.size[0], a.size[1], s.time_s, acting);
   return 0;

@@ -29,6 +29,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/io/summary_json.h"
 #include "lamina/model/embed_surface.h"
+#include "lamina/model/structure_colors.h"
 #include "lamina/model/summarize_model.h"
 #include "lamina/sim/simulation.h"
 
@@ -72,6 +73,7 @@ struct Series {
   int32_t layer = 0;      // the layer shown, when embedded < 0
   int32_t embedded = -1;  // else the embedded surface shown (Model::embedded), at W x
   SurfaceMesh mesh;       // connectivity fixed, positions updated per frame (buffer reused)
+  model::Rgb8 color = model::kOrganColor;             // its `color` point array, for ParaView
   std::vector<std::pair<double, std::string>> files;  // time (s), path relative to OUTDIR
 };
 
@@ -85,7 +87,7 @@ void write_frame(Series& series, const sim::Simulation& s, const fs::path& out, 
     series.mesh.V = s.x.middleRows(layer.first_node, layer.node_count);
   }
   const std::string stem = fmt::format("frames/{}_{:06d}", series.name, index);
-  io::write_mesh(series.mesh, (out / (stem + ".vtp")).string());
+  io::write_mesh(series.mesh, (out / (stem + ".vtp")).string(), series.color);
   if (obj) io::write_mesh(series.mesh, (out / (stem + ".obj")).string());
   series.files.emplace_back(s.time_s, stem + ".vtp");
 }
@@ -205,6 +207,7 @@ struct RunOutputs {
       se.mesh = model::layer_mesh(m, k);
       names.insert(se.name);
     }
+    const std::vector<model::Rgb8> colors = model::structure_colors(m);
     for (size_t k = 0; k < m.embedded.size(); ++k) {
       const bool skin = static_cast<int32_t>(k) == model::display_skin_index(m);
       if (!(skin ? scene.output.display_skin : scene.output.embedded)) continue;
@@ -213,6 +216,7 @@ struct RunOutputs {
       se.embedded = static_cast<int32_t>(k);
       se.mesh.V = m.embedded[k].V;
       se.mesh.F = m.embedded[k].F;
+      se.color = colors[k];
       names.insert(se.name);
     }
     create_folder(out / "frames");

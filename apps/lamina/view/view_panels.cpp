@@ -8,6 +8,7 @@
 
 #include "lamina/model/embed_surface.h"
 #include "lamina/render/camera.h"
+#include "lamina/render/legend.h"
 #include "view_session_state.h"
 
 namespace lamina::cli {
@@ -263,6 +264,7 @@ void ViewSession::State::panels() {
     }
     ImGui::SliderFloat("skin opacity", &style.skin_alpha, 0.05f, 1.0f);
     embedded_panel(m);
+    ImGui::Checkbox("legend", &show_legend);
     ImGui::Checkbox("skin wireframe", &style.skin_wireframe);
     ImGui::SameLine();
     ImGui::Checkbox("springs", &style.springs);
@@ -328,6 +330,13 @@ void ViewSession::State::panels() {
   plot("step time, us", h_step_us);
   plot("simulation rate, Hz", h_rate);
   ImGui::End();
+
+  if (show_legend) {
+    render::Frame shown;
+    shown.model = &m;
+    shown.style = style;
+    render::legend_window(render::legend_entries(shown), /*bottom=*/true);
+  }
 }
 
 void ViewSession::State::record_plots() {

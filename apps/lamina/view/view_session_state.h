@@ -55,6 +55,7 @@ struct ViewSession::State {
   // Display.
   render::Style style;
   bool show_rings = true;
+  bool show_legend = true;  ///< the organ and each structure named in its colour
   float arrow_mm_per_n = 60.0f;
   int inner_choice = 0, coloring_choice = 0;
 

@@ -25,6 +25,14 @@ SurfaceMesh remesh(const SurfaceMesh& input, const RemeshOptions& options);
 /// True when two triangles of the mesh intersect other than at a shared edge or vertex.
 bool self_intersects(const SurfaceMesh& mesh);
 
+/// Where the mesh crosses itself: the mean of the centroids of its intersecting triangles
+/// (mm), and how many pairs there are; {} when it does not. For error messages.
+struct SelfIntersection {
+  int64_t pairs = 0;
+  Eigen::Vector3d where = Eigen::Vector3d::Zero();
+};
+SelfIntersection find_self_intersection(const SurfaceMesh& mesh);
+
 /// How `inner` sits relative to `outer`.
 struct Nesting {
   bool all_vertices_inside = false;  ///< every vertex of inner is strictly inside outer

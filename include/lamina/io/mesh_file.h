@@ -2,9 +2,11 @@
 /// \file
 /// Writing triangle meshes for other tools (MeshLab, ParaView, slicers) and reading OBJ files.
 
+#include <optional>
 #include <string>
 
 #include "lamina/geometry/surface_mesh.h"
+#include "lamina/model/structure_colors.h"
 
 namespace lamina::io {
 
@@ -14,11 +16,15 @@ namespace lamina::io {
 ///   - .ply  binary little-endian, float64 x y z, faces as `list uchar int`
 ///   - .vtp  VTK XML PolyData, ASCII, triangles as Polys
 ///   - .stl  binary STL, float32, one normal per face computed from its corners
-/// @param[in] mesh  #V by 3 vertices (mm) and #F by 3 triangles
-/// @param[in] path  destination file
+/// @param[in] mesh   #V by 3 vertices (mm) and #F by 3 triangles
+/// @param[in] path   destination file
+/// @param[in] color  optional: every vertex's colour, as a `color` point array (UInt8 x 3) in
+///                   .vtp (ParaView: colour by it with Map Scalars off) and red/green/blue
+///                   vertex properties in .ply; OBJ and STL have no colour
 /// \note Throws lamina::Error (kInvalidInput) for an unknown extension or a face index outside
 ///   [0, #V), before anything is written; (kOutput) if the file cannot be written.
-void write_mesh(const SurfaceMesh& mesh, const std::string& path);
+void write_mesh(const SurfaceMesh& mesh, const std::string& path,
+                const std::optional<model::Rgb8>& color = std::nullopt);
 
 /// Reads the vertices and faces of a Wavefront OBJ file.
 /// @param[in] path  .obj file

@@ -90,6 +90,8 @@ struct BuildReport {
   std::array<double, 3> working_spacing_mm{};  ///< grid the distance field was computed on
   double max_depth_mm = 0.0;                   ///< deepest point inside the organ
   double target_edge_mm = 0.0;                 ///< edge length all layers were remeshed to
+  /// Tunnels through the organ: the genus of its surface on the working grid (0: none)
+  int32_t skin_genus = 0;
   int32_t layers_requested = 0;
   std::vector<LayerBuildInfo> layers;       ///< one per built layer
   std::vector<std::string> warnings;        ///< vanished/split layers, dropped pieces

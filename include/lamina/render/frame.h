@@ -44,8 +44,9 @@ struct Style {
   std::vector<EmbeddedLook> embedded;
 };
 
-/// The default look of the model's embedded surface `index`: visible, coloured from a fixed
-/// palette by its label (vessels 2: blue-violet, tumour 3: yellow-green; other labels cycle).
+/// The default look of the model's embedded surface `index`: visible, in its colour by name or
+/// order (model::structure_colors: portal vein violet, hepatic veins blue, tumours yellow, ...;
+/// no two structures alike).
 EmbeddedLook embedded_look(const Model& model, size_t index);
 
 /// The style a model is first shown with: Style{}, and when it carries structures (embedded
