@@ -104,16 +104,16 @@ LabelsInside labels_inside_organ(const LabelVolume& volume, const BuildOptions& 
       f, organ, structures, static_cast<int32_t>(others.size()), lo, hi);
   std::vector<std::string> names, counts;
   for (size_t s = 0; s < others.size(); ++s)
-    if (c.inside[s] > 0 && static_cast<double>(c.inside[s]) >=
-                               min_share * static_cast<double>(c.voxels[s])) {
+    if (c.inside[s] > 0 &&
+        static_cast<double>(c.inside[s]) >= min_share * static_cast<double>(c.voxels[s])) {
       names.push_back(std::to_string(others[s]));
       counts.push_back(std::to_string(c.inside[s]));
       out.labels.push_back(others[s]);
     }
   if (names.empty()) return out;
   out.text = fmt::format("{} {} {} inside the organ's {} ({} voxel(s))",
-                     names.size() == 1 ? "label" : "labels", and_list(names),
-                     names.size() == 1 ? "lies" : "lie", organ_labels(o), and_list(counts));
+                         names.size() == 1 ? "label" : "labels", and_list(names),
+                         names.size() == 1 ? "lies" : "lie", organ_labels(o), and_list(counts));
   return out;
 }
 
@@ -126,8 +126,8 @@ std::string explain_mesh_failure(const LabelVolume& volume, const BuildOptions& 
     if (x.pairs > 0)
       where = fmt::format(" near ({:.0f}, {:.0f}, {:.0f}) mm", x.where[0], x.where[1], x.where[2]);
   }
-  const std::string head = fmt::format("layer {} failed its mesh checks ({}){}: ", layer, failed,
-                                       where);
+  const std::string head =
+      fmt::format("layer {} failed its mesh checks ({}){}: ", layer, failed, where);
   // Structures carved out of the organ's label and not embedded: the tunnels they leave.
   const LabelsInside inside = labels_inside_organ(volume, o);
   if (!inside.text.empty())
@@ -147,21 +147,22 @@ std::string explain_mesh_failure(const LabelVolume& volume, const BuildOptions& 
                       and_list(names), present[1]);
   }
   if (skin_genus > 0)
-    return head +
-           fmt::format("the organ's {} has {} tunnel(s) through it (its surface's genus is {}), "
-                       "none filled by another label{}; fill them in the segmentation, or add "
-                       "what runs through them to the organ (--label {},N)",
-                       organ_labels(o), skin_genus, skin_genus,
-                       o.embed.empty() ? "" : " (an embedded structure that crosses the whole "
-                                              "organ in a straight line is not taken in)",
-                       o.labels.empty() ? std::to_string(o.label) : fmt::format("{}", o.labels[0]));
-  return head +
-         fmt::format("parts of the organ are thinner than the skin's triangles (edges of "
-                     "{:.1f} mm){}; try a different --skin-vertices (more vertices resolve thinner "
-                     "parts){}",
-                     rep.target_edge_mm,
-                     rep.mask.touches_scan_border ? ", or end at the scan's edge" : "",
-                     layer > 0 ? " or fewer --layers" : "");
+    return head + fmt::format(
+                      "the organ's {} has {} tunnel(s) through it (its surface's genus is {}), "
+                      "none filled by another label{}; fill them in the segmentation, or add "
+                      "what runs through them to the organ (--label {},N)",
+                      organ_labels(o), skin_genus, skin_genus,
+                      o.embed.empty() ? ""
+                                      : " (an embedded structure that crosses the whole "
+                                        "organ in a straight line is not taken in)",
+                      o.labels.empty() ? std::to_string(o.label) : fmt::format("{}", o.labels[0]));
+  return head + fmt::format(
+                    "parts of the organ are thinner than the skin's triangles (edges of "
+                    "{:.1f} mm){}; try a different --skin-vertices (more vertices resolve thinner "
+                    "parts){}",
+                    rep.target_edge_mm,
+                    rep.mask.touches_scan_border ? ", or end at the scan's edge" : "",
+                    layer > 0 ? " or fewer --layers" : "");
 }
 
 }  // namespace lamina::model::detail

@@ -24,9 +24,9 @@ constexpr Rgb8 kTumour = {240, 200, 40};
 
 // For structures without a known name, or whose name's colour an earlier one took: apart from
 // the named colours above, from the organ's and from each other.
-constexpr Rgb8 kPalette[] = {{240, 130, 30},  {210, 80, 200},  {60, 200, 180},  {235, 235, 235},
-                             {130, 210, 60},  {250, 160, 190}, {120, 120, 255}, {200, 170, 120},
-                             {40, 120, 120},  {255, 240, 150}, {160, 40, 110},  {90, 160, 255}};
+constexpr Rgb8 kPalette[] = {{240, 130, 30}, {210, 80, 200},  {60, 200, 180},  {235, 235, 235},
+                             {130, 210, 60}, {250, 160, 190}, {120, 120, 255}, {200, 170, 120},
+                             {40, 120, 120}, {255, 240, 150}, {160, 40, 110},  {90, 160, 255}};
 
 // Lower case, without spaces, '_' and '-': "Portal_Vein" and "portal vein" alike.
 std::string normalized(const std::string& name) {
@@ -51,8 +51,8 @@ std::optional<Rgb8> color_by_name(const std::string& name) {
   if (has(n, "arter") || has(n, "aorta")) return kArtery;
   if (has(n, "bile") || has(n, "biliar")) return kBile;
   if (has(n, "gall")) return kGallbladder;
-  for (const char* t : {"tumo", "lesion", "mass", "metasta", "carcinom", "hcc", "cancer",
-                        "neoplas", "nodule"})
+  for (const char* t :
+       {"tumo", "lesion", "mass", "metasta", "carcinom", "hcc", "cancer", "neoplas", "nodule"})
     if (has(n, t)) return kTumour;
   if (has(n, "vessel") || has(n, "vein") || has(n, "venous")) return kHepaticVeins;
   return std::nullopt;
@@ -78,8 +78,8 @@ std::vector<Rgb8> structure_colors(const Model& model) {
   for (const size_t i : unnamed) {
     // The palette's next colour no named structure took; past its end, it cycles.
     Rgb8 c = kPalette[next % std::size(kPalette)];
-    for (size_t tries = 0; tries < std::size(kPalette) &&
-                           std::find(taken.begin(), taken.end(), c) != taken.end();
+    for (size_t tries = 0;
+         tries < std::size(kPalette) && std::find(taken.begin(), taken.end(), c) != taken.end();
          ++tries)
       c = kPalette[++next % std::size(kPalette)];
     ++next;

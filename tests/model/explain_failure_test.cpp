@@ -88,8 +88,8 @@ TEST(ExplainFailure, AnOrganLabelWithItsVesselsCarvedOutNamesThemAndTheEmbedThat
   // The refusal itself, for a skin that crossed itself: where, which labels, what to do.
   model::BuildReport report;
   report.target_edge_mm = 9.0;
-  const std::string what = model::detail::explain_mesh_failure(
-      v, o, report, 0, "self-intersecting", torus(8, 10.0, 3.0), 0);
+  const std::string what = model::detail::explain_mesh_failure(v, o, report, 0, "self-intersecting",
+                                                               torus(8, 10.0, 3.0), 0);
   EXPECT_EQ(what.rfind("layer 0 failed its mesh checks (self-intersecting): " + named, 0), 0u)
       << what;
   EXPECT_NE(what.find(advice), std::string::npos) << what;
@@ -108,16 +108,16 @@ TEST(ExplainFailure, EveryLabelAsTheOrganIsToldToNameTheOrgansLabel) {
   v.source = "labels.nii.gz";
   model::BuildReport report;
   report.target_edge_mm = 9.0;
-  const std::string what = model::detail::explain_mesh_failure(v, {}, report, 0, "not manifold",
-                                                                torus(8, 10.0, 3.0), 0);
+  const std::string what =
+      model::detail::explain_mesh_failure(v, {}, report, 0, "not manifold", torus(8, 10.0, 3.0), 0);
   EXPECT_NE(what.find("the organ is every non-zero label (1, 2, 3, 4 and 5) together"),
             std::string::npos)
       << what;
   EXPECT_NE(what.find("--label"), std::string::npos) << what;
   // A single label whose shape is the trouble: then the skin's resolution is the advice.
   LabelVolume plain = geometry::make_phantom({.spacing_mm = {4.0, 4.0, 4.0}});
-  const std::string thin = model::detail::explain_mesh_failure(plain, {}, report, 0,
-                                                               "not manifold", torus(8, 10, 3), 0);
+  const std::string thin =
+      model::detail::explain_mesh_failure(plain, {}, report, 0, "not manifold", torus(8, 10, 3), 0);
   EXPECT_NE(thin.find("try a different --skin-vertices"), std::string::npos) << thin;
 }
 
