@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "lamina/core/error.h"
@@ -144,10 +145,14 @@ int32_t nearest(const TetGrid& g, const Eigen::Vector3d& p) {
 // whose weights would reach -1.5, and the surface follows that tetrahedron's motion without
 // amplifying it (the largest sum of |weights| on the phantom's display skin: 6.1 by the nearest
 // centroid alone, 2.0 this way).
-int32_t least_outside(const Model& m, const TetGrid& g, const Eigen::Vector3d& p,
-                      Eigen::Vector4d& w) {
+// `seen` (one entry per tetrahedron, the caller's: no allocation per point) skips a tetrahedron
+// the neighbouring cells list again: each lies in several cells, and its weights were most of the
+// build's time under ASan.
+int32_t least_outside(const TetGrid& g, const Eigen::Vector3d& p, std::vector<int32_t>& seen,
+                      int32_t stamp, Eigen::Vector4d& w) {
   const int32_t first = nearest(g, p);
   w = barycentric(g, first, p);
+  seen[static_cast<size_t>(first)] = stamp;
   int32_t best = first;
   double best_min = w.minCoeff();
   const Eigen::Vector3i at = g.cell_of(g.centroid[static_cast<size_t>(first)]);
@@ -157,6 +162,7 @@ int32_t least_outside(const Model& m, const TetGrid& g, const Eigen::Vector3d& p
       for (int x = from[0]; x <= to[0]; ++x) {
         const int64_t k = g.index(Eigen::Vector3i(x, y, z));
         for (int32_t q = g.offsets[k]; q < g.offsets[k + 1]; ++q) {
+          if (std::exchange(seen[static_cast<size_t>(g.tets[q])], stamp) == stamp) continue;
           const Eigen::Vector4d wq = barycentric(g, g.tets[q], p);
           if (wq.minCoeff() > best_min) best_min = wq.minCoeff(), best = g.tets[q], w = wq;
         }
@@ -225,21 +231,25 @@ EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const E
   const TetGrid g = make_grid(m);
   Eigen::MatrixX3d offsets = Eigen::MatrixX3d::Zero(V.rows(), 3);
   int32_t outside = 0, offset = 0;
-#pragma omp parallel for schedule(dynamic, 256) reduction(+ : outside, offset)
-  for (Eigen::Index v = 0; v < V.rows(); ++v) {
-    const Eigen::Vector3d p = V.row(v).transpose();
-    Eigen::Vector4d w;
-    int32_t t = containing(g, p, w);
-    if (t < 0) {
-      t = least_outside(m, g, p, w);
-      ++outside;
-      if (w.cwiseAbs().sum() > kMaxAmplification) {
-        offsets.row(v) = limit_amplification(m, t, p, w).transpose();
-        ++offset;
+#pragma omp parallel reduction(+ : outside, offset)
+  {
+    std::vector<int32_t> seen(static_cast<size_t>(m.tets.size()), -1);
+#pragma omp for schedule(dynamic, 256)
+    for (Eigen::Index v = 0; v < V.rows(); ++v) {
+      const Eigen::Vector3d p = V.row(v).transpose();
+      Eigen::Vector4d w;
+      int32_t t = containing(g, p, w);
+      if (t < 0) {
+        t = least_outside(g, p, seen, static_cast<int32_t>(v), w);
+        ++outside;
+        if (w.cwiseAbs().sum() > kMaxAmplification) {
+          offsets.row(v) = limit_amplification(m, t, p, w).transpose();
+          ++offset;
+        }
       }
+      s.corners.row(v) = m.tets.T.row(t);
+      s.weights.row(v) = w.transpose();
     }
-    s.corners.row(v) = m.tets.T.row(t);
-    s.weights.row(v) = w.transpose();
   }
   s.outside = outside;
   if (offset > 0) s.offsets = std::move(offsets);

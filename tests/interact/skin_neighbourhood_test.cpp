@@ -75,9 +75,13 @@ TEST(SkinNeighbourhood, TheHapticTipRendersExactlyAsWithAWholeSkinScanEveryStep)
   const Eigen::Vector3d skin = m.X.row(test::front_node(m)).transpose();
   const interact::RoutingOptions none{.routing = interact::Routing::kNone};
   const interact::ToolTip tip{.active = true, .radius_mm = 5.0, .stiffness_n_per_m = 200.0};
-  sim::Simulation kept = test::tissue_sphere(), scanned = test::tissue_sphere();
+  // One tissue, queried both ways every step: identical loads from the same state are the same
+  // rendering (two simulations stepped side by side cost twice as much and, deterministic, could
+  // only stay bit-identical too).
+  sim::Simulation tissue = test::tissue_sphere();
   interact::HapticProxy with_list, every_step;
-  interact::Loads kept_loads, scanned_loads;
+  interact::Loads loads;
+  double dented = 0.0;
   for (int k = 0; k < 600; ++k) {
     // In 10 mm over 0.2 s, sideways 6 mm, and out again (50 mm/s).
     const double s = k < 200 ? k / 200.0 : k < 400 ? 1.0 : (600 - k) / 200.0;
@@ -85,21 +89,18 @@ TEST(SkinNeighbourhood, TheHapticTipRendersExactlyAsWithAWholeSkinScanEveryStep)
     t.center_mm = skin + Eigen::Vector3d(k >= 200 ? 6.0 * std::min(k - 200, 200) / 200.0 : 0.0,
                                          -8.0 + 10.0 * s, 0.0);
     every_step.near.reach_mm = -1.0;  // forgets its list: the whole skin every step
-    const interact::ForceRoute a = interact::load_of_tip(m, kept.x, t, none, with_list);
-    const interact::ForceRoute b = interact::load_of_tip(m, scanned.x, t, none, every_step);
+    const interact::ForceRoute a = interact::load_of_tip(m, tissue.x, t, none, with_list);
+    const interact::ForceRoute b = interact::load_of_tip(m, tissue.x, t, none, every_step);
     ASSERT_EQ(a.nodes, b.nodes) << "step " << k;
     ASSERT_EQ(a.forces, b.forces) << "step " << k;
     ASSERT_EQ(with_list.device_force_mn, every_step.device_force_mn) << "step " << k;
-    const auto step = [](sim::Simulation& on, const interact::ForceRoute& load,
-                         interact::Loads& loads) {
-      interact::clear_loads(on, loads);
-      interact::add_load(on, load, loads);
-      sim::step(on);
-    };
-    step(kept, a, kept_loads);
-    step(scanned, b, scanned_loads);
+    ASSERT_EQ(with_list.proxy_mm, every_step.proxy_mm) << "step " << k;
+    interact::clear_loads(tissue, loads);
+    interact::add_load(tissue, a, loads);
+    sim::step(tissue);
+    if (k == 199) dented = (tissue.x - m.X).rowwise().norm().maxCoeff();
   }
-  EXPECT_EQ(kept.x, scanned.x);
+  EXPECT_GT(dented, 1.0) << "the tip dented the tissue";
   EXPECT_LT(with_list.near.scans, 30) << "the tip moved 26 mm: a scan per few mm, not per step";
   EXPECT_GE(every_step.near.scans, 500);
   std::cout << "scans: " << with_list.near.scans << " with the list, " << every_step.near.scans
