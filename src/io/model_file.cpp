@@ -248,6 +248,12 @@ void check_savable(const Model& m, const std::string& path) {
     throw Error(ErrorKind::kInternal,
                 path + ": cannot save: the model's arrays disagree in size or index range");
   check_embedded_savable(m, path);
+  // The copies' shares a cut made (model::cut_tetrahedra) have no place in the format yet:
+  // written without them, the file would load as an uncut model with doubled material.
+  if (!m.tets.share.empty() || !m.springs.share.empty())
+    throw invalid_input(path,
+                        "cannot save a cut model: the model file format has no place for "
+                        "the cut tetrahedra's shares yet; save the model before cutting it");
 }
 
 // --- Reading: a scanner for the XML that save_model() writes, not a general XML parser. ---

@@ -83,7 +83,9 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
     // Q = V A^-T C A^-1: the tetrahedron's energy 1/2 dl^T Q dl. A positive tetrahedron has
     // independent edge directions in this sense, so A is invertible.
     const Mat6 Ainv = A.partialPivLu().inverse();
-    const Mat6 Q = volume * Ainv.transpose() * C * Ainv;
+    // A copy a cut made carries its share of the tetrahedron's material (model::cut_tetrahedra).
+    const double share = m.tets.share.empty() ? 1.0 : m.tets.share[static_cast<size_t>(t)];
+    const Mat6 Q = share * volume * Ainv.transpose() * C * Ainv;
     if (coupled) {
       for (int k = 0, at = 0; k < 6; ++k) {
         out.spring_n_per_m[static_cast<size_t>(out.tet_springs(t, k))] += Q(k, k);

@@ -129,6 +129,14 @@ void refresh_frozen_positions(Simulation& sim) {
 
 namespace {
 
+// The paper's K on every spring; on a cut model each spring carries the share of its edge's
+// material its copies keep (Springs::share).
+std::vector<double> uniform_springs(const Springs& springs, double k) {
+  std::vector<double> out(springs.size(), k);
+  for (size_t e = 0; e < springs.share.size(); ++e) out[e] *= springs.share[e];
+  return out;
+}
+
 // What the material decides beyond the parameters themselves: masses, spring constants, the
 // tetrahedra's identification (when `identify`: it depends only on E, nu and the model), the
 // volume terms' tables, the support.
@@ -139,11 +147,10 @@ void resolve(Solver& s, bool identify) {
   s.mass_kg =
       material.node_mass_kg > 0.0 ? std::vector<double>(n, material.node_mass_kg) : model.mass_kg;
   if (identify) setup_tets(s);
-  s.springs.stiffness_n_per_m =
-      s.tets.on ? s.tets.id.spring_n_per_m
-      : material.stiffness_n_per_m > 0.0
-          ? std::vector<double>(model.springs.size(), material.stiffness_n_per_m)
-          : model.springs.stiffness_n_per_m;
+  s.springs.stiffness_n_per_m = s.tets.on ? s.tets.id.spring_n_per_m
+                                : material.stiffness_n_per_m > 0.0
+                                    ? uniform_springs(model.springs, material.stiffness_n_per_m)
+                                    : model.springs.stiffness_n_per_m;
   if (material.volume_stiffness_kpa > 0.0 && s.volume.corner_offsets.empty()) setup_volume_term(s);
   setup_support(s);
   fill_spring_lanes(s);

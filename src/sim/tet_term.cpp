@@ -331,8 +331,10 @@ void CoupledTets::setup(Solver& s) {
           m.springs.rest_length_mm[static_cast<size_t>(t.id.tet_springs(q, k))];
     for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(t.id.q_n_per_m(q, v));
     b.rest_volume_mm3[l] = t.id.rest_volume_mm3[static_cast<size_t>(q)];
-    b.volume_stiffness[l] = t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
-    b.guard_stiffness[l] = t.id.guard_modulus_kpa / b.rest_volume_mm3[l];
+    // A cut's copy carries its share of the tetrahedron's material (Q already has it).
+    const double share = m.tets.share.empty() ? 1.0 : m.tets.share[static_cast<size_t>(q)];
+    b.volume_stiffness[l] = share * t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
+    b.guard_stiffness[l] = share * t.id.guard_modulus_kpa / b.rest_volume_mm3[l];
   }
 }
 

@@ -27,6 +27,10 @@ struct Springs {
   std::vector<double> rest_length_mm;     ///< > 0
   std::vector<double> stiffness_n_per_m;  ///< Hooke constant, N/m (= mN/mm), > 0
   std::vector<SpringKind> kind;
+  /// Per spring, the share of its edge's tetrahedra's material it carries after a cut divided
+  /// some of them (model::cut_tetrahedra; a constant given for every spring is scaled by it).
+  /// Empty: every spring carries all (an uncut model).
+  std::vector<double> share;
 
   size_t size() const { return i.size(); }
 };
@@ -45,6 +49,10 @@ struct Tets {
   Eigen::MatrixX4i T;  ///< #T by 4 node indices, positively oriented at rest
   std::vector<int32_t>
       region;  ///< #T: k = the shell just inside layer k (the core for the deepest)
+  /// #T: the share of its rest volume's material each carries, in (0, 1]: below 1 for the two
+  /// copies a cut made of a tetrahedron (model::cut_tetrahedra, the virtual node algorithm), whose
+  /// energies and masses are scaled by it. Empty: every share is 1 (an uncut model).
+  std::vector<double> share;
 
   int64_t size() const { return T.rows(); }
 };

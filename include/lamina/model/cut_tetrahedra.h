@@ -1,0 +1,78 @@
+#pragma once
+/// \file
+/// Cutting a model's tetrahedra along a blade's swept surface by the virtual node algorithm
+/// (Molino, Bao & Fedkiw 2004): each tetrahedron the surface divides is replaced by two copies
+/// at its own rest shape, one per side, each carrying the share of its material on that side
+/// (Tets::share) and sharing no node across the cut. Copies on the same side of neighbouring
+/// tetrahedra share their nodes where their material meets, so the cut opens exactly along the
+/// divided tetrahedra and nowhere else. Nothing is deleted, no sliver is made, and the mass and
+/// the tetrahedra's material volume are what they were (docs/architecture.md, "Cutting").
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "lamina/model/model.h"
+
+namespace lamina::model {
+
+/// The surface a blade sweeps: triangles, mm, in the space of the positions it cuts.
+struct Blade {
+  Eigen::MatrixX3d V;
+  Eigen::MatrixX3i F;
+};
+
+/// The surface a scalpel's edge sweeps as it is drawn along a path: at each point of `path` the
+/// edge runs from the point `depth_mm` along `depth_direction` (into the tissue); consecutive
+/// edges span two triangles.
+/// @param[in] path             >= 2 points, mm, not all the same
+/// @param[in] depth_direction  the blade's direction into the tissue (normalised here); not
+///                             along the path
+/// @param[in] depth_mm         > 0
+/// \note Throws lamina::Error (kInvalidInput) naming the problem: fewer than two points, a value
+///   not finite, a path of zero length, a depth <= 0, a zero direction or one along the path.
+Blade sweep_blade(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& depth_direction,
+                  double depth_mm);
+
+/// A connected part of a cut model's tetrahedra.
+struct CutPiece {
+  double volume_mm3 = 0.0;  ///< its tetrahedra's material volume (rest volume x share)
+  double mass_kg = 0.0;     ///< its nodes' masses
+  int64_t tets = 0;
+  int32_t nodes = 0;
+};
+
+/// What a cut did.
+struct CutReport {
+  int64_t cut_tets = 0;  ///< tetrahedra divided: each is now two copies
+  /// tetrahedra the surface crosses without dividing them (the blade's edge ends inside them):
+  /// kept whole, so the cut ends there
+  int64_t partly_cut_tets = 0;
+  int32_t new_nodes = 0;         ///< nodes added (the copies' own nodes across the cut)
+  std::vector<CutPiece> pieces;  ///< largest first
+};
+
+/// A copy never carries less than this share of its tetrahedron's material (nor more than one
+/// minus it): a node the blade grazes keeps a mass and a stiffness in proportion, never a zero
+/// pivot (the shares of the two copies still sum to the tetrahedron's own).
+inline constexpr double kMinCutShare = 0.02;
+
+/// Cuts the tetrahedra the blade's surface divides.
+/// @param[in]  model   a model with tetrahedra
+/// @param[in]  x       #nodes by 3 positions the blade is given against (the rest positions, or
+///                     a deformed state: a tetrahedron is divided where its deformed edges cross
+///                     the surface, at the same fractions of its rest edges)
+/// @param[in]  blade   the swept surface
+/// @param[out] out     the cut model: nodes ordered by layer as before (a node's copies follow
+///                     it), tetrahedra with their shares, springs along the new tetrahedra's
+///                     edges, layer triangles on the copies that carry them, rings again, the
+///                     embedded surfaces' vertices in the copy on their side
+/// @param[out] origin  #out nodes: the node of `model` each came from
+/// @param[out] report  counts and the pieces
+/// \note Throws lamina::Error (kInvalidInput) naming the problem: no tetrahedra, positions of
+///   the wrong size or not finite, a blade with no triangles or values not finite. A blade that
+///   divides no tetrahedron is no error: `out` is then the model, with report.cut_tets = 0.
+void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& blade, Model& out,
+                    std::vector<int32_t>& origin, CutReport& report);
+
+}  // namespace lamina::model

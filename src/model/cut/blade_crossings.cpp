@@ -1,0 +1,98 @@
+// Which edges of the tetrahedra the blade's swept surface crosses, and where.
+#include <algorithm>
+#include <cmath>
+
+#include "cut_internal.h"
+
+namespace lamina::model::detail {
+namespace {
+
+struct BladeTriangle {
+  Eigen::Vector3d p0, e1, e2, n;  // corner, edges from it, unit normal
+  Eigen::Vector3d lo, hi;         // bounding box
+};
+
+bool boxes_meet(const Eigen::Vector3d& alo, const Eigen::Vector3d& ahi, const Eigen::Vector3d& blo,
+                const Eigen::Vector3d& bhi) {
+  return (alo.array() <= bhi.array()).all() && (blo.array() <= ahi.array()).all();
+}
+
+// Every fraction along a -> b where the segment crosses a blade triangle. A node lying on a
+// triangle's plane (within `eps`) counts as on its positive side, so that an edge through a node
+// on the blade is crossed once, by the edges on the node's other side, and a cut through
+// vertices divides the tetrahedra around them consistently.
+void edge_hits(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+               const std::vector<BladeTriangle>& tris, double eps, std::vector<double>& hits) {
+  hits.clear();
+  const Eigen::Vector3d lo = a.cwiseMin(b), hi = a.cwiseMax(b);
+  for (const BladeTriangle& t : tris) {
+    if (!boxes_meet(lo, hi, t.lo, t.hi)) continue;
+    double da = t.n.dot(a - t.p0), db = t.n.dot(b - t.p0);
+    if (std::abs(da) <= eps) da = eps;
+    if (std::abs(db) <= eps) db = eps;
+    if ((da > 0.0) == (db > 0.0)) continue;
+    const double f = da / (da - db);
+    const Eigen::Vector3d q = a + f * (b - a) - t.p0;
+    // Barycentric coordinates of q in the triangle (q in its plane up to eps).
+    const double d00 = t.e1.dot(t.e1), d01 = t.e1.dot(t.e2), d11 = t.e2.dot(t.e2);
+    const double d20 = q.dot(t.e1), d21 = q.dot(t.e2);
+    const double det = d00 * d11 - d01 * d01;
+    if (!(det > 0.0)) continue;
+    const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
+    constexpr double kIn = -1e-12;
+    if (v >= kIn && w >= kIn && v + w <= 1.0 - kIn) hits.push_back(f);
+  }
+  // A crossing on the edge two blade triangles share is one crossing.
+  std::sort(hits.begin(), hits.end());
+  hits.erase(std::unique(hits.begin(), hits.end(),
+                         [](double p, double q) { return std::abs(p - q) <= 1e-9; }),
+             hits.end());
+}
+
+}  // namespace
+
+Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
+                          const Blade& blade) {
+  std::vector<BladeTriangle> tris;
+  tris.reserve(static_cast<size_t>(blade.F.rows()));
+  Eigen::Vector3d blo = Eigen::Vector3d::Constant(INFINITY), bhi = -blo;
+  for (Eigen::Index f = 0; f < blade.F.rows(); ++f) {
+    BladeTriangle t;
+    t.p0 = blade.V.row(blade.F(f, 0));
+    const Eigen::Vector3d p1 = blade.V.row(blade.F(f, 1)), p2 = blade.V.row(blade.F(f, 2));
+    t.e1 = p1 - t.p0;
+    t.e2 = p2 - t.p0;
+    const Eigen::Vector3d n = t.e1.cross(t.e2);
+    if (!(n.norm() > 0.0)) continue;  // a degenerate triangle sweeps nothing
+    t.n = n.normalized();
+    t.lo = t.p0.cwiseMin(p1).cwiseMin(p2);
+    t.hi = t.p0.cwiseMax(p1).cwiseMax(p2);
+    blo = blo.cwiseMin(t.lo);
+    bhi = bhi.cwiseMax(t.hi);
+    tris.push_back(t);
+  }
+  Crossings c;
+  if (tris.empty()) return c;
+  const double eps = 1e-12 * std::max(1.0, (bhi - blo).norm());
+  std::unordered_map<uint64_t, bool> seen;
+  std::vector<double> hits;
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    Eigen::Vector3d lo = x.row(T(t, 0)), hi = lo;
+    for (int k = 1; k < 4; ++k) {
+      lo = lo.cwiseMin(x.row(T(t, k)).transpose());
+      hi = hi.cwiseMax(x.row(T(t, k)).transpose());
+    }
+    if (!boxes_meet(lo, hi, blo, bhi)) continue;
+    c.near_tets.push_back(static_cast<int32_t>(t));
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const int32_t a = std::min(T(t, i), T(t, j)), b = std::max(T(t, i), T(t, j));
+        if (!seen.emplace(edge_key(a, b), true).second) continue;
+        edge_hits(x.row(a).transpose(), x.row(b).transpose(), tris, eps, hits);
+        if (hits.size() % 2 == 1) c.at.emplace(edge_key(a, b), hits.front());
+      }
+  }
+  return c;
+}
+
+}  // namespace lamina::model::detail

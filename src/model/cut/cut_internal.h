@@ -1,0 +1,54 @@
+#pragma once
+// What model::cut_tetrahedra's steps pass each other (private to src/model/cut).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "lamina/model/cut_tetrahedra.h"
+
+namespace lamina::model::detail {
+
+/// One key per undirected edge: its lower node in the high half.
+inline uint64_t edge_key(int32_t a, int32_t b) {
+  const auto lo = static_cast<uint32_t>(std::min(a, b)), hi = static_cast<uint32_t>(std::max(a, b));
+  return (static_cast<uint64_t>(lo) << 32) | hi;
+}
+
+/// Where the blade crosses the tetrahedra's edges: for each edge it crosses an odd number of
+/// times, the first crossing's fraction along the edge from its lower-numbered node.
+struct Crossings {
+  std::unordered_map<uint64_t, double> at;
+  std::vector<int32_t> near_tets;  ///< tetrahedra whose bounding box meets the blade's
+
+  /// The crossing's fraction from node `from` towards node `to`, or -1 when not crossed.
+  double fraction(int32_t from, int32_t to) const {
+    const auto it = at.find(edge_key(from, to));
+    if (it == at.end()) return -1.0;
+    return from < to ? it->second : 1.0 - it->second;
+  }
+};
+
+/// Finds the edges of the tetrahedra T (at positions x) that the blade crosses.
+Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T, const Blade& blade);
+
+/// A tetrahedron the blade divides.
+struct Division {
+  int32_t tet = 0;
+  uint8_t side = 0;    ///< corner bitmask of one side (the other is its complement)
+  double share = 0.0;  ///< that side's share of the material, [kMinCutShare, 1 - kMinCutShare]
+};
+
+/// The tetrahedra the crossings divide into two sides (every edge between the sides crossed,
+/// none within a side), and how many they cross without dividing.
+void divide_tets(const Eigen::MatrixX4i& T, const Crossings& crossings,
+                 std::vector<Division>& divided, int64_t& partly);
+
+/// The share of a tetrahedron's volume on the side `side` (corner bitmask) of a cut crossing
+/// each edge from corner i (on the side) to corner j (off it) at fraction s[i][j] from i: exact
+/// for a planar cut.
+double side_share(uint8_t side, const double s[4][4]);
+
+}  // namespace lamina::model::detail

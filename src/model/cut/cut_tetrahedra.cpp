@@ -1,0 +1,460 @@
+// The virtual node algorithm (Molino, Bao & Fedkiw 2004) on the model's tetrahedra: divided
+// tetrahedra become two copies; the copies' corners and the whole tetrahedra's corners around
+// the cut are glued across the faces where their material meets, and each glued set is a node.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include "cut_internal.h"
+#include "lamina/core/error.h"
+#include "lamina/model/compute_rings.h"
+
+namespace lamina::model {
+namespace {
+
+using detail::Division;
+
+struct UnionFind {
+  std::vector<int32_t> parent;
+  explicit UnionFind(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int32_t find(int32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  }
+  void join(int32_t a, int32_t b) {
+    a = find(a), b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+};
+
+struct FaceKey {
+  int32_t a, b, c;  // sorted
+  bool operator==(const FaceKey&) const = default;
+};
+struct FaceHash {
+  size_t operator()(const FaceKey& k) const {
+    uint64_t h = static_cast<uint32_t>(k.a);
+    h = h * 0x9E3779B97F4A7C15ull + static_cast<uint32_t>(k.b);
+    h = h * 0x9E3779B97F4A7C15ull + static_cast<uint32_t>(k.c);
+    return static_cast<size_t>(h ^ (h >> 29));
+  }
+};
+FaceKey face_key(int32_t a, int32_t b, int32_t c) {
+  std::array<int32_t, 3> v{a, b, c};
+  std::sort(v.begin(), v.end());
+  return {v[0], v[1], v[2]};
+}
+
+double rest_volume(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, Eigen::Index t) {
+  const Eigen::Vector3d p0 = X.row(T(t, 0));
+  return std::abs((X.row(T(t, 1)).transpose() - p0)
+                      .cross(X.row(T(t, 2)).transpose() - p0)
+                      .dot(X.row(T(t, 3)).transpose() - p0)) /
+         6.0;
+}
+
+void check_inputs(const Model& model, const Eigen::MatrixX3d& x, const Blade& blade) {
+  if (!model.has_tets())
+    throw invalid_input("cut",
+                        "the model has no tetrahedra (built with --structure links): "
+                        "only a model with tetrahedra can be cut");
+  if (x.rows() != model.X.rows())
+    throw invalid_input("cut", "positions for " + std::to_string(x.rows()) +
+                                   " nodes, the model has " + std::to_string(model.X.rows()));
+  if (!x.allFinite()) throw invalid_input("cut", "the positions are not all finite");
+  if (blade.F.rows() == 0) throw invalid_input("blade", "has no triangles");
+  if (!blade.V.allFinite()) throw invalid_input("blade", "has a point that is not finite");
+  if (blade.F.size() > 0 && (blade.F.minCoeff() < 0 || blade.F.maxCoeff() >= blade.V.rows()))
+    throw invalid_input("blade", "a triangle names a point it does not have");
+}
+
+// The copies: one per whole tetrahedron, two per divided one.
+struct Copies {
+  std::vector<int32_t> tet;
+  std::vector<uint8_t> mask;   // the corners whose material it carries (15: all)
+  std::vector<double> share;   // its share of the tetrahedron's rest volume
+  std::vector<int32_t> first;  // per tetrahedron: its first copy (the next tetrahedron's ends it)
+};
+
+Copies make_copies(const Model& model, const std::vector<Division>& divided) {
+  const Eigen::Index nt = model.tets.size();
+  std::vector<int32_t> division(static_cast<size_t>(nt), -1);
+  for (size_t k = 0; k < divided.size(); ++k) division[divided[k].tet] = static_cast<int32_t>(k);
+  Copies c;
+  c.first.resize(static_cast<size_t>(nt) + 1);
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    c.first[t] = static_cast<int32_t>(c.tet.size());
+    const double own = model.tets.share.empty() ? 1.0 : model.tets.share[t];
+    if (division[t] < 0) {
+      c.tet.push_back(static_cast<int32_t>(t)), c.mask.push_back(15), c.share.push_back(own);
+      continue;
+    }
+    const Division& d = divided[division[t]];
+    c.tet.push_back(static_cast<int32_t>(t)), c.mask.push_back(d.side);
+    c.share.push_back(own * d.share);
+    c.tet.push_back(static_cast<int32_t>(t)), c.mask.push_back(static_cast<uint8_t>(~d.side & 15));
+    c.share.push_back(own * (1.0 - d.share));
+  }
+  c.first[nt] = static_cast<int32_t>(c.tet.size());
+  return c;
+}
+
+int corner_of(const Eigen::MatrixX4i& T, int32_t t, int32_t node) {
+  for (int k = 0; k < 4; ++k)
+    if (T(t, k) == node) return k;
+  return -1;
+}
+
+}  // namespace
+
+void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& blade, Model& out,
+                    std::vector<int32_t>& origin, CutReport& report) {
+  check_inputs(model, x, blade);
+  const Eigen::MatrixX4i& T = model.tets.T;
+  const int32_t n = model.node_count();
+  const Eigen::Index nt = model.tets.size();
+
+  std::vector<Division> divided;
+  report = CutReport{};
+  detail::Crossings crossings = detail::blade_crossings(x, T, blade);
+  // A copy an earlier cut made carries the material on one side of that cut only, which a copy
+  // does not record: it is not divided again (a later cut ends at an earlier one's tetrahedra,
+  // and a progressive cut sweeps its whole path so far, so that its tip's tetrahedra are
+  // divided once the blade has passed through them).
+  if (!model.tets.share.empty())
+    std::erase_if(crossings.near_tets, [&](int32_t t) { return model.tets.share[t] < 1.0; });
+  detail::divide_tets(T, crossings, divided, report.partly_cut_tets);
+  report.cut_tets = static_cast<int64_t>(divided.size());
+  const Copies copies = make_copies(model, divided);
+  const auto ncopies = static_cast<int32_t>(copies.tet.size());
+
+  // The nodes around the cut: the corners of divided tetrahedra. Only their corners are glued;
+  // every other node stays one node.
+  std::vector<uint8_t> affected(static_cast<size_t>(n), 0);
+  for (const Division& d : divided)
+    for (int k = 0; k < 4; ++k) affected[T(d.tet, k)] = 1;
+
+  // Faces with a node around the cut, and the (tetrahedron, omitted corner) pairs that have them.
+  std::unordered_map<FaceKey, std::array<int32_t, 4>, FaceHash> faces;  // t0, o0, t1, o1
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    if (!(affected[T(t, 0)] || affected[T(t, 1)] || affected[T(t, 2)] || affected[T(t, 3)]))
+      continue;
+    for (int o = 0; o < 4; ++o) {
+      const int i = (o + 1) % 4, j = (o + 2) % 4, k = (o + 3) % 4;
+      if (!(affected[T(t, i)] || affected[T(t, j)] || affected[T(t, k)])) continue;
+      auto [it, fresh] =
+          faces.try_emplace(face_key(T(t, i), T(t, j), T(t, k)),
+                            std::array<int32_t, 4>{static_cast<int32_t>(t), o, -1, -1});
+      if (!fresh) it->second[2] = static_cast<int32_t>(t), it->second[3] = o;
+    }
+  }
+
+  // Glue: two copies meeting at a face share its nodes where both carry material on that face
+  // and their material there overlaps (the same side of the cut, or a whole tetrahedron).
+  UnionFind slots(static_cast<size_t>(ncopies) * 4);
+  auto face_material = [&](int32_t c, int omitted) {
+    std::array<int32_t, 3> m{-1, -1, -1};
+    int at = 0;
+    for (int k = 0; k < 4; ++k)
+      if (k != omitted && (copies.mask[c] >> k & 1)) m[at++] = T(copies.tet[c], k);
+    std::sort(m.begin(), m.begin() + at);
+    return std::pair{m, at};
+  };
+  for (const auto& [key, f] : faces) {
+    if (f[2] < 0) continue;  // a boundary face
+    for (int32_t c1 = copies.first[f[0]]; c1 < copies.first[f[0] + 1]; ++c1) {
+      const auto [m1, n1] = face_material(c1, f[1]);
+      for (int32_t c2 = copies.first[f[2]]; c2 < copies.first[f[2] + 1]; ++c2) {
+        const auto [m2, n2] = face_material(c2, f[3]);
+        bool meet = false;
+        for (int a = 0; a < n1; ++a)
+          for (int b = 0; b < n2; ++b) meet = meet || m1[a] == m2[b];
+        if (!meet) continue;
+        for (int k = 0; k < 4; ++k) {
+          if (k == f[1] || !affected[T(f[0], k)]) continue;
+          const int k2 = corner_of(T, f[2], T(f[0], k));
+          slots.join(4 * c1 + k, 4 * c2 + k2);
+        }
+      }
+    }
+  }
+
+  // Each glued set of an affected node's slots is a node: numbered after the node's place, the
+  // one carrying the most material first, so layers stay contiguous ranges.
+  std::vector<double> slot_weight(static_cast<size_t>(ncopies) * 4, 0.0);
+  std::vector<std::vector<int32_t>> node_slots(static_cast<size_t>(n));
+  for (int32_t c = 0; c < ncopies; ++c) {
+    const double w = copies.share[c] * rest_volume(model.X, T, copies.tet[c]);
+    for (int k = 0; k < 4; ++k) {
+      const int32_t v = T(copies.tet[c], k);
+      if (!affected[v]) continue;
+      node_slots[v].push_back(4 * c + k);
+      slot_weight[4 * c + k] = w;
+    }
+  }
+  std::vector<int32_t> first_new(static_cast<size_t>(n) + 1, 0);
+  std::vector<int32_t> slot_node(static_cast<size_t>(ncopies) * 4, -1);
+  std::vector<double> class_weight;  // per new node of an affected one
+  origin.clear();
+  std::vector<double> new_mass;
+  for (int32_t v = 0; v < n; ++v) {
+    first_new[v] = static_cast<int32_t>(origin.size());
+    if (!affected[v]) {
+      origin.push_back(v);
+      new_mass.push_back(model.mass_kg[v]);
+      continue;
+    }
+    std::vector<std::pair<int32_t, double>> classes;  // root, weight
+    for (int32_t sl : node_slots[v]) {
+      const int32_t r = slots.find(sl);
+      auto it = std::find_if(classes.begin(), classes.end(), [&](auto& p) { return p.first == r; });
+      if (it == classes.end())
+        classes.emplace_back(r, slot_weight[sl]);
+      else
+        it->second += slot_weight[sl];
+    }
+    std::sort(classes.begin(), classes.end(), [](auto& p, auto& q) {
+      return p.second != q.second ? p.second > q.second : p.first < q.first;
+    });
+    double total = 0.0;
+    for (auto& [r, w] : classes) total += w;
+    for (auto& [r, w] : classes) {
+      slot_node[r] = static_cast<int32_t>(origin.size());
+      origin.push_back(v);
+      new_mass.push_back(model.mass_kg[v] * (total > 0.0 ? w / total : 1.0 / classes.size()));
+    }
+  }
+  first_new[n] = static_cast<int32_t>(origin.size());
+  const auto nn = static_cast<int32_t>(origin.size());
+  report.new_nodes = nn - n;
+  auto new_node = [&](int32_t c, int k) {
+    const int32_t v = T(copies.tet[c], k);
+    return affected[v] ? slot_node[slots.find(4 * c + k)] : first_new[v];
+  };
+
+  Model m;
+  m.density_kg_per_mm3 = model.density_kg_per_mm3;
+  m.source = model.source;
+  m.X.resize(nn, 3);
+  m.layer_of.resize(static_cast<size_t>(nn));
+  m.fixed.resize(static_cast<size_t>(nn));
+  for (int32_t i = 0; i < nn; ++i) {
+    m.X.row(i) = model.X.row(origin[i]);
+    m.layer_of[i] = model.layer_of[origin[i]];
+    m.fixed[i] = model.fixed.empty() ? 0 : model.fixed[origin[i]];
+  }
+  m.mass_kg = std::move(new_mass);
+
+  // Tetrahedra: every copy, at its tetrahedron's corners' new nodes.
+  m.tets.T.resize(ncopies, 4);
+  m.tets.region.resize(static_cast<size_t>(ncopies));
+  m.tets.share = copies.share;
+  for (int32_t c = 0; c < ncopies; ++c) {
+    for (int k = 0; k < 4; ++k) m.tets.T(c, k) = new_node(c, k);
+    m.tets.region[c] = model.tets.region[copies.tet[c]];
+  }
+  if (divided.empty() && model.tets.share.empty()) m.tets.share.clear();
+
+  // Springs: the copies' edges. A spring's constant was its tetrahedra's; a new edge keeps the
+  // part of it its copies' shares carry.
+  std::unordered_map<uint64_t, int32_t> spring_of;
+  spring_of.reserve(model.springs.size() * 2);
+  for (size_t e = 0; e < model.springs.size(); ++e)
+    spring_of.emplace(detail::edge_key(model.springs.i[e], model.springs.j[e]),
+                      static_cast<int32_t>(e));
+  std::vector<double> edge_total(model.springs.size(), 0.0);
+  for (Eigen::Index t = 0; t < nt; ++t)
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const auto it = spring_of.find(detail::edge_key(T(t, i), T(t, j)));
+        if (it != spring_of.end())
+          edge_total[it->second] += model.tets.share.empty() ? 1.0 : model.tets.share[t];
+      }
+  struct NewEdge {
+    int32_t i, j, spring;
+    double share;
+  };
+  std::vector<NewEdge> edges;
+  edges.reserve(static_cast<size_t>(ncopies) * 6);
+  for (int32_t c = 0; c < ncopies; ++c)
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const auto it = spring_of.find(detail::edge_key(T(copies.tet[c], i), T(copies.tet[c], j)));
+        if (it == spring_of.end()) continue;
+        const int32_t p = new_node(c, i), q = new_node(c, j);
+        edges.push_back({std::min(p, q), std::max(p, q), it->second, copies.share[c]});
+      }
+  // Springs that are no tetrahedron's edge (none in a model built with tetrahedra) join their
+  // nodes' first copies.
+  for (size_t e = 0; e < model.springs.size(); ++e)
+    if (edge_total[e] == 0.0)
+      edges.push_back({first_new[model.springs.i[e]], first_new[model.springs.j[e]],
+                       static_cast<int32_t>(e), 0.0});
+  std::sort(edges.begin(), edges.end(),
+            [](const NewEdge& a, const NewEdge& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+  const bool shared = !divided.empty() || !model.springs.share.empty();
+  for (size_t k = 0; k < edges.size();) {
+    size_t end = k;
+    double carried = 0.0;
+    while (end < edges.size() && edges[end].i == edges[k].i && edges[end].j == edges[k].j)
+      carried += edges[end++].share;
+    const int32_t e = edges[k].spring;
+    const double part = edge_total[e] > 0.0 ? carried / edge_total[e] : 1.0;
+    m.springs.i.push_back(edges[k].i);
+    m.springs.j.push_back(edges[k].j);
+    m.springs.rest_length_mm.push_back(model.springs.rest_length_mm[e]);
+    m.springs.stiffness_n_per_m.push_back(model.springs.stiffness_n_per_m[e] * part);
+    m.springs.kind.push_back(model.springs.kind[e]);
+    if (shared)
+      m.springs.share.push_back((model.springs.share.empty() ? 1.0 : model.springs.share[e]) *
+                                part);
+    k = end;
+  }
+
+  // Layers: each triangle on the copies of its tetrahedron (the one inside the layer) that carry
+  // material on it: a triangle the cut divides is on both sides' copies.
+  for (size_t k = 0; k < model.layers.size(); ++k) {
+    const ModelLayer& l = model.layers[k];
+    ModelLayer nl;
+    nl.first_node = first_new[l.first_node];
+    nl.node_count = first_new[l.first_node + l.node_count] - nl.first_node;
+    std::vector<Eigen::Vector3i> tris;
+    tris.reserve(static_cast<size_t>(l.F.rows()));
+    for (Eigen::Index f = 0; f < l.F.rows(); ++f) {
+      const int32_t a = l.F(f, 0), b = l.F(f, 1), c = l.F(f, 2);
+      if (!(affected[a] || affected[b] || affected[c])) {
+        tris.emplace_back(first_new[a], first_new[b], first_new[c]);
+        continue;
+      }
+      const auto it = faces.find(face_key(a, b, c));
+      if (it == faces.end())
+        throw Error(ErrorKind::kInternal, "cut: layer " + std::to_string(k) + " triangle " +
+                                              std::to_string(f) + " is no tetrahedron's face");
+      int32_t t = it->second[0], o = it->second[1];
+      if (it->second[2] >= 0 && model.tets.region[it->second[2]] == static_cast<int32_t>(k))
+        t = it->second[2], o = it->second[3];
+      for (int32_t cp = copies.first[t]; cp < copies.first[t + 1]; ++cp) {
+        bool carries = false;
+        for (int q = 0; q < 4; ++q) carries = carries || (q != o && (copies.mask[cp] >> q & 1));
+        if (!carries) continue;
+        tris.emplace_back(new_node(cp, corner_of(T, t, a)), new_node(cp, corner_of(T, t, b)),
+                          new_node(cp, corner_of(T, t, c)));
+      }
+    }
+    nl.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
+    for (size_t r = 0; r < tris.size(); ++r) nl.F.row(static_cast<Eigen::Index>(r)) = tris[r];
+    m.layers.push_back(std::move(nl));
+  }
+  if (model.rings.locality > 0) m.rings = compute_rings(m, model.rings.locality);
+
+  // Embedded surfaces: a vertex in a divided tetrahedron follows the copy on its side of the cut
+  // (the plane through the cut's crossings of the tetrahedron's edges, at rest).
+  std::unordered_map<uint64_t, std::vector<int32_t>> tets_at;  // by their lowest two nodes
+  auto tet_of = [&](const std::array<int32_t, 4>& corners) -> int32_t {
+    std::array<int32_t, 4> s = corners;
+    std::sort(s.begin(), s.end());
+    const auto it = tets_at.find(detail::edge_key(s[0], s[1]));
+    if (it == tets_at.end()) return -1;
+    for (int32_t t : it->second) {
+      std::array<int32_t, 4> u{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
+      std::sort(u.begin(), u.end());
+      if (u == s) return t;
+    }
+    return -1;
+  };
+  if (!divided.empty())
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      std::array<int32_t, 4> u{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
+      if (!(affected[u[0]] || affected[u[1]] || affected[u[2]] || affected[u[3]])) continue;
+      std::sort(u.begin(), u.end());
+      tets_at[detail::edge_key(u[0], u[1])].push_back(static_cast<int32_t>(t));
+    }
+  std::vector<int32_t> division_of(static_cast<size_t>(nt), -1);
+  for (size_t k = 0; k < divided.size(); ++k) division_of[divided[k].tet] = static_cast<int32_t>(k);
+  // A point's side of the cut in a divided tetrahedron, from its barycentric coordinates there:
+  // in barycentric space (an affine image of the tetrahedron, which keeps sides of planes) the
+  // cut is the plane through its crossings of the edges (for two and two, the best plane
+  // through the four). True when on `side`.
+  auto on_side = [&](int32_t t, const Eigen::Vector4d& bary) {
+    const uint8_t side = divided[division_of[t]].side;
+    const Eigen::Vector3d corner[4] = {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(),
+                                       Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero()};
+    std::array<Eigen::Vector3d, 4> p;
+    std::array<int, 4> from{}, to{};
+    int np = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j)
+        if ((side >> i & 1) && !(side >> j & 1)) {
+          const double f = crossings.fraction(T(t, i), T(t, j));
+          from[np] = i, to[np] = j;
+          p[np++] = (1.0 - f) * corner[i] + f * corner[j];
+        }
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero(), normal;
+    for (int k = 0; k < np; ++k) centre += p[k] / np;
+    if (np == 3) {
+      normal = (p[1] - p[0]).cross(p[2] - p[0]);
+    } else {
+      // Two and two (a, b | c, d): the crossings in order around the quad are ac, bc, bd, ad.
+      auto at = [&](int i, int j) {
+        for (int k = 0; k < 4; ++k)
+          if (from[k] == i && to[k] == j) return p[k];
+        return p[0];
+      };
+      // (The loops above found them in the order ac, ad, bc, bd.)
+      const int a = from[0], b = from[3], c = to[0], d = to[1];
+      normal = (at(b, d) - at(a, c)).cross(at(a, d) - at(b, c));
+    }
+    int inside = 0;
+    for (int k = 0; k < 4; ++k)
+      if (side >> k & 1) inside = k;
+    const Eigen::Vector3d q = bary[0] * corner[0] + bary[1] * corner[1] + bary[2] * corner[2];
+    return (normal.dot(q - centre) > 0.0) == (normal.dot(corner[inside] - centre) > 0.0);
+  };
+  m.embedded = model.embedded;
+  for (EmbeddedSurface& s : m.embedded)
+    for (Eigen::Index v = 0; v < s.corners.rows(); ++v) {
+      const std::array<int32_t, 4> cs{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2),
+                                      s.corners(v, 3)};
+      if (!(affected[cs[0]] || affected[cs[1]] || affected[cs[2]] || affected[cs[3]])) {
+        for (int k = 0; k < 4; ++k) s.corners(v, k) = first_new[cs[k]];
+        continue;
+      }
+      const int32_t t = tet_of(cs);
+      if (t < 0)
+        throw Error(ErrorKind::kInternal, "cut: " + s.name + " vertex " + std::to_string(v) +
+                                              " names corners that are no tetrahedron");
+      Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+      for (int k = 0; k < 4; ++k) bary[corner_of(T, t, cs[k])] = s.weights(v, k);
+      int32_t c = copies.first[t];
+      if (division_of[t] >= 0 && !on_side(t, bary)) ++c;
+      for (int k = 0; k < 4; ++k) s.corners(v, k) = new_node(c, corner_of(T, t, cs[k]));
+    }
+
+  // Pieces: the connected parts of the copies.
+  UnionFind parts(static_cast<size_t>(nn));
+  for (int32_t c = 0; c < ncopies; ++c)
+    for (int k = 1; k < 4; ++k) parts.join(m.tets.T(c, 0), m.tets.T(c, k));
+  std::unordered_map<int32_t, size_t> piece_of;
+  for (int32_t c = 0; c < ncopies; ++c) {
+    const int32_t r = parts.find(m.tets.T(c, 0));
+    auto [it, fresh] = piece_of.try_emplace(r, report.pieces.size());
+    if (fresh) report.pieces.emplace_back();
+    CutPiece& p = report.pieces[it->second];
+    p.volume_mm3 += copies.share[c] * rest_volume(model.X, T, copies.tet[c]);
+    ++p.tets;
+  }
+  for (int32_t i = 0; i < nn; ++i) {
+    const auto it = piece_of.find(parts.find(i));
+    if (it == piece_of.end()) continue;  // a node of no tetrahedron
+    report.pieces[it->second].mass_kg += m.mass_kg[i];
+    ++report.pieces[it->second].nodes;
+  }
+  std::sort(report.pieces.begin(), report.pieces.end(),
+            [](const CutPiece& a, const CutPiece& b) { return a.volume_mm3 > b.volume_mm3; });
+  out = std::move(m);
+}
+
+}  // namespace lamina::model
