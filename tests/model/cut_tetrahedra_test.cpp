@@ -181,6 +181,27 @@ TEST(Cut, APlaneThroughTheOrganGivesTwoPiecesWithTheMasksVolumeOnEachSide) {
   EXPECT_NEAR(low_volume / whole, below / all, 0.02 * below / all);
   EXPECT_NEAR(high_volume / whole, 1.0 - below / all, 0.02 * (1.0 - below / all));
 
+  // The vessels it crosses, each with its place on the blade and its local diameter: the
+  // phantom's tree has radii 6.5, 4.5 and 3 mm (a section across a branch at an angle, or at a
+  // fork, is wider; one near a branch's rounded end narrower), and this plane crosses a main
+  // branch.
+  int vessels = 0;
+  double widest = 0.0;
+  for (const model::StructureCut& c : r.structures_cut) {
+    std::printf("crossed %s at (%.1f, %.1f, %.1f): %.1f mm across\n", c.name.c_str(),
+                c.position_mm.x(), c.position_mm.y(), c.position_mm.z(), c.diameter_mm);
+    EXPECT_NEAR(c.position_mm.x(), x0, 0.5) << c.name;
+    if (c.name == "vessels") {
+      ++vessels;
+      EXPECT_EQ(c.label, geometry::kPhantomVessel);
+      EXPECT_GT(c.diameter_mm, 0.0);
+      EXPECT_LT(c.diameter_mm, 20.0);
+      widest = std::max(widest, c.diameter_mm);
+    }
+  }
+  EXPECT_GE(vessels, 1);
+  EXPECT_GT(widest, 6.0);
+
   // The surfaces' vertices inside the tetrahedra are on their own side's piece. (A display skin
   // vertex outside every tetrahedron follows the one it is least outside of, which near the cut
   // can be across it: the surfaces' own split is issue 47's next step.)
@@ -256,6 +277,7 @@ TEST(Cut, ABladeBesideTheOrganChangesNothing) {
   model::cut_tetrahedra(m, m.X, plane_at_x(m, beyond), cut, origin, r);
   EXPECT_EQ(r.cut_tets, 0);
   EXPECT_EQ(r.new_nodes, 0);
+  EXPECT_TRUE(r.structures_cut.empty());
   EXPECT_EQ(r.pieces.size(), 1u);
   EXPECT_EQ(cut.tets.T, m.tets.T);
   EXPECT_TRUE(cut.tets.share.empty());

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "lamina/model/model.h"
@@ -42,6 +43,15 @@ struct CutPiece {
   int32_t nodes = 0;
 };
 
+/// A structure the blade crosses (a vessel cut across: a surgical simulator's bleeding cue).
+struct StructureCut {
+  std::string name;                                       ///< the embedded surface's
+  int32_t label = 0;                                      ///< its segmentation label
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  ///< the cross-section's centre
+  double area_mm2 = 0.0;                                  ///< the cross-section's area in the blade
+  double diameter_mm = 0.0;  ///< the circle of that area's: the vessel's local diameter
+};
+
 /// What a cut did.
 struct CutReport {
   int64_t cut_tets = 0;  ///< tetrahedra divided: each is now two copies
@@ -50,6 +60,9 @@ struct CutReport {
   int64_t partly_cut_tets = 0;
   int32_t new_nodes = 0;         ///< nodes added (the copies' own nodes across the cut)
   std::vector<CutPiece> pieces;  ///< largest first
+  /// Each crossing of an embedded structure by the blade, at the positions the blade was given
+  /// against (one per closed loop of the crossing: a vessel cut across twice is two)
+  std::vector<StructureCut> structures_cut;
 };
 
 /// A copy never carries less than this share of its tetrahedron's material (nor more than one

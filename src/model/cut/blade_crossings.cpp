@@ -7,22 +7,17 @@
 namespace lamina::model::detail {
 namespace {
 
-struct BladeTriangle {
-  Eigen::Vector3d p0, e1, e2, n;  // corner, edges from it, unit normal
-  Eigen::Vector3d lo, hi;         // bounding box
-};
-
 bool boxes_meet(const Eigen::Vector3d& alo, const Eigen::Vector3d& ahi, const Eigen::Vector3d& blo,
                 const Eigen::Vector3d& bhi) {
   return (alo.array() <= bhi.array()).all() && (blo.array() <= ahi.array()).all();
 }
 
-// Every fraction along a -> b where the segment crosses a blade triangle. A node lying on a
-// triangle's plane (within `eps`) counts as on its positive side, so that an edge through a node
-// on the blade is crossed once, by the edges on the node's other side, and a cut through
-// vertices divides the tetrahedra around them consistently.
-void edge_hits(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-               const std::vector<BladeTriangle>& tris, double eps, std::vector<double>& hits) {
+}  // namespace
+
+void edge_hits(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const BladeIndex& blade,
+               std::vector<double>& hits) {
+  const std::vector<BladeTriangle>& tris = blade.tris;
+  const double eps = blade.eps;
   hits.clear();
   const Eigen::Vector3d lo = a.cwiseMin(b), hi = a.cwiseMax(b);
   for (const BladeTriangle& t : tris) {
@@ -49,11 +44,9 @@ void edge_hits(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
              hits.end());
 }
 
-}  // namespace
-
-Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
-                          const Blade& blade) {
-  std::vector<BladeTriangle> tris;
+BladeIndex index_blade(const Blade& blade) {
+  BladeIndex index;
+  std::vector<BladeTriangle>& tris = index.tris;
   tris.reserve(static_cast<size_t>(blade.F.rows()));
   Eigen::Vector3d blo = Eigen::Vector3d::Constant(INFINITY), bhi = -blo;
   for (Eigen::Index f = 0; f < blade.F.rows(); ++f) {
@@ -71,9 +64,18 @@ Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
     bhi = bhi.cwiseMax(t.hi);
     tris.push_back(t);
   }
+  index.lo = blo;
+  index.hi = bhi;
+  index.eps = 1e-12 * std::max(1.0, (bhi - blo).norm());
+  return index;
+}
+
+Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
+                          const Blade& blade) {
+  const BladeIndex index = index_blade(blade);
+  const Eigen::Vector3d blo = index.lo, bhi = index.hi;
   Crossings c;
-  if (tris.empty()) return c;
-  const double eps = 1e-12 * std::max(1.0, (bhi - blo).norm());
+  if (index.tris.empty()) return c;
   std::unordered_map<uint64_t, bool> seen;
   std::vector<double> hits;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
@@ -88,7 +90,7 @@ Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
       for (int j = i + 1; j < 4; ++j) {
         const int32_t a = std::min(T(t, i), T(t, j)), b = std::max(T(t, i), T(t, j));
         if (!seen.emplace(edge_key(a, b), true).second) continue;
-        edge_hits(x.row(a).transpose(), x.row(b).transpose(), tris, eps, hits);
+        edge_hits(x.row(a).transpose(), x.row(b).transpose(), index, hits);
         if (hits.size() % 2 == 1) c.at.emplace(edge_key(a, b), hits.front());
       }
   }

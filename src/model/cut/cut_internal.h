@@ -31,6 +31,31 @@ struct Crossings {
   }
 };
 
+/// A blade's triangles ready for segment tests.
+struct BladeTriangle {
+  Eigen::Vector3d p0, e1, e2, n;  ///< corner, edges from it, unit normal
+  Eigen::Vector3d lo, hi;         ///< bounding box
+};
+struct BladeIndex {
+  std::vector<BladeTriangle> tris;  ///< the blade's triangles with area
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();  ///< their box
+  double eps = 0.0;  ///< a point this close to a triangle's plane counts as on its positive side
+};
+BladeIndex index_blade(const Blade& blade);
+
+/// Every fraction along a -> b where the segment crosses a blade triangle, ascending, a crossing
+/// on the edge two triangles share once. A point on a triangle's plane (within eps) counts as on
+/// its positive side, so that an edge through a node on the blade is crossed once, by the edges
+/// on the node's other side, and a cut through vertices divides the tetrahedra around it
+/// consistently.
+void edge_hits(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const BladeIndex& blade,
+               std::vector<double>& hits);
+
+/// Where the blade crosses each embedded structure (every embedded surface but the display
+/// skin, at the positions x): one entry per closed loop of its crossing (a vessel cut across).
+std::vector<StructureCut> structures_crossed(const Model& model, const Eigen::MatrixX3d& x,
+                                             const BladeIndex& blade);
+
 /// Finds the edges of the tetrahedra T (at positions x) that the blade crosses.
 Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T, const Blade& blade);
 

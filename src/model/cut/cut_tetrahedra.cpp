@@ -127,6 +127,7 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   if (!model.tets.share.empty())
     std::erase_if(crossings.near_tets, [&](int32_t t) { return model.tets.share[t] < 1.0; });
   detail::divide_tets(T, crossings, divided, report.partly_cut_tets);
+  report.structures_cut = detail::structures_crossed(model, x, detail::index_blade(blade));
   report.cut_tets = static_cast<int64_t>(divided.size());
   const Copies copies = make_copies(model, divided);
   const auto ncopies = static_cast<int32_t>(copies.tet.size());
