@@ -5,39 +5,45 @@
 #include "lamina/core/error.h"
 
 namespace lamina::model {
+namespace {
 
-Rings compute_rings(const Model& model, int32_t locality) {
-  if (locality < 1)
-    throw invalid_input("locality", "must be at least 1, got " + std::to_string(locality));
+// Intra-layer adjacency as CSR (inter-layer springs are not part of a layer's rings).
+struct LayerGraph {
+  std::vector<int32_t> first;  // #nodes + 1
+  std::vector<int32_t> adj;
+};
+
+LayerGraph layer_graph(const Model& model) {
   const int32_t n = model.node_count();
-  // Intra-layer adjacency as CSR (inter-layer springs are not part of a layer's rings).
-  std::vector<int32_t> degree(static_cast<size_t>(n) + 1, 0);
+  LayerGraph g;
+  g.first.assign(static_cast<size_t>(n) + 1, 0);
   const Springs& s = model.springs;
   for (size_t e = 0; e < s.size(); ++e)
-    if (s.kind[e] == SpringKind::kIntraLayer) ++degree[s.i[e] + 1], ++degree[s.j[e] + 1];
-  for (int32_t v = 0; v < n; ++v) degree[v + 1] += degree[v];
-  std::vector<int32_t> adj(static_cast<size_t>(degree[n]));
-  std::vector<int32_t> fill(degree.begin(), degree.end() - 1);
+    if (s.kind[e] == SpringKind::kIntraLayer) ++g.first[s.i[e] + 1], ++g.first[s.j[e] + 1];
+  for (int32_t v = 0; v < n; ++v) g.first[v + 1] += g.first[v];
+  g.adj.resize(static_cast<size_t>(g.first[n]));
+  std::vector<int32_t> fill(g.first.begin(), g.first.end() - 1);
   for (size_t e = 0; e < s.size(); ++e)
     if (s.kind[e] == SpringKind::kIntraLayer)
-      adj[fill[s.i[e]]++] = s.j[e], adj[fill[s.j[e]]++] = s.i[e];
+      g.adj[fill[s.i[e]]++] = s.j[e], g.adj[fill[s.j[e]]++] = s.i[e];
+  return g;
+}
 
-  Rings rings;
-  rings.locality = locality;
-  rings.offsets.reserve(static_cast<size_t>(n) * locality + 1);
-  rings.offsets.push_back(0);
-  // A visit stamp per node avoids clearing a visited array for every BFS.
-  std::vector<int32_t> stamp(static_cast<size_t>(n), -1);
-  std::vector<int32_t> frontier, next;
-  for (int32_t v = 0; v < n; ++v) {
+// Breadth-first search: appends rings 0..locality-1 of node v. A visit stamp per node avoids
+// clearing a visited array for every search.
+struct Search {
+  std::vector<int32_t> stamp, frontier, next;
+  explicit Search(int32_t n) : stamp(static_cast<size_t>(n), -1) {}
+
+  void append(const LayerGraph& g, int32_t v, int32_t locality, Rings& rings) {
     frontier.assign(1, v);
     stamp[v] = v;
     for (int32_t r = 0; r < locality; ++r) {
       if (r > 0) {
         next.clear();
         for (int32_t u : frontier)
-          for (int32_t a = degree[u]; a < degree[u + 1]; ++a)
-            if (stamp[adj[a]] != v) stamp[adj[a]] = v, next.push_back(adj[a]);
+          for (int32_t a = g.first[u]; a < g.first[u + 1]; ++a)
+            if (stamp[g.adj[a]] != v) stamp[g.adj[a]] = v, next.push_back(g.adj[a]);
         std::sort(next.begin(), next.end());
         frontier.swap(next);
       }
@@ -45,7 +51,51 @@ Rings compute_rings(const Model& model, int32_t locality) {
       rings.offsets.push_back(static_cast<int64_t>(rings.members.size()));
     }
   }
+};
+
+}  // namespace
+
+Rings compute_rings(const Model& model, int32_t locality) {
+  if (locality < 1)
+    throw invalid_input("locality", "must be at least 1, got " + std::to_string(locality));
+  const int32_t n = model.node_count();
+  const LayerGraph g = layer_graph(model);
+  Rings rings;
+  rings.locality = locality;
+  rings.offsets.reserve(static_cast<size_t>(n) * locality + 1);
+  rings.offsets.push_back(0);
+  Search search(n);
+  for (int32_t v = 0; v < n; ++v) search.append(g, v, locality, rings);
   rings.members.shrink_to_fit();
+  return rings;
+}
+
+Rings update_rings(const Model& model, const Rings& previous,
+                   const std::vector<int32_t>& previous_node, const std::vector<int32_t>& renumber,
+                   const std::vector<uint8_t>& keep) {
+  const int32_t n = model.node_count(), locality = previous.locality;
+  if (locality < 1)
+    throw invalid_input("locality", "must be at least 1, got " + std::to_string(locality));
+  const LayerGraph g = layer_graph(model);
+  Rings rings;
+  rings.locality = locality;
+  rings.offsets.reserve(static_cast<size_t>(n) * locality + 1);
+  rings.members.reserve(previous.members.size());
+  rings.offsets.push_back(0);
+  Search search(n);
+  for (int32_t v = 0; v < n; ++v) {
+    if (!keep[v]) {
+      search.append(g, v, locality, rings);
+      continue;
+    }
+    // Renumbering is monotone: each ring stays sorted.
+    for (int32_t r = 0; r < locality; ++r) {
+      const int32_t* ring = previous.ring(previous_node[v], r);
+      for (int64_t k = 0; k < previous.ring_size(previous_node[v], r); ++k)
+        rings.members.push_back(renumber[ring[k]]);
+      rings.offsets.push_back(static_cast<int64_t>(rings.members.size()));
+    }
+  }
   return rings;
 }
 

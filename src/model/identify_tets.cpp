@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "find_spring.h"
 #include "lamina/core/error.h"
 #include "mandel.h"
 
@@ -13,16 +14,7 @@ namespace {
 using Mat6 = detail::Mandel;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
-// The spring between a and b, found in the springs sorted by (i, j).
-int32_t find_spring(const Springs& sp, int32_t a, int32_t b) {
-  const int32_t i = std::min(a, b), j = std::max(a, b);
-  auto lo = std::lower_bound(sp.i.begin(), sp.i.end(), i);
-  auto hi = std::upper_bound(lo, sp.i.end(), i);
-  const auto first = static_cast<size_t>(lo - sp.i.begin());
-  for (size_t e = first; e < static_cast<size_t>(hi - sp.i.begin()); ++e)
-    if (sp.j[e] == j) return static_cast<int32_t>(e);
-  return -1;
-}
+using detail::find_spring;
 
 }  // namespace
 

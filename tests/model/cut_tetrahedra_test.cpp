@@ -16,6 +16,7 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/model_file.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/compute_rings.h"
 #include "support/temp_dir.h"
 
 namespace {
@@ -84,6 +85,24 @@ void expect_kept(const Model& before, const Model& after, const std::vector<int3
   // Every tetrahedron at a rest shape it had, positive (no sliver, none inverted).
   for (Eigen::Index t = 0; t < after.tets.size(); ++t)
     ASSERT_GT(tet_volume(after.X, after.tets.T, t), 0.0);
+  // The springs: sorted, each pair once, exactly the tetrahedra's edges.
+  std::set<std::pair<int32_t, int32_t>> edges;
+  for (Eigen::Index t = 0; t < after.tets.size(); ++t)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        edges.emplace(std::min(after.tets.T(t, a), after.tets.T(t, b)),
+                      std::max(after.tets.T(t, a), after.tets.T(t, b)));
+  ASSERT_EQ(after.springs.size(), edges.size());
+  size_t e = 0;
+  for (const auto& [i, j] : edges) {
+    ASSERT_EQ(after.springs.i[e], i) << "spring " << e;
+    ASSERT_EQ(after.springs.j[e], j) << "spring " << e;
+    ++e;
+  }
+  // The rings kept where the cut did not reach and searched again where it did are the rings.
+  const Rings full = model::compute_rings(after, before.rings.locality);
+  EXPECT_EQ(after.rings.offsets, full.offsets);
+  EXPECT_EQ(after.rings.members, full.members);
   // Layers stay contiguous, in order.
   for (int32_t i = 0; i < after.surface_node_count(); ++i)
     ASSERT_EQ(after.layer_of[i], before.layer_of[origin[i]]);

@@ -13,4 +13,17 @@ namespace lamina::model {
 /// @return CSR rings; memory ~ #nodes * (average nodes within N-1 hops) * 4 bytes
 Rings compute_rings(const Model& model, int32_t locality);
 
+/// Rings again after the nodes changed in a few places (a cut): node v's rings are those of
+/// node previous_node[v] in `previous`, renumbered by `renumber`, where keep[v] (its rings reach
+/// no node that changed), and searched again otherwise. The same result as compute_rings() when
+/// `keep` is true only where that holds.
+/// @param[in] model          the changed model (nodes, layers, springs)
+/// @param[in] previous       the rings before the change (its locality is kept)
+/// @param[in] previous_node  #model nodes: the node each was before
+/// @param[in] renumber       #previous nodes: the node each is now, monotone
+/// @param[in] keep           #model nodes: 1 where the previous rings still hold
+Rings update_rings(const Model& model, const Rings& previous,
+                   const std::vector<int32_t>& previous_node, const std::vector<int32_t>& renumber,
+                   const std::vector<uint8_t>& keep);
+
 }  // namespace lamina::model

@@ -7,6 +7,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "../find_spring.h"
 #include "lamina/model/cut_tetrahedra.h"
 
 namespace lamina::model::detail {

@@ -138,18 +138,21 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   for (const Division& d : divided)
     for (int k = 0; k < 4; ++k) affected[T(d.tet, k)] = 1;
 
+  // The tetrahedra with a corner there: everything the cut changes is in them.
+  std::vector<int32_t> star;
+  for (Eigen::Index t = 0; t < nt; ++t)
+    if (affected[T(t, 0)] || affected[T(t, 1)] || affected[T(t, 2)] || affected[T(t, 3)])
+      star.push_back(static_cast<int32_t>(t));
+
   // Faces with a node around the cut, and the (tetrahedron, omitted corner) pairs that have them.
   std::unordered_map<FaceKey, std::array<int32_t, 4>, FaceHash> faces;  // t0, o0, t1, o1
-  for (Eigen::Index t = 0; t < nt; ++t) {
-    if (!(affected[T(t, 0)] || affected[T(t, 1)] || affected[T(t, 2)] || affected[T(t, 3)]))
-      continue;
+  for (const int32_t t : star) {
     for (int o = 0; o < 4; ++o) {
       const int i = (o + 1) % 4, j = (o + 2) % 4, k = (o + 3) % 4;
       if (!(affected[T(t, i)] || affected[T(t, j)] || affected[T(t, k)])) continue;
-      auto [it, fresh] =
-          faces.try_emplace(face_key(T(t, i), T(t, j), T(t, k)),
-                            std::array<int32_t, 4>{static_cast<int32_t>(t), o, -1, -1});
-      if (!fresh) it->second[2] = static_cast<int32_t>(t), it->second[3] = o;
+      auto [it, fresh] = faces.try_emplace(face_key(T(t, i), T(t, j), T(t, k)),
+                                           std::array<int32_t, 4>{t, o, -1, -1});
+      if (!fresh) it->second[2] = t, it->second[3] = o;
     }
   }
 
@@ -187,18 +190,18 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   // one carrying the most material first, so layers stay contiguous ranges.
   std::vector<double> slot_weight(static_cast<size_t>(ncopies) * 4, 0.0);
   std::vector<std::vector<int32_t>> node_slots(static_cast<size_t>(n));
-  for (int32_t c = 0; c < ncopies; ++c) {
-    const double w = copies.share[c] * rest_volume(model.X, T, copies.tet[c]);
-    for (int k = 0; k < 4; ++k) {
-      const int32_t v = T(copies.tet[c], k);
-      if (!affected[v]) continue;
-      node_slots[v].push_back(4 * c + k);
-      slot_weight[4 * c + k] = w;
+  for (const int32_t t : star)
+    for (int32_t c = copies.first[t]; c < copies.first[t + 1]; ++c) {
+      const double w = copies.share[c] * rest_volume(model.X, T, t);
+      for (int k = 0; k < 4; ++k) {
+        const int32_t v = T(t, k);
+        if (!affected[v]) continue;
+        node_slots[v].push_back(4 * c + k);
+        slot_weight[4 * c + k] = w;
+      }
     }
-  }
   std::vector<int32_t> first_new(static_cast<size_t>(n) + 1, 0);
   std::vector<int32_t> slot_node(static_cast<size_t>(ncopies) * 4, -1);
-  std::vector<double> class_weight;  // per new node of an affected one
   origin.clear();
   std::vector<double> new_mass;
   for (int32_t v = 0; v < n; ++v) {
@@ -259,61 +262,71 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   }
   if (divided.empty() && model.tets.share.empty()) m.tets.share.clear();
 
-  // Springs: the copies' edges. A spring's constant was its tetrahedra's; a new edge keeps the
-  // part of it its copies' shares carry.
-  std::unordered_map<uint64_t, int32_t> spring_of;
-  spring_of.reserve(model.springs.size() * 2);
-  for (size_t e = 0; e < model.springs.size(); ++e)
-    spring_of.emplace(detail::edge_key(model.springs.i[e], model.springs.j[e]),
-                      static_cast<int32_t>(e));
-  std::vector<double> edge_total(model.springs.size(), 0.0);
-  for (Eigen::Index t = 0; t < nt; ++t)
+  // Springs. One between two nodes the cut left alone keeps its place (the renumbering is
+  // monotone, so they stay sorted); the edges at the glued nodes are made again from the copies
+  // of the tetrahedra around them, each with the part of its edge's constant that its copies'
+  // shares carry.
+  const Springs& sp = model.springs;
+  auto old_share = [&](int32_t t) { return model.tets.share.empty() ? 1.0 : model.tets.share[t]; };
+  std::vector<double> edge_total(sp.size(), 0.0);
+  for (const int32_t t : star)
     for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) {
-        const auto it = spring_of.find(detail::edge_key(T(t, i), T(t, j)));
-        if (it != spring_of.end())
-          edge_total[it->second] += model.tets.share.empty() ? 1.0 : model.tets.share[t];
-      }
+      for (int j = i + 1; j < 4; ++j)
+        if (affected[T(t, i)] || affected[T(t, j)]) {
+          const int32_t e = detail::find_spring(sp, T(t, i), T(t, j));
+          if (e >= 0) edge_total[e] += old_share(t);
+        }
   struct NewEdge {
     int32_t i, j, spring;
     double share;
   };
   std::vector<NewEdge> edges;
-  edges.reserve(static_cast<size_t>(ncopies) * 6);
-  for (int32_t c = 0; c < ncopies; ++c)
-    for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) {
-        const auto it = spring_of.find(detail::edge_key(T(copies.tet[c], i), T(copies.tet[c], j)));
-        if (it == spring_of.end()) continue;
-        const int32_t p = new_node(c, i), q = new_node(c, j);
-        edges.push_back({std::min(p, q), std::max(p, q), it->second, copies.share[c]});
-      }
-  // Springs that are no tetrahedron's edge (none in a model built with tetrahedra) join their
-  // nodes' first copies.
-  for (size_t e = 0; e < model.springs.size(); ++e)
-    if (edge_total[e] == 0.0)
-      edges.push_back({first_new[model.springs.i[e]], first_new[model.springs.j[e]],
-                       static_cast<int32_t>(e), 0.0});
+  for (const int32_t t : star)
+    for (int32_t c = copies.first[t]; c < copies.first[t + 1]; ++c)
+      for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+          if (!(affected[T(t, i)] || affected[T(t, j)])) continue;
+          const int32_t e = detail::find_spring(sp, T(t, i), T(t, j));
+          if (e < 0) continue;
+          const int32_t p = new_node(c, i), q = new_node(c, j);
+          edges.push_back({std::min(p, q), std::max(p, q), e, copies.share[c]});
+        }
+  // A spring at a glued node that is no tetrahedron's edge (none in a model built with
+  // tetrahedra) joins its nodes' first copies.
+  for (size_t e = 0; e < sp.size(); ++e)
+    if ((affected[sp.i[e]] || affected[sp.j[e]]) && edge_total[e] == 0.0)
+      edges.push_back({first_new[sp.i[e]], first_new[sp.j[e]], static_cast<int32_t>(e), 0.0});
   std::sort(edges.begin(), edges.end(),
             [](const NewEdge& a, const NewEdge& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
-  const bool shared = !divided.empty() || !model.springs.share.empty();
-  for (size_t k = 0; k < edges.size();) {
-    size_t end = k;
-    double carried = 0.0;
-    while (end < edges.size() && edges[end].i == edges[k].i && edges[end].j == edges[k].j)
-      carried += edges[end++].share;
-    const int32_t e = edges[k].spring;
-    const double part = edge_total[e] > 0.0 ? carried / edge_total[e] : 1.0;
-    m.springs.i.push_back(edges[k].i);
-    m.springs.j.push_back(edges[k].j);
-    m.springs.rest_length_mm.push_back(model.springs.rest_length_mm[e]);
-    m.springs.stiffness_n_per_m.push_back(model.springs.stiffness_n_per_m[e] * part);
-    m.springs.kind.push_back(model.springs.kind[e]);
-    if (shared)
-      m.springs.share.push_back((model.springs.share.empty() ? 1.0 : model.springs.share[e]) *
-                                part);
-    k = end;
+  const bool shared = !divided.empty() || !sp.share.empty();
+  auto add_spring = [&](int32_t i, int32_t j, size_t e, double part) {
+    m.springs.i.push_back(i);
+    m.springs.j.push_back(j);
+    m.springs.rest_length_mm.push_back(sp.rest_length_mm[e]);
+    m.springs.stiffness_n_per_m.push_back(sp.stiffness_n_per_m[e] * part);
+    m.springs.kind.push_back(sp.kind[e]);
+    if (shared) m.springs.share.push_back((sp.share.empty() ? 1.0 : sp.share[e]) * part);
+  };
+  // Merge the kept springs (in their order) with the new edges (sorted, each pair once).
+  size_t k = 0;
+  auto add_new_up_to = [&](int32_t i, int32_t j) {
+    while (k < edges.size() && (edges[k].i < i || (edges[k].i == i && edges[k].j < j))) {
+      size_t end = k;
+      double carried = 0.0;
+      while (end < edges.size() && edges[end].i == edges[k].i && edges[end].j == edges[k].j)
+        carried += edges[end++].share;
+      const auto e = static_cast<size_t>(edges[k].spring);
+      add_spring(edges[k].i, edges[k].j, e, edge_total[e] > 0.0 ? carried / edge_total[e] : 1.0);
+      k = end;
+    }
+  };
+  for (size_t e = 0; e < sp.size(); ++e) {
+    if (affected[sp.i[e]] || affected[sp.j[e]]) continue;
+    const int32_t i = first_new[sp.i[e]], j = first_new[sp.j[e]];
+    add_new_up_to(i, j);
+    add_spring(i, j, e, 1.0);
   }
+  add_new_up_to(nn, nn);
 
   // Layers: each triangle on the copies of its tetrahedron (the one inside the layer) that carry
   // material on it: a triangle the cut divides is on both sides' copies.
@@ -349,7 +362,20 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     for (size_t r = 0; r < tris.size(); ++r) nl.F.row(static_cast<Eigen::Index>(r)) = tris[r];
     m.layers.push_back(std::move(nl));
   }
-  if (model.rings.locality > 0) m.rings = compute_rings(m, model.rings.locality);
+  // Rings: a node whose rings reach no glued node keeps them (renumbered); the others are
+  // searched again.
+  if (model.rings.locality > 0) {
+    std::vector<uint8_t> reaches(static_cast<size_t>(n), 0);
+    for (int32_t v = 0; v < n; ++v) {
+      const int64_t end = model.rings.offsets[static_cast<size_t>(v + 1) * model.rings.locality];
+      for (int64_t q = model.rings.offsets[static_cast<size_t>(v) * model.rings.locality];
+           q < end && !reaches[v]; ++q)
+        reaches[v] = affected[model.rings.members[q]];
+    }
+    std::vector<uint8_t> keep(static_cast<size_t>(nn));
+    for (int32_t i = 0; i < nn; ++i) keep[i] = !reaches[origin[i]];
+    m.rings = update_rings(m, model.rings, origin, first_new, keep);
+  }
 
   // Embedded surfaces: a vertex in a divided tetrahedron follows the copy on its side of the cut
   // (the plane through the cut's crossings of the tetrahedron's edges, at rest).
@@ -366,13 +392,11 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     }
     return -1;
   };
-  if (!divided.empty())
-    for (Eigen::Index t = 0; t < nt; ++t) {
-      std::array<int32_t, 4> u{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
-      if (!(affected[u[0]] || affected[u[1]] || affected[u[2]] || affected[u[3]])) continue;
-      std::sort(u.begin(), u.end());
-      tets_at[detail::edge_key(u[0], u[1])].push_back(static_cast<int32_t>(t));
-    }
+  for (const int32_t t : star) {
+    std::array<int32_t, 4> u{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
+    std::sort(u.begin(), u.end());
+    tets_at[detail::edge_key(u[0], u[1])].push_back(t);
+  }
   std::vector<int32_t> division_of(static_cast<size_t>(nt), -1);
   for (size_t k = 0; k < divided.size(); ++k) division_of[divided[k].tet] = static_cast<int32_t>(k);
   // A point's side of the cut in a divided tetrahedron, from its barycentric coordinates there:
