@@ -13,6 +13,7 @@
 #include "bindings.h"
 #include "lamina/core/error.h"
 #include "lamina/interact/run_tools.h"
+#include "lamina/interact/scalpel.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
 #include "lamina/model/embed_surface.h"
@@ -33,6 +34,14 @@ struct PySimulation {
   // W x per embedded surface, refreshed by embedded_positions(); sized once by wire(), so each
   // buffer stays where the views handed out point.
   std::vector<Eigen::MatrixX3d> embedded_x;
+  // What a cut replaced, kept: numpy views taken before it point into these buffers (they
+  // show the state before the cut, never freed memory).
+  struct Retired {
+    std::shared_ptr<Model> model;
+    std::unique_ptr<sim::Simulation> sim;
+    interact::ToolDriver driver;
+  };
+  std::vector<Retired> retired;
 };
 
 sim::Integrator parse_integrator(const std::string& name) {
@@ -482,6 +491,67 @@ void bind_simulation(py::module_& m) {
             return Eigen::Vector3d(interact::tools_reaction(p.sim, p.driver));
           },
           "the tissue's push back on the tools in the last step, mN (3 values)")
+      .def(
+          "cut",
+          [](PySimulation& p, const std::vector<Eigen::Vector3d>& path, double depth_mm,
+             const Eigen::Vector3d& direction) {
+            std::shared_ptr<const Model> model = p.model;
+            sim::Simulation work = p.sim;
+            interact::ToolDriver driver = p.driver;
+            std::vector<int32_t> origin;
+            model::CutReport r;
+            {
+              py::gil_scoped_release release;
+              r = interact::cut_now(model, work, driver, path, direction, depth_mm, origin);
+            }
+            if (r.cut_tets > 0) {
+              p.retired.push_back({p.model, std::make_unique<sim::Simulation>(std::move(p.sim)),
+                                   std::move(p.driver)});
+              p.sim = std::move(work);
+              p.driver = std::move(driver);
+              p.model = std::const_pointer_cast<Model>(model);
+            }
+            py::dict d;
+            d["cut_tets"] = r.cut_tets;
+            d["partly_cut_tets"] = r.partly_cut_tets;
+            d["new_nodes"] = r.new_nodes;
+            py::list pieces;
+            for (const model::CutPiece& q : r.pieces) {
+              py::dict pd;
+              pd["volume_ml"] = q.volume_mm3 / 1000.0;
+              pd["mass_g"] = q.mass_kg * 1000.0;
+              pd["tets"] = q.tets;
+              pd["nodes"] = q.nodes;
+              pieces.append(pd);
+            }
+            d["pieces"] = pieces;
+            py::list crossed;
+            for (const model::StructureCut& c : r.structures_cut) {
+              py::dict cd;
+              cd["name"] = c.name;
+              cd["label"] = c.label;
+              cd["position_mm"] = Eigen::Vector3d(c.position_mm);
+              cd["diameter_mm"] = c.diameter_mm;
+              cd["area_mm2"] = c.area_mm2;
+              cd["closed"] = c.closed;
+              crossed.append(cd);
+            }
+            d["structures_cut"] = crossed;
+            d["origin"] =
+                py::array_t<int32_t>(static_cast<py::ssize_t>(origin.size()), origin.data());
+            return d;
+          },
+          py::arg("path"), py::arg("depth_mm"), py::arg("direction"),
+          "Cuts the model at once with a scalpel drawn at the current positions: its blade's\n"
+          "upper end along `path` ((k, 3) mm, k >= 2), reaching depth_mm along `direction` (into\n"
+          "the tissue). The tetrahedra the blade divides become two copies each (the virtual\n"
+          "node algorithm): the model, x, v and f_ext then have more nodes (arrays taken before\n"
+          "show the state before the cut; take them again), the tools act on the copies.\n"
+          "Returns a dict: cut_tets, partly_cut_tets, new_nodes, pieces (volume_ml, mass_g, tets,\n"
+          "nodes; largest first), structures_cut (name, label, position_mm, diameter_mm,\n"
+          "area_mm2, closed: each embedded vessel or tumour cut across) and origin (the node\n"
+          "before the cut each node came from). Raises lamina.Error for a bad path, depth or\n"
+          "direction, or a model without tetrahedra; nothing changes then.")
       .def(
           "reset",
           [](PySimulation& p) {

@@ -317,6 +317,7 @@ lamina_status lamina_sim_create_from_scene(const char* scene, lamina_sim** out) 
     lamina::io::Scene s =
         lamina::io::scene_for(need_text(scene, "lamina_sim_create_from_scene: scene"));
     lamina::io::ReadyScene ready = lamina::io::make_ready_scene(s);
+    lamina::io::warn_scalpels_ignored(ready.scene);
     lamina::sim::Simulation sim = lamina::io::make_scene_simulation(ready);
     *out = wrap(std::move(ready.model), std::move(sim), ready.scene.routing);
   });

@@ -187,6 +187,32 @@ std::string run_summary_json(const RunSummary& s) {
   j["median_step_us"] = s.median_step_us;
   j["frames"] = s.frames;
   j["max_reaction_n"] = s.max_reaction_n;
+  if (s.scalpels > 0) {
+    j["scalpels"] = s.scalpels;
+    j["cuts"] = s.cuts;
+    j["cut_tets"] = s.cut_tets;
+    j["cut_new_nodes"] = s.cut_new_nodes;
+    j["median_cut_ms"] = s.median_cut_ms;
+    j["max_cut_ms"] = s.max_cut_ms;
+    nlohmann::ordered_json pieces = nlohmann::ordered_json::array();
+    for (const model::CutPiece& p : s.pieces)
+      pieces.push_back({{"volume_ml", p.volume_mm3 / 1000.0},
+                        {"mass_g", p.mass_kg * 1000.0},
+                        {"tets", p.tets},
+                        {"nodes", p.nodes}});
+    j["pieces"] = pieces;
+    nlohmann::ordered_json crossed = nlohmann::ordered_json::array();
+    for (const RunSummary::StructureCrossed& c : s.structures_cut)
+      crossed.push_back(
+          {{"time_s", c.time_s},
+           {"name", c.cut.name},
+           {"label", c.cut.label},
+           {"position_mm", {c.cut.position_mm.x(), c.cut.position_mm.y(), c.cut.position_mm.z()}},
+           {"diameter_mm", c.cut.diameter_mm},
+           {"area_mm2", c.cut.area_mm2},
+           {"closed", c.cut.closed}});
+    j["structures_cut"] = crossed;
+  }
   {
     const MaterialReport& m = s.material;
     nlohmann::ordered_json mj;

@@ -4,6 +4,7 @@
 
 #include "lamina/core/clock.h"
 #include "lamina/core/error.h"
+#include "lamina/core/log.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/io/model_file.h"
 #include "lamina/model/build_model.h"
@@ -99,7 +100,14 @@ sim::Simulation make_scene_simulation(const ReadyScene& ready) {
   return make_scene_simulation(ready.scene, *ready.model, ready.setup);
 }
 
-interact::ToolDriver make_tool_driver(const Scene& scene) {
+void warn_scalpels_ignored(const Scene& scene) {
+  if (!scene.scalpels.empty())
+    log::warn("{}: its {} scalpel(s) are ignored here: only `lamina run` cuts with them yet",
+              scene.source, scene.scalpels.size());
+}
+
+interact::ToolDriver make_tool_driver(const Scene& scene, bool warn_scalpels) {
+  if (warn_scalpels) warn_scalpels_ignored(scene);
   interact::ToolDriver driver;
   driver.tools = scene.tools;
   driver.routing = scene.routing;

@@ -297,6 +297,46 @@ void force_or_drag(const Object& in, Tool& tool) {
     in.fail("gain_n_per_mm", "only applies with \"drag_mm\"");
 }
 
+// tools[k].scalpel: a blade drawn along a path while the run goes, cutting the tetrahedra.
+void read_scalpel(const Value& v, Scene& s) {
+  using interact::Scalpel;
+  static const Keys<Scalpel> kKeys = {
+      {"path",
+       [](const Value& p, Scalpel& sc) {
+         if (!p.data.is_array() || p.data.size() < 2)
+           p.fail("expected an array of at least two points [[x, y, z], ...], got " +
+                  Reader::describe(p.data));
+         for (size_t k = 0; k < p.data.size(); ++k)
+           sc.path.push_back(p.in.r.vec3(p.data[k], p.path + "[" + std::to_string(k) + "]"));
+       }},
+      {"direction",
+       [](const Value& d, Scalpel& sc) {
+         sc.depth_direction = d.vec3();
+         if (!(sc.depth_direction.norm() > 0.0)) d.fail("must not be zero");
+       }},
+      {"depth_mm", number(&Scalpel::depth_mm, positive, "must be > 0 mm")},
+      {"start_s", number(&Scalpel::start_s, non_negative, "must be >= 0")},
+      {"end_s",
+       [](const Value& e, Scalpel& sc) {
+         const double start = sc.start_s;
+         sc.end_s = e.number([start](double end) { return end > start; },
+                             fmt::format("must be after start_s ({})", start));
+       }},
+  };
+  const Object in = open_object(v.in.r, v.data, v.path, kKeys);
+  for (const char* key : {"path", "depth_mm", "end_s"})
+    if (!in.has(key))
+      in.r.fail(v.path, fmt::format("needs \"{}\" ({})", key,
+                                    std::string_view(key) == "path" ? "[[x, y, z], ...] mm"
+                                    : std::string_view(key) == "depth_mm"
+                                        ? "how deep the blade reaches, mm"
+                                        : "when the blade reaches the path's end, s"));
+  Scalpel sc;
+  read_keys(in, kKeys, sc);
+  if (const auto problem = interact::scalpel_problem(sc)) in.fail(problem->first, problem->second);
+  s.scalpels.push_back(std::move(sc));
+}
+
 void read_tools(const Value& v, Scene& s) {
   static const Keys<Tool> kKeys = {
       {"point",
@@ -339,6 +379,13 @@ void read_tools(const Value& v, Scene& s) {
   s.default_tool = false;
   for (size_t k = 0; k < v.data.size(); ++k) {
     const std::string path = v.path + "[" + std::to_string(k) + "]";
+    if (v.data[k].is_object() && v.data[k].contains("scalpel")) {
+      if (v.data[k].size() != 1)
+        v.in.r.fail(path, "a scalpel is its own tool: {\"scalpel\": {...}} with nothing beside");
+      const Object tool{v.in.r, v.data[k], path};
+      read_scalpel(Value{tool, v.data[k]["scalpel"], path + ".scalpel"}, s);
+      continue;
+    }
     const Object in = open_object(v.in.r, v.data[k], path, kKeys);
     if (in.has("point") == in.has("vertex"))
       in.r.fail(path, in.has("point")

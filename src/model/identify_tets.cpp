@@ -76,7 +76,7 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
     // independent edge directions in this sense, so A is invertible.
     const Mat6 Ainv = A.partialPivLu().inverse();
     // A copy a cut made carries its share of the tetrahedron's material (model::cut_tetrahedra).
-    const double share = m.tets.share.empty() ? 1.0 : m.tets.share[static_cast<size_t>(t)];
+    const double share = m.tets.share_of(t);
     const Mat6 Q = share * volume * Ainv.transpose() * C * Ainv;
     if (coupled) {
       for (int k = 0, at = 0; k < 6; ++k) {

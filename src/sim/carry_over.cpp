@@ -3,6 +3,7 @@
 #include <string>
 
 #include "lamina/core/error.h"
+#include "lamina/model/cut_tetrahedra.h"
 #include "solver.h"
 
 namespace lamina::sim {
@@ -18,7 +19,14 @@ Simulation carry_over(const Simulation& sim, const Model& cut, const std::vector
       throw invalid_input(
           "cut", "origin names node " + std::to_string(o) + ", not one of the simulated model's");
 
-  Simulation out = make_simulation(cut, sim.material(), sim.options());
+  // The preconditioner the simulation chose, kept: the cut changes a few tetrahedra, not which
+  // one suits the model (and "auto" would solve a trial system again at every cut).
+  SolverOptions options = sim.options();
+  if (options.integrator == Integrator::kImplicitEuler &&
+      options.preconditioner == Preconditioner::kAuto && sim.steps > 0)
+    options.preconditioner =
+        uses_multigrid(sim) ? Preconditioner::kMultigrid : Preconditioner::kJacobi;
+  Simulation out = make_simulation(cut, sim.material(), options);
   // Support, divided among a node's copies by their masses (a cut adds no hold on the organ).
   const std::vector<double>& support = sim.solver().support.support_n_per_m;
   if (!support.empty()) {
@@ -27,9 +35,8 @@ Simulation carry_over(const Simulation& sim, const Model& cut, const std::vector
     for (int32_t i = 0; i < n; ++i) {
       const double own = support[static_cast<size_t>(origin[i])];
       if (own == 0.0) continue;
-      const double m0 = before.mass_kg[static_cast<size_t>(origin[i])];
       nodes.push_back(i);
-      k.push_back(m0 > 0.0 ? own * cut.mass_kg[static_cast<size_t>(i)] / m0 : own);
+      k.push_back(own * model::copy_share(before, cut, origin, i));
     }
     support_nodes(out, nodes, k);
   }
@@ -42,9 +49,7 @@ Simulation carry_over(const Simulation& sim, const Model& cut, const std::vector
     now.x.row(i) = was.x.row(o);
     now.v.row(i) = was.v.row(o);
     // A tool's load on a node is divided among its copies as its mass is: the total is kept.
-    const double m0 = before.mass_kg[static_cast<size_t>(o)];
-    now.f_ext.row(i) =
-        was.f_ext.row(o) * (m0 > 0.0 ? cut.mass_kg[static_cast<size_t>(i)] / m0 : 1.0);
+    now.f_ext.row(i) = was.f_ext.row(o) * model::copy_share(before, cut, origin, i);
     now.dv.row(i) = was.dv.row(o);
     now.fixed[static_cast<size_t>(i)] = was.fixed[static_cast<size_t>(o)];
     now.movable[static_cast<size_t>(i)] = was.movable[static_cast<size_t>(o)];

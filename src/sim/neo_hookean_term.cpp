@@ -222,8 +222,7 @@ void NeoHookeanTets::setup(Solver& s) {
     for (int c = 0; c < 3; ++c)
       for (int j = 0; j < 3; ++j) b.grad[3 * c + j][l] = B(c, j);
     // The energy's weight: the rest volume, times a cut's copy's share of its material.
-    b.rest_volume_mm3[l] =
-        (m.tets.share.empty() ? 1.0 : m.tets.share[static_cast<size_t>(q)]) * std::abs(det) / 6.0;
+    b.rest_volume_mm3[l] = m.tets.share_of(q) * std::abs(det) / 6.0;
   }
   t.neo_linear.assign(t.block.size(), NeoBlockLinear{});
 }

@@ -332,7 +332,7 @@ void CoupledTets::setup(Solver& s) {
     for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(t.id.q_n_per_m(q, v));
     b.rest_volume_mm3[l] = t.id.rest_volume_mm3[static_cast<size_t>(q)];
     // A cut's copy carries its share of the tetrahedron's material (Q already has it).
-    const double share = m.tets.share.empty() ? 1.0 : m.tets.share[static_cast<size_t>(q)];
+    const double share = m.tets.share_of(q);
     b.volume_stiffness[l] = share * t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
     b.guard_stiffness[l] = share * t.id.guard_modulus_kpa / b.rest_volume_mm3[l];
   }

@@ -574,6 +574,54 @@ TEST(LoadScene, MissingFileIsAnInputErrorNamingIt) {
   }
 }
 
+TEST(ParseScene, AScalpelIsAToolOfItsOwnWithEveryKeyChecked) {
+  const Scene s = parse_scene(R"({"tools": [{"point": [0, 0, 0], "force_n": [0, 1, 0]},
+      {"scalpel": {"path": [[0, 0, 0], [10, 0, 0], [10, 5, 0]], "direction": [0, 0, 2],
+                   "depth_mm": 12, "start_s": 0.5, "end_s": 1.5}}]})",
+                              "s.json");
+  ASSERT_EQ(s.tools.size(), 1u);
+  ASSERT_EQ(s.scalpels.size(), 1u);
+  const interact::Scalpel& c = s.scalpels[0];
+  ASSERT_EQ(c.path.size(), 3u);
+  EXPECT_EQ(c.path[2], Eigen::Vector3d(10, 5, 0));
+  EXPECT_EQ(c.depth_direction, Eigen::Vector3d(0, 0, 2));
+  EXPECT_EQ(c.depth_mm, 12.0);
+  EXPECT_EQ(c.start_s, 0.5);
+  EXPECT_EQ(c.end_s, 1.5);
+  const auto fails = [](const std::string& scalpel) {
+    try {
+      parse_scene(R"({"tools": [{"scalpel": )" + scalpel + "}]}", "s.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(fails(R"({"path": [[0, 0, 0]], "depth_mm": 5, "end_s": 1})"),
+            "s.json: tools[0].scalpel.path: expected an array of at least two points [[x, y, z], "
+            "...], got array [[0,0,0]]");
+  EXPECT_EQ(fails(R"({"path": [[0, 0, 0], [0, 0, 0]], "depth_mm": 5, "end_s": 1})"),
+            "s.json: tools[0].scalpel.path: has zero length: its points are one");
+  EXPECT_EQ(fails(R"({"path": [[0, 0, 0], [1, 0, 0]], "depth_mm": 5})"),
+            "s.json: tools[0].scalpel: needs \"end_s\" (when the blade reaches the path's end, s)");
+  EXPECT_EQ(fails(R"({"path": [[0, 0, 0], [1, 0, 0]], "depth_mm": 5, "end_s": 1,
+                      "start_s": 2})"),
+            "s.json: tools[0].scalpel.end_s: must be after start_s (2), got 1");
+  EXPECT_NE(parse_scene(R"({"tools": [{"scalpel": {"path": [[0, 0, 0], [1, 0, 0]],
+                "depth_mm": 5, "end_s": 1}}]})",
+                        "s.json")
+                .scalpels.size(),
+            0u);
+  try {
+    parse_scene(R"({"tools": [{"scalpel": {"path": [[0, 0, 0], [1, 0, 0]], "depth_mm": 5,
+                    "end_s": 1}, "force_n": [0, 1, 0]}]})",
+                "s.json");
+    ADD_FAILURE() << "a scalpel with a force beside it was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("tools[0]: a scalpel is its own tool"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(LoadScene, EveryShippedExampleParsesWithoutWarnings) {
   const fs::path examples = test::source_path("examples");
   int count = 0;
@@ -584,7 +632,8 @@ TEST(LoadScene, EveryShippedExampleParsesWithoutWarnings) {
     Scene s;
     ASSERT_NO_THROW(s = load_scene(e.path().string()));
     EXPECT_EQ(log.text(), "");
-    EXPECT_TRUE(!s.tools.empty() || s.default_tool);  // a tool, listed or the default poke
+    // a tool, listed or the default poke, or a scalpel
+    EXPECT_TRUE(!s.tools.empty() || !s.scalpels.empty() || s.default_tool);
     ++count;
   }
   EXPECT_GE(count, 7);

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numeric>
+#include <random>
 #include <set>
 
 #include "cut/cut_internal.h"
@@ -55,7 +56,7 @@ double tet_volume(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, Eigen::I
 double material_volume(const Model& m) {
   double v = 0.0;
   for (Eigen::Index t = 0; t < m.tets.size(); ++t)
-    v += (m.tets.share.empty() ? 1.0 : m.tets.share[t]) * tet_volume(m.X, m.tets.T, t);
+    v += m.tets.share_of(t) * tet_volume(m.X, m.tets.T, t);
   return v;
 }
 
@@ -285,6 +286,76 @@ TEST(Cut, ACutThroughNodesAndAgainThroughTheSameTetrahedraStaysValid) {
   model::cut_tetrahedra(cut, cut.X, plane_at_x(m, x0), again, origin2, r2);
   EXPECT_EQ(r2.pieces.size(), 2u);
   expect_kept(cut, again, origin2);
+}
+
+// Cuts one after another, of every kind a user makes (issue 47's "robust under any cut"): a
+// plane through a node, a partial incision that stops inside, one along a layer's face, one
+// that grazes the skin, the same blade again, and crossing cuts; after each, every invariant
+// holds and the pieces' material is the whole.
+TEST(Cut, RandomCutsOneAfterAnotherKeepEveryInvariant) {
+  std::mt19937 rng(47);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  Model m = organ();
+  const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
+  const double span = (hi - lo).norm();
+  model::Blade last;
+  for (int k = 0; k < 8; ++k) {
+    SCOPED_TRACE("cut " + std::to_string(k));
+    const int32_t node = static_cast<int32_t>(rng() % static_cast<uint32_t>(m.node_count()));
+    const Eigen::Vector3d at = m.X.row(node);
+    Eigen::Vector3d along(unit(rng), unit(rng), unit(rng)), depth(unit(rng), unit(rng), unit(rng));
+    along.normalize();
+    depth = (depth - depth.dot(along) * along).normalized();
+    model::Blade b;
+    switch (k % 4) {
+      case 0:  // through a node, across the whole organ
+        b = model::sweep_blade({at - span * along - span * depth, at + span * along - span * depth},
+                               depth, 2 * span);
+        break;
+      case 1:  // an incision that stops inside, 20 mm long and 15 mm deep, from the node
+        b = model::sweep_blade({at - 10 * along, at + 10 * along}, depth, 15.0);
+        break;
+      case 2: {  // along a skin triangle's plane (through three nodes at once)
+        const Eigen::Vector3i f = m.layers[0].F.row(rng() % m.layers[0].F.rows());
+        const Eigen::Vector3d a = m.X.row(f[0]), e1 = m.X.row(f[1]) - m.X.row(f[0]),
+                              e2 = m.X.row(f[2]) - m.X.row(f[0]);
+        const Eigen::Vector3d u = e1.normalized(), w = e1.cross(e2).cross(e1).normalized();
+        b = model::sweep_blade({a - 30 * u - 30 * w, a + 30 * u - 30 * w}, w, 60.0);
+        break;
+      }
+      default:  // the same blade again
+        b = last;
+        break;
+    }
+    last = b;
+    Model cut;
+    std::vector<int32_t> origin;
+    model::CutReport r;
+    model::cut_tetrahedra(m, m.X, b, cut, origin, r);
+    expect_kept(m, cut, origin);
+    ASSERT_FALSE(r.pieces.empty());
+    double pieces = 0.0;
+    for (const model::CutPiece& p : r.pieces) pieces += p.volume_mm3;
+    EXPECT_NEAR(pieces, material_volume(cut), 1e-9 * pieces);
+    if (k % 4 == 3) EXPECT_EQ(r.cut_tets, 0) << "the same blade divided again";
+    std::printf("cut %d: %lld divided, %lld partly, %zu pieces, %d nodes\n", k,
+                static_cast<long long>(r.cut_tets), static_cast<long long>(r.partly_cut_tets),
+                r.pieces.size(), cut.node_count());
+    m = std::move(cut);
+  }
+  // A grazing cut: the plane a hair inside the skin's outermost node.
+  const int32_t far = [&] {
+    Eigen::Index i;
+    m.X.col(0).maxCoeff(&i);
+    return static_cast<int32_t>(i);
+  }();
+  const double x0 = m.X(far, 0) - 0.05;
+  Model cut;
+  std::vector<int32_t> origin;
+  model::CutReport r;
+  model::cut_tetrahedra(m, m.X, plane_at_x(m, x0), cut, origin, r);
+  expect_kept(m, cut, origin);
+  for (double share : cut.tets.share) ASSERT_GE(share, model::kMinCutShare * (1.0 - 1e-12));
 }
 
 TEST(Cut, ABladeBesideTheOrganChangesNothing) {

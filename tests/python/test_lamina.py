@@ -197,6 +197,34 @@ def test_phantom_anatomy_has_its_labels():
     assert (np.ptp(tumour.X, axis=0) < 33.0).all() and (np.ptp(anyl.X, axis=0) > 100.0).any()
 
 
+def test_a_cut_divides_the_organ_reports_its_vessels_and_the_pieces_come_to_rest(anatomy_model):
+    """sim.cut(): a plane drawn through the phantom at its middle, through its whole depth,
+    divides it in two pieces with the mass kept, reports the vessels it crosses, and the
+    simulation goes on with more nodes; views taken before still read the old state."""
+    m = anatomy_model
+    sim = lamina.Simulation(m, stiffness_n_per_m=0.0, node_mass_kg=0.0, damping_kg_per_s=0.0,
+                            mass_damping_per_s=20.0, young_modulus_kpa=6.0,
+                            integrator="implicit_euler", dt_s=0.001, fixed=back_nodes(m))
+    old_x = sim.x
+    lo, hi = m.X.min(axis=0), m.X.max(axis=0)
+    x0 = m.X[:, 0].mean() + 0.31
+    path = [(x0, lo[1] - 5, lo[2] - 5), (x0, hi[1] + 5, lo[2] - 5)]
+    r = sim.cut(path, depth_mm=hi[2] - lo[2] + 10, direction=(0, 0, 1))
+    assert r["cut_tets"] > 0 and r["new_nodes"] > 0
+    assert len(r["pieces"]) == 2
+    mass = sum(p["mass_g"] for p in r["pieces"])
+    assert mass == pytest.approx(m.mass_kg.sum() * 1000.0, rel=1e-9)
+    assert any(c["name"] == "vessels" and c["diameter_mm"] > 1.0 for c in r["structures_cut"])
+    n = m.node_count + r["new_nodes"]
+    assert sim.x.shape == (n, 3) and sim.model.node_count == n
+    assert r["origin"].shape == (n,) and r["origin"].max() == m.node_count - 1
+    assert old_x.shape == (m.node_count, 3)  # the state before, still readable
+    assert np.array_equal(sim.x, sim.model.X)  # at rest, as it was
+    assert sim.run()["converged"]
+    with pytest.raises(lamina.Error, match="depth_mm"):
+        sim.cut(path, depth_mm=0.0, direction=(0, 0, 1))
+
+
 def test_embedded_surfaces_are_read_only_views_of_the_model(anatomy_model):
     m = anatomy_model
     e = m.embedded

@@ -26,7 +26,10 @@ namespace {
 
 // The scene named on the command line, ready: its model built or loaded, its defaults resolved.
 io::ReadyScene prepare(const std::string& what, const ProgressFn& progress, bool paper = false) {
-  return io::make_ready_scene(io::scene_for(what, paper), volume_read_options, progress);
+  io::ReadyScene ready =
+      io::make_ready_scene(io::scene_for(what, paper), volume_read_options, progress);
+  io::warn_scalpels_ignored(ready.scene);
+  return ready;
 }
 
 // "AZ,EL" or "AZ,EL,DIST" (degrees, degrees, mm); distance 0 = fit the organ.
@@ -201,7 +204,8 @@ int run_render(const RenderArgs& a) {
   const io::ReadyScene p = prepare(a.what, stderr_progress(a.verbose));
   const Model& m = *p.model;
   sim::Simulation s = io::make_scene_simulation(p);
-  interact::ToolDriver driver = io::make_tool_driver(p.scene);
+  interact::ToolDriver driver =
+      io::make_tool_driver(p.scene, /*warn_scalpels=*/false);  // prepare()
   while (s.time_s < a.at_s - 1e-9 * std::max(1.0, a.at_s)) {
     interact::apply_tools(s, driver);
     sim::step(s);

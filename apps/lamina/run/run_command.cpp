@@ -23,6 +23,7 @@
 #include "lamina/core/log.h"
 #include "lamina/interact/pacer.h"
 #include "lamina/interact/run_tools.h"
+#include "lamina/interact/scalpel.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/checkpoint.h"
 #include "lamina/io/mesh_file.h"
@@ -228,6 +229,13 @@ struct RunOutputs {
     ++so_far.frame;
   }
 
+  // A cut changed the layers' triangles (the cut surface's two sides are on both pieces'
+  // copies); the embedded surfaces keep theirs, carried by the copies on their side.
+  void follow_cut(const Model& m) {
+    for (Series& se : series)
+      if (se.embedded < 0) se.mesh.F = model::layer_mesh(m, se.layer).F;
+  }
+
   bool frame_written_at(double time_s) const { return series.front().files.back().first == time_s; }
 
   void write_results(const io::RunProgress& so_far) {
@@ -235,6 +243,13 @@ struct RunOutputs {
                           [&](std::ostream& f) { f << so_far.metrics_csv; });
     for (const Series& se : series) write_pvd(se, out);
   }
+};
+
+// The scalpels of a run, the model they cut and what each cut did.
+struct Cutting {
+  std::shared_ptr<const Model> model;  // the model the simulation runs on, replaced by each cut
+  interact::ScalpelDriver scalpels;
+  std::vector<interact::CutEvent> events;
 };
 
 // How the stepping loop ended and what it measured along the way.
@@ -284,10 +299,12 @@ struct RunProgressReport {
 // written as it goes.
 LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s,
                     interact::ToolDriver& driver, RunOutputs& outputs, io::RunProgress& so_far,
-                    const std::function<void(int64_t)>& write_checkpoint,
-                    RunProgressReport& report) {
+                    const std::function<void(int64_t)>& write_checkpoint, RunProgressReport& report,
+                    Cutting& cutting) {
   LoopResult r;
   interact::RestWatch rest = interact::rest_watch(s, driver);
+  for (const interact::Scalpel& sc : cutting.scalpels.scalpels)
+    rest.settle_from_s = std::max(rest.settle_from_s, sc.end_s);
   rest.quiet.streak = so_far.quiet_streak;  // resumed from a checkpoint
   const double interval = scene.output.frame_interval_s;
   r.step_us.reserve(static_cast<size_t>(std::min<int64_t>(scene.solver.max_steps, 1 << 20)));
@@ -303,6 +320,24 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s
     if (a.realtime) r.lateness_us.push_back(pacer.lateness_us());
     const double start_s = s.time_s;
     const auto t0 = Clock::now();
+    if (!cutting.scalpels.scalpels.empty()) {
+      for (interact::CutEvent& e :
+           interact::advance_scalpels(cutting.scalpels, cutting.model, s, driver)) {
+        for (const model::StructureCut& c : e.report.structures_cut)
+          log::warn(
+              "t = {:.3f} s: the scalpel cut {} across at ({:.1f}, {:.1f}, {:.1f}) mm, "
+              "{:.1f} mm wide{}",
+              e.time_s, c.name, c.position_mm.x(), c.position_mm.y(), c.position_mm.z(),
+              c.diameter_mm, c.closed ? "" : " (the blade stopped inside it)");
+        if (e.report.cut_tets > 0) {
+          log::debug("t = {:.3f} s: cut {} tetrahedra, {} new nodes, {} piece(s), in {:.1f} ms",
+                     e.time_s, e.report.cut_tets, e.report.new_nodes, e.report.pieces.size(),
+                     1e3 * e.seconds);
+          outputs.follow_cut(*cutting.model);
+        }
+        cutting.events.push_back(std::move(e));
+      }
+    }
     interact::apply_tools(s, driver);
     r.last = sim::step(s);
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
@@ -375,6 +410,28 @@ void summarize_timing(LoopResult& loop, const RunArgs& a, io::RunSummary& sum) {
   }
 }
 
+// What the scalpels did, for the summary.
+void summarize_cuts(const Cutting& c, io::RunSummary& sum) {
+  sum.scalpels = static_cast<int32_t>(c.scalpels.scalpels.size());
+  if (sum.scalpels == 0) return;
+  std::vector<double> ms;
+  for (const interact::CutEvent& e : c.events) {
+    for (const model::StructureCut& x : e.report.structures_cut)
+      sum.structures_cut.push_back({.time_s = e.time_s, .cut = x});
+    if (e.report.cut_tets == 0) continue;
+    ++sum.cuts;
+    sum.cut_tets += e.report.cut_tets;
+    sum.cut_new_nodes += e.report.new_nodes;
+    sum.pieces = e.report.pieces;
+    ms.push_back(1e3 * e.seconds);
+  }
+  if (!ms.empty()) {
+    std::sort(ms.begin(), ms.end());
+    sum.median_cut_ms = ms[ms.size() / 2];
+    sum.max_cut_ms = ms.back();
+  }
+}
+
 void print_run(const io::RunSummary& sum, const std::string& output,
                const std::vector<Series>& series, int32_t frames) {
   std::string files;
@@ -392,6 +449,19 @@ void print_run(const io::RunSummary& sum, const std::string& output,
                     : "NOT converged",
       sum.steps, sum.sim_seconds, sum.wall_seconds, sum.steps_per_second, sum.max_displacement_mm,
       sum.max_abs_volume_change_pct, sum.final_rest_error_mm, output, files, frames);
+  if (sum.scalpels > 0) {
+    std::string pieces;
+    for (const model::CutPiece& p : sum.pieces)
+      pieces += fmt::format("{}{:.1f} mL", pieces.empty() ? "" : ", ", p.volume_mm3 / 1000.0);
+    std::cout << fmt::format(
+        "  scalpel: {} cuts, {} tetrahedra divided{}; {} structure(s) cut across\n", sum.cuts,
+        sum.cut_tets, pieces.empty() ? "" : "; pieces " + pieces, sum.structures_cut.size());
+    for (const io::RunSummary::StructureCrossed& c : sum.structures_cut)
+      std::cout << fmt::format(
+          "    t = {:.3f} s: {} at ({:.1f}, {:.1f}, {:.1f}) mm, {:.1f} mm wide\n", c.time_s,
+          c.cut.name, c.cut.position_mm.x(), c.cut.position_mm.y(), c.cut.position_mm.z(),
+          c.cut.diameter_mm);
+  }
   if (sum.realtime)
     std::cout << fmt::format(
         "  realtime: {:.0f} steps/s achieved of {:.0f} ({:.2f}x real time{}); step start late by "
@@ -412,7 +482,13 @@ int run_run(const RunArgs& a) {
   std::optional<io::RunCheckpoint> resume;
   if (!a.resume.empty()) resume = io::load_checkpoint(a.resume);
   const RunScene run_scene = load_run_scene(a, resume);
-  // A checkpoint holds the tools' loads, not what a grasper holds: refused, not resumed wrong.
+  // A checkpoint holds the tools' loads, not what a grasper holds nor a cut model: refused, not
+  // resumed wrong.
+  if ((a.checkpoint_every > 0 || a.stop_after_steps > 0 || resume) &&
+      !run_scene.scene.scalpels.empty())
+    throw invalid_input(run_scene.scene.source,
+                        "a run with a scalpel cannot be checkpointed or resumed yet (run it "
+                        "without --checkpoint-every and --stop-after)");
   if (a.checkpoint_every > 0 || a.stop_after_steps > 0 || resume)
     for (size_t k = 0; k < run_scene.scene.tools.size(); ++k)
       if (run_scene.scene.tools[k].grasp)
@@ -428,7 +504,7 @@ int run_run(const RunArgs& a) {
       io::make_ready_scene(run_scene.scene, volume_read_options, report.progress);
   const double model_seconds = seconds_since(t_start);
   const io::Scene& scene = ready.scene;
-  const Model& m = *ready.model;
+  const Model& m = *ready.model;  // as built: a scalpel's cuts replace the one simulated
   const uint32_t model_crc = io::model_fingerprint(m);
   if (resume && model_crc != resume->model_crc)
     throw invalid_input(a.resume, "was written for another model than the one " + ready.source +
@@ -442,7 +518,15 @@ int run_run(const RunArgs& a) {
         "{}: no fixed nodes, no support and no anchor springs: a pushed model drifts as a rigid "
         "body and may not come back to rest",
         scene.source);
-  interact::ToolDriver driver = io::make_tool_driver(scene);
+  interact::ToolDriver driver = io::make_tool_driver(scene, /*warn_scalpels=*/false);
+  Cutting cutting{.model = ready.model};
+  if (!scene.scalpels.empty()) {
+    if (!m.has_tets())
+      throw invalid_input(scene.source,
+                          "tools: a scalpel cuts the tetrahedra, and the model has none (build "
+                          "it with model.build.structure \"tetrahedra\", the default)");
+    cutting.scalpels = interact::make_scalpel_driver(scene.scalpels, m);
+  }
 
   // 2. Outputs, and the state a resume continues from. Everything the loop accumulates is in
   // so_far, which a checkpoint saves and a resume restores whole.
@@ -481,7 +565,8 @@ int run_run(const RunArgs& a) {
   };
 
   // 3. Step.
-  LoopResult loop = step_run(a, scene, s, driver, outputs, so_far, write_checkpoint, report);
+  LoopResult loop =
+      step_run(a, scene, s, driver, outputs, so_far, write_checkpoint, report, cutting);
   if (!loop.stopped && !outputs.frame_written_at(s.time_s))
     outputs.write_frames(s, so_far);  // the final state
   report_progress(report.progress, fmt::format("simulated {:.2f} s in {} steps", s.time_s, s.steps),
@@ -522,8 +607,9 @@ int run_run(const RunArgs& a) {
   if (scene.solver.integrator == sim::Integrator::kImplicitEuler)
     sum.preconditioner = sim::uses_multigrid(s) ? "multigrid" : "jacobi";
   sum.dt_s = scene.solver.dt_s;
-  sum.nodes = m.node_count();
-  sum.springs = static_cast<int64_t>(m.springs.size());
+  sum.nodes = s.model().node_count();
+  sum.springs = static_cast<int64_t>(s.model().springs.size());
+  summarize_cuts(cutting, sum);
   sum.layers = m.layer_count();
   sum.fixed_nodes = static_cast<int32_t>(ready.setup.fixed.size());
   sum.tools = static_cast<int32_t>(scene.tools.size());

@@ -52,6 +52,7 @@ int run_soak(const SoakArgs& a) {
   report_progress(progress, "soak: building the model", 0.0);
   const io::ReadyScene ready = io::make_ready_scene(scene, volume_read_options, {});
   scene = ready.scene;
+  io::warn_scalpels_ignored(scene);
   const Model& m = *ready.model;
   sim::Simulation s = io::make_scene_simulation(ready);
   // The folder now, not after an hour of stepping: a path that cannot be made fails at once.

@@ -197,6 +197,7 @@ int run_serve(const ServeArgs& a) {
   const io::ReadyScene ready =
       io::make_ready_scene(scene, volume_read_options, stderr_progress(a.verbose));
   scene = ready.scene;
+  io::warn_scalpels_ignored(scene);
   const Model& m = *ready.model;
   interact::LoopOptions lo;
   lo.rate_hz = a.rate_hz;  // real time: each step is 1 / rate of simulated time

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "lamina/interact/scalpel.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/identify_springs.h"
@@ -99,6 +100,9 @@ struct Scene {
   /// conserved); paper_scene() and the paper's constants take the paper's routing.
   interact::RoutingOptions routing{.routing = interact::Routing::kNone};
   std::vector<interact::Tool> tools;  ///< forces in mN (the file gives newtons)
+  /// Scalpels (a "tools" entry {"scalpel": ...}): blades drawn through the organ as the run goes,
+  /// cutting its tetrahedra (`lamina run` plays them; interact::advance_scalpels).
+  std::vector<interact::Scalpel> scalpels;
   std::vector<FixedRegion> fixed;
   /// Elastic support of parts of the skin (zero-length springs to rest, per unit area).
   std::vector<model::SurfaceSupportOptions> support;
@@ -222,7 +226,22 @@ struct RunSummary {
   double worst_jitter_us = 0.0;  ///< latest start of a step after its tick (realtime only)
   double p99_jitter_us = 0.0;    ///< 99th percentile of that lateness (realtime only)
   double max_reaction_n = 0.0;   ///< largest |reaction force| of the tissue on the tools, N
-  MaterialReport material;       ///< written as the "material" object
+  /// The scalpels' cuts (written when the scene has scalpels): cuts that divided tetrahedra,
+  /// the tetrahedra divided and nodes added, each cut's update time, the pieces after the last
+  /// cut (largest first; empty if nothing was cut), and each structure cut across, when.
+  int32_t scalpels = 0;
+  int64_t cuts = 0;
+  int64_t cut_tets = 0;
+  int64_t cut_new_nodes = 0;
+  double median_cut_ms = 0.0;
+  double max_cut_ms = 0.0;
+  std::vector<model::CutPiece> pieces;
+  struct StructureCrossed {
+    double time_s = 0.0;
+    model::StructureCut cut;
+  };
+  std::vector<StructureCrossed> structures_cut;
+  MaterialReport material;  ///< written as the "material" object
 };
 
 /// Resolves the scene's material against its model, after resolve_scene_defaults(): with an

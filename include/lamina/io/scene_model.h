@@ -85,7 +85,13 @@ ReadyScene rebuild_ready_scene(const Scene& parsed, int32_t layers, int32_t skin
 /// supported. It refers to `ready.model`, which must outlive it.
 sim::Simulation make_scene_simulation(const ReadyScene& ready);
 
-/// A tool driver with the scene's tools and routing.
-interact::ToolDriver make_tool_driver(const Scene& scene);
+/// A tool driver with the scene's tools and routing. A scene's scalpels are not tools it drives:
+/// with `warn_scalpels`, warn_scalpels_ignored() says so (`lamina run`, which cuts with them,
+/// passes false).
+interact::ToolDriver make_tool_driver(const Scene& scene, bool warn_scalpels = true);
+
+/// Warns that the scene's scalpels are ignored (for the commands and bindings that do not cut
+/// yet; only `lamina run` plays them). Nothing when it has none.
+void warn_scalpels_ignored(const Scene& scene);
 
 }  // namespace lamina::io

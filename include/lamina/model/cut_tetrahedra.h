@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -50,7 +51,31 @@ struct StructureCut {
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  ///< the cross-section's centre
   double area_mm2 = 0.0;                                  ///< the cross-section's area in the blade
   double diameter_mm = 0.0;  ///< the circle of that area's: the vessel's local diameter
+  /// The section is a closed loop; false when the blade's surface ends inside the structure
+  /// (a partial section: its area and diameter are of the part cut so far)
+  bool closed = true;
 };
+
+/// Each crossing of an embedded structure (every embedded surface but the display skin, at the
+/// positions x) by the blade's surface, one per loop of the section; only the structure's
+/// triangles that meet `near` are looked at (a progressive cut's newest part; pass the blade's
+/// box for all).
+std::vector<StructureCut> structures_crossed(const Model& model, const Eigen::MatrixX3d& x,
+                                             const Blade& blade, const Eigen::Vector3d& near_lo,
+                                             const Eigen::Vector3d& near_hi);
+
+/// Points given against positions x carried to the model's rest shape: each at its barycentric
+/// weights in the tetrahedron (at x) that holds it, or in the one near it that it is least
+/// outside of. A blade drawn on the deformed organ, carried to rest, cuts the same material; at
+/// rest it stays put while the organ moves, so a progressive cut can sweep its whole path so far.
+/// \note Throws lamina::Error (kInvalidInput) for a model without tetrahedra, positions of the
+///   wrong size or not finite, a point not finite, or points nowhere near the organ.
+Eigen::MatrixX3d to_rest(const Model& model, const Eigen::MatrixX3d& x,
+                         const Eigen::MatrixX3d& points);
+
+/// The inverse of to_rest(): points at rest carried to where the tetrahedra put them at x.
+Eigen::MatrixX3d from_rest(const Model& model, const Eigen::MatrixX3d& x,
+                           const Eigen::MatrixX3d& points);
 
 /// What a cut did.
 struct CutReport {
@@ -70,6 +95,17 @@ struct CutReport {
 /// pivot (the shares of the two copies still sum to the tetrahedron's own).
 inline constexpr double kMinCutShare = 0.02;
 
+/// How a cut treats the tetrahedra at its blade's edge.
+struct CutOptions {
+  /// A progressive cut's blade tip, the segment [tip_from, tip_to] at the positions given (the
+  /// leading edge, where the blade is now): the tetrahedra whose boxes meet its box stay whole,
+  /// as the blade has not passed through them yet; a later cut divides them (a division made with
+  /// the blade's edge inside a tetrahedron might not match the one its whole path makes, and a
+  /// copy is not divided again). Off when tip_from is not finite.
+  Eigen::Vector3d tip_from = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d tip_to = Eigen::Vector3d::Zero();
+};
+
 /// Cuts the tetrahedra the blade's surface divides.
 /// @param[in]  model   a model with tetrahedra
 /// @param[in]  x       #nodes by 3 positions the blade is given against (the rest positions, or
@@ -85,7 +121,21 @@ inline constexpr double kMinCutShare = 0.02;
 /// \note Throws lamina::Error (kInvalidInput) naming the problem: no tetrahedra, positions of
 ///   the wrong size or not finite, a blade with no triangles or values not finite. A blade that
 ///   divides no tetrahedron is no error: `out` is then the model, with report.cut_tets = 0.
+/// @param[in]  options  the blade's tip, for a progressive cut
 void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& blade, Model& out,
-                    std::vector<int32_t>& origin, CutReport& report);
+                    std::vector<int32_t>& origin, CutReport& report,
+                    const CutOptions& options = {});
+
+/// The share of its node's mass node `i` of a cut model carries (1 for a node the cut did not
+/// copy; a node's copies' shares sum to 1): how a load or a support on the node is divided
+/// among its copies.
+/// @param[in] before  the model that was cut
+/// @param[in] cut     the cut model
+/// @param[in] origin  cut_tetrahedra()'s: the node of `before` each node of `cut` came from
+inline double copy_share(const Model& before, const Model& cut, const std::vector<int32_t>& origin,
+                         int32_t i) {
+  const double m0 = before.mass_kg[static_cast<size_t>(origin[static_cast<size_t>(i)])];
+  return m0 > 0.0 ? cut.mass_kg[static_cast<size_t>(i)] / m0 : 1.0;
+}
 
 }  // namespace lamina::model

@@ -33,6 +33,8 @@ struct Springs {
   std::vector<double> share;
 
   size_t size() const { return i.size(); }
+  /// Spring e's share (1 on an uncut model).
+  double share_of(size_t e) const { return share.empty() ? 1.0 : share[e]; }
 };
 
 /// One nested surface. Its nodes are the contiguous range [first_node, first_node + node_count).
@@ -53,8 +55,17 @@ struct Tets {
   /// copies a cut made of a tetrahedron (model::cut_tetrahedra, the virtual node algorithm), whose
   /// energies and masses are scaled by it. Empty: every share is 1 (an uncut model).
   std::vector<double> share;
+  /// #T after a cut: which corners' material each carries (bit k: corner k; 15: all). A copy's
+  /// corners beyond the cut are virtual nodes: they only carry its shape. Empty: all (uncut).
+  std::vector<uint8_t> material;
 
   int64_t size() const { return T.rows(); }
+  /// Tetrahedron t's material corners (15 on an uncut model).
+  uint8_t material_of(int64_t t) const {
+    return material.empty() ? uint8_t{15} : material[static_cast<size_t>(t)];
+  }
+  /// Tetrahedron t's share (1 on an uncut model).
+  double share_of(int64_t t) const { return share.empty() ? 1.0 : share[static_cast<size_t>(t)]; }
 };
 
 /// The paper's hierarchical neighbourhood matrix, stored as CSR: for node v and ring r in

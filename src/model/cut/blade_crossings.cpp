@@ -71,8 +71,7 @@ BladeIndex index_blade(const Blade& blade) {
 }
 
 Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
-                          const Blade& blade) {
-  const BladeIndex index = index_blade(blade);
+                          const BladeIndex& index) {
   const Eigen::Vector3d blo = index.lo, bhi = index.hi;
   Crossings c;
   if (index.tris.empty()) return c;

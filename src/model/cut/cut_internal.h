@@ -54,11 +54,15 @@ void edge_hits(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const BladeIn
 
 /// Where the blade crosses each embedded structure (every embedded surface but the display
 /// skin, at the positions x): one entry per closed loop of its crossing (a vessel cut across).
+/// Only the structures' triangles meeting the box [near_lo, near_hi] are looked at.
 std::vector<StructureCut> structures_crossed(const Model& model, const Eigen::MatrixX3d& x,
-                                             const BladeIndex& blade);
+                                             const BladeIndex& blade,
+                                             const Eigen::Vector3d& near_lo,
+                                             const Eigen::Vector3d& near_hi);
 
 /// Finds the edges of the tetrahedra T (at positions x) that the blade crosses.
-Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T, const Blade& blade);
+Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
+                          const BladeIndex& blade);
 
 /// A tetrahedron the blade divides.
 struct Division {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numeric>
 #include <string>
+#include <unordered_set>
 
 #include "cut_internal.h"
 #include "lamina/core/error.h"
@@ -79,6 +80,13 @@ struct Copies {
   std::vector<int32_t> first;  // per tetrahedron: its first copy (the next tetrahedron's ends it)
 };
 
+// The tetrahedra having a face (and which corner each omits).
+struct FaceUse {
+  std::array<int32_t, 4> tet{};
+  std::array<int, 4> omitted{};
+  int n = 0;
+};
+
 Copies make_copies(const Model& model, const std::vector<Division>& divided) {
   const Eigen::Index nt = model.tets.size();
   std::vector<int32_t> division(static_cast<size_t>(nt), -1);
@@ -87,9 +95,10 @@ Copies make_copies(const Model& model, const std::vector<Division>& divided) {
   c.first.resize(static_cast<size_t>(nt) + 1);
   for (Eigen::Index t = 0; t < nt; ++t) {
     c.first[t] = static_cast<int32_t>(c.tet.size());
-    const double own = model.tets.share.empty() ? 1.0 : model.tets.share[t];
+    const double own = model.tets.share_of(t);
     if (division[t] < 0) {
-      c.tet.push_back(static_cast<int32_t>(t)), c.mask.push_back(15), c.share.push_back(own);
+      c.tet.push_back(static_cast<int32_t>(t)), c.mask.push_back(model.tets.material_of(t));
+      c.share.push_back(own);
       continue;
     }
     const Division& d = divided[division[t]];
@@ -111,7 +120,7 @@ int corner_of(const Eigen::MatrixX4i& T, int32_t t, int32_t node) {
 }  // namespace
 
 void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& blade, Model& out,
-                    std::vector<int32_t>& origin, CutReport& report) {
+                    std::vector<int32_t>& origin, CutReport& report, const CutOptions& options) {
   check_inputs(model, x, blade);
   const Eigen::MatrixX4i& T = model.tets.T;
   const int32_t n = model.node_count();
@@ -119,7 +128,8 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
 
   std::vector<Division> divided;
   report = CutReport{};
-  detail::Crossings crossings = detail::blade_crossings(x, T, blade);
+  const detail::BladeIndex index = detail::index_blade(blade);
+  detail::Crossings crossings = detail::blade_crossings(x, T, index);
   // A copy an earlier cut made carries the material on one side of that cut only, which a copy
   // does not record: it is not divided again (a later cut ends at an earlier one's tetrahedra,
   // and a progressive cut sweeps its whole path so far, so that its tip's tetrahedra are
@@ -127,7 +137,19 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   if (!model.tets.share.empty())
     std::erase_if(crossings.near_tets, [&](int32_t t) { return model.tets.share[t] < 1.0; });
   detail::divide_tets(T, crossings, divided, report.partly_cut_tets);
-  report.structures_cut = detail::structures_crossed(model, x, detail::index_blade(blade));
+  if (options.tip_from.allFinite()) {
+    const Eigen::Vector3d lo = options.tip_from.cwiseMin(options.tip_to),
+                          hi = options.tip_from.cwiseMax(options.tip_to);
+    report.partly_cut_tets += std::erase_if(divided, [&](const Division& d) {
+      Eigen::Vector3d tlo = x.row(T(d.tet, 0)), thi = tlo;
+      for (int k = 1; k < 4; ++k) {
+        tlo = tlo.cwiseMin(x.row(T(d.tet, k)).transpose());
+        thi = thi.cwiseMax(x.row(T(d.tet, k)).transpose());
+      }
+      return (tlo.array() <= hi.array()).all() && (lo.array() <= thi.array()).all();
+    });
+  }
+  report.structures_cut = detail::structures_crossed(model, x, index, index.lo, index.hi);
   report.cut_tets = static_cast<int64_t>(divided.size());
   const Copies copies = make_copies(model, divided);
   const auto ncopies = static_cast<int32_t>(copies.tet.size());
@@ -145,14 +167,17 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
       star.push_back(static_cast<int32_t>(t));
 
   // Faces with a node around the cut, and the (tetrahedron, omitted corner) pairs that have them.
-  std::unordered_map<FaceKey, std::array<int32_t, 4>, FaceHash> faces;  // t0, o0, t1, o1
+  // On a model cut before, up to four tetrahedra share a face: where an earlier cut ended, its
+  // two copies and the whole tetrahedron beyond its edge that joins them.
+  std::unordered_map<FaceKey, FaceUse, FaceHash> faces;
   for (const int32_t t : star) {
     for (int o = 0; o < 4; ++o) {
       const int i = (o + 1) % 4, j = (o + 2) % 4, k = (o + 3) % 4;
       if (!(affected[T(t, i)] || affected[T(t, j)] || affected[T(t, k)])) continue;
-      auto [it, fresh] = faces.try_emplace(face_key(T(t, i), T(t, j), T(t, k)),
-                                           std::array<int32_t, 4>{t, o, -1, -1});
-      if (!fresh) it->second[2] = t, it->second[3] = o;
+      FaceUse& use = faces[face_key(T(t, i), T(t, j), T(t, k))];
+      if (use.n == 4)
+        throw Error(ErrorKind::kInternal, "cut: more than four tetrahedra share a face");
+      use.tet[use.n] = t, use.omitted[use.n] = o, ++use.n;
     }
   }
 
@@ -167,24 +192,26 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     std::sort(m.begin(), m.begin() + at);
     return std::pair{m, at};
   };
-  for (const auto& [key, f] : faces) {
-    if (f[2] < 0) continue;  // a boundary face
-    for (int32_t c1 = copies.first[f[0]]; c1 < copies.first[f[0] + 1]; ++c1) {
-      const auto [m1, n1] = face_material(c1, f[1]);
-      for (int32_t c2 = copies.first[f[2]]; c2 < copies.first[f[2] + 1]; ++c2) {
-        const auto [m2, n2] = face_material(c2, f[3]);
-        bool meet = false;
-        for (int a = 0; a < n1; ++a)
-          for (int b = 0; b < n2; ++b) meet = meet || m1[a] == m2[b];
-        if (!meet) continue;
-        for (int k = 0; k < 4; ++k) {
-          if (k == f[1] || !affected[T(f[0], k)]) continue;
-          const int k2 = corner_of(T, f[2], T(f[0], k));
-          slots.join(4 * c1 + k, 4 * c2 + k2);
+  for (const auto& [key, use] : faces)
+    for (int u1 = 0; u1 < use.n; ++u1)
+      for (int u2 = u1 + 1; u2 < use.n; ++u2) {
+        const int32_t t1 = use.tet[u1], t2 = use.tet[u2];
+        const int o1 = use.omitted[u1], o2 = use.omitted[u2];
+        for (int32_t c1 = copies.first[t1]; c1 < copies.first[t1 + 1]; ++c1) {
+          const auto [m1, n1] = face_material(c1, o1);
+          for (int32_t c2 = copies.first[t2]; c2 < copies.first[t2 + 1]; ++c2) {
+            const auto [m2, n2] = face_material(c2, o2);
+            bool meet = false;
+            for (int a = 0; a < n1; ++a)
+              for (int b = 0; b < n2; ++b) meet = meet || m1[a] == m2[b];
+            if (!meet) continue;
+            for (int k = 0; k < 4; ++k) {
+              if (k == o1 || !affected[T(t1, k)]) continue;
+              slots.join(4 * c1 + k, 4 * c2 + corner_of(T, t2, T(t1, k)));
+            }
+          }
         }
       }
-    }
-  }
 
   // Each glued set of an affected node's slots is a node: numbered after the node's place, the
   // one carrying the most material first, so layers stay contiguous ranges.
@@ -256,25 +283,25 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   m.tets.T.resize(ncopies, 4);
   m.tets.region.resize(static_cast<size_t>(ncopies));
   m.tets.share = copies.share;
+  m.tets.material = copies.mask;
   for (int32_t c = 0; c < ncopies; ++c) {
     for (int k = 0; k < 4; ++k) m.tets.T(c, k) = new_node(c, k);
     m.tets.region[c] = model.tets.region[copies.tet[c]];
   }
-  if (divided.empty() && model.tets.share.empty()) m.tets.share.clear();
+  if (divided.empty() && model.tets.share.empty()) m.tets.share.clear(), m.tets.material.clear();
 
   // Springs. One between two nodes the cut left alone keeps its place (the renumbering is
   // monotone, so they stay sorted); the edges at the glued nodes are made again from the copies
   // of the tetrahedra around them, each with the part of its edge's constant that its copies'
   // shares carry.
   const Springs& sp = model.springs;
-  auto old_share = [&](int32_t t) { return model.tets.share.empty() ? 1.0 : model.tets.share[t]; };
   std::vector<double> edge_total(sp.size(), 0.0);
   for (const int32_t t : star)
     for (int i = 0; i < 4; ++i)
       for (int j = i + 1; j < 4; ++j)
         if (affected[T(t, i)] || affected[T(t, j)]) {
           const int32_t e = detail::find_spring(sp, T(t, i), T(t, j));
-          if (e >= 0) edge_total[e] += old_share(t);
+          if (e >= 0) edge_total[e] += model.tets.share_of(t);
         }
   struct NewEdge {
     int32_t i, j, spring;
@@ -305,7 +332,7 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     m.springs.rest_length_mm.push_back(sp.rest_length_mm[e]);
     m.springs.stiffness_n_per_m.push_back(sp.stiffness_n_per_m[e] * part);
     m.springs.kind.push_back(sp.kind[e]);
-    if (shared) m.springs.share.push_back((sp.share.empty() ? 1.0 : sp.share[e]) * part);
+    if (shared) m.springs.share.push_back(sp.share_of(e) * part);
   };
   // Merge the kept springs (in their order) with the new edges (sorted, each pair once).
   size_t k = 0;
@@ -337,6 +364,7 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     nl.node_count = first_new[l.first_node + l.node_count] - nl.first_node;
     std::vector<Eigen::Vector3i> tris;
     tris.reserve(static_cast<size_t>(l.F.rows()));
+    std::unordered_set<FaceKey, FaceHash> made;  // each triangle once (see below)
     for (Eigen::Index f = 0; f < l.F.rows(); ++f) {
       const int32_t a = l.F(f, 0), b = l.F(f, 1), c = l.F(f, 2);
       if (!(affected[a] || affected[b] || affected[c])) {
@@ -347,15 +375,25 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
       if (it == faces.end())
         throw Error(ErrorKind::kInternal, "cut: layer " + std::to_string(k) + " triangle " +
                                               std::to_string(f) + " is no tetrahedron's face");
-      int32_t t = it->second[0], o = it->second[1];
-      if (it->second[2] >= 0 && model.tets.region[it->second[2]] == static_cast<int32_t>(k))
-        t = it->second[2], o = it->second[3];
-      for (int32_t cp = copies.first[t]; cp < copies.first[t + 1]; ++cp) {
-        bool carries = false;
-        for (int q = 0; q < 4; ++q) carries = carries || (q != o && (copies.mask[cp] >> q & 1));
-        if (!carries) continue;
-        tris.emplace_back(new_node(cp, corner_of(T, t, a)), new_node(cp, corner_of(T, t, b)),
-                          new_node(cp, corner_of(T, t, c)));
+      // The tetrahedra inside the layer (those of the shell it bounds; for the skin, all), on
+      // each copy of them that carries material on the triangle. Where an earlier cut ended,
+      // two copies and the one joining them carry it at the same nodes: once is enough.
+      const FaceUse& use = it->second;
+      bool inside = false;
+      for (int u = 0; u < use.n; ++u)
+        inside = inside || model.tets.region[use.tet[u]] == static_cast<int32_t>(k);
+      for (int u = 0; u < use.n; ++u) {
+        const int32_t t = use.tet[u], o = use.omitted[u];
+        if (inside && model.tets.region[t] != static_cast<int32_t>(k)) continue;
+        for (int32_t cp = copies.first[t]; cp < copies.first[t + 1]; ++cp) {
+          bool carries = false;
+          for (int q = 0; q < 4; ++q) carries = carries || (q != o && (copies.mask[cp] >> q & 1));
+          if (!carries) continue;
+          const Eigen::Vector3i tri(new_node(cp, corner_of(T, t, a)),
+                                    new_node(cp, corner_of(T, t, b)),
+                                    new_node(cp, corner_of(T, t, c)));
+          if (made.insert(face_key(tri[0], tri[1], tri[2])).second) tris.push_back(tri);
+        }
       }
     }
     nl.F.resize(static_cast<Eigen::Index>(tris.size()), 3);

@@ -13,7 +13,9 @@ namespace {
 // The loops of one surface's crossing: the crossed edges, joined through the triangles that
 // have two of them.
 void loops_of(const EmbeddedSurface& s, const Eigen::MatrixX3d& p, const BladeIndex& blade,
+              const Eigen::Vector3d& near_lo, const Eigen::Vector3d& near_hi,
               std::vector<StructureCut>& out) {
+  const Eigen::Vector3d box_lo = blade.lo.cwiseMax(near_lo), box_hi = blade.hi.cwiseMin(near_hi);
   std::unordered_map<uint64_t, int32_t> crossed;  // edge -> its point
   std::vector<Eigen::Vector3d> point;
   std::vector<std::array<int32_t, 2>> segment;
@@ -24,7 +26,7 @@ void loops_of(const EmbeddedSurface& s, const Eigen::MatrixX3d& p, const BladeIn
       lo = lo.cwiseMin(p.row(s.F(f, k)).transpose());
       hi = hi.cwiseMax(p.row(s.F(f, k)).transpose());
     }
-    if ((lo.array() > blade.hi.array()).any() || (hi.array() < blade.lo.array()).any()) continue;
+    if ((lo.array() > box_hi.array()).any() || (hi.array() < box_lo.array()).any()) continue;
     int32_t ends[3];
     int n = 0;
     for (int k = 0; k < 3; ++k) {
@@ -47,6 +49,9 @@ void loops_of(const EmbeddedSurface& s, const Eigen::MatrixX3d& p, const BladeIn
     if (n == 2) segment.push_back({ends[0], ends[1]});
   }
   if (segment.empty()) return;
+  // A loop is closed when each of its points ends two segments.
+  std::vector<int32_t> degree(point.size(), 0);
+  for (const auto& [a, b] : segment) ++degree[a], ++degree[b];
   std::vector<int32_t> parent(point.size());
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int32_t a) {
@@ -57,9 +62,12 @@ void loops_of(const EmbeddedSurface& s, const Eigen::MatrixX3d& p, const BladeIn
   std::unordered_map<int32_t, size_t> loop;
   std::vector<Eigen::Vector3d> centre;
   std::vector<int32_t> count;
+  std::vector<uint8_t> closed;
   for (int32_t k = 0; k < static_cast<int32_t>(point.size()); ++k) {
     auto [it, fresh] = loop.try_emplace(find(k), centre.size());
-    if (fresh) centre.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0);
+    if (fresh)
+      centre.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0), closed.push_back(1);
+    if (degree[k] != 2) closed[it->second] = 0;
     centre[it->second] += point[k];
     ++count[it->second];
   }
@@ -76,23 +84,36 @@ void loops_of(const EmbeddedSurface& s, const Eigen::MatrixX3d& p, const BladeIn
                    .label = s.label,
                    .position_mm = centre[l],
                    .area_mm2 = area[l],
-                   .diameter_mm = 2.0 * std::sqrt(area[l] / std::numbers::pi)});
+                   .diameter_mm = 2.0 * std::sqrt(area[l] / std::numbers::pi),
+                   .closed = closed[l] != 0});
   }
 }
 
 }  // namespace
 
 std::vector<StructureCut> structures_crossed(const Model& model, const Eigen::MatrixX3d& x,
-                                             const BladeIndex& blade) {
+                                             const BladeIndex& blade,
+                                             const Eigen::Vector3d& near_lo,
+                                             const Eigen::Vector3d& near_hi) {
   std::vector<StructureCut> out;
   if (blade.tris.empty()) return out;
   Eigen::MatrixX3d p;
   for (const EmbeddedSurface& s : model.embedded) {
     if (s.label == 0) continue;  // the display skin: the organ itself
     embedded_positions(s, x, p);
-    loops_of(s, p, blade, out);
+    loops_of(s, p, blade, near_lo, near_hi, out);
   }
   return out;
 }
 
 }  // namespace lamina::model::detail
+
+namespace lamina::model {
+
+std::vector<StructureCut> structures_crossed(const Model& model, const Eigen::MatrixX3d& x,
+                                             const Blade& blade, const Eigen::Vector3d& near_lo,
+                                             const Eigen::Vector3d& near_hi) {
+  return detail::structures_crossed(model, x, detail::index_blade(blade), near_lo, near_hi);
+}
+
+}  // namespace lamina::model
