@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (CMake preset "fuzz", clang + ASan + UBSan) and runs each one for
 # SECONDS (default 30) on a seed corpus generated here by the release `lamina` (docs/testing.md).
-#   scripts/fuzz.sh [SECONDS] [TARGET...]     targets: volume model obj scene checkpoint
+#   scripts/fuzz.sh [SECONDS] [TARGET...]     targets: volume model obj scene checkpoint cut
 #   scripts/fuzz.sh --ci                      CI's run: 3000 inputs per target from seed 1 on a
 #                                             fresh corpus
 # Findings go to build/fuzz/crashes/; the corpus grows in build/fuzz/corpus/ across runs.
@@ -17,7 +17,7 @@ fi
 seconds=${1:-30}
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(volume model obj scene checkpoint)
+((${#targets[@]})) || targets=(volume model obj scene checkpoint cut)
 
 lamina=build/release/lamina
 if [ ! -x "$lamina" ]; then
@@ -31,7 +31,7 @@ cmake --build --preset fuzz -j2
 seeds=build/fuzz/seeds
 if [ ! -f "$seeds/.done" ]; then
   rm -rf "$seeds"
-  mkdir -p "$seeds"/{volume,model,obj,scene,checkpoint}
+  mkdir -p "$seeds"/{volume,model,obj,scene,checkpoint,cut}
   work=$(mktemp -d)
   trap 'rm -rf "$work"' EXIT
   "$lamina" -q phantom --size 16,16,16 --spacing 12 -o "$work/p.nii"
@@ -64,6 +64,8 @@ JSON
   cp "$seeds/model/tiny.vtu" "$work/tiny.vtu"
   "$lamina" -q run "$work/scene.json" -o "$work/run" --stop-after 3 >/dev/null
   cp "$work/run/checkpoint.lmck" "$seeds/checkpoint/stopped.lmck"
+  # A cut seed: no shift, the blade along +z 50 mm deep, a path across the block's middle.
+  python3 -c "import struct,sys; sys.stdout.buffer.write(struct.pack('13d', 0,0,0, 0,0,1, 50, -5,21,-5, 45,19,-5))" >"$seeds/cut/across"
   touch "$seeds/.done"
 fi
 
