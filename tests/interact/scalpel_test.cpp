@@ -10,6 +10,7 @@
 #include <numeric>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/run_tools.h"
 #include "support/tet_phantom.h"
 
 namespace {
@@ -157,6 +158,73 @@ TEST(Scalpel, ALoadOnTheCutNodesIsKeptWhole) {
   }
   EXPECT_GT(cuts, 3);
   EXPECT_GT(model->node_count(), test::tet_phantom().node_count());
+}
+
+// On an organ cut in two - its back held, its front free - a tool's load on the tissue is what
+// the tissue pushes back with at rest (force conserved across the cut model), and the freed
+// front piece, pushed and let go, comes to rest without its energy ever growing.
+TEST(Scalpel, OnACutOrganTheLoadIsTheReactionAndAFreedPieceComesToRest) {
+  const Model& m0 = test::tet_phantom();
+  auto model = std::make_shared<const Model>(m0);
+  sim::Material damped = test::kTetLiver;
+  damped.mass_damping_per_s = 5.0;  // the scenes' critical damping is about 37/s on the phantom
+  sim::Simulation sim = sim::make_simulation(
+      m0, damped,
+      {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.01, .rest_speed_mm_per_s = 1e-3});
+  sim::fix_nodes(sim, test::posterior_nodes(m0));
+  const Eigen::Vector3d lo = m0.X.colwise().minCoeff(), hi = m0.X.colwise().maxCoeff();
+  const double y0 = 0.5 * (lo.y() + hi.y()) + 0.37;
+  interact::ToolDriver tools;
+  tools.routing.routing = interact::Routing::kNone;
+  tools.routing.touch = interact::Touch::kSkin;
+  std::vector<int32_t> origin;
+  const model::CutReport r = interact::cut_now(
+      model, sim, tools,
+      {Eigen::Vector3d(lo.x() - 5, y0, lo.z() - 5), Eigen::Vector3d(hi.x() + 5, y0, lo.z() - 5)},
+      Eigen::Vector3d::UnitZ(), hi.z() - lo.z() + 10, origin);
+  ASSERT_EQ(r.pieces.size(), 2u);
+  const Model& m = *model;
+
+  // A push on the held piece, beside the wound: at rest the tissue pushes back with all of it.
+  int32_t node = -1;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (!sim.fixed()[static_cast<size_t>(i)] && m.X(i, 1) > y0 + 25 &&
+        (node < 0 || m.X(i, 1) < m.X(node, 1)))
+      node = i;
+  ASSERT_GE(node, 0);
+  interact::Tool push;
+  push.vertex = node;
+  push.force_mn = Eigen::Vector3d(0, 0, 40);
+  push.radius_mm = 6.0;
+  tools.tools = {push};
+  const interact::ToolRun under_load = interact::run_tools(sim, tools, 200.0, true);
+  ASSERT_TRUE(under_load.converged);
+  const Eigen::Vector3d reaction = interact::tools_reaction(sim, tools);
+  EXPECT_LT((reaction + push.force_mn).norm(), 0.01 * push.force_mn.norm())
+      << "reaction " << reaction.transpose();
+
+  // The free front piece pushed for 0.2 s, then let go.
+  interact::ToolDriver none;
+  sim::reset(sim);
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (m.X(i, 1) < y0 - 3) sim.f_ext(i, 1) = -5.0;
+  for (int k = 0; k < 20; ++k) ASSERT_EQ(sim::step(sim).unstable, sim::Instability::kNone);
+  sim.f_ext.setZero();
+  // The simulation's own watch fails a step whose total energy grows while no tool acts; its
+  // motion's energy, strain turned into speed at first, dies away.
+  double released = -1.0, later = 0.0;
+  sim::RestStreak rest{.needed = sim::quiet_steps(sim)};
+  bool at_rest = false;
+  for (int k = 0; k < 20000 && !at_rest; ++k) {
+    const sim::StepStats st = sim::step(sim);
+    ASSERT_EQ(st.unstable, sim::Instability::kNone) << k;
+    if (released < 0) released = st.kinetic_energy_j;
+    if (k >= 100) later = std::max(later, st.kinetic_energy_j);
+    at_rest = rest.update(st);
+  }
+  EXPECT_TRUE(at_rest) << "the freed piece did not come to rest";
+  EXPECT_LT(later, 0.5 * released) << "its motion did not die away";
+  EXPECT_EQ(sim::inverted_tets(m, sim.x), 0);
 }
 
 TEST(Scalpel, BadScalpelsAreNamed) {
