@@ -244,7 +244,7 @@ void bind_simulation(py::module_& m) {
                                     .cg_tolerance = cg_tolerance,
                                     .preconditioner = parse_preconditioner(preconditioner)};
              auto p = std::make_unique<PySimulation>(
-                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}, {}});
+                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}, {}, {}});
              p->driver.routing = ro;
              sim::fix_nodes(p->sim, nodes_of(fixed));
              sim::prepare_solver(p->sim);  // the multigrid now, not in the first step
@@ -510,6 +510,9 @@ void bind_simulation(py::module_& m) {
               p.sim = std::move(work);
               p.driver = std::move(driver);
               p.model = std::const_pointer_cast<Model>(model);
+              // A buffer for the wound, which the cut adds (the others' buffers move with their
+              // matrices: views taken before stay valid).
+              p.embedded_x.resize(p.model->embedded.size());
             }
             py::dict d;
             d["cut_tets"] = r.cut_tets;
@@ -576,7 +579,7 @@ void bind_simulation(py::module_& m) {
           return io::make_ready_scene(scene);
         }();
         auto p = std::make_unique<PySimulation>(PySimulation{
-            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source, {}});
+            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source, {}, {}});
         p->driver = io::make_tool_driver(ready.scene);
         wire(*p);
         return p;

@@ -21,6 +21,8 @@ constexpr Rgb8 kArtery = {225, 45, 45};
 constexpr Rgb8 kBile = {0, 145, 30};
 constexpr Rgb8 kGallbladder = {139, 150, 98};
 constexpr Rgb8 kTumour = {240, 200, 40};
+// A cut's wound: the parenchyma's cut face, lighter than the organ's capsule.
+constexpr Rgb8 kWound = {225, 105, 90};
 
 // For structures without a known name, or whose name's colour an earlier one took: apart from
 // the named colours above, from the organ's and from each other.
@@ -45,6 +47,7 @@ bool has(const std::string& s, const char* part) {
 
 std::optional<Rgb8> color_by_name(const std::string& name) {
   const std::string n = normalized(name);
+  if (n == "wound") return kWound;
   if (has(n, "portal")) return kPortalVein;
   if (has(n, "hepatic") && (has(n, "vein") || has(n, "venous"))) return kHepaticVeins;
   if (has(n, "cava") || has(n, "ivc")) return kVenaCava;

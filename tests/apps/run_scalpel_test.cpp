@@ -103,6 +103,13 @@ TEST(LaminaRunScalpel, CutsAsItGoesIntoThePiecesOfOneCutAndReportsTheVesselsCros
   std::stringstream text;
   text << pvd.rdbuf();
   EXPECT_NE(text.str().find("skin_000004.vtp"), std::string::npos);
+  // The wound has its own series from the first cut on: each side's cut surface, which at the
+  // end spans the organ's section twice.
+  std::ifstream wound(dir.path / "out" / "wound.pvd");
+  ASSERT_TRUE(wound.good()) << "no wound series";
+  std::stringstream wtext;
+  wtext << wound.rdbuf();
+  EXPECT_NE(wtext.str().find("frames/wound_"), std::string::npos);
 }
 
 TEST(LaminaRunScalpel, ABadScalpelOrACheckpointedCutIsOneLineExitTwo) {

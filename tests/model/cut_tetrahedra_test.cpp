@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <numeric>
 #include <random>
 #include <set>
@@ -115,10 +116,17 @@ void expect_kept(const Model& before, const Model& after, const std::vector<int3
     std::sort(c.begin(), c.end());
     tets.insert(c);
   }
-  ASSERT_EQ(after.embedded.size(), before.embedded.size());
-  for (size_t s = 0; s < after.embedded.size(); ++s) {
+  // The same surfaces, and the wound once a cut divided anything (it grows at each cut).
+  const bool wound_made =
+      std::none_of(before.embedded.begin(), before.embedded.end(),
+                   [](const EmbeddedSurface& e) { return e.name == model::kWoundName; }) &&
+      std::any_of(after.embedded.begin(), after.embedded.end(),
+                  [](const EmbeddedSurface& e) { return e.name == model::kWoundName; });
+  ASSERT_EQ(after.embedded.size(), before.embedded.size() + (wound_made ? 1 : 0));
+  for (size_t s = 0; s < before.embedded.size(); ++s) {
     const EmbeddedSurface &a = after.embedded[s], &b = before.embedded[s];
-    for (Eigen::Index v = 0; v < a.corners.rows(); ++v) {
+    ASSERT_GE(a.corners.rows(), b.corners.rows());
+    for (Eigen::Index v = 0; v < b.corners.rows(); ++v) {
       Eigen::Vector3d pa = Eigen::Vector3d::Zero(), pb = Eigen::Vector3d::Zero();
       for (int c = 0; c < 4; ++c) {
         pa += a.weights(v, c) * after.X.row(a.corners(v, c)).transpose();
@@ -221,6 +229,52 @@ TEST(Cut, APlaneThroughTheOrganGivesTwoPiecesWithTheMasksVolumeOnEachSide) {
   }
   EXPECT_GE(vessels, 1);
   EXPECT_GT(widest, 6.0);
+
+  // The wound: on the blade's plane at rest (the cut surface within 0.1 mm of the blade's:
+  // here exactly on it), one side on each piece facing out of it (+x on the low piece), equal in
+  // area, edge-manifold, its edges open only where it meets the skin, and as large as the organ's
+  // section by the voxels (the model's skin cuts the voxels' corners).
+  const auto w = std::find_if(cut.embedded.begin(), cut.embedded.end(),
+                              [](const EmbeddedSurface& e) { return e.name == model::kWoundName; });
+  ASSERT_NE(w, cut.embedded.end());
+  double facing_low = 0.0, facing_high = 0.0;
+  std::map<std::pair<int32_t, int32_t>, int> edge_use;
+  for (Eigen::Index f = 0; f < w->F.rows(); ++f) {
+    const Eigen::Vector3d a = w->V.row(w->F(f, 0)), b = w->V.row(w->F(f, 1)),
+                          c = w->V.row(w->F(f, 2));
+    const Eigen::Vector3d n = 0.5 * (b - a).cross(c - a);
+    ASSERT_LT(std::abs(n.normalized().x()), 1.0 + 1e-9);
+    EXPECT_GT(std::abs(n.normalized().x()), 1.0 - 1e-6) << "triangle " << f << " off the plane";
+    const bool low = piece[w->corners(w->F(f, 0), 0)] == piece[lowest];
+    EXPECT_EQ(low, n.x() > 0.0) << "triangle " << f << " faces into its own piece";
+    (low ? facing_low : facing_high) += n.norm();
+    for (int k = 0; k < 3; ++k) {
+      const int32_t p = w->F(f, k), q = w->F(f, (k + 1) % 3);
+      ++edge_use[{std::min(p, q), std::max(p, q)}];
+    }
+  }
+  for (Eigen::Index v = 0; v < w->V.rows(); ++v) ASSERT_NEAR(w->V(v, 0), x0, 1e-9);
+  EXPECT_NEAR(facing_low, facing_high, 1e-9 * facing_low);
+  // A vertex's tetrahedron edge: its two corners with weight.
+  const auto on_skin = [&](int32_t v) {
+    int skin = 0;
+    for (int c = 0; c < 4; ++c)
+      skin += w->weights(v, c) != 0.0 && cut.layer_of[w->corners(v, c)] == 0;
+    return skin == 2;
+  };
+  int open = 0;
+  for (const auto& [e, uses] : edge_use) {
+    ASSERT_LE(uses, 2) << "a wound edge in three triangles";
+    if (uses == 1) {
+      ++open;
+      EXPECT_TRUE(on_skin(e.first) && on_skin(e.second)) << "an open wound edge inside the organ";
+    }
+  }
+  EXPECT_GT(open, 0);
+  const double section = (voxels_below(x0 + 1.0) - voxels_below(x0 - 1.0)) / 2.0;
+  std::printf("wound %.0f mm^2 a side, %zu triangles; the voxels' section %.0f mm^2\n", facing_low,
+              static_cast<size_t>(w->F.rows()), section);
+  EXPECT_NEAR(facing_low, section, 0.05 * section);
 
   // The surfaces' vertices inside the tetrahedra are on their own side's piece. (A display skin
   // vertex outside every tetrahedron follows the one it is least outside of, which near the cut

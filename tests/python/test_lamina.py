@@ -220,6 +220,8 @@ def test_a_cut_divides_the_organ_reports_its_vessels_and_the_pieces_come_to_rest
     assert r["origin"].shape == (n,) and r["origin"].max() == m.node_count - 1
     assert old_x.shape == (m.node_count, 3)  # the state before, still readable
     assert np.array_equal(sim.x, sim.model.X)  # at rest, as it was
+    wound = sim.embedded_positions("wound")  # each side's cut face, carried by its copies
+    assert wound.shape[0] > 0 and np.abs(wound[:, 0] - x0).max() < 1e-6
     assert sim.run()["converged"]
     with pytest.raises(lamina.Error, match="depth_mm"):
         sim.cut(path, depth_mm=0.0, direction=(0, 0, 1))

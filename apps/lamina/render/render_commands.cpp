@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/scalpel.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
 #include "lamina/model/embed_surface.h"
@@ -25,10 +26,12 @@ namespace lamina::cli {
 namespace {
 
 // The scene named on the command line, ready: its model built or loaded, its defaults resolved.
-io::ReadyScene prepare(const std::string& what, const ProgressFn& progress, bool paper = false) {
+// `cuts`: the caller plays the scene's scalpels (else a warning says they are ignored).
+io::ReadyScene prepare(const std::string& what, const ProgressFn& progress, bool paper = false,
+                       bool cuts = false) {
   io::ReadyScene ready =
       io::make_ready_scene(io::scene_for(what, paper), volume_read_options, progress);
-  io::warn_scalpels_ignored(ready.scene);
+  if (!cuts) io::warn_scalpels_ignored(ready.scene);
   return ready;
 }
 
@@ -201,15 +204,25 @@ int run_render(const RenderArgs& a) {
   render::HeadlessContext context;
   render::Renderer renderer;
 
-  const io::ReadyScene p = prepare(a.what, stderr_progress(a.verbose));
-  const Model& m = *p.model;
+  const io::ReadyScene p =
+      prepare(a.what, stderr_progress(a.verbose), /*paper=*/false, /*cuts=*/true);
   sim::Simulation s = io::make_scene_simulation(p);
-  interact::ToolDriver driver =
-      io::make_tool_driver(p.scene, /*warn_scalpels=*/false);  // prepare()
+  interact::ToolDriver driver = io::make_tool_driver(p.scene, /*warn_scalpels=*/false);
+  // A scene's scalpels cut as the run's do: the picture is of the model they leave.
+  std::shared_ptr<const Model> model = p.model;
+  interact::ScalpelDriver scalpels;
+  if (!p.scene.scalpels.empty()) {
+    if (!model->has_tets())
+      throw invalid_input(p.scene.source,
+                          "tools: a scalpel cuts the tetrahedra, and the model has none");
+    scalpels = interact::make_scalpel_driver(p.scene.scalpels, *model);
+  }
   while (s.time_s < a.at_s - 1e-9 * std::max(1.0, a.at_s)) {
+    if (!scalpels.scalpels.empty()) interact::advance_scalpels(scalpels, model, s, driver);
     interact::apply_tools(s, driver);
     sim::step(s);
   }
+  const Model& m = *model;
 
   render::Frame frame;
   frame.model = &m;

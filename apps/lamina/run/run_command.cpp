@@ -29,6 +29,7 @@
 #include "lamina/io/mesh_file.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/summary_json.h"
+#include "lamina/model/cut_tetrahedra.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/structure_colors.h"
 #include "lamina/model/summarize_model.h"
@@ -197,9 +198,10 @@ struct RunOutputs {
   fs::path out;
   std::vector<Series> series;
   bool obj = false;
+  bool embedded = true;  // scene.output.embedded: a series per embedded surface
 
   RunOutputs(const fs::path& folder, const io::Scene& scene, const Model& m, int32_t keep_frames)
-      : out(folder), obj(scene.output.obj) {
+      : out(folder), obj(scene.output.obj), embedded(scene.output.embedded) {
     std::set<std::string> names;
     for (int32_t k = 0; k < (scene.output.all_layers ? m.layer_count() : 1); ++k) {
       Series& se = series.emplace_back();
@@ -221,7 +223,9 @@ struct RunOutputs {
       names.insert(se.name);
     }
     create_folder(out / "frames");
-    remove_stale_frames(out / "frames", names, keep_frames);
+    std::set<std::string> stale = names;
+    stale.insert(model::kWoundName);  // a cut's wound series, which starts at the first cut
+    remove_stale_frames(out / "frames", stale, keep_frames);
   }
 
   void write_frames(const sim::Simulation& s, io::RunProgress& so_far) {
@@ -229,11 +233,28 @@ struct RunOutputs {
     ++so_far.frame;
   }
 
-  // A cut changed the layers' triangles (the cut surface's two sides are on both pieces'
-  // copies); the embedded surfaces keep theirs, carried by the copies on their side.
+  // A cut changed the layers' triangles (a triangle the cut divides is on both sides' copies)
+  // and added to the wound (an embedded surface of its own, whose series starts with the first
+  // cut); the other embedded surfaces keep theirs, carried by the copies on their side.
   void follow_cut(const Model& m) {
     for (Series& se : series)
-      if (se.embedded < 0) se.mesh.F = model::layer_mesh(m, se.layer).F;
+      se.mesh.F = se.embedded < 0 ? model::layer_mesh(m, se.layer).F
+                                  : m.embedded[static_cast<size_t>(se.embedded)].F;
+    if (!embedded) return;
+    const std::vector<model::Rgb8> colors = model::structure_colors(m);
+    for (size_t k = 0; k < m.embedded.size(); ++k) {
+      if (static_cast<int32_t>(k) == model::display_skin_index(m) ||
+          std::any_of(series.begin(), series.end(),
+                      [&](const Series& se) { return se.embedded == static_cast<int32_t>(k); }))
+        continue;
+      std::set<std::string> names;
+      for (const Series& se : series) names.insert(se.name);
+      Series& se = series.emplace_back();
+      se.name = series_name(m.embedded[k].name, names);
+      se.embedded = static_cast<int32_t>(k);
+      se.mesh.F = m.embedded[k].F;
+      se.color = colors[k];
+    }
   }
 
   bool frame_written_at(double time_s) const { return series.front().files.back().first == time_s; }

@@ -90,6 +90,11 @@ struct CutReport {
   std::vector<StructureCut> structures_cut;
 };
 
+/// The name of the embedded surface a cut adds to the model (label 0, like the display skin):
+/// the wound, each side's cut surface inside the organ, carried by the copies on that side
+/// (its vertices on their edges), so it opens as the cut does. Each cut adds its part.
+inline constexpr const char* kWoundName = "wound";
+
 /// A copy never carries less than this share of its tetrahedron's material (nor more than one
 /// minus it): a node the blade grazes keeps a mass and a stiffness in proportion, never a zero
 /// pivot (the shares of the two copies still sum to the tetrahedron's own).

@@ -76,6 +76,17 @@ struct Division {
 void divide_tets(const Eigen::MatrixX4i& T, const Crossings& crossings,
                  std::vector<Division>& divided, int64_t& partly);
 
+/// Adds the cut's wound to the embedded surface kWoundName of `embedded` (made if absent): per
+/// divided tetrahedron (divided[k], whose copies in the cut model are first_copy[k], carrying
+/// its side, and first_copy[k] + 1), the polygon through the crossings of its edges between the
+/// sides at rest, on each copy, facing out of that copy's material, its corners embedded on the
+/// copy's edges (cut_T: the cut model's tetrahedra); one mesh per side, sharing vertices where
+/// copies share nodes.
+void add_wound(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
+               const std::vector<Division>& divided, const std::vector<int32_t>& first_copy,
+               const Crossings& crossings, const Eigen::MatrixX4i& cut_T,
+               std::vector<EmbeddedSurface>& embedded);
+
 /// The share of a tetrahedron's volume on the side `side` (corner bitmask) of a cut crossing
 /// each edge from corner i (on the side) to corner j (off it) at fraction s[i][j] from i: exact
 /// for a planar cut.

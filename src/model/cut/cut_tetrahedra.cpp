@@ -496,6 +496,11 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
       for (int k = 0; k < 4; ++k) s.corners(v, k) = new_node(c, corner_of(T, t, cs[k]));
     }
 
+  // The wound: each side's cut surface, on the copies of that side.
+  std::vector<int32_t> first_copy(divided.size());
+  for (size_t k = 0; k < divided.size(); ++k) first_copy[k] = copies.first[divided[k].tet];
+  detail::add_wound(model.X, T, divided, first_copy, crossings, m.tets.T, m.embedded);
+
   // Pieces: the connected parts of the copies.
   UnionFind parts(static_cast<size_t>(nn));
   for (int32_t c = 0; c < ncopies; ++c)
