@@ -48,6 +48,10 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
   out.tet_springs.resize(nt, 6);
   out.q_n_per_m = Eigen::Matrix<double, Eigen::Dynamic, 21, Eigen::RowMajor>::Zero(nt, 21);
   out.rest_volume_mm3.resize(static_cast<size_t>(nt));
+  // Each tetrahedron on its own, in parallel (a cut identifies every tetrahedron again: most of
+  // its update at paper size); the springs' sums below, in tetrahedron order as ever.
+  Eigen::Index bad = nt;  // the first tetrahedron whose edge is no spring
+#pragma omp parallel for schedule(static) reduction(min : bad)
   for (Eigen::Index t = 0; t < nt; ++t) {
     Eigen::Vector3d p[4];
     for (int c = 0; c < 4; ++c) p[c] = m.X.row(m.tets.T(t, c)).transpose();
@@ -59,11 +63,8 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
     for (int k = 0; k < 6; ++k) {
       const int a = m.tets.T(t, kTetEdge[k][0]), b = m.tets.T(t, kTetEdge[k][1]);
       const int32_t e = find_spring(sp, a, b);
-      if (e < 0)
-        throw invalid_input(m.source, "tetrahedron " + std::to_string(t) + ": edge " +
-                                          std::to_string(a) + "-" + std::to_string(b) +
-                                          " is not a spring of the model");
-      out.tet_springs(t, k) = e;
+      if (e < 0) bad = std::min(bad, t);
+      out.tet_springs(t, k) = std::max(e, 0);
       const Eigen::Vector3d edge = p[kTetEdge[k][1]] - p[kTetEdge[k][0]];
       const double L = edge.norm();
       const Eigen::Vector3d d = edge / L;
@@ -79,10 +80,8 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
     const double share = m.tets.share_of(t);
     const Mat6 Q = share * volume * Ainv.transpose() * C * Ainv;
     if (coupled) {
-      for (int k = 0, at = 0; k < 6; ++k) {
-        out.spring_n_per_m[static_cast<size_t>(out.tet_springs(t, k))] += Q(k, k);
+      for (int k = 0, at = 0; k < 6; ++k)
         for (int j = k; j < 6; ++j) out.q_n_per_m(t, at++) = Q(k, j);
-      }
       continue;
     }
     // Independent springs (Lloyd et al. 2007): the six constants whose stiffness matrix
@@ -104,11 +103,22 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
     const Vec6 s = G.ldlt().solve(rhs);
     // A constant the fit drives negative (a flat-ish element) is left at zero: the edge's other
     // tetrahedra still hold it.
-    for (int k = 0, at = 0; k < 6; at += 6 - k, ++k) {
-      out.q_n_per_m(t, at) = std::max(s[k], 0.0);
-      out.spring_n_per_m[static_cast<size_t>(out.tet_springs(t, k))] += out.q_n_per_m(t, at);
-    }
+    for (int k = 0, at = 0; k < 6; at += 6 - k, ++k) out.q_n_per_m(t, at) = std::max(s[k], 0.0);
   }
+  if (bad < nt) {
+    const Eigen::Index t = bad;
+    int32_t a = -1, b = -1;
+    for (int k = 0; k < 6 && a < 0; ++k)
+      if (find_spring(sp, m.tets.T(t, kTetEdge[k][0]), m.tets.T(t, kTetEdge[k][1])) < 0)
+        a = m.tets.T(t, kTetEdge[k][0]), b = m.tets.T(t, kTetEdge[k][1]);
+    throw invalid_input(m.source, "tetrahedron " + std::to_string(t) + ": edge " +
+                                      std::to_string(a) + "-" + std::to_string(b) +
+                                      " is not a spring of the model");
+  }
+  // Each spring's constant: its tetrahedra's diagonal terms (Q's (k, k) at 0, 6, 11, 15, 18, 20).
+  for (Eigen::Index t = 0; t < nt; ++t)
+    for (int k = 0, at = 0; k < 6; at += 6 - k, ++k)
+      out.spring_n_per_m[static_cast<size_t>(out.tet_springs(t, k))] += out.q_n_per_m(t, at);
   return out;
 }
 
