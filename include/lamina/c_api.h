@@ -187,6 +187,26 @@ lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats*
 /* Puts every node back at rest (time 0); tool tip and forces are kept, the grasper opened. */
 lamina_status lamina_sim_reset(lamina_sim* sim);
 
+/* What a cut did. */
+typedef struct lamina_cut_report {
+  int64_t cut_tets;        /* tetrahedra divided (each is now two copies, one per side) */
+  int32_t new_nodes;       /* nodes added: lamina_sim_node_count grows by this much */
+  int32_t pieces;          /* connected pieces of the organ after it */
+  double largest_piece_ml; /* the largest piece's volume, mL */
+  int32_t structures_cut;  /* embedded structures (vessels, tumours) the blade cut across */
+} lamina_cut_report;
+
+/* Cuts the organ at once with a scalpel drawn on its current shape: the blade's upper end
+ * along the `points` points of `path_xyz` (mm, interleaved, >= 2), reaching depth_mm along
+ * `direction` (into the tissue). The tetrahedra it divides become two copies each (the virtual
+ * node algorithm): the model (lamina_sim_model: the same handle, now the cut model), the node
+ * count and every node index change (take positions and skin nodes again); forces, the tool tip
+ * and the grasper carry over. `report` (may be NULL) says what it divided.
+ * LAMINA_ERROR_INVALID_INPUT, nothing changed, for a bad path, depth or direction or a model
+ * without tetrahedra. */
+lamina_status lamina_sim_cut(lamina_sim* sim, const double* path_xyz, int32_t points,
+                             const double direction[3], double depth_mm, lamina_cut_report* report);
+
 int32_t lamina_sim_node_count(const lamina_sim* sim);
 /* The simulation's model (owned by the simulation: do not free). */
 const lamina_model* lamina_sim_model(const lamina_sim* sim);

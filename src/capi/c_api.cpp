@@ -449,6 +449,42 @@ lamina_status lamina_sim_reset(lamina_sim* sim) {
   });
 }
 
+lamina_status lamina_sim_cut(lamina_sim* sim, const double* path_xyz, int32_t points,
+                             const double direction[3], double depth_mm,
+                             lamina_cut_report* report) {
+  return guarded([&] {
+    lamina_sim& s = need(sim, "lamina_sim_cut: sim");
+    need(path_xyz, "lamina_sim_cut: path_xyz");
+    need(direction, "lamina_sim_cut: direction");
+    if (points < 2 || points > 1'000'000)
+      throw lamina::invalid_input("lamina_sim_cut: points",
+                                  "must be 2..1000000, got " + std::to_string(points));
+    std::vector<Eigen::Vector3d> path(static_cast<size_t>(points));
+    for (int32_t k = 0; k < points; ++k)
+      path[static_cast<size_t>(k)] =
+          Eigen::Vector3d(path_xyz[3 * k], path_xyz[3 * k + 1], path_xyz[3 * k + 2]);
+    if (!s.model.model->has_tets())
+      throw lamina::invalid_input("lamina_sim_cut",
+                                  "the model has no tetrahedra: only a model with tetrahedra "
+                                  "can be cut");
+    s.loop->cut(std::move(path), Eigen::Vector3d(direction[0], direction[1], direction[2]),
+                depth_mm);
+    s.loop->run_steps(0);  // the cut, now, on this thread
+    s.loop->latest(s.snapshot);
+    if (!s.snapshot.cut_error.empty())
+      throw lamina::invalid_input("lamina_sim_cut", s.snapshot.cut_error);
+    if (s.snapshot.model) s.model.model = s.snapshot.model;
+    s.embedded_x.resize(s.model.model->embedded.size());
+    if (report == nullptr) return;
+    const lamina::model::CutReport& r = s.snapshot.last_cut;
+    report->cut_tets = r.cut_tets;
+    report->new_nodes = r.new_nodes;
+    report->pieces = static_cast<int32_t>(r.pieces.size());
+    report->largest_piece_ml = r.pieces.empty() ? 0.0 : r.pieces[0].volume_mm3 / 1000.0;
+    report->structures_cut = static_cast<int32_t>(r.structures_cut.size());
+  });
+}
+
 int32_t lamina_sim_node_count(const lamina_sim* sim) {
   return sim ? sim->model.model->node_count() : 0;
 }

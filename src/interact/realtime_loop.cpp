@@ -12,6 +12,7 @@
 #include "lamina/interact/grasp.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pacer.h"
+#include "lamina/interact/scalpel.h"
 
 namespace lamina::interact {
 namespace {
@@ -27,10 +28,15 @@ double now_s() {
 
 RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
                            const LoopOptions& options)
-    : sim_(std::move(sim)), routing_(routing), options_(options), rate_hz_(options.rate_hz) {
+    : sim_(std::move(sim)),
+      routing_(routing),
+      options_(options),
+      rings_locality_(sim_.model().rings.locality),
+      rate_hz_(options.rate_hz) {
   check_routing(routing_, sim_.model().rings.locality);  // here, not in the stepping thread
   stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
+  model_ = std::shared_ptr<const Model>(std::shared_ptr<const Model>(), &sim_.model());
   // At the step the clock gives: auto's trial, the multigrid or projective dynamics' factor are
   // made here, not in the stepping thread's first step (a 0.8 s hitch at 6,228 nodes and 60 Hz
   // in the viewer).
@@ -101,8 +107,8 @@ void RealtimeLoop::set_grasper(const std::optional<Jaws>& jaws) {
     bool any = false;
     {
       std::lock_guard snap(snapshot_mutex_);
-      any = anything_under_jaws(sim_.model(), published_.x.rows() ? published_.x : sim_.model().X,
-                                *jaws);
+      // The published model and shape: a cut replaces sim_ on the stepping thread.
+      any = anything_under_jaws(*published_.model, published_.x, *jaws);
     }
     if (!any)
       throw invalid_input("grasper", fmt::format("nothing under the jaws: no skin node within {} "
@@ -118,7 +124,7 @@ void RealtimeLoop::set_grasper(const std::optional<Jaws>& jaws) {
 void RealtimeLoop::set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
                                   const RoutingOptions& routing) {
   // Validate now, on the caller's thread, so that the error reaches the caller.
-  check_routing(routing, sim_.model().rings.locality);
+  check_routing(routing, rings_locality_);  // a cut keeps the rings' locality
   sim::check_parameters(material, solver);  // throws, naming the bad parameter
   std::lock_guard lock(mutex_);
   new_params_ = Params{material, solver, routing};
@@ -155,6 +161,7 @@ void RealtimeLoop::run_steps(int64_t steps) {
     std::lock_guard lock(mutex_);
     apply_pending();
   }
+  apply_cut();
   for (int64_t k = 0; k < steps && !halted(); ++k) one_step();
   publish(true);
 }
@@ -202,7 +209,66 @@ void RealtimeLoop::apply_pending() {
     jaws_ = *new_jaws_;
     new_jaws_.reset();
   }
+  if (new_cut_) {
+    cut_ = std::move(new_cut_);
+    new_cut_.reset();
+  }
   if (reroute) route_forces();
+}
+
+void RealtimeLoop::cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction,
+                       double depth_mm) {
+  const Scalpel check{.path = path, .depth_direction = direction, .depth_mm = depth_mm};
+  if (const auto problem = scalpel_problem(check))
+    throw invalid_input("cut: " + problem->first, problem->second);
+  std::lock_guard lock(mutex_);
+  new_cut_ = CutRequest{std::move(path), direction, depth_mm};
+  wake_.notify_all();
+}
+
+// The cut, on the stepping thread between two steps, without the caller's lock (it takes tens
+// of milliseconds at paper size): the tools' nodes move to the copies (cut_simulation()); the
+// tip's proxy starts afresh on the cut shape.
+void RealtimeLoop::apply_cut() {
+  if (!cut_) return;
+  const CutRequest c = std::move(*cut_);
+  cut_.reset();
+  ToolDriver d;
+  d.routing = routing_;
+  for (const LiveForce& f : forces_) {
+    Tool t;
+    t.vertex = f.node;
+    d.tools.push_back(t);
+  }
+  d.routes = routes_;
+  d.touched = touched_;
+  d.loads = loads_;
+  d.grasps = {grasp_};
+  try {
+    std::vector<int32_t> origin;
+    const model::CutReport r = cut_now(model_, sim_, d, c.path, c.direction, c.depth_mm, origin);
+    cut_error_.clear();
+    if (r.cut_tets > 0) {
+      for (size_t k = 0; k < forces_.size(); ++k) forces_[k].node = d.tools[k].vertex;
+      routes_ = std::move(d.routes);
+      touched_ = std::move(d.touched);
+      loads_ = std::move(d.loads);
+      grasp_ = std::move(d.grasps[0]);
+      tip_route_ = {};
+      proxy_ = {};
+      tip_contact_ = -1;
+      ++model_version_;
+      ++cuts_;
+      for (const model::StructureCut& x : r.structures_cut)
+        log::warn("cut: {} cut across at ({:.1f}, {:.1f}, {:.1f}) mm, {:.1f} mm wide", x.name,
+                  x.position_mm.x(), x.position_mm.y(), x.position_mm.z(), x.diameter_mm);
+    }
+    last_cut_ = r;
+  } catch (const Error& e) {
+    cut_error_ = e.what();
+    log::warn("{}", cut_error_);
+  }
+  publish(true);
 }
 
 // Live forces are routed on the shape at the moment they change (as the paper routes a tool
@@ -345,6 +411,11 @@ void RealtimeLoop::publish(bool force) {
   s.grasped_nodes = grasp_.nodes;
   s.lock_waits = lock_waits_;
   s.longest_lock_wait_us = longest_lock_wait_us_;
+  s.model = model_;
+  s.model_version = model_version_;
+  s.cuts = cuts_;
+  s.last_cut = last_cut_;
+  s.cut_error = cut_error_;
   ++s.generation;
 }
 
@@ -365,6 +436,7 @@ void RealtimeLoop::thread_main() {
       wake_.wait_for(lock, std::chrono::milliseconds(20));
       apply_pending();
       lock.unlock();
+      apply_cut();
       publish(true);
       acquire(lock);
       pacer.restart();
@@ -373,6 +445,7 @@ void RealtimeLoop::thread_main() {
     apply_pending();
     pacer.set_rate(rate_hz_);
     lock.unlock();
+    apply_cut();
 
     late_us_ = pacer.lateness_us();
     one_step();

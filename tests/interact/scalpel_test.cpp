@@ -10,6 +10,7 @@
 #include <numeric>
 
 #include "lamina/core/error.h"
+#include "lamina/interact/realtime_loop.h"
 #include "lamina/interact/run_tools.h"
 #include "support/tet_phantom.h"
 
@@ -225,6 +226,49 @@ TEST(Scalpel, OnACutOrganTheLoadIsTheReactionAndAFreedPieceComesToRest) {
   EXPECT_TRUE(at_rest) << "the freed piece did not come to rest";
   EXPECT_LT(later, 0.5 * released) << "its motion did not die away";
   EXPECT_EQ(sim::inverted_tets(m, sim.x), 0);
+}
+
+// The realtime loop (the viewer's, the server's, the C API's) cuts between two steps: the model
+// it publishes is the cut one, a live force keeps acting on the copies of its node, and the
+// pieces come apart.
+TEST(Scalpel, TheRealtimeLoopCutsBetweenTwoStepsAndItsForcesCarryOver) {
+  const Model& m = test::tet_phantom();
+  const Across a = across();
+  sim::Simulation s = held();
+  interact::RealtimeLoop loop(
+      std::move(s), {.routing = interact::Routing::kNone, .touch = interact::Touch::kSkin},
+      {.real_time = false});
+  int32_t node = -1;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (m.X(i, 0) < a.x0 - 15 && (node < 0 || m.X(i, 1) < m.X(node, 1))) node = i;
+  loop.set_forces({{.node = node, .force_mn = Eigen::Vector3d(0, 30, 0)}});
+  loop.run_steps(20);
+  interact::LoopSnapshot before;
+  ASSERT_TRUE(loop.latest(before));
+  EXPECT_EQ(before.model_version, 0u);
+  EXPECT_EQ(before.model.get(), &m);
+  EXPECT_THROW(loop.cut({a.scalpel.path[0]}, Eigen::Vector3d::UnitZ(), 10.0), Error);
+
+  loop.cut(a.scalpel.path, a.scalpel.depth_direction, a.scalpel.depth_mm);
+  loop.run_steps(20);
+  interact::LoopSnapshot after;
+  ASSERT_TRUE(loop.latest(after));
+  ASSERT_EQ(after.model_version, 1u);
+  ASSERT_TRUE(after.model);
+  EXPECT_EQ(after.cuts, 1);
+  EXPECT_EQ(after.cut_error, "");
+  EXPECT_EQ(after.last_cut.pieces.size(), 2u);
+  EXPECT_GT(after.model->node_count(), m.node_count());
+  ASSERT_EQ(after.x.rows(), after.model->node_count());
+  EXPECT_TRUE(after.x.allFinite());
+  // The force acts on the node's copy, on the new model's skin, where it acted.
+  ASSERT_EQ(after.contact_nodes.size(), 1u);
+  const int32_t at = after.contact_nodes[0];
+  ASSERT_GE(at, 0);
+  ASSERT_LT(at, after.model->layers[0].node_count);
+  EXPECT_LT((after.model->X.row(at) - m.X.row(node)).norm(), 10.0);
+  EXPECT_GT(after.x(at, 1) - after.model->X(at, 1), before.x(node, 1) - m.X(node, 1))
+      << "the force stopped pushing";
 }
 
 TEST(Scalpel, BadScalpelsAreNamed) {

@@ -2,9 +2,10 @@
 // docs/testing.md). interact::RealtimeLoop steps on its own thread while another thread does
 // what the viewer's frame loop does, as fast as it can: copies the latest snapshot, moves the
 // mouse force, pins and releases forces, moves the tool tip, changes parameters (including the
-// integrator, which rebuilds the projective solver on the loop's side), pauses, resets and
-// changes the rate. Any data race is a TSan report and a non-zero exit; the program also checks
-// that it saw snapshots advance and that the model stayed finite.
+// integrator, which rebuilds the projective solver on the loop's side), pauses, resets,
+// changes the rate and cuts the organ (twice: the loop's model and snapshot then change size). Any
+// data race is a TSan report and a non-zero exit; the program also checks that it saw snapshots
+// advance and that the model stayed finite.
 //   tsan_loop_handoff MODEL.vtu [SECONDS]
 #include <Eigen/Core>
 #include <atomic>
@@ -48,7 +49,8 @@ int main(int argc, char** argv) {
     if (t > seconds) break;
     if (loop.latest(snap)) {
       ++fresh;
-      if (snap.generation <= last_generation || !snap.x.allFinite()) {
+      if (snap.generation <= last_generation || !snap.x.allFinite() || !snap.model ||
+          snap.x.rows() != snap.model->node_count()) {
         std::fprintf(stderr, "snapshot %llu not newer or not finite\n",
                      static_cast<unsigned long long>(snap.generation));
         return 1;
@@ -88,6 +90,14 @@ int main(int argc, char** argv) {
         break;
       case 7:
         loop.set_rate(frames % 2 ? 1000.0 : 3000.0);
+        if (frames == 1006 || frames == 4003) {  // a plane across the organ, then another
+          const Eigen::Vector3d lo = model.X.colwise().minCoeff(),
+                                hi = model.X.colwise().maxCoeff();
+          const double x = lo.x() + (frames == 1006 ? 0.4 : 0.6) * (hi.x() - lo.x());
+          loop.cut({Eigen::Vector3d(x, lo.y() - 5, lo.z() - 5),
+                    Eigen::Vector3d(x, hi.y() + 5, lo.z() - 5)},
+                   Eigen::Vector3d::UnitZ(), hi.z() - lo.z() + 10);
+        }
         break;
       default:
         loop.set_paused(false);
@@ -97,9 +107,9 @@ int main(int argc, char** argv) {
   }
   loop.stop();
   std::printf(
-      "tsan_loop_handoff: %llu viewer frames, %llu fresh snapshots, %lld steps, model "
-      "finite: yes\n",
+      "tsan_loop_handoff: %llu viewer frames, %llu fresh snapshots, %lld steps, %lld cuts, "
+      "model finite: yes\n",
       static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fresh),
-      static_cast<long long>(snap.steps));
+      static_cast<long long>(snap.steps), static_cast<long long>(snap.cuts));
   return fresh > 10 ? 0 : 1;
 }

@@ -13,14 +13,17 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "lamina/interact/grasp.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/tools.h"
+#include "lamina/model/cut_tetrahedra.h"
 #include "lamina/sim/simulation.h"
 
 namespace lamina::interact {
@@ -71,6 +74,16 @@ struct LoopSnapshot {
   /// so a wait of more than milliseconds is a bug on any machine (the serve tests check it).
   int64_t lock_waits = 0;
   double longest_lock_wait_us = 0.0;
+  /// The model x is of: the one the loop was made with until a cut (RealtimeLoop::cut()) made
+  /// another; model_version counts the cuts that divided tetrahedra (0: uncut).
+  std::shared_ptr<const Model> model;
+  uint64_t model_version = 0;
+  /// The cuts so far: how many divided tetrahedra, the last one's report (its pieces, the
+  /// structures it crossed, where they are then), and a cut refused on the stepping thread
+  /// (empty if none; a bad path is refused by cut() itself).
+  int64_t cuts = 0;
+  model::CutReport last_cut;
+  std::string cut_error;
 };
 
 /// The tissue's push back on the tools after one step: updated every step, a haptic device's
@@ -111,6 +124,13 @@ class RealtimeLoop {
   /// New rate (0 = as fast as possible). In real time the step becomes 1 / rate_hz.
   void set_rate(double rate_hz);
   void set_paused(bool paused);
+  /// Cuts the organ at once with a scalpel drawn on its current shape (interact::cut_now():
+  /// the blade's upper end along `path`, reaching depth_mm along `direction`), between two
+  /// steps; the live forces, the grasper's hold and the tip carry over to the cut model, whose
+  /// nodes are numbered anew (LoopSnapshot::model, model_version: a caller that names nodes
+  /// takes them from the new model). Throws lamina::Error (kInvalidInput), nothing queued, for
+  /// a bad path, depth or direction (scalpel_problem()).
+  void cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm);
   /// Puts every node back at rest with zero velocity and time 0; forces are kept. The way on
   /// after the simulation became unstable (LoopSnapshot::stats.unstable): the loop stops
   /// stepping then, and its reaction is zero, so that a haptic device feels nothing wild.
@@ -127,6 +147,8 @@ class RealtimeLoop {
   /// fixed-step tools that want the same physics without a thread.
   void run_steps(int64_t steps);
 
+  /// The model the loop was made with, or the last cut's (only while the loop is stopped, or
+  /// from the stepping thread: a running loop's cut replaces it; LoopSnapshot::model otherwise).
   const Model& model() const { return sim_.model(); }
 
  private:
@@ -134,6 +156,7 @@ class RealtimeLoop {
   // Unstable (sim::Instability): the loop stops stepping, and its reaction is zero, until reset().
   bool halted() const { return last_stats_.unstable != sim::Instability::kNone; }
   void apply_pending();  // under mutex_
+  void apply_cut();      // a cut taken by apply_pending, made unlocked
   void route_forces();
   void move_grasper();
   void one_step();
@@ -145,6 +168,9 @@ class RealtimeLoop {
   sim::Simulation sim_;
   RoutingOptions routing_;
   LoopOptions options_;
+  // The model's rings' locality, for the callers' checks (sim_ is the stepping thread's: a cut
+  // replaces it; a cut model's rings have the same locality).
+  const int32_t rings_locality_;
 
   // Commands from the caller, guarded by mutex_.
   mutable std::mutex mutex_;
@@ -161,6 +187,12 @@ class RealtimeLoop {
     RoutingOptions routing;
   };
   std::optional<Params> new_params_;
+  struct CutRequest {
+    std::vector<Eigen::Vector3d> path;
+    Eigen::Vector3d direction;
+    double depth_mm;
+  };
+  std::optional<CutRequest> new_cut_;
   double rate_hz_ = 1000.0;
 
   // Owned by the stepping thread.
@@ -168,6 +200,12 @@ class RealtimeLoop {
   // check once read rate_hz_ itself, unlocked (found by TSan in CI's run).
   double stepping_rate_hz_ = 1000.0;
   std::vector<LiveForce> forces_;
+  std::optional<CutRequest> cut_;       // taken from new_cut_, made outside the lock
+  std::shared_ptr<const Model> model_;  // the model sim_ runs on (not owned until a cut)
+  uint64_t model_version_ = 0;
+  int64_t cuts_ = 0;
+  model::CutReport last_cut_;
+  std::string cut_error_;
   ToolTip tip_;
   std::vector<ForceRoute> routes_;
   std::vector<int32_t> touched_;
