@@ -157,6 +157,40 @@ TEST_F(ViewSessionTest, ADragOnTheOrganDentsItAndReleaseLetsItReturnToRest) {
   EXPECT_EQ(r["recoveries"], 0);
 }
 
+// K, then a drag across the organ: the release cuts along the traced path (the blade along the
+// view, the panel's depth under it); the session shows the cut model from then on, with as many
+// positions as it has nodes, and the cut organ stays at rest.
+TEST_F(ViewSessionTest, TheScalpelCutsAlongTheDragAndTheCutModelIsShown) {
+  ViewSession s(fast_options(), sphere_view_model());
+  s.start();
+  const int32_t before = s.model().node_count();
+  render::inject(InputEvent::key_down("k"));
+  render::inject(InputEvent::key_up("k"));
+  s.frame();
+  const Eigen::Vector2d c = render::window_size().cast<double>() / 2.0;
+  render::inject(InputEvent::move_to(c - Eigen::Vector2d(150, 0)));
+  s.frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s.frame();
+  EXPECT_THAT(s.last_press(), HasSubstr("scalpel"));
+  for (int i = 1; i <= 20; ++i) {
+    render::inject(InputEvent::move_to(c + Eigen::Vector2d(-150.0 + 15.0 * i, 0)));
+    s.frame();
+  }
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+  ASSERT_TRUE(frames_until(
+      s, [&] { return s.report()["cuts"].get<int>() >= 1; }, 30.0))
+      << "no cut";
+  EXPECT_GT(s.model().node_count(), before);
+  EXPECT_EQ(s.report()["nodes"].get<int>(), s.model().node_count());
+  ASSERT_TRUE(simulate_for(s, 0.5));
+  s.frame();
+  EXPECT_EQ(render::positions(ViewSession::kModelName).rows(), s.model().node_count());
+  EXPECT_LT(largest_displacement(s), 0.5) << "the cut organ did not stay at rest";
+  EXPECT_EQ(s.report()["recoveries"], 0);
+}
+
 TEST_F(ViewSessionTest, ShiftAtReleasePinsTheForceUntilC) {
   ViewSession s(fast_options(), sphere_view_model());
   s.start();

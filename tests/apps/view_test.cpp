@@ -176,6 +176,30 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
     std::fprintf(stderr, "note: this machine kept %.2fx real time at worst\n", min_rtf);
 }
 
+TEST(View, RealMouseEventsFromXdotoolCutTheOrganInScalpelMode) {
+  // K, then a real drag across the organ: the release cuts it along the drag (the report counts
+  // the cut and the cut model's nodes), and the cut organ, nothing pulling it, stays at rest.
+  test::TempDir dir;
+  std::ofstream(dir.path / "quit.json") << R"({"events": [{"at": 12.0, "quit": true}]})";
+  const std::string session =
+      quoted(test::lamina_cli()) + " -v view --script quit.json --report report.json & " +
+      "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
+      "xdotool mousemove --window $w 600 440 sleep 0.5 key k sleep 0.5 mousedown 1 sleep 1.0 "
+      "mousemove --window $w 700 440 sleep 0.2 mousemove --window $w 800 440 sleep 0.2 "
+      "mousemove --window $w 900 440 sleep 0.2 mousemove --window $w 1000 440 sleep 0.2 "
+      "mousemove --window $w 1100 440 sleep 1.0 mouseup 1; wait";
+  std::ofstream(dir.path / "session.sh") << session << "\n";
+  const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json rep = json::parse(test::read_text(dir.path / "report.json"));
+  EXPECT_EQ(rep["cuts"], 1) << "the drag did not cut\n" << r.err;
+  EXPECT_GT(rep["nodes"].get<int>(), 2321) << "the cut model was not adopted";
+  EXPECT_NE(r.err.find("lamina view: cut "), std::string::npos) << r.err;
+  EXPECT_LT(rep["max_displacement_mm"].get<double>(), 0.5) << "the cut organ moved";
+  EXPECT_EQ(rep["recoveries"], 0);
+  EXPECT_EQ(rep["unstable_events"], 0);
+}
+
 TEST(View, WithoutADisplaySaysSoAndSuggestsRender) {
   test::TempDir dir;
   const auto r =

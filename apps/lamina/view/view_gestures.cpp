@@ -28,6 +28,8 @@ const char* gesture_name(Gesture g) {
       return "a tool-tip move";
     case Gesture::kGrasp:
       return "a grasp";
+    case Gesture::kScalpel:
+      return "a cut";
     case Gesture::kNone:
       break;
   }
@@ -53,10 +55,13 @@ void ViewSession::State::handle_key(const std::string& key) {
     scene_grasp = false;
   } else if (key == "t") {
     tool_mode = !tool_mode;
-    grasp_mode = false;
+    grasp_mode = scalpel_mode = false;
   } else if (key == "g") {
     grasp_mode = !grasp_mode;
-    tool_mode = false;
+    tool_mode = scalpel_mode = false;
+  } else if (key == "k") {
+    scalpel_mode = !scalpel_mode;
+    tool_mode = grasp_mode = false;
   } else if (key == "d") {
     style.display_skin = !style.display_skin;  // the display skin or the simulation's
   }
@@ -73,7 +78,15 @@ void ViewSession::State::start_left_gesture(const render::Input& in) {
   if (have_x) hit = interact::pick_skin(vm->model, snap.x, ray.origin, ray.direction);
   const std::string where = fmt::format("press at ({:.0f}, {:.0f}) of {}x{}", in.mouse_px.x(),
                                         in.mouse_px.y(), size.x(), size.y());
-  if (grasp_mode && hit.node >= 0) {
+  if (scalpel_mode) {
+    // The blade's path starts where the press meets the skin (or, off the organ, at the depth
+    // of the organ's centre); the blade goes in along the view direction.
+    gesture = Gesture::kScalpel;
+    scalpel_dir = ray.direction.normalized();
+    scalpel_reach_mm = hit.node >= 0 ? hit.distance_mm : (camera.target - ray.origin).norm();
+    scalpel_path = {ray.origin + scalpel_reach_mm * ray.direction};
+    last_press = where + (hit.node >= 0 ? ": scalpel on the organ" : ": scalpel beside the organ");
+  } else if (grasp_mode && hit.node >= 0) {
     // The jaws close on the picked node and the skin around it; the drag moves them. A grasp
     // still holding (Shift-held, or the scene's) opens first: set_grasper on closed jaws would
     // carry what they hold to the new point.
@@ -195,9 +208,42 @@ void ViewSession::State::handle_mouse(const render::Input& in) {
       if (!left_down) gesture = Gesture::kNone;
       break;
     }
+    case Gesture::kScalpel: {
+      const render::Ray ray =
+          render::pixel_ray(camera, size.x(), size.y(), in.mouse_px.x(), in.mouse_px.y());
+      interact::SkinHit hit;
+      if (snap.x.rows() == vm->model.node_count())
+        hit = interact::pick_skin(vm->model, snap.x, ray.origin, ray.direction);
+      if (hit.node >= 0) scalpel_reach_mm = hit.distance_mm;
+      const Eigen::Vector3d p = ray.origin + scalpel_reach_mm * ray.direction;
+      if ((p - scalpel_path.back()).norm() >= 0.5) scalpel_path.push_back(p);
+      if (!left_down) {
+        gesture = Gesture::kNone;
+        cut_along_path();
+      }
+      break;
+    }
     case Gesture::kNone:
       break;
   }
+}
+
+// The release of a scalpel drag: the blade's upper end 3 mm above the traced path (so that it
+// enters through the skin), reaching the panel's depth under it, along the view direction.
+void ViewSession::State::cut_along_path() {
+  if (scalpel_path.size() < 2) {
+    cut_message = "the drag was too short to cut";
+    return;
+  }
+  std::vector<Eigen::Vector3d> top = scalpel_path;
+  for (Eigen::Vector3d& p : top) p -= 3.0 * scalpel_dir;
+  try {
+    loop->cut(top, scalpel_dir, scalpel_depth_mm + 3.0);
+    cut_message = "cutting...";
+  } catch (const Error& e) {
+    cut_message = e.what();
+  }
+  scalpel_path.clear();
 }
 
 }  // namespace lamina::cli

@@ -126,14 +126,27 @@ void ViewSession::State::panels() {
 
   bool changed = false;
   if (ImGui::CollapsingHeader("Interaction", ImGuiTreeNodeFlags_DefaultOpen)) {
-    int mode = grasp_mode ? 2 : tool_mode ? 1 : 0;
+    int mode = scalpel_mode ? 3 : grasp_mode ? 2 : tool_mode ? 1 : 0;
     ImGui::RadioButton("drag (paper)", &mode, 0);
     ImGui::SameLine();
     ImGui::RadioButton("tool tip (T)", &mode, 1);
     ImGui::SameLine();
     ImGui::RadioButton("grasper (G)", &mode, 2);
+    ImGui::SameLine();
+    ImGui::RadioButton("scalpel (K)", &mode, 3);
     tool_mode = mode == 1;
     grasp_mode = mode == 2;
+    scalpel_mode = mode == 3;
+    if (scalpel_mode) {
+      float depth = static_cast<float>(scalpel_depth_mm);
+      if (ImGui::SliderFloat("blade depth mm", &depth, 2.0f, 120.0f, "%.0f"))
+        scalpel_depth_mm = depth;
+      ImGui::TextWrapped(
+          "Drag across the organ: the release cuts along the drag, %.0f mm deep "
+          "along the view. %lld cut(s).%s%s",
+          scalpel_depth_mm, static_cast<long long>(cuts),
+          cut_message.empty() ? "" : " Last: ", cut_message.c_str());
+    }
     if (grasp_mode) {
       float jr = static_cast<float>(jaws.radius_mm);
       if (ImGui::SliderFloat("jaws radius mm", &jr, 1.0f, 20.0f)) jaws.radius_mm = jr;

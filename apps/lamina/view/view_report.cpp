@@ -71,6 +71,9 @@ nlohmann::json ViewSession::State::report() const {
   j["real_time_factor"] = snap.real_time_factor;
   j["min_real_time_factor"] = min_real_time_factor;
   j["fell_behind"] = behind_seen;
+  j["cuts"] = cuts;
+  j["nodes"] = vm->model.node_count();
+  j["structures_cut"] = static_cast<int64_t>(crossed.size());
   j["drag_node"] = last_drag_node;
   j["drag_peak_displacement_mm"] = drag_peak_mm;
   j["drag_peak_node"] = drag_peak_node;

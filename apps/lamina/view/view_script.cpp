@@ -74,13 +74,13 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
           throw invalid_input(at, "expected a number of wheel clicks");
         ev.scroll = value.get<double>();
       } else if (key == "mode") {
-        if (value != "drag" && value != "tool" && value != "grasp")
-          throw invalid_input(at, "expected \"drag\", \"tool\" or \"grasp\"");
+        if (value != "drag" && value != "tool" && value != "grasp" && value != "scalpel")
+          throw invalid_input(at, "expected \"drag\", \"tool\", \"grasp\" or \"scalpel\"");
         ev.mode = value.get<std::string>();
       } else if (key == "key") {
         if (value != "r" && value != "space" && value != "c" && value != "t" && value != "g" &&
-            value != "d")
-          throw invalid_input(at, "expected \"r\", \"space\", \"c\", \"t\", \"g\" or \"d\"");
+            value != "d" && value != "k")
+          throw invalid_input(at, "expected \"r\", \"space\", \"c\", \"t\", \"g\", \"k\" or \"d\"");
         ev.key = value.get<std::string>();
       } else if (key == "screenshot") {
         if (!value.is_string() || value.get<std::string>().empty())

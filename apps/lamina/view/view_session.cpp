@@ -223,6 +223,7 @@ void ViewSession::State::act_on_script(double t) {
     if (!e.mode.empty()) {
       tool_mode = e.mode == "tool";
       grasp_mode = e.mode == "grasp";
+      scalpel_mode = e.mode == "scalpel";
     }
     if (!e.screenshot.empty()) save_screenshot(e.screenshot);
     if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
@@ -255,6 +256,7 @@ void ViewSession::State::on_frame() {
   watch_instability();
   record_plots();
   adopt_rebuilt();
+  adopt_cut();
   play_scene_grasper();
 
   const render::Input& in = render::input();
@@ -272,6 +274,45 @@ void ViewSession::State::on_frame() {
     view_shot = false;
     save_screenshot(screenshot_path);
   }
+}
+
+// A cut (K) made on the simulation thread: its model is shown from now on, with the
+// simulation's skin and the wound. Node indices change, so the pinned forces are let go (the
+// loop carried them over, but this session names nodes by the old model); the structures it
+// crossed are marked where they were cut.
+void ViewSession::State::adopt_cut() {
+  if (snap.model_version == model_version) {
+    if (!snap.cut_error.empty() && cut_message == "cutting...") cut_message = snap.cut_error;
+    return;
+  }
+  if (!snap.model) return;
+  model_version = snap.model_version;
+  vm->model = *snap.model;
+  render::register_model(kModelName, vm->model);  // keeps its style
+  shown_generation = ~uint64_t{0};
+  // The fine display skin is not split along the cut yet: drawn, it would stretch over the
+  // wound and hide it. The simulation's skin, which the cut divides, shows it (D toggles).
+  if (style.display_skin) {
+    style.display_skin = false;
+    log::info(
+        "lamina view: the simulation's skin is shown from this cut on (the display skin is "
+        "not split along cuts yet; D shows it again)");
+  }
+  pinned.clear();
+  update_forces();
+  watched = last_drag_node = drag_peak_node = -1;
+  cuts = snap.cuts;
+  const model::CutReport& r = snap.last_cut;
+  std::string pieces;
+  for (const model::CutPiece& p : r.pieces)
+    pieces += fmt::format("{}{:.1f} mL", pieces.empty() ? "" : ", ", p.volume_mm3 / 1000.0);
+  cut_message =
+      fmt::format("cut {} tetrahedra; {} piece(s): {}", r.cut_tets, r.pieces.size(), pieces);
+  for (const model::StructureCut& c : r.structures_cut) {
+    crossed.push_back(c);
+    cut_message += fmt::format("; {} cut across, {:.1f} mm wide", c.name, c.diameter_mm);
+  }
+  log::info("lamina view: {}", cut_message);
 }
 
 void ViewSession::State::show_state() {
@@ -293,6 +334,13 @@ void ViewSession::State::show_state() {
   for (int32_t node : snap.contact_nodes) render::add_contact_marker(f, node);
   for (int32_t node : snap.grasped_nodes) render::add_contact_marker(f, node);
   if (tip.active) f.markers.push_back({tip.center_mm, tip.radius_mm, {0.7f, 0.75f, 0.8f, 1.0f}});
+  // Each vessel the scalpel cut across, where it was cut: the bleeding cue.
+  for (const model::StructureCut& c : crossed)
+    f.markers.push_back(
+        {c.position_mm, std::max(1.5, 0.5 * c.diameter_mm), {0.9f, 0.1f, 0.1f, 1.0f}});
+  // The blade's path while it is traced.
+  for (const Eigen::Vector3d& p : scalpel_path)
+    f.markers.push_back({p, 0.8, {0.95f, 0.95f, 0.95f, 1.0f}});
   render::set_overlays(kModelName, {std::move(f.rings), std::move(f.arrows), std::move(f.markers)});
 }
 

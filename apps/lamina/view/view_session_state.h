@@ -21,7 +21,7 @@ namespace lamina::cli {
 
 using Clock = std::chrono::steady_clock;
 
-enum class Gesture { kNone, kOrbit, kPan, kDrag, kTool, kGrasp };
+enum class Gesture { kNone, kOrbit, kPan, kDrag, kTool, kGrasp, kScalpel };
 
 // A fixed-length history for the live plots.
 struct History {
@@ -66,7 +66,18 @@ struct ViewSession::State {
   // The grasper's jaws, while closed: about forceps' width (a 4 mm radius takes one node of the
   // paper-size skin's 10 mm mesh and pulls a spike).
   interact::Jaws jaws{.radius_mm = 10.0};
-  bool grasp_held = false;   // closed and left holding (Shift+release); C opens it
+  // The scalpel (K): a drag across the organ traces the blade's path on the skin; the release
+  // cuts along it, the blade reaching scalpel_depth_mm along the view direction.
+  bool scalpel_mode = false;
+  double scalpel_depth_mm = 15.0;
+  std::vector<Eigen::Vector3d> scalpel_path;  // points on the skin (or beside it) under the drag
+  Eigen::Vector3d scalpel_dir = Eigen::Vector3d::UnitZ();  // the view direction at the press
+  double scalpel_reach_mm = 0.0;  // the last hit's distance along the ray (for rays that miss)
+  uint64_t model_version = 0;     // the loop's cut model adopted
+  int64_t cuts = 0;
+  std::vector<model::StructureCut> crossed;  // every structure the cuts crossed (marked)
+  std::string cut_message;                   // what the last cut did, or why it did nothing
+  bool grasp_held = false;                   // closed and left holding (Shift+release); C opens it
   bool scene_grasp = false;  // the scene's grasper (ViewModel::grasper) is playing its pull
   double scene_grasp_since_s = -1.0;  // simulated time it closed at; -1 = to close
   int scene_grasp_refusals = 0;       // closes refused in a row (retried after a reset)
@@ -132,12 +143,14 @@ struct ViewSession::State {
   void push_parameters();
   void update_forces();
   void play_scene_grasper();
+  void adopt_cut();  // the loop's cut model, once it publishes one
   void on_frame();
   void show_state();  // positions, style and overlays to the engine
   // view_gestures.cpp
   void handle_key(const std::string& key);
   void handle_mouse(const render::Input& in);
   void start_left_gesture(const render::Input& in);
+  void cut_along_path();
   // view_panels.cpp
   void panels();
   void embedded_panel(const Model& m);  // the Display panel's embedded surfaces
