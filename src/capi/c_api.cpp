@@ -463,10 +463,6 @@ lamina_status lamina_sim_cut(lamina_sim* sim, const double* path_xyz, int32_t po
     for (int32_t k = 0; k < points; ++k)
       path[static_cast<size_t>(k)] =
           Eigen::Vector3d(path_xyz[3 * k], path_xyz[3 * k + 1], path_xyz[3 * k + 2]);
-    if (!s.model.model->has_tets())
-      throw lamina::invalid_input("lamina_sim_cut",
-                                  "the model has no tetrahedra: only a model with tetrahedra "
-                                  "can be cut");
     s.loop->cut(std::move(path), Eigen::Vector3d(direction[0], direction[1], direction[2]),
                 depth_mm);
     s.loop->run_steps(0);  // the cut, now, on this thread

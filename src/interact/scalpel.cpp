@@ -80,13 +80,21 @@ int32_t rows_for(double depth_mm, double mean_edge_mm) {
   return std::clamp(static_cast<int32_t>(std::ceil(depth_mm / mean_edge_mm)), 1, 64);
 }
 
-double mean_edge(const Model& model) {
-  double total = 0.0;
+// The tetrahedra's mean and longest edges at rest, mm.
+struct Edges {
+  double mean = 0.0, longest = 0.0;
+};
+Edges tet_edges(const Model& model) {
+  Edges e;
   const Eigen::MatrixX4i& T = model.tets.T;
   for (Eigen::Index t = 0; t < T.rows(); ++t)
     for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) total += (model.X.row(T(t, i)) - model.X.row(T(t, j))).norm();
-  return total / (6.0 * static_cast<double>(std::max<Eigen::Index>(T.rows(), 1)));
+      for (int j = i + 1; j < 4; ++j) {
+        const double l = (model.X.row(T(t, i)) - model.X.row(T(t, j))).norm();
+        e.mean += l, e.longest = std::max(e.longest, l);
+      }
+  e.mean /= 6.0 * static_cast<double>(std::max<Eigen::Index>(T.rows(), 1));
+  return e;
 }
 
 bool reported_before(const std::vector<model::StructureCut>& done, const model::StructureCut& c) {
@@ -97,30 +105,26 @@ bool reported_before(const std::vector<model::StructureCut>& done, const model::
 
 }  // namespace
 
-ScalpelDriver make_scalpel_driver(const std::vector<Scalpel>& scalpels, const Model& model) {
+ScalpelDriver make_scalpel_driver(const std::vector<Scalpel>& scalpels, const Model& model,
+                                  const std::string& source) {
   for (size_t k = 0; k < scalpels.size(); ++k)
     if (const auto problem = scalpel_problem(scalpels[k]))
-      throw invalid_input(fmt::format("scalpel[{}].{}", k, problem->first), problem->second);
+      throw invalid_input(source,
+                          fmt::format("scalpel[{}].{}: {}", k, problem->first, problem->second));
   ScalpelDriver d;
   d.scalpels = scalpels;
   d.progress.resize(scalpels.size());
   if (scalpels.empty()) return d;
   if (!model.has_tets())
-    throw invalid_input("scalpel",
-                        "the model has no tetrahedra (built with --structure links): "
-                        "only a model with tetrahedra can be cut");
-  double longest = 0.0;
-  const Eigen::MatrixX4i& T = model.tets.T;
-  for (Eigen::Index t = 0; t < T.rows(); ++t)
-    for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j)
-        longest = std::max(longest, (model.X.row(T(t, i)) - model.X.row(T(t, j))).norm());
-  const double mean = mean_edge(model);
-  d.event_mm = mean;
-  d.reach_mm = 2.0 * longest;
+    throw invalid_input(source,
+                        "tools: a scalpel cuts the tetrahedra, and the model has none (build it "
+                        "with model.build.structure \"tetrahedra\", the default)");
+  const Edges edges = tet_edges(model);
+  d.event_mm = edges.mean;
+  d.reach_mm = 2.0 * edges.longest;
   double depth = 0.0;
   for (const Scalpel& s : scalpels) depth = std::max(depth, s.depth_mm);
-  d.depth_rows = rows_for(depth, mean);
+  d.depth_rows = rows_for(depth, edges.mean);
   return d;
 }
 
@@ -190,13 +194,12 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
     std::vector<int32_t> origin;
     // The blade's tip stays whole until the blade has passed through it (at its end, the cut
     // ends there).
-    model::CutOptions options;
+    model::CutOptions options{.find_structures = false};  // `crossed`, found above
     if (!finished) {
       options.tip_from = p.columns.back().row(0).transpose();
       options.tip_to = p.columns.back().row(d.depth_rows).transpose();
     }
     e.report = cut_simulation(model, sim, driver, blade, origin, options);
-    e.report.structures_cut.clear();
     for (model::StructureCut& c : crossed) {
       if (!(c.closed || finished) || reported_before(p.reported, c)) continue;
       p.reported.push_back(c);
@@ -205,7 +208,6 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
       e.report.structures_cut.push_back(c);
     }
     e.seconds = seconds_since(t0);
-    if (e.report.cut_tets > 0) ++d.cuts;
     if (e.report.cut_tets > 0 || !e.report.structures_cut.empty()) events.push_back(e);
   }
   return events;
@@ -223,7 +225,7 @@ model::CutReport cut_now(std::shared_ptr<const Model>& model, sim::Simulation& s
                         "the model has no tetrahedra (built with --structure links): "
                         "only a model with tetrahedra can be cut");
   // Columns at the path's points, and between them about one a mean edge apart.
-  const double mean = mean_edge(*model), length = path_length(path);
+  const double mean = tet_edges(*model).mean, length = path_length(path);
   std::vector<double> at;
   double s = 0.0;
   for (size_t k = 0; k < path.size(); ++k) {

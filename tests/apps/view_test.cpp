@@ -30,6 +30,20 @@ test::RunResult run_shell(const test::TempDir& dir, const std::string& command,
   return test::run_cli("/bin/sh", dir.path, dir.path, name);
 }
 
+// `lamina view` (its quit.json script, report.json) under Xvfb, sent real X events: once its
+// window is seen, xdotool runs `moves` on it ($w). -v: the viewer's debug log says what each
+// press did (and why it started no drag), so that a failure shows its cause. The window is
+// probed hidden: before, xdotool could find a probe window that vanished a moment later and send
+// its events nowhere (BadWindow).
+test::RunResult run_with_xdotool(const test::TempDir& dir, const std::string& moves) {
+  std::ofstream(dir.path / "session.sh")
+      << quoted(test::lamina_cli()) + " -v view --script quit.json --report report.json & " +
+             "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
+             "xdotool " +
+             moves + "; wait\n";
+  return run_shell(dir, std::string(kXvfb) + "sh session.sh");
+}
+
 bool is_png(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   char sig[4] = {};
@@ -136,17 +150,11 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
   // The viewer waits for the X events; xdotool presses at the window's centre (the organ) and
   // drags upwards in steps, then lets go. The press is held a second before the drag, so that
   // a frame sees it at the centre even when a loaded machine draws only a few frames a second.
-  // -v: the viewer's debug log says what each press did (and why it started no drag), so that a
-  // failure below shows its cause. The window is probed hidden: before, xdotool could find a probe
-  // window that vanished a moment later and send its drag nowhere (BadWindow).
-  const std::string session =
-      quoted(test::lamina_cli()) + " -v view --script quit.json --report report.json & " +
-      "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
-      "xdotool mousemove --window $w 700 450 sleep 0.5 mousedown 1 sleep 1.0 "
+  const auto r = run_with_xdotool(
+      dir,
+      "mousemove --window $w 700 450 sleep 0.5 mousedown 1 sleep 1.0 "
       "mousemove --window $w 700 420 sleep 0.2 mousemove --window $w 700 380 sleep 0.2 "
-      "mousemove --window $w 700 340 sleep 1.5 mouseup 1; wait";
-  std::ofstream(dir.path / "session.sh") << session << "\n";
-  const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
+      "mousemove --window $w 700 340 sleep 1.5 mouseup 1");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
   EXPECT_EQ(rep["drags"], 1) << "the press on the organ was not seen\n" << r.err;
@@ -181,15 +189,12 @@ TEST(View, RealMouseEventsFromXdotoolCutTheOrganInScalpelMode) {
   // the cut and the cut model's nodes), and the cut organ, nothing pulling it, stays at rest.
   test::TempDir dir;
   std::ofstream(dir.path / "quit.json") << R"({"events": [{"at": 12.0, "quit": true}]})";
-  const std::string session =
-      quoted(test::lamina_cli()) + " -v view --script quit.json --report report.json & " +
-      "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1; "
-      "xdotool mousemove --window $w 600 440 sleep 0.5 key k sleep 0.5 mousedown 1 sleep 1.0 "
+  const auto r = run_with_xdotool(
+      dir,
+      "mousemove --window $w 600 440 sleep 0.5 key k sleep 0.5 mousedown 1 sleep 1.0 "
       "mousemove --window $w 700 440 sleep 0.2 mousemove --window $w 800 440 sleep 0.2 "
       "mousemove --window $w 900 440 sleep 0.2 mousemove --window $w 1000 440 sleep 0.2 "
-      "mousemove --window $w 1100 440 sleep 1.0 mouseup 1; wait";
-  std::ofstream(dir.path / "session.sh") << session << "\n";
-  const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
+      "mousemove --window $w 1100 440 sleep 1.0 mouseup 1");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
   EXPECT_EQ(rep["cuts"], 1) << "the drag did not cut\n" << r.err;

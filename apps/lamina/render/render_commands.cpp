@@ -210,13 +210,8 @@ int run_render(const RenderArgs& a) {
   interact::ToolDriver driver = io::make_tool_driver(p.scene, /*warn_scalpels=*/false);
   // A scene's scalpels cut as the run's do: the picture is of the model they leave.
   std::shared_ptr<const Model> model = p.model;
-  interact::ScalpelDriver scalpels;
-  if (!p.scene.scalpels.empty()) {
-    if (!model->has_tets())
-      throw invalid_input(p.scene.source,
-                          "tools: a scalpel cuts the tetrahedra, and the model has none");
-    scalpels = interact::make_scalpel_driver(p.scene.scalpels, *model);
-  }
+  interact::ScalpelDriver scalpels =
+      interact::make_scalpel_driver(p.scene.scalpels, *model, p.scene.source);
   while (s.time_s < a.at_s - 1e-9 * std::max(1.0, a.at_s)) {
     if (!scalpels.scalpels.empty()) interact::advance_scalpels(scalpels, model, s, driver);
     interact::apply_tools(s, driver);

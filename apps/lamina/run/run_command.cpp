@@ -540,14 +540,8 @@ int run_run(const RunArgs& a) {
         "body and may not come back to rest",
         scene.source);
   interact::ToolDriver driver = io::make_tool_driver(scene, /*warn_scalpels=*/false);
-  Cutting cutting{.model = ready.model};
-  if (!scene.scalpels.empty()) {
-    if (!m.has_tets())
-      throw invalid_input(scene.source,
-                          "tools: a scalpel cuts the tetrahedra, and the model has none (build "
-                          "it with model.build.structure \"tetrahedra\", the default)");
-    cutting.scalpels = interact::make_scalpel_driver(scene.scalpels, m);
-  }
+  Cutting cutting{.model = ready.model,
+                  .scalpels = interact::make_scalpel_driver(scene.scalpels, m, scene.source)};
 
   // 2. Outputs, and the state a resume continues from. Everything the loop accumulates is in
   // so_far, which a checkpoint saves and a resume restores whole.

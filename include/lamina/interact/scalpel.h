@@ -88,13 +88,14 @@ struct ScalpelDriver {
     std::vector<model::StructureCut> reported;
   };
   std::vector<Progress> progress;  ///< per scalpel
-  int64_t cuts = 0;                ///< cut events that divided tetrahedra
 };
 
-/// A driver for `scalpels` on `model`.
-/// \note Throws lamina::Error (kInvalidInput) "scalpel[k].KEY: problem" (scalpel_problem()), and
-///   for a model without tetrahedra.
-ScalpelDriver make_scalpel_driver(const std::vector<Scalpel>& scalpels, const Model& model);
+/// A driver for `scalpels` on `model`; none is no error (a driver that cuts nothing).
+/// \note Throws lamina::Error (kInvalidInput) "SOURCE: scalpel[k].KEY: problem"
+///   (scalpel_problem()), and "SOURCE: tools: a scalpel cuts the tetrahedra, and the model has
+///   none ..." for a model without tetrahedra (`source`: the scene, or what gave the scalpels).
+ScalpelDriver make_scalpel_driver(const std::vector<Scalpel>& scalpels, const Model& model,
+                                  const std::string& source = "scalpel");
 
 /// Moves the scalpels to sim.time_s and cuts where they have passed (cut_simulation()).
 /// @return the cuts made (most steps none)

@@ -11,7 +11,9 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lamina/model/model.h"
@@ -24,6 +26,15 @@ struct Blade {
   Eigen::MatrixX3i F;
 };
 
+/// What is wrong with a blade drawn along `path`, `depth_mm` along `depth_direction`, as a
+/// key ("path", "path[k]", "depth_mm", "direction") and the problem, or nothing: fewer than two
+/// points, a point not finite, a path of zero length, a depth <= 0, a direction that is zero or
+/// runs along the path (it would sweep no surface). sweep_blade() and interact::scalpel_problem()
+/// share it.
+std::optional<std::pair<std::string, std::string>> blade_problem(
+    const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& depth_direction,
+    double depth_mm);
+
 /// The surface a scalpel's edge sweeps as it is drawn along a path: at each point of `path` the
 /// edge runs from the point `depth_mm` along `depth_direction` (into the tissue); consecutive
 /// edges span two triangles.
@@ -31,8 +42,7 @@ struct Blade {
 /// @param[in] depth_direction  the blade's direction into the tissue (normalised here); not
 ///                             along the path
 /// @param[in] depth_mm         > 0
-/// \note Throws lamina::Error (kInvalidInput) naming the problem: fewer than two points, a value
-///   not finite, a path of zero length, a depth <= 0, a zero direction or one along the path.
+/// \note Throws lamina::Error (kInvalidInput) "blade KEY: problem" (blade_problem()).
 Blade sweep_blade(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& depth_direction,
                   double depth_mm);
 
@@ -109,6 +119,9 @@ struct CutOptions {
   /// copy is not divided again). Off when tip_from is not finite.
   Eigen::Vector3d tip_from = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector3d tip_to = Eigen::Vector3d::Zero();
+  /// Look for the structures the blade crosses (CutReport::structures_cut); a progressive cut,
+  /// which looks for them along its recent path itself, turns it off.
+  bool find_structures = true;
 };
 
 /// Cuts the tetrahedra the blade's surface divides.

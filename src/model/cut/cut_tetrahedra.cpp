@@ -149,7 +149,8 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
       return (tlo.array() <= hi.array()).all() && (lo.array() <= thi.array()).all();
     });
   }
-  report.structures_cut = detail::structures_crossed(model, x, index, index.lo, index.hi);
+  if (options.find_structures)
+    report.structures_cut = detail::structures_crossed(model, x, index, index.lo, index.hi);
   report.cut_tets = static_cast<int64_t>(divided.size());
   const Copies copies = make_copies(model, divided);
   const auto ncopies = static_cast<int32_t>(copies.tet.size());

@@ -1,3 +1,5 @@
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <cmath>
 #include <string>
@@ -7,30 +9,37 @@
 
 namespace lamina::model {
 
-Blade sweep_blade(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& depth_direction,
-                  double depth_mm) {
+std::optional<std::pair<std::string, std::string>> blade_problem(
+    const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& depth_direction,
+    double depth_mm) {
+  using P = std::pair<std::string, std::string>;
   if (path.size() < 2)
-    throw invalid_input("blade path",
-                        "needs at least two points, got " + std::to_string(path.size()));
+    return P{"path",
+             fmt::format("needs at least two points [[x, y, z], ...], got {}", path.size())};
   for (size_t k = 0; k < path.size(); ++k)
-    if (!path[k].allFinite())
-      throw invalid_input("blade path", "point " + std::to_string(k) + " is not finite");
-  if (!(std::isfinite(depth_mm) && depth_mm > 0.0))
-    throw invalid_input("blade depth", "must be > 0 mm, got " + std::to_string(depth_mm));
-  if (!depth_direction.allFinite() || depth_direction.norm() == 0.0)
-    throw invalid_input("blade direction", "must be a finite, non-zero vector");
-  const Eigen::Vector3d d = depth_direction.normalized() * depth_mm;
-
+    if (!path[k].allFinite()) return P{fmt::format("path[{}]", k), "is not finite"};
   double length = 0.0;
   for (size_t k = 1; k < path.size(); ++k) length += (path[k] - path[k - 1]).norm();
-  if (!(length > 0.0)) throw invalid_input("blade path", "has zero length: its points are one");
-
+  if (!(length > 0.0)) return P{"path", "has zero length: its points are one"};
+  if (!(std::isfinite(depth_mm) && depth_mm > 0.0))
+    return P{"depth_mm", fmt::format("must be > 0 mm, got {}", depth_mm)};
+  if (!depth_direction.allFinite() || !(depth_direction.norm() > 0.0))
+    return P{"direction", "must be a finite, non-zero vector"};
   // Segments along the depth direction sweep no area: such a blade would cut nothing, which a
   // user would not ask for.
   double swept = 0.0;
+  const Eigen::Vector3d d = depth_direction.normalized();
   for (size_t k = 1; k < path.size(); ++k) swept += (path[k] - path[k - 1]).cross(d).norm();
-  if (!(swept > 1e-12 * length * depth_mm))
-    throw invalid_input("blade direction", "runs along the path: the blade would sweep no surface");
+  if (!(swept > 1e-9 * length))
+    return P{"direction", "runs along the path: the blade would sweep no surface"};
+  return std::nullopt;
+}
+
+Blade sweep_blade(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& depth_direction,
+                  double depth_mm) {
+  if (const auto problem = blade_problem(path, depth_direction, depth_mm))
+    throw invalid_input("blade " + problem->first, problem->second);
+  const Eigen::Vector3d d = depth_direction.normalized() * depth_mm;
 
   const auto n = static_cast<Eigen::Index>(path.size());
   Blade b;

@@ -108,11 +108,7 @@ void add_wound(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
   grow(wound->V, b.V);
   grow(wound->corners, b.corners);
   grow(wound->weights, b.weights);
-  grow(wound->F, b.F);
-  if (wound->offsets.rows() > 0)
-    wound->offsets.conservativeResize(wound->V.rows(), Eigen::NoChange);
-  if (wound->offsets.rows() > 0)
-    wound->offsets.bottomRows(static_cast<Eigen::Index>(b.V.size())).setZero();
+  grow(wound->F, b.F);  // no offsets: every vertex lies on its copy's edge
 }
 
 }  // namespace lamina::model::detail
