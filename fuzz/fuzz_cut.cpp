@@ -1,18 +1,21 @@
 // Fuzzes the cut (model::sweep_blade, model::cut_tetrahedra, model::to_rest): any bytes are a
 // blade - a path of up to six points, a direction and a depth, as doubles, through a small block
-// of tetrahedra, the path drawn on the block moved by a bytes-given shift - and give a cut that
-// keeps the block's mass and material volume, or a lamina::Error; nothing else.
+// of tetrahedra carrying a sphere (a fine surface the cut splits with CGAL), the path drawn on the
+// block moved by a bytes-given shift - and give a cut that keeps the block's mass and material
+// volume and leaves the sphere a valid embedded mesh, or a lamina::Error; nothing else.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <map>
 #include <vector>
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/model/cut_tetrahedra.h"
+#include "lamina/model/embed_surface.h"
 
 namespace {
 
@@ -68,9 +71,55 @@ const Model& block() {
       b.springs.stiffness_n_per_m.push_back(1.0);
       b.springs.kind.push_back(SpringKind::kVolume);
     }
+    // A sphere of radius 14 mm about the block's centre: an octahedron divided three times.
+    std::vector<Eigen::Vector3d> V{{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                   {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
+    std::vector<Eigen::Vector3i> F{{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                   {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    for (int round = 0; round < 3; ++round) {
+      std::map<std::pair<int, int>, int> mid;
+      const auto half = [&](int a, int b) {
+        const auto [it, fresh] = mid.try_emplace({std::min(a, b), std::max(a, b)}, 0);
+        if (fresh) it->second = static_cast<int>(V.size()), V.push_back((V[a] + V[b]).normalized());
+        return it->second;
+      };
+      std::vector<Eigen::Vector3i> next;
+      for (const Eigen::Vector3i& f : F) {
+        const int ab = half(f[0], f[1]), bc = half(f[1], f[2]), ca = half(f[2], f[0]);
+        next.insert(next.end(), {{f[0], ab, ca}, {ab, f[1], bc}, {ca, bc, f[2]}, {ab, bc, ca}});
+      }
+      F = std::move(next);
+    }
+    Eigen::MatrixX3d SV(static_cast<Eigen::Index>(V.size()), 3);
+    Eigen::MatrixX3i SF(static_cast<Eigen::Index>(F.size()), 3);
+    for (size_t v = 0; v < V.size(); ++v)
+      SV.row(static_cast<Eigen::Index>(v)) =
+          (Eigen::Vector3d::Constant(20.0) + 14.0 * V[v]).transpose();
+    for (size_t f = 0; f < F.size(); ++f) SF.row(static_cast<Eigen::Index>(f)) = F[f].transpose();
+    b.embedded.push_back(model::embed_surface(b, SV, SF, "sphere", 1));
     return b;
   }();
   return m;
+}
+
+// The cut's surfaces stay meshes the viewer can draw: every triangle names three different
+// vertices the surface has, every vertex is finite and embedded in nodes the model has.
+bool valid(const Model& m) {
+  for (const EmbeddedSurface& s : m.embedded) {
+    if (s.corners.rows() != s.V.rows() || s.weights.rows() != s.V.rows()) return false;
+    if (s.offsets.rows() != 0 && s.offsets.rows() != s.V.rows()) return false;
+    if (!s.V.allFinite() || !s.weights.allFinite()) return false;
+    if (s.corners.size() > 0 &&
+        (s.corners.minCoeff() < 0 || s.corners.maxCoeff() >= m.node_count()))
+      return false;
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+      const Eigen::Vector3i t = s.F.row(f);
+      if (t.minCoeff() < 0 || t.maxCoeff() >= s.V.rows() || t[0] == t[1] || t[1] == t[2] ||
+          t[0] == t[2])
+        return false;
+    }
+  }
+  return true;
 }
 
 double total(const std::vector<double>& v) {
@@ -107,6 +156,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     double pieces = 0.0;
     for (const model::CutPiece& p : report.pieces) pieces += p.volume_mm3;
     if (!(std::abs(pieces - 64000.0) <= 1e-6 * 64000.0)) std::abort();
+    if (!valid(cut)) std::abort();  // a surface the cut left broken
   } catch (const lamina::Error&) {
   }
   return 0;

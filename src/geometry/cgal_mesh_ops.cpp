@@ -16,6 +16,7 @@
 #include <array>
 #include <cmath>
 
+#include "cgal_soup.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/geometry/remesh.h"
@@ -24,20 +25,14 @@ namespace lamina::geometry {
 namespace {
 
 namespace PMP = CGAL::Polygon_mesh_processing;
-using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Point = K::Point_3;
-using Mesh = CGAL::Surface_mesh<Point>;
+using cgal::K, cgal::Point, cgal::Mesh;
 
 // Builds a CGAL mesh from our arrays via a repaired, oriented polygon soup, so that inputs
 // with duplicate points or non-manifold vertices (possible in isosurfaces) still convert.
 Mesh to_cgal(const SurfaceMesh& in, bool repair) {
-  std::vector<Point> points(static_cast<size_t>(in.V.rows()));
-  for (Eigen::Index v = 0; v < in.V.rows(); ++v)
-    points[v] = Point(in.V(v, 0), in.V(v, 1), in.V(v, 2));
-  std::vector<std::array<size_t, 3>> faces(static_cast<size_t>(in.F.rows()));
-  for (Eigen::Index f = 0; f < in.F.rows(); ++f)
-    faces[f] = {static_cast<size_t>(in.F(f, 0)), static_cast<size_t>(in.F(f, 1)),
-                static_cast<size_t>(in.F(f, 2))};
+  std::vector<Point> points;
+  std::vector<std::array<size_t, 3>> faces;
+  cgal::to_soup(in, points, faces);
   if (repair) {
     PMP::repair_polygon_soup(points, faces);
     PMP::orient_polygon_soup(points, faces);

@@ -159,6 +159,13 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
       if (corner > std::max(p.done_mm, 0.0) && corner < now) at.push_back(corner);
     }
     if (now > std::max(p.done_mm, 0.0)) at.push_back(now);
+    if (p.done_mm < 0.0) {  // this scalpel begins
+      bool alone = true;
+      for (size_t j = 0; j < d.scalpels.size(); ++j)
+        alone = alone && (j == k || d.progress[j].done_mm < 0.0 ||
+                          d.progress[j].done_mm >= path_length(d.scalpels[j].path));
+      if (alone) p.unsplit = std::make_shared<const std::vector<EmbeddedSurface>>(model->embedded);
+    }
     const Eigen::Index per = d.depth_rows + 1;
     const Eigen::MatrixX3d rest = columns_at_rest(*model, sim.x, sc, at, d.depth_rows);
     const size_t first_new = p.columns.size();
@@ -184,9 +191,10 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
     Eigen::AlignedBox3d newest;
     for (size_t c = first_new > 0 ? first_new - 1 : 0; c < p.columns.size(); ++c)
       for (Eigen::Index r = 0; r < per; ++r) newest.extend(p.columns[c].row(r).transpose());
+    if (!d.uncut) d.uncut = model;
     std::vector<model::StructureCut> crossed = model::structures_crossed(
-        *model, model->X, strip(p, wfrom, d.depth_rows), newest.min().array() - kStructureReachMm,
-        newest.max().array() + kStructureReachMm);
+        *d.uncut, d.uncut->X, strip(p, wfrom, d.depth_rows),
+        newest.min().array() - kStructureReachMm, newest.max().array() + kStructureReachMm);
 
     CutEvent e;
     e.time_s = sim.time_s;
@@ -195,6 +203,8 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
     // The blade's tip stays whole until the blade has passed through it (at its end, the cut
     // ends there).
     model::CutOptions options{.find_structures = false};  // `crossed`, found above
+    const model::Blade whole = p.unsplit ? strip(p, 0, d.depth_rows) : model::Blade{};
+    if (p.unsplit) options.unsplit = p.unsplit.get(), options.unsplit_blade = &whole;
     if (!finished) {
       options.tip_from = p.columns.back().row(0).transpose();
       options.tip_to = p.columns.back().row(d.depth_rows).transpose();

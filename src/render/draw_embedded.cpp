@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "lamina/model/cut_tetrahedra.h"
 #include "lamina/model/embed_surface.h"
 
 namespace lamina::render {
@@ -166,7 +167,13 @@ void EmbeddedDrawing::draw_structures(const Frame& fr, GLint u_lit) {
                                                            : embedded_look(*fr.model, i).color;
     glBindVertexArray(surfaces_[i].vao);
     glVertexAttrib4f(2, c[0], c[1], c[2], 1.0f);
+    // The wound lies where a cut closed the skin's pieces (their caps, on the same plane):
+    // pulled towards the eye, it is drawn over them rather than fighting them for depth.
+    const bool wound =
+        fr.model->embedded[i].label == 0 && fr.model->embedded[i].name == model::kWoundName;
+    if (wound) glEnable(GL_POLYGON_OFFSET_FILL), glPolygonOffset(-1.0f, -2.0f);
     glDrawElements(GL_TRIANGLES, surfaces_[i].indices, GL_UNSIGNED_INT, nullptr);
+    if (wound) glDisable(GL_POLYGON_OFFSET_FILL);
   }
   glDisable(GL_CULL_FACE);
   glBindVertexArray(0);

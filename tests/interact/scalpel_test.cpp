@@ -7,11 +7,16 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <map>
 #include <numeric>
+#include <set>
 
 #include "lamina/core/error.h"
+#include "lamina/geometry/mesh_measures.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/interact/run_tools.h"
+#include "support/embedded_phantom.h"
+#include "support/surface_parts.h"
 #include "support/tet_phantom.h"
 
 namespace {
@@ -98,6 +103,59 @@ TEST(Scalpel, CutAsItGoesLeavesTheCutOfItsWholePath) {
   std::printf("%zu cuts as the blade went, %lld tetrahedra divided (one cut: %lld)\n",
               events.size(), static_cast<long long>(cut_tets),
               static_cast<long long>(whole.cut_tets));
+}
+
+// A scalpel drawn across the phantom with its anatomy, cutting as it goes: at each event the
+// display skin, the vessels and the tumour as they were when it began are split along its whole
+// path so far (where the tissue has not opened yet, at its tip, welded again), and at the end
+// every piece's surfaces are closed, none has a triangle across the cut or on both pieces, and
+// together they enclose what they did.
+TEST(Scalpel, AProgressiveCutSplitsTheFineSurfacesIntoClosedPieces) {
+  const Model& m0 = test::embedded_phantom();
+  const double x0 = m0.X.col(0).mean() + 0.31;
+  const Eigen::Vector3d lo = m0.X.colwise().minCoeff(), hi = m0.X.colwise().maxCoeff();
+  interact::Scalpel blade;
+  blade.path = {Eigen::Vector3d(x0, lo.y() - 5, lo.z() - 5),
+                Eigen::Vector3d(x0, hi.y() + 5, lo.z() - 5)};
+  blade.depth_direction = Eigen::Vector3d::UnitZ();
+  blade.depth_mm = hi.z() - lo.z() + 10;
+  blade.end_s = 0.1;
+  auto model = std::make_shared<const Model>(m0);
+  sim::Simulation sim =
+      sim::make_simulation(m0, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler});
+  sim::fix_nodes(sim, test::posterior_nodes(m0));
+  interact::ToolDriver tools;
+  interact::ScalpelDriver scalpels = interact::make_scalpel_driver(std::vector{blade}, *model);
+  int events = 0, vessels = 0;
+  for (int k = 0; k < 150; ++k) {
+    for (const interact::CutEvent& e : interact::advance_scalpels(scalpels, model, sim, tools)) {
+      ++events;
+      for (const model::StructureCut& c : e.report.structures_cut) vessels += c.name == "vessels";
+    }
+    ASSERT_EQ(sim::step(sim).unstable, sim::Instability::kNone) << "step " << k;
+  }
+  ASSERT_GT(events, 3);
+  EXPECT_GE(vessels, 1) << "the vessel crossed is reported";
+  const Model& m = *model;
+  const std::vector<int32_t> piece = test::piece_of_nodes(m);
+  ASSERT_EQ(std::set<int32_t>(piece.begin(), piece.end()).size(), 2u);
+  for (size_t e = 0; e < m0.embedded.size(); ++e) {
+    const EmbeddedSurface &before = m0.embedded[e], &s = m.embedded[e];
+    const test::SurfaceParts a = test::surface_parts(s, piece, x0);
+    EXPECT_EQ(a.straddling, 0) << s.name << ": triangles across the cut";
+    EXPECT_EQ(a.on_two, 0) << s.name << ": triangles on both pieces";
+    EXPECT_EQ(a.open_edges, 0) << s.name << ": a piece's part is not closed";
+    double total = 0.0;
+    for (const auto& [p, v] : a.volume) {
+      EXPECT_GT(v, 0.0) << s.name << " piece " << p << " faces inward";
+      total += v;
+    }
+    const double v0 = geometry::enclosed_volume(SurfaceMesh{before.V, before.F});
+    std::printf("%s: %zu piece(s), %lld -> %lld triangles, %.1f -> %.1f mm^3\n", s.name.c_str(),
+                a.volume.size(), static_cast<long long>(before.F.rows()),
+                static_cast<long long>(s.F.rows()), v0, total);
+    EXPECT_NEAR(total, v0, 1e-6 * v0) << s.name;
+  }
 }
 
 TEST(Scalpel, AMovedOrganIsCutWhereItsMaterialIs) {

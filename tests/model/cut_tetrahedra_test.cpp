@@ -16,10 +16,12 @@
 #include "cut/cut_internal.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
+#include "lamina/geometry/mesh_measures.h"
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/model_file.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/compute_rings.h"
+#include "support/surface_parts.h"
 #include "support/temp_dir.h"
 #include "support/test_paths.h"
 
@@ -134,6 +136,9 @@ void expect_kept(const Model& before, const Model& after, const std::vector<int3
         pa += a.weights(v, c) * after.X.row(a.corners(v, c)).transpose();
         pb += b.weights(v, c) * before.X.row(b.corners(v, c)).transpose();
       }
+      // (A vertex near a cut may follow another tetrahedron: W X + offset is where it is.)
+      if (a.offsets.rows() > 0) pa += a.offsets.row(v).transpose();
+      if (b.offsets.rows() > 0) pb += b.offsets.row(v).transpose();
       ASSERT_LT((pa - pb).norm(), 1e-9) << a.name << " vertex " << v;
       std::array<int32_t, 4> c{a.corners(v, 0), a.corners(v, 1), a.corners(v, 2), a.corners(v, 3)};
       std::sort(c.begin(), c.end());
@@ -154,18 +159,6 @@ double voxels_below(double x0) {
 }
 
 // Each node's piece: the connected parts of the tetrahedra.
-std::vector<int32_t> piece_of_nodes(const Model& m) {
-  std::vector<int32_t> p(static_cast<size_t>(m.node_count()));
-  std::iota(p.begin(), p.end(), 0);
-  auto find = [&](int32_t a) {
-    while (p[a] != a) a = p[a] = p[p[a]];
-    return a;
-  };
-  for (Eigen::Index t = 0; t < m.tets.size(); ++t)
-    for (int k = 1; k < 4; ++k) p[find(m.tets.T(t, k))] = find(m.tets.T(t, 0));
-  for (auto& q : p) q = find(q);
-  return p;
-}
 
 TEST(Cut, APlaneThroughTheOrganGivesTwoPiecesWithTheMasksVolumeOnEachSide) {
   const Model& m = organ();
@@ -185,7 +178,7 @@ TEST(Cut, APlaneThroughTheOrganGivesTwoPiecesWithTheMasksVolumeOnEachSide) {
 
   // Which piece is on which side: every node of a piece is on its side of the plane or on a
   // divided tetrahedron's far corner (within one tetrahedron of the plane).
-  const std::vector<int32_t> piece = piece_of_nodes(cut);
+  const std::vector<int32_t> piece = test::piece_of_nodes(cut);
   Eigen::Index lowest;
   cut.X.col(0).minCoeff(&lowest);
   double low_volume = 0.0, high_volume = 0.0;
@@ -278,21 +271,72 @@ TEST(Cut, APlaneThroughTheOrganGivesTwoPiecesWithTheMasksVolumeOnEachSide) {
               static_cast<size_t>(w->F.rows()), section);
   EXPECT_NEAR(facing_low, section, 0.05 * section);
 
-  // The surfaces' vertices inside the tetrahedra are on their own side's piece. (A display skin
-  // vertex outside every tetrahedron follows the one it is least outside of, which near the cut
-  // can be across it: the surfaces' own split is issue 47's next step.)
+  // The surfaces' vertices are on their own side's piece, those outside every tetrahedron too
+  // (they follow one on their side: a divided one's copy there, or a whole one on that side).
   for (const EmbeddedSurface& s : cut.embedded)
     for (Eigen::Index v = 0; v < s.corners.rows(); ++v) {
       Eigen::Vector3d p = Eigen::Vector3d::Zero();
       for (int c = 0; c < 4; ++c) p += s.weights(v, c) * cut.X.row(s.corners(v, c)).transpose();
       if (s.offsets.rows() > 0) p += s.offsets.row(v).transpose();
-      if (std::abs(p.x() - x0) > 0.05 && s.weights.row(v).minCoeff() >= 0.0)
+      if (std::abs(p.x() - x0) > 1e-6)
         ASSERT_EQ(piece[s.corners(v, 0)] == piece[lowest], p.x() < x0)
             << s.name << " vertex " << v << " x " << p.x() << " x0 " << x0 << " weights "
             << s.weights.row(v) << " corner x " << cut.X(s.corners(v, 0), 0) << " "
             << cut.X(s.corners(v, 1), 0) << " " << cut.X(s.corners(v, 2), 0) << " "
             << cut.X(s.corners(v, 3), 0);
     }
+}
+
+// Issue 47's fine surfaces: the display skin and the structures split exactly along the blade
+// (CGAL's corefinement), each side's vertices on their side's copies, and what the plane closes
+// off capped: every piece's skin, vessel and tumour closed, outward, and together enclosing what
+// the whole did.
+TEST(Cut, TheFineSurfacesSplitExactlyAndEveryPieceIsClosed) {
+  const Model& m = organ();
+  const double x0 = m.X.col(0).mean() + 0.37;
+  Model cut;
+  std::vector<int32_t> origin;
+  model::CutReport r;
+  model::cut_tetrahedra(m, m.X, plane_at_x(m, x0), cut, origin, r);
+  ASSERT_EQ(r.pieces.size(), 2u);
+  expect_kept(m, cut, origin);
+  const std::vector<int32_t> piece = test::piece_of_nodes(cut);
+  Eigen::Index lowest;
+  cut.X.col(0).minCoeff(&lowest);
+  int crossed = 0;
+  for (size_t e = 0; e < m.embedded.size(); ++e) {
+    const EmbeddedSurface &before = m.embedded[e], &after = cut.embedded[e];
+    const test::SurfaceParts b =
+        test::surface_parts(before, std::vector<int32_t>(m.node_count(), 0), 1e9);
+    const test::SurfaceParts a = test::surface_parts(after, piece, x0);
+    double total = 0.0;
+    for (const auto& [p, v] : a.volume) {
+      EXPECT_GT(v, 0.0) << after.name << " piece " << p << " inward";
+      total += v;
+    }
+    std::printf(
+        "%s: %lld -> %lld vertices, %lld -> %lld triangles, %d on the cut, %zu part(s), "
+        "%.1f mm^3 before and %.1f after\n",
+        after.name.c_str(), static_cast<long long>(before.V.rows()),
+        static_cast<long long>(after.V.rows()), static_cast<long long>(before.F.rows()),
+        static_cast<long long>(after.F.rows()), a.on_cut, a.volume.size(), b.volume.at(0), total);
+    EXPECT_EQ(b.open_edges, 0) << before.name << " was not closed";
+    EXPECT_EQ(a.open_edges, 0) << after.name << " has open edges after the cut";
+    EXPECT_EQ(a.straddling, 0) << after.name << " has triangles across the cut";
+    EXPECT_EQ(a.on_two, 0) << after.name << " has triangles on both pieces";
+    EXPECT_NEAR(total, b.volume.at(0), 1e-6 * b.volume.at(0)) << after.name;
+    if (a.on_cut == 0) continue;
+    ++crossed;
+    // Each vertex is on its own side's piece, those on the cut included (by their triangles).
+    for (Eigen::Index f = 0; f < after.F.rows(); ++f) {
+      double x = 0.0;
+      for (int k = 0; k < 3; ++k) x += after.V(after.F(f, k), 0) / 3.0;
+      if (std::abs(x - x0) < 1e-6) continue;  // a cap
+      EXPECT_EQ(piece[after.corners(after.F(f, 0), 0)] == piece[lowest], x < x0)
+          << after.name << " triangle " << f << " at x " << x << " follows the other side";
+    }
+  }
+  EXPECT_GE(crossed, 2);  // the skin and a vessel at least
 }
 
 TEST(Cut, ABladeThatStopsInsideLeavesOnePieceAndTheCutEndsInTheTetrahedraItCrosses) {
@@ -437,7 +481,7 @@ TEST(Cut, APlaneThroughTheRealLiversSplitsThemAsTheirVoxels) {
     expect_kept(m, cut, origin);
     ASSERT_GE(r.pieces.size(), 2u);
     // Each tetrahedron's material side: its material corners' (a whole one's centroid's).
-    const std::vector<int32_t> piece = piece_of_nodes(cut);
+    const std::vector<int32_t> piece = test::piece_of_nodes(cut);
     std::map<int32_t, int> side_of_piece;
     double below = 0.0, total = 0.0;
     for (Eigen::Index t = 0; t < cut.tets.size(); ++t) {

@@ -233,9 +233,10 @@ struct RunOutputs {
     ++so_far.frame;
   }
 
-  // A cut changed the layers' triangles (a triangle the cut divides is on both sides' copies)
+  // A cut changed the layers' triangles (a triangle the cut divides is on both sides' copies),
+  // split the embedded surfaces along the blade (new vertices and triangles, sections capped)
   // and added to the wound (an embedded surface of its own, whose series starts with the first
-  // cut); the other embedded surfaces keep theirs, carried by the copies on their side.
+  // cut).
   void follow_cut(const Model& m) {
     for (Series& se : series)
       se.mesh.F = se.embedded < 0 ? model::layer_mesh(m, se.layer).F

@@ -276,10 +276,10 @@ void ViewSession::State::on_frame() {
   }
 }
 
-// A cut (K) made on the simulation thread: its model is shown from now on, with the
-// simulation's skin and the wound. Node indices change, so the pinned forces are let go (the
-// loop carried them over, but this session names nodes by the old model); the structures it
-// crossed are marked where they were cut.
+// A cut (K) made on the simulation thread: its model is shown from now on, its display skin
+// split along the cut and the wound inside. Node indices change, so the pinned forces are let go
+// (the loop carried them over, but this session names nodes by the old model); the structures
+// it crossed are marked where they were cut.
 void ViewSession::State::adopt_cut() {
   if (snap.model_version == model_version) {
     if (!snap.cut_error.empty() && cut_message == "cutting...") cut_message = snap.cut_error;
@@ -290,14 +290,6 @@ void ViewSession::State::adopt_cut() {
   vm->model = *snap.model;
   render::register_model(kModelName, vm->model);  // keeps its style
   shown_generation = ~uint64_t{0};
-  // The fine display skin is not split along the cut yet: drawn, it would stretch over the
-  // wound and hide it. The simulation's skin, which the cut divides, shows it (D toggles).
-  if (style.display_skin) {
-    style.display_skin = false;
-    log::info(
-        "lamina view: the simulation's skin is shown from this cut on (the display skin is "
-        "not split along cuts yet; D shows it again)");
-  }
   pinned.clear();
   update_forces();
   watched = last_drag_node = drag_peak_node = -1;

@@ -86,8 +86,16 @@ struct ScalpelDriver {
     std::vector<double> s;                  ///< path length at each column of the blade at rest
     std::vector<Eigen::MatrixX3d> columns;  ///< depth_rows + 1 points each, at rest
     std::vector<model::StructureCut> reported;
+    /// The fine surfaces as they were at this scalpel's first cut: each cut splits them afresh
+    /// along the whole path so far (model::CutOptions::unsplit). Null while another scalpel
+    /// was cutting when this one began: its cuts then split the model's surfaces as they are.
+    std::shared_ptr<const std::vector<EmbeddedSurface>> unsplit;
   };
   std::vector<Progress> progress;  ///< per scalpel
+  /// The model as it was before this driver's first cut: the structures crossed are measured on
+  /// it (at rest, where the blade is kept), since a cut splits the structures it crosses along
+  /// the blade, and a cut model's no longer cross it.
+  std::shared_ptr<const Model> uncut;
 };
 
 /// A driver for `scalpels` on `model`; none is no error (a driver that cuts nothing).

@@ -122,6 +122,14 @@ struct CutOptions {
   /// Look for the structures the blade crosses (CutReport::structures_cut); a progressive cut,
   /// which looks for them along its recent path itself, turns it off.
   bool find_structures = true;
+  /// A progressive cut's fine surfaces as they were before its first event (at rest), and the
+  /// blade's whole path so far at rest: each event splits those afresh along it rather than the
+  /// model's surfaces, already split along the path's earlier part, which a split along the same
+  /// surface again would meet edge-on (CGAL's corefinement then leaves triangles of three
+  /// collinear points across the cut). Their vertices are the first rows of the model's
+  /// surfaces of the same name and label. Null: the model's own surfaces, along the blade.
+  const std::vector<EmbeddedSurface>* unsplit = nullptr;
+  const Blade* unsplit_blade = nullptr;
 };
 
 /// Cuts the tetrahedra the blade's surface divides.

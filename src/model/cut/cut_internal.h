@@ -87,6 +87,35 @@ void add_wound(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
                const Crossings& crossings, const Eigen::MatrixX4i& cut_T,
                std::vector<EmbeddedSurface>& embedded);
 
+/// The embedded surfaces (all but the wound) split exactly along the blade at rest where the
+/// tetrahedra `divided` open (geometry::split_surface on the triangles whose edges the blade
+/// crosses inside divided tetrahedra; a triangle it crosses elsewhere stays whole). The new
+/// vertices are appended, embedded in the rest tetrahedra (of `tets`, among `star`) that hold
+/// them, on their side (an earlier cut's copies by the material they carry).
+/// `index`: rest_blade's (index_blade()). Returns per surface and vertex a point at rest on its
+/// side of the cut for the vertices on it (NaN for the others): which copy it follows.
+std::vector<std::vector<Eigen::Vector3d>> split_embedded(
+    const Eigen::MatrixX3d& X, const Tets& tets, const std::vector<int32_t>& star,
+    const std::vector<Division>& divided, const Blade& rest_blade, const BladeIndex& index,
+    std::vector<EmbeddedSurface>& embedded);
+
+/// The blade triangle over p (p's projection on its plane inside it) within `reach` of p, the
+/// nearest such, or -1.
+int blade_triangle_at(const BladeIndex& index, const Eigen::Vector3d& p, double reach);
+
+/// The centroid of the corners tetrahedron t carries material at (all four for a whole one).
+Eigen::Vector3d material_centre(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
+                                const Tets& tets, int32_t t);
+
+/// After split_embedded() and the vertices' move to their copies: the new vertices of a point
+/// that did not open (the same nodes and weights) welded again, and each boundary loop the cut
+/// made that lies on one side only (a vessel cut across, a piece cut off: not a slit, which runs
+/// down one side and back up the other) capped (geometry::fill_loop). `had`: each surface's
+/// vertex count before the split.
+/// `index`: the blade at rest (a section lies on it, its triangles on one side of it).
+void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Eigen::Index>& had,
+                    const BladeIndex& index);
+
 /// The share of a tetrahedron's volume on the side `side` (corner bitmask) of a cut crossing
 /// each edge from corner i (on the side) to corner j (off it) at fraction s[i][j] from i: exact
 /// for a planar cut.

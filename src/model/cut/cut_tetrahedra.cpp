@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <string>
 #include <unordered_set>
@@ -419,17 +420,54 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   // Embedded surfaces: a vertex in a divided tetrahedron follows the copy on its side of the cut
   // (the plane through the cut's crossings of the tetrahedron's edges, at rest).
   std::unordered_map<uint64_t, std::vector<int32_t>> tets_at;  // by their lowest two nodes
-  auto tet_of = [&](const std::array<int32_t, 4>& corners) -> int32_t {
+  // (At an earlier cut's tip both copies of a tetrahedron can have the same four nodes, glued to
+  // the whole tetrahedra beyond, until a later cut parts them: of those, the copy on the side of
+  // the point q at rest, the vertex's. A progressive cut sweeps the earlier cut's surface again:
+  // the side is the blade's there; elsewhere, the copy whose material corners carry more of the
+  // point's weights.)
+  Blade rest_blade = blade;
+  if (!divided.empty() && x != model.X) rest_blade.V = to_rest(model, x, blade.V);
+  const bool afresh = options.unsplit && options.unsplit_blade && !divided.empty();
+  const detail::BladeIndex rest_index =
+      detail::index_blade(afresh ? *options.unsplit_blade : rest_blade);
+  double reach = 0.0;
+  for (const Division& d : divided)
+    reach = std::max(reach, (model.X.row(T(d.tet, 1)) - model.X.row(T(d.tet, 0))).norm());
+  auto weights_at = [&](int32_t t, const Eigen::Vector3d& q) {
+    Eigen::Matrix3d D;
+    for (int k = 1; k < 4; ++k)
+      D.col(k - 1) = (model.X.row(T(t, k)) - model.X.row(T(t, 0))).transpose();
+    const Eigen::Vector3d l = D.fullPivLu().solve(q - model.X.row(T(t, 0)).transpose());
+    return Eigen::Vector4d(1.0 - l.sum(), l[0], l[1], l[2]);
+  };
+  auto tet_of = [&](const std::array<int32_t, 4>& corners, const Eigen::Vector3d& q) -> int32_t {
     std::array<int32_t, 4> s = corners;
     std::sort(s.begin(), s.end());
     const auto it = tets_at.find(detail::edge_key(s[0], s[1]));
     if (it == tets_at.end()) return -1;
+    std::array<int32_t, 2> found{-1, -1};
+    int n = 0;
     for (int32_t t : it->second) {
       std::array<int32_t, 4> u{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
       std::sort(u.begin(), u.end());
-      if (u == s) return t;
+      if (u == s && n < 2) found[n++] = t;
     }
-    return -1;
+    if (n < 2) return found[0];
+    const int k = detail::blade_triangle_at(rest_index, q, reach);
+    if (k >= 0) {
+      const detail::BladeTriangle& b = rest_index.tris[static_cast<size_t>(k)];
+      const bool above = b.n.dot(q - b.p0) > 0.0;
+      for (const int32_t t : found)
+        if ((b.n.dot(detail::material_centre(model.X, T, model.tets, t) - b.p0) > 0.0) == above)
+          return t;
+    }
+    double on[2] = {0.0, 0.0};
+    for (int c = 0; c < 2; ++c) {
+      const Eigen::Vector4d w = weights_at(found[c], q);
+      for (int j = 0; j < 4; ++j)
+        if (model.tets.material_of(found[c]) >> j & 1) on[c] += w[j];
+    }
+    return on[0] >= on[1] ? found[0] : found[1];
   };
   for (const int32_t t : star) {
     std::array<int32_t, 4> u{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
@@ -477,25 +515,58 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     const Eigen::Vector3d q = bary[0] * corner[0] + bary[1] * corner[1] + bary[2] * corner[2];
     return (normal.dot(q - centre) > 0.0) == (normal.dot(corner[inside] - centre) > 0.0);
   };
+  // The fine surfaces split exactly along the blade at rest first (their new vertices told
+  // their side by a point on their own triangles), then each vertex follows its copy.
   m.embedded = model.embedded;
-  for (EmbeddedSurface& s : m.embedded)
-    for (Eigen::Index v = 0; v < s.corners.rows(); ++v) {
+  if (afresh)
+    for (EmbeddedSurface& s : m.embedded) {
+      if (s.label == 0 && s.name == kWoundName) continue;
+      for (const EmbeddedSurface& u : *options.unsplit) {
+        const Eigen::Index n0 = u.V.rows();
+        if (u.name != s.name || u.label != s.label || n0 > s.V.rows()) continue;
+        // The surface before the cut began, its vertices where the model's now are embedded.
+        EmbeddedSurface fresh = u;
+        fresh.corners = s.corners.topRows(n0);
+        fresh.weights = s.weights.topRows(n0);
+        fresh.offsets =
+            s.offsets.rows() > 0 ? Eigen::MatrixX3d(s.offsets.topRows(n0)) : Eigen::MatrixX3d(0, 3);
+        fresh.outside = u.outside;
+        s = std::move(fresh);
+        break;
+      }
+    }
+  std::vector<Eigen::Index> had(m.embedded.size());
+  for (size_t e = 0; e < m.embedded.size(); ++e) had[e] = m.embedded[e].V.rows();
+  const auto hints =
+      detail::split_embedded(model.X, model.tets, star, divided,
+                             afresh ? *options.unsplit_blade : rest_blade, rest_index, m.embedded);
+  for (size_t e = 0; e < m.embedded.size(); ++e)
+    for (Eigen::Index v = 0; v < m.embedded[e].corners.rows(); ++v) {
+      EmbeddedSurface& s = m.embedded[e];
       const std::array<int32_t, 4> cs{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2),
                                       s.corners(v, 3)};
       if (!(affected[cs[0]] || affected[cs[1]] || affected[cs[2]] || affected[cs[3]])) {
         for (int k = 0; k < 4; ++k) s.corners(v, k) = first_new[cs[k]];
         continue;
       }
-      const int32_t t = tet_of(cs);
+      // A vertex the split made lies on the cut: its side is its triangles' (a point on them).
+      const bool hinted = static_cast<size_t>(v) < hints[e].size() && hints[e][v].allFinite();
+      const Eigen::Vector3d q = hinted ? hints[e][v] : Eigen::Vector3d(s.V.row(v).transpose());
+      const int32_t t = tet_of(cs, q);
       if (t < 0)
         throw Error(ErrorKind::kInternal, "cut: " + s.name + " vertex " + std::to_string(v) +
                                               " names corners that are no tetrahedron");
       Eigen::Vector4d bary = Eigen::Vector4d::Zero();
-      for (int k = 0; k < 4; ++k) bary[corner_of(T, t, cs[k])] = s.weights(v, k);
+      if (hinted) {
+        bary = weights_at(t, q);
+      } else {
+        for (int k = 0; k < 4; ++k) bary[corner_of(T, t, cs[k])] = s.weights(v, k);
+      }
       int32_t c = copies.first[t];
       if (division_of[t] >= 0 && !on_side(t, bary)) ++c;
       for (int k = 0; k < 4; ++k) s.corners(v, k) = new_node(c, corner_of(T, t, cs[k]));
     }
+  detail::close_sections(m.embedded, had, rest_index);
 
   // The wound: each side's cut surface, on the copies of that side.
   std::vector<int32_t> first_copy(divided.size());

@@ -1,0 +1,586 @@
+// The fine surfaces cut exactly: the display skin and each embedded structure split along the
+// blade's surface at rest (geometry::split_surface, CGAL's corefinement) where the tetrahedra
+// open, each new vertex embedded in the tetrahedron holding it and told its side by a point on
+// its own triangles; once the vertices follow their copies, what the cut left closed on one side
+// (a vessel cut across, a piece cut off) is capped (geometry::fill_loop).
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <optional>
+#include <set>
+#include <unordered_map>
+
+#include "cut_internal.h"
+#include "lamina/core/error.h"
+#include "lamina/geometry/split_surface.h"
+
+namespace lamina::model::detail {
+namespace {
+
+// The tetrahedra around the cut at rest, for locating points among them.
+struct Locator {
+  const Eigen::MatrixX3d& X;
+  const Eigen::MatrixX4i& T;
+  std::vector<int32_t> tets;
+  std::vector<Eigen::Matrix3d> inverse;
+  std::vector<Eigen::AlignedBox3d> box;  // each one's, grown by the margin
+  double reach = 0.0;                    // how far from the blade a vertex may follow one across
+
+  // Over `star`, each box grown by `margin` (<= 0: half the tetrahedra's mean edge, about how
+  // far a display skin lies off the tetrahedra's surface).
+  Locator(const Eigen::MatrixX3d& X_, const Eigen::MatrixX4i& T_, const std::vector<int32_t>& star,
+          double margin = 0.0)
+      : X(X_), T(T_) {
+    if (!(margin > 0.0)) {
+      double edge = 0.0;
+      for (const int32_t t : star) edge += (X.row(T(t, 1)) - X.row(T(t, 0))).norm();
+      margin = star.empty() ? 0.0 : 0.5 * edge / static_cast<double>(star.size());
+    }
+    reach = 4.0 * margin;
+    for (const int32_t t : star) {
+      Eigen::Matrix3d D;
+      for (int k = 1; k < 4; ++k) D.col(k - 1) = (X.row(T(t, k)) - X.row(T(t, 0))).transpose();
+      const Eigen::FullPivLU<Eigen::Matrix3d> lu(D);
+      if (!lu.isInvertible()) continue;
+      Eigen::AlignedBox3d b;
+      for (int k = 0; k < 4; ++k) b.extend(X.row(T(t, k)).transpose());
+      tets.push_back(t), inverse.push_back(lu.inverse());
+      box.emplace_back(b.min().array() - margin, b.max().array() + margin);
+    }
+  }
+
+  Eigen::Vector4d bary(size_t c, const Eigen::Vector3d& p) const {
+    const Eigen::Vector3d l = inverse[c] * (p - X.row(T(tets[c], 0)).transpose());
+    return {1.0 - l.sum(), l[0], l[1], l[2]};
+  }
+
+  // The tetrahedron (index into tets) holding p, or the one it is least outside of, among those
+  // `allowed` says; -1 when p is beyond every one's margin.
+  template <class Allowed>
+  int locate(const Eigen::Vector3d& p, const Allowed& allowed, bool within_margin = true) const {
+    int best = -1;
+    double score = -std::numeric_limits<double>::infinity();
+    for (size_t c = 0; c < tets.size(); ++c) {
+      if ((within_margin && !box[c].contains(p)) || !allowed(tets[c])) continue;
+      const double s = bary(c, p).minCoeff();
+      if (s > score) score = s, best = static_cast<int>(c);
+      if (score >= 0.0) break;
+    }
+    return best;
+  }
+};
+
+// The blade without its degenerate triangles (CGAL's corefinement wants none).
+SurfaceMesh splitter_of(const Blade& blade) {
+  SurfaceMesh s;
+  s.V = blade.V;
+  std::vector<Eigen::RowVector3i> keep;
+  for (Eigen::Index f = 0; f < blade.F.rows(); ++f) {
+    const Eigen::Vector3d a = blade.V.row(blade.F(f, 0)), b = blade.V.row(blade.F(f, 1)),
+                          c = blade.V.row(blade.F(f, 2));
+    if ((b - a).cross(c - a).norm() > 0.0) keep.push_back(blade.F.row(f));
+  }
+  s.F.resize(static_cast<Eigen::Index>(keep.size()), 3);
+  for (size_t f = 0; f < keep.size(); ++f) s.F.row(static_cast<Eigen::Index>(f)) = keep[f];
+  return s;
+}
+
+// Splits one surface; returns per vertex a point on its side for those on the cut (NaN for the
+// others).
+// Which side of the blade points near it are on: the blade triangle over p (its projection on
+// the triangle's plane inside it), the nearest such; -1 when none is.
+}  // namespace
+
+int blade_triangle_at(const BladeIndex& index, const Eigen::Vector3d& p, double reach) {
+  int best = -1;
+  double nearest = reach;
+  for (size_t k = 0; k < index.tris.size(); ++k) {
+    const BladeTriangle& t = index.tris[k];
+    if ((p.array() < t.lo.array() - reach).any() || (p.array() > t.hi.array() + reach).any())
+      continue;
+    const Eigen::Vector3d q = p - t.p0;
+    const double d = std::abs(t.n.dot(q));
+    if (d > nearest) continue;
+    const double d00 = t.e1.dot(t.e1), d01 = t.e1.dot(t.e2), d11 = t.e2.dot(t.e2);
+    const double d20 = q.dot(t.e1), d21 = q.dot(t.e2), det = d00 * d11 - d01 * d01;
+    const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
+    constexpr double kIn = -1e-6;
+    if (v >= kIn && w >= kIn && v + w <= 1.0 - kIn) nearest = d, best = static_cast<int>(k);
+  }
+  return best;
+}
+
+// The tetrahedra a point on one side of the blade may follow: a divided one (its copy on the
+// point's side then carries it) or a whole one on the same side (its centroid, against the
+// blade triangle over the point). A display skin vertex outside the tetrahedra that follows
+// the nearest one would otherwise follow one across the cut.
+// Where a tetrahedron's material is: the centroid of the corners it carries (all four for a whole
+// one; an earlier cut's copy carries those on its side).
+Eigen::Vector3d material_centre(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
+                                const Tets& tets, int32_t t) {
+  const uint8_t mask = tets.material_of(t);
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  int n = 0;
+  for (int k = 0; k < 4; ++k)
+    if (mask >> k & 1) c += X.row(T(t, k)).transpose(), ++n;
+  return n > 0 ? Eigen::Vector3d(c / n) : c;
+}
+
+namespace {
+
+struct SideFilter {
+  const Locator& where;
+  const Tets& tets;
+  const std::vector<uint8_t>& divided;  // per tetrahedron of T
+  const BladeTriangle* tri = nullptr;   // none: any tetrahedron
+  bool above = false;
+  bool operator()(int32_t t) const {
+    if (!tri || divided[static_cast<size_t>(t)]) return true;
+    const Eigen::Vector3d c = material_centre(where.X, where.T, tets, t);
+    return (tri->n.dot(c - tri->p0) > 0.0) == above;
+  }
+};
+
+// Vertex i of s embedded at p in the located tetrahedron where.tets[c] (an offset when the
+// weights would amplify more than kMaxAmplification).
+void embed_at(const Locator& where, int c, const Eigen::Vector3d& p, EmbeddedSurface& s,
+              Eigen::Index i) {
+  const int32_t t = where.tets[static_cast<size_t>(c)];
+  Eigen::Vector4d w = where.bary(static_cast<size_t>(c), p);
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  if (w.cwiseAbs().sum() > kMaxAmplification) {  // far outside: the nearest corner mix, offset
+    w = w.cwiseMax(0.0);
+    w /= w.sum();
+    Eigen::Vector3d q = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 4; ++k) q += w[k] * where.X.row(where.T(t, k)).transpose();
+    offset = p - q;
+  }
+  if (!offset.isZero() && s.offsets.rows() == 0) s.offsets = Eigen::MatrixX3d::Zero(s.V.rows(), 3);
+  if (s.offsets.rows() > 0) s.offsets.row(i) = offset.transpose();
+  s.corners.row(i) = where.T.row(t);
+  s.weights.row(i) = w.transpose();
+}
+
+// Vertices near the blade that follow a whole tetrahedron across it (outside the tetrahedra, the
+// one they were least outside of) follow one on their side instead.
+void keep_sides(const Locator& where, const Tets& tets, const std::vector<uint8_t>& divided,
+                const BladeIndex& index, double reach, EmbeddedSurface& s) {
+  // The tetrahedra around the cut by their corners (a vertex further away is not near it).
+  std::map<std::array<int32_t, 4>, int32_t> around;
+  for (const int32_t t : where.tets) {
+    std::array<int32_t, 4> c{where.T(t, 0), where.T(t, 1), where.T(t, 2), where.T(t, 3)};
+    std::sort(c.begin(), c.end());
+    around.emplace(c, t);
+  }
+  for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+    const Eigen::Vector3d p = s.V.row(v).transpose();
+    if ((p.array() < index.lo.array() - reach).any() ||
+        (p.array() > index.hi.array() + reach).any())
+      continue;
+    const int k = blade_triangle_at(index, p, reach);
+    if (k < 0) continue;
+    const BladeTriangle& tri = index.tris[static_cast<size_t>(k)];
+    const double d = tri.n.dot(p - tri.p0);
+    if (std::abs(d) <= 1e-7) continue;  // on the blade: take_apart()'s
+    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
+    std::sort(own.begin(), own.end());
+    const auto it = around.find(own);
+    if (it == around.end() || divided[static_cast<size_t>(it->second)]) continue;
+    const Eigen::Vector3d c = material_centre(where.X, where.T, tets, it->second);
+    if ((tri.n.dot(c - tri.p0) > 0.0) == (d > 0.0)) continue;  // its own side
+    const SideFilter allowed{where, tets, divided, &tri, d > 0.0};
+    // Only into one that holds it about as well (no vertex moved onto an offset).
+    const int at = where.locate(p, allowed);
+    if (at >= 0 && where.bary(static_cast<size_t>(at), p).cwiseAbs().sum() <= kMaxAmplification)
+      embed_at(where, at, p, s, v);
+  }
+}
+
+// Vertices an earlier split left on the blade (a progressive cut sweeps its path again) are told
+// their side by their triangles': where their tetrahedron opens now, a welded one (where the
+// tissue had not opened yet: the cut's tip) is taken apart, keeping the triangles on one side, a
+// copy of it (appended) taking the others. Returns points on their sides.
+std::vector<std::pair<int32_t, Eigen::Vector3d>> take_apart(
+    const std::set<std::array<int32_t, 4>>& divided, const BladeIndex& index, EmbeddedSurface& s) {
+  std::vector<std::pair<int32_t, Eigen::Vector3d>> hints;
+  constexpr double kOn = 1e-7;  // mm: a vertex a split made lies on the blade to rounding
+  std::unordered_map<int32_t, Eigen::Vector3d> normal;  // the blade's there
+  for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+    const Eigen::Vector3d p = s.V.row(v).transpose();
+    if ((p.array() < index.lo.array() - kOn).any() || (p.array() > index.hi.array() + kOn).any())
+      continue;
+    for (const BladeTriangle& t : index.tris) {
+      if ((p.array() < t.lo.array() - kOn).any() || (p.array() > t.hi.array() + kOn).any())
+        continue;
+      const Eigen::Vector3d q = p - t.p0;
+      if (std::abs(t.n.dot(q)) > kOn) continue;
+      normal.emplace(static_cast<int32_t>(v), t.n);
+      break;
+    }
+  }
+  if (normal.empty()) return hints;
+  std::unordered_map<int32_t, std::vector<Eigen::Index>> faces;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (normal.count(s.F(f, k))) faces[s.F(f, k)].push_back(f);
+  for (const auto& [v, n] : normal) {
+    const Eigen::Vector3d p = s.V.row(v).transpose();
+    std::vector<Eigen::Index> below;
+    Eigen::Vector3d above_point, below_point;
+    bool above = false;
+    for (const Eigen::Index f : faces[v]) {
+      const Eigen::Vector3d c =
+          (s.V.row(s.F(f, 0)) + s.V.row(s.F(f, 1)) + s.V.row(s.F(f, 2))).transpose() / 3.0;
+      double d = n.dot(c - p);
+      if (std::abs(d) <= kOn) {
+        // A section's cap, on the blade: it closes the side it faces away from.
+        const Eigen::Vector3d a = s.V.row(s.F(f, 0)), b = s.V.row(s.F(f, 1)),
+                              e = s.V.row(s.F(f, 2));
+        // (Facing along n, it is the below side's; no side point from it: it is on the blade.)
+        if (n.dot((b - a).cross(e - a)) > 0.0) below.push_back(f);
+        continue;
+      }
+      if (d < -kOn) below.push_back(f), below_point = c;
+      if (d > kOn) above = true, above_point = c;
+    }
+    // On one side only (a vertex of a seam that was not welded): only told its side. A welded
+    // vertex is taken apart only where its tetrahedron opens now.
+    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
+    std::sort(own.begin(), own.end());
+    if (below.empty() || !above || !divided.count(own)) {
+      if (above) {
+        hints.emplace_back(v, above_point);
+      } else if (!below.empty()) {
+        hints.emplace_back(v, below_point);
+      }
+      continue;
+    }
+    const Eigen::Index copy = s.V.rows();
+    s.V.conservativeResize(copy + 1, 3), s.V.row(copy) = s.V.row(v);
+    s.corners.conservativeResize(copy + 1, 4), s.corners.row(copy) = s.corners.row(v);
+    s.weights.conservativeResize(copy + 1, 4), s.weights.row(copy) = s.weights.row(v);
+    if (s.offsets.rows() > 0)
+      s.offsets.conservativeResize(copy + 1, 3), s.offsets.row(copy) = s.offsets.row(v);
+    for (const Eigen::Index f : below)
+      for (int k = 0; k < 3; ++k)
+        if (s.F(f, k) == v) s.F(f, k) = static_cast<int32_t>(copy);
+    hints.emplace_back(v, above_point);
+    hints.emplace_back(static_cast<int32_t>(copy), below_point);
+  }
+  return hints;
+}
+
+std::vector<Eigen::Vector3d> split_one(const Locator& where, const Tets& tets,
+                                       const std::set<std::array<int32_t, 4>>& divided,
+                                       const std::vector<uint8_t>& is_divided,
+                                       const BladeIndex& index, const SurfaceMesh& splitter,
+                                       double reach, const std::function<const Locator&()>& wide,
+                                       EmbeddedSurface& s) {
+  const auto apart = take_apart(divided, index, s);
+  keep_sides(where, tets, is_divided, index, reach, s);
+  const Eigen::Index nv = s.V.rows();
+  std::vector<Eigen::Vector3d> hint;
+  auto with_apart = [&]() {
+    if (apart.empty()) return;
+    hint.resize(static_cast<size_t>(s.V.rows()), Eigen::Vector3d::Constant(std::nan("")));
+    for (const auto& [v, h] : apart) hint[static_cast<size_t>(v)] = h;
+  };
+  // The triangles with an edge the blade crosses strictly inside. (Where the tissue does not
+  // open after all, at the blade's edge, the two sides' vertices are welded again afterwards.)
+  std::vector<double> hits;
+  std::unordered_map<uint64_t, bool> crossed_edge;
+  auto crossed = [&](int32_t a, int32_t b) {
+    const auto [it, fresh] = crossed_edge.try_emplace(edge_key(a, b), false);
+    if (!fresh) return it->second;
+    const Eigen::Vector3d pa = s.V.row(std::min(a, b)), pb = s.V.row(std::max(a, b));
+    edge_hits(pa, pb, index, hits);
+    for (const double f : hits) it->second = it->second || (f > 1e-9 && f < 1.0 - 1e-9);
+    return it->second;
+  };
+  std::vector<Eigen::Index> patch;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+    Eigen::Vector3d lo = s.V.row(s.F(f, 0)), hi = lo;
+    for (int k = 1; k < 3; ++k) {
+      lo = lo.cwiseMin(s.V.row(s.F(f, k)).transpose());
+      hi = hi.cwiseMax(s.V.row(s.F(f, k)).transpose());
+    }
+    if ((hi.array() < index.lo.array()).any() || (lo.array() > index.hi.array()).any()) continue;
+    bool any = false;
+    for (int k = 0; k < 3; ++k) any = crossed(s.F(f, k), s.F(f, (k + 1) % 3)) || any;
+    if (any) patch.push_back(f);
+  }
+  if (patch.empty()) {
+    with_apart();
+    return hint;
+  }
+
+  // The patch on its own, split.
+  std::unordered_map<int32_t, int32_t> local;
+  std::vector<int32_t> global;
+  SurfaceMesh part;
+  part.F.resize(static_cast<Eigen::Index>(patch.size()), 3);
+  for (size_t r = 0; r < patch.size(); ++r)
+    for (int k = 0; k < 3; ++k) {
+      const int32_t v = s.F(patch[r], k);
+      const auto [it, fresh] = local.try_emplace(v, static_cast<int32_t>(global.size()));
+      if (fresh) global.push_back(v);
+      part.F(static_cast<Eigen::Index>(r), k) = it->second;
+    }
+  part.V.resize(static_cast<Eigen::Index>(global.size()), 3);
+  for (size_t k = 0; k < global.size(); ++k)
+    part.V.row(static_cast<Eigen::Index>(k)) = s.V.row(global[k]);
+  const geometry::SplitSurface cut = geometry::split_surface(part, splitter);
+
+  // New vertices appended, each embedded where it is and given a point on its side: the
+  // centroid of a triangle of its own.
+  std::vector<int32_t> id(cut.origin.size());
+  int32_t added = 0;
+  for (size_t v = 0; v < cut.origin.size(); ++v)
+    id[v] = cut.origin[v] >= 0 ? global[static_cast<size_t>(cut.origin[v])]
+                               : static_cast<int32_t>(nv) + added++;
+  std::vector<Eigen::Vector3d> side_point(cut.origin.size(), Eigen::Vector3d::Zero());
+  for (Eigen::Index f = 0; f < cut.F.rows(); ++f) {
+    const Eigen::Vector3d c =
+        (cut.V.row(cut.F(f, 0)) + cut.V.row(cut.F(f, 1)) + cut.V.row(cut.F(f, 2))).transpose() /
+        3.0;
+    for (int k = 0; k < 3; ++k) side_point[cut.F(f, k)] = c;
+  }
+  const Eigen::Index total = nv + added;
+  s.V.conservativeResize(total, 3);
+  s.corners.conservativeResize(total, 4);
+  s.weights.conservativeResize(total, 4);
+  if (s.offsets.rows() > 0) s.offsets.conservativeResize(total, 3);
+  if (s.offsets.rows() > 0) s.offsets.bottomRows(added).setZero();
+  hint.assign(static_cast<size_t>(total), Eigen::Vector3d::Constant(std::nan("")));
+  for (size_t v = 0; v < cut.origin.size(); ++v) {
+    if (cut.origin[v] >= 0) continue;
+    const int32_t i = id[v];
+    const Eigen::Vector3d p = cut.V.row(static_cast<Eigen::Index>(v)).transpose();
+    // Among the tetrahedra its triangles' side may follow.
+    const int k = blade_triangle_at(index, p, reach);
+    SideFilter allowed{where, tets, is_divided};
+    if (k >= 0) {
+      allowed.tri = &index.tris[static_cast<size_t>(k)];
+      allowed.above = allowed.tri->n.dot(side_point[v] - allowed.tri->p0) > 0.0;
+    }
+    // Beyond the tetrahedra around this cut (ahead of a progressive cut's tip, where the tissue
+    // has not opened yet: welded again, taken apart when it opens), among all near the blade.
+    const Locator* in = &where;
+    int c = where.locate(p, allowed);
+    if (c < 0) {
+      in = &wide();
+      const SideFilter side{*in, tets, is_divided, allowed.tri, allowed.above};
+      c = in->locate(p, side);
+      if (c < 0) c = in->locate(p, side, /*within_margin=*/false);
+    }
+    if (c < 0)
+      throw Error(ErrorKind::kInternal, "cut: " + s.name + ": a split vertex is in no tetrahedron");
+    s.V.row(i) = p.transpose();
+    embed_at(*in, c, p, s, i);
+    Eigen::Vector4d w = s.weights.row(i).transpose();
+    if (w.minCoeff() < 0.0) ++s.outside;
+    hint[static_cast<size_t>(i)] = side_point[v];
+  }
+
+  // The triangles: the patch's replaced by the split ones.
+  std::vector<uint8_t> in_patch(static_cast<size_t>(s.F.rows()), 0);
+  for (const Eigen::Index f : patch) in_patch[static_cast<size_t>(f)] = 1;
+  Eigen::MatrixX3i F(s.F.rows() - static_cast<Eigen::Index>(patch.size()) + cut.F.rows(), 3);
+  Eigen::Index r = 0;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    if (!in_patch[static_cast<size_t>(f)]) F.row(r++) = s.F.row(f);
+  for (Eigen::Index f = 0; f < cut.F.rows(); ++f)
+    F.row(r++) << id[cut.F(f, 0)], id[cut.F(f, 1)], id[cut.F(f, 2)];
+  s.F = std::move(F);
+  for (const auto& [v, h] : apart) hint[static_cast<size_t>(v)] = h;
+  return hint;
+}
+
+}  // namespace
+
+std::vector<std::vector<Eigen::Vector3d>> split_embedded(
+    const Eigen::MatrixX3d& X, const Tets& tets, const std::vector<int32_t>& star,
+    const std::vector<Division>& divided, const Blade& rest_blade, const BladeIndex& index,
+    std::vector<EmbeddedSurface>& embedded) {
+  const Eigen::MatrixX4i& T = tets.T;
+  std::vector<std::vector<Eigen::Vector3d>> hints(embedded.size());
+  if (divided.empty()) return hints;
+  std::set<std::array<int32_t, 4>> corners;
+  std::vector<uint8_t> is_divided(static_cast<size_t>(T.rows()), 0);
+  for (const Division& d : divided) {
+    std::array<int32_t, 4> c{T(d.tet, 0), T(d.tet, 1), T(d.tet, 2), T(d.tet, 3)};
+    std::sort(c.begin(), c.end());
+    corners.insert(c);
+    is_divided[static_cast<size_t>(d.tet)] = 1;
+  }
+  // An earlier cut's two copies of a tetrahedron that still share their four nodes (glued to
+  // whole tetrahedra at that cut's tip) open where this cut divides those: their vertices on the
+  // blade are taken apart too.
+  std::map<std::array<int32_t, 4>, int> seen;
+  for (const int32_t t : star) {
+    if (tets.share_of(t) >= 1.0) continue;
+    std::array<int32_t, 4> c{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
+    std::sort(c.begin(), c.end());
+    if (++seen[c] == 2) corners.insert(c);
+  }
+  const Locator where(X, T, star);
+  // Every tetrahedron near the blade, made when a split vertex is beyond `where`'s.
+  std::optional<Locator> wide_one;
+  const auto wide = [&]() -> const Locator& {
+    if (!wide_one) {
+      const Eigen::Vector3d lo = index.lo.array() - where.reach,
+                            hi = index.hi.array() + where.reach;
+      std::vector<int32_t> near;
+      for (Eigen::Index t = 0; t < T.rows(); ++t) {
+        Eigen::Vector3d tlo = X.row(T(t, 0)), thi = tlo;
+        for (int k = 1; k < 4; ++k) {
+          tlo = tlo.cwiseMin(X.row(T(t, k)).transpose());
+          thi = thi.cwiseMax(X.row(T(t, k)).transpose());
+        }
+        if ((tlo.array() <= hi.array()).all() && (lo.array() <= thi.array()).all())
+          near.push_back(static_cast<int32_t>(t));
+      }
+      wide_one.emplace(X, T, near, where.reach / 4.0);
+    }
+    return *wide_one;
+  };
+  const SurfaceMesh splitter = splitter_of(rest_blade);
+  for (size_t e = 0; e < embedded.size(); ++e) {
+    if (embedded[e].name == kWoundName && embedded[e].label == 0) continue;
+    hints[e] = split_one(where, tets, corners, is_divided, index, splitter, where.reach, wide,
+                         embedded[e]);
+  }
+  return hints;
+}
+
+void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Eigen::Index>& had,
+                    const BladeIndex& index) {
+  for (size_t e = 0; e < embedded.size() && e < had.size(); ++e) {
+    EmbeddedSurface& s = embedded[e];
+    const Eigen::Index first_new = had[e];
+    if (s.V.rows() == first_new) continue;  // nothing split here
+    // Welded again: the two sides' vertices of a point where the tissue did not open after all
+    // (the same copy's nodes and weights) are one.
+    std::map<std::array<double, 11>, int32_t> same;
+    std::vector<int32_t> to(static_cast<size_t>(s.V.rows()));
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+      to[static_cast<size_t>(v)] = static_cast<int32_t>(v);
+      if (v < first_new) continue;
+      std::array<double, 11> key{};
+      for (int k = 0; k < 3; ++k) key[k] = s.V(v, k);
+      for (int k = 0; k < 4; ++k) key[3 + k] = s.corners(v, k), key[7 + k] = s.weights(v, k);
+      to[static_cast<size_t>(v)] = same.try_emplace(key, static_cast<int32_t>(v)).first->second;
+    }
+    // The new vertices no triangle has any more are dropped (nothing outside knows them yet).
+    std::vector<uint8_t> used(static_cast<size_t>(s.V.rows()), 0);
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+      for (int k = 0; k < 3; ++k) used[static_cast<size_t>(to[static_cast<size_t>(s.F(f, k))])] = 1;
+    std::vector<int32_t> keep(static_cast<size_t>(s.V.rows()));
+    Eigen::Index n = first_new;
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+      if (v < first_new) {
+        keep[static_cast<size_t>(v)] = static_cast<int32_t>(v);
+        continue;
+      }
+      if (!used[static_cast<size_t>(v)]) continue;
+      keep[static_cast<size_t>(v)] = static_cast<int32_t>(n);
+      s.V.row(n) = s.V.row(v), s.corners.row(n) = s.corners.row(v);
+      s.weights.row(n) = s.weights.row(v);
+      if (s.offsets.rows() > 0) s.offsets.row(n) = s.offsets.row(v);
+      ++n;
+    }
+    s.V.conservativeResize(n, 3), s.corners.conservativeResize(n, 4);
+    s.weights.conservativeResize(n, 4);
+    if (s.offsets.rows() > 0) s.offsets.conservativeResize(n, 3);
+    // A triangle two of whose corners were welded had no area: it goes (its neighbours across
+    // the welded edge meet instead).
+    Eigen::Index kept = 0;
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+      Eigen::RowVector3i g;
+      for (int k = 0; k < 3; ++k)
+        g[k] = keep[static_cast<size_t>(to[static_cast<size_t>(s.F(f, k))])];
+      if (g[0] != g[1] && g[1] != g[2] && g[0] != g[2]) s.F.row(kept++) = g;
+    }
+    s.F.conservativeResize(kept, 3);
+
+    // The boundary: each directed edge with no twin, from its start.
+    std::unordered_map<uint64_t, int> count;
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+      for (int k = 0; k < 3; ++k) ++count[edge_key(s.F(f, k), s.F(f, (k + 1) % 3))];
+    std::unordered_map<int32_t, int32_t> next;
+    std::unordered_map<int32_t, Eigen::Index>
+        face_of;  // the triangle of a boundary edge, by its start
+    std::set<int32_t> pinched;
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int32_t a = s.F(f, k), b = s.F(f, (k + 1) % 3);
+        if (count[edge_key(a, b)] != 1) continue;
+        if (!next.emplace(a, b).second) pinched.insert(a);
+        face_of[a] = f;
+      }
+    // Which side of the blade a boundary edge's triangle is on: +1, -1, 0 (unknown).
+    const auto side_of = [&](int32_t a) {
+      const Eigen::Vector3d p = s.V.row(a).transpose();
+      const int k = blade_triangle_at(index, p, 1e-6);
+      if (k < 0) return 0;
+      const BladeTriangle& t = index.tris[static_cast<size_t>(k)];
+      const Eigen::Index f = face_of.at(a);
+      const Eigen::Vector3d c =
+          (s.V.row(s.F(f, 0)) + s.V.row(s.F(f, 1)) + s.V.row(s.F(f, 2))).transpose() / 3.0;
+      const double d = t.n.dot(c - t.p0);
+      return d > 1e-9 ? 1 : (d < -1e-9 ? -1 : 0);
+    };
+    // Each loop with a vertex this cut made, on one side only (no point twice: a slit's loop
+    // runs down one side and back up the other), is a section: capped.
+    std::vector<Eigen::RowVector3i> caps;
+    std::set<int32_t> seen;
+    for (const auto& [start, unused] : next) {
+      if (seen.count(start)) continue;
+      std::vector<int32_t> loop;
+      bool ok = true;
+      for (int32_t v = start;;) {
+        if (!seen.insert(v).second) {
+          ok = ok && v == start;
+          break;
+        }
+        if (pinched.count(v)) ok = false;
+        loop.push_back(v);
+        const auto it = next.find(v);
+        if (it == next.end()) {
+          ok = false;
+          break;
+        }
+        v = it->second;
+      }
+      if (!ok || loop.size() < 3) continue;
+      bool fresh = false;
+      std::set<std::array<double, 3>> points;
+      std::set<int> sides;
+      for (const int32_t v : loop) {
+        fresh |= v >= first_new;
+        ok &= points.insert({s.V(v, 0), s.V(v, 1), s.V(v, 2)}).second;
+        sides.insert(side_of(v));
+      }
+      // (On the blade, every triangle on one side of it.)
+      ok &= sides.size() == 1 && *sides.begin() != 0;
+      if (!fresh || !ok) continue;
+      Eigen::MatrixX3d P(static_cast<Eigen::Index>(loop.size()), 3);
+      for (size_t k = 0; k < loop.size(); ++k)
+        P.row(static_cast<Eigen::Index>(k)) = s.V.row(loop[k]);
+      const Eigen::MatrixX3i cap = geometry::fill_loop(P);
+      for (Eigen::Index f = 0; f < cap.rows(); ++f)
+        caps.emplace_back(loop[cap(f, 0)], loop[cap(f, 1)], loop[cap(f, 2)]);
+    }
+    if (caps.empty()) continue;
+    const Eigen::Index nf = s.F.rows();
+    s.F.conservativeResize(nf + static_cast<Eigen::Index>(caps.size()), 3);
+    for (size_t f = 0; f < caps.size(); ++f) s.F.row(nf + static_cast<Eigen::Index>(f)) = caps[f];
+  }
+}
+
+}  // namespace lamina::model::detail
