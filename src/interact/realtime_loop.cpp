@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
@@ -13,6 +14,7 @@
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pacer.h"
 #include "lamina/interact/scalpel.h"
+#include "lamina/sim/carry_over.h"
 
 namespace lamina::interact {
 namespace {
@@ -162,6 +164,7 @@ void RealtimeLoop::run_steps(int64_t steps) {
     apply_pending();
   }
   apply_cut();
+  apply_undo();
   for (int64_t k = 0; k < steps && !halted(); ++k) one_step();
   publish(true);
 }
@@ -213,6 +216,8 @@ void RealtimeLoop::apply_pending() {
     cut_ = std::move(new_cut_);
     new_cut_.reset();
   }
+  undos_ += new_undos_;
+  new_undos_ = 0;
   if (reroute) route_forces();
 }
 
@@ -224,6 +229,46 @@ void RealtimeLoop::cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d&
   std::lock_guard lock(mutex_);
   new_cut_ = CutRequest{std::move(path), direction, depth_mm};
   wake_.notify_all();
+}
+
+void RealtimeLoop::undo_cut() {
+  std::lock_guard lock(mutex_);
+  ++new_undos_;
+  wake_.notify_all();
+}
+
+// The undo, on the stepping thread: everything the last cut changed put back (the shape and the
+// motion as they were just before it); the clock runs on.
+void RealtimeLoop::apply_undo() {
+  for (; undos_ > 0; --undos_) {
+    if (undo_.empty()) {
+      cut_error_ = "undo: there is no cut to undo";
+      log::warn("{}", cut_error_);
+      undos_ = 0;
+      return;
+    }
+    BeforeCut& b = undo_.back();
+    const double time_s = sim_.time_s;
+    const int64_t steps = sim_.steps;
+    model_ = std::move(b.model);
+    sim_ = std::move(b.sim);
+    sim_.time_s = time_s, sim_.steps = steps;
+    forces_ = std::move(b.forces);
+    routes_ = std::move(b.routes);
+    touched_ = std::move(b.touched);
+    loads_ = std::move(b.loads);
+    grasp_ = std::move(b.grasp);
+    undo_.pop_back();
+    tip_route_ = {};
+    proxy_ = {};
+    tip_contact_ = -1;
+    ++model_version_;
+    --cuts_;
+    last_cut_ = {};
+    cut_error_.clear();
+    log::info("undo: the last cut taken back ({} cut(s) in force)", cuts_);
+    publish(true);
+  }
 }
 
 // The cut, on the stepping thread between two steps, without the caller's lock (it takes tens
@@ -246,9 +291,23 @@ void RealtimeLoop::apply_cut() {
   d.grasps = {grasp_};
   try {
     std::vector<int32_t> origin;
+    // What the cut will change, kept to take it back (undo_cut()). The model the loop was made
+    // with is the caller's, who may change it once the cut model is published (the viewer
+    // shows the cut model in its place): the loop first takes a copy of its own, and the
+    // simulation over to it.
+    if (model_.use_count() == 0) {
+      auto own = std::make_shared<const Model>(*model_);
+      std::vector<int32_t> same(static_cast<size_t>(own->node_count()));
+      std::iota(same.begin(), same.end(), 0);
+      sim_ = sim::carry_over(sim_, *own, same);
+      model_ = std::move(own);
+    }
+    BeforeCut before{model_, sim_, forces_, routes_, touched_, loads_, grasp_};
     const model::CutReport r = cut_now(model_, sim_, d, c.path, c.direction, c.depth_mm, origin);
     cut_error_.clear();
     if (r.cut_tets > 0) {
+      if (undo_.size() == static_cast<size_t>(kUndoDepth)) undo_.erase(undo_.begin());
+      undo_.push_back(std::move(before));
       for (size_t k = 0; k < forces_.size(); ++k) forces_[k].node = d.tools[k].vertex;
       routes_ = std::move(d.routes);
       touched_ = std::move(d.touched);
@@ -414,6 +473,7 @@ void RealtimeLoop::publish(bool force) {
   s.model = model_;
   s.model_version = model_version_;
   s.cuts = cuts_;
+  s.undoable = static_cast<int32_t>(undo_.size());
   s.last_cut = last_cut_;
   s.cut_error = cut_error_;
   ++s.generation;
@@ -437,6 +497,7 @@ void RealtimeLoop::thread_main() {
       apply_pending();
       lock.unlock();
       apply_cut();
+      apply_undo();
       publish(true);
       acquire(lock);
       pacer.restart();
@@ -446,6 +507,7 @@ void RealtimeLoop::thread_main() {
     pacer.set_rate(rate_hz_);
     lock.unlock();
     apply_cut();
+    apply_undo();
 
     late_us_ = pacer.lateness_us();
     one_step();

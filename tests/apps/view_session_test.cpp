@@ -160,7 +160,7 @@ TEST_F(ViewSessionTest, ADragOnTheOrganDentsItAndReleaseLetsItReturnToRest) {
 // K, then a drag across the organ: the release cuts along the traced path (the blade along the
 // view, the panel's depth under it); the session shows the cut model from then on, with as many
 // positions as it has nodes, and the cut organ stays at rest.
-TEST_F(ViewSessionTest, TheScalpelCutsAlongTheDragAndTheCutModelIsShown) {
+TEST_F(ViewSessionTest, TheScalpelCutsAlongTheDragTheCutModelIsShownAndUUndoesIt) {
   ViewSession s(fast_options(), sphere_view_model());
   s.start();
   const int32_t before = s.model().node_count();
@@ -189,6 +189,19 @@ TEST_F(ViewSessionTest, TheScalpelCutsAlongTheDragAndTheCutModelIsShown) {
   EXPECT_EQ(render::positions(ViewSession::kModelName).rows(), s.model().node_count());
   EXPECT_LT(largest_displacement(s), 0.5) << "the cut organ did not stay at rest";
   EXPECT_EQ(s.report()["recoveries"], 0);
+
+  // U takes the cut back: the model the session began with is shown again, at rest.
+  render::inject(InputEvent::key_down("u"));
+  render::inject(InputEvent::key_up("u"));
+  s.frame();
+  ASSERT_TRUE(frames_until(
+      s, [&] { return s.report()["cuts"].get<int>() == 0; }, 30.0))
+      << "U did not undo the cut";
+  EXPECT_EQ(s.model().node_count(), before);
+  ASSERT_TRUE(simulate_for(s, 0.5));
+  s.frame();
+  EXPECT_EQ(render::positions(ViewSession::kModelName).rows(), before);
+  EXPECT_LT(largest_displacement(s), 0.5) << "the organ did not stay at rest after the undo";
 }
 
 TEST_F(ViewSessionTest, ShiftAtReleasePinsTheForceUntilC) {

@@ -184,9 +184,10 @@ TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
     std::fprintf(stderr, "note: this machine kept %.2fx real time at worst\n", min_rtf);
 }
 
-TEST(View, RealMouseEventsFromXdotoolCutTheOrganInScalpelMode) {
-  // K, then a real drag across the organ: the release cuts it along the drag (the report counts
-  // the cut and the cut model's nodes), and the cut organ, nothing pulling it, stays at rest.
+TEST(View, RealMouseEventsFromXdotoolCutTheOrganInScalpelModeAndUUndoesIt) {
+  // K, then a real drag across the organ: the release cuts it along the drag, then U undoes the
+  // cut (the report counts the cuts in force and the model's nodes), and the organ, nothing
+  // pulling it, stays at rest throughout.
   test::TempDir dir;
   std::ofstream(dir.path / "quit.json") << R"({"events": [{"at": 12.0, "quit": true}]})";
   const auto r = run_with_xdotool(
@@ -194,12 +195,15 @@ TEST(View, RealMouseEventsFromXdotoolCutTheOrganInScalpelMode) {
       "mousemove --window $w 600 440 sleep 0.5 key k sleep 0.5 mousedown 1 sleep 1.0 "
       "mousemove --window $w 700 440 sleep 0.2 mousemove --window $w 800 440 sleep 0.2 "
       "mousemove --window $w 900 440 sleep 0.2 mousemove --window $w 1000 440 sleep 0.2 "
-      "mousemove --window $w 1100 440 sleep 1.0 mouseup 1");
+      "mousemove --window $w 1100 440 sleep 1.0 mouseup 1 sleep 2.0 key u sleep 1.0");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
-  EXPECT_EQ(rep["cuts"], 1) << "the drag did not cut\n" << r.err;
-  EXPECT_GT(rep["nodes"].get<int>(), 2321) << "the cut model was not adopted";
-  EXPECT_NE(r.err.find("lamina view: cut "), std::string::npos) << r.err;
+  // The drag cut (the cut model adopted: the log says what it divided), then U took it back.
+  EXPECT_NE(r.err.find("lamina view: cut "), std::string::npos) << "the drag did not cut\n"
+                                                                << r.err;
+  EXPECT_NE(r.err.find("lamina view: undid the last cut (0 in force)"), std::string::npos) << r.err;
+  EXPECT_EQ(rep["cuts"], 0) << r.err;
+  EXPECT_EQ(rep["nodes"].get<int>(), 2321) << "the model before the cut is not shown again";
   EXPECT_LT(rep["max_displacement_mm"].get<double>(), 0.5) << "the cut organ moved";
   EXPECT_EQ(rep["recoveries"], 0);
   EXPECT_EQ(rep["unstable_events"], 0);

@@ -289,7 +289,7 @@ TEST(Scalpel, OnACutOrganTheLoadIsTheReactionAndAFreedPieceComesToRest) {
 // The realtime loop (the viewer's, the server's, the C API's) cuts between two steps: the model
 // it publishes is the cut one, a live force keeps acting on the copies of its node, and the
 // pieces come apart.
-TEST(Scalpel, TheRealtimeLoopCutsBetweenTwoStepsAndItsForcesCarryOver) {
+TEST(Scalpel, TheRealtimeLoopCutsBetweenTwoStepsItsForcesCarryOverAndItUndoes) {
   const Model& m = test::tet_phantom();
   const Across a = across();
   sim::Simulation s = held();
@@ -327,6 +327,34 @@ TEST(Scalpel, TheRealtimeLoopCutsBetweenTwoStepsAndItsForcesCarryOver) {
   EXPECT_LT((after.model->X.row(at) - m.X.row(node)).norm(), 10.0);
   EXPECT_GT(after.x(at, 1) - after.model->X(at, 1), before.x(node, 1) - m.X(node, 1))
       << "the force stopped pushing";
+  EXPECT_EQ(after.undoable, 1);
+
+  // Undone: the model the loop was made with, the force on its node again, the clock running on.
+  loop.undo_cut();
+  loop.run_steps(20);
+  interact::LoopSnapshot undone;
+  ASSERT_TRUE(loop.latest(undone));
+  EXPECT_EQ(undone.model_version, 2u);
+  ASSERT_TRUE(undone.model);  // the loop's own copy of the model it was made with
+  EXPECT_EQ(undone.model->node_count(), m.node_count());
+  EXPECT_EQ(undone.model->X, m.X);
+  EXPECT_EQ(undone.cuts, 0);
+  EXPECT_EQ(undone.undoable, 0);
+  EXPECT_EQ(undone.cut_error, "");
+  ASSERT_EQ(undone.x.rows(), m.node_count());
+  EXPECT_TRUE(undone.x.allFinite());
+  EXPECT_GT(undone.time_s, after.time_s);
+  ASSERT_EQ(undone.contact_nodes.size(), 1u);
+  EXPECT_EQ(undone.contact_nodes[0], node);
+  EXPECT_GT(undone.x(node, 1) - m.X(node, 1), 0.0) << "the force stopped pushing";
+  // Nothing more to undo: said, nothing changed.
+  loop.undo_cut();
+  loop.run_steps(1);
+  interact::LoopSnapshot none;
+  ASSERT_TRUE(loop.latest(none));
+  EXPECT_EQ(none.model_version, 2u);
+  EXPECT_EQ(none.cut_error, "undo: there is no cut to undo");
+  EXPECT_EQ(none.x.rows(), m.node_count());
 }
 
 TEST(Scalpel, BadScalpelsAreNamed) {

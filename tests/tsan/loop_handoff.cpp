@@ -3,9 +3,9 @@
 // what the viewer's frame loop does, as fast as it can: copies the latest snapshot, moves the
 // mouse force, pins and releases forces, moves the tool tip, changes parameters (including the
 // integrator, which rebuilds the projective solver on the loop's side), pauses, resets,
-// changes the rate and cuts the organ (twice: the loop's model and snapshot then change size). Any
-// data race is a TSan report and a non-zero exit; the program also checks that it saw snapshots
-// advance and that the model stayed finite.
+// changes the rate, cuts the organ (twice: the loop's model and snapshot then change size) and
+// undoes the second cut. Any data race is a TSan report and a non-zero exit; the program also
+// checks that it saw snapshots advance and that the model stayed finite.
 //   tsan_loop_handoff MODEL.vtu [SECONDS]
 #include <Eigen/Core>
 #include <atomic>
@@ -98,6 +98,7 @@ int main(int argc, char** argv) {
                     Eigen::Vector3d(x, hi.y() + 5, lo.z() - 5)},
                    Eigen::Vector3d::UnitZ(), hi.z() - lo.z() + 10);
         }
+        if (frames == 5007) loop.undo_cut();  // the second cut taken back
         break;
       default:
         loop.set_paused(false);

@@ -64,6 +64,9 @@ void ViewSession::State::handle_key(const std::string& key) {
     tool_mode = grasp_mode = false;
   } else if (key == "d") {
     style.display_skin = !style.display_skin;  // the display skin or the simulation's
+  } else if (key == "u") {
+    loop->undo_cut();  // adopt_cut() shows the model it goes back to
+    cut_message = snap.undoable > 0 ? "undoing the last cut..." : "no cut to undo";
   }
 }
 

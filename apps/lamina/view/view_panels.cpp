@@ -146,6 +146,7 @@ void ViewSession::State::panels() {
           "along the view. %lld cut(s).%s%s",
           scalpel_depth_mm, static_cast<long long>(cuts),
           cut_message.empty() ? "" : " Last: ", cut_message.c_str());
+      if (ImGui::Button("Undo cut (U)")) handle_key("u");
     }
     if (grasp_mode) {
       float jr = static_cast<float>(jaws.radius_mm);

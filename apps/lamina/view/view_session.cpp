@@ -276,10 +276,10 @@ void ViewSession::State::on_frame() {
   }
 }
 
-// A cut (K) made on the simulation thread: its model is shown from now on, its display skin
-// split along the cut and the wound inside. Node indices change, so the pinned forces are let go
-// (the loop carried them over, but this session names nodes by the old model); the structures
-// it crossed are marked where they were cut.
+// A cut (K) made on the simulation thread, or undone (U): its model is shown from now on, its
+// display skin split along the cut and the wound inside. Node indices change, so the pinned forces
+// are let go (the loop carried them over, but this session names nodes by the old model); the
+// structures it crossed are marked where they were cut.
 void ViewSession::State::adopt_cut() {
   if (snap.model_version == model_version) {
     if (!snap.cut_error.empty() && cut_message == "cutting...") cut_message = snap.cut_error;
@@ -293,7 +293,18 @@ void ViewSession::State::adopt_cut() {
   pinned.clear();
   update_forces();
   watched = last_drag_node = drag_peak_node = -1;
+  if (snap.cuts < cuts) {  // an undo (U): the marks of the cuts taken back go too
+    for (; cuts > snap.cuts && !crossed_before.empty(); --cuts) {
+      crossed.resize(crossed_before.back());
+      crossed_before.pop_back();
+    }
+    cuts = snap.cuts;
+    cut_message = fmt::format("undid the last cut ({} in force)", cuts);
+    log::info("lamina view: {}", cut_message);
+    return;
+  }
   cuts = snap.cuts;
+  crossed_before.push_back(crossed.size());
   const model::CutReport& r = snap.last_cut;
   std::string pieces;
   for (const model::CutPiece& p : r.pieces)

@@ -75,7 +75,8 @@ struct ViewSession::State {
   double scalpel_reach_mm = 0.0;  // the last hit's distance along the ray (for rays that miss)
   uint64_t model_version = 0;     // the loop's cut model adopted
   int64_t cuts = 0;
-  std::vector<model::StructureCut> crossed;  // every structure the cuts crossed (marked)
+  std::vector<model::StructureCut> crossed;  // every structure the cuts in force crossed (marked)
+  std::vector<size_t> crossed_before;        // per cut in force: crossed.size() before it
   std::string cut_message;                   // what the last cut did, or why it did nothing
   bool grasp_held = false;                   // closed and left holding (Shift+release); C opens it
   bool scene_grasp = false;  // the scene's grasper (ViewModel::grasper) is playing its pull

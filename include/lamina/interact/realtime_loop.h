@@ -75,13 +75,16 @@ struct LoopSnapshot {
   int64_t lock_waits = 0;
   double longest_lock_wait_us = 0.0;
   /// The model x is of: the one the loop was made with until a cut (RealtimeLoop::cut()) made
-  /// another; model_version counts the cuts that divided tetrahedra (0: uncut).
+  /// another; model_version counts the changes of model (each cut that divided tetrahedra, each
+  /// undo: 0, the loop's own).
   std::shared_ptr<const Model> model;
   uint64_t model_version = 0;
-  /// The cuts so far: how many divided tetrahedra, the last one's report (its pieces, the
-  /// structures it crossed, where they are then), and a cut refused on the stepping thread
-  /// (empty if none; a bad path is refused by cut() itself).
+  /// The cuts in force: how many divided tetrahedra (less those undone), the last one's report
+  /// (its pieces, the structures it crossed, where they are then; empty after an undo), and a
+  /// cut or undo refused on the stepping thread (empty if none; a bad path is refused by cut()
+  /// itself). `undoable`: how many of the last cuts undo_cut() can take back.
   int64_t cuts = 0;
+  int32_t undoable = 0;
   model::CutReport last_cut;
   std::string cut_error;
 };
@@ -131,6 +134,12 @@ class RealtimeLoop {
   /// takes them from the new model). Throws lamina::Error (kInvalidInput), nothing queued, for
   /// a bad path, depth or direction (scalpel_problem()).
   void cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm);
+  /// Takes the last cut back, between two steps: the model, the organ's shape and motion, the
+  /// live forces, the grasper's hold and the tip as they were just before it (the clock runs
+  /// on). The last kUndoDepth cuts can be undone, one call each; with none, the snapshot's
+  /// cut_error says so and nothing changes.
+  void undo_cut();
+  static constexpr int kUndoDepth = 8;
   /// Puts every node back at rest with zero velocity and time 0; forces are kept. The way on
   /// after the simulation became unstable (LoopSnapshot::stats.unstable): the loop stops
   /// stepping then, and its reaction is zero, so that a haptic device feels nothing wild.
@@ -157,6 +166,7 @@ class RealtimeLoop {
   bool halted() const { return last_stats_.unstable != sim::Instability::kNone; }
   void apply_pending();  // under mutex_
   void apply_cut();      // a cut taken by apply_pending, made unlocked
+  void apply_undo();     // an undo taken by apply_pending
   void route_forces();
   void move_grasper();
   void one_step();
@@ -193,6 +203,7 @@ class RealtimeLoop {
     double depth_mm;
   };
   std::optional<CutRequest> new_cut_;
+  int new_undos_ = 0;
   double rate_hz_ = 1000.0;
 
   // Owned by the stepping thread.
@@ -200,7 +211,19 @@ class RealtimeLoop {
   // check once read rate_hz_ itself, unlocked (found by TSan in CI's run).
   double stepping_rate_hz_ = 1000.0;
   std::vector<LiveForce> forces_;
-  std::optional<CutRequest> cut_;       // taken from new_cut_, made outside the lock
+  std::optional<CutRequest> cut_;  // taken from new_cut_, made outside the lock
+  int undos_ = 0;                  // taken from new_undos_
+  // What each of the last cuts changed, to take it back: everything that names the nodes.
+  struct BeforeCut {
+    std::shared_ptr<const Model> model;
+    sim::Simulation sim;
+    std::vector<LiveForce> forces;
+    std::vector<ForceRoute> routes;
+    std::vector<int32_t> touched;
+    Loads loads;
+    Grasp grasp;
+  };
+  std::vector<BeforeCut> undo_;         // the oldest first, at most kUndoDepth
   std::shared_ptr<const Model> model_;  // the model sim_ runs on (not owned until a cut)
   uint64_t model_version_ = 0;
   int64_t cuts_ = 0;
