@@ -18,7 +18,9 @@ Eigen::MatrixX3i fill_loop(const Eigen::MatrixX3d& loop) {
   points.reserve(static_cast<size_t>(n));
   for (int k = 0; k < n; ++k) points.emplace_back(loop(k, 0), loop(k, 1), loop(k, 2));
   std::vector<CGAL::Triple<int, int, int>> tris;
-  CGAL::Polygon_mesh_processing::triangulate_hole_polyline(points, std::back_inserter(tris));
+  CGAL::Polygon_mesh_processing::triangulate_hole_polyline(
+      points, std::back_inserter(tris),
+      CGAL::parameters::use_2d_constrained_delaunay_triangulation(true));
   Eigen::MatrixX3i F(static_cast<Eigen::Index>(tris.size()), 3);
   for (size_t t = 0; t < tris.size(); ++t)
     F.row(static_cast<Eigen::Index>(t)) << tris[t].first, tris[t].second, tris[t].third;
