@@ -153,6 +153,7 @@ struct SoakArgs {
   std::string output;
   int64_t steps = 1000000;
   uint64_t seed = 1;
+  int32_t cuts = 0;  ///< random cuts spread over the run (each one kind in turn)
   bool json = false;
   bool no_plot = false;
   bool verbose = false;

@@ -239,6 +239,10 @@ int main(int argc, char** argv) {
       ->required();
   so->add_option("--steps", soak.steps, "steps to run (default 1000000)");
   so->add_option("--seed", soak.seed, "random seed for the tools (default 1)");
+  so->add_option("--cuts", soak.cuts,
+                 "random cuts spread over the run, in turn through nodes, along a skin edge, "
+                 "the same blade again and grazing the skin (default 0)")
+      ->check(CLI::NonNegativeNumber);
   so->add_flag("--json", soak.json, "print the summary as JSON on stdout");
   so->add_flag("--no-plot", soak.no_plot, "skip soak.png (no gnuplot needed)");
 

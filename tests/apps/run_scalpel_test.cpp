@@ -110,6 +110,15 @@ TEST(LaminaRunScalpel, CutsAsItGoesIntoThePiecesOfOneCutAndReportsTheVesselsCros
   std::stringstream wtext;
   wtext << wound.rdbuf();
   EXPECT_NE(wtext.str().find("frames/wound_"), std::string::npos);
+  // Each piece has its own skin series from the cut that made it: together the whole skin.
+  for (const char* piece : {"piece1", "piece2"}) {
+    std::ifstream p(dir.path / "out" / (std::string(piece) + ".pvd"));
+    ASSERT_TRUE(p.good()) << "no " << piece << " series";
+    std::stringstream ptext;
+    ptext << p.rdbuf();
+    EXPECT_NE(ptext.str().find(std::string("frames/") + piece + "_"), std::string::npos);
+  }
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "piece3.pvd"));
 }
 
 TEST(LaminaRunScalpel, ABadScalpelOrACheckpointedCutIsOneLineExitTwo) {

@@ -744,14 +744,18 @@ TEST(LaminaRun, ALoadBeyondRecoveryStopsCleanlyWithExitFive) {
 
 // The soak test's short form (the long one, a million steps, is `lamina soak` itself:
 // docs/testing.md): random tools on a small physical phantom, then release.
-TEST(LaminaSoak, RandomToolsLeaveMemoryFlatNoNanAndTheModelBackAtRest) {
-  test::TempDir dir;
+// `lamina soak` with `args` on a small physical phantom (400 skin vertices, 5 ms steps).
+RunResult soak_small(const test::TempDir& dir, const std::string& args) {
   std::ofstream(dir.file("small.json")) << R"({"model": {"build": {"skin_vertices": 400}},
       "material": {"young_modulus_kpa": 6.0, "poisson_ratio": 0.45, "density_g_per_cm3": 1.06,
                    "damping_ratio": 1.0},
       "solver": {"mode": "global", "dt_s": 0.005}})";
-  const RunResult r =
-      run_lamina(dir, "-q soak small.json -o out --steps 3000 --seed 7 --no-plot --json");
+  return run_lamina(dir, "-q soak small.json -o out --no-plot --json " + args);
+}
+
+TEST(LaminaSoak, RandomToolsLeaveMemoryFlatNoNanAndTheModelBackAtRest) {
+  test::TempDir dir;
+  const RunResult r = soak_small(dir, "--steps 3000 --seed 7");
   ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
   const json sum = json::parse(r.out);
   EXPECT_TRUE(sum["passed"].get<bool>()) << r.out;
@@ -764,6 +768,24 @@ TEST(LaminaSoak, RandomToolsLeaveMemoryFlatNoNanAndTheModelBackAtRest) {
   EXPECT_LE(std::abs(sum["rest_volume_change_pct"].get<double>()), 0.1);
   EXPECT_LE(sum["rest_error_mm"].get<double>(), 0.05);
   EXPECT_GT(lines_of(read_text(dir.path / "out" / "soak.csv")).size(), 100u);
+}
+
+// Random cuts through the soak (issue 47): through nodes, along a skin edge, the same blade
+// again, grazing the skin; the cut organ keeps every check and comes back to its (cut) rest.
+TEST(LaminaSoak, RandomCutsAmongTheToolsKeepEveryCheck) {
+  test::TempDir dir;
+  const RunResult r = soak_small(dir, "--steps 4000 --seed 7 --cuts 8");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const json sum = json::parse(r.out);
+  EXPECT_TRUE(sum["passed"].get<bool>()) << r.out;
+  EXPECT_EQ(sum["cuts_tried"], 8);
+  EXPECT_GE(sum["cuts"].get<int>(), 2) << r.out;
+  EXPECT_GT(sum["cut_tets"].get<int>(), 0);
+  EXPECT_GT(sum["nodes"].get<int>(), 400) << "the cut model's nodes";
+  EXPECT_EQ(sum["failed_steps"], 0);
+  EXPECT_EQ(sum["recoveries"], 0);
+  EXPECT_LE(sum["rest_error_mm"].get<double>(), 0.05);
+  if (sum["memory_checked"].get<bool>()) EXPECT_LE(sum["resident_mb_growth"].get<double>(), 2.0);
 }
 
 // The soak prepares its scene as every command does: a scene that does not fit its model is

@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <map>
+#include <numeric>
 #include <optional>
 #include <regex>
 #include <set>
@@ -45,12 +47,14 @@ namespace fs = std::filesystem;
 void remove_stale_frames(const fs::path& frames, const std::set<std::string>& series,
                          int32_t keep) {
   static const std::regex kFrameName(R"((.+)_([0-9]{6})\.(vtp|obj))");
+  static const std::regex kPiece(R"(piece[0-9]+)");  // a cut's pieces' series, made as they appear
   std::error_code ec;
   std::smatch match;
   for (const auto& e : fs::directory_iterator(frames, ec)) {
     const std::string name = e.path().filename().string();
     if (e.is_regular_file(ec) && std::regex_match(name, match, kFrameName) &&
-        series.contains(match[1].str()) && std::stoi(match[2].str()) >= keep)
+        (series.contains(match[1].str()) || std::regex_match(match[1].str(), kPiece)) &&
+        std::stoi(match[2].str()) >= keep)
       fs::remove(e.path(), ec);
   }
 }
@@ -74,6 +78,7 @@ struct Series {
   std::string name;       // "skin", "layer1", ..., then the embedded surfaces' ("vessels")
   int32_t layer = 0;      // the layer shown, when embedded < 0
   int32_t embedded = -1;  // else the embedded surface shown (Model::embedded), at W x
+  int32_t piece = -1;     // a cut's piece k (largest first): the skin's triangles on it
   SurfaceMesh mesh;       // connectivity fixed, positions updated per frame (buffer reused)
   model::Rgb8 color = model::kOrganColor;             // its `color` point array, for ParaView
   std::vector<std::pair<double, std::string>> files;  // time (s), path relative to OUTDIR
@@ -193,6 +198,39 @@ RunScene load_run_scene(const RunArgs& a, const std::optional<io::RunCheckpoint>
   return r;
 }
 
+// The skin's triangles on each piece of a cut model (its connected parts of the tetrahedra),
+// the pieces largest first (by tetrahedra).
+std::vector<Eigen::MatrixX3i> skin_by_piece(const Model& m) {
+  std::vector<int32_t> root(static_cast<size_t>(m.node_count()));
+  std::iota(root.begin(), root.end(), 0);
+  const auto find = [&](int32_t a) {
+    while (root[a] != a) a = root[a] = root[root[a]];
+    return a;
+  };
+  for (Eigen::Index t = 0; t < m.tets.size(); ++t)
+    for (int k = 1; k < 4; ++k) root[find(m.tets.T(t, k))] = find(m.tets.T(t, 0));
+  std::map<int32_t, int64_t> size;
+  for (Eigen::Index t = 0; t < m.tets.size(); ++t) ++size[find(m.tets.T(t, 0))];
+  std::vector<std::pair<int64_t, int32_t>> order;
+  for (const auto& [r, n] : size) order.emplace_back(-n, r);
+  std::sort(order.begin(), order.end());
+  std::map<int32_t, size_t> index;
+  for (size_t k = 0; k < order.size(); ++k) index[order[k].second] = k;
+  const SurfaceMesh skin = model::layer_mesh(m, 0);
+  std::vector<std::vector<Eigen::RowVector3i>> rows(order.size());
+  for (Eigen::Index f = 0; f < skin.F.rows(); ++f) {
+    const auto it = index.find(find(m.layers[0].first_node + skin.F(f, 0)));
+    if (it != index.end()) rows[it->second].push_back(skin.F.row(f));
+  }
+  std::vector<Eigen::MatrixX3i> out(order.size());
+  for (size_t k = 0; k < order.size(); ++k) {
+    out[k].resize(static_cast<Eigen::Index>(rows[k].size()), 3);
+    for (size_t r = 0; r < rows[k].size(); ++r)
+      out[k].row(static_cast<Eigen::Index>(r)) = rows[k][r];
+  }
+  return out;
+}
+
 // What the run writes as it goes: a VTK series per layer, the metrics, checkpoints.
 struct RunOutputs {
   fs::path out;
@@ -238,9 +276,20 @@ struct RunOutputs {
   // and added to the wound (an embedded surface of its own, whose series starts with the first
   // cut).
   void follow_cut(const Model& m) {
+    const std::vector<Eigen::MatrixX3i> pieces = skin_by_piece(m);
+    for (size_t k = 0; k < pieces.size() && pieces.size() > 1; ++k)
+      if (std::none_of(series.begin(), series.end(),
+                       [&](const Series& se) { return se.piece == static_cast<int32_t>(k); })) {
+        Series& se = series.emplace_back();
+        se.name = "piece" + std::to_string(k + 1);
+        se.piece = static_cast<int32_t>(k);
+      }
     for (Series& se : series)
-      se.mesh.F = se.embedded < 0 ? model::layer_mesh(m, se.layer).F
-                                  : m.embedded[static_cast<size_t>(se.embedded)].F;
+      se.mesh.F = se.piece >= 0     ? (static_cast<size_t>(se.piece) < pieces.size()
+                                           ? pieces[static_cast<size_t>(se.piece)]
+                                           : Eigen::MatrixX3i(0, 3))
+                  : se.embedded < 0 ? model::layer_mesh(m, se.layer).F
+                                    : m.embedded[static_cast<size_t>(se.embedded)].F;
     if (!embedded) return;
     const std::vector<model::Rgb8> colors = model::structure_colors(m);
     for (size_t k = 0; k < m.embedded.size(); ++k) {

@@ -1,9 +1,12 @@
 // `lamina soak`: a long run under random tools, the check that a simulator left running for hours
 // in a training centre stays sound. Random pokes and pulls (up to three at once) on random skin
-// nodes for STEPS steps; every SAMPLE steps the resident memory, the skin volume, the largest
-// displacement and the recovery count are logged. Then every tool lets go and the model must
-// return to rest. Pass: every state finite, memory flat after warm-up, volume drift bounded,
-// back at rest. A failure exits with code 1 after writing its report (docs/testing.md).
+// nodes for STEPS steps, and --cuts random incisions spread over them (issue 47: through nodes,
+// along a skin edge, the same blade again, grazing the skin, in turn; one that would cut a piece
+// off, which nothing would hold, is skipped and counted); every SAMPLE steps the resident memory,
+// the skin volume, the largest displacement and the recovery count are logged. Then every tool
+// lets go and the model must return to rest. Pass: every state finite, memory flat after
+// warm-up (and after each cut, which adds nodes), volume drift bounded, back at rest. A failure
+// exits with code 1 after writing its report (docs/testing.md).
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -18,6 +21,7 @@
 #include "commands.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/scalpel.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
 #include "lamina/sim/simulation.h"
@@ -39,6 +43,44 @@ struct ActiveTool {
   double end_s = 0.0;
 };
 
+// A random incision's blade at the current shape x, of kind `kind` (0 through two skin nodes, 1
+// along a skin triangle's edge, 3 grazing the skin; 2, the same blade again, is the caller's).
+struct RandomBlade {
+  std::vector<Eigen::Vector3d> path;
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();
+  double depth_mm = 10.0;
+};
+RandomBlade random_blade(const Model& m, const Eigen::MatrixX3d& x, int kind,
+                         std::mt19937_64& rng) {
+  const Eigen::Vector3d centre = x.topRows(m.layers[0].node_count).colwise().mean();
+  std::uniform_int_distribution<int32_t> node(0, m.layers[0].node_count - 1);
+  std::uniform_int_distribution<Eigen::Index> face(0, m.layers[0].F.rows() - 1);
+  std::uniform_real_distribution<double> depth(10.0, 30.0);
+  RandomBlade b;
+  Eigen::Vector3d a, z;
+  if (kind == 1) {  // along an edge of a skin triangle, a little past both ends
+    const Eigen::Index f = face(rng);
+    a = x.row(m.layers[0].F(f, 0)).transpose(), z = x.row(m.layers[0].F(f, 1)).transpose();
+    const Eigen::Vector3d d = z - a;
+    a -= 1.5 * d, z += 1.5 * d;
+  } else {  // from a skin node to another near it, through both
+    a = x.row(node(rng)).transpose();
+    z = a;
+    for (int tries = 0; tries < 50 && ((z - a).norm() < 5.0 || (z - a).norm() > 40.0); ++tries)
+      z = x.row(node(rng)).transpose();
+  }
+  const Eigen::Vector3d inward = (centre - 0.5 * (a + z)).normalized();
+  b.direction = inward;
+  b.depth_mm = depth(rng);
+  if (kind == 3) {  // grazing: a blade 1 mm deep, tilted towards the path
+    b.direction = (inward + 3.0 * (z - a).normalized()).normalized();
+    b.depth_mm = 1.0;
+  }
+  // The blade's upper end 2 mm outside the skin, along the path.
+  b.path = {a - 2.0 * inward, z - 2.0 * inward};
+  return b;
+}
+
 }  // namespace
 
 int run_soak(const SoakArgs& a) {
@@ -53,7 +95,7 @@ int run_soak(const SoakArgs& a) {
   const io::ReadyScene ready = io::make_ready_scene(scene, volume_read_options, {});
   scene = ready.scene;
   io::warn_scalpels_ignored(scene);
-  const Model& m = *ready.model;
+  std::shared_ptr<const Model> model = ready.model;  // a cut replaces it
   sim::Simulation s = io::make_scene_simulation(ready);
   // The folder now, not after an hour of stepping: a path that cannot be made fails at once.
   const std::filesystem::path out(a.output);
@@ -63,7 +105,7 @@ int run_soak(const SoakArgs& a) {
   // 0.05-0.5 N pushing or pulling in a random direction, held 0.1-1 s.
   std::mt19937_64 rng(a.seed);
   std::uniform_real_distribution<double> gap(0.05, 0.5), hold(0.1, 1.0), newtons(0.05, 0.5);
-  std::uniform_int_distribution<int32_t> node(0, m.layers[0].node_count - 1);
+  std::uniform_int_distribution<int32_t> node(0, model->layers[0].node_count - 1);
   std::normal_distribution<double> axis(0.0, 1.0);
   std::vector<ActiveTool> tools;
   interact::Loads loads;
@@ -74,13 +116,51 @@ int run_soak(const SoakArgs& a) {
   std::string csv =
       "step,time_s,resident_mb,volume_change_pct,max_displacement_mm,recoveries,"
       "failed_steps,active_tools\n";
-  double rss_after_warmup = 0.0, rss_max_after_warmup = 0.0, max_abs_volume = 0.0,
-         max_displacement = 0.0;
+  double rss_after_warmup = 0.0, rss_max_growth = 0.0, max_abs_volume = 0.0, max_displacement = 0.0;
   int64_t failed_steps = 0;
   bool finite = true;
   const int64_t sample = std::max<int64_t>(1, a.steps / 2000);
   const int64_t warmup = a.steps / 10;
+  // The cuts, evenly spread; the memory baseline is taken again after each (it adds nodes).
+  int32_t cuts_made = 0, cuts_separating = 0, cuts_done = 0;
+  int64_t cut_tets = 0;
+  double rss_base = 0.0;
+  RandomBlade last_blade;
+  std::vector<std::string> cut_errors;
   for (int64_t k = 0; k < a.steps; ++k) {
+    if (cuts_done < a.cuts && k == (cuts_done + 1) * a.steps / (a.cuts + 1)) {
+      const int kind = cuts_done % 4;
+      ++cuts_done;
+      const RandomBlade b =
+          kind == 2 && !last_blade.path.empty() ? last_blade : random_blade(*model, s.x, kind, rng);
+      last_blade = b;
+      // The tools let go first (their nodes are renumbered); a cut that would leave a piece
+      // nothing holds is not made.
+      tools.clear();
+      interact::clear_loads(s, loads);
+      touched.clear();
+      std::shared_ptr<const Model> trial_model = model;
+      sim::Simulation trial = s;
+      interact::ToolDriver none;
+      std::vector<int32_t> origin;
+      try {
+        const model::CutReport r =
+            interact::cut_now(trial_model, trial, none, b.path, b.direction, b.depth_mm, origin);
+        if (r.pieces.size() > 1) {
+          ++cuts_separating;
+        } else if (r.cut_tets > 0) {  // (the same blade again divides nothing: copies stay)
+          model = std::move(trial_model);
+          s = std::move(trial);
+          node = std::uniform_int_distribution<int32_t>(0, model->layers[0].node_count - 1);
+          ++cuts_made;
+          cut_tets += r.cut_tets;
+          rss_base = 0.0;
+        }
+      } catch (const Error& e) {  // a blade that misses the organ, say: counted, not fatal
+        cut_errors.push_back(e.what());
+      }
+    }
+    const Model& m = *model;
     if (s.time_s >= next_tool_s && tools.size() < 3) {
       Eigen::Vector3d dir(axis(rng), axis(rng), axis(rng));
       dir.normalize();
@@ -107,7 +187,8 @@ int run_soak(const SoakArgs& a) {
       const double rss = resident_mb();
       if (k >= warmup) {
         if (rss_after_warmup == 0.0) rss_after_warmup = rss;
-        rss_max_after_warmup = std::max(rss_max_after_warmup, rss);
+        if (rss_base == 0.0) rss_base = rss;
+        rss_max_growth = std::max(rss_max_growth, rss - rss_base);
       }
       fmt::format_to(std::back_inserter(csv), "{},{:.6g},{:.2f},{:.6g},{:.6g},{},{},{}\n", k + 1,
                      s.time_s, rss, st.volume_change_pct, st.max_displacement_mm, s.recoveries,
@@ -123,13 +204,14 @@ int run_soak(const SoakArgs& a) {
   interact::clear_loads(s, loads);
   report_progress(progress, "soak: released, returning to rest", 0.9);
   const sim::StepStats rest = sim::run_to_convergence(s, 10);
+  const Model& m = *model;
   const double rest_error = std::sqrt((s.x - m.X).rowwise().squaredNorm().maxCoeff());
   finite = finite && s.x.allFinite() && s.v.allFinite();
 
   // The criteria (docs/testing.md): memory after warm-up grows by at most 2 MB (a leak of even
   // 2 bytes per step would show over a million steps), no NaN, no failed step, the skin volume
   // back within 0.1% of rest and the shape within 0.05 mm.
-  const double rss_growth = rss_max_after_warmup - rss_after_warmup;
+  const double rss_growth = rss_max_growth;
 #if defined(__SANITIZE_ADDRESS__)
   // AddressSanitizer holds freed memory in its quarantine (up to 256 MB), so resident memory
   // grows without a leak; LeakSanitizer checks for real leaks at exit instead.
@@ -154,6 +236,13 @@ int run_soak(const SoakArgs& a) {
   j["nodes"] = m.node_count();
   j["integrator"] = io::integrator_name(scene.solver.integrator);
   j["tools_applied"] = tools_applied;
+  j["cuts"] = cuts_made;
+  j["cut_tets"] = cut_tets;
+  j["cuts_tried"] = cuts_done;
+  j["cuts_dividing_nothing"] =
+      cuts_done - cuts_made - cuts_separating - static_cast<int32_t>(cut_errors.size());
+  j["cuts_skipped_separating"] = cuts_separating;
+  j["cuts_refused"] = cut_errors.size();
   j["finite"] = finite;
   j["recoveries"] = s.recoveries;
   j["failed_steps"] = failed_steps;
@@ -189,12 +278,12 @@ int run_soak(const SoakArgs& a) {
     std::cout << json << "\n";
   } else {
     std::cout << fmt::format(
-        "lamina soak: {} steps ({:.0f} s simulated) on {} nodes, {} random tools: {}\n"
+        "lamina soak: {} steps ({:.0f} s simulated) on {} nodes, {} random tools, {} cut(s): {}\n"
         "  finite {}, failed steps {}, recoveries {}; memory {:.1f} MB, +{:.2f} MB after "
         "warm-up; displacement up to {:.3g} mm; |volume change| up to {:.3g}%, {:.3g}% at rest; "
         "rest error {:.3g} mm\n"
         "  wrote {}: soak.csv, summary.json{}\n",
-        a.steps, s.time_s, m.node_count(), tools_applied, passed ? "PASSED" : "FAILED",
+        a.steps, s.time_s, m.node_count(), tools_applied, cuts_made, passed ? "PASSED" : "FAILED",
         finite ? "yes" : "NO", failed_steps, s.recoveries, rss_after_warmup, rss_growth,
         max_displacement, max_abs_volume, rest.volume_change_pct, rest_error, a.output,
         a.no_plot ? "" : ", soak.png");
