@@ -38,6 +38,19 @@ double resident_mb() {
   return static_cast<double>(resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1 << 20);
 }
 
+// The skin nodes a tool can load: those of the skin's triangles (a cut's copy of a skin node
+// may carry none: its triangles went to the other copy).
+std::vector<int32_t> skin_nodes(const Model& m) {
+  std::vector<int32_t> nodes;
+  const ModelLayer& skin = m.layers[0];
+  std::vector<uint8_t> on(static_cast<size_t>(skin.node_count), 0);
+  for (Eigen::Index f = 0; f < skin.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) on[static_cast<size_t>(skin.F(f, k))] = 1;
+  for (int32_t i = 0; i < skin.node_count; ++i)
+    if (on[static_cast<size_t>(i)]) nodes.push_back(skin.first_node + i);
+  return nodes;
+}
+
 struct ActiveTool {
   interact::ForceRoute route;
   double end_s = 0.0;
@@ -53,7 +66,9 @@ struct RandomBlade {
 RandomBlade random_blade(const Model& m, const Eigen::MatrixX3d& x, int kind,
                          std::mt19937_64& rng) {
   const Eigen::Vector3d centre = x.topRows(m.layers[0].node_count).colwise().mean();
-  std::uniform_int_distribution<int32_t> node(0, m.layers[0].node_count - 1);
+  const std::vector<int32_t> nodes = skin_nodes(m);
+  std::uniform_int_distribution<size_t> pick(0, nodes.size() - 1);
+  const auto node = [&](std::mt19937_64& r) { return nodes[pick(r)]; };
   std::uniform_int_distribution<Eigen::Index> face(0, m.layers[0].F.rows() - 1);
   std::uniform_real_distribution<double> depth(10.0, 30.0);
   RandomBlade b;
@@ -105,7 +120,8 @@ int run_soak(const SoakArgs& a) {
   // 0.05-0.5 N pushing or pulling in a random direction, held 0.1-1 s.
   std::mt19937_64 rng(a.seed);
   std::uniform_real_distribution<double> gap(0.05, 0.5), hold(0.1, 1.0), newtons(0.05, 0.5);
-  std::uniform_int_distribution<int32_t> node(0, model->layers[0].node_count - 1);
+  std::vector<int32_t> nodes = skin_nodes(*model);
+  std::uniform_int_distribution<size_t> pick(0, nodes.size() - 1);
   std::normal_distribution<double> axis(0.0, 1.0);
   std::vector<ActiveTool> tools;
   interact::Loads loads;
@@ -151,7 +167,8 @@ int run_soak(const SoakArgs& a) {
         } else if (r.cut_tets > 0) {  // (the same blade again divides nothing: copies stay)
           model = std::move(trial_model);
           s = std::move(trial);
-          node = std::uniform_int_distribution<int32_t>(0, model->layers[0].node_count - 1);
+          nodes = skin_nodes(*model);
+          pick = std::uniform_int_distribution<size_t>(0, nodes.size() - 1);
           ++cuts_made;
           cut_tets += r.cut_tets;
           rss_base = 0.0;
@@ -165,7 +182,7 @@ int run_soak(const SoakArgs& a) {
       Eigen::Vector3d dir(axis(rng), axis(rng), axis(rng));
       dir.normalize();
       ActiveTool t;
-      t.route = interact::load_at_node(m, s.x, node(rng), 1000.0 * newtons(rng) * dir,
+      t.route = interact::load_at_node(m, s.x, nodes[pick(rng)], 1000.0 * newtons(rng) * dir,
                                        interact::kDefaultPatchRadiusMm, scene.routing);
       t.end_s = s.time_s + hold(rng);
       touched.insert(touched.end(), t.route.nodes.begin(), t.route.nodes.end());
@@ -206,6 +223,9 @@ int run_soak(const SoakArgs& a) {
   const sim::StepStats rest = sim::run_to_convergence(s, 10);
   const Model& m = *model;
   const double rest_error = std::sqrt((s.x - m.X).rowwise().squaredNorm().maxCoeff());
+  // The node moving fastest at the end, for a run that did not come to rest: which, how light.
+  Eigen::Index fastest = 0;
+  s.v.rowwise().norm().maxCoeff(&fastest);
   finite = finite && s.x.allFinite() && s.v.allFinite();
 
   // The criteria (docs/testing.md): memory after warm-up grows by at most 2 MB (a leak of even
@@ -255,6 +275,9 @@ int run_soak(const SoakArgs& a) {
   j["max_abs_volume_change_pct"] = max_abs_volume;
   j["rest_volume_change_pct"] = rest.volume_change_pct;
   j["rest_error_mm"] = rest_error;
+  j["rest_max_speed_mm_per_s"] = rest.max_speed_mm_per_s;
+  j["rest_fastest_node"] = fastest;
+  j["rest_fastest_node_mass_kg"] = s.mass_kg()[static_cast<size_t>(fastest)];
   j["returned_to_rest"] = at_rest;
   const std::string json = j.dump(2);
   write_text(out / "summary.json", json + "\n");

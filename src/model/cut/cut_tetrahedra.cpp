@@ -254,10 +254,25 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     });
     double total = 0.0;
     for (auto& [r, w] : classes) total += w;
-    for (auto& [r, w] : classes) {
-      slot_node[r] = static_cast<int32_t>(origin.size());
+    // Each copy's part of the node's mass is the material it carries, but no copy takes less
+    // than kMinCopyMass of it (the heavier ones give it up in proportion, so the node's mass is
+    // kept exactly): a copy with a sliver's mass never came to rest.
+    const auto k = static_cast<double>(classes.size());
+    const double floor = std::min(kMinCopyMass, 0.5 / k);
+    std::vector<double> part(classes.size());
+    double light = 0.0, heavy = 0.0;
+    for (size_t c = 0; c < classes.size(); ++c) {
+      part[c] = total > 0.0 ? classes[c].second / total : 1.0 / k;
+      (part[c] < floor ? light : heavy) += part[c] < floor ? floor : part[c];
+    }
+    for (size_t c = 0; c < classes.size(); ++c) {
+      if (part[c] < floor)
+        part[c] = floor;
+      else if (heavy > 0.0)
+        part[c] *= (1.0 - light) / heavy;
+      slot_node[classes[c].first] = static_cast<int32_t>(origin.size());
       origin.push_back(v);
-      new_mass.push_back(model.mass_kg[v] * (total > 0.0 ? w / total : 1.0 / classes.size()));
+      new_mass.push_back(model.mass_kg[v] * part[c]);
     }
   }
   first_new[n] = static_cast<int32_t>(origin.size());
