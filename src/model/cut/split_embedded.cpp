@@ -1,8 +1,8 @@
 // The fine surfaces cut exactly: the display skin and each embedded structure split along the
 // blade's surface at rest (geometry::split_surface, CGAL's corefinement) where the tetrahedra
 // open, each new vertex embedded in the tetrahedron holding it and told its side by a point on
-// its own triangles; once the vertices follow their copies, what the cut left closed on one side
-// (a vessel cut across, a piece cut off) is capped (geometry::fill_loop).
+// its own triangles (once the vertices follow their copies, close_sections.cpp caps what the cut
+// closed off).
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -17,6 +17,7 @@
 
 #include "cut_internal.h"
 #include "lamina/core/error.h"
+#include "lamina/core/log.h"
 #include "lamina/geometry/split_surface.h"
 
 namespace lamina::model::detail {
@@ -367,7 +368,17 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
   part.V.resize(static_cast<Eigen::Index>(global.size()), 3);
   for (size_t k = 0; k < global.size(); ++k)
     part.V.row(static_cast<Eigen::Index>(k)) = s.V.row(global[k]);
-  const geometry::SplitSurface cut = geometry::split_surface(part, splitter);
+  geometry::SplitSurface cut;
+  try {
+    cut = geometry::split_surface(part, splitter);
+  } catch (const Error& e) {
+    // (A blade that crosses itself, say.) The cut goes on; this surface keeps its triangles,
+    // each vertex following its side's copy, and stretches across the opening: said.
+    log::warn("cut: {} not split along the blade ({}); it stretches across the cut there", s.name,
+              e.what());
+    with_apart();
+    return hint;
+  }
 
   // New vertices appended, each embedded where it is and given a point on its side: the
   // centroid of a triangle of its own.
@@ -495,135 +506,6 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
                          wide, embedded[e]);
   }
   return hints;
-}
-
-void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Eigen::Index>& had,
-                    const BladeIndex& index) {
-  for (size_t e = 0; e < embedded.size() && e < had.size(); ++e) {
-    EmbeddedSurface& s = embedded[e];
-    const Eigen::Index first_new = had[e];
-    if (s.V.rows() == first_new) continue;  // nothing split here
-    // Welded again: the two sides' vertices of a point where the tissue did not open after all
-    // (the same copy's nodes and weights) are one.
-    std::map<std::array<double, 11>, int32_t> same;
-    std::vector<int32_t> to(static_cast<size_t>(s.V.rows()));
-    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
-      to[static_cast<size_t>(v)] = static_cast<int32_t>(v);
-      if (v < first_new) continue;
-      std::array<double, 11> key{};
-      for (int k = 0; k < 3; ++k) key[k] = s.V(v, k);
-      for (int k = 0; k < 4; ++k) key[3 + k] = s.corners(v, k), key[7 + k] = s.weights(v, k);
-      to[static_cast<size_t>(v)] = same.try_emplace(key, static_cast<int32_t>(v)).first->second;
-    }
-    // The new vertices no triangle has any more are dropped (nothing outside knows them yet).
-    std::vector<uint8_t> used(static_cast<size_t>(s.V.rows()), 0);
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
-      for (int k = 0; k < 3; ++k) used[static_cast<size_t>(to[static_cast<size_t>(s.F(f, k))])] = 1;
-    std::vector<int32_t> keep(static_cast<size_t>(s.V.rows()));
-    Eigen::Index n = first_new;
-    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
-      if (v < first_new) {
-        keep[static_cast<size_t>(v)] = static_cast<int32_t>(v);
-        continue;
-      }
-      if (!used[static_cast<size_t>(v)]) continue;
-      keep[static_cast<size_t>(v)] = static_cast<int32_t>(n);
-      s.V.row(n) = s.V.row(v), s.corners.row(n) = s.corners.row(v);
-      s.weights.row(n) = s.weights.row(v);
-      if (s.offsets.rows() > 0) s.offsets.row(n) = s.offsets.row(v);
-      ++n;
-    }
-    s.V.conservativeResize(n, 3), s.corners.conservativeResize(n, 4);
-    s.weights.conservativeResize(n, 4);
-    if (s.offsets.rows() > 0) s.offsets.conservativeResize(n, 3);
-    // A triangle two of whose corners were welded had no area: it goes (its neighbours across
-    // the welded edge meet instead).
-    Eigen::Index kept = 0;
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
-      Eigen::RowVector3i g;
-      for (int k = 0; k < 3; ++k)
-        g[k] = keep[static_cast<size_t>(to[static_cast<size_t>(s.F(f, k))])];
-      if (g[0] != g[1] && g[1] != g[2] && g[0] != g[2]) s.F.row(kept++) = g;
-    }
-    s.F.conservativeResize(kept, 3);
-
-    // The boundary the cut made: each edge with a new end in one triangle only (every triangle
-    // with such an edge has the new vertex), from its start.
-    std::unordered_map<uint64_t, int> count;
-    const auto fresh_edge = [&](int32_t a, int32_t b) { return a >= first_new || b >= first_new; };
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
-      for (int k = 0; k < 3; ++k)
-        if (fresh_edge(s.F(f, k), s.F(f, (k + 1) % 3)))
-          ++count[edge_key(s.F(f, k), s.F(f, (k + 1) % 3))];
-    std::unordered_map<int32_t, int32_t> next;
-    std::unordered_map<int32_t, Eigen::Index>
-        face_of;  // the triangle of a boundary edge, by its start
-    std::set<int32_t> pinched;
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
-      for (int k = 0; k < 3; ++k) {
-        const int32_t a = s.F(f, k), b = s.F(f, (k + 1) % 3);
-        if (!fresh_edge(a, b) || count[edge_key(a, b)] != 1) continue;
-        if (!next.emplace(a, b).second) pinched.insert(a);
-        face_of[a] = f;
-      }
-    // Which side of the blade a boundary edge's triangle is on: +1, -1, 0 (unknown).
-    const auto side_of = [&](int32_t a) {
-      const Eigen::Vector3d p = s.V.row(a).transpose();
-      const int k = blade_triangle_at(index, p, 1e-6);
-      if (k < 0) return 0;
-      const BladeTriangle& t = index.tris[static_cast<size_t>(k)];
-      const Eigen::Index f = face_of.at(a);
-      const Eigen::Vector3d c =
-          (s.V.row(s.F(f, 0)) + s.V.row(s.F(f, 1)) + s.V.row(s.F(f, 2))).transpose() / 3.0;
-      const double d = t.n.dot(c - t.p0);
-      return d > 1e-9 ? 1 : (d < -1e-9 ? -1 : 0);
-    };
-    // Each loop with a vertex this cut made, on one side only (no point twice: a slit's loop
-    // runs down one side and back up the other), is a section: capped.
-    std::vector<Eigen::RowVector3i> caps;
-    std::set<int32_t> seen;
-    for (const auto& [start, unused] : next) {
-      if (seen.count(start)) continue;
-      std::vector<int32_t> loop;
-      bool ok = true;
-      for (int32_t v = start;;) {
-        if (!seen.insert(v).second) {
-          ok = ok && v == start;
-          break;
-        }
-        if (pinched.count(v)) ok = false;
-        loop.push_back(v);
-        const auto it = next.find(v);
-        if (it == next.end()) {
-          ok = false;
-          break;
-        }
-        v = it->second;
-      }
-      if (!ok || loop.size() < 3) continue;
-      bool fresh = false;
-      std::set<std::array<double, 3>> points;
-      std::set<int> sides;
-      for (const int32_t v : loop) {
-        fresh |= v >= first_new;
-        ok &= points.insert({s.V(v, 0), s.V(v, 1), s.V(v, 2)}).second;
-        sides.insert(side_of(v));
-      }
-      // (On the blade, every triangle on one side of it.)
-      ok &= sides.size() == 1 && *sides.begin() != 0;
-      if (!fresh || !ok) continue;
-      Eigen::MatrixX3d P(static_cast<Eigen::Index>(loop.size()), 3);
-      for (size_t k = 0; k < loop.size(); ++k)
-        P.row(static_cast<Eigen::Index>(k)) = s.V.row(loop[k]);
-      const Eigen::MatrixX3i cap = geometry::fill_loop(P);
-      for (Eigen::Index f = 0; f < cap.rows(); ++f)
-        caps.emplace_back(loop[cap(f, 0)], loop[cap(f, 1)], loop[cap(f, 2)]);
-    }
-    if (caps.empty()) continue;
-    const Eigen::Index nf = s.F.rows();
-    s.F.conservativeResize(nf + static_cast<Eigen::Index>(caps.size()), 3);
-    for (size_t f = 0; f < caps.size(); ++f) s.F.row(nf + static_cast<Eigen::Index>(f)) = caps[f];
-  }
 }
 
 }  // namespace lamina::model::detail
