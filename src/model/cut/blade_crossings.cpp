@@ -78,12 +78,8 @@ Crossings blade_crossings(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
   std::unordered_map<uint64_t, bool> seen;
   std::vector<double> hits;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
-    Eigen::Vector3d lo = x.row(T(t, 0)), hi = lo;
-    for (int k = 1; k < 4; ++k) {
-      lo = lo.cwiseMin(x.row(T(t, k)).transpose());
-      hi = hi.cwiseMax(x.row(T(t, k)).transpose());
-    }
-    if (!boxes_meet(lo, hi, blo, bhi)) continue;
+    const Eigen::AlignedBox3d box = tet_box(x, T, t);
+    if (!boxes_meet(box.min(), box.max(), blo, bhi)) continue;
     c.near_tets.push_back(static_cast<int32_t>(t));
     for (int i = 0; i < 4; ++i)
       for (int j = i + 1; j < 4; ++j) {

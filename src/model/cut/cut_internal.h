@@ -18,6 +18,14 @@ inline uint64_t edge_key(int32_t a, int32_t b) {
   return (static_cast<uint64_t>(lo) << 32) | hi;
 }
 
+/// Tetrahedron t's bounding box at positions x.
+inline Eigen::AlignedBox3d tet_box(const Eigen::MatrixX3d& x, const Eigen::MatrixX4i& T,
+                                   Eigen::Index t) {
+  Eigen::AlignedBox3d b;
+  for (int k = 0; k < 4; ++k) b.extend(x.row(T(t, k)).transpose());
+  return b;
+}
+
 /// Where the blade crosses the tetrahedra's edges: for each edge it crosses an odd number of
 /// times, the first crossing's fraction along the edge from its lower-numbered node.
 struct Crossings {

@@ -139,16 +139,10 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     std::erase_if(crossings.near_tets, [&](int32_t t) { return model.tets.share[t] < 1.0; });
   detail::divide_tets(T, crossings, divided, report.partly_cut_tets);
   if (options.tip_from.allFinite()) {
-    const Eigen::Vector3d lo = options.tip_from.cwiseMin(options.tip_to),
-                          hi = options.tip_from.cwiseMax(options.tip_to);
-    report.partly_cut_tets += std::erase_if(divided, [&](const Division& d) {
-      Eigen::Vector3d tlo = x.row(T(d.tet, 0)), thi = tlo;
-      for (int k = 1; k < 4; ++k) {
-        tlo = tlo.cwiseMin(x.row(T(d.tet, k)).transpose());
-        thi = thi.cwiseMax(x.row(T(d.tet, k)).transpose());
-      }
-      return (tlo.array() <= hi.array()).all() && (lo.array() <= thi.array()).all();
-    });
+    const Eigen::AlignedBox3d tip(options.tip_from.cwiseMin(options.tip_to),
+                                  options.tip_from.cwiseMax(options.tip_to));
+    report.partly_cut_tets += std::erase_if(
+        divided, [&](const Division& d) { return detail::tet_box(x, T, d.tet).intersects(tip); });
   }
   if (options.find_structures)
     report.structures_cut = detail::structures_crossed(model, x, index, index.lo, index.hi);

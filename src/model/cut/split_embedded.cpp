@@ -48,8 +48,7 @@ struct Locator {
       for (int k = 1; k < 4; ++k) D.col(k - 1) = (X.row(T(t, k)) - X.row(T(t, 0))).transpose();
       const Eigen::FullPivLU<Eigen::Matrix3d> lu(D);
       if (!lu.isInvertible()) continue;
-      Eigen::AlignedBox3d b;
-      for (int k = 0; k < 4; ++k) b.extend(X.row(T(t, k)).transpose());
+      const Eigen::AlignedBox3d b = tet_box(X, T, t);
       tets.push_back(t), inverse.push_back(lu.inverse());
       box.emplace_back(b.min().array() - margin, b.max().array() + margin);
     }
@@ -313,8 +312,9 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
                                        const std::set<std::array<int32_t, 4>>& divided,
                                        const std::vector<uint8_t>& is_divided,
                                        const BladeIndex& index, const SurfaceMesh& splitter,
-                                       double reach, const std::function<const Locator&()>& wide,
+                                       const std::function<const Locator&()>& wide,
                                        EmbeddedSurface& s) {
+  const double reach = where.reach;
   const auto apart = take_apart(divided, index, s);
   keep_sides(where, around, tets, is_divided, index, reach, s);
   const Eigen::Index nv = s.V.rows();
@@ -483,18 +483,11 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   std::optional<Locator> wide_one;
   const auto wide = [&]() -> const Locator& {
     if (!wide_one) {
-      const Eigen::Vector3d lo = index.lo.array() - where.reach,
-                            hi = index.hi.array() + where.reach;
+      const Eigen::AlignedBox3d reach(index.lo.array() - where.reach,
+                                      index.hi.array() + where.reach);
       std::vector<int32_t> near;
-      for (Eigen::Index t = 0; t < T.rows(); ++t) {
-        Eigen::Vector3d tlo = X.row(T(t, 0)), thi = tlo;
-        for (int k = 1; k < 4; ++k) {
-          tlo = tlo.cwiseMin(X.row(T(t, k)).transpose());
-          thi = thi.cwiseMax(X.row(T(t, k)).transpose());
-        }
-        if ((tlo.array() <= hi.array()).all() && (lo.array() <= thi.array()).all())
-          near.push_back(static_cast<int32_t>(t));
-      }
+      for (Eigen::Index t = 0; t < T.rows(); ++t)
+        if (tet_box(X, T, t).intersects(reach)) near.push_back(static_cast<int32_t>(t));
       wide_one.emplace(X, T, near, where.reach / 4.0);
     }
     return *wide_one;
@@ -502,8 +495,8 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   const SurfaceMesh splitter = splitter_of(rest_blade);
   for (size_t e = 0; e < embedded.size(); ++e) {
     if (embedded[e].name == kWoundName && embedded[e].label == 0) continue;
-    hints[e] = split_one(where, around, tets, corners, is_divided, index, splitter, where.reach,
-                         wide, embedded[e]);
+    hints[e] =
+        split_one(where, around, tets, corners, is_divided, index, splitter, wide, embedded[e]);
   }
   return hints;
 }

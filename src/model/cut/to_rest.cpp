@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <limits>
 
+#include "cut_internal.h"
 #include "lamina/core/error.h"
 #include "lamina/model/cut_tetrahedra.h"
 
@@ -36,9 +37,7 @@ Eigen::MatrixX3d carry(const Model& model, const Eigen::MatrixX3d& x, const Eige
   for (int attempt = 0; near.empty() && attempt < 8; ++attempt, margin *= 4.0) {
     const Eigen::AlignedBox3d reach(box.min().array() - margin, box.max().array() + margin);
     for (Eigen::Index t = 0; t < T.rows(); ++t) {
-      Eigen::AlignedBox3d tb;
-      for (int k = 0; k < 4; ++k) tb.extend(x.row(T(t, k)).transpose());
-      if (!reach.intersects(tb)) continue;
+      if (!reach.intersects(detail::tet_box(x, T, t))) continue;
       Eigen::Matrix3d D;
       for (int k = 1; k < 4; ++k) D.col(k - 1) = (x.row(T(t, k)) - x.row(T(t, 0))).transpose();
       const Eigen::FullPivLU<Eigen::Matrix3d> lu(D);
