@@ -228,7 +228,10 @@ using namespace detail;
 // the oldest layout that holds it, so that builds from before version 3 read it too.
 // Version 2 added interior nodes (layer -1, after the layers) and tetrahedra (VTK_TETRA cells
 // after the springs, counted by tet_count). Version 1 files (layers joined by links) still load.
-constexpr int32_t kFormatVersion = 4;
+// Version 5 added the shares and materials of a cut model's springs and tetrahedra (CellData
+// share and material); an uncut model is still written as the oldest version that holds it.
+constexpr int32_t kFormatVersion = 5;
+constexpr int32_t kFormatVersionWithoutCut = 4;
 constexpr int32_t kFormatVersionWithoutOffsets = 3;
 constexpr int32_t kFormatVersionWithoutEmbedded = 2;
 
@@ -248,12 +251,7 @@ void check_savable(const Model& m, const std::string& path) {
     throw Error(ErrorKind::kInternal,
                 path + ": cannot save: the model's arrays disagree in size or index range");
   check_embedded_savable(m, path);
-  // The copies' shares a cut made (model::cut_tetrahedra) have no place in the format yet:
-  // written without them, the file would load as an uncut model with doubled material.
-  if (!m.tets.share.empty() || !m.springs.share.empty())
-    throw invalid_input(path,
-                        "cannot save a cut model: the model file format has no place for "
-                        "the cut tetrahedra's shares yet; save the model before cutting it");
+  check_cut_savable(m, path);
 }
 
 // --- Reading: a scanner for the XML that save_model() writes, not a general XML parser. ---
@@ -356,8 +354,9 @@ void save_model(const Model& m, const std::string& path) {
   // as in version 2.
   add_embedded(m, piece);
   const std::vector<uint8_t> source(m.source.begin(), m.source.end());
-  const int32_t version = m.embedded.empty()        ? kFormatVersionWithoutEmbedded
-                          : has_embedded_offsets(m) ? kFormatVersion
+  const int32_t version = is_cut(m)                 ? kFormatVersion
+                          : m.embedded.empty()      ? kFormatVersionWithoutEmbedded
+                          : has_embedded_offsets(m) ? kFormatVersionWithoutCut
                                                     : kFormatVersionWithoutOffsets;
 
   write_file_atomically(path, [&](std::ostream& out) {
@@ -393,6 +392,7 @@ void save_model(const Model& m, const std::string& path) {
     write_array(out, indent, "layer", piece.cell_layer);
     write_array(out, indent, "rest_length_mm", piece.rest_length);
     write_array(out, indent, "stiffness_n_per_m", piece.stiffness);
+    write_cut_cell_data(out, indent, m, static_cast<int64_t>(piece.types.size()));
     out << "      </CellData>\n      <Points>\n";
     write_array(out, indent, "Points", piece.points, 3);
     out << "      </Points>\n      <Cells>\n";
@@ -430,8 +430,11 @@ Model load_model(const std::string& path) {
   Model m;
   // Version 3: the embedded surfaces' vertices are the last points, their triangles the last
   // cells; everything before them is laid out as in version 2.
+  // A cut model (version 5) without embedded surfaces has none of their arrays.
+  const bool has_embedded =
+      version >= 3 && (version < 5 || f.arrays.contains("FieldData/embedded_vertex_count"));
   const EmbeddedLayout embedded =
-      version >= 3 ? read_embedded_fields(path, f, m) : EmbeddedLayout{};
+      has_embedded ? read_embedded_fields(path, f, m) : EmbeddedLayout{};
   if (embedded.vertices > points_in_file)
     throw bad("the embedded surfaces hold " + std::to_string(embedded.vertices) +
               " vertices but the file has only " + std::to_string(points_in_file) + " points");
@@ -505,8 +508,11 @@ Model load_model(const std::string& path) {
     if (m.fixed[v] > 1) throw bad(node + "fixed must be 0 or 1");
   }
 
-  if (version >= 3)
-    read_embedded_points(path, f, piece, embedded, static_cast<int32_t>(n), version >= 4, m);
+  // Version 4 has offsets; version 5 has them when some vertex needs one.
+  const bool offsets =
+      version == 4 || (version >= 5 && f.arrays.contains("PointData/embed_offset"));
+  if (has_embedded)
+    read_embedded_points(path, f, piece, embedded, static_cast<int32_t>(n), offsets, m);
 
   const int64_t spring_count = cells - triangles - tet_count - embedded.faces;
   piece.connectivity =
@@ -600,7 +606,10 @@ Model load_model(const std::string& path) {
       throw bad(tet + "region " + std::to_string(cell_layer[cell]) + " is not a layer");
     m.tets.region[static_cast<size_t>(t)] = cell_layer[cell];
   }
-  if (version >= 3) read_embedded_cells(path, cells_in_order, embedded, static_cast<int32_t>(n), m);
+  if (has_embedded) read_embedded_cells(path, cells_in_order, embedded, static_cast<int32_t>(n), m);
+  if (version >= 5)
+    read_cut_cells(path, f, cells, triangles, triangles + spring_count,
+                   triangles + spring_count + tet_count, m);
   // Every value above passed its own check; the checksum catches one changed to another valid
   // value (an edited position or stiffness). Files written before it existed have none.
   if (f.arrays.contains("FieldData/content_crc32")) {
@@ -632,7 +641,8 @@ uint32_t model_fingerprint(const Model& m) {
   }
   // Models without embedded surfaces keep the checksum version 2 gave them (checkpoints name
   // their model by it).
-  return m.embedded.empty() ? c : embedded_fingerprint(c, m);
+  if (!m.embedded.empty()) c = embedded_fingerprint(c, m);
+  return cut_fingerprint(c, m);
 }
 
 }  // namespace lamina::io

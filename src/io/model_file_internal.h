@@ -126,4 +126,20 @@ void read_embedded_cells(const std::string& path, CellWalker& cells, const Embed
 // model_fingerprint()'s share of the surfaces, continuing checksum `c`.
 uint32_t embedded_fingerprint(uint32_t c, const Model& m);
 
+// --- A cut model's shares and materials (model_file_cut.cpp, format version 5). ---
+
+// Whether a cut divided some of the model's tetrahedra (it has shares or materials).
+bool is_cut(const Model& m);
+// Refuses (kInternal) share and material arrays whose sizes disagree with the cells.
+void check_cut_savable(const Model& m, const std::string& path);
+// CellData `share` and `material` over all `cells` (1 and 15 for triangles); nothing for an
+// uncut model.
+void write_cut_cell_data(std::ostream& out, const char* indent, const Model& m, int64_t cells);
+// Reads and checks them: the springs are the cells [first_spring, first_tet), the tetrahedra
+// [first_tet, first_embedded); fills Springs::share, Tets::share and Tets::material.
+void read_cut_cells(const std::string& path, const VtuFile& f, int64_t cells, int64_t first_spring,
+                    int64_t first_tet, int64_t first_embedded, Model& m);
+// model_fingerprint()'s share of the cut, continuing checksum `c` (unchanged when uncut).
+uint32_t cut_fingerprint(uint32_t c, const Model& m);
+
 }  // namespace lamina::io::detail

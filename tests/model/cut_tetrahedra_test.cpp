@@ -7,7 +7,6 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
-#include <filesystem>
 #include <map>
 #include <numeric>
 #include <random>
@@ -18,11 +17,9 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/io/label_volume_io.h"
-#include "lamina/io/model_file.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/compute_rings.h"
 #include "support/surface_parts.h"
-#include "support/temp_dir.h"
 #include "support/test_paths.h"
 
 namespace {
@@ -616,13 +613,6 @@ TEST(Cut, BadInputIsOneClearError) {
               model::cut_tetrahedra(links, m.X, blade, cut, origin, r);
             }).find("no tetrahedra"),
             std::string::npos);
-  // A cut model's shares have no place in the model file yet: refused, nothing written.
-  model::cut_tetrahedra(m, m.X, blade, cut, origin, r);
-  const test::TempDir dir;
-  const std::string path = dir.file("cut.vtu");
-  EXPECT_NE(message([&] { io::save_model(cut, path); }).find("cannot save a cut model"),
-            std::string::npos);
-  EXPECT_FALSE(std::filesystem::exists(path));
   model::Blade empty;
   EXPECT_NE(
       message([&] { model::cut_tetrahedra(m, m.X, empty, cut, origin, r); }).find("no triangles"),

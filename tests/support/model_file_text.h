@@ -53,6 +53,13 @@ inline void expect_same_model(const Model& a, const Model& b) {
   EXPECT_EQ(a.rings.locality, b.rings.locality);
   EXPECT_EQ(a.tets.T, b.tets.T);
   EXPECT_EQ(a.tets.region, b.tets.region);
+  // A cut model's shares and materials (an uncut one's are all 1 and 15).
+  for (size_t e = 0; e < a.springs.size() && e < b.springs.size(); ++e)
+    EXPECT_EQ(bits(a.springs.share_of(e)), bits(b.springs.share_of(e))) << "spring " << e;
+  for (int64_t t = 0; t < a.tets.size() && t < b.tets.size(); ++t) {
+    EXPECT_EQ(bits(a.tets.share_of(t)), bits(b.tets.share_of(t))) << "tetrahedron " << t;
+    EXPECT_EQ(a.tets.material_of(t), b.tets.material_of(t)) << "tetrahedron " << t;
+  }
   ASSERT_EQ(a.embedded.size(), b.embedded.size());
   for (size_t s = 0; s < a.embedded.size(); ++s) {
     const EmbeddedSurface &e = a.embedded[s], &f = b.embedded[s];
