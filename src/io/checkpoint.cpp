@@ -10,6 +10,7 @@
 #include <cstring>
 #include <type_traits>
 
+#include "checkpoint_internal.h"
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "read_file.h"
@@ -17,83 +18,14 @@
 namespace lamina::io {
 namespace {
 
+using namespace checkpoint_detail;
+
 static_assert(std::endian::native == std::endian::little, "checkpoints are little-endian");
 
 constexpr char kMagic[8] = {'L', 'A', 'M', 'C', 'K', 'P', 'T', '\n'};
-constexpr uint32_t kVersion = 1;
+// Version 2 added each series' name and a run's scalpels (a cut model); version 1 still reads.
+constexpr uint32_t kVersion = 2;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 4;
-
-uint32_t crc(uint32_t c, const void* data, size_t bytes) {
-  return static_cast<uint32_t>(crc32_z(c, static_cast<const Bytef*>(data), bytes));
-}
-
-struct Writer {
-  std::string out;
-  template <class T>
-  void pod(const T& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    out.append(reinterpret_cast<const char*>(&v), sizeof v);
-  }
-  void bytes(const void* p, size_t n) {
-    if (n > 0) out.append(static_cast<const char*>(p), n);  // an empty vector's data() may be null
-  }
-  template <class T>
-  void vec(const std::vector<T>& v) {
-    pod<uint64_t>(v.size());
-    bytes(v.data(), v.size() * sizeof(T));
-  }
-  void str(const std::string& s) {
-    pod<uint64_t>(s.size());
-    bytes(s.data(), s.size());
-  }
-  void mat(const Eigen::MatrixX3d& m) {
-    pod<uint64_t>(static_cast<uint64_t>(m.rows()));
-    bytes(m.data(), static_cast<size_t>(m.size()) * sizeof(double));
-  }
-};
-
-struct Reader {
-  const std::string& path;
-  const char* p;
-  const char* end;
-  [[noreturn]] void truncated() const {
-    throw invalid_input(path, "checkpoint is truncated or corrupt (a field runs past its end)");
-  }
-  void take(void* dst, size_t n) {
-    if (n == 0) return;  // an empty vector's data() may be null, which memcpy must not see
-    if (static_cast<size_t>(end - p) < n) truncated();
-    std::memcpy(dst, p, n);
-    p += n;
-  }
-  template <class T>
-  T pod() {
-    T v;
-    take(&v, sizeof v);
-    return v;
-  }
-  // A count of elements of `size` bytes each, no more than the bytes that remain can hold.
-  size_t count(size_t size) {
-    const auto n = pod<uint64_t>();
-    if (n > static_cast<uint64_t>(end - p) / size) truncated();
-    return static_cast<size_t>(n);
-  }
-  template <class T>
-  std::vector<T> vec() {
-    std::vector<T> v(count(sizeof(T)));
-    take(v.data(), v.size() * sizeof(T));
-    return v;
-  }
-  std::string str() {
-    std::string s(count(1), '\0');
-    take(s.data(), s.size());
-    return s;
-  }
-  Eigen::MatrixX3d mat() {
-    Eigen::MatrixX3d m(static_cast<Eigen::Index>(count(3 * sizeof(double))), 3);
-    take(m.data(), static_cast<size_t>(m.size()) * sizeof(double));
-    return m;
-  }
-};
 
 }  // namespace
 
@@ -142,6 +74,10 @@ void save_checkpoint(const RunCheckpoint& k, const std::string& path) {
       w.str(file);
     }
   }
+  w.pod<uint64_t>(k.series_names.size());
+  for (const std::string& name : k.series_names) w.str(name);
+  w.pod<uint8_t>(k.scalpels ? 1 : 0);
+  if (k.scalpels) write_scalpels(w, *k.scalpels);
 
   Writer h;
   h.bytes(kMagic, sizeof kMagic);
@@ -161,8 +97,8 @@ RunCheckpoint load_checkpoint(const std::string& path) {
   const auto version = head.pod<uint32_t>();
   const auto payload = head.pod<uint64_t>();
   const auto sum = head.pod<uint32_t>();
-  if (version != kVersion)
-    throw bad("checkpoint format version " + std::to_string(version) + ", this build reads " +
+  if (version < 1 || version > kVersion)
+    throw bad("checkpoint format version " + std::to_string(version) + ", this build reads 1 to " +
               std::to_string(kVersion) + ": resume it with the Lamina that wrote it");
   if (payload != file.size() - kHeaderBytes)
     throw bad("checkpoint is truncated: the header announces " + std::to_string(payload) +
@@ -212,6 +148,14 @@ RunCheckpoint load_checkpoint(const std::string& path) {
       time = r.pod<double>();
       name = r.str();
     }
+  }
+  if (version >= 2) {
+    k.series_names.resize(r.count(sizeof(uint64_t)));
+    for (std::string& name : k.series_names) name = r.str();
+    if (!k.series_names.empty() && k.series_names.size() != k.frames.size())
+      throw bad("checkpoint is inconsistent: " + std::to_string(k.series_names.size()) +
+                " series names for " + std::to_string(k.frames.size()) + " frame lists");
+    if (r.pod<uint8_t>() != 0) k.scalpels = read_scalpels(r);
   }
   if (r.p != r.end) throw bad("checkpoint is inconsistent: data left over after its last field");
   return k;

@@ -315,7 +315,7 @@ bool positive_finite(double x) {
 
 }  // namespace
 
-void save_model(const Model& m, const std::string& path) {
+void detail::write_model(const Model& m, const std::string& path, std::ostream& out) {
   check_savable(m, path);
   const int32_t n = m.node_count();
   PieceArrays piece;
@@ -359,7 +359,7 @@ void save_model(const Model& m, const std::string& path) {
                           : has_embedded_offsets(m) ? kFormatVersionWithoutCut
                                                     : kFormatVersionWithoutOffsets;
 
-  write_file_atomically(path, [&](std::ostream& out) {
+  {
     const char* const field = "      ";
     const char* const indent = "        ";
     out << "<?xml version=\"1.0\"?>\n"
@@ -400,11 +400,19 @@ void save_model(const Model& m, const std::string& path) {
     write_array(out, indent, "offsets", piece.offsets);
     write_array(out, indent, "types", piece.types);
     out << "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
-  });
+  }
+}
+
+void save_model(const Model& m, const std::string& path) {
+  check_savable(m, path);  // before the file is opened: nothing is written for a bad model
+  write_file_atomically(path, [&](std::ostream& out) { detail::write_model(m, path, out); });
 }
 
 Model load_model(const std::string& path) {
-  const std::string text = detail::read_whole_file(path);
+  return detail::parse_model(path, detail::read_whole_file(path));
+}
+
+Model detail::parse_model(const std::string& path, std::string_view text) {
   const VtuFile f = scan_vtu(path, text);
   const auto bad = [&](const std::string& problem) { return invalid_input(path, problem); };
 

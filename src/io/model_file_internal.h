@@ -93,6 +93,12 @@ struct CellWalker {
 
 uint32_t crc(uint32_t c, const void* data, size_t bytes);
 
+// The model file's text, written to `out` and read from `text` (save_model() and load_model()
+// around a file; a checkpoint holds a cut model's text in its own bytes); `path` names the
+// source in messages.
+void write_model(const Model& m, const std::string& path, std::ostream& out);
+Model parse_model(const std::string& path, std::string_view text);
+
 // --- The embedded surfaces (model_file_embedded.cpp). ---
 
 // Refuses (kInvalidInput) a name that would not read back as itself; (kInternal) arrays whose

@@ -321,6 +321,10 @@ void support_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
   ++s.stiffness_version;
 }
 
+std::vector<double> node_support(const Simulation& sim) {
+  return sim.solver().support.support_n_per_m;
+}
+
 void hold_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
                 const Eigen::MatrixX3d& positions) {
   if (positions.rows() != static_cast<Eigen::Index>(nodes.size()))

@@ -36,6 +36,7 @@
 #include "lamina/model/structure_colors.h"
 #include "lamina/model/summarize_model.h"
 #include "lamina/sim/simulation.h"
+#include "scalpel_checkpoint.h"
 
 namespace lamina::cli {
 namespace {
@@ -153,10 +154,22 @@ void restore_run(const io::RunCheckpoint& k, const std::string& path, sim::Simul
     if (!ok) throw bad("a tool's force route names a node outside the model");
   }
   if (!all_ok(k.touched) || !all_ok(k.loads.nodes)) throw bad("names a node outside the model");
-  if (k.frames.size() != series.size() ||
-      std::any_of(k.frames.begin(), k.frames.end(), [](const auto& f) { return f.empty(); }))
+  // The first series has every frame (a cut's series start with it, and may have none yet).
+  if (k.frames.size() != series.size() || k.frames.empty() || k.frames.front().empty())
     throw bad("lists frames of " + std::to_string(k.frames.size()) +
               " series, the scene and model write " + std::to_string(series.size()));
+  // Series in the checkpoint's order (a cut adds them as it goes; a resume adds them at once).
+  if (!k.series_names.empty()) {
+    std::vector<Series> ordered;
+    for (const std::string& name : k.series_names) {
+      const auto it = std::find_if(series.begin(), series.end(),
+                                   [&](const Series& se) { return se.name == name; });
+      if (it == series.end()) throw bad("lists frames of a series " + name + " this run has not");
+      ordered.push_back(std::move(*it));
+      series.erase(it);
+    }
+    series = std::move(ordered);
+  }
   if (k.progress.loop_step < 0 || k.progress.frame < 1 || !std::isfinite(k.progress.next_frame_s))
     throw bad("its progress counters are out of range");
   sim::restore_state(s, k.state);
@@ -553,13 +566,8 @@ int run_run(const RunArgs& a) {
   std::optional<io::RunCheckpoint> resume;
   if (!a.resume.empty()) resume = io::load_checkpoint(a.resume);
   const RunScene run_scene = load_run_scene(a, resume);
-  // A checkpoint holds the tools' loads, not what a grasper holds nor a cut model: refused, not
+  // A checkpoint holds the tools' loads and a cut model, not what a grasper holds: refused, not
   // resumed wrong.
-  if ((a.checkpoint_every > 0 || a.stop_after_steps > 0 || resume) &&
-      !run_scene.scene.scalpels.empty())
-    throw invalid_input(run_scene.scene.source,
-                        "a run with a scalpel cannot be checkpointed or resumed yet (run it "
-                        "without --checkpoint-every and --stop-after)");
   if (a.checkpoint_every > 0 || a.stop_after_steps > 0 || resume)
     for (size_t k = 0; k < run_scene.scene.tools.size(); ++k)
       if (run_scene.scene.tools[k].grasp)
@@ -600,6 +608,15 @@ int run_run(const RunArgs& a) {
   so_far.metrics_csv = kMetricsHeader;
   so_far.next_frame_s = scene.output.frame_interval_s;
   if (resume) {
+    if (resume->scalpels.has_value() != !cutting.scalpels.scalpels.empty())
+      throw invalid_input(a.resume, "was written for a run " +
+                                        std::string(resume->scalpels ? "with" : "without") +
+                                        " scalpels: resume with the scene it was written for");
+    if (resume->scalpels) {
+      restore_scalpels(*resume->scalpels, a.resume, ready.model, cutting.model, cutting.scalpels,
+                       cutting.events, s, driver);
+      if (cutting.model != ready.model) outputs.follow_cut(*cutting.model);
+    }
     restore_run(*resume, a.resume, s, driver, outputs.series);
     so_far = resume->progress;
     if (resume->threads != omp_get_max_threads())
@@ -625,7 +642,13 @@ int run_run(const RunArgs& a) {
     ck.loads = driver.loads;
     ck.progress = so_far;
     ck.progress.loop_step = loop_step;
-    for (const Series& se : outputs.series) ck.frames.push_back(se.files);
+    for (const Series& se : outputs.series) {
+      ck.frames.push_back(se.files);
+      ck.series_names.push_back(se.name);
+    }
+    if (!cutting.scalpels.scalpels.empty())
+      ck.scalpels =
+          capture_scalpels(ready.model, cutting.model, cutting.scalpels, cutting.events, s, driver);
     io::save_checkpoint(ck, checkpoint_path);
   };
 

@@ -5,10 +5,13 @@
 /// resumed and continue bit for bit. The layout is in docs/model_format.md ("Checkpoints").
 
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "lamina/interact/scalpel.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/model_file.h"
 #include "lamina/model/model.h"
@@ -31,6 +34,20 @@ struct RunProgress {
   std::string metrics_csv;  ///< metrics.csv so far
 };
 
+/// What a run with scalpels needs beyond the rest: the model they have cut so far, what the cut
+/// carried over, and where each scalpel is.
+struct ScalpelCheckpoint {
+  /// The model the simulation runs on once cut (null: nothing cut yet), written in the
+  /// checkpoint as a model file (format version 5) and checked as one when read.
+  std::shared_ptr<const Model> model;
+  std::vector<double> support_n_per_m;  ///< per node of `model`: its share of the support
+  bool multigrid = false;               ///< the preconditioner implicit Euler kept over the cuts
+  std::vector<int32_t> tool_vertex;     ///< per tool, its vertex in `model` (tools by vertex)
+  Eigen::MatrixX3d held_forces = Eigen::MatrixX3d(0, 3);    ///< ToolDriver::held_forces
+  std::vector<interact::ScalpelDriver::Progress> progress;  ///< per scalpel
+  std::vector<interact::CutEvent> events;                   ///< the cuts so far, for the summary
+};
+
 /// What `lamina run` needs to continue where it stopped.
 struct RunCheckpoint {
   // What the run was of; a resume refuses a scene or model that differs.
@@ -48,7 +65,11 @@ struct RunCheckpoint {
   interact::Loads loads;
 
   RunProgress progress;
-  std::vector<FrameList> frames;  ///< per written layer
+  std::vector<FrameList> frames;  ///< per written series
+  /// Each series' name (frames[k] is series_names[k]'s; a cut adds series as it goes). Empty in
+  /// a version 1 checkpoint, whose series are in the order the run makes them.
+  std::vector<std::string> series_names;
+  std::optional<ScalpelCheckpoint> scalpels;  ///< a run with scalpels (version 2)
 };
 
 /// CRC-32 of a file's bytes.

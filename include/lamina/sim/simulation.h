@@ -261,6 +261,10 @@ void fix_nodes(Simulation& sim, const std::vector<int32_t>& nodes);
 void support_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
                    const std::vector<double>& stiffness_n_per_m);
 
+/// Each node's support stiffness, N/m, as support_nodes() left it (a cut divides a node's among
+/// its copies: carry_over()); empty when nothing is supported.
+std::vector<double> node_support(const Simulation& sim);
+
 /// Holds these nodes at the given positions from now on (a displacement-controlled indenter, a
 /// clamp that has moved them): like fix_nodes(), but at `positions` (one row per node, mm)
 /// instead of their rest positions. Calling it again moves them on; called every step with nodes

@@ -354,7 +354,10 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
       while (end < edges.size() && edges[end].i == edges[k].i && edges[end].j == edges[k].j)
         carried += edges[end++].share;
       const auto e = static_cast<size_t>(edges[k].spring);
-      add_spring(edges[k].i, edges[k].j, e, edge_total[e] > 0.0 ? carried / edge_total[e] : 1.0);
+      // At most all of it: the two sums add the same shares in different orders, and an edge
+      // the cut did not divide must keep exactly its constant (not 1 + 2e-16 of it).
+      add_spring(edges[k].i, edges[k].j, e,
+                 edge_total[e] > 0.0 ? std::min(1.0, carried / edge_total[e]) : 1.0);
       k = end;
     }
   };
