@@ -182,7 +182,13 @@ struct ServeArgs {
   /// Poses with this device name move a grasper (its jaws close on the first, hold and follow);
   /// any message of this name + "Open" opens it.
   std::string grasper_device = "LaminaGrasper";
-  double grasper_radius_mm = 4.0;       ///< skin within this distance of the jaws is grasped
+  double grasper_radius_mm = 4.0;  ///< skin within this distance of the jaws is grasped
+  /// Poses with this device name are a scalpel's (scalpel_stroke.h): a stroke's path cuts the
+  /// organ when this name + "Up" comes, the poses pause or the client goes; + "Undo" takes the
+  /// last cut back. Empty: no scalpel.
+  std::string scalpel_device = "LaminaScalpel";
+  double scalpel_depth_mm = 20.0;       ///< the blade's cutting length behind its tip, mm
+  double scalpel_pause_s = 0.25;        ///< a stroke whose poses stop this long cuts
   double tip_radius_mm = 5.0;           ///< the tool tip's sphere (the viewer's default)
   double tip_stiffness_n_per_m = 20.0;  ///< its coupling (push per mm inside), N/m = mN/mm
   double max_force_n = 3.0;             ///< the most the reaction sent back may be, N

@@ -286,6 +286,15 @@ int main(int argc, char** argv) {
   se->add_option("--grasper-radius", serve.grasper_radius_mm,
                  "skin within this distance of the grasper's jaws is held, mm (default 4)")
       ->check(CLI::PositiveNumber);
+  se->add_option("--scalpel-device", serve.scalpel_device,
+                 "TRANSFORM/POSITION messages of this device name are a scalpel's: the path its "
+                 "tip traces (its z axis the blade's, towards the tip) cuts the organ when a "
+                 "message of this name + 'Up' comes, the poses pause or the client goes; this "
+                 "name + 'Undo' takes the last cut back (default LaminaScalpel; '' for none)");
+  se->add_option("--scalpel-depth", serve.scalpel_depth_mm,
+                 "the scalpel blade's cutting length behind its tip, mm (default 20)");
+  se->add_option("--scalpel-pause", serve.scalpel_pause_s,
+                 "a scalpel stroke whose poses stop this long cuts, s (default 0.25)");
   se->add_option("--tip-radius", serve.tip_radius_mm, "tool tip sphere radius, mm (default 5)");
   se->add_option("--tip-stiffness", serve.tip_stiffness_n_per_m,
                  "the virtual coupling between the device and the tool's proxy on the skin "

@@ -4,13 +4,18 @@
 
 #include <gtest/gtest.h>
 #include <igtlPolyDataMessage.h>
+#include <igtlPositionMessage.h>
 #include <igtlTimeStamp.h>
+#include <igtlTransformMessage.h>
 #include <igtl_util.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
+
+#include "lamina/core/error.h"
 
 namespace lamina::test {
 namespace {
@@ -82,6 +87,56 @@ TEST(Serve, ThePolyDataPackerWritesTheLibrarysBytesAndReusesItsBuffer) {
   const cli::net::Packed third = packer.pack(P, cli::net::Frame::kLps, timestamp);
   EXPECT_EQ(third->data(), reused);
   EXPECT_EQ(first_difference(*third, library_bytes("display_skin", F, P)), "none");
+}
+
+}  // namespace
+}  // namespace lamina::test
+
+namespace lamina::test {
+namespace {
+
+// The body (content) of a message the library packs.
+std::vector<uint8_t> content_of(igtl::MessageBase& m) {
+  m.Pack();
+  const auto* bytes = static_cast<const uint8_t*>(m.GetPackBodyPointer());
+  return {bytes, bytes + m.GetPackBodySize()};
+}
+
+// A scalpel's pose: a TRANSFORM's third rotation column is its blade's axis, a POSITION's
+// quaternion turns z to it; a rotation that turns z to nothing is refused (its client dropped).
+TEST(Serve, APoseGivesThePositionAndTheBladesAxis) {
+  igtl::TransformMessage::Pointer t = igtl::TransformMessage::New();
+  igtl::Matrix4x4 m;
+  igtl::IdentityMatrix(m);
+  // A quarter turn about x: z goes to -y.
+  m[1][1] = 0, m[1][2] = -1, m[2][1] = 1, m[2][2] = 0;
+  m[0][3] = 1, m[1][3] = 2, m[2][3] = 3;
+  t->SetMatrix(m);
+  std::vector<uint8_t> c = content_of(*t);
+  cli::net::Pose pose = cli::net::read_pose("TRANSFORM", c.data(), c.size());
+  EXPECT_EQ(pose.position, Eigen::Vector3d(1, 2, 3));
+  EXPECT_LT((pose.z_axis - Eigen::Vector3d(0, -1, 0)).norm(), 1e-6) << pose.z_axis.transpose();
+
+  igtl::PositionMessage::Pointer p = igtl::PositionMessage::New();
+  p->SetPosition(4.0f, 5.0f, 6.0f);
+  const float s = std::sqrt(0.5f);
+  p->SetQuaternion(s, 0.0f, 0.0f, s);  // the same quarter turn about x, (x, y, z, w)
+  c = content_of(*p);
+  pose = cli::net::read_pose("POSITION", c.data(), c.size());
+  EXPECT_EQ(pose.position, Eigen::Vector3d(4, 5, 6));
+  EXPECT_LT((pose.z_axis - Eigen::Vector3d(0, -1, 0)).norm(), 1e-6) << pose.z_axis.transpose();
+
+  igtl::Matrix4x4 flat;
+  igtl::IdentityMatrix(flat);
+  flat[0][2] = flat[1][2] = flat[2][2] = 0;  // no z axis
+  t->SetMatrix(flat);
+  c = content_of(*t);
+  try {
+    cli::net::read_pose("TRANSFORM", c.data(), c.size());
+    ADD_FAILURE() << "a rotation that is none was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("whose rotation is not one"), std::string::npos);
+  }
 }
 
 }  // namespace

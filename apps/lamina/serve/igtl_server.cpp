@@ -323,6 +323,11 @@ void Server::send(int client, const Packed& message) {
     if (c->id == client) state_->queue(*c, message);
 }
 
+void Server::broadcast(const Packed& message) {
+  for (auto& c : state_->clients)
+    if (!c->gone) state_->queue(*c, message);
+}
+
 void Server::stream(const std::vector<Packed>& batch, Stream stream) {
   const auto s = static_cast<size_t>(stream);
   for (auto& c : state_->clients) {

@@ -78,6 +78,8 @@ class Server {
 
   /// Queues a reply for one client.
   void send(int client, const Packed& message);
+  /// Queues a message for every client, however busy (an event each must get, once).
+  void broadcast(const Packed& message);
   /// Queues a batch of streamed messages for every client, except one that has not yet taken
   /// the previous batch of the same stream (a slow client gets fewer frames, never a growing
   /// queue; a large message of one stream does not make a client miss the other's).

@@ -1,5 +1,6 @@
 #include "igtl_wire.h"
 
+#include <igtlStringMessage.h>
 #include <igtlTimeStamp.h>
 #include <igtlTransformMessage.h>
 #include <igtl_header.h>
@@ -106,8 +107,10 @@ Eigen::Vector3d change_frame(const Eigen::Vector3d& p, Frame frame) {
   return frame == Frame::kLps ? p : Eigen::Vector3d(-p.x(), -p.y(), p.z());
 }
 
-Eigen::Vector3d read_position(const std::string& type, const uint8_t* content, size_t size) {
-  Eigen::Vector3d p;
+Pose read_pose(const std::string& type, const uint8_t* content, size_t size) {
+  Pose pose;
+  Eigen::Vector3d& p = pose.position;
+  Eigen::Vector3d& z = pose.z_axis;
   if (type == "TRANSFORM") {
     // 3x3 rotation column by column, then the translation; big-endian float32.
     if (size != IGTL_TRANSFORM_SIZE)
@@ -117,15 +120,22 @@ Eigen::Vector3d read_position(const std::string& type, const uint8_t* content, s
     std::memcpy(m, content, sizeof(m));
     igtl_transform_convert_byte_order(m);
     p = Eigen::Vector3d(m[9], m[10], m[11]);
+    z = Eigen::Vector3d(m[6], m[7], m[8]);
   } else if (type == "POSITION") {
     // The position, then none, three or four quaternion components.
     igtl_position pos{};
+    pos.quaternion[3] = 1.0f;  // none sent: no rotation
     if (size == IGTL_POSITION_MESSAGE_POSITON_ONLY_SIZE) {
       std::memcpy(&pos, content, size);
       igtl_position_convert_byte_order_position_only(&pos);
     } else if (size == IGTL_POSITION_MESSAGE_WITH_QUATERNION3_SIZE) {
       std::memcpy(&pos, content, size);
       igtl_position_convert_byte_order_quaternion3(&pos);
+      // Three components: the fourth (w) follows from a unit quaternion.
+      const double v = pos.quaternion[0] * pos.quaternion[0] +
+                       pos.quaternion[1] * pos.quaternion[1] +
+                       pos.quaternion[2] * pos.quaternion[2];
+      pos.quaternion[3] = static_cast<igtl_float32>(std::sqrt(std::max(0.0, 1.0 - v)));
     } else if (size == IGTL_POSITION_MESSAGE_DEFAULT_SIZE) {
       std::memcpy(&pos, content, size);
       igtl_position_convert_byte_order(&pos);
@@ -133,11 +143,21 @@ Eigen::Vector3d read_position(const std::string& type, const uint8_t* content, s
       throw bad("a POSITION has 12, 24 or 28 bytes of content, this one " + std::to_string(size));
     }
     p = Eigen::Vector3d(pos.position[0], pos.position[1], pos.position[2]);
+    // OpenIGTLink's quaternion is (x, y, z, w); its third column is where it turns z.
+    const double x = pos.quaternion[0], y = pos.quaternion[1], qz = pos.quaternion[2],
+                 w = pos.quaternion[3];
+    z = Eigen::Vector3d(2 * (x * qz + w * y), 2 * (y * qz - w * x), 1 - 2 * (x * x + y * y));
   } else {
     throw bad(type + " carries no position");
   }
   if (!p.allFinite()) throw bad("a " + type + " whose position is not finite");
-  return p;
+  if (!z.allFinite() || !(z.norm() > 1e-6)) throw bad("a " + type + " whose rotation is not one");
+  z.normalize();
+  return pose;
+}
+
+Eigen::Vector3d read_position(const std::string& type, const uint8_t* content, size_t size) {
+  return read_pose(type, content, size).position;
 }
 
 Packed pack_transform(const std::string& device, const Eigen::Vector3d& t) {
@@ -147,6 +167,15 @@ Packed pack_transform(const std::string& device, const Eigen::Vector3d& t) {
   igtl::IdentityMatrix(m);
   for (int i = 0; i < 3; ++i) m[i][3] = static_cast<float>(t[i]);
   message->SetMatrix(m);
+  stamp_now(*message);
+  return packed_bytes(*message);
+}
+
+Packed pack_string(const std::string& device, const std::string& text) {
+  igtl::StringMessage::Pointer message = igtl::StringMessage::New();
+  message->SetDeviceName(device.c_str());
+  message->SetEncoding(3);  // IANA's MIBenum for US-ASCII, OpenIGTLink's default
+  message->SetString(text.c_str());
   stamp_now(*message);
   return packed_bytes(*message);
 }

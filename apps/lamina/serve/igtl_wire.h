@@ -56,11 +56,27 @@ Eigen::Vector3d change_frame(const Eigen::Vector3d& p, Frame frame);
 ///   position that is not finite.
 Eigen::Vector3d read_position(const std::string& type, const uint8_t* content, size_t size);
 
+/// A tracked tool's pose: where it is and where its z axis points (a scalpel's blade, from its
+/// back towards its edge's tip), both as sent.
+struct Pose {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d z_axis = Eigen::Vector3d::UnitZ();  ///< unit length
+};
+
+/// The pose in a TRANSFORM (the rotation's third column) or POSITION (its quaternion turning the
+/// z axis; a POSITION without one: the z axis itself).
+/// \note Throws lamina::Error (kInvalidInput) as read_position(), and for an axis that is not
+///   finite or has no length.
+Pose read_pose(const std::string& type, const uint8_t* content, size_t size);
+
 /// A packed message, shared by every client it is queued for.
 using Packed = std::shared_ptr<const std::vector<uint8_t>>;
 
 /// A TRANSFORM with identity rotation and translation `t` (header version 1, wall-clock time).
 Packed pack_transform(const std::string& device, const Eigen::Vector3d& t);
+
+/// A STRING message (US-ASCII: its text must be), header version 1, wall-clock time.
+Packed pack_string(const std::string& device, const std::string& text);
 
 /// POLYDATA messages of one surface whose triangles never change. The whole message is laid out
 /// once, cells included; each pack() writes only the points, the time stamp and the CRC, in place

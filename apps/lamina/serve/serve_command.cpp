@@ -19,6 +19,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
+#include "scalpel_stroke.h"
 
 namespace lamina::cli {
 namespace {
@@ -51,6 +52,14 @@ void check_args(const ServeArgs& a) {
                         "is also --tool-device ('" + a.tool_device + "'): give them two names");
   if (!(a.grasper_radius_mm > 0.0 && a.grasper_radius_mm <= 100.0))
     throw invalid_input("--grasper-radius", "must be in (0, 100] mm");
+  for (const std::string* other : {&a.tool_device, &a.grasper_device})
+    if (!a.scalpel_device.empty() && a.scalpel_device == *other)
+      throw invalid_input("--scalpel-device", "is also the tool's or the grasper's device ('" +
+                                                  a.scalpel_device + "'): give each its own name");
+  if (!(a.scalpel_depth_mm > 0.0 && a.scalpel_depth_mm <= 200.0))
+    throw invalid_input("--scalpel-depth", "must be in (0, 200] mm");
+  if (!(a.scalpel_pause_s > 0.0 && a.scalpel_pause_s <= 60.0))
+    throw invalid_input("--scalpel-pause", "must be in (0, 60] s");
   if (!(a.tip_radius_mm > 0.0 && a.tip_radius_mm <= 100.0))
     throw invalid_input("--tip-radius", "must be in (0, 100] mm");
   if (!(a.tip_stiffness_n_per_m > 0.0 && a.tip_stiffness_n_per_m <= 1e4))
@@ -76,7 +85,9 @@ constexpr size_t kMaxDeviceName = 20;
 // embedded surfaces' (named as in the model), each packer laid out once with its triangles.
 class Outgoing {
  public:
-  Outgoing(const Model& m, net::Frame frame) : model_(m), frame_(frame) {
+  Outgoing(std::shared_ptr<const Model> model, net::Frame frame)
+      : shared_(std::move(model)), model_(*shared_), frame_(frame) {
+    const Model& m = model_;
     for (int32_t k = 0; k < m.layer_count(); ++k) {
       const ModelLayer& layer = m.layers[static_cast<size_t>(k)];
       // The model's triangles index every node; a message indexes its own points.
@@ -167,6 +178,7 @@ class Outgoing {
     return -1;
   }
 
+  std::shared_ptr<const Model> shared_;  // a cut replaces the loop's: kept while sent
   const Model& model_;
   net::Frame frame_;
   std::vector<net::PolyDataPacker> layers_;
@@ -204,9 +216,20 @@ int run_serve(const ServeArgs& a) {
   lo.threads = a.threads;
   interact::RealtimeLoop loop(io::make_scene_simulation(ready), scene.routing, lo);
   const net::Frame frame = a.frame == "lps" ? net::Frame::kLps : net::Frame::kRas;
-  Outgoing outgoing(m, frame);
+  // What is sent is laid out for a model; a cut makes another (and adds the wound), which the
+  // snapshots then carry: each message is packed for the model of the snapshot it shows.
+  auto outgoing = std::make_unique<Outgoing>(ready.model, frame);
+  uint64_t outgoing_version = 0;
+  const auto sent_for = [&](const interact::LoopSnapshot& sn) -> Outgoing& {
+    if (sn.model && sn.model_version != outgoing_version) {
+      outgoing = std::make_unique<Outgoing>(sn.model, frame);
+      outgoing_version = sn.model_version;
+    }
+    return *outgoing;
+  };
   const int32_t streamed_layers = a.all_layers ? m.layer_count() : 1;
-  outgoing.log_embedded(false);
+  outgoing->log_embedded(false);
+  ScalpelStroke stroke;
 
   interact::ToolTip tip;
   tip.radius_mm = a.tip_radius_mm;
@@ -224,9 +247,26 @@ int run_serve(const ServeArgs& a) {
     loop.set_grasper(std::nullopt);
     log::info("the grasper opens: {}", why);
   };
+  const auto start = Clock::now();
   const auto handle = [&](const net::Message& msg) {
     const std::string& type = msg.header.type;
-    if (!a.grasper_device.empty() && msg.header.device == grasper_open) {
+    const std::string& device = msg.header.device;
+    const bool scalpel = !a.scalpel_device.empty();
+    if (scalpel && device == a.scalpel_device + "Up") {
+      if (stroke.client >= 0) log::info("{}", stroke.finish(loop, a.scalpel_depth_mm));
+    } else if (scalpel && device == a.scalpel_device + "Undo") {
+      log::info("OpenIGTLink client {}: {} '{}' takes the last cut back", msg.peer, type, device);
+      loop.undo_cut();
+    } else if (scalpel && device == a.scalpel_device &&
+               (type == "TRANSFORM" || type == "POSITION")) {
+      const net::Pose pose = net::read_pose(type, msg.content, msg.size);
+      if (stroke.client >= 0 && stroke.client != msg.client)
+        log::info("{}", stroke.finish(loop, a.scalpel_depth_mm));  // another hand's stroke
+      if (stroke.client < 0)
+        log::info("OpenIGTLink client {}: {} '{}' begins a scalpel stroke", msg.peer, type, device);
+      stroke.add(msg.client, net::change_frame(pose.position, frame),
+                 net::change_frame(pose.z_axis, frame), seconds(Clock::now() - start));
+    } else if (!a.grasper_device.empty() && msg.header.device == grasper_open) {
       open_grasper(fmt::format("client {} sent {} '{}'", msg.peer, type, grasper_open));
     } else if (!a.grasper_device.empty() && msg.header.device == a.grasper_device &&
                (type == "TRANSFORM" || type == "POSITION")) {
@@ -264,11 +304,11 @@ int run_serve(const ServeArgs& a) {
     } else if (type == "GET_POLYDATA") {
       interact::LoopSnapshot snap;
       loop.latest(snap);
-      server.send(msg.client, outgoing.requested(snap, msg.header.device));
+      server.send(msg.client, sent_for(snap).requested(snap, msg.header.device));
     } else if (type == "GET_TRANS") {
       interact::LoopSnapshot snap;
       loop.latest(snap);
-      server.send(msg.client, outgoing.reaction(snap.reaction_mn));
+      server.send(msg.client, outgoing->reaction(snap.reaction_mn));
     } else if (noted.insert({msg.client, type}).second) {
       // The protocol: a receiver skips the types it does not use.
       log::info(
@@ -280,6 +320,7 @@ int run_serve(const ServeArgs& a) {
   const auto closed = [&](int client) {
     std::erase_if(noted, [&](const auto& n) { return n.first == client; });
     if (client == grasper_client) open_grasper("its client has gone");
+    if (client == stroke.client) log::info("{}", stroke.finish(loop, a.scalpel_depth_mm));
     if (client != tool_client) return;
     tool_client = -1;
     tip.active = false;
@@ -303,7 +344,6 @@ int run_serve(const ServeArgs& a) {
   const double tick_s = 1.0 / (a.send_hz > 0.0 ? a.send_hz : 30.0);
   const auto tick =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(tick_s));
-  const auto start = Clock::now();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(a.duration_s));
   // The reaction force streams on its own, every step by default (a haptic client's rate),
@@ -325,14 +365,43 @@ int run_serve(const ServeArgs& a) {
   int64_t unstable_events = 0;
   bool awaiting_reset = false;
   auto next_unstable_log = start;
+  // Each cut (or undo) the loop has made since the last look: in the log, and to every client
+  // as a STRING named LaminaCut (what it divided, the pieces, each vessel it crossed: a
+  // simulator's bleeding cue).
+  uint64_t cuts_version = 0;
+  int64_t cuts_seen = 0;
+  std::string cut_error_seen;
+  const auto report_cuts = [&](const interact::LoopSnapshot& sn) {
+    if (!sn.cut_error.empty() && sn.cut_error != cut_error_seen) log::warn("{}", sn.cut_error);
+    cut_error_seen = sn.cut_error;
+    if (sn.model_version == cuts_version) return;
+    cuts_version = sn.model_version;
+    if (sn.cuts <= cuts_seen) {
+      log::info("a cut is undone ({} in force)", sn.cuts);
+    } else {
+      // (The loop has logged each vessel crossed.)
+      log::info(
+          "cut {}: {} tetrahedra divided, {} piece(s), {} structure(s) crossed; sent as "
+          "STRING 'LaminaCut'",
+          sn.cuts, sn.last_cut.cut_tets, sn.last_cut.pieces.size(),
+          sn.last_cut.structures_cut.size());
+      server.broadcast(net::pack_string("LaminaCut", cut_event_text(sn, frame)));
+    }
+    cuts_seen = sn.cuts;
+  };
   loop.start();
   while (!stop_requested) {
     const auto now = Clock::now();
     if (a.duration_s > 0.0 && now >= deadline) break;
     double wait_s = std::min(seconds(next_tick - now), 0.1);
     if (a.reaction_hz > 0.0) wait_s = std::min(wait_s, seconds(next_reaction - now));
-    if (a.embedded_hz > 0.0 && outgoing.embedded_count() > 0)
+    if (a.embedded_hz > 0.0 && outgoing->embedded_count() > 0)
       wait_s = std::min(wait_s, seconds(next_embedded - now));
+    const double now_s = seconds(now - start);
+    if (stroke.client >= 0 && now_s - stroke.last_pose_s >= a.scalpel_pause_s)
+      log::info("{} (its poses paused)", stroke.finish(loop, a.scalpel_depth_mm));
+    if (stroke.client >= 0)
+      wait_s = std::min(wait_s, stroke.last_pose_s + a.scalpel_pause_s - now_s);
     if (a.duration_s > 0.0) wait_s = std::min(wait_s, seconds(deadline - now));
     server.poll(std::max(wait_s, 0.0), handle, closed);
     if (a.reaction_hz > 0.0 && Clock::now() >= next_reaction) {
@@ -341,20 +410,21 @@ int run_serve(const ServeArgs& a) {
       const interact::ReactionSample r = loop.latest_reaction();
       max_reaction_mn = std::max(max_reaction_mn, r.reaction_mn.norm());
       if (r.steps != reaction_sent_step && server.client_count() > 0) {
-        server.stream({outgoing.reaction(r.reaction_mn)}, net::Stream::kSurfaces);
+        server.stream({outgoing->reaction(r.reaction_mn)}, net::Stream::kSurfaces);
         reaction_sent_step = r.steps;
       }
     }
     // The embedded surfaces are heavier (tens of thousands of triangles): their own rate and
     // their own stream, so that a client still taking one never misses a skin or a reaction.
-    if (a.embedded_hz > 0.0 && outgoing.embedded_count() > 0 && Clock::now() >= next_embedded) {
+    if (a.embedded_hz > 0.0 && outgoing->embedded_count() > 0 && Clock::now() >= next_embedded) {
       next_embedded += embedded_tick;
       if (next_embedded < Clock::now()) next_embedded = Clock::now() + embedded_tick;
       if (server.client_count() > 0) {
         loop.latest(snap);
+        Outgoing& out = sent_for(snap);
         embedded_batch.clear();
-        for (int32_t e = 0; e < outgoing.embedded_count(); ++e)
-          embedded_batch.push_back(outgoing.embedded(snap, e));
+        for (int32_t e = 0; e < out.embedded_count(); ++e)
+          embedded_batch.push_back(out.embedded(snap, e));
         server.stream(embedded_batch, net::Stream::kEmbedded);
       }
     }
@@ -363,6 +433,7 @@ int run_serve(const ServeArgs& a) {
     if (next_tick < Clock::now()) next_tick = Clock::now() + tick;  // no burst after a stall
     loop.latest(snap);
     max_reaction_mn = std::max(max_reaction_mn, snap.reaction_mn.norm());
+    report_cuts(snap);
     // Unstable: the loop has stopped and sends no reaction; said in the log, the organ put back
     // at rest so that the session goes on, and the exit code says it happened.
     if (snap.stats.unstable != sim::Instability::kNone && !awaiting_reset) {
@@ -385,8 +456,9 @@ int run_serve(const ServeArgs& a) {
     }
     if (a.send_hz > 0.0 && server.client_count() > 0) {
       std::vector<net::Packed> batch;
-      for (int32_t k = 0; k < streamed_layers; ++k) batch.push_back(outgoing.layer(snap, k));
-      if (a.reaction_hz == 0.0) batch.push_back(outgoing.reaction(snap.reaction_mn));
+      Outgoing& out = sent_for(snap);
+      for (int32_t k = 0; k < streamed_layers; ++k) batch.push_back(out.layer(snap, k));
+      if (a.reaction_hz == 0.0) batch.push_back(out.reaction(snap.reaction_mn));
       server.stream(batch, net::Stream::kSurfaces);
     }
     // The loop measures real time over one-second windows; each new window is judged once.
@@ -419,7 +491,7 @@ int run_serve(const ServeArgs& a) {
         "the simulation ran at {:.2f}x real time over the whole run; a lower --rate, a smaller "
         "model or, on a busy machine, --threads 1 keeps up",
         rtf);
-  outgoing.log_embedded(true);
+  outgoing->log_embedded(true);
   const net::ServerCounters& c = server.counters();
   fmt::print(stderr,
              "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "
