@@ -35,20 +35,10 @@ std::vector<int32_t> every_copy(const Copies& c, const std::vector<int32_t>& nod
 
 }  // namespace
 
-model::CutReport cut_simulation(std::shared_ptr<const Model>& model, sim::Simulation& sim,
-                                ToolDriver& driver, const model::Blade& rest_blade,
-                                std::vector<int32_t>& origin, const model::CutOptions& options) {
-  auto cut = std::make_shared<Model>();
-  model::CutReport report;
-  model::cut_tetrahedra(*model, model->X, rest_blade, *cut, origin, report, options);
-  if (report.cut_tets == 0) {
-    origin.resize(static_cast<size_t>(model->node_count()));
-    for (size_t i = 0; i < origin.size(); ++i) origin[i] = static_cast<int32_t>(i);
-    return report;
-  }
-  const Model& before = *model;
+void carry_tools(const Model& before, const Model& cut, const std::vector<int32_t>& origin,
+                 ToolDriver& driver) {
   const Copies c = copies_of(origin, before.node_count());
-  const auto share = [&](int32_t i) { return model::copy_share(before, *cut, origin, i); };
+  const auto share = [&](int32_t i) { return model::copy_share(before, cut, origin, i); };
 
   // A tool's load on a node is divided among its copies as its mass is (the total is kept); a
   // tool by vertex touches the node's first copy (it is on the skin, as the node was).
@@ -93,11 +83,25 @@ model::CutReport cut_simulation(std::shared_ptr<const Model>& model, sim::Simula
     g.targets = std::move(targets);
   }
   if (driver.held_forces.rows() == before.node_count()) {
-    Eigen::MatrixX3d held(cut->node_count(), 3);
-    for (int32_t i = 0; i < cut->node_count(); ++i)
+    Eigen::MatrixX3d held(cut.node_count(), 3);
+    for (int32_t i = 0; i < cut.node_count(); ++i)
       held.row(i) = driver.held_forces.row(origin[static_cast<size_t>(i)]) * share(i);
     driver.held_forces = std::move(held);
   }
+}
+
+model::CutReport cut_simulation(std::shared_ptr<const Model>& model, sim::Simulation& sim,
+                                ToolDriver& driver, const model::Blade& rest_blade,
+                                std::vector<int32_t>& origin, const model::CutOptions& options) {
+  auto cut = std::make_shared<Model>();
+  model::CutReport report;
+  model::cut_tetrahedra(*model, model->X, rest_blade, *cut, origin, report, options);
+  if (report.cut_tets == 0) {
+    origin.resize(static_cast<size_t>(model->node_count()));
+    for (size_t i = 0; i < origin.size(); ++i) origin[i] = static_cast<int32_t>(i);
+    return report;
+  }
+  carry_tools(*model, *cut, origin, driver);
   sim = sim::carry_over(sim, *cut, origin);
   model = std::move(cut);
   return report;

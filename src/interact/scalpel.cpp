@@ -223,19 +223,21 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
   return events;
 }
 
-model::CutReport cut_now(std::shared_ptr<const Model>& model, sim::Simulation& sim,
-                         ToolDriver& driver, const std::vector<Eigen::Vector3d>& path,
-                         const Eigen::Vector3d& direction, double depth_mm,
-                         std::vector<int32_t>& origin) {
+namespace {
+
+// The blade of a cut made at once, drawn at positions x and carried to rest: columns at the
+// path's points, and between them about one a mean edge apart.
+model::Blade blade_now(const Model& model, const Eigen::MatrixX3d& x,
+                       const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& direction,
+                       double depth_mm) {
   const Scalpel sc{.path = path, .depth_direction = direction, .depth_mm = depth_mm};
   if (const auto problem = scalpel_problem(sc))
     throw invalid_input("cut: " + problem->first, problem->second);
-  if (!model->has_tets())
+  if (!model.has_tets())
     throw invalid_input("cut",
                         "the model has no tetrahedra (built with --structure links): "
                         "only a model with tetrahedra can be cut");
-  // Columns at the path's points, and between them about one a mean edge apart.
-  const double mean = tet_edges(*model).mean, length = path_length(path);
+  const double mean = tet_edges(model).mean, length = path_length(path);
   std::vector<double> at;
   double s = 0.0;
   for (size_t k = 0; k < path.size(); ++k) {
@@ -249,10 +251,34 @@ model::CutReport cut_now(std::shared_ptr<const Model>& model, sim::Simulation& s
   }
   const int32_t rows = rows_for(depth_mm, mean);
   ScalpelDriver::Progress p;
-  const Eigen::MatrixX3d rest = columns_at_rest(*model, sim.x, sc, at, rows);
+  const Eigen::MatrixX3d rest = columns_at_rest(model, x, sc, at, rows);
   for (size_t c = 0; c < at.size(); ++c)
     p.columns.push_back(rest.middleRows(static_cast<Eigen::Index>(c) * (rows + 1), rows + 1));
-  const model::Blade blade = strip(p, 0, rows);
+  return strip(p, 0, rows);
+}
+
+}  // namespace
+
+model::CutReport cut_model_now(const Model& model, const Eigen::MatrixX3d& x,
+                               const std::vector<Eigen::Vector3d>& path,
+                               const Eigen::Vector3d& direction, double depth_mm, Model& cut,
+                               std::vector<int32_t>& origin) {
+  const model::Blade blade = blade_now(model, x, path, direction, depth_mm);
+  model::CutReport report;
+  model::cut_tetrahedra(model, model.X, blade, cut, origin, report);
+  if (report.cut_tets == 0) {
+    cut = Model{};
+    origin.resize(static_cast<size_t>(model.node_count()));
+    for (size_t i = 0; i < origin.size(); ++i) origin[i] = static_cast<int32_t>(i);
+  }
+  return report;
+}
+
+model::CutReport cut_now(std::shared_ptr<const Model>& model, sim::Simulation& sim,
+                         ToolDriver& driver, const std::vector<Eigen::Vector3d>& path,
+                         const Eigen::Vector3d& direction, double depth_mm,
+                         std::vector<int32_t>& origin) {
+  const model::Blade blade = blade_now(*model, sim.x, path, direction, depth_mm);
   model::CutReport report = cut_simulation(model, sim, driver, blade, origin);
   for (model::StructureCut& c : report.structures_cut)
     c.position_mm = model::from_rest(*model, sim.x, c.position_mm.transpose()).row(0).transpose();

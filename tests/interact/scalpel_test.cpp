@@ -7,9 +7,12 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <chrono>
+#include <functional>
 #include <map>
 #include <numeric>
 #include <set>
+#include <thread>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/mesh_measures.h"
@@ -355,6 +358,65 @@ TEST(Scalpel, TheRealtimeLoopCutsBetweenTwoStepsItsForcesCarryOverAndItUndoes) {
   EXPECT_EQ(none.model_version, 2u);
   EXPECT_EQ(none.cut_error, "undo: there is no cut to undo");
   EXPECT_EQ(none.x.rows(), m.node_count());
+}
+
+// A running loop makes its cuts on another thread and goes on stepping meanwhile: the cut it
+// takes in is the one run_steps() makes (the same model, node for node), the organ's motion
+// carried over to it at the moment it is taken in; an undo asked for while the cut is being
+// made waits for it and then takes it back; the stepping thread's part is reported.
+TEST(Scalpel, ARunningLoopCutsOnAnotherThreadAsBetweenTwoStepsAndAnUndoWaitsForIt) {
+  const Model& m = test::tet_phantom();
+  const Across a = across();
+  const interact::RoutingOptions routing{.routing = interact::Routing::kNone,
+                                         .touch = interact::Touch::kSkin};
+  interact::RealtimeLoop reference(held(), routing, {.real_time = false});
+  reference.run_steps(5);
+  reference.cut(a.scalpel.path, a.scalpel.depth_direction, a.scalpel.depth_mm);
+  reference.run_steps(1);
+  interact::LoopSnapshot expected;
+  ASSERT_TRUE(reference.latest(expected));
+  ASSERT_EQ(expected.cuts, 1);
+
+  interact::RealtimeLoop loop(held(), routing, {.rate_hz = 200.0});
+  loop.start();
+  const auto wait_for = [&](const std::function<bool(const interact::LoopSnapshot&)>& done) {
+    interact::LoopSnapshot snap;
+    for (int k = 0; k < 3000; ++k) {
+      loop.latest(snap);
+      if (done(snap)) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return snap;
+  };
+  const int64_t asked_at = wait_for([](const auto& s) { return s.steps >= 5; }).steps;
+  loop.cut(a.scalpel.path, a.scalpel.depth_direction, a.scalpel.depth_mm);
+  loop.undo_cut();  // asked before the cut is in: it waits for it
+  const interact::LoopSnapshot undone =
+      wait_for([](const auto& s) { return s.model_version >= 2; });
+  loop.stop();
+  ASSERT_EQ(undone.model_version, 2u) << undone.cut_error;
+  EXPECT_EQ(undone.cuts, 0);
+  EXPECT_EQ(undone.cut_error, "");
+  EXPECT_EQ(undone.model->node_count(), m.node_count());
+  EXPECT_EQ(undone.x.rows(), m.node_count());
+  EXPECT_TRUE(undone.x.allFinite());
+  EXPECT_GT(undone.steps, asked_at);
+  EXPECT_GT(undone.longest_cut_pause_us, 0.0);
+
+  // Cut again, and this time kept: the model run_steps() made.
+  loop.start();
+  loop.cut(a.scalpel.path, a.scalpel.depth_direction, a.scalpel.depth_mm);
+  const interact::LoopSnapshot cut = wait_for([](const auto& s) { return s.model_version >= 3; });
+  loop.stop();
+  ASSERT_EQ(cut.cuts, 1) << cut.cut_error;
+  EXPECT_EQ(cut.last_cut.cut_tets, expected.last_cut.cut_tets);
+  EXPECT_EQ(cut.last_cut.pieces.size(), expected.last_cut.pieces.size());
+  ASSERT_EQ(cut.model->node_count(), expected.model->node_count());
+  EXPECT_EQ(cut.model->X, expected.model->X);
+  EXPECT_EQ(cut.model->tets.T, expected.model->tets.T);
+  ASSERT_EQ(cut.x.rows(), cut.model->node_count());
+  // At rest and held, the organ stays where it was: the state carried over node for node.
+  EXPECT_LT((cut.x - cut.model->X).cwiseAbs().maxCoeff(), 1e-6);
 }
 
 TEST(Scalpel, BadScalpelsAreNamed) {

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -43,6 +44,10 @@ struct LoopOptions {
   /// Minimum wall time between two published snapshots, s (a display needs no more than its
   /// refresh rate; copying a large model every step would cost more than the step).
   double publish_interval_s = 1.0 / 240.0;
+  /// Cuts are made on another thread while the loop steps on, and taken in between two steps
+  /// (0.1-0.4 ms of the stepping thread's at paper size); false makes them between two steps
+  /// on the stepping thread, as run_steps() does (15-20 ms there at paper size: a reference).
+  bool background_cuts = true;
 };
 
 /// What the loop last published. Positions are a copy: valid for as long as the caller keeps it.
@@ -74,6 +79,10 @@ struct LoopSnapshot {
   /// so a wait of more than milliseconds is a bug on any machine (the serve tests check it).
   int64_t lock_waits = 0;
   double longest_lock_wait_us = 0.0;
+  /// The longest the stepping thread spent on a cut between two steps, us: beginning it on
+  /// another thread, or taking it in once made (RealtimeLoop::cut()); the cut itself, tens to
+  /// hundreds of milliseconds, is made while the loop steps on.
+  double longest_cut_pause_us = 0.0;
   /// The model x is of: the one the loop was made with until a cut (RealtimeLoop::cut()) made
   /// another; model_version counts the changes of model (each cut that divided tetrahedra, each
   /// undo: 0, the loop's own).
@@ -164,9 +173,10 @@ class RealtimeLoop {
   void thread_main();
   // Unstable (sim::Instability): the loop stops stepping, and its reaction is zero, until reset().
   bool halted() const { return last_stats_.unstable != sim::Instability::kNone; }
-  void apply_pending();  // under mutex_
-  void apply_cut();      // a cut taken by apply_pending, made unlocked
-  void apply_undo();     // an undo taken by apply_pending
+  void apply_pending();      // under mutex_
+  void apply_cut();          // a cut taken by apply_pending: begun on another thread, or taken in
+  void take_cut(bool wait);  // the cut made on the other thread, once done (or waited for)
+  void apply_undo();         // an undo taken by apply_pending
   void route_forces();
   void move_grasper();
   void one_step();
@@ -223,7 +233,24 @@ class RealtimeLoop {
     Loads loads;
     Grasp grasp;
   };
-  std::vector<BeforeCut> undo_;         // the oldest first, at most kUndoDepth
+  std::vector<BeforeCut> undo_;  // the oldest first, at most kUndoDepth
+  // A cut being made on another thread while the loop steps on (the model divided and a
+  // simulation of it made and prepared: the slow part); take_cut() puts the state of the moment
+  // into it between two steps.
+  struct CutJob {
+    std::shared_ptr<const Model> own;        // a copy of the caller's model, the first time
+    std::optional<sim::Simulation> own_sim;  // a simulation of it (what an undo goes back to)
+    std::shared_ptr<const Model> cut;        // null: nothing divided
+    std::vector<int32_t> origin;
+    model::CutReport report;
+    std::optional<sim::Simulation> sim;  // of *cut, its solver prepared
+    std::string error;
+  };
+  std::future<CutJob> cut_job_;
+  uint64_t params_version_ = 0;      // each change of material, options or dt
+  uint64_t cut_params_version_ = 0;  // params_version_ when the cut job began
+  int stepping_threads_ = 0;         // the stepping thread's own, set back after a cut job
+  double longest_cut_pause_us_ = 0.0;
   std::shared_ptr<const Model> model_;  // the model sim_ runs on (not owned until a cut)
   uint64_t model_version_ = 0;
   int64_t cuts_ = 0;

@@ -62,6 +62,23 @@ model::CutReport cut_simulation(std::shared_ptr<const Model>& model, sim::Simula
                                 std::vector<int32_t>& origin,
                                 const model::CutOptions& options = {});
 
+/// The tools' part of cut_simulation(): their vertices, routes, touched and loaded nodes, grasps
+/// and held forces moved from `before`'s nodes to their copies in `cut` (a load divided among a
+/// node's copies as its mass is).
+void carry_tools(const Model& before, const Model& cut, const std::vector<int32_t>& origin,
+                 ToolDriver& driver);
+
+/// The model's part of cut_now(), which needs no simulation (a loop runs it on another thread
+/// while it steps on): the blade drawn at positions `x` of `model`, carried to rest, divides
+/// `model` into `cut` (model::cut_tetrahedra; `cut` is left empty and origin the identity when
+/// it divides nothing); the structures crossed are reported at rest (model::from_rest() puts
+/// them where the organ is).
+/// \note Throws lamina::Error (kInvalidInput) as cut_now().
+model::CutReport cut_model_now(const Model& model, const Eigen::MatrixX3d& x,
+                               const std::vector<Eigen::Vector3d>& path,
+                               const Eigen::Vector3d& direction, double depth_mm, Model& cut,
+                               std::vector<int32_t>& origin);
+
 /// Cuts `sim`'s model at once along a blade drawn at its current positions: the blade's upper
 /// end along `path`, reaching `depth_mm` along `direction` (as a Scalpel's), carried to rest
 /// and cut there (cut_simulation()); the report's structures_cut at their current positions.

@@ -20,4 +20,28 @@ namespace lamina::sim {
 /// \note Throws lamina::Error (kInvalidInput) if origin does not match the two models.
 Simulation carry_over(const Simulation& sim, const Model& cut, const std::vector<int32_t>& origin);
 
+/// carry_over() in two halves, for a loop that steps on while a cut is made
+/// (interact::RealtimeLoop): what a simulation of the cut model needs from the one it continues,
+/// copied (carry_source(), quick), then the simulation made from the copies alone on any thread
+/// (made_for_cut(), slow: the tetrahedra identified, the solver prepared), then the state of the
+/// moment put in (restore_state(made, carried_state(capture_state(sim), ...)), quick).
+struct CarrySource {
+  Material material;
+  SolverOptions options;                ///< with the preconditioner sim chose, kept
+  std::vector<double> support_n_per_m;  ///< per node of sim's model
+  SimState state;                       ///< sim's when copied
+};
+CarrySource carry_source(const Simulation& sim);
+
+/// A state of the model `before` carried over to `cut`, node by node (each load divided among
+/// a node's copies as its mass is).
+SimState carried_state(const SimState& was, const Model& before, const Model& cut,
+                       const std::vector<int32_t>& origin);
+
+/// A simulation of `cut` from `from` (which was of `before`), at from.state carried over; with
+/// `prepare`, its solver prepared (sim::prepare_solver(): the multigrid built) for that state's
+/// fixed and moving nodes, which a later state with the same ones keeps.
+Simulation made_for_cut(const CarrySource& from, const Model& before, const Model& cut,
+                        const std::vector<int32_t>& origin, bool prepare);
+
 }  // namespace lamina::sim
