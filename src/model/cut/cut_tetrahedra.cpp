@@ -569,7 +569,11 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
         throw Error(ErrorKind::kInternal, "cut: " + s.name + " vertex " + std::to_string(v) +
                                               " names corners that are no tetrahedron");
       Eigen::Vector4d bary = Eigen::Vector4d::Zero();
-      if (hinted) {
+      // A vertex far outside follows its weights' point by an offset: its side is its own
+      // point's, not that one's (a gallbladder beside a liver cut through went to the other
+      // piece).
+      const bool offset = s.offsets.rows() > 0 && !s.offsets.row(v).isZero();
+      if (hinted || offset) {
         bary = weights_at(t, q);
       } else {
         for (int k = 0; k < 4; ++k) bary[corner_of(T, t, cs[k])] = s.weights(v, k);

@@ -234,6 +234,57 @@ void keep_sides(const Locator& where, const Around& around, const Tets& tets,
   }
 }
 
+// The blade triangle the segment from p to q crosses (strictly between them), or -1.
+int blade_crossed(const BladeIndex& index, const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
+  const Eigen::Vector3d lo = p.cwiseMin(q), hi = p.cwiseMax(q);
+  if ((hi.array() < index.lo.array()).any() || (lo.array() > index.hi.array()).any()) return -1;
+  for (size_t k = 0; k < index.tris.size(); ++k) {
+    const BladeTriangle& t = index.tris[k];
+    if ((hi.array() < t.lo.array()).any() || (lo.array() > t.hi.array()).any()) continue;
+    const double dp = t.n.dot(p - t.p0), dq = t.n.dot(q - t.p0);
+    if (!(dp * dq < 0.0)) continue;
+    const Eigen::Vector3d x = p + (dp / (dp - dq)) * (q - p) - t.p0;
+    const double d00 = t.e1.dot(t.e1), d01 = t.e1.dot(t.e2), d11 = t.e2.dot(t.e2);
+    const double d20 = x.dot(t.e1), d21 = x.dot(t.e2), det = d00 * d11 - d01 * d01;
+    const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
+    if (v >= 0.0 && w >= 0.0 && v + w <= 1.0) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+// Vertices outside the tetrahedra farther from the blade than keep_sides() looks (a structure
+// beside the organ, TotalSegmentator's vena cava and gallbladder, follows the nearest ones)
+// whose whole tetrahedron's material lies across the blade from them: they follow the nearest
+// tetrahedron near the blade on their own side instead. Else a vessel beside a liver cut
+// through tore between the two pieces, some of its vertices following the other one.
+void keep_far_sides(const Around& around, const Tets& tets, const std::vector<uint8_t>& divided,
+                    const BladeIndex& index, const std::function<const Locator&()>& wide,
+                    const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, EmbeddedSurface& s) {
+  for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+    // Inside its own tetrahedron: on its side. (Far outside, weights clamped and an offset.)
+    const bool offset = s.offsets.rows() > 0 && !s.offsets.row(v).isZero();
+    if (s.weights.row(v).minCoeff() >= 0.0 && !offset) continue;
+    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
+    std::sort(own.begin(), own.end());
+    const auto it = around.find(own);
+    if (it != around.end() && divided[static_cast<size_t>(it->second)]) continue;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    if (it != around.end()) {
+      c = material_centre(X, T, tets, it->second);
+    } else {
+      for (int k = 0; k < 4; ++k) c += X.row(s.corners(v, k)).transpose() / 4.0;
+    }
+    const Eigen::Vector3d p = s.V.row(v).transpose();
+    const int k = blade_crossed(index, p, c);
+    if (k < 0) continue;
+    const BladeTriangle& tri = index.tris[static_cast<size_t>(k)];
+    const Locator& near = wide();
+    const SideFilter allowed{near, tets, divided, &tri, tri.n.dot(p - tri.p0) > 0.0};
+    const int at = near.locate(p, allowed, /*within_margin=*/false);
+    if (at >= 0) embed_at(near, at, p, s, v);
+  }
+}
+
 // Vertices an earlier split left on the blade (a progressive cut sweeps its path again) are told
 // their side by their triangles': where their tetrahedron opens now, a welded one (where the
 // tissue had not opened yet: the cut's tip) is taken apart, keeping the triangles on one side, a
@@ -317,6 +368,7 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
   const double reach = where.reach;
   const auto apart = take_apart(divided, index, s);
   keep_sides(where, around, tets, is_divided, index, reach, s);
+  keep_far_sides(around, tets, is_divided, index, wide, where.X, where.T, s);
   const Eigen::Index nv = s.V.rows();
   std::vector<Eigen::Vector3d> hint;
   auto with_apart = [&]() {
