@@ -89,6 +89,7 @@ struct ViewArgs {
   std::string script;                    ///< scripted input (docs/viewer.md)
   std::string report;                    ///< JSON report written at exit
   double rate_hz = 1000.0;
+  bool auto_rate = false;  ///< no --rate: the highest rate the machine keeps (rate_choice.h)
   double gain_n_per_mm = 0.01;
   std::array<int, 2> size = {1400, 900};
   bool verbose = false;

@@ -188,9 +188,11 @@ int main(int argc, char** argv) {
                  "model (.vtu), segmentation, DICOM folder, scene (.json) or 'phantom' (default)");
   vi->add_flag("--paper", view.paper,
                "the reference paper's model and constants instead of the physical liver");
-  vi->add_option("--rate", view.rate_hz,
-                 "simulation steps per wall second, each 1/rate s of simulated time (real time; "
-                 "default 1000; 0 = as fast as possible at the scene's dt)");
+  CLI::Option* view_rate = vi->add_option(
+      "--rate", view.rate_hz,
+      "simulation steps per wall second, each 1/rate s of simulated time (real time; default: "
+      "the highest of 1000, 500, 250, 120, 60 the machine keeps, chosen as it runs; 0 = as fast "
+      "as possible at the scene's dt)");
   vi->add_option("--size", view_size, "window size WxH (default 1400x900)");
   vi->add_option("--gain", view.gain_n_per_mm,
                  "drag force per mm of mouse drag, N/mm (default 0.01)");
@@ -383,6 +385,7 @@ int main(int argc, char** argv) {
     if (*vi) {
       view.size = parse_image_size(view_size, "--size");
       view.verbose = verbosity == 2;
+      view.auto_rate = view_rate->count() == 0;
       return cli::run_view(view);
     }
     if (*re) {

@@ -74,6 +74,7 @@ int run_view(const ViewArgs& a) {
 
   ViewOptions o;
   o.rate_hz = a.rate_hz;
+  o.auto_rate = a.auto_rate;
   o.gain_n_per_mm = a.gain_n_per_mm;
   o.material = p.scene.material;
   o.solver = p.scene.solver;

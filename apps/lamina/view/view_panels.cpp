@@ -82,8 +82,9 @@ void ViewSession::State::panels() {
               m.springs.size(), m.layer_count(), m.layers.empty() ? 0 : m.layers[0].node_count);
   ImGui::Text("t = %.2f s, step %lld%s", snap.time_s, static_cast<long long>(snap.steps),
               paused ? "  (paused)" : "");
-  ImGui::Text("rate %.0f Hz (target %s), step %.0f us, jitter %.0f us", snap.achieved_rate_hz,
-              rate_hz > 0 ? fmt::format("{:.0f}", rate_hz).c_str() : "max", snap.mean_step_us,
+  ImGui::Text("rate %.0f Hz (target %s%s), step %.0f us, jitter %.0f us", snap.achieved_rate_hz,
+              rate_hz > 0 ? fmt::format("{:.0f}", rate_hz).c_str() : "max",
+              auto_rate ? ", what this machine keeps" : "", snap.mean_step_us,
               snap.worst_jitter_us);
   // Real time or not, always in view: a slow machine shows a slow-motion organ, and says so.
   if (rate_hz <= 0.0)
@@ -229,7 +230,8 @@ void ViewSession::State::panels() {
     changed |= ImGui::InputDouble("rest speed mm/s", &solver.rest_speed_mm_per_s, 0.0, 0.0, "%.2g");
     changed |= ImGui::InputInt("CG iterations", &solver.cg_max_iterations);
     changed |= ImGui::InputInt("projective iterations", &solver.projective_iterations);
-    changed |= ImGui::InputDouble("rate Hz (0 = max)", &rate_hz, 100, 1000, "%.0f");
+    if (ImGui::InputDouble("rate Hz (0 = max)", &rate_hz, 100, 1000, "%.0f"))
+      changed = true, auto_rate = false;  // a rate given: it is kept
     ImGui::Text("last step: max move %.2e mm %s", snap.stats.max_move_mm,
                 snap.stats.converged ? "(below threshold)" : "");
     if (solver.integrator == sim::Integrator::kImplicitEuler)
@@ -309,6 +311,7 @@ void ViewSession::State::panels() {
         if (ImGui::Button(
                 fmt::format("Use {:.0f} Hz ({:.1f} ms steps)", fits, 1000.0 / fits).c_str())) {
           rate_hz = fits;
+          auto_rate = false;
           push_parameters();
         }
       } else if (fits <= 0.0) {

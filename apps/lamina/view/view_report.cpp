@@ -3,11 +3,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <ostream>
 
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/rate_choice.h"
 #include "lamina/io/mesh_file.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/summarize_model.h"
@@ -60,9 +62,28 @@ void ViewSession::State::watch_real_time_and_drag(double t) {
   }
 }
 
+// Real time by default: each second (two after a change, a whole window at the new rate) the
+// loop's measured step picks the rate (interact::next_rate), said in the log and on screen.
+void ViewSession::State::follow_the_machine(double t) {
+  if (!auto_rate || paused || rate_hz <= 0.0 || t - rate_checked_s < 1.0) return;
+  if (snap.dt_s > 0.0 && std::abs(snap.dt_s - 1.0 / rate_hz) > 1e-9) return;  // not yet stepping
+  rate_checked_s = t;
+  const double next = interact::next_rate(rate_hz, snap.mean_step_us, snap.keeping_up);
+  if (next == rate_hz) return;
+  log::info(
+      "real time: a step took {:.2f} ms at {:.0f} Hz; stepping at {:.0f} Hz now (dt {:.3g} "
+      "ms; --rate forces a rate)",
+      snap.mean_step_us / 1000.0, rate_hz, next, 1000.0 / next);
+  rate_hz = next;
+  rate_checked_s = t + 1.0;  // a whole second at the new rate before the next look
+  loop->set_rate(rate_hz);
+}
+
 nlohmann::json ViewSession::State::report() const {
   nlohmann::json j;
   j["frames"] = frames;
+  j["rate_hz"] = rate_hz;  // the last one stepped at
+  j["auto_rate"] = auto_rate;
   j["mean_frame_ms"] = frames ? 1000.0 * frame_seconds / static_cast<double>(frames) : 0.0;
   j["sim_steps"] = snap.steps;
   j["sim_time_s"] = snap.time_s;

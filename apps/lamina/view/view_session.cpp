@@ -23,6 +23,7 @@ ViewSession::ViewSession(ViewOptions options, ViewModel model) : state_(std::mak
   v.solver = options.solver;
   v.routing = options.routing;
   v.rate_hz = options.rate_hz;
+  v.auto_rate = options.auto_rate && options.rate_hz > 0.0;
   v.options = std::move(options);
   v.vm = std::make_unique<ViewModel>(std::move(model));
 }
@@ -253,6 +254,7 @@ void ViewSession::State::on_frame() {
   loop->latest(snap);
   max_displacement_mm = std::max(max_displacement_mm, snap.stats.max_displacement_mm);
   watch_real_time_and_drag(t);
+  follow_the_machine(t);
   watch_instability();
   record_plots();
   adopt_rebuilt();

@@ -63,6 +63,9 @@ using RebuildFn =
 
 struct ViewOptions {
   double rate_hz = 1000.0;  ///< simulation steps per wall second; 0 = as fast as possible
+  /// Start at rate_hz and step at the highest rate the machine keeps (interact::next_rate(),
+  /// checked each second; said on screen and in the log); the Model panel's rate ends it.
+  bool auto_rate = false;
   /// Drag force per mm of drag. Lower than the scene files' 0.05: a mouse drags 100 mm easily,
   /// and 1 N already dents the paper's K = 3 N/m model by about 20 mm.
   double gain_n_per_mm = 0.01;

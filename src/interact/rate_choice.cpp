@@ -1,0 +1,23 @@
+// The rate a real-time loop keeps: down the ladder at once when the step does not fit its budget,
+// up one rung at a time when it takes little of it.
+#include "lamina/interact/rate_choice.h"
+
+namespace lamina::interact {
+
+double next_rate(double rate_hz, double mean_step_us, bool keeping_up) {
+  if (!(mean_step_us > 0.0) || !(rate_hz > 0.0)) return rate_hz;
+  const double period_us = 1e6 / rate_hz;
+  if (!keeping_up) {
+    // The step grows with dt (more solver iterations), so the rung that fits is checked against
+    // the step measured at the faster rate: it may need another rung down a second later.
+    for (const double hz : kRateLadder)
+      if (hz < rate_hz && mean_step_us <= kRateBudget * 1e6 / hz) return hz;
+    return kRateLadder.back();
+  }
+  if (mean_step_us < kRateHeadroom * period_us)
+    for (auto it = kRateLadder.rbegin(); it != kRateLadder.rend(); ++it)
+      if (*it > rate_hz) return *it;
+  return rate_hz;
+}
+
+}  // namespace lamina::interact
