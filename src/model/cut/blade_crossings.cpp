@@ -27,15 +27,8 @@ void edge_hits(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const BladeIn
     if (std::abs(db) <= eps) db = eps;
     if ((da > 0.0) == (db > 0.0)) continue;
     const double f = da / (da - db);
-    const Eigen::Vector3d q = a + f * (b - a) - t.p0;
-    // Barycentric coordinates of q in the triangle (q in its plane up to eps).
-    const double d00 = t.e1.dot(t.e1), d01 = t.e1.dot(t.e2), d11 = t.e2.dot(t.e2);
-    const double d20 = q.dot(t.e1), d21 = q.dot(t.e2);
-    const double det = d00 * d11 - d01 * d01;
-    if (!(det > 0.0)) continue;
-    const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
-    constexpr double kIn = -1e-12;
-    if (v >= kIn && w >= kIn && v + w <= 1.0 - kIn) hits.push_back(f);
+    // q in the triangle's plane up to eps.
+    if (in_triangle(t, a + f * (b - a) - t.p0, 1e-12)) hits.push_back(f);
   }
   // A crossing on the edge two blade triangles share is one crossing.
   std::sort(hits.begin(), hits.end());

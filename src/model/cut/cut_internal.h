@@ -52,6 +52,16 @@ struct BladeIndex {
 };
 BladeIndex index_blade(const Blade& blade);
 
+/// Whether q (a point in t's plane, relative to t.p0) lies in blade triangle t: its barycentric
+/// coordinates are all >= -tol (a triangle without area holds nothing).
+inline bool in_triangle(const BladeTriangle& t, const Eigen::Vector3d& q, double tol) {
+  const double d00 = t.e1.dot(t.e1), d01 = t.e1.dot(t.e2), d11 = t.e2.dot(t.e2);
+  const double d20 = q.dot(t.e1), d21 = q.dot(t.e2), det = d00 * d11 - d01 * d01;
+  if (!(det > 0.0)) return false;
+  const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
+  return v >= -tol && w >= -tol && v + w <= 1.0 + tol;
+}
+
 /// Every fraction along a -> b where the segment crosses a blade triangle, ascending, a crossing
 /// on the edge two triangles share once. A point on a triangle's plane (within eps) counts as on
 /// its positive side, so that an edge through a node on the blade is crossed once, by the edges

@@ -142,11 +142,7 @@ int blade_triangle_at(const BladeIndex& index, const Eigen::Vector3d& p, double 
     const Eigen::Vector3d q = p - t.p0;
     const double d = std::abs(t.n.dot(q));
     if (d > nearest) continue;
-    const double d00 = t.e1.dot(t.e1), d01 = t.e1.dot(t.e2), d11 = t.e2.dot(t.e2);
-    const double d20 = q.dot(t.e1), d21 = q.dot(t.e2), det = d00 * d11 - d01 * d01;
-    const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
-    constexpr double kIn = -1e-6;
-    if (v >= kIn && w >= kIn && v + w <= 1.0 - kIn) nearest = d, best = static_cast<int>(k);
+    if (in_triangle(t, q, 1e-6)) nearest = d, best = static_cast<int>(k);
   }
   return best;
 }
@@ -243,11 +239,7 @@ int blade_crossed(const BladeIndex& index, const Eigen::Vector3d& p, const Eigen
     if ((hi.array() < t.lo.array()).any() || (lo.array() > t.hi.array()).any()) continue;
     const double dp = t.n.dot(p - t.p0), dq = t.n.dot(q - t.p0);
     if (!(dp * dq < 0.0)) continue;
-    const Eigen::Vector3d x = p + (dp / (dp - dq)) * (q - p) - t.p0;
-    const double d00 = t.e1.dot(t.e1), d01 = t.e1.dot(t.e2), d11 = t.e2.dot(t.e2);
-    const double d20 = x.dot(t.e1), d21 = x.dot(t.e2), det = d00 * d11 - d01 * d01;
-    const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
-    if (v >= 0.0 && w >= 0.0 && v + w <= 1.0) return static_cast<int>(k);
+    if (in_triangle(t, p + (dp / (dp - dq)) * (q - p) - t.p0, 0.0)) return static_cast<int>(k);
   }
   return -1;
 }
