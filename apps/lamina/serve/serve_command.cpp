@@ -367,13 +367,10 @@ int run_serve(const ServeArgs& a) {
   auto next_unstable_log = start;
   // Each cut (or undo) the loop has made since the last look: in the log, and to every client
   // as a STRING named LaminaCut (what it divided, the pieces, each vessel it crossed: a
-  // simulator's bleeding cue).
+  // simulator's bleeding cue). A cut refused is the loop's to log.
   uint64_t cuts_version = 0;
   int64_t cuts_seen = 0;
-  std::string cut_error_seen;
   const auto report_cuts = [&](const interact::LoopSnapshot& sn) {
-    if (!sn.cut_error.empty() && sn.cut_error != cut_error_seen) log::warn("{}", sn.cut_error);
-    cut_error_seen = sn.cut_error;
     if (sn.model_version == cuts_version) return;
     cuts_version = sn.model_version;
     if (sn.cuts <= cuts_seen) {
