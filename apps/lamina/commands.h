@@ -175,8 +175,10 @@ struct ServeArgs {
   /// Reaction-force messages per second, at most one per step (1000: every step of the 1 kHz
   /// loop, a haptic device's rate); 0 = one with each POLYDATA batch.
   double reaction_hz = 1000.0;
-  bool all_layers = false;    ///< stream every layer, not only the skin
-  double rate_hz = 1000.0;    ///< simulation steps per wall second, each 1 / rate of simulated time
+  bool all_layers = false;  ///< stream every layer, not only the skin
+  double rate_hz = 1000.0;  ///< simulation steps per wall second, each 1 / rate of simulated time
+  /// No --rate: the rate follows the machine (serve_rate.h) unless a client asks for one.
+  bool auto_rate = false;
   double duration_s = 0.0;    ///< > 0: stop after this many wall seconds
   std::string frame = "ras";  ///< coordinates on the wire: ras (3D Slicer's) or lps (the model's)
   std::string tool_device;    ///< only poses with this device name move the tool; empty = any

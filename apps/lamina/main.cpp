@@ -271,9 +271,11 @@ int main(int argc, char** argv) {
                  "step at 1 kHz; 0 = one with each POLYDATA batch)");
   se->add_flag("--all-layers", serve.all_layers,
                "stream every layer (LaminaLayer1, ...), not only the skin (LaminaSkin)");
-  se->add_option(
+  CLI::Option* serve_rate = se->add_option(
       "--rate", serve.rate_hz,
-      "simulation steps per wall second, each 1/rate s of simulated time (default 1000)");
+      "simulation steps per wall second, each 1/rate s of simulated time (default: the highest "
+      "of 1000, 500, 250, 120, 60 the machine keeps, unless a client asks with a STRING "
+      "'LaminaRate')");
   se->add_option("--duration", serve.duration_s,
                  "stop after this many seconds of wall time (default: run until Ctrl-C)");
   se->add_option("--frame", serve.frame,
@@ -411,6 +413,7 @@ int main(int argc, char** argv) {
     }
     if (*se) {
       serve.verbose = verbosity == 2;
+      serve.auto_rate = serve_rate->count() == 0;
       return cli::run_serve(serve);
     }
     if (*ru) {

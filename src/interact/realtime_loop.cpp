@@ -199,6 +199,15 @@ void RealtimeLoop::apply_pending() {
     new_params_.reset();
     reroute = true;
   }
+  if (rate_hz_ != stepping_rate_hz_) {
+    // A new rate is judged on its own steps: the measuring window starts again (a window
+    // holding the old rate's steps said "behind" of a rate that had just been lowered).
+    window_start_s_ = now_s();
+    window_sim_start_s_ = sim_.time_s;
+    window_step_sum_us_ = 0.0;
+    window_steps_ = 0;
+    worst_jitter_us_ = 0.0;
+  }
   stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
   if (new_forces_) {
@@ -471,6 +480,7 @@ void RealtimeLoop::one_step() {
   worst_jitter_us_ = std::max(worst_jitter_us_, late_us_);
   if (t1 - window_start_s_ >= 1.0) {
     achieved_rate_hz_ = static_cast<double>(window_steps_) / (t1 - window_start_s_);
+    measured_rate_hz_ = stepping_rate_hz_;
     real_time_factor_ = (sim_.time_s - window_sim_start_s_) / (t1 - window_start_s_);
     window_sim_start_s_ = sim_.time_s;
     // Behind: real time was asked for and the simulated clock fell more than 5% behind.
@@ -534,6 +544,7 @@ void RealtimeLoop::publish(bool force) {
   s.steps = sim_.steps;
   s.recoveries = sim_.recoveries;
   s.achieved_rate_hz = achieved_rate_hz_;
+  s.measured_rate_hz = measured_rate_hz_;
   s.dt_s = sim_.options().dt_s;
   s.multigrid = sim::uses_multigrid(sim_);
   s.real_time_factor = real_time_factor_;

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <igtlPolyDataMessage.h>
 #include <igtlPositionMessage.h>
+#include <igtlStringMessage.h>
 #include <igtlTimeStamp.h>
 #include <igtlTransformMessage.h>
 #include <igtl_util.h>
@@ -137,6 +138,30 @@ TEST(Serve, APoseGivesThePositionAndTheBladesAxis) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("whose rotation is not one"), std::string::npos);
   }
+}
+
+// A STRING's text as the library packs it; a length that disagrees with the content, or text
+// that is not printable ASCII, is refused (its client dropped).
+TEST(Serve, AStringsTextIsReadAndAMalformedOneRefused) {
+  igtl::StringMessage::Pointer m = igtl::StringMessage::New();
+  m->SetString("1000");
+  std::vector<uint8_t> c = content_of(*m);
+  EXPECT_EQ(cli::net::read_string(c.data(), c.size()), "1000");
+  const auto refused = [](std::vector<uint8_t> bytes, const std::string& why) {
+    try {
+      cli::net::read_string(bytes.data(), bytes.size());
+      ADD_FAILURE() << "read: " << why;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  std::vector<uint8_t> longer = c;
+  longer[3] = 9;  // says 9 bytes, holds 4
+  refused(longer, "says it holds 9 bytes");
+  std::vector<uint8_t> control = c;
+  control[5] = '\n';
+  refused(control, "not printable");
+  refused({0, 3}, "at least 4 bytes");
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
@@ -451,6 +452,78 @@ TEST(Serve, EmbeddedHzZeroStreamsNoneAndAnswersARequest) {
 
 // Each bad client gets one log line naming it and its problem, and loses its connection; the
 // simulation keeps its pace and the next well-behaved client is served.
+/// A STRING message (US-ASCII) as the library packs it.
+std::vector<uint8_t> string_bytes(const std::string& device, const std::string& text) {
+  igtl::StringMessage::Pointer m = igtl::StringMessage::New();
+  m->SetDeviceName(device.c_str());
+  m->SetString(text.c_str());
+  m->Pack();
+  const auto* p = static_cast<const uint8_t*>(m->GetPackPointer());
+  return {p, p + m->GetPackSize()};
+}
+
+// The next LaminaRealTime status that `keep` accepts, within wait_s.
+std::optional<nlohmann::json> real_time_status(
+    Client& client, double wait_s, const std::function<bool(const nlohmann::json&)>& keep) {
+  const auto t0 = Clock::now();
+  for (double left = wait_s; left > 0.0; left = wait_s - seconds_since(t0)) {
+    const auto m = client.receive("STRING", "LaminaRealTime", left);
+    if (!m) break;
+    nlohmann::json j = nlohmann::json::parse(unpack<igtl::StringMessage>(*m)->GetString());
+    if (keep(j)) return j;
+  }
+  return std::nullopt;
+}
+
+// Without --rate the server steps at the highest rate the machine keeps and tells its clients;
+// a client that asks for 1 kHz (a haptic device) gets it, and is told each second the machine
+// cannot keep it, with the rate that would; when it goes, the machine's rate comes back. Text
+// that is not a rate drops its client.
+TEST(Serve, WithoutARateItFollowsTheMachineAndAClientMayAskForOne) {
+  TempDir dir;
+  // 10k nodes: no 2-core machine steps them at 1 kHz.
+  std::ofstream(dir.path / "big.json")
+      << R"({"model": {"input": "phantom", "build": {"skin_vertices": 5000}}})";
+  Server server(dir.path, with({(dir.path / "big.json").string()}));
+  Client haptic(server.port());
+  const auto by_machine = real_time_status(haptic, 15.0, [](const nlohmann::json& j) {
+    return j["chosen_by"] == "machine" && j["rate_hz"].get<double>() < 1000.0;
+  });
+  ASSERT_TRUE(by_machine) << server.log();
+  EXPECT_NE(server.log().find("stepping at"), std::string::npos) << server.log();
+  const double machine_hz = (*by_machine)["rate_hz"].get<double>();
+
+  haptic.send_bytes(string_bytes("LaminaRate", "1000"));
+  const auto asked = real_time_status(
+      haptic, 5.0, [](const nlohmann::json& j) { return j["chosen_by"] == "client"; });
+  ASSERT_TRUE(asked) << server.log();
+  EXPECT_EQ((*asked)["rate_hz"], 1000.0);
+  const auto told = real_time_status(haptic, 5.0, [](const nlohmann::json& j) {
+    return j["chosen_by"] == "client" && !j.value("keeping_up", true);
+  });
+  ASSERT_TRUE(told) << "the haptic client is told the machine cannot keep 1 kHz\n" << server.log();
+  EXPECT_EQ((*told)["rate_hz"], 1000.0) << "its rate is kept";
+  EXPECT_LT((*told)["real_time_factor"].get<double>(), 0.95);
+  EXPECT_LT((*told)["keeps_up_hz"].get<double>(), 1000.0) << told->dump();
+
+  Client watcher(server.port());
+  haptic.close();
+  const auto back = real_time_status(
+      watcher, 10.0, [](const nlohmann::json& j) { return j["chosen_by"] == "machine"; });
+  ASSERT_TRUE(back) << server.log();
+  EXPECT_LE((*back)["rate_hz"].get<double>(), machine_hz) << back->dump();
+  EXPECT_NE(server.log().find("back to the rate the machine keeps"), std::string::npos);
+
+  watcher.send_bytes(string_bytes("LaminaRate", "fast"));
+  const auto t0 = Clock::now();
+  while (server.log().find("'fast' is not a rate") == std::string::npos && seconds_since(t0) < 5.0)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const Summary s = stop(server);
+  EXPECT_EQ(s.dropped, 1) << server.log();
+  EXPECT_NE(server.log().find("STRING 'LaminaRate': 'fast' is not a rate"), std::string::npos)
+      << server.log();
+}
+
 // The reaction force streams every step (a haptic client's 1 kHz), the surfaces at 30 Hz.
 TEST(Serve, TheReactionStreamsAtTheStepRateAndTheSkinAtItsOwn) {
   TempDir dir;

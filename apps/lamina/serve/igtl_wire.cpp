@@ -180,6 +180,25 @@ Packed pack_string(const std::string& device, const std::string& text) {
   return packed_bytes(*message);
 }
 
+std::string read_string(const uint8_t* content, size_t size) {
+  if (size < 4)
+    throw bad("a STRING has at least 4 bytes of content, this one " + std::to_string(size));
+  const auto u16 = [&](size_t at) {
+    return static_cast<size_t>(content[at] << 8 | content[at + 1]);
+  };
+  const size_t encoding = u16(0), length = u16(2);
+  if (length != size - 4)
+    throw bad("a STRING says it holds " + std::to_string(length) + " bytes of text, its content " +
+              std::to_string(size - 4));
+  // US-ASCII (3) is what lamina serve reads; UTF-8 (106) is read when its bytes are ASCII.
+  if (encoding != 3 && encoding != 106)
+    throw bad("a STRING in encoding " + std::to_string(encoding) + " (US-ASCII, 3, is read)");
+  std::string text(reinterpret_cast<const char*>(content + 4), length);
+  for (const char c : text)
+    if (c < 0x20 || c > 0x7e) throw bad("a STRING whose text is not printable US-ASCII");
+  return text;
+}
+
 namespace {
 
 void put_u32(uint8_t* at, uint32_t v) {

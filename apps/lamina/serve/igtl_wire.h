@@ -78,6 +78,11 @@ Packed pack_transform(const std::string& device, const Eigen::Vector3d& t);
 /// A STRING message (US-ASCII: its text must be), header version 1, wall-clock time.
 Packed pack_string(const std::string& device, const std::string& text);
 
+/// The text of a STRING message's content (encoding, length, the bytes).
+/// \note Throws lamina::Error (kInvalidInput) when the length disagrees with the content's size,
+///   or the text is not printable US-ASCII (encoding 3, the protocol's default).
+std::string read_string(const uint8_t* content, size_t size);
+
 /// POLYDATA messages of one surface whose triangles never change. The whole message is laid out
 /// once, cells included; each pack() writes only the points, the time stamp and the CRC, in place
 /// when no client still holds the previous message (no allocation frame to frame).

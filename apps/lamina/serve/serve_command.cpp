@@ -20,6 +20,7 @@
 #include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
 #include "scalpel_stroke.h"
+#include "serve_rate.h"
 
 namespace lamina::cli {
 namespace {
@@ -211,8 +212,9 @@ int run_serve(const ServeArgs& a) {
   scene = ready.scene;
   io::warn_scalpels_ignored(scene);
   const Model& m = *ready.model;
+  ServeRate rate(a.rate_hz, a.auto_rate);
   interact::LoopOptions lo;
-  lo.rate_hz = a.rate_hz;  // real time: each step is 1 / rate of simulated time
+  lo.rate_hz = rate.rate_hz();  // real time: each step is 1 / rate of simulated time
   lo.threads = a.threads;
   interact::RealtimeLoop loop(io::make_scene_simulation(ready), scene.routing, lo);
   const net::Frame frame = a.frame == "lps" ? net::Frame::kLps : net::Frame::kRas;
@@ -248,6 +250,17 @@ int run_serve(const ServeArgs& a) {
     log::info("the grasper opens: {}", why);
   };
   const auto start = Clock::now();
+  // LaminaRealTime: the rate stepped at, who chose it and whether the machine keeps it, to one
+  // client or (-1) to all.
+  const auto tell_rate = [&](int client) {
+    interact::LoopSnapshot now;
+    loop.latest(now);
+    const net::Packed status = net::pack_string("LaminaRealTime", rate.status(now));
+    if (client >= 0)
+      server.send(client, status);
+    else
+      server.broadcast(status);
+  };
   const auto handle = [&](const net::Message& msg) {
     const std::string& type = msg.header.type;
     const std::string& device = msg.header.device;
@@ -301,6 +314,11 @@ int run_serve(const ServeArgs& a) {
       tip.center_mm = net::change_frame(p, frame);
       tip.active = true;
       loop.set_tool_tip(tip);
+    } else if (type == "STRING" && device == "LaminaRate") {
+      const std::string text = net::read_string(msg.content, msg.size);
+      const std::optional<double> hz = rate.ask(msg.client, msg.peer, text);
+      if (hz) loop.set_rate(*hz);
+      tell_rate(hz ? -1 : msg.client);  // a new rate to every client, else the answer to this one
     } else if (type == "GET_POLYDATA") {
       interact::LoopSnapshot snap;
       loop.latest(snap);
@@ -319,6 +337,10 @@ int run_serve(const ServeArgs& a) {
   };
   const auto closed = [&](int client) {
     std::erase_if(noted, [&](const auto& n) { return n.first == client; });
+    if (const auto hz = rate.gone(client)) {
+      loop.set_rate(*hz);
+      tell_rate(-1);
+    }
     if (client == grasper_client) open_grasper("its client has gone");
     if (client == stroke.client) log::info("{}", stroke.finish(loop, a.scalpel_depth_mm));
     if (client != tool_client) return;
@@ -334,11 +356,12 @@ int run_serve(const ServeArgs& a) {
   sigaction(SIGTERM, &action, nullptr);
 
   log::info(
-      "lamina serve: {} ({} nodes, skin {} nodes and {} triangles, {} layers), {} steps/s "
+      "lamina serve: {} ({} nodes, skin {} nodes and {} triangles, {} layers), {} "
       "in real time; OpenIGTLink on {}:{}{}",
       ready.source, m.node_count(), m.layers[0].node_count, m.layers[0].F.rows(), m.layer_count(),
-      a.rate_hz, a.host, server.port(),
-      a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
+      a.auto_rate ? fmt::format("{:g} steps/s, then the rate this machine keeps", rate.rate_hz())
+                  : fmt::format("{:g} steps/s", rate.rate_hz()),
+      a.host, server.port(), a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
 
   // Sends at send_hz; with --send-hz 0 the snapshot is still watched (real time, reaction).
   const double tick_s = 1.0 / (a.send_hz > 0.0 ? a.send_hz : 30.0);
@@ -459,18 +482,28 @@ int run_serve(const ServeArgs& a) {
       server.stream(batch, net::Stream::kSurfaces);
     }
     // The loop measures real time over one-second windows; each new window is judged once.
-    const uint64_t window =
-        static_cast<uint64_t>(snap.steps > 0 ? seconds(Clock::now() - start) : 0);
+    const double run_s = seconds(Clock::now() - start);
+    const uint64_t window = static_cast<uint64_t>(snap.steps > 0 ? run_s : 0);
     if (window == last_window) continue;
     last_window = window;
+    // Every client hears of a new rate, and each second the machine cannot keep the one a
+    // client (a haptic device's 1 kHz) or --rate asked for, and when it keeps it again.
+    const double asked_hz = rate.rate_hz();  // what the second just measured was asked to keep
+    const std::optional<double> new_rate = rate.follow(snap, run_s);
+    if (new_rate) loop.set_rate(*new_rate);
+    if (new_rate || (snap.measured_rate_hz == rate.rate_hz() && (!snap.keeping_up || behind)))
+      server.broadcast(net::pack_string("LaminaRealTime", rate.status(snap)));
+    // A second measured at another rate than the one asked for says nothing of it.
+    if (snap.measured_rate_hz != asked_hz) continue;
     if (!snap.keeping_up) {
       behind_s += 1.0;
-      if (!behind || Clock::now() >= next_behind_warning) {
+      // (The machine's rate moving down has said so itself.)
+      if (!new_rate && (!behind || Clock::now() >= next_behind_warning)) {
         log::warn(
             "behind real time: {:.2f} simulated seconds per wall second ({:.0f} of {:.0f} "
             "steps/s, {:.0f} us a step); a lower --rate, a smaller model or, on a busy machine, "
             "--threads 1 keeps up",
-            snap.real_time_factor, snap.achieved_rate_hz, a.rate_hz, snap.mean_step_us);
+            snap.real_time_factor, snap.achieved_rate_hz, rate.rate_hz(), snap.mean_step_us);
         next_behind_warning = Clock::now() + std::chrono::seconds(10);
       }
     } else if (behind) {
@@ -492,12 +525,14 @@ int run_serve(const ServeArgs& a) {
   const net::ServerCounters& c = server.counters();
   fmt::print(stderr,
              "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "
-             "behind); {} clients, {} messages in ({} poses), {} out ({:.1f} MB, {} frames "
+             "behind, last at {:g} steps/s chosen by the {}); {} clients, {} messages in ({} "
+             "poses), {} out ({:.1f} MB, {} frames "
              "skipped), {} connections dropped; max reaction {:.3g} mN; steps waited for the "
              "server {} times, at most {:.3f} ms\n",
-             snap.steps, snap.time_s, wall_s, rtf, behind_s, c.clients, c.messages_in, poses,
-             c.messages_out, static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped,
-             c.dropped, max_reaction_mn, snap.lock_waits, 1e-3 * snap.longest_lock_wait_us);
+             snap.steps, snap.time_s, wall_s, rtf, behind_s, rate.rate_hz(), rate.chosen_by(),
+             c.clients, c.messages_in, poses, c.messages_out,
+             static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped, c.dropped,
+             max_reaction_mn, snap.lock_waits, 1e-3 * snap.longest_lock_wait_us);
   if (unstable_events > 0) {
     log::error("the simulation became unstable {} time(s) during the session (see above)",
                unstable_events);

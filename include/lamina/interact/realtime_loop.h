@@ -67,7 +67,10 @@ struct LoopSnapshot {
   double real_time_factor = 0.0;
   /// Real time was asked for and the last second ran at 95% of it or better.
   bool keeping_up = true;
-  double mean_step_us = 0.0;     ///< over the last second
+  double mean_step_us = 0.0;  ///< over the last second
+  /// The rate the last second's steps were asked for (a new rate's first second is not yet
+  /// measured: until then this is the old one); 0 before the first second.
+  double measured_rate_hz = 0.0;
   double worst_jitter_us = 0.0;  ///< worst lateness of a step's start over the last second
   Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< tissue's push on the tools, mN
   std::vector<int32_t> contact_nodes;  ///< where each live force and the tool tip act
@@ -273,6 +276,7 @@ class RealtimeLoop {
   double window_start_s_ = 0.0;
   int64_t window_steps_ = 0;
   double achieved_rate_hz_ = 0.0, mean_step_us_ = 0.0, worst_jitter_us_ = 0.0;
+  double measured_rate_hz_ = 0.0;
   double window_sim_start_s_ = 0.0, real_time_factor_ = 0.0;
   bool keeping_up_ = true;
   double published_worst_jitter_ = 0.0;

@@ -1,0 +1,96 @@
+#include "serve_rate.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/interact/rate_choice.h"
+
+namespace lamina::cli {
+
+ServeRate::ServeRate(double rate_hz, bool follow_machine)
+    : base_hz_(follow_machine ? interact::kRateLadder.front() : rate_hz),
+      follow_machine_(follow_machine),
+      rate_hz_(base_hz_) {}
+
+const char* ServeRate::chosen_by() const {
+  return client_ >= 0 ? "client" : follow_machine_ ? "machine" : "--rate";
+}
+
+std::optional<double> ServeRate::change_to(double hz) {
+  if (hz == rate_hz_) return std::nullopt;
+  rate_hz_ = hz;
+  return hz;
+}
+
+std::optional<double> ServeRate::ask(int client, const std::string& peer, const std::string& text) {
+  if (text == "auto") {
+    if (client != client_) return std::nullopt;  // it holds no rate to give back
+    client_ = -1;
+    log::info("OpenIGTLink client {} gives the rate back ({})", peer,
+              follow_machine_ ? "the machine's" : "--rate's");
+    return change_to(base_hz_);
+  }
+  double hz = 0.0;
+  try {
+    size_t used = 0;
+    hz = std::stod(text, &used);
+    if (used != text.size()) hz = 0.0;
+  } catch (const std::exception&) {
+    hz = 0.0;
+  }
+  if (!(hz > 0.0 && hz <= 1e5))
+    throw invalid_input("STRING 'LaminaRate'",
+                        "'" + text + "' is not a rate in (0, 100000] Hz or 'auto'");
+  if (client_ < 0) base_hz_ = rate_hz_;  // where the machine's (or --rate's) rate comes back to
+  client_ = client;
+  log::info(
+      "OpenIGTLink client {} asks for {:g} steps/s (dt {:.3g} ms): kept while it is connected",
+      peer, hz, 1000.0 / hz);
+  return change_to(hz);
+}
+
+std::optional<double> ServeRate::gone(int client) {
+  if (client != client_) return std::nullopt;
+  client_ = -1;
+  log::info("the client that asked for {:g} steps/s has gone: back to {}", rate_hz_,
+            follow_machine_ ? "the rate the machine keeps" : "--rate");
+  return change_to(base_hz_);
+}
+
+std::optional<double> ServeRate::follow(const interact::LoopSnapshot& snap, double t_s) {
+  if (!follow_machine_ || client_ >= 0) return std::nullopt;
+  // Called once a second, a little early or late: a look half a second after the last is the
+  // next second's.
+  if (t_s - checked_s_ < 0.5) return std::nullopt;
+  // No second measured yet at the rate last set: nothing to judge.
+  if (snap.measured_rate_hz != rate_hz_ || !(snap.mean_step_us > 0.0)) return std::nullopt;
+  checked_s_ = t_s;
+  const double next = interact::next_rate(rate_hz_, snap.mean_step_us, snap.keeping_up);
+  if (next == rate_hz_) return std::nullopt;
+  log::info(
+      "real time: a step took {:.2f} ms at {:.0f} Hz; stepping at {:.0f} Hz now (dt {:.3g} ms; "
+      "--rate or a client's LaminaRate forces a rate)",
+      snap.mean_step_us / 1000.0, rate_hz_, next, 1000.0 / next);
+  checked_s_ = t_s;
+  base_hz_ = next;
+  return change_to(next);
+}
+
+std::string ServeRate::status(const interact::LoopSnapshot& snap) const {
+  nlohmann::json j;
+  j["rate_hz"] = rate_hz_;
+  j["chosen_by"] = chosen_by();
+  // A rate just set has no second measured yet: only what it is and who chose it.
+  if (snap.measured_rate_hz != rate_hz_) return j.dump();
+  j["keeping_up"] = snap.keeping_up;
+  j["real_time_factor"] = snap.real_time_factor;
+  j["step_ms"] = snap.mean_step_us / 1000.0;
+  if (!snap.keeping_up) j["keeps_up_hz"] = interact::next_rate(rate_hz_, snap.mean_step_us, false);
+  return j.dump();
+}
+
+}  // namespace lamina::cli
