@@ -120,7 +120,7 @@ void finish_level(MultigridLevel& level) {
 }  // namespace
 
 void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
-                     int64_t coarsest_unknowns) {
+                     int64_t coarsest_unknowns, bool smoothed) {
   const auto t0 = Clock::now();
   mg.levels.clear();
   // At most 10 levels (below): no level is moved by a reallocation (0.4 s at 47,685 nodes).
@@ -198,6 +198,12 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
     // and 8.2 against 1.1 s to build (docs/benchmarks.md).
     level.P.resize(level.A.rows(), unknowns);
     level.P.setFromTriplets(t.begin(), t.end());
+    if (smoothed) {  // issue 48's comparison (multigrid_harness): flatter, twice as dear
+      const SparseRows AP = level.A * level.P;
+      const SparseRows step = (level.omega * level.inv_diag).asDiagonal() * AP;
+      level.P = SparseRows(level.P - step);
+      level.P.prune(0.0);
+    }
     level.R = level.P.transpose();
     const double t_aggregate = seconds_since(t0);
     MultigridLevel next;

@@ -45,8 +45,11 @@ struct Multigrid {
 /// Builds the hierarchy of the symmetric positive definite A: 3 unknowns per node, interleaved
 /// (row 3 i + axis), `points` (#nodes by 3, mm) where the nodes are (the rigid rotations' arms).
 /// Coarsens until at most `coarsest_unknowns` are left, then factors that level.
+/// `smoothed`: Vanek's smoothed aggregation, each prolongation smoothed by one damped-Jacobi step
+/// (P = (I - omega D^-1 A) P_tentative); the steps take the plain one (docs/benchmarks.md, issue
+/// 48: the harness multigrid_harness compares them).
 void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
-                     int64_t coarsest_unknowns = 1500);
+                     int64_t coarsest_unknowns = 1500, bool smoothed = false);
 
 /// The hierarchy again for a new matrix on the same unknowns (a relinearised system): keeps the
 /// aggregates and prolongations, computes each coarse operator P^T A P again, the smoothing

@@ -376,6 +376,14 @@ TEST(Bench, QuickRunReportsEveryKeyForTwoModels) {
     EXPECT_GT(p["us_per_step"].get<double>(), 0.0);
     EXPECT_GT(p["cg_iterations"].get<double>(), 0.0);
     EXPECT_FALSE(p["unstable"].get<bool>());
+    // Honest accuracy: the real-time solve against the same poke solved to 1e-8, every step
+    // of which converged, within 1% of the peak displacement (issue 48).
+    EXPECT_GT(p["peak_displacement_mm"].get<double>(), 0.1) << p.dump();  // the tip dents 0.3 mm
+    EXPECT_EQ(p["reference_unsolved_steps"].get<int>(), 0) << p.dump();
+    EXPECT_GT(p["reference_cg_iterations"].get<double>(), p["cg_iterations"].get<double>());
+    EXPECT_LE(p["error_pct_of_peak"].get<double>(), 1.0) << p.dump();
+    EXPECT_GT(p["max_error_mm"].get<double>(), 0.0) << "two solves at different tolerances agree "
+                                                       "exactly: the reference is not one";
   }
   EXPECT_FALSE(j.contains("clinical_build")) << "not in the quick run";
 }

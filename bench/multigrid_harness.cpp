@@ -1,0 +1,129 @@
+// The multigrid's iterations on the implicit step's system, away from the step's dynamics
+// (issue 48): the physical liver's system at rest for dt (default 16.7 ms) at each skin size,
+// solved by conjugate gradients from zero, preconditioned by the V-cycle, on a smooth right side
+// (the force of a dent under the tool: A u, u a Gaussian bump 20 mm wide) and a random one, to
+// 1e-3 and 1e-8 of it. Prints one line per size: unknowns by level, operator complexity, setup,
+// iterations, time an iteration. Usage: multigrid_harness [--dt S] [--coarsest N] [--smoothed]
+// SKIN... (--smoothed: Vanek's smoothed aggregation instead of the steps' plain one).
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/io/scene.h"
+#include "lamina/io/scene_model.h"
+#include "lamina/model/build_model.h"
+#include "lamina/sim/simulation.h"
+#include "sim/block_rows.h"
+#include "sim/multigrid.h"
+#include "sim/preconditioner.h"
+#include "sim/solver.h"
+
+namespace {
+
+using namespace lamina;
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// PCG from zero to |r| <= tol |b|; returns the iterations.
+int pcg(const sim::detail::SparseRows& A, sim::detail::Multigrid& mg, const Eigen::VectorXd& b,
+        double tol, int cap) {
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(b.size()), r = b, z, p, q;
+  const auto precondition = [&](const Eigen::VectorXd& res) {
+    mg.levels[0].b = res;
+    sim::detail::v_cycle(mg, 0);
+    return Eigen::VectorXd(mg.levels[0].x);
+  };
+  z = precondition(r);
+  p = z;
+  double rz = r.dot(z);
+  const double stop = tol * b.norm();
+  int it = 0;
+  for (; it < cap && r.norm() > stop; ++it) {
+    q.noalias() = A * p;
+    const double alpha = rz / p.dot(q);
+    x += alpha * p;
+    r -= alpha * q;
+    z = precondition(r);
+    const double rz_new = r.dot(z);
+    p = z + (rz_new / rz) * p;
+    rz = rz_new;
+  }
+  return it;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  double dt = 1.0 / 60.0;
+  int64_t coarsest = 1500;
+  bool smoothed = false;
+  std::vector<int> sizes;
+  for (int k = 1; k < argc; ++k) {
+    const std::string a = argv[k];
+    if (a == "--dt" && k + 1 < argc)
+      dt = std::atof(argv[++k]);
+    else if (a == "--smoothed")
+      smoothed = true;
+    else if (a == "--coarsest" && k + 1 < argc)
+      coarsest = std::atoll(argv[++k]);
+    else
+      sizes.push_back(std::atoi(a.c_str()));
+  }
+  if (sizes.empty()) sizes = {1284, 5000, 10000, 20000};
+  fmt::print("dt {:.4g} s, coarsest <= {} unknowns, {} aggregation\n", dt, coarsest,
+             smoothed ? "smoothed" : "plain");
+  fmt::print("{:>6} {:>7} {:>28} {:>5} {:>7} {:>6} {:>6} {:>6} {:>6} {:>8}\n", "skin", "nodes",
+             "unknowns by level", "opc", "setup", "sm-3", "sm-8", "rnd-3", "rnd-8", "ms/it");
+  for (int skin : sizes) {
+    io::Scene scene;
+    scene.build.skin_vertices = skin;
+    scene.solver.dt_s = dt;
+    scene.solver.preconditioner = sim::Preconditioner::kMultigrid;
+    io::SceneModel built{model::build_model(geometry::make_phantom(), scene.build).model,
+                         "phantom"};
+    const io::ReadyScene ready = io::make_ready_scene(scene, std::move(built));
+    sim::Simulation s = io::make_scene_simulation(ready);
+    sim::prepare_solver(s);
+    sim::detail::MultigridPreconditioner& p = *s.solver().multigrid;
+    const sim::detail::SparseRows A = sim::detail::to_sparse(p.system);
+    sim::detail::Multigrid mg;
+    const Eigen::Index rows = static_cast<Eigen::Index>(p.nodes.size());
+    Eigen::MatrixX3d points(rows, 3);
+    for (Eigen::Index q = 0; q < rows; ++q) points.row(q) = ready.model->X.row(p.nodes[q]);
+    const auto t0 = Clock::now();
+    sim::detail::build_multigrid(A, points, mg, coarsest, smoothed);
+    const double setup = since(t0);
+    // A dent: a Gaussian bump of the positions along y around the most anterior node.
+    Eigen::Index front = 0;
+    points.col(1).minCoeff(&front);
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * rows), noise(3 * rows);
+    for (Eigen::Index q = 0; q < rows; ++q) {
+      const double d2 = (points.row(q) - points.row(front)).squaredNorm();
+      u[3 * q + 1] = std::exp(-d2 / (2 * 20.0 * 20.0));
+    }
+    std::mt19937 rng(7);
+    std::normal_distribution<double> normal;
+    for (Eigen::Index k = 0; k < noise.size(); ++k) noise[k] = normal(rng);
+    const Eigen::VectorXd smooth = A * u;
+    const auto t1 = Clock::now();
+    const int s3 = pcg(A, mg, smooth, 1e-3, 500);
+    const int s8 = pcg(A, mg, smooth, 1e-8, 500);
+    const int r3 = pcg(A, mg, noise, 1e-3, 500);
+    const int r8 = pcg(A, mg, noise, 1e-8, 500);
+    const double per_it = 1e3 * since(t1) / (s3 + s8 + r3 + r8);
+    fmt::print("{:>6} {:>7} {:>28} {:>5.2f} {:>7.2f} {:>6} {:>6} {:>6} {:>6} {:>8.2f}\n", skin,
+               ready.model->node_count(), fmt::format("{}", fmt::join(mg.shape.unknowns, ">")),
+               mg.shape.operator_complexity, setup, s3, s8, r3, r8, per_it);
+    std::fflush(stdout);
+  }
+  return 0;
+}
