@@ -60,6 +60,44 @@ int pcg(const sim::detail::SparseRows& A, sim::detail::Multigrid& mg, const Eige
   return it;
 }
 
+// STREAM's triad on every thread, the best of five (as `lamina bench` measures it), GB/s.
+double triad_gb_s() {
+  const std::ptrdiff_t n = 1 << 25;
+  std::vector<double> a(static_cast<size_t>(n), 0.0), b(a.size(), 1.0), c(a.size(), 2.0);
+  double best = 0.0;
+  for (int r = 0; r < 5; ++r) {
+    const auto t0 = Clock::now();
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i) a[i] = b[i] + 3.0 * c[i];
+    best = std::max(best, 24.0 * static_cast<double>(n) / since(t0) / 1e9);
+  }
+  return best;
+}
+
+// Bytes one CG iteration of the step streams at the least: three products of the finest level
+// (CG's and the V-cycle's two: the tetrahedra's float 3x3 blocks when assembled, else the
+// double CSR), two products and the two transfers of each coarse level in double CSR (value and
+// column, row offsets), the coarsest factor's two triangular solves, every vector read or written
+// once a product.
+double bytes_an_iteration(const sim::detail::Solver& s, const sim::detail::Multigrid& mg) {
+  const auto csr = [](const sim::detail::SparseRows& M) {
+    return 12.0 * static_cast<double>(M.nonZeros()) + 4.0 * static_cast<double>(M.rows()) +
+           8.0 * static_cast<double>(M.rows() + M.cols());
+  };
+  const sim::detail::TetAssembly& a = s.tets.assembly;
+  const double fine = a.on ? 40.0 * static_cast<double>(a.column.size()) +
+                                 4.0 * static_cast<double>(a.offsets.size()) +
+                                 16.0 * static_cast<double>(mg.levels[0].A.rows())
+                           : csr(mg.levels[0].A);
+  double bytes = 3.0 * fine;
+  for (size_t l = 0; l + 1 < mg.levels.size(); ++l) {
+    if (l > 0) bytes += 2.0 * csr(mg.levels[l].A);
+    bytes += csr(mg.levels[l].P) + csr(mg.levels[l].R);
+  }
+  bytes += 2.0 * 12.0 * static_cast<double>(mg.coarsest.matrixL().nestedExpression().nonZeros());
+  return bytes;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -81,8 +119,14 @@ int main(int argc, char** argv) {
   if (sizes.empty()) sizes = {1284, 5000, 10000, 20000};
   fmt::print("dt {:.4g} s, coarsest <= {} unknowns, {} aggregation\n", dt, coarsest,
              smoothed ? "smoothed" : "plain");
-  fmt::print("{:>6} {:>7} {:>28} {:>5} {:>7} {:>6} {:>6} {:>6} {:>6} {:>8}\n", "skin", "nodes",
-             "unknowns by level", "opc", "setup", "sm-3", "sm-8", "rnd-3", "rnd-8", "ms/it");
+  const double bandwidth = triad_gb_s();
+  fmt::print(
+      "STREAM triad {:.1f} GB/s; MB/it: what a step's CG iteration streams at the least, "
+      "floor = that at the triad's bandwidth\n",
+      bandwidth);
+  fmt::print("{:>6} {:>7} {:>28} {:>5} {:>7} {:>6} {:>6} {:>6} {:>6} {:>8} {:>7} {:>9}\n", "skin",
+             "nodes", "unknowns by level", "opc", "setup", "sm-3", "sm-8", "rnd-3", "rnd-8",
+             "ms/it", "MB/it", "floor ms");
   for (int skin : sizes) {
     io::Scene scene;
     scene.build.skin_vertices = skin;
@@ -120,9 +164,12 @@ int main(int argc, char** argv) {
     const int r3 = pcg(A, mg, noise, 1e-3, 500);
     const int r8 = pcg(A, mg, noise, 1e-8, 500);
     const double per_it = 1e3 * since(t1) / (s3 + s8 + r3 + r8);
-    fmt::print("{:>6} {:>7} {:>28} {:>5.2f} {:>7.2f} {:>6} {:>6} {:>6} {:>6} {:>8.2f}\n", skin,
-               ready.model->node_count(), fmt::format("{}", fmt::join(mg.shape.unknowns, ">")),
-               mg.shape.operator_complexity, setup, s3, s8, r3, r8, per_it);
+    const double mb = bytes_an_iteration(s.solver(), p.mg) / 1e6;
+    fmt::print(
+        "{:>6} {:>7} {:>28} {:>5.2f} {:>7.2f} {:>6} {:>6} {:>6} {:>6} {:>8.2f} {:>7.1f} {:>9.2f}\n",
+        skin, ready.model->node_count(), fmt::format("{}", fmt::join(mg.shape.unknowns, ">")),
+        mg.shape.operator_complexity, setup, s3, s8, r3, r8, per_it, mb,
+        mb / 1e3 / bandwidth * 1e3);
     std::fflush(stdout);
   }
   return 0;
