@@ -524,6 +524,34 @@ TEST(Serve, WithoutARateItFollowsTheMachineAndAClientMayAskForOne) {
       << server.log();
 }
 
+// With --send-hz 0 nothing is pushed (a client reads the answer to its request next, as the
+// protocol's example clients do): the machine's rate changes are not news to a client until it
+// asks for a rate; then it gets the answer, and, being the client whose rate holds, is told when
+// the machine cannot keep it. (CI's loaded machine once pushed a rate change to PolyDataClient.)
+TEST(Serve, WithSendHzZeroTheRateIsToldOnlyToTheClientWhoseRateItIs) {
+  TempDir dir;
+  std::ofstream(dir.path / "big.json")
+      << R"({"model": {"input": "phantom", "build": {"skin_vertices": 5000}}})";
+  Server server(dir.path, with({(dir.path / "big.json").string(), "--send-hz", "0", "--embedded-hz",
+                                "0", "--reaction-hz", "0"}));
+  Client quiet(server.port()), haptic(server.port());
+  const auto t0 = Clock::now();
+  while (server.log().find("stepping at") == std::string::npos && seconds_since(t0) < 15.0)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_NE(server.log().find("stepping at"), std::string::npos) << server.log();
+  EXPECT_FALSE(quiet.receive(0.5)) << "a rate change pushed with --send-hz 0";
+  haptic.send_bytes(string_bytes("LaminaRate", "1000"));
+  const auto answer = real_time_status(
+      haptic, 5.0, [](const nlohmann::json& j) { return j["chosen_by"] == "client"; });
+  ASSERT_TRUE(answer) << server.log();
+  const auto told = real_time_status(
+      haptic, 5.0, [](const nlohmann::json& j) { return !j.value("keeping_up", true); });
+  EXPECT_TRUE(told) << "the client whose rate it is hears it is behind\n" << server.log();
+  EXPECT_FALSE(quiet.receive(0.2)) << "another client was pushed the news";
+  const Summary s = stop(server);
+  EXPECT_EQ(s.dropped, 0) << server.log();
+}
+
 // The reaction force streams every step (a haptic client's 1 kHz), the surfaces at 30 Hz.
 TEST(Serve, TheReactionStreamsAtTheStepRateAndTheSkinAtItsOwn) {
   TempDir dir;

@@ -250,16 +250,23 @@ int run_serve(const ServeArgs& a) {
     log::info("the grasper opens: {}", why);
   };
   const auto start = Clock::now();
-  // LaminaRealTime: the rate stepped at, who chose it and whether the machine keeps it, to one
-  // client or (-1) to all.
-  const auto tell_rate = [&](int client) {
-    interact::LoopSnapshot now;
-    loop.latest(now);
+  // LaminaRealTime: the rate stepped at, who chose it and whether the machine keeps it. To one
+  // client (its answer to LaminaRate), or (-1) as news: to every client while the server
+  // streams, and with --send-hz 0 (nothing pushed: a client reads the answer to its request
+  // next) only to the client whose rate it is.
+  const auto send_rate = [&](int client, const interact::LoopSnapshot& now) {
     const net::Packed status = net::pack_string("LaminaRealTime", rate.status(now));
     if (client >= 0)
       server.send(client, status);
-    else
+    else if (a.send_hz > 0.0)
       server.broadcast(status);
+    else if (rate.client() >= 0)
+      server.send(rate.client(), status);
+  };
+  const auto tell_rate = [&](int client) {
+    interact::LoopSnapshot now;
+    loop.latest(now);
+    send_rate(client, now);
   };
   const auto handle = [&](const net::Message& msg) {
     const std::string& type = msg.header.type;
@@ -318,7 +325,8 @@ int run_serve(const ServeArgs& a) {
       const std::string text = net::read_string(msg.content, msg.size);
       const std::optional<double> hz = rate.ask(msg.client, msg.peer, text);
       if (hz) loop.set_rate(*hz);
-      tell_rate(hz ? -1 : msg.client);  // a new rate to every client, else the answer to this one
+      // A new rate to every client while streaming (this one included), else the answer to it.
+      tell_rate(hz && a.send_hz > 0.0 ? -1 : msg.client);
     } else if (type == "GET_POLYDATA") {
       interact::LoopSnapshot snap;
       loop.latest(snap);
@@ -492,7 +500,7 @@ int run_serve(const ServeArgs& a) {
     const std::optional<double> new_rate = rate.follow(snap, run_s);
     if (new_rate) loop.set_rate(*new_rate);
     if (new_rate || (snap.measured_rate_hz == rate.rate_hz() && (!snap.keeping_up || behind)))
-      server.broadcast(net::pack_string("LaminaRealTime", rate.status(snap)));
+      send_rate(-1, snap);
     // A second measured at another rate than the one asked for says nothing of it.
     if (snap.measured_rate_hz != asked_hz) continue;
     if (!snap.keeping_up) {

@@ -75,7 +75,6 @@ std::optional<double> ServeRate::follow(const interact::LoopSnapshot& snap, doub
       "real time: a step took {:.2f} ms at {:.0f} Hz; stepping at {:.0f} Hz now (dt {:.3g} ms; "
       "--rate or a client's LaminaRate forces a rate)",
       snap.mean_step_us / 1000.0, rate_hz_, next, 1000.0 / next);
-  checked_s_ = t_s;
   base_hz_ = next;
   return change_to(next);
 }

@@ -19,6 +19,8 @@ class ServeRate {
   ServeRate(double rate_hz, bool follow_machine);
 
   double rate_hz() const { return rate_hz_; }
+  /// The client whose asked rate holds; -1: none.
+  int client() const { return client_; }
   /// Who chose the rate: "client", "--rate" or "machine".
   const char* chosen_by() const;
 
