@@ -33,31 +33,15 @@ double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-// PCG from zero to |r| <= tol |b|; returns the iterations.
+// PCG from zero preconditioned by one V-cycle, to |r| <= tol |b|; returns the iterations.
 int pcg(const sim::detail::SparseRows& A, sim::detail::Multigrid& mg, const Eigen::VectorXd& b,
         double tol, int cap) {
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(b.size()), r = b, z, p, q;
-  const auto precondition = [&](const Eigen::VectorXd& res) {
-    mg.levels[0].b = res;
-    sim::detail::v_cycle(mg, 0);
-    return Eigen::VectorXd(mg.levels[0].x);
-  };
-  z = precondition(r);
-  p = z;
-  double rz = r.dot(z);
-  const double stop = tol * b.norm();
-  int it = 0;
-  for (; it < cap && r.norm() > stop; ++it) {
-    q.noalias() = A * p;
-    const double alpha = rz / p.dot(q);
-    x += alpha * p;
-    r -= alpha * q;
-    z = precondition(r);
-    const double rz_new = r.dot(z);
-    p = z + (rz_new / rz) * p;
-    rz = rz_new;
-  }
-  return it;
+  return sim::detail::pcg_iterations(A, b, tol, cap,
+                                     [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+                                       mg.levels[0].b = r;
+                                       sim::detail::v_cycle(mg, 0);
+                                       z = mg.levels[0].x;
+                                     });
 }
 
 // STREAM's triad on every thread, the best of five (as `lamina bench` measures it), GB/s.

@@ -64,6 +64,31 @@ inline void power_iteration_start(Eigen::VectorXd& x) {
     x[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
 }
 
+/// Conjugate gradients on A x = b from zero, preconditioned by `precondition(r, z)` (z = B r),
+/// until |r| <= tol |b| or `cap` iterations; returns the iterations taken. For measuring a
+/// preconditioner (`auto`'s Jacobi trial, bench/multigrid_harness), not for the steps.
+template <class Precondition>
+int32_t pcg_iterations(const SparseRows& A, const Eigen::VectorXd& b, double tol, int32_t cap,
+                       Precondition&& precondition) {
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(b.size()), r = b, z(b.size()), p, q;
+  precondition(r, z);
+  p = z;
+  double rz = r.dot(z);
+  const double stop2 = tol * tol * b.squaredNorm();
+  int32_t it = 0;
+  for (; it < cap && r.squaredNorm() > stop2; ++it) {
+    q.noalias() = A * p;
+    const double alpha = rz / p.dot(q);
+    x += alpha * p;
+    r -= alpha * q;
+    precondition(r, z);
+    const double rz_new = r.dot(z);
+    p = z + (rz_new / rz) * p;
+    rz = rz_new;
+  }
+  return it;
+}
+
 /// One V-cycle from level `from` on levels[from].b into levels[from].x (allocates nothing).
 void v_cycle(Multigrid& mg, size_t from);
 

@@ -42,22 +42,9 @@ int32_t jacobi_trial(const SparseRows& A, const SolverOptions& o, int32_t cap) {
   const Eigen::VectorXd inv_diag = A.diagonal().cwiseInverse();
   Eigen::VectorXd b(A.rows());
   for (Eigen::Index k = 0; k < b.size(); ++k) b[k] = 1.0 / inv_diag[k];
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(A.rows()), r = b, z = inv_diag.cwiseProduct(r), q;
-  Eigen::VectorXd d = z;
-  double rz = r.dot(z);
-  const double stop2 = o.cg_tolerance * o.cg_tolerance * b.squaredNorm();
-  int32_t it = 0;
-  for (; it < cap && r.squaredNorm() > stop2; ++it) {
-    q.noalias() = A * d;
-    const double alpha = rz / d.dot(q);
-    x += alpha * d;
-    r -= alpha * q;
-    z = inv_diag.cwiseProduct(r);
-    const double rz_new = r.dot(z);
-    d = z + (rz_new / rz) * d;
-    rz = rz_new;
-  }
-  return it;
+  return pcg_iterations(
+      A, b, o.cg_tolerance, cap,
+      [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inv_diag.cwiseProduct(r); });
 }
 
 }  // namespace
