@@ -490,14 +490,14 @@ int run_serve(const ServeArgs& a) {
       server.stream(batch, net::Stream::kSurfaces);
     }
     // The loop measures real time over one-second windows; each new window is judged once.
-    const double run_s = seconds(Clock::now() - start);
-    const uint64_t window = static_cast<uint64_t>(snap.steps > 0 ? run_s : 0);
+    const uint64_t window =
+        static_cast<uint64_t>(snap.steps > 0 ? seconds(Clock::now() - start) : 0);
     if (window == last_window) continue;
     last_window = window;
     // Every client hears of a new rate, and each second the machine cannot keep the one a
     // client (a haptic device's 1 kHz) or --rate asked for, and when it keeps it again.
     const double asked_hz = rate.rate_hz();  // what the second just measured was asked to keep
-    const std::optional<double> new_rate = rate.follow(snap, run_s);
+    const std::optional<double> new_rate = rate.follow(snap);
     if (new_rate) loop.set_rate(*new_rate);
     if (new_rate || (snap.measured_rate_hz == rate.rate_hz() && (!snap.keeping_up || behind)))
       send_rate(-1, snap);

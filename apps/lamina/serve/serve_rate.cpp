@@ -1,8 +1,5 @@
 #include "serve_rate.h"
 
-#include <fmt/format.h>
-
-#include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "lamina/core/error.h"
@@ -61,22 +58,13 @@ std::optional<double> ServeRate::gone(int client) {
   return change_to(base_hz_);
 }
 
-std::optional<double> ServeRate::follow(const interact::LoopSnapshot& snap, double t_s) {
+std::optional<double> ServeRate::follow(const interact::LoopSnapshot& snap) {
   if (!follow_machine_ || client_ >= 0) return std::nullopt;
-  // Called once a second, a little early or late: a look half a second after the last is the
-  // next second's.
-  if (t_s - checked_s_ < 0.5) return std::nullopt;
-  // No second measured yet at the rate last set: nothing to judge.
-  if (snap.measured_rate_hz != rate_hz_ || !(snap.mean_step_us > 0.0)) return std::nullopt;
-  checked_s_ = t_s;
-  const double next = interact::next_rate(rate_hz_, snap.mean_step_us, snap.keeping_up);
-  if (next == rate_hz_) return std::nullopt;
-  log::info(
-      "real time: a step took {:.2f} ms at {:.0f} Hz; stepping at {:.0f} Hz now (dt {:.3g} ms; "
-      "--rate or a client's LaminaRate forces a rate)",
-      snap.mean_step_us / 1000.0, rate_hz_, next, 1000.0 / next);
-  base_hz_ = next;
-  return change_to(next);
+  const std::optional<double> next =
+      interact::rate_to_follow(rate_hz_, snap, "--rate or a client's LaminaRate");
+  if (!next) return std::nullopt;
+  base_hz_ = *next;
+  return change_to(*next);
 }
 
 std::string ServeRate::status(const interact::LoopSnapshot& snap) const {

@@ -15,7 +15,8 @@ namespace lamina::cli {
 
 class ServeRate {
  public:
-  /// `forced_hz` > 0 with `follow_machine` false: --rate, kept unless a client asks another.
+  /// `follow_machine` false: `rate_hz` is --rate's, kept unless a client asks for another;
+  /// true: the machine's rate, from 1 kHz.
   ServeRate(double rate_hz, bool follow_machine);
 
   double rate_hz() const { return rate_hz_; }
@@ -29,9 +30,9 @@ class ServeRate {
   std::optional<double> ask(int client, const std::string& peer, const std::string& text);
   /// `client` has gone: a rate it asked for is given back.
   std::optional<double> gone(int client);
-  /// Once a second, from the loop's latest snapshot taken `t_s` into the run: a rate the machine
-  /// keeps when nobody chose one (the first look at 1 s, then a whole second after a change).
-  std::optional<double> follow(const interact::LoopSnapshot& snap, double t_s);
+  /// From the loop's latest snapshot: a rate the machine keeps when nobody chose one
+  /// (interact::rate_to_follow: judged on each second measured at the rate stepped at).
+  std::optional<double> follow(const interact::LoopSnapshot& snap);
 
   /// What LaminaRealTime says (JSON): rate_hz, chosen_by and, once a second has been measured at
   /// that rate, keeping_up, real_time_factor, step_ms and, when behind, keeps_up_hz (the highest
@@ -40,11 +41,10 @@ class ServeRate {
 
  private:
   std::optional<double> change_to(double hz);
-  double base_hz_;          // --rate, or where the machine's rate stood when a client asked
-  bool follow_machine_;     // no --rate
-  double rate_hz_;          // stepped at now
-  int client_ = -1;         // whose asked rate holds; -1: none
-  double checked_s_ = 0.0;  // the first look at 1 s, when the loop has measured a whole second
+  double base_hz_;       // --rate, or where the machine's rate stood when a client asked
+  bool follow_machine_;  // no --rate
+  double rate_hz_;       // stepped at now
+  int client_ = -1;      // whose asked rate holds; -1: none
 };
 
 }  // namespace lamina::cli

@@ -50,9 +50,6 @@ struct ViewSession::State {
   double last_volume_kpa = 1.0;  // what the volume term comes back at when ticked again
   double rate_hz = 1000.0;
   bool auto_rate = false;  // the rate follows the machine (ViewOptions::auto_rate)
-  // Session time of the last look at it: the first at 2 s (the first second's steps include the
-  // window's and the solver's start: 55 ms a step measured where 7 ms is the rule).
-  double rate_checked_s = 1.0;
   bool paused = false;
   std::string param_error;
 
@@ -169,7 +166,7 @@ struct ViewSession::State {
   bool waiting_for(const std::string& what);  // a script's "wait" still under way
   // view_report.cpp
   void watch_real_time_and_drag(double t);
-  void follow_the_machine(double t);  // auto_rate: the rate it keeps, once a second
+  void follow_the_machine(double t);  // auto_rate: the rate it keeps, each measured second
   void watch_instability();
   nlohmann::json report() const;
   void write_report() const;

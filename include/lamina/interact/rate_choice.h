@@ -7,6 +7,9 @@
 /// of it.
 
 #include <array>
+#include <optional>
+
+#include "lamina/interact/realtime_loop.h"
 
 namespace lamina::interact {
 
@@ -27,5 +30,13 @@ inline constexpr double kRateHeadroom = 0.25;
 /// one rung up when the step takes under kRateHeadroom of its period, else the same. A step of
 /// 0 (none measured yet) keeps the rate.
 double next_rate(double rate_hz, double mean_step_us, bool keeping_up);
+
+/// The rung a loop stepping at `rate_hz` moves to, judged on its last measured second
+/// (next_rate()), or nothing: nothing until a second has been measured at `rate_hz`
+/// (LoopSnapshot::measured_rate_hz; the loop's window starts again at a new rate, so a rate just
+/// set is judged on a whole second of its own steps), nor when next_rate() keeps it. A move is
+/// logged, naming `forced_by` (what forces a rate instead). The viewer's and `lamina serve`'s.
+std::optional<double> rate_to_follow(double rate_hz, const LoopSnapshot& snap,
+                                     const char* forced_by);
 
 }  // namespace lamina::interact
