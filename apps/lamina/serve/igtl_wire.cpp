@@ -5,6 +5,7 @@
 #include <igtlTransformMessage.h>
 #include <igtl_header.h>
 #include <igtl_position.h>
+#include <igtl_string.h>
 #include <igtl_transform.h>
 #include <igtl_util.h>
 
@@ -181,19 +182,19 @@ Packed pack_string(const std::string& device, const std::string& text) {
 }
 
 std::string read_string(const uint8_t* content, size_t size) {
-  if (size < 4)
+  if (size < IGTL_STRING_HEADER_SIZE)
     throw bad("a STRING has at least 4 bytes of content, this one " + std::to_string(size));
-  const auto u16 = [&](size_t at) {
-    return static_cast<size_t>(content[at] << 8 | content[at + 1]);
-  };
-  const size_t encoding = u16(0), length = u16(2);
-  if (length != size - 4)
+  igtl_string_header h;
+  std::memcpy(&h, content, IGTL_STRING_HEADER_SIZE);
+  igtl_string_convert_byte_order(&h);
+  const size_t encoding = h.encoding, length = h.length;
+  if (length != size - IGTL_STRING_HEADER_SIZE)
     throw bad("a STRING says it holds " + std::to_string(length) + " bytes of text, its content " +
-              std::to_string(size - 4));
+              std::to_string(size - IGTL_STRING_HEADER_SIZE));
   // US-ASCII (3) is what lamina serve reads; UTF-8 (106) is read when its bytes are ASCII.
   if (encoding != 3 && encoding != 106)
     throw bad("a STRING in encoding " + std::to_string(encoding) + " (US-ASCII, 3, is read)");
-  std::string text(reinterpret_cast<const char*>(content + 4), length);
+  std::string text(reinterpret_cast<const char*>(content + IGTL_STRING_HEADER_SIZE), length);
   for (const char c : text)
     if (c < 0x20 || c > 0x7e) throw bad("a STRING whose text is not printable US-ASCII");
   return text;
