@@ -159,7 +159,7 @@ struct PhysicalResult {
 };
 
 // The case's poke: the scene's tool held (or a haptic tip loaded each step, as the realtime loop
-// does) on `s`. Each call of the returned function takes one step.
+// does) on `s`; each call takes one step.
 struct Poke {
   const Model& m;
   const io::ReadyScene& ready;
