@@ -107,7 +107,30 @@ double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_di
   return rho;
 }
 
-void finish_level(MultigridLevel& level) {
+// Every coarse node's unknowns: its rigid motions, padded to six.
+constexpr int kCoarseBlock = 6;
+
+// P^T A P, with the padding's own diagonal: a padded unknown's row and column are empty, and
+// it takes its node's first diagonal entry (the scale of its neighbours: a positive definite
+// operator, and a smoother's weight for it that the power iteration does not see as an outlier).
+SparseRows galerkin(const MultigridLevel& level, const std::vector<int32_t>& padding) {
+  const SparseRows AP = level.A * level.P;
+  SparseRows coarse = level.R * AP;
+  if (padding.empty()) return coarse;
+  SparseRows pad(coarse.rows(), coarse.cols());
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(padding.size());
+  for (int32_t k : padding) {
+    const int32_t first = k - k % kCoarseBlock;
+    t.emplace_back(k, k, coarse.coeff(first, first));
+  }
+  pad.setFromTriplets(t.begin(), t.end());
+  return coarse + pad;
+}
+
+// inv_diag, omega and the workspace of a level; the float blocks of a coarse level's A.
+void finish_level(MultigridLevel& level, bool coarse) {
+  if (coarse) to_float_blocks(level.A, kCoarseBlock, kCoarseBlock, level.A_blocks);
   level.inv_diag = level.A.diagonal().cwiseInverse();
   if (!level.inv_diag.allFinite() || (level.A.diagonal().array() <= 0.0).any())
     throw Error(ErrorKind::kInternal, "multigrid: a level's diagonal is not positive");
@@ -151,8 +174,9 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
   // nodes (a 9,871-node liver's third level kept 43% of the second's unknowns).
   for (double theta = 0.08;; theta = 0.0) {
     MultigridLevel& level = mg.levels.back();
-    finish_level(level);
-    if (level.A.rows() <= coarsest_unknowns || mg.levels.size() >= 10) break;
+    finish_level(level, mg.levels.size() > 1);
+    const auto real_unknowns = static_cast<int64_t>(level.A.rows() - level.padding.size());
+    if (real_unknowns <= coarsest_unknowns || mg.levels.size() >= 10) break;
     std::vector<int32_t> offsets, adj;
     strong_neighbours(level.A, nodes, theta, offsets, adj);
     int32_t count = 0;
@@ -167,7 +191,8 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
     LevelNodes coarse;
     coarse.offsets.assign(1, 0);
     std::vector<Eigen::MatrixXd> coarse_b(static_cast<size_t>(count));
-    std::vector<int32_t> dofs;
+    std::vector<int32_t> dofs, padding;
+    int64_t real = 0;
     for (int32_t a = 0; a < count; ++a) {
       dofs.clear();
       for (int32_t i : members[a])
@@ -184,13 +209,15 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
       for (size_t r = 0; r < dofs.size(); ++r)
         for (int32_t c = 0; c < rank; ++c)
           t.emplace_back(dofs[r], first + c, Q(static_cast<Eigen::Index>(r), c));
-      coarse.offsets.push_back(first + rank);
-      for (int32_t c = 0; c < rank; ++c) coarse.node_of.push_back(a);
+      coarse.offsets.push_back(first + kCoarseBlock);
+      for (int32_t c = 0; c < kCoarseBlock; ++c) coarse.node_of.push_back(a);
+      for (int32_t c = rank; c < kCoarseBlock; ++c) padding.push_back(first + c);
+      real += rank;
     }
     const int32_t unknowns = coarse.offsets.back();
     // Coarsening that keeps more than half the unknowns costs more than it saves: this level is
     // then the coarsest.
-    if (2 * static_cast<int64_t>(unknowns) > level.A.rows()) break;
+    if (2 * real > real_unknowns) break;
     // Plain aggregation: P is the tentative prolongation itself. Smoothing it by one Jacobi step
     // (Vanek's smoothed aggregation) took the same CG iterations on the 22k- and 48k-node livers
     // at 10 ms (15.5 and 53.9 a step, against 14.2 and 41.7) but made the second level's
@@ -205,18 +232,21 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
       level.P.prune(0.0);
     }
     level.R = level.P.transpose();
+    const int level_block = mg.levels.size() > 1 ? kCoarseBlock : 3;
+    to_float_blocks(level.P, level_block, kCoarseBlock, level.P_blocks);
+    to_float_blocks(level.R, kCoarseBlock, level_block, level.R_blocks);
     const double t_aggregate = seconds_since(t0);
     MultigridLevel next;
-    const SparseRows AP = level.A * level.P;
-    next.A = level.R * AP;
+    next.padding = std::move(padding);
+    next.A = galerkin(level, next.padding);
     log::debug(
         "multigrid level {}: {} unknowns, {} aggregates, P {} nonzeros, coarse {} nonzeros; "
         "aggregated at {:.2f} s, Galerkin at {:.2f} s",
         mg.levels.size() - 1, level.A.rows(), count, level.P.nonZeros(), next.A.nonZeros(),
         t_aggregate, seconds_since(t0));
-    B.resize(unknowns, 6);
+    B.setZero(unknowns, 6);
     for (int32_t a = 0; a < count; ++a)
-      B.middleRows(coarse.offsets[a], coarse.offsets[a + 1] - coarse.offsets[a]) = coarse_b[a];
+      B.middleRows(coarse.offsets[a], coarse_b[a].rows()) = coarse_b[a];
     nodes = std::move(coarse);
     mg.levels.push_back(std::move(next));
   }
@@ -225,7 +255,7 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
     throw Error(ErrorKind::kInternal, "multigrid: the coarsest level did not factor");
   const double fine_nonzeros = static_cast<double>(mg.levels[0].A.nonZeros());
   for (const MultigridLevel& level : mg.levels) {
-    mg.shape.unknowns.push_back(level.A.rows());
+    mg.shape.unknowns.push_back(level.A.rows() - static_cast<int64_t>(level.padding.size()));
     mg.shape.nonzeros.push_back(level.A.nonZeros());
     mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
   }
@@ -239,10 +269,9 @@ void rebuild_operators(SparseRows A, Multigrid& mg) {
   mg.levels[0].A = std::move(A);
   for (size_t l = 0; l < mg.levels.size(); ++l) {
     MultigridLevel& level = mg.levels[l];
-    finish_level(level);
+    finish_level(level, l > 0);
     if (l + 1 == mg.levels.size()) break;
-    const SparseRows AP = level.A * level.P;
-    mg.levels[l + 1].A = level.R * AP;
+    mg.levels[l + 1].A = galerkin(level, mg.levels[l + 1].padding);
   }
   const Eigen::SparseMatrix<double> coarsest(mg.levels.back().A);
   if (coarsest.nonZeros() == mg.shape.nonzeros.back())
@@ -263,14 +292,23 @@ void v_cycle(Multigrid& mg, size_t from) {
   }
   MultigridLevel& next = mg.levels[from + 1];
   const double w = level.omega;
+  // r = b - A x: the coarse levels' float blocks; the finest level's own matrix when a caller
+  // cycles from it (the slowest vibration's LOBPCG, the harness).
+  const auto residual = [&] {
+    if (!level.A_blocks.empty()) {
+      multiply(level.A_blocks, level.x, level.r, mg.threads, BlockProduct::kResidual, &level.b);
+    } else {
+      level.r.noalias() = level.A * level.x;
+      level.r = level.b - level.r;
+    }
+  };
   level.x = w * level.inv_diag.cwiseProduct(level.b);
-  level.r.noalias() = level.A * level.x;
-  level.r = level.b - level.r;
-  next.b.noalias() = level.R * level.r;
+  residual();
+  multiply(level.R_blocks, level.r, next.b, mg.threads);
   v_cycle(mg, from + 1);
-  level.x.noalias() += level.P * next.x;
-  level.r.noalias() = level.A * level.x;
-  level.x += w * level.inv_diag.cwiseProduct(level.b - level.r);
+  multiply(level.P_blocks, next.x, level.x, mg.threads, BlockProduct::kAdd);
+  residual();
+  level.x += w * level.inv_diag.cwiseProduct(level.r);
 }
 
 }  // namespace lamina::sim::detail

@@ -9,7 +9,11 @@
 // hypre, and why the prolongation is not smoothed.
 //
 // A V-cycle with one damped-Jacobi sweep before and after each coarse correction is a
-// symmetric positive definite preconditioner for conjugate gradients. Internal to module sim.
+// symmetric positive definite preconditioner for conjugate gradients. Every coarse node has six
+// unknowns (an aggregate with fewer rigid motions pads the rest: zero in P, its own diagonal in
+// A, never reached by a residual), so that the cycle's products below the finest level are
+// float 6x6 (and 3x6) block products on the step's threads (float_blocks.h). Internal to module
+// sim.
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cmath>
@@ -17,20 +21,25 @@
 #include <vector>
 
 #include "block_rows.h"
+#include "float_blocks.h"
 
 namespace lamina::sim::detail {
 
 struct MultigridLevel {
-  SparseRows A;              ///< this level's operator (level 0: the matrix it was built from)
-  SparseRows P, R;           ///< to the next level: prolongation, and restriction R = P^T
-  Eigen::VectorXd inv_diag;  ///< 1 / diag(A)
-  double omega = 0.0;        ///< damped Jacobi's weight, 4 / (3 rho(D^-1 A))
-  Eigen::VectorXd b, x, r;   ///< workspace: right side, solution, residual
+  SparseRows A;     ///< this level's operator (level 0: the matrix it was built from)
+  SparseRows P, R;  ///< to the next level: prolongation, and restriction R = P^T
+  /// The cycle's products: A (coarse levels only: the finest is the caller's), P and R as float
+  /// blocks of this level's node (3 unknowns on the finest, 6 below) by the next one's (6).
+  FloatBlocks A_blocks, P_blocks, R_blocks;
+  std::vector<int32_t> padding;  ///< the unknowns that pad a node to six (no rigid motion)
+  Eigen::VectorXd inv_diag;      ///< 1 / diag(A)
+  double omega = 0.0;            ///< damped Jacobi's weight, 4 / (3 rho(D^-1 A))
+  Eigen::VectorXd b, x, r;       ///< workspace: right side, solution, residual
 };
 
 /// What a hierarchy is (the benchmark and the run summary report it).
 struct MultigridShape {
-  std::vector<int64_t> unknowns, nonzeros;  ///< per level
+  std::vector<int64_t> unknowns, nonzeros;  ///< per level (unknowns: without the padding)
   double setup_s = 0.0;
   /// sum over levels of nonzeros / the finest level's: the V-cycle's cost in products of A
   double operator_complexity = 0.0;
@@ -40,6 +49,7 @@ struct Multigrid {
   std::vector<MultigridLevel> levels;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> coarsest;
   MultigridShape shape;
+  int threads = 1;  ///< the cycle's products' threads (the caller's: implicit Euler sets its own)
 };
 
 /// Builds the hierarchy of the symmetric positive definite A: 3 unknowns per node, interleaved
@@ -106,9 +116,9 @@ void v_cycle_with(Multigrid& mg, const Eigen::VectorXd& r, const Eigen::VectorXd
   if (mg.levels.size() > 1) {
     product(z, work);
     work = (r - work).cwiseProduct(mask);
-    mg.levels[1].b.noalias() = fine.R * work;
+    multiply(fine.R_blocks, work, mg.levels[1].b, mg.threads);
     v_cycle(mg, 1);
-    z.noalias() += fine.P * mg.levels[1].x;
+    multiply(fine.P_blocks, mg.levels[1].x, z, mg.threads, BlockProduct::kAdd);
     z = z.cwiseProduct(mask);
   }
   product(z, work);

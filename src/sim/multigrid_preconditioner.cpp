@@ -240,6 +240,7 @@ double apply_multigrid(Solver& s, double h, int threads) {
   const auto product = [&](const Eigen::VectorXd& z, Eigen::VectorXd& y) {
     masked_product(s, p, h, threads, z, y);
   };
+  p.mg.threads = threads;
   v_cycle_with(p.mg, p.r, p.inv_diag, p.omega, p.mask, product, p.z, p.work);
   double rz = 0.0;
   for (int32_t q = 0; q < rows; ++q) {

@@ -8,8 +8,10 @@
 #include <new>
 
 #include "lamina/sim/simulation.h"
-#include "sim/solver.h"  // white box: the assembly switched on for a small model
+#include "sim/preconditioner.h"  // white box: the hierarchy's levels
+#include "sim/solver.h"          // white box: the assembly switched on for a small model
 #include "support/sphere_model.h"
+#include "support/tet_phantom.h"
 
 namespace {
 std::atomic<int64_t> allocations{0};
@@ -130,6 +132,12 @@ TEST(StepAllocation, NoStepAllocates) {
        tets,
        {.stiffness_n_per_m = 0.0, .node_mass_kg = 0.0, .young_modulus_kpa = 6.0},
        {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.001}},
+      {"implicit Euler, tetrahedra, multigrid",
+       test::tet_phantom(),
+       test::kTetLiver,
+       {.integrator = sim::Integrator::kImplicitEuler,
+        .dt_s = 0.01,
+        .preconditioner = sim::Preconditioner::kMultigrid}},
   };
   {  // the control: the counter does see the library's allocations
     sim::Simulation s = poked(links, {}, {});
@@ -141,9 +149,14 @@ TEST(StepAllocation, NoStepAllocates) {
     sim::Simulation s = poked(c.model, c.material, c.options);
     EXPECT_EQ(allocations_in_steps(s, 50), 0) << c.name;
     EXPECT_GT((s.x - c.model.X).cwiseAbs().maxCoeff(), 1e-3) << c.name << ": nothing moved";
+    if (c.options.preconditioner == sim::Preconditioner::kMultigrid) {
+      ASSERT_TRUE(sim::uses_multigrid(s)) << c.name;
+      EXPECT_GE(s.solver().multigrid->mg.levels.size(), 2u) << c.name << ": no coarse level";
+    }
   }
   {  // the tetrahedra's stiffness assembled each step (on by itself from 200,000 tetrahedra)
     const Case& c = cases[4];
+    ASSERT_EQ(c.options.preconditioner, sim::Preconditioner::kAuto);
     sim::Simulation s = poked(c.model, c.material, c.options);
     sim::detail::setup_tet_assembly(s.solver());
     sim::step(s);
