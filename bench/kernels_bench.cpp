@@ -14,6 +14,8 @@
 #include "lamina/model/build_model.h"
 #include "lamina/model/compute_rings.h"
 #include "lamina/sim/simulation.h"
+#include "sim/force_terms.h"    // internal to sim: the tetrahedra's linearisation
+#include "sim/solver.h"         // internal to sim: the assembled tetrahedra
 #include "sim/spring_kernel.h"  // internal to sim: the benchmark runs it in float
 
 namespace {
@@ -120,6 +122,64 @@ void BM_CgIteration(benchmark::State& state) {
 BENCHMARK(BM_CgIteration)
     ->ArgsProduct({{0, 1, 2}, {0, 1}})
     ->ArgNames({"model", "links"})
+    ->Unit(benchmark::kMicrosecond);
+
+// The tetrahedra's assembled product K p over every node, one thread (issue 48): `packed` 1
+// is the steps' (p packed by node, a block row times p_j as one 4-wide vector,
+// assembled_tet_product_packed, the packing included); 0 the scalar product over p's three
+// columns it replaced, kept here as the reference measured in the same run.
+void BM_AssembledProduct(benchmark::State& state) {
+  const Model& m = model(state.range(0));
+  sim::Simulation sim = sim::make_simulation(
+      m, {.stiffness_n_per_m = 0.0, .node_mass_kg = 0.0, .young_modulus_kpa = 6.0},
+      {.integrator = sim::Integrator::kImplicitEuler});
+  sim::detail::Solver& s = sim.solver();
+  if (!s.tets.on) {
+    state.SkipWithError("the model has no tetrahedra");
+    return;
+  }
+  const Eigen::MatrixX3d x = m.X * 1.02;
+  const Eigen::MatrixX3d p = Eigen::MatrixX3d::Random(m.node_count(), 3);
+  sim::detail::tet_pass(s, x, /*linearise=*/true, 1, &p);
+  sim::detail::setup_tet_assembly(s);
+  sim::detail::assemble_tets(s, 1);
+  const sim::detail::TetAssembly& a = s.tets.assembly;
+  Eigen::MatrixX3d y(m.node_count(), 3);
+  const bool packed = state.range(1) != 0;
+  std::vector<double>& pk = s.tets.assembly.packed;
+  for (auto _ : state) {
+    if (packed) {
+      for (int32_t i = 0; i < m.node_count(); ++i)
+        pk[4 * i] = p(i, 0), pk[4 * i + 1] = p(i, 1), pk[4 * i + 2] = p(i, 2);
+      for (int32_t i = 0; i < m.node_count(); ++i) {
+        double k[3] = {0.0, 0.0, 0.0};
+        sim::detail::assembled_tet_product_packed(a, i, pk.data(), k);
+        y(i, 0) = k[0], y(i, 1) = k[1], y(i, 2) = k[2];
+      }
+    } else {
+      const double *px = p.col(0).data(), *py = p.col(1).data(), *pz = p.col(2).data();
+      for (int32_t i = 0; i < m.node_count(); ++i) {
+        double kx = 0.0, ky = 0.0, kz = 0.0;
+        for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
+          const int32_t j = a.column[e];
+          const float* b = a.block.data() + 9 * static_cast<int64_t>(e);
+          kx += b[0] * px[j] + b[1] * py[j] + b[2] * pz[j];
+          ky += b[3] * px[j] + b[4] * py[j] + b[5] * pz[j];
+          kz += b[6] * px[j] + b[7] * py[j] + b[8] * pz[j];
+        }
+        y(i, 0) = kx, y(i, 1) = ky, y(i, 2) = kz;
+      }
+    }
+    benchmark::DoNotOptimize(y.data());
+    benchmark::ClobberMemory();
+  }
+  label(state, m);
+  state.counters["blocks"] = static_cast<double>(a.column.size());
+  state.counters["ns_per_block"] = per(state, static_cast<double>(a.column.size()));
+}
+BENCHMARK(BM_AssembledProduct)
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
+    ->ArgNames({"model", "packed"})
     ->Unit(benchmark::kMicrosecond);
 
 // One whole step under a held poke, for comparison with the kernels (`lamina bench` reports the

@@ -7,6 +7,7 @@
 // Also the pieces every pass shares: fixed per-thread slices, per-thread partial sums, column
 // pointers.
 
+#include <immintrin.h>
 #include <omp.h>
 
 #include <Eigen/Core>
@@ -159,7 +160,10 @@ struct TetAssembly {
   std::vector<int32_t> offsets;  ///< per node + 1: its entries, its own block first
   std::vector<int32_t> column;   ///< per entry: the other node
   std::vector<int32_t> entry;    ///< per tetrahedron 16: the entry of corner pair (r, s), 4 r + s
-  std::vector<float> block;      ///< per entry 9 (row-major), N/m
+  std::vector<float> block;      ///< per entry 9 (row-major), N/m; 3 more at the end (below)
+  /// The product's argument, a node's x y z (and a 0) in one 32-byte row: a block's row times
+  /// it is one vector multiply (assembled_tet_product_packed), and a neighbour is one load.
+  std::vector<double> packed;
 };
 
 /// A block of kTetLanes tetrahedra's Neo-Hookean constants (neo_hookean_term.cpp; nodes in the
@@ -392,8 +396,9 @@ inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double&
 void assemble_tets(Solver& s, int threads);
 /// tets.assembly's pattern (the nodes joined by a tetrahedron) and each tetrahedron's entries.
 void setup_tet_assembly(Solver& s);
-/// The assembled (K p)_i of the tetrahedra, added to k.
-inline void assembled_tet_product(const Solver& s, int32_t i, const ConstCols& p, double* k);
+/// The assembled (K p)_i of the tetrahedra, p packed by node, added to k (below).
+inline void assembled_tet_product_packed(const TetAssembly& a, int32_t i, const double* packed,
+                                         double* k);
 
 // --- The volume term between layers (volume_term.cpp). ---
 /// 6 x the signed volume of triangles [begin, end) of the list (of F when list is null).
@@ -506,19 +511,42 @@ inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double&
   fx += ax, fy += ay, fz += az;
 }
 
-inline void assembled_tet_product(const Solver& s, int32_t i, const ConstCols& p, double* k) {
-  const TetAssembly& a = s.tets.assembly;
+/// (K p)_i from the assembled blocks and p packed by node (TetAssembly::packed), added to k:
+/// each block row (3 floats, and the next one, which meets p's 0) times p_j, in 4-wide double
+/// vectors with one accumulator per row. Six loads a neighbour where the scalar product over
+/// p's three columns took thirteen (docs/benchmarks.md, issue 48).
+inline void assembled_tet_product_packed(const TetAssembly& a, int32_t i, const double* packed,
+                                         double* k) {
+  typedef double D4 __attribute__((vector_size(32)));
   const float* __restrict blocks = a.block.data();
-  double kx = 0.0, ky = 0.0, kz = 0.0;
-  for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
-    const int32_t j = a.column[e];
+  const int32_t* __restrict column = a.column.data();
+  // Four floats widened by one vcvtps2pd (GCC 12 lowers __builtin_convertvector of four floats
+  // to four doubles through the stack).
+  const auto widen = [](const float* f) {
+#if defined(__AVX__)
+    return D4(_mm256_cvtps_pd(_mm_loadu_ps(f)));
+#else
+    return D4{f[0], f[1], f[2], f[3]};
+#endif
+  };
+  // Two neighbours a round, each into its own three sums: a sum's add waits for the one before.
+  D4 r[2][3] = {};
+  const auto add = [&](int32_t e, D4* acc) {
+    D4 pj;
+    __builtin_memcpy(&pj, packed + 4 * static_cast<int64_t>(column[e]), sizeof pj);
     const float* b = blocks + 9 * static_cast<int64_t>(e);
-    const double px = p.x[j], py = p.y[j], pz = p.z[j];
-    kx += b[0] * px + b[1] * py + b[2] * pz;
-    ky += b[3] * px + b[4] * py + b[5] * pz;
-    kz += b[6] * px + b[7] * py + b[8] * pz;
+    acc[0] += widen(b) * pj;
+    acc[1] += widen(b + 3) * pj;
+    acc[2] += widen(b + 6) * pj;  // reads one float past the last block: padded
+  };
+  int32_t e = a.offsets[i];
+  const int32_t end = a.offsets[i + 1];
+  for (; e + 1 < end; e += 2) add(e, r[0]), add(e + 1, r[1]);
+  if (e < end) add(e, r[0]);
+  for (int c = 0; c < 3; ++c) {
+    const D4 sum = r[0][c] + r[1][c];
+    k[c] += sum[0] + sum[1] + sum[2];
   }
-  k[0] += kx, k[1] += ky, k[2] += kz;
 }
 
 // The force on movable node i (mN) but its springs' and tetrahedra's: the tool's, gravity, its

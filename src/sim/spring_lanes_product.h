@@ -120,6 +120,40 @@ inline void block_spring_product(const SpringLanes& t, int32_t b, double (*k)[kL
   }
 }
 
+/// for_spring_products() on the tetrahedra's assembled blocks: one parallel region, p packed
+/// by node (TetAssembly::packed, every node: a row reads any neighbour), then the movable nodes
+/// in slices.
+template <bool kDiagonal, class Body>
+void for_assembled_products(Solver& s, const ConstCols& p, int threads, Partials& part,
+                            Body&& body) {
+  TetAssembly& a = s.tets.assembly;
+  const auto n = static_cast<int64_t>(a.offsets.size()) - 1;
+  const auto nodes = static_cast<int64_t>(s.active_nodes.size());
+  auto run = [&](int th, int T) {
+    double* packed = a.packed.data();
+    for (int64_t i = n * th / T, end = n * (th + 1) / T; i < end; ++i)
+      packed[4 * i] = p.x[i], packed[4 * i + 1] = p.y[i], packed[4 * i + 2] = p.z[i];
+    if (T > 1) {
+#pragma omp barrier
+    }
+    Partial acc;
+    for (int64_t q = nodes * th / T, end = nodes * (th + 1) / T; q < end; ++q) {
+      const int32_t i = s.active_nodes[q];
+      double k[3] = {0.0, 0.0, 0.0}, d[3] = {0.0, 0.0, 0.0};
+      assembled_tet_product_packed(a, i, packed, k);
+      if constexpr (kDiagonal) gather_tets(s, s.tets.diag, i, d[0], d[1], d[2]);
+      body(i, k, d, acc);
+    }
+    part[th] = acc;
+  };
+  if (threads <= 1) {
+    run(0, 1);
+    return;
+  }
+#pragma omp parallel num_threads(threads)
+  run(omp_get_thread_num(), omp_get_num_threads());
+}
+
 /// Runs body(i, k, d, acc) for every movable node i, with k its springs' (K p)_i and d (with
 /// kDiagonal) their diagonal of K, and acc its thread's partial results (into part[thread]).
 /// Through the lanes where they apply (one parallel region: pack p, then blocks split by work),
@@ -130,6 +164,10 @@ template <bool kDiagonal, class Body>
 void for_spring_products(Solver& s, const Eigen::MatrixX3d& pm, int threads, Partials& part,
                          Body&& body) {
   const ConstCols p(pm);
+  if (s.tets.on && s.tets.assembly.current) {  // the tetrahedra's assembled blocks
+    for_assembled_products<kDiagonal>(s, p, threads, part, body);
+    return;
+  }
   if (!product_lanes_apply(s)) {
     for_slices(static_cast<int64_t>(s.active_nodes.size()), threads,
                [&](int64_t begin, int64_t end, int th) {
@@ -138,10 +176,7 @@ void for_spring_products(Solver& s, const Eigen::MatrixX3d& pm, int threads, Par
                    const int32_t i = s.active_nodes[q];
                    double k[3] = {0.0, 0.0, 0.0}, d[3] = {0.0, 0.0, 0.0};
                    if (s.tets.on) {  // the springs are the tetrahedra's edges
-                     if (s.tets.assembly.current)
-                       assembled_tet_product(s, i, p, k);
-                     else
-                       gather_tets(s, s.tets.product, i, k[0], k[1], k[2]);
+                     gather_tets(s, s.tets.product, i, k[0], k[1], k[2]);
                      if constexpr (kDiagonal) gather_tets(s, s.tets.diag, i, d[0], d[1], d[2]);
                    } else {
                      spring_product(s, i, p, k[0], k[1], k[2]);

@@ -44,7 +44,10 @@ void setup_tet_assembly(Solver& s) {
             static_cast<int32_t>(at - a.column.begin());
       }
     }
-  a.block.assign(9 * a.column.size(), 0.0f);
+  // Three floats past the last block: assembled_tet_product_packed() loads a block's last row
+  // as four.
+  a.block.assign(9 * a.column.size() + 3, 0.0f);
+  a.packed.assign(4 * static_cast<size_t>(n), 0.0);
   a.on = true;
 }
 

@@ -2,6 +2,8 @@
 // A block of kTetLanes tetrahedra's values as one SIMD value per field (internal to module sim):
 // what the tetrahedral energies' passes (tet_term.cpp, neo_hookean_term.cpp) share.
 
+#include <immintrin.h>
+
 #include <cmath>
 
 #include "solver.h"
@@ -22,17 +24,35 @@ inline Lanes lanes(const double* p) {
   __builtin_memcpy(&v, p, sizeof v);
   return v;
 }
+// Floats to and from a block's double lanes: one vcvtps2pd (vcvtpd2ps) with its load (store).
+// GCC 12 lowers __builtin_convertvector between these widths in halves, through extracts and
+// inserts (and on AVX2 through the stack): five instructions a value in block_product's 66
+// conversions (objdump; issue 48, docs/benchmarks.md has the kernels' times before and after).
 inline Lanes lanes(const float* p) {
+#if defined(__AVX512F__)
+  static_assert(L == 8);
+  return Lanes(_mm512_cvtps_pd(_mm256_loadu_ps(p)));
+#elif defined(__AVX__)
+  static_assert(L == 4);
+  return Lanes(_mm256_cvtps_pd(_mm_loadu_ps(p)));
+#else
   LanesF v;
   __builtin_memcpy(&v, p, sizeof v);
   return __builtin_convertvector(v, Lanes);
+#endif
 }
 inline void store(Lanes v, double* p) {
   __builtin_memcpy(p, &v, sizeof v);
 }
 inline void store(Lanes v, float* p) {
+#if defined(__AVX512F__)
+  _mm256_storeu_ps(p, _mm512_cvtpd_ps(__m512d(v)));
+#elif defined(__AVX__)
+  _mm_storeu_ps(p, _mm256_cvtpd_ps(__m256d(v)));
+#else
   const LanesF f = __builtin_convertvector(v, LanesF);
   __builtin_memcpy(p, &f, sizeof f);
+#endif
 }
 inline Lanes splat(double x) {
   return Lanes{} + x;

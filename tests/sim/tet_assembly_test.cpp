@@ -27,12 +27,17 @@ TEST(TetAssembly, EqualsTheElementByElementProductAndIsSymmetric) {
   sim::detail::tet_pass(s, x, /*linearise=*/true, 1, &p);
   sim::detail::setup_tet_assembly(s);
   sim::detail::assemble_tets(s, 1);
-  const sim::detail::ConstCols pc(p);
+  // The steps' product: p packed by node (a 0 in the fourth lane: the next row's float it meets
+  // must add nothing).
+  std::vector<double>& packed = s.tets.assembly.packed;
+  ASSERT_EQ(packed.size(), 4u * static_cast<size_t>(m.node_count()));
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    for (int c = 0; c < 4; ++c) packed[4 * i + c] = c < 3 ? p(i, c) : 0.0;
   double largest = 0.0, worst = 0.0;
   for (int32_t i = 0; i < m.node_count(); ++i) {
     double element[3] = {0, 0, 0}, assembled[3] = {0, 0, 0};
     sim::detail::gather_tets(s, s.tets.product, i, element[0], element[1], element[2]);
-    sim::detail::assembled_tet_product(s, i, pc, assembled);
+    sim::detail::assembled_tet_product_packed(s.tets.assembly, i, packed.data(), assembled);
     for (int c = 0; c < 3; ++c) {
       largest = std::max(largest, std::abs(element[c]));
       worst = std::max(worst, std::abs(assembled[c] - element[c]));
