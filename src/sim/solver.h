@@ -56,6 +56,18 @@ inline void for_slices(int64_t n, int threads, Body&& body) {
   }
 }
 
+// Runs body(thread, threads) on each of `threads` threads in one parallel region (so that the
+// body may hold a barrier), or body(0, 1) on the caller's alone.
+template <class Body>
+inline void on_threads(int threads, Body&& body) {
+  if (threads <= 1) {
+    body(0, 1);
+    return;
+  }
+#pragma omp parallel num_threads(threads)
+  body(omp_get_thread_num(), omp_get_num_threads());
+}
+
 // An entry of SpringTerm::adj_signed: e where the node is spring e's first end, ~e where its
 // second. The spring, and the sign its stored force (on the first end) takes at this node.
 inline int32_t spring_of(int32_t signed_spring) {

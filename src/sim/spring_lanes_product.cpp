@@ -82,12 +82,7 @@ void linearise_lanes(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
       }
     }
   };
-  if (threads <= 1) {
-    run(0, 1);
-    return;
-  }
-#pragma omp parallel num_threads(threads)
-  run(omp_get_thread_num(), omp_get_num_threads());
+  on_threads(threads, run);
 }
 
 }  // namespace lamina::sim::detail

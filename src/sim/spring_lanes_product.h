@@ -146,12 +146,7 @@ void for_assembled_products(Solver& s, const ConstCols& p, int threads, Partials
     }
     part[th] = acc;
   };
-  if (threads <= 1) {
-    run(0, 1);
-    return;
-  }
-#pragma omp parallel num_threads(threads)
-  run(omp_get_thread_num(), omp_get_num_threads());
+  on_threads(threads, run);
 }
 
 /// Runs body(i, k, d, acc) for every movable node i, with k its springs' (K p)_i and d (with
@@ -212,12 +207,7 @@ void for_spring_products(Solver& s, const Eigen::MatrixX3d& pm, int threads, Par
     }
     part[th] = acc;
   };
-  if (threads <= 1) {
-    run(0, 1);
-    return;
-  }
-#pragma omp parallel num_threads(threads)
-  run(omp_get_thread_num(), omp_get_num_threads());
+  on_threads(threads, run);
 }
 
 }  // namespace lamina::sim::detail
