@@ -185,26 +185,35 @@ void block_forces(const TetBlock& b, const Lanes p[12], Lanes f[12], TetBlockLin
 //
 // Each value is loaded (and widened from float) where it is used rather than kept in arrays: a
 // block is one register a value, and the arrays' 60-odd live values spilled (a 4 KB stack frame
-// on AVX-512); the sums are the same, in the same order.
+// on AVX-512); the sums are the same, in the same order. Every loop unrolled: the edges' corners
+// and Q's entries become constants (GCC left the loops with their index arithmetic).
 void block_product(const TetBlock& b, const TetBlockLinear& lin, const Lanes p[12], Lanes y[12]) {
   Lanes along = Lanes{};
+#pragma GCC unroll 16
   for (int v = 0; v < 12; ++v) along += lanes(lin.grad[v]) * p[v];
   along *= lanes(lin.volume_stiffness);
+#pragma GCC unroll 16
   for (int v = 0; v < 12; ++v) y[v] = along * lanes(lin.grad[v]);
   Lanes a[6];
+#pragma GCC unroll 16
   for (int k = 0; k < 6; ++k) {
     const int ca = 3 * kTetEdge[k][0], cb = 3 * kTetEdge[k][1];
     a[k] = Lanes{};
+#pragma GCC unroll 16
     for (int e = 0; e < 3; ++e) a[k] += lanes(lin.w[3 * k + e]) * (p[cb + e] - p[ca + e]);
   }
   Lanes c[6];  // Q a
+#pragma GCC unroll 16
   for (int k = 0; k < 6; ++k) {
     c[k] = lanes(b.q[qi(k, 0)]) * a[0];
+#pragma GCC unroll 16
     for (int m = 1; m < 6; ++m) c[k] += lanes(b.q[qi(k, m)]) * a[m];
   }
+#pragma GCC unroll 16
   for (int k = 0; k < 6; ++k) {
     const int ca = 3 * kTetEdge[k][0], cb = 3 * kTetEdge[k][1];
     const Lanes geo = lanes(lin.geo[k]);
+#pragma GCC unroll 16
     for (int e = 0; e < 3; ++e) {
       const Lanes w = lanes(lin.w[3 * k + e]), d = p[cb + e] - p[ca + e];
       const Lanes kp = c[k] * w + geo * (d - a[k] * w);
