@@ -6,6 +6,7 @@
 // iterations, time an iteration. Usage: multigrid_harness [--dt S] [--coarsest N] [--smoothed]
 // SKIN... (--smoothed: Vanek's smoothed aggregation instead of the steps' plain one). Also
 // times one V-cycle below the finest level in Eigen's double CSR and in float blocks.
+// --geometric RATIO: also the geometric coarse space (a model of SKIN / RATIO skin vertices).
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <omp.h>
@@ -20,6 +21,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
 #include "sim/block_rows.h"
 #include "sim/multigrid.h"
@@ -134,12 +136,84 @@ double below_finest_ms(sim::detail::Multigrid& mg, const Eigen::VectorXd& r, boo
   return best;
 }
 
+// The other coarse space issue 48 names: geometric, the first coarse level a coarser model of
+// the same organ (the reference paper's multi-scale idea; Georgii & Westermann 2005). Each fine
+// node is embedded in the coarse model's rest tetrahedra (model::embed_surface's barycentric
+// weights: linear interpolation, so the rigid motions are in the coarse space); P interpolates
+// the coarse nodes' motion to the fine nodes, the coarse operator is P^T A P, and below it the
+// same aggregation as the steps'. One damped-Jacobi sweep on the fine level before and after,
+// as the V-cycle's.
+struct Geometric {
+  sim::detail::SparseRows P, R;
+  sim::detail::Multigrid below;
+  Eigen::VectorXd inv_diag, res;
+  double omega = 0.0;
+  int32_t coarse_nodes = 0;
+};
+
+void build_geometric(const sim::detail::SparseRows& A, const Eigen::MatrixX3d& fine_points,
+                     model::BuildOptions options, int coarse_skin, Geometric& g) {
+  options.skin_vertices = coarse_skin;
+  const Model coarse = model::build_model(geometry::make_phantom(), options).model;
+  Eigen::MatrixX3i one(1, 3);
+  one << 0, 1, 2;
+  const EmbeddedSurface e = model::embed_surface(coarse, fine_points, one, "fine nodes");
+  std::vector<int32_t> column(static_cast<size_t>(coarse.node_count()), -1);
+  std::vector<Eigen::Triplet<double>> t;
+  std::vector<Eigen::Vector3d> points;
+  for (Eigen::Index i = 0; i < fine_points.rows(); ++i)
+    for (int c = 0; c < 4; ++c) {
+      const int32_t node = e.corners(i, c);
+      if (column[node] < 0) {
+        column[node] = static_cast<int32_t>(points.size());
+        points.emplace_back(coarse.X.row(node).transpose());
+      }
+      for (int d = 0; d < 3; ++d) t.emplace_back(3 * i + d, 3 * column[node] + d, e.weights(i, c));
+    }
+  g.coarse_nodes = static_cast<int32_t>(points.size());
+  g.P.resize(A.rows(), 3 * g.coarse_nodes);
+  g.P.setFromTriplets(t.begin(), t.end());
+  g.R = g.P.transpose();
+  const sim::detail::SparseRows AP = A * g.P;
+  const sim::detail::SparseRows coarse_A = g.R * AP;
+  Eigen::MatrixX3d coarse_points(g.coarse_nodes, 3);
+  for (int32_t k = 0; k < g.coarse_nodes; ++k) coarse_points.row(k) = points[k].transpose();
+  sim::detail::build_multigrid(coarse_A, coarse_points, g.below);
+  g.below.threads = omp_get_max_threads();
+  g.inv_diag = A.diagonal().cwiseInverse();
+  Eigen::VectorXd x(A.rows()), y(A.rows());
+  sim::detail::power_iteration_start(x);
+  double rho = 0.0;
+  for (int it = 0; it < 15; ++it) {
+    x.normalize();
+    y = g.inv_diag.cwiseProduct(A * x);
+    rho = y.norm();
+    x = y;
+  }
+  g.omega = 4.0 / (3.0 * rho);
+}
+
+int pcg_geometric(const sim::detail::SparseRows& A, Geometric& g, const Eigen::VectorXd& b,
+                  double tol, int cap) {
+  return sim::detail::pcg_iterations(A, b, tol, cap,
+                                     [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+                                       z = g.omega * g.inv_diag.cwiseProduct(r);
+                                       g.res = r - A * z;
+                                       g.below.levels[0].b = g.R * g.res;
+                                       sim::detail::v_cycle(g.below, 0);
+                                       z += g.P * g.below.levels[0].x;
+                                       g.res = r - A * z;
+                                       z += g.omega * g.inv_diag.cwiseProduct(g.res);
+                                     });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   double dt = 1.0 / 60.0;
   int64_t coarsest = 1500;
   bool smoothed = false;
+  int geometric = 0;  // > 0: also the geometric coarse space, a model of skin / geometric
   std::vector<int> sizes;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
@@ -149,6 +223,8 @@ int main(int argc, char** argv) {
       smoothed = true;
     else if (a == "--coarsest" && k + 1 < argc)
       coarsest = std::atoll(argv[++k]);
+    else if (a == "--geometric" && k + 1 < argc)
+      geometric = std::atoi(argv[++k]);
     else
       sizes.push_back(std::atoi(a.c_str()));
   }
@@ -222,6 +298,26 @@ int main(int argc, char** argv) {
         skin, ready.model->node_count(), fmt::format("{}", fmt::join(mg.shape.unknowns, ">")),
         mg.shape.operator_complexity, setup, s3, s8, r3, r8, per_it, mb, mb / 1e3 / bandwidth * 1e3,
         fmt::format("{:.2f}/{:.2f}", csr_ms, blocks_ms));
+    if (geometric > 0) {
+      Geometric g;
+      const auto t2 = Clock::now();
+      build_geometric(A, points, scene.build, skin / geometric, g);
+      const double g_setup = since(t2);
+      const int gs3 = pcg_geometric(A, g, smooth, 1e-3, 500);
+      const int gs8 = pcg_geometric(A, g, smooth, 1e-8, 500);
+      const int gr3 = pcg_geometric(A, g, noise, 1e-3, 500);
+      const int gr8 = pcg_geometric(A, g, noise, 1e-8, 500);
+      std::vector<int64_t> unknowns{A.rows()};
+      for (int64_t u : g.below.shape.unknowns) unknowns.push_back(u);
+      const double opc = 1.0 + g.below.shape.operator_complexity *
+                                   static_cast<double>(g.below.levels[0].A.nonZeros()) /
+                                   static_cast<double>(A.nonZeros());
+      fmt::print(
+          "{:>6} {:>7} {:>28} {:>5.2f} {:>7.2f} {:>6} {:>6} {:>6} {:>6}   geometric: a "
+          "{}-skin-vertex model's {} nodes\n",
+          "", "", fmt::format("{}", fmt::join(unknowns, ">")), opc, g_setup, gs3, gs8, gr3, gr8,
+          skin / geometric, g.coarse_nodes);
+    }
     std::fflush(stdout);
   }
   return 0;

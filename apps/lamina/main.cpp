@@ -325,7 +325,7 @@ int main(int argc, char** argv) {
         "5k_neo_hookean, paper_10ms_jacobi, paper_10ms_multigrid, 20k_10ms_jacobi, "
         "20k_10ms_multigrid, 20k_10ms_neo_hookean, 43k_10ms_jacobi, 43k_10ms_multigrid, 43k, "
         "paper_16ms_multigrid, 20k_16ms_multigrid, "
-        "43k_neo_hookean, 100k, 100k_neo_hookean")
+        "43k_neo_hookean, 100k, 100k_haptic_tip, 100k_neo_hookean")
       ->delimiter(',');
 
   cli::ValidateArgs val;
