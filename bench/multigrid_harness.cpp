@@ -209,7 +209,7 @@ int pcg_geometric(const sim::detail::SparseRows& A, Geometric& g, const Eigen::V
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   double dt = 1.0 / 60.0;
   int64_t coarsest = 1500;
   bool smoothed = false;
@@ -225,8 +225,15 @@ int main(int argc, char** argv) {
       coarsest = std::atoll(argv[++k]);
     else if (a == "--geometric" && k + 1 < argc)
       geometric = std::atoi(argv[++k]);
-    else
+    else if (!a.empty() && a.find_first_not_of("0123456789") == std::string::npos)
       sizes.push_back(std::atoi(a.c_str()));
+    else {
+      fmt::print(stderr,
+                 "usage: multigrid_harness [--dt S] [--coarsest N] [--smoothed] [--geometric "
+                 "RATIO] [SKIN...]{}\n",
+                 a == "--help" || a == "-h" ? "" : fmt::format(" (not understood: {})", a));
+      return a == "--help" || a == "-h" ? 0 : 2;
+    }
   }
   if (sizes.empty()) sizes = {1284, 5000, 10000, 20000};
   fmt::print("dt {:.4g} s, coarsest <= {} unknowns, {} aggregation\n", dt, coarsest,
@@ -321,4 +328,13 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {  // a skin size the build refuses, say
+    fmt::print(stderr, "multigrid_harness: {}\n", e.what());
+    return 2;
+  }
 }
