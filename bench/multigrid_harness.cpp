@@ -181,16 +181,7 @@ void build_geometric(const sim::detail::SparseRows& A, const Eigen::MatrixX3d& f
   sim::detail::build_multigrid(coarse_A, coarse_points, g.below);
   g.below.threads = omp_get_max_threads();
   g.inv_diag = A.diagonal().cwiseInverse();
-  Eigen::VectorXd x(A.rows()), y(A.rows());
-  sim::detail::power_iteration_start(x);
-  double rho = 0.0;
-  for (int it = 0; it < 15; ++it) {
-    x.normalize();
-    y = g.inv_diag.cwiseProduct(A * x);
-    rho = y.norm();
-    x = y;
-  }
-  g.omega = 4.0 / (3.0 * rho);
+  g.omega = 4.0 / (3.0 * sim::detail::jacobi_spectral_radius(A, g.inv_diag));
 }
 
 int pcg_geometric(const sim::detail::SparseRows& A, Geometric& g, const Eigen::VectorXd& b,

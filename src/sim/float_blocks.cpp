@@ -1,11 +1,10 @@
 // FloatBlocks (float_blocks.h): conversion from the multigrid's double CSR and the product.
 #include "float_blocks.h"
 
-#include <omp.h>
-
 #include <algorithm>
 
 #include "lamina/core/error.h"
+#include "solver.h"  // on_threads
 
 namespace lamina::sim::detail {
 
@@ -121,17 +120,11 @@ int32_t slice_start(const FloatBlocks& m, int t, int T) {
 void multiply(const FloatBlocks& m, const Eigen::VectorXd& x, Eigen::VectorXd& y, int threads,
               BlockProduct kind, const Eigen::VectorXd* b) {
   const double* bp = kind == BlockProduct::kResidual ? b->data() : nullptr;
-  if (threads <= 1 || m.nonzeros() < kThreadedFloats) {
-    rows(m, x.data(), y.data(), bp, kind, 0, m.block_rows);
-    return;
-  }
-#pragma omp parallel num_threads(threads)
-  {
-    const int t = omp_get_thread_num(), T = omp_get_num_threads();
+  on_threads(m.nonzeros() < kThreadedFloats ? 1 : threads, [&](int t, int T) {
     const int32_t row0 = slice_start(m, t, T);
     const int32_t row1 = t + 1 == T ? m.block_rows : slice_start(m, t + 1, T);
     rows(m, x.data(), y.data(), bp, kind, row0, row1);
-  }
+  });
 }
 
 }  // namespace lamina::sim::detail

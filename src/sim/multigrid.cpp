@@ -91,22 +91,6 @@ std::vector<int32_t> aggregate(const std::vector<int32_t>& offsets, const std::v
   return agg;
 }
 
-// rho(D^-1 A) by power iteration from a fixed start (the same hierarchy every run).
-double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_diag) {
-  Eigen::VectorXd x(A.rows()), y(A.rows());
-  power_iteration_start(x);
-  x.normalize();
-  double rho = 0.0;
-  for (int it = 0; it < 15; ++it) {
-    y.noalias() = A * x;
-    y = inv_diag.cwiseProduct(y);
-    rho = y.norm();
-    if (!(rho > 0.0)) break;
-    x = y / rho;
-  }
-  return rho;
-}
-
 // Every coarse node's unknowns: its rigid motions, padded to six.
 constexpr int kCoarseBlock = 6;
 
@@ -141,6 +125,21 @@ void finish_level(MultigridLevel& level, bool coarse) {
 }
 
 }  // namespace
+
+double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_diag) {
+  Eigen::VectorXd x(A.rows()), y(A.rows());
+  power_iteration_start(x);
+  x.normalize();
+  double rho = 0.0;
+  for (int it = 0; it < 15; ++it) {
+    y.noalias() = A * x;
+    y = inv_diag.cwiseProduct(y);
+    rho = y.norm();
+    if (!(rho > 0.0)) break;
+    x = y / rho;
+  }
+  return rho;
+}
 
 void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
                      int64_t coarsest_unknowns, bool smoothed) {

@@ -74,6 +74,10 @@ inline void power_iteration_start(Eigen::VectorXd& x) {
     x[k] = 1.0 + 0.5 * std::sin(1.7 * static_cast<double>(k));
 }
 
+/// rho(D^-1 A), D^-1 = `inv_diag`, by 15 power-iteration products from power_iteration_start()
+/// (the same estimate every run): a damped-Jacobi smoother's weight is 4 / (3 rho).
+double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_diag);
+
 /// Conjugate gradients on A x = b from zero, preconditioned by `precondition(r, z)` (z = B r),
 /// until |r| <= tol |b| or `cap` iterations; returns the iterations taken. For measuring a
 /// preconditioner (`auto`'s Jacobi trial, bench/multigrid_harness), not for the steps.

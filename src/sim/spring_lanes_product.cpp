@@ -68,7 +68,7 @@ void linearise_lanes(Solver& s, const Eigen::MatrixX3d& xm, int threads) {
   const int64_t n = t.nodes;
   auto run = [&](int th, int count) {
     for (int64_t q = reads * th / count, end = reads * (th + 1) / count; q < end; ++q)
-      pack_vector(t, x, t.reads_all ? q : t.read_nodes[q]);
+      pack_vector(t.packed.data(), x, t.reads_all ? q : t.read_nodes[q]);
     if (count > 1) {
 #pragma omp barrier
     }

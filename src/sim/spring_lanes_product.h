@@ -29,9 +29,9 @@ inline void gather_lane_force(const Solver& s, int32_t i, double& fx, double& fy
   const int64_t n = s.lanes.nodes;
   fx += f[i], fy += f[n + i], fz += f[2 * n + i];
 }
-/// Node i's row of p into SpringLanes::packed.
-inline void pack_vector(SpringLanes& t, const ConstCols& p, int64_t i) {
-  double* q = t.packed.data() + 4 * i;
+/// Node i's row of p into `packed` (4 doubles a node: SpringLanes::packed, TetAssembly::packed).
+inline void pack_vector(double* packed, const ConstCols& p, int64_t i) {
+  double* q = packed + 4 * i;
   q[0] = p.x[i], q[1] = p.y[i], q[2] = p.z[i];
 }
 
@@ -131,8 +131,7 @@ void for_assembled_products(Solver& s, const ConstCols& p, int threads, Partials
   const auto nodes = static_cast<int64_t>(s.active_nodes.size());
   auto run = [&](int th, int T) {
     double* packed = a.packed.data();
-    for (int64_t i = n * th / T, end = n * (th + 1) / T; i < end; ++i)
-      packed[4 * i] = p.x[i], packed[4 * i + 1] = p.y[i], packed[4 * i + 2] = p.z[i];
+    for (int64_t i = n * th / T, end = n * (th + 1) / T; i < end; ++i) pack_vector(packed, p, i);
     if (T > 1) {
 #pragma omp barrier
     }
@@ -187,7 +186,7 @@ void for_spring_products(Solver& s, const Eigen::MatrixX3d& pm, int threads, Par
   const int64_t reads = t.reads_all ? t.nodes : static_cast<int64_t>(t.read_nodes.size());
   auto run = [&](int th, int n) {
     for (int64_t q = reads * th / n, end = reads * (th + 1) / n; q < end; ++q)
-      pack_vector(t, p, t.reads_all ? q : t.read_nodes[q]);
+      pack_vector(t.packed.data(), p, t.reads_all ? q : t.read_nodes[q]);
     if (n > 1) {
 #pragma omp barrier
     }
