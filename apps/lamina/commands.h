@@ -163,6 +163,23 @@ struct SoakArgs {
 /// at rest (docs/testing.md). Exit 1 if any check fails.
 int run_soak(const SoakArgs& args);
 
+struct ResectArgs {
+  std::string input = io::kScenePhantom;  ///< segmentation; "phantom": its carved-out anatomy
+  std::string plane;                      ///< "X,Y,Z:NX,NY,NZ" (mm, LPS)
+  std::string surface;                    ///< or a surface or markups file
+  std::string keep;                       ///< "X,Y,Z": the remnant holds it; empty/"larger"
+  double margin_mm = 10.0;
+  std::string liver = "normal";    ///< normal, chemotherapy, cirrhosis
+  std::vector<int32_t> labels;     ///< the organ's labels (--label)
+  std::vector<std::string> embed;  ///< LABEL[=NAME]: tumours by name, others crossed
+  std::string output;              ///< folder: parts, surface, report.json
+  std::string format = "nii.gz";   ///< the parts' label volume: nii.gz, nii or nrrd
+  bool json = false;
+};
+/// Plans a resection: volumes, future liver remnant, tumour margins, structures crossed
+/// (docs/resection.md).
+int run_resect(const ResectArgs& args);
+
 struct ServeArgs {
   std::string what = io::kScenePhantom;  ///< model, input or scene, as `lamina view` takes it
   bool paper = false;                    ///< the reference paper's model and constants

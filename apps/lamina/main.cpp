@@ -365,6 +365,42 @@ int main(int argc, char** argv) {
                "the stability suite: indentations to 50%, pulls, several tools, dt sweeps per "
                "integrator, each released and checked (finite, layer order, energy, rest)");
 
+  cli::ResectArgs resect;
+  auto* rs = app.add_subcommand(
+      "resect",
+      "plan a resection on a segmentation: future liver remnant, tumour margins, vessels crossed "
+      "(docs/resection.md)");
+  rs->add_option("input", resect.input,
+                 "segmentation (NIfTI/NRRD/MetaImage/DICOM folder); 'phantom' (default) = the "
+                 "built-in phantom with its carved-out anatomy");
+  rs->add_option("--plane", resect.plane,
+                 "the resection plane: POINT:NORMAL in mm (patient LPS), e.g. 30,0,0:1,0,0");
+  rs->add_option("--surface", resect.surface,
+                 "or the resection surface: 3D Slicer markups (.mrk.json: a Plane or a "
+                 "ClosedCurve) or triangles (.obj, .ply, .stl, .off)");
+  rs->add_option("--keep", resect.keep,
+                 "the side kept: X,Y,Z (the side holding this point, mm) or 'larger' (default)");
+  rs->add_option("--margin", resect.margin_mm,
+                 "the margin wanted around each tumour, mm (default 10)")
+      ->check(CLI::Range(0.0, 200.0));
+  rs->add_option("--liver", resect.liver,
+                 "the liver's condition, which sets the least remnant: normal (20%, default), "
+                 "chemotherapy (30%), cirrhosis (40%)")
+      ->check(CLI::IsMember({"normal", "chemotherapy", "cirrhosis"}));
+  rs->add_option(
+        "--label", resect.labels,
+        "the organ's label(s), their union (default: every non-zero voxel; the phantom: 1)")
+      ->delimiter(',');
+  rs->add_option("--embed", resect.embed,
+                 "structures: LABEL[=NAME],... a name saying tumour (tumour, lesion, metastasis, "
+                 "HCC...) gets margins, the others (vessels, ducts) crossings")
+      ->delimiter(',');
+  rs->add_option("-o,--output", resect.output,
+                 "folder (created): parts.nii.gz (1 remnant, 2 resected, on the input's grid), "
+                 "surface.obj/.vtp, report.json");
+  rs->add_option("--format", resect.format, "the parts' label volume: nii.gz (default), nii, nrrd");
+  rs->add_flag("--json", resect.json, "print the report as one JSON object on stdout");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -417,6 +453,7 @@ int main(int argc, char** argv) {
       serve.auto_rate = serve_rate->count() == 0;
       return cli::run_serve(serve);
     }
+    if (*rs) return cli::run_resect(resect);
     if (*ru) {
       run.quiet = verbosity == 0;
       run.verbose = verbosity == 2;

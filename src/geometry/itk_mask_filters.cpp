@@ -68,6 +68,19 @@ ComponentStats keep_largest_component(Mask& mask) {
   return stats;
 }
 
+int32_t label_components(const Mask& mask, bool fully_connected, std::vector<int32_t>& labels) {
+  using LabelImage = itk::Image<int32_t, 3>;
+  auto input = wrap<uint8_t>(mask.frame, mask.inside.data());
+  auto cc = itk::ConnectedComponentImageFilter<MaskImage, LabelImage>::New();
+  cc->SetInput(input);
+  cc->SetFullyConnected(fully_connected);
+  cc->SetBackgroundValue(0);
+  update(cc.GetPointer(), "connected components");
+  const int32_t* out = cc->GetOutput()->GetBufferPointer();
+  labels.assign(out, out + mask.inside.size());
+  return static_cast<int32_t>(cc->GetObjectCount());
+}
+
 int64_t fill_cavities(Mask& mask) {
   // Flood the background from a corner; whatever background it cannot reach is a cavity.
   auto input = wrap<uint8_t>(mask.frame, mask.inside.data());

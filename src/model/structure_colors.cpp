@@ -1,8 +1,8 @@
 #include "lamina/model/structure_colors.h"
 
 #include <algorithm>
-#include <cctype>
 
+#include "lamina/geometry/plan_resection.h"
 #include "lamina/model/embed_surface.h"
 
 namespace lamina::model {
@@ -30,15 +30,6 @@ constexpr Rgb8 kPalette[] = {{240, 130, 30}, {210, 80, 200},  {60, 200, 180},  {
                              {130, 210, 60}, {250, 160, 190}, {120, 120, 255}, {200, 170, 120},
                              {40, 120, 120}, {255, 240, 150}, {160, 40, 110},  {90, 160, 255}};
 
-// Lower case, without spaces, '_' and '-': "Portal_Vein" and "portal vein" alike.
-std::string normalized(const std::string& name) {
-  std::string out;
-  for (const char c : name)
-    if (c != ' ' && c != '_' && c != '-')
-      out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out;
-}
-
 bool has(const std::string& s, const char* part) {
   return s.find(part) != std::string::npos;
 }
@@ -46,7 +37,7 @@ bool has(const std::string& s, const char* part) {
 }  // namespace
 
 std::optional<Rgb8> color_by_name(const std::string& name) {
-  const std::string n = normalized(name);
+  const std::string n = geometry::name_key(name);
   if (n == "wound") return kWound;
   if (has(n, "portal")) return kPortalVein;
   if (has(n, "hepatic") && (has(n, "vein") || has(n, "venous"))) return kHepaticVeins;
@@ -54,9 +45,7 @@ std::optional<Rgb8> color_by_name(const std::string& name) {
   if (has(n, "arter") || has(n, "aorta")) return kArtery;
   if (has(n, "bile") || has(n, "biliar")) return kBile;
   if (has(n, "gall")) return kGallbladder;
-  for (const char* t :
-       {"tumo", "lesion", "mass", "metasta", "carcinom", "hcc", "cancer", "neoplas", "nodule"})
-    if (has(n, t)) return kTumour;
+  if (geometry::is_tumour_name(name)) return kTumour;
   if (has(n, "vessel") || has(n, "vein") || has(n, "venous")) return kHepaticVeins;
   return std::nullopt;
 }

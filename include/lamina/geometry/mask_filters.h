@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "lamina/core/grid.h"
 
@@ -22,6 +23,14 @@ struct ComponentStats {
 /// @param[in,out] mask  binary mask
 /// @return the component count and what was dropped
 ComponentStats keep_largest_component(Mask& mask);
+
+/// Labels the foreground's connected components 1..count (0 = background), in ITK's order
+/// (first voxel met, i fastest).
+/// @param[in]  mask             binary mask
+/// @param[in]  fully_connected  26 neighbours (true) or face neighbours only (false)
+/// @param[out] labels           #voxels component labels
+/// @return the number of components
+int32_t label_components(const Mask& mask, bool fully_connected, std::vector<int32_t>& labels);
 
 /// Fills internal cavities: every background voxel not connected (6-neighbour) to the grid's
 /// border becomes foreground.

@@ -1,0 +1,123 @@
+#pragma once
+/// \file
+/// Resection planning on a patient's label volume: the future liver remnant, each tumour's
+/// margin and the structures a resection surface divides (`lamina resect`, docs/resection.md).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lamina/core/grid.h"
+#include "lamina/geometry/resection_surface.h"
+
+namespace lamina::geometry {
+
+/// The liver's condition, which sets the least future liver remnant a team accepts (Table 1 of
+/// PMC6422720: about 20% of a normal liver, 30% after more than three months of chemotherapy,
+/// 40% of a fibrotic or cirrhotic one).
+enum class LiverCondition { kNormal, kChemotherapy, kCirrhosis };
+double flr_threshold_percent(LiverCondition condition);
+const char* to_string(LiverCondition condition);
+
+/// A structure of the segmentation: a tumour (its margin is measured) or a vessel or duct (its
+/// crossings are found).
+struct ResectionStructure {
+  int32_t label = 0;
+  std::string name;
+  bool tumour = false;
+};
+
+/// A structure's name as compared: lower case, without spaces, '_' and '-' ("Portal_Vein" and
+/// "portal vein" alike).
+std::string name_key(const std::string& name);
+
+/// True for names that say tumour: "tumour", "lesion", "metastasis", "HCC", ... (any case, with
+/// or without '_', '-' or spaces).
+bool is_tumour_name(const std::string& name);
+
+struct ResectionOptions {
+  /// The organ's labels (their union; the structures' voxels it encloses join it, as in
+  /// `lamina build`); empty: every label > 0.
+  std::vector<int32_t> organ_labels;
+  std::vector<ResectionStructure> structures;
+  /// The remnant is the side holding this point (mm); none: the larger side.
+  std::optional<Eigen::Vector3d> keep_point;
+  double margin_mm = 10.0;  ///< the margin wanted around each tumour, mm
+  LiverCondition liver = LiverCondition::kNormal;
+};
+
+/// A tumour (one connected piece of a tumour label) against the resection surface.
+struct TumourMargin {
+  std::string name;
+  int32_t label = 0;
+  int32_t piece = 1;  ///< 1.. for the label's pieces, largest first
+  double volume_ml = 0.0;
+  Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
+  /// "resected", "remnant", or "divided" (the surface passes through it)
+  std::string side;
+  /// The least distance between the tumour's voxels and the surface, mm (0 when divided)
+  double margin_mm = 0.0;
+  Eigen::Vector3d nearest_mm = Eigen::Vector3d::Zero();  ///< the surface's point nearest it
+  /// Resected with at least the wanted margin
+  bool clear = false;
+};
+
+/// A place where the surface divides a structure (a vessel cut across).
+struct StructureCrossing {
+  std::string name;
+  int32_t label = 0;
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  ///< the section's centre, on the surface
+  double area_mm2 = 0.0;                                  ///< the section's area
+  double diameter_mm = 0.0;  ///< the circle of that area's: the local diameter
+};
+
+/// A connected piece of the remnant.
+struct RemnantPiece {
+  double volume_ml = 0.0;
+  Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
+};
+
+/// A remnant piece smaller than this is a sliver of voxels along the cut, not a finding.
+inline constexpr double kMinPieceMl = 1.0;
+
+struct ResectionReport {
+  std::string input;
+  double whole_ml = 0.0;  ///< the organ (with the structures it encloses)
+  double remnant_ml = 0.0;
+  double resected_ml = 0.0;
+  double flr_percent = 0.0;  ///< remnant / whole
+  double flr_threshold_percent = 0.0;
+  bool flr_sufficient = false;
+  LiverCondition liver = LiverCondition::kNormal;
+  double margin_mm = 0.0;        ///< the margin wanted
+  bool remnant_in_front = true;  ///< the remnant is on the surface's front
+  std::vector<TumourMargin> tumours;
+  std::vector<StructureCrossing> crossings;
+  std::vector<RemnantPiece> remnant_pieces;  ///< >= kMinPieceMl, largest first
+  double remnant_fragments_ml = 0.0;         ///< the smaller pieces' volume
+  /// Voxels counted by their centres (the label volume written): remnant, resected
+  int64_t remnant_voxels = 0, resected_voxels = 0;
+};
+
+struct ResectionPlan {
+  ResectionReport report;
+  /// On the input's grid: 1 for the remnant's voxels, 2 for the resected ones (by the side of
+  /// each voxel's centre), 0 elsewhere.
+  LabelVolume parts;
+};
+
+/// Plans a resection of the organ in `volume` along `side`'s surface. Volumes count the voxels
+/// whole where the surface misses them and split those it passes through exactly by the plane
+/// (by the surface's tangent plane at its nearest point, for triangles); margins are the least
+/// distance from a tumour's voxels (their boxes) to the surface; a structure is crossed where its
+/// voxels inside the organ meet the surface, each connected set of those one crossing, its area
+/// from their count (a voxel layer of thickness t holds area x t of volume). \note Throws
+/// lamina::Error (kInvalidInput) naming volume.source for an organ label or
+///   structure label that is absent, and for a surface that does not divide the organ (all of it
+///   on one side: "the resection surface misses the organ").
+ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
+                             const ResectionOptions& options);
+
+}  // namespace lamina::geometry
