@@ -27,4 +27,5 @@ PYBIND11_MODULE(_lamina, m) {
 
   lamina::python::bind_model(m);
   lamina::python::bind_simulation(m);
+  lamina::python::bind_resect(m);
 }

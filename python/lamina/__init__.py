@@ -49,7 +49,7 @@ if "GOMP_SPINCOUNT" not in os.environ and "OMP_WAIT_POLICY" not in os.environ:
 try:
     from ._lamina import (EmbeddedSurface, Error, Mask, Model, Simulation, StepStats,
                           __version__, build_model, load_model, nodes_near_plane, phantom,
-                          read_mask, scene_simulation)
+                          read_mask, resect, scene_simulation)
 except ImportError as _e:
     _built = sorted(os.path.basename(p) for p in glob.glob(os.path.join(_HERE, "_lamina*.so")))
     raise _cannot_import(
@@ -60,7 +60,7 @@ except ImportError as _e:
         "with." % (", ".join(_built) or "none", sys.executable)) from _e
 
 __all__ = ["EmbeddedSurface", "Error", "Mask", "Model", "Simulation", "StepStats", "__version__", "build_model",
-           "load_model", "nodes_near_plane", "phantom", "read_mask", "scene_simulation",
+           "load_model", "nodes_near_plane", "phantom", "read_mask", "resect", "scene_simulation",
            "run_scene", "validate", "executable"]
 
 

@@ -11,6 +11,7 @@
 #include <numeric>
 
 #include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/mask_filters.h"
 #include "lamina/geometry/prepare_mask.h"
 
@@ -125,6 +126,23 @@ bool is_tumour_name(const std::string& name) {
        {"tumo", "lesion", "mass", "metasta", "carcinom", "hcc", "cancer", "neoplas", "nodule"})
     if (n.find(t) != std::string::npos) return true;
   return false;
+}
+
+LabelVolume planning_phantom() {
+  PhantomOptions o;
+  o.carved_out = true;
+  o.anatomy = true;
+  return make_phantom(o);
+}
+
+ResectionOptions planning_phantom_options() {
+  ResectionOptions o;
+  o.organ_labels = {kPhantomLiver};
+  o.structures = {{kPhantomVessel, "portal_vein", false},
+                  {kPhantomTumour, "tumour", true},
+                  {kPhantomHepaticVeins, "hepatic_veins", false},
+                  {kPhantomVenaCava, "vena_cava", false}};
+  return o;
 }
 
 ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,

@@ -18,6 +18,7 @@
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/mesh_file.h"
 #include "lamina/io/resection_input.h"
+#include "lamina/io/resection_report.h"
 #include "plots.h"
 
 namespace lamina::cli {
@@ -49,105 +50,13 @@ geometry::ResectionSurface parse_plane(const std::string& text) {
   const size_t colon = text.find(':');
   if (colon == std::string::npos)
     throw invalid_input("--plane", "'" + text + "' is not POINT:NORMAL, e.g. 0,0,0:1,0,0");
-  return geometry::plane_surface(parse_point(text.substr(0, colon), "--plane"),
-                                 parse_point(text.substr(colon + 1), "--plane"));
-}
-
-// The built-in phantom for planning: its carved-out anatomy (liver, portal vein, two tumours,
-// hepatic veins, vena cava), as a patient's labelmap stores them.
-LabelVolume planning_phantom() {
-  geometry::PhantomOptions o;
-  o.carved_out = true;
-  o.anatomy = true;
-  return geometry::make_phantom(o);
-}
-
-ojson vec(const Eigen::Vector3d& v) {
-  const auto r = [](double x) { return std::round(x * 100.0) / 100.0; };
-  return ojson::array({r(v.x()), r(v.y()), r(v.z())});
-}
-
-double round2(double x) {
-  return std::round(x * 100.0) / 100.0;
-}
-
-std::vector<std::string> findings_of(const geometry::ResectionReport& r) {
-  std::vector<std::string> out;
-  if (!r.flr_sufficient)
-    out.push_back(
-        fmt::format("the future liver remnant, {:.1f}%, is below the {:.0f}% a {} liver "
-                    "needs",
-                    r.flr_percent, r.flr_threshold_percent, to_string(r.liver)));
-  for (const auto& t : r.tumours) {
-    const std::string who = fmt::format("{} {} ({:.1f} mL)", t.name, t.piece, t.volume_ml);
-    if (t.side == "divided")
-      out.push_back(who + " is divided by the resection surface (no margin)");
-    else if (t.side == "remnant")
-      out.push_back(
-          fmt::format("{} stays in the remnant, {:.1f} mm from the surface", who, t.margin_mm));
-    else if (!t.clear)
-      out.push_back(
-          fmt::format("{} is resected with a {:.1f} mm margin, under the {:.1f} mm "
-                      "wanted",
-                      who, t.margin_mm, r.margin_mm));
+  try {
+    return geometry::plane_surface(parse_point(text.substr(0, colon), "--plane"),
+                                   parse_point(text.substr(colon + 1), "--plane"));
+  } catch (const Error& e) {
+    if (std::string(e.what()).starts_with("--plane")) throw;
+    throw invalid_input("--plane", "'" + text + "': " + std::string(e.what()).substr(7));
   }
-  if (r.remnant_pieces.size() > 1)
-    out.push_back(fmt::format("the remnant is left in {} pieces", r.remnant_pieces.size()));
-  return out;
-}
-
-ojson to_json(const geometry::ResectionReport& r, const geometry::ResectionSurface& s,
-              const std::string& surface_source) {
-  ojson j;
-  j["input"] = r.input;
-  ojson surface;
-  if (s.is_plane) {
-    surface["kind"] = "plane";
-    surface["point_mm"] = vec(s.point);
-    surface["normal"] = ojson::array({s.normal.x(), s.normal.y(), s.normal.z()});
-  } else {
-    surface["kind"] = "triangles";
-    surface["source"] = surface_source;
-    surface["triangles"] = s.F.rows();
-  }
-  surface["remnant_side"] = r.remnant_in_front ? "front" : "back";
-  j["surface"] = surface;
-  j["volumes_ml"] = {{"whole", round2(r.whole_ml)},
-                     {"remnant", round2(r.remnant_ml)},
-                     {"resected", round2(r.resected_ml)}};
-  j["future_liver_remnant"] = {{"percent", round2(r.flr_percent)},
-                               {"liver", to_string(r.liver)},
-                               {"threshold_percent", r.flr_threshold_percent},
-                               {"sufficient", r.flr_sufficient}};
-  j["margin_wanted_mm"] = r.margin_mm;
-  ojson tumours = ojson::array();
-  for (const auto& t : r.tumours)
-    tumours.push_back({{"name", t.name},
-                       {"label", t.label},
-                       {"piece", t.piece},
-                       {"volume_ml", round2(t.volume_ml)},
-                       {"centre_mm", vec(t.centre_mm)},
-                       {"side", t.side},
-                       {"margin_mm", round2(t.margin_mm)},
-                       {"nearest_surface_point_mm", vec(t.nearest_mm)},
-                       {"clear", t.clear}});
-  j["tumours"] = tumours;
-  ojson crossings = ojson::array();
-  for (const auto& c : r.crossings)
-    crossings.push_back({{"name", c.name},
-                         {"label", c.label},
-                         {"position_mm", vec(c.position_mm)},
-                         {"area_mm2", round2(c.area_mm2)},
-                         {"diameter_mm", round2(c.diameter_mm)}});
-  j["structures_crossed"] = crossings;
-  ojson pieces = ojson::array();
-  for (const auto& p : r.remnant_pieces)
-    pieces.push_back({{"volume_ml", round2(p.volume_ml)}, {"centre_mm", vec(p.centre_mm)}});
-  j["remnant_pieces"] = pieces;
-  j["remnant_fragments_ml"] = round2(r.remnant_fragments_ml);
-  j["voxels_by_centre"] = {{"remnant", r.remnant_voxels}, {"resected", r.resected_voxels}};
-  j["findings"] = findings_of(r);
-  return j;
 }
 
 std::string text_of(const geometry::ResectionReport& r) {
@@ -173,7 +82,7 @@ std::string text_of(const geometry::ResectionReport& r) {
     t += fmt::format(" (and {:.2f} mL of slivers under {:.0f} mL along the cut)",
                      r.remnant_fragments_ml, geometry::kMinPieceMl);
   t += "\n";
-  for (const std::string& f : findings_of(r)) t += "finding: " + f + "\n";
+  for (const std::string& f : io::resection_findings(r)) t += "finding: " + f + "\n";
   return t;
 }
 
@@ -217,7 +126,7 @@ int run_resect(const ResectArgs& a) {
   opt.liver = liver;
   if (!a.keep.empty() && a.keep != "larger") opt.keep_point = parse_point(a.keep, "--keep");
   const bool phantom = a.input == io::kScenePhantom;
-  const LabelVolume volume = phantom ? planning_phantom() : read_input(a.input);
+  const LabelVolume volume = phantom ? geometry::planning_phantom() : read_input(a.input);
   opt.organ_labels = a.labels;
   for (const std::string& entry : a.embed) {
     const size_t eq = entry.find('=');
@@ -230,16 +139,13 @@ int run_resect(const ResectArgs& a) {
     opt.structures.push_back({label, name, geometry::is_tumour_name(name)});
   }
   if (phantom && a.labels.empty() && a.embed.empty()) {
-    opt.organ_labels = {geometry::kPhantomLiver};
-    opt.structures = {{geometry::kPhantomVessel, "portal_vein", false},
-                      {geometry::kPhantomTumour, "tumour", true},
-                      {geometry::kPhantomHepaticVeins, "hepatic_veins", false},
-                      {geometry::kPhantomVenaCava, "vena_cava", false}};
+    opt.organ_labels = geometry::planning_phantom_options().organ_labels;
+    opt.structures = geometry::planning_phantom_options().structures;
   }
   const geometry::SideOf side(surface);
   const geometry::ResectionPlan plan = geometry::plan_resection(volume, side, opt);
   const geometry::ResectionReport& r = plan.report;
-  ojson j = to_json(r, surface, a.surface);
+  ojson j = ojson::parse(io::resection_report_json(r, surface, a.surface));
 
   if (!a.output.empty()) {
     const fs::path out(a.output);
@@ -258,8 +164,9 @@ int run_resect(const ResectArgs& a) {
                     {"surface", {(out / "surface.obj").string(), (out / "surface.vtp").string()}},
                     {"report", (out / "report.json").string()}};
   }
-  j["seconds"] =
-      round2(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  j["seconds"] = std::round(seconds * 100.0) / 100.0;
   if (!a.output.empty()) write_text(fs::path(a.output) / "report.json", j.dump(2) + "\n");
   if (a.json)
     std::printf("%s\n", j.dump(2).c_str());

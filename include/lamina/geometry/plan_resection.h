@@ -108,6 +108,12 @@ struct ResectionPlan {
   LabelVolume parts;
 };
 
+/// The built-in phantom for planning: its carved-out anatomy (liver, portal vein, two tumours,
+/// hepatic veins, vena cava), as a patient's labelmap stores them (lamina phantom --carved-out).
+LabelVolume planning_phantom();
+/// Its organ label and structures, named (`lamina resect` with no --label or --embed).
+ResectionOptions planning_phantom_options();
+
 /// Plans a resection of the organ in `volume` along `side`'s surface. Volumes count the voxels
 /// whole where the surface misses them and split those it passes through exactly by the plane
 /// (by the surface's tangent plane at its nearest point, for triangles); margins are the least

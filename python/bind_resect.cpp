@@ -1,0 +1,108 @@
+// Resection planning: lamina.resect(), the report of `lamina resect --json` as a dict and the
+// parts as a numpy array (docs/resection.md).
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <optional>
+#include <variant>
+
+#include "bindings.h"
+#include "lamina/core/error.h"
+#include "lamina/geometry/plan_resection.h"
+#include "lamina/io/resection_input.h"
+#include "lamina/io/resection_report.h"
+#include "lamina/io/scene.h"
+#include "lamina/io/scene_model.h"
+
+namespace py = pybind11;
+
+namespace lamina::python {
+namespace {
+
+using Point = std::array<double, 3>;
+
+Eigen::Vector3d vec(const Point& p) {
+  return {p[0], p[1], p[2]};
+}
+
+// embed entries: 2, or (2, "portal_vein"); named by label when unnamed.
+geometry::ResectionStructure structure_of(const py::handle& entry) {
+  geometry::ResectionStructure s;
+  if (py::isinstance<py::int_>(entry)) {
+    s.label = entry.cast<int32_t>();
+    s.name = "label " + std::to_string(s.label);
+  } else {
+    const auto pair = entry.cast<std::pair<int32_t, std::string>>();
+    s.label = pair.first;
+    s.name = pair.second;
+  }
+  if (s.label <= 0) throw invalid_input("resect: embed", "a structure's label must be > 0");
+  s.tumour = geometry::is_tumour_name(s.name);
+  return s;
+}
+
+}  // namespace
+
+void bind_resect(py::module_& m) {
+  m.def(
+      "resect",
+      [](py::object input, std::optional<std::pair<Point, Point>> plane,
+         std::optional<std::string> surface, std::optional<Point> keep, double margin_mm,
+         const std::string& liver, const std::vector<int32_t>& labels, const py::sequence& embed) {
+        if (plane.has_value() == surface.has_value())
+          throw invalid_input("resect", "give one of plane=(point, normal) or surface=PATH");
+        geometry::ResectionOptions o;
+        const bool phantom =
+            py::isinstance<py::str>(input) && input.cast<std::string>() == io::kScenePhantom;
+        if (phantom && labels.empty() && embed.size() == 0)
+          o = geometry::planning_phantom_options();
+        if (!labels.empty()) o.organ_labels = labels;
+        for (const auto& e : embed) o.structures.push_back(structure_of(e));
+        o.margin_mm = margin_mm;
+        if (liver == "normal")
+          o.liver = geometry::LiverCondition::kNormal;
+        else if (liver == "chemotherapy")
+          o.liver = geometry::LiverCondition::kChemotherapy;
+        else if (liver == "cirrhosis")
+          o.liver = geometry::LiverCondition::kCirrhosis;
+        else
+          throw invalid_input("resect: liver",
+                              "'" + liver + "' is not normal, chemotherapy or cirrhosis");
+        if (keep) o.keep_point = vec(*keep);
+        const geometry::ResectionSurface s =
+            plane ? geometry::plane_surface(vec(plane->first), vec(plane->second))
+                  : io::read_resection_surface(*surface);
+        const LabelVolume volume =
+            phantom ? geometry::planning_phantom()
+                    : (py::isinstance<py::str>(input) ? io::read_input(input.cast<std::string>())
+                                                      : input.cast<LabelVolume>());
+        auto plan = std::make_shared<geometry::ResectionPlan>();
+        {
+          py::gil_scoped_release release;
+          const geometry::SideOf side(s);
+          *plan = geometry::plan_resection(volume, side, o);
+        }
+        py::dict report = py::module_::import("json").attr("loads")(
+            io::resection_report_json(plan->report, s, surface.value_or("")));
+        // The parts as a (k, j, i) int32 array that owns a copy of them, and as a lamina.Mask.
+        py::object mask = py::cast(plan->parts);
+        report["parts"] = mask.attr("labels").attr("copy")();
+        report["parts_mask"] = mask;
+        return report;
+      },
+      py::arg("mask") = "phantom", py::kw_only(), py::arg("plane") = py::none(),
+      py::arg("surface") = py::none(), py::arg("keep") = py::none(), py::arg("margin_mm") = 10.0,
+      py::arg("liver") = "normal", py::arg("labels") = std::vector<int32_t>{},
+      py::arg("embed") = py::list(),
+      "Plans a resection (lamina resect): mask is a Mask or a path ('phantom' = the built-in\n"
+      "one with its carved-out anatomy, already named). plane=((x, y, z), (nx, ny, nz)) mm LPS,\n"
+      "or surface=PATH (.mrk.json plane or closed curve, .obj, .ply, .stl, .off); keep: a point\n"
+      "on the side kept (None: the larger); margin_mm: the margin wanted around tumours; liver:\n"
+      "normal (20%), chemotherapy (30%) or cirrhosis (40%); labels: the organ's labels; embed:\n"
+      "structures, 2 or (2, 'portal_vein') - a name saying tumour gets margins.\n"
+      "Returns the report as a dict (the keys of `lamina resect --json`), with 'parts': int32\n"
+      "(k, j, i), 1 remnant, 2 resected, and 'parts_mask': the same as a lamina.Mask.");
+}
+
+}  // namespace lamina::python

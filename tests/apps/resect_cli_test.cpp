@@ -1,0 +1,158 @@
+// `lamina resect` as a user runs it: the report, the files it writes (read back as 3D Slicer
+// would read them), 3D Slicer's markups, and the inputs it refuses.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "lamina/io/label_volume_io.h"
+#include "support/refusal.h"
+#include "support/run_cli.h"
+#include "support/temp_dir.h"
+#include "support/test_paths.h"
+
+namespace lamina {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct Dir : test::TempDir {
+  fs::path work = path / "work";
+  Dir() { fs::create_directories(work); }
+};
+
+test::RunResult lamina(const Dir& d, const std::string& args) {
+  return test::run_cli(test::lamina_cli(), d.work, d.path, args);
+}
+
+void write(const fs::path& p, const std::string& text) {
+  std::ofstream(p) << text;
+}
+
+TEST(ResectCli, ThePhantomsPlanIsReportedAndWrittenForSlicer) {
+  const Dir d;
+  const auto r = lamina(d, "resect --plane 30,0,0:1,0,0 --margin 25 -o plan --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  const json file = json::parse(test::read_text(d.work / "plan" / "report.json"));
+  EXPECT_EQ(j["volumes_ml"], file["volumes_ml"]);
+  const double whole = j["volumes_ml"]["whole"], remnant = j["volumes_ml"]["remnant"];
+  EXPECT_NEAR(j["future_liver_remnant"]["percent"].get<double>(), 100.0 * remnant / whole, 0.01);
+  EXPECT_TRUE(j["future_liver_remnant"]["sufficient"].get<bool>());
+  // The lesion is resected 20 mm from the plane: under the 25 mm asked, a finding.
+  ASSERT_EQ(j["tumours"].size(), 2u);
+  EXPECT_EQ(j["tumours"][1]["side"], "resected");
+  EXPECT_FALSE(j["tumours"][1]["clear"].get<bool>());
+  EXPECT_EQ(j["structures_crossed"].size(), 3u);
+  bool said = false;
+  for (const auto& f : j["findings"])
+    said |= f.get<std::string>().find("under the 25.0 mm") != std::string::npos;
+  EXPECT_TRUE(said) << j["findings"].dump();
+
+  // The parts read back in ITK on the input's grid (the phantom's: lamina phantom --carved-out).
+  ASSERT_EQ(lamina(d, "phantom --carved-out -o phantom.nii.gz").exit_code, 0);
+  const LabelVolume input = io::read_label_volume((d.work / "phantom.nii.gz").string());
+  const LabelVolume parts = io::read_label_volume((d.work / "plan" / "parts.nii.gz").string());
+  EXPECT_EQ(parts.frame.size, input.frame.size);
+  EXPECT_EQ(parts.frame.spacing_mm, input.frame.spacing_mm);
+  EXPECT_EQ(parts.frame.origin_mm, input.frame.origin_mm);
+  EXPECT_EQ(parts.frame.direction, input.frame.direction);
+  int64_t counted[3] = {0, 0, 0};
+  for (const int32_t l : parts.labels) ++counted[std::clamp(l, 0, 2)];
+  EXPECT_EQ(counted[1], j["voxels_by_centre"]["remnant"].get<int64_t>());
+  EXPECT_EQ(counted[2], j["voxels_by_centre"]["resected"].get<int64_t>());
+  EXPECT_TRUE(fs::exists(d.work / "plan" / "surface.obj"));
+  EXPECT_TRUE(fs::exists(d.work / "plan" / "surface.vtp"));
+}
+
+TEST(ResectCli, AnObliqueGridsPartsKeepItsFrame) {
+  // The TotalSegmentator example (direction diag(-1, -1, 1)), as NRRD.
+  const Dir d;
+  const std::string input = test::shared_data("liver_totalseg_example_3mm_labels.nii.gz");
+  const auto r = lamina(d, "resect " + test::quoted(input) +
+                               " --label 1 --embed 2=portal_vein,3=vena_cava,4=gallbladder "
+                               "--plane -66,-185,392:1,0.2,0 --format nrrd -o out --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const LabelVolume in = io::read_label_volume(input);
+  const LabelVolume parts = io::read_label_volume((d.work / "out" / "parts.nrrd").string());
+  EXPECT_EQ(parts.frame.size, in.frame.size);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(parts.frame.spacing_mm[a], in.frame.spacing_mm[a], 1e-9);
+    EXPECT_NEAR(parts.frame.origin_mm[a], in.frame.origin_mm[a], 1e-6);
+  }
+  for (int e = 0; e < 9; ++e) EXPECT_NEAR(parts.frame.direction[e], in.frame.direction[e], 1e-9);
+  // Every liver voxel is a part, and no other.
+  for (size_t v = 0; v < in.labels.size(); ++v)
+    if (in.labels[v] == 1) ASSERT_NE(parts.labels[v], 0) << v;
+  const json j = json::parse(r.out);
+  EXPECT_GT(j["volumes_ml"]["remnant"].get<double>(), 0.0);
+  EXPECT_GT(j["volumes_ml"]["resected"].get<double>(), 0.0);
+}
+
+TEST(ResectCli, SlicerMarkupsGiveTheSamePlanAsThePlane) {
+  const Dir d;
+  // The plane x = 30 (LPS) as Slicer writes it in RAS: centre and normal; then a closed curve
+  // around the organ in that plane; then one control point with its axes.
+  write(d.work / "plane.mrk.json",
+        R"({"markups": [{"type": "Plane", "coordinateSystem": "RAS", "planeType": "pointNormal",
+            "center": [-30.0, 0.0, 0.0], "normal": [-1.0, 0.0, 0.0],
+            "controlPoints": [{"position": [-30.0, 0.0, 0.0]}]}]})");
+  write(d.work / "curve.mrk.json",
+        R"({"markups": [{"type": "ClosedCurve", "coordinateSystem": "LPS", "controlPoints": [
+            {"position": [30, -200, -200]}, {"position": [30, 200, -200]},
+            {"position": [30, 200, 200]}, {"position": [30, -200, 200]}]}]})");
+  write(d.work / "axes.mrk.json",
+        R"({"markups": [{"type": "Plane", "coordinateSystem": "LPS",
+            "baseToNode": [0, 0, 1, 0,  0, 1, 0, 0,  -1, 0, 0, 0,  0, 0, 0, 1],
+            "controlPoints": [{"position": [30, 0, 0]}]}]})");
+  const auto plane = lamina(d, "resect --plane 30,0,0:1,0,0 --json");
+  ASSERT_EQ(plane.exit_code, 0) << plane.err;
+  const json expected = json::parse(plane.out)["volumes_ml"];
+  for (const char* file : {"plane.mrk.json", "curve.mrk.json", "axes.mrk.json"}) {
+    const auto r = lamina(d, std::string("resect --surface ") + file + " --json");
+    ASSERT_EQ(r.exit_code, 0) << file << ": " << r.err;
+    EXPECT_EQ(json::parse(r.out)["volumes_ml"], expected) << file;
+  }
+}
+
+TEST(ResectCli, RefusesBadSurfacesWithOneLineAndWritesNothing) {
+  const Dir d;
+  write(d.work / "open.mrk.json",
+        R"({"markups": [{"type": "Curve", "controlPoints": [{"position": [0, 0, 0]},
+            {"position": [1, 0, 0]}, {"position": [1, 1, 0]}]}]})");
+  write(d.work / "points.mrk.json",
+        R"({"markups": [{"type": "Fiducial", "controlPoints": [{"position": [0, 0, 0]}]}]})");
+  write(d.work / "broken.mrk.json", R"({"markups": [{"type": "Plane", )");
+  write(d.work / "flat.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n");
+  struct Case {
+    std::string args;
+    std::vector<std::string> says;
+  };
+  const Case cases[] = {
+      {"--plane 0,0,500:0,0,1", {"misses the organ"}},
+      {"--plane 0,0,0:0,0,0", {"--plane", "zero length"}},
+      {"--plane 0,0,0", {"--plane", "POINT:NORMAL"}},
+      {"--plane 0,0,x:1,0,0", {"--plane", "three numbers"}},
+      {"--surface open.mrk.json", {"open.mrk.json", "not closed"}},
+      {"--surface points.mrk.json", {"points.mrk.json", "Fiducial"}},
+      {"--surface broken.mrk.json", {"broken.mrk.json", "JSON"}},
+      {"--surface flat.obj", {"flat.obj", "degenerate"}},
+      {"--surface missing.ply", {"missing.ply", "not found"}},
+      {"--surface plan.vtk", {"plan.vtk", "unsupported"}},
+      {"", {"--plane", "--surface"}},
+      {"--plane 0,0,0:1,0,0 --keep 0,5,5", {"--keep", "on the resection surface"}},
+      {"--plane 0,0,0:1,0,0 --embed 9=bile", {"label 9"}},
+  };
+  for (const Case& c : cases) {
+    const auto r = lamina(d, "resect " + c.args + " -o out");
+    const auto problems = test::refusal_problems(r, c.says, {"out"}, d.work);
+    EXPECT_TRUE(problems.empty()) << "lamina resect " << c.args << ":\n"
+                                  << test::as_list(problems) << r.err;
+  }
+}
+
+}  // namespace
+}  // namespace lamina

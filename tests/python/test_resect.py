@@ -1,0 +1,48 @@
+"""lamina.resect(): the same plan as `lamina resect --json`, the parts as numpy, errors as
+lamina.Error."""
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import lamina
+
+
+def test_resect_matches_the_command_line_and_gives_the_parts(cli):
+    r = lamina.resect(plane=((30, 0, 0), (1, 0, 0)), margin_mm=25)
+    done = subprocess.run([cli, "resect", "--plane", "30,0,0:1,0,0", "--margin",
+                           "25", "--json"], capture_output=True, text=True, check=True)
+    cli = json.loads(done.stdout)
+    for key in ("volumes_ml", "future_liver_remnant", "tumours", "structures_crossed",
+                "remnant_pieces", "findings"):
+        assert r[key] == cli[key], key
+    parts = r["parts"]
+    assert parts.dtype == np.int32 and parts.shape == r["parts_mask"].shape
+    assert (parts == 1).sum() == r["voxels_by_centre"]["remnant"]
+    assert (parts == 2).sum() == r["voxels_by_centre"]["resected"]
+    # The remnant is the larger side, x < 30 mm: its voxels' mean x is left of the plane.
+    m = r["parts_mask"]
+    i = np.arange(parts.shape[2]) * m.spacing_mm[0] + m.origin_mm[0]
+    assert (i[np.nonzero(parts == 1)[2]] < 30 + m.spacing_mm[0]).all()
+    assert any("under the 25.0 mm" in f for f in r["findings"])
+
+
+def test_resect_takes_a_mask_with_named_structures():
+    mask = lamina.phantom(carved_out=True)
+    r = lamina.resect(mask, plane=((-30, 0, 0), (1, 0, 0)), labels=[1],
+                      embed=[(2, "portal_vein"), (3, "tumour"), (4, "hepatic_veins")],
+                      keep=(60, 0, 0), liver="cirrhosis")
+    assert r["future_liver_remnant"]["threshold_percent"] == 40.0
+    assert r["surface"]["remnant_side"] == "front"
+    big = r["tumours"][0]
+    assert big["side"] == "resected" and abs(big["margin_mm"] - 15.0) < 2.6  # a voxel's diagonal
+    assert {c["name"] for c in r["structures_crossed"]} == {"portal_vein", "hepatic_veins"}
+
+
+def test_resect_refuses_a_plane_that_misses_the_organ():
+    with pytest.raises(lamina.Error, match="misses the organ") as e:
+        lamina.resect(plane=((0, 0, 500), (0, 0, 1)))
+    assert e.value.exit_code == 2
+    with pytest.raises(lamina.Error, match="plane="):
+        lamina.resect()
