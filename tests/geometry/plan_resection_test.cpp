@@ -21,19 +21,11 @@ namespace lamina::geometry {
 namespace {
 
 LabelVolume carved_phantom() {
-  PhantomOptions o;
-  o.carved_out = true;
-  return make_phantom(o);
+  return planning_phantom();
 }
 
 ResectionOptions carved_options() {
-  ResectionOptions o;
-  o.organ_labels = {kPhantomLiver};
-  o.structures = {{kPhantomVessel, "portal_vein", false},
-                  {kPhantomTumour, "tumour", true},
-                  {kPhantomHepaticVeins, "hepatic_veins", false},
-                  {kPhantomVenaCava, "vena_cava", false}};
-  return o;
+  return planning_phantom_options();
 }
 
 double diagonal(const GridFrame& f) {
