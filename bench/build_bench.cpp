@@ -2,23 +2,19 @@
 // 0.6x0.6x1.6 mm, the phantom resampled). File reading is excluded: the volume is made in
 // memory before timing. Every benchmark reports the process's peak resident memory.
 #include <benchmark/benchmark.h>
-#include <sys/resource.h>
 
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/mask_filters.h"
 #include "lamina/geometry/prepare_mask.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/compute_rings.h"
+#include "peak_rss.h"
 
 namespace {
 
 using namespace lamina;
 
-double peak_rss_mb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_maxrss) / 1024.0;  // Linux reports KiB
-}
+using bench::peak_rss_mb;
 
 // With its anatomy as labels (the organ is their union: the same voxels as without).
 const LabelVolume& clinical_mask() {

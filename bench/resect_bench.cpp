@@ -4,7 +4,6 @@
 // same run: preparing the organ's mask alone, which every plan does first. Every benchmark
 // reports the process's peak resident memory.
 #include <benchmark/benchmark.h>
-#include <sys/resource.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -13,16 +12,13 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/plan_resection.h"
 #include "lamina/geometry/prepare_mask.h"
+#include "peak_rss.h"
 
 namespace {
 
 using namespace lamina;
 
-double peak_rss_mb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_maxrss) / 1024.0;  // Linux reports KiB
-}
+using bench::peak_rss_mb;
 
 const LabelVolume& clinical_labels() {
   static const LabelVolume v = geometry::make_phantom(

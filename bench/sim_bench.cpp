@@ -3,7 +3,6 @@
 // locality 1..6 at thresholds 1e-3 and 1e-4 mm (the paper's figure 5). The paper's parameters:
 // K = 3, gamma = 3, unit masses, dt = 0.01, P = 4.
 #include <benchmark/benchmark.h>
-#include <sys/resource.h>
 
 #include <chrono>
 #include <map>
@@ -22,6 +21,7 @@
 #include "lamina/model/embed_surface.h"
 #include "lamina/sim/carry_over.h"
 #include "lamina/sim/simulation.h"
+#include "peak_rss.h"
 #include "sim/solver.h"  // white box: the tetrahedra's assembly switched per run
 
 namespace {
@@ -271,11 +271,7 @@ BENCHMARK(BM_DepthUnderSkin)->Arg(1284)->Arg(12840)->ArgName("skin")->Unit(bench
 
 namespace {
 
-double peak_rss_mb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_maxrss) / 1024.0;  // Linux reports KiB
-}
+using bench::peak_rss_mb;
 
 // A blade through the whole organ along the plane x = its nodes' mean (two pieces).
 model::Blade plane_through(const Model& m) {
