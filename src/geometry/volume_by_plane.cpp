@@ -81,6 +81,45 @@ PlaneSides volume_by_plane(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
   return out;
 }
 
+PlaneSides surface_volume_by_plane(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                   const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+  const Eigen::Vector3d n = unit_normal(point, normal);
+  // The divergence theorem from an apex on the plane: the volume in front is the sum of the
+  // signed cones from `point` over the surface's parts in front. The cap that closes it lies in
+  // the plane, through the apex, so its cones are flat and it adds nothing.
+  const auto cone = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                        const Eigen::Vector3d& c) {
+    return (a - point).dot((b - point).cross(c - point)) / 6.0;
+  };
+  PlaneSides out;
+  double whole = 0.0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d p[3] = {V.row(F(f, 0)).transpose(), V.row(F(f, 1)).transpose(),
+                                  V.row(F(f, 2)).transpose()};
+    const double d[3] = {(p[0] - point).dot(n), (p[1] - point).dot(n), (p[2] - point).dot(n)};
+    whole += cone(p[0], p[1], p[2]);
+    const int in = (d[0] > 0.0) + (d[1] > 0.0) + (d[2] > 0.0);
+    if (in == 0) continue;
+    if (in == 3) {
+      out.front_mm3 += cone(p[0], p[1], p[2]);
+      continue;
+    }
+    // Rotate so that corner 0 is the one alone on its side; the triangle's winding is kept.
+    int lone = 0;
+    for (int c = 0; c < 3; ++c)
+      if ((d[c] > 0.0) == (in == 1)) lone = c;
+    const int b = (lone + 1) % 3, c = (lone + 2) % 3;
+    const Eigen::Vector3d ab = crossing(p[lone], d[lone], p[b], d[b]);
+    const Eigen::Vector3d ac = crossing(p[lone], d[lone], p[c], d[c]);
+    if (in == 1)  // the corner triangle (lone, ab, ac) is in front
+      out.front_mm3 += cone(p[lone], ab, ac);
+    else  // the quadrilateral (ab, b, c, ac) is in front
+      out.front_mm3 += cone(ab, p[b], p[c]) + cone(ab, p[c], ac);
+  }
+  out.back_mm3 = whole - out.front_mm3;
+  return out;
+}
+
 PlaneSides voxel_volume_by_plane(const LabelVolume& labels, int32_t label,
                                  const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
   const Eigen::Vector3d n = unit_normal(point, normal);

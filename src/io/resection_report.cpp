@@ -98,7 +98,8 @@ std::string resection_report_json(const geometry::ResectionReport& r,
     pieces.push_back({{"volume_ml", round2(p.volume_ml)}, {"centre_mm", vec(p.centre_mm)}});
   j["remnant_pieces"] = pieces;
   j["remnant_fragments_ml"] = round2(r.remnant_fragments_ml);
-  j["voxels_by_centre"] = {{"remnant", r.remnant_voxels}, {"resected", r.resected_voxels}};
+  if (r.remnant_voxels + r.resected_voxels > 0)  // a segmentation's plan, not a model's
+    j["voxels_by_centre"] = {{"remnant", r.remnant_voxels}, {"resected", r.resected_voxels}};
   j["findings"] = resection_findings(r);
   return j.dump(2);
 }

@@ -92,6 +92,37 @@ TEST(ResectCli, AnObliqueGridsPartsKeepItsFrame) {
   EXPECT_GT(j["volumes_ml"]["resected"].get<double>(), 0.0);
 }
 
+TEST(ResectCli, AModelIsPlannedFromItsOwnSurfaces) {
+  // The phantom built with its anatomy embedded, then planned: the segmentation's plan within
+  // the display skin's 1%, no parts file (a model has no grid), and --embed refused for it.
+  const Dir d;
+  ASSERT_EQ(lamina(d, "phantom --carved-out -o p.nii.gz").exit_code, 0);
+  const auto b = lamina(d,
+                        "build p.nii.gz --label 1 --embed 2=portal_vein,3=tumour,4=hepatic_veins "
+                        "--display-triangles 30000 --structure-triangles 6000 -o m.vtu");
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const auto seg =
+      lamina(d,
+             "resect p.nii.gz --label 1 --embed 2=portal_vein,3=tumour,4=hepatic_veins "
+             "--plane 30,0,0:1,0,0 --json");
+  const auto mod = lamina(d, "resect m.vtu --plane 30,0,0:1,0,0 --json -o plan");
+  ASSERT_EQ(seg.exit_code, 0) << seg.err;
+  ASSERT_EQ(mod.exit_code, 0) << mod.err;
+  const json a = json::parse(seg.out), m = json::parse(mod.out);
+  for (const char* part : {"remnant", "resected"})
+    EXPECT_NEAR(m["volumes_ml"][part].get<double>(), a["volumes_ml"][part].get<double>(),
+                0.01 * a["volumes_ml"][part].get<double>())
+        << part;
+  EXPECT_EQ(m["tumours"].size(), a["tumours"].size());
+  EXPECT_EQ(m["structures_crossed"].size(), a["structures_crossed"].size());
+  EXPECT_FALSE(m.contains("voxels_by_centre"));
+  EXPECT_FALSE(fs::exists(d.work / "plan" / "parts.nii.gz"));
+  EXPECT_TRUE(fs::exists(d.work / "plan" / "report.json"));
+  const auto refused = lamina(d, "resect m.vtu --embed 2=x --plane 30,0,0:1,0,0 -o out");
+  const auto problems = test::refusal_problems(refused, {"m.vtu", "--embed"}, {"out"}, d.work);
+  EXPECT_TRUE(problems.empty()) << test::as_list(problems) << refused.err;
+}
+
 TEST(ResectCli, SlicerMarkupsGiveTheSamePlanAsThePlane) {
   const Dir d;
   // The plane x = 30 (LPS) as Slicer writes it in RAS: centre and normal; then a closed curve

@@ -17,8 +17,10 @@
 #include "lamina/geometry/plan_resection.h"
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/mesh_file.h"
+#include "lamina/io/model_file.h"
 #include "lamina/io/resection_input.h"
 #include "lamina/io/resection_report.h"
+#include "lamina/model/plan_on_model.h"
 #include "plots.h"
 
 namespace lamina::cli {
@@ -68,7 +70,7 @@ std::string text_of(const geometry::ResectionReport& r) {
                    r.flr_sufficient ? "sufficient" : "INSUFFICIENT");
   for (const auto& x : r.tumours)
     t += fmt::format(
-        "tumour {} {}: {:.1f} mL at ({:.1f}, {:.1f}, {:.1f}) mm, {}, margin {:.1f} mm "
+        "{} {}: {:.1f} mL at ({:.1f}, {:.1f}, {:.1f}) mm, {}, margin {:.1f} mm "
         "(wanted {:.1f}){}\n",
         x.name, x.piece, x.volume_ml, x.centre_mm.x(), x.centre_mm.y(), x.centre_mm.z(), x.side,
         x.margin_mm, r.margin_mm, x.clear ? "" : "  <-- not clear");
@@ -126,7 +128,7 @@ int run_resect(const ResectArgs& a) {
   opt.liver = liver;
   if (!a.keep.empty() && a.keep != "larger") opt.keep_point = parse_point(a.keep, "--keep");
   const bool phantom = a.input == io::kScenePhantom;
-  const LabelVolume volume = phantom ? geometry::planning_phantom() : read_input(a.input);
+  const bool model_input = a.input.ends_with(".vtu");
   opt.organ_labels = a.labels;
   for (const std::string& entry : a.embed) {
     const size_t eq = entry.find('=');
@@ -142,27 +144,43 @@ int run_resect(const ResectArgs& a) {
     opt.organ_labels = geometry::planning_phantom_options().organ_labels;
     opt.structures = geometry::planning_phantom_options().structures;
   }
-  const geometry::SideOf side(surface);
-  const geometry::ResectionPlan plan = geometry::plan_resection(volume, side, opt);
+  // A model: its own surfaces (plan_on_model); a segmentation: its voxels.
+  geometry::ResectionPlan plan;
+  if (model_input) {
+    if (!a.labels.empty() || !a.embed.empty())
+      throw invalid_input(a.input,
+                          "a model's structures are its own: --label and --embed are "
+                          "for segmentations");
+    const Model m = io::load_model(a.input);
+    plan.report = model::plan_on_model(m, m.X, surface, opt);
+  } else {
+    const LabelVolume volume = phantom ? geometry::planning_phantom() : read_input(a.input);
+    plan = geometry::plan_resection(volume, geometry::SideOf(surface), opt);
+  }
   const geometry::ResectionReport& r = plan.report;
   ojson j = ojson::parse(io::resection_report_json(r, surface, a.surface));
 
   if (!a.output.empty()) {
     const fs::path out(a.output);
     create_folder(out);
-    const std::string parts = (out / ("parts." + a.format)).string();
-    io::write_label_volume(plan.parts, parts);
-    Eigen::Vector3d centre;
-    double diagonal = 0.0;
-    parts_extent(plan.parts, centre, diagonal);
+    // A segmentation's parts on its grid; a model has no grid to write them on.
+    const std::string parts = model_input ? "" : (out / ("parts." + a.format)).string();
+    Eigen::Vector3d centre = surface.point;
+    double diagonal = 300.0;
+    if (!model_input) {
+      io::write_label_volume(plan.parts, parts);
+      parts_extent(plan.parts, centre, diagonal);
+    }
     SurfaceMesh mesh;
     geometry::surface_triangles(surface, centre, 1.2 * diagonal, mesh.V, mesh.F);
     io::write_mesh(mesh, (out / "surface.obj").string());
     io::write_mesh(mesh, (out / "surface.vtp").string());
-    j["outputs"] = {{"parts", parts},
-                    {"parts_labels", {{"1", "remnant"}, {"2", "resected"}}},
-                    {"surface", {(out / "surface.obj").string(), (out / "surface.vtp").string()}},
+    j["outputs"] = {{"surface", {(out / "surface.obj").string(), (out / "surface.vtp").string()}},
                     {"report", (out / "report.json").string()}};
+    if (!model_input) {
+      j["outputs"]["parts"] = parts;
+      j["outputs"]["parts_labels"] = {{"1", "remnant"}, {"2", "resected"}};
+    }
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

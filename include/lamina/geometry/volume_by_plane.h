@@ -23,6 +23,12 @@ struct PlaneSides {
 PlaneSides volume_by_plane(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
                            const Eigen::Vector3d& point, const Eigen::Vector3d& normal);
 
+/// The volume a closed, outward-wound triangle surface encloses on each side of the same plane,
+/// exactly (each triangle clipped; the cap the plane makes adds nothing to cones from a point on
+/// it). Throws as volume_by_plane for a bad plane.
+PlaneSides surface_volume_by_plane(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                   const Eigen::Vector3d& point, const Eigen::Vector3d& normal);
+
 /// The voxels of `labels` holding `label` (every label > 0 when `label` is 0) on each side of the
 /// same plane, each voxel on the side of its centre (in physical space: the grid's spacing,
 /// origin and direction), mm^3: the reference a model's volumes are checked against. Throws as

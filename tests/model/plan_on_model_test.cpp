@@ -1,0 +1,102 @@
+// plan_on_model against plan_resection on the segmentation the model was built from: the same
+// plan from the model's own surfaces (display skin, structures), and on a deformed shape.
+#include "lamina/model/plan_on_model.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/geometry/volume_by_plane.h"
+#include "lamina/model/build_model.h"
+
+namespace lamina::model {
+namespace {
+
+struct Built {
+  LabelVolume volume = geometry::planning_phantom();
+  Model model;
+  Built() {
+    BuildOptions o;
+    o.label = geometry::kPhantomLiver;
+    o.display_triangles = 40000;
+    o.structure_triangles = 8000;
+    for (const auto& s : geometry::planning_phantom_options().structures)
+      if (s.name != "vena_cava") o.embed.push_back({.name = s.name, .label = s.label});
+    model = build_model(volume, o).model;
+  }
+};
+
+const Built& built() {
+  static const Built b;
+  return b;
+}
+
+TEST(SurfaceVolumeByPlane, TheSkinSplitsAsTheTetrahedraThatFillIt) {
+  // The tetrahedra fill the skin exactly: its parts on each side of any plane are theirs.
+  const Model& m = built().model;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d n(g(rng), g(rng), g(rng)),
+        p = 30.0 * Eigen::Vector3d(g(rng), g(rng), g(rng));
+    const auto a = geometry::surface_volume_by_plane(m.X, m.layers[0].F, p, n);
+    const auto b = geometry::volume_by_plane(m.X, m.tets.T, p, n);
+    const double whole = b.front_mm3 + b.back_mm3;
+    EXPECT_NEAR(a.front_mm3, b.front_mm3, 1e-9 * whole);
+    EXPECT_NEAR(a.back_mm3, b.back_mm3, 1e-9 * whole);
+  }
+}
+
+TEST(PlanOnModel, GivesTheSegmentationsPlanFromItsOwnSurfaces) {
+  const Built& b = built();
+  const double diag = 1.5 * std::sqrt(3.0);
+  for (const double x0 : {-30.0, 30.0}) {
+    const auto plane = geometry::plane_surface({x0, 0, 0}, {1, 0, 0});
+    geometry::ResectionOptions o = geometry::planning_phantom_options();
+    o.structures.pop_back();  // the vena cava, not embedded
+    const auto voxels = geometry::plan_resection(b.volume, geometry::SideOf(plane), o).report;
+    const auto surfaces = plan_on_model(b.model, b.model.X, plane, o);
+    // The display skin encloses the mask's volume within 1%.
+    EXPECT_NEAR(surfaces.remnant_ml, voxels.remnant_ml, 0.01 * voxels.remnant_ml) << x0;
+    EXPECT_NEAR(surfaces.resected_ml, voxels.resected_ml, 0.01 * voxels.resected_ml) << x0;
+    EXPECT_EQ(surfaces.remnant_in_front, voxels.remnant_in_front);
+    ASSERT_EQ(surfaces.tumours.size(), voxels.tumours.size());
+    for (size_t t = 0; t < voxels.tumours.size(); ++t) {
+      EXPECT_EQ(surfaces.tumours[t].side, voxels.tumours[t].side) << x0;
+      EXPECT_NEAR(surfaces.tumours[t].margin_mm, voxels.tumours[t].margin_mm, diag) << x0;
+    }
+    ASSERT_EQ(surfaces.crossings.size(), voxels.crossings.size()) << x0;
+    for (const auto& c : voxels.crossings) {
+      int found = 0;
+      for (const auto& s : surfaces.crossings)
+        if (s.name == c.name && (s.position_mm - c.position_mm).norm() < 2.0 * diag) {
+          ++found;
+          EXPECT_NEAR(s.diameter_mm, c.diameter_mm, diag) << c.name;
+        }
+      EXPECT_EQ(found, 1) << c.name << " at " << c.position_mm.transpose();
+    }
+    EXPECT_EQ(surfaces.remnant_pieces.size(), 1u);
+  }
+}
+
+TEST(PlanOnModel, FollowsTheShapeItIsGiven) {
+  // The organ moved 10 mm along the plane's normal: the plane now lies 10 mm deeper in it.
+  const Built& b = built();
+  const auto plane = geometry::plane_surface({30, 0, 0}, {1, 0, 0});
+  const auto moved = geometry::plane_surface({20, 0, 0}, {1, 0, 0});
+  const geometry::ResectionOptions o;
+  Eigen::MatrixX3d x = b.model.X;
+  x.col(0).array() += 10.0;
+  const auto a = plan_on_model(b.model, x, plane, o);
+  const auto c = plan_on_model(b.model, b.model.X, moved, o);
+  EXPECT_NEAR(a.remnant_ml, c.remnant_ml, 1e-6 * c.whole_ml);
+  EXPECT_NEAR(a.tumours[1].margin_mm, c.tumours[1].margin_mm, 1e-9);
+  EXPECT_THROW(
+      plan_on_model(b.model, b.model.X, geometry::plane_surface({0, 0, 300}, {0, 0, 1}), o), Error);
+}
+
+}  // namespace
+}  // namespace lamina::model
