@@ -244,6 +244,52 @@ TEST(View, RealMouseEventsFromXdotoolCutTheOrganInScalpelModeAndUUndoesIt) {
   EXPECT_EQ(rep["unstable_events"], 0);
 }
 
+TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
+  // The phantom with its anatomy embedded; P shows the resection plane, a Shift+drag on it turns
+  // it, a drag moves it along its normal, the plan follows (the report's resection), and X
+  // divides the organ along it with the simulated cut: two pieces, the plan's volumes.
+  test::TempDir dir;
+  const std::string cli = quoted(test::lamina_cli());
+  std::ofstream(dir.path / "prepare.sh")
+      << cli << " phantom --carved-out -o p.nii.gz && " << cli
+      << " build p.nii.gz --label 1 --embed 2=portal_vein,3=tumour,4=hepatic_veins -o m.vtu\n";
+  ASSERT_EQ(run_shell(dir, "sh prepare.sh", "prepare_run.sh").exit_code, 0);
+  std::ofstream(dir.path / "quit.json")
+      << R"({"events": [{"at": 6.4, "window_screenshot": "planned.png"}, {"at": 11.0, "quit": true}]})";
+  std::ofstream(dir.path / "session.sh")
+      << cli << " -v view m.vtu --script quit.json --report report.json & "
+      << "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1.5; "
+         "xdotool key --window $w p sleep 1.0 keydown shift mousemove --window $w 800 450 "
+         "sleep 0.3 mousedown 1 sleep 0.2 mousemove --window $w 800 440 sleep 0.1 "
+         "mousemove --window $w 800 430 sleep 0.1 mousemove --window $w 800 420 sleep 0.1 "
+         "mouseup 1 keyup shift sleep 0.5 mousemove --window $w 800 450 sleep 0.3 mousedown 1 "
+         "sleep 0.3 mousemove --window $w 840 450 sleep 0.1 mousemove --window $w 880 450 "
+         "sleep 0.1 mousemove --window $w 920 450 sleep 0.3 mouseup 1 sleep 1.5 "
+         "key --window $w x sleep 2.5; wait\n";
+  const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json rep = json::parse(test::read_text(dir.path / "report.json"));
+  const json& plan = rep["resection"];
+  EXPECT_EQ(plan["moves"], 2) << "both presses should have met the plane\n" << r.err;
+  // Turned away from the organ's long axis (x), and moved along it from its centre (x -2.5).
+  EXPECT_LT(plan["normal"][0].get<double>(), 0.9995) << plan.dump();
+  EXPECT_GT(plan["point_mm"][0].get<double>(), 10.0) << plan.dump();
+  EXPECT_GE(plan["updates"].get<int>(), 10);
+  EXPECT_TRUE(plan["resected"].get<bool>());
+  EXPECT_EQ(plan["error"], "");
+  // The cut divided the organ in two; its larger piece is the plan's remnant (the display skin's
+  // volume against the tetrahedra's, which lie 1-2% inside it).
+  EXPECT_EQ(rep["cuts"], 1) << r.err;
+  const size_t at = r.err.find("lamina view: cut ");
+  ASSERT_NE(at, std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("2 piece(s)", at), std::string::npos) << r.err.substr(at, 200);
+  const double remnant = plan["remnant_ml"].get<double>();
+  const double piece = std::stod(r.err.substr(r.err.find("piece(s): ", at) + 10));
+  EXPECT_NEAR(piece, remnant, 0.03 * remnant);
+  EXPECT_TRUE(is_png(dir.path / "planned.png"));
+  EXPECT_EQ(rep["unstable_events"], 0);
+}
+
 TEST(View, WithoutADisplaySaysSoAndSuggestsRender) {
   test::TempDir dir;
   const auto r =

@@ -30,6 +30,8 @@ const char* gesture_name(Gesture g) {
       return "a grasp";
     case Gesture::kScalpel:
       return "a cut";
+    case Gesture::kPlane:
+      return "a move of the resection plane";
     case Gesture::kNone:
       break;
   }
@@ -64,6 +66,10 @@ void ViewSession::State::handle_key(const std::string& key) {
     tool_mode = grasp_mode = false;
   } else if (key == "d") {
     style.display_skin = !style.display_skin;  // the display skin or the simulation's
+  } else if (key == "p") {
+    toggle_plan();
+  } else if (key == "x") {
+    resect_plan();
   } else if (key == "u") {
     loop->undo_cut();  // adopt_cut() shows the model it goes back to
     cut_message = snap.undoable > 0 ? "undoing the last cut..." : "no cut to undo";
@@ -81,7 +87,11 @@ void ViewSession::State::start_left_gesture(const render::Input& in) {
   if (have_x) hit = interact::pick_skin(vm->model, snap.x, ray.origin, ray.direction);
   const std::string where = fmt::format("press at ({:.0f}, {:.0f}) of {}x{}", in.mouse_px.x(),
                                         in.mouse_px.y(), size.x(), size.y());
-  if (scalpel_mode) {
+  if (press_on_plane(ray.origin, ray.direction)) {
+    // With the resection plane shown, a press on it moves it (Shift turns it).
+    gesture = Gesture::kPlane;
+    last_press = where + ": the resection plane";
+  } else if (scalpel_mode) {
     // The blade's path starts where the press meets the skin (or, off the organ, at the depth
     // of the organ's centre); the blade goes in along the view direction.
     gesture = Gesture::kScalpel;
@@ -226,6 +236,10 @@ void ViewSession::State::handle_mouse(const render::Input& in) {
       }
       break;
     }
+    case Gesture::kPlane:
+      move_plane(in.mouse_px - press_pos, in.shift);
+      if (!left_down) gesture = Gesture::kNone;
+      break;
     case Gesture::kNone:
       break;
   }

@@ -164,6 +164,7 @@ void ViewSession::State::panels() {
                            ImGuiSliderFlags_Logarithmic))
       tip.stiffness_n_per_m = k;
   }
+  plan_panel();
   if (ImGui::CollapsingHeader("Material", ImGuiTreeNodeFlags_DefaultOpen)) {
     if (material.young_modulus_kpa > 0.0) {
       // The physical tissue in the tetrahedra: E and nu identify every spring and volume term

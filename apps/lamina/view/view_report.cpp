@@ -88,6 +88,7 @@ nlohmann::json ViewSession::State::report() const {
   j["cuts"] = cuts;
   j["nodes"] = vm->model.node_count();
   j["structures_cut"] = static_cast<int64_t>(crossed.size());
+  j["resection"] = plan_json();
   j["drag_node"] = last_drag_node;
   j["drag_peak_displacement_mm"] = drag_peak_mm;
   j["drag_peak_node"] = drag_peak_node;

@@ -79,9 +79,10 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
         ev.mode = value.get<std::string>();
       } else if (key == "key") {
         if (value != "r" && value != "space" && value != "c" && value != "t" && value != "g" &&
-            value != "d" && value != "k" && value != "u")
-          throw invalid_input(
-              at, "expected \"r\", \"space\", \"c\", \"t\", \"g\", \"k\", \"u\" or \"d\"");
+            value != "d" && value != "k" && value != "u" && value != "p" && value != "x")
+          throw invalid_input(at,
+                              "expected \"r\", \"space\", \"c\", \"t\", \"g\", \"k\", \"u\", "
+                              "\"d\", \"p\" or \"x\"");
         ev.key = value.get<std::string>();
       } else if (key == "screenshot") {
         if (!value.is_string() || value.get<std::string>().empty())

@@ -271,6 +271,7 @@ void ViewSession::State::on_frame() {
     }
   handle_mouse(in);
   panels();
+  update_plan();
   show_state();
   if (view_shot) {
     view_shot = false;

@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "lamina/geometry/plan_resection.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/render/input.h"
 #include "lamina/render/viewer.h"
@@ -21,7 +22,7 @@ namespace lamina::cli {
 
 using Clock = std::chrono::steady_clock;
 
-enum class Gesture { kNone, kOrbit, kPan, kDrag, kTool, kGrasp, kScalpel };
+enum class Gesture { kNone, kOrbit, kPan, kDrag, kTool, kGrasp, kScalpel, kPlane };
 
 // A fixed-length history for the live plots.
 struct History {
@@ -93,6 +94,29 @@ struct ViewSession::State {
   int32_t watched = -1;
   std::string last_press;  // what the last left press did, and why
 
+  // The resection plane (P, view_plan.cpp): placed over the organ, moved with the mouse, the plan
+  // followed live; X resects along it.
+  struct Plan {
+    bool on = false, placed = false, resected = false;
+    Eigen::Vector3d point = Eigen::Vector3d::Zero(), normal = Eigen::Vector3d::UnitX();
+    Eigen::Vector3d grab = Eigen::Vector3d::Zero();  // where the press met the plane
+    Eigen::Vector3d point_at_press = Eigen::Vector3d::Zero();
+    Eigen::Vector3d normal_at_press = Eigen::Vector3d::UnitX();
+    double size_mm = 200.0;  // the square drawn (and cut along)
+    float margin_mm = 10.0f;
+    int liver = 0;  // geometry::LiverCondition
+    int keep = 0;   // the larger side, the front, the back
+    bool dirty = true;
+    uint64_t generation = ~uint64_t{0};  // the snapshot planned on
+    double last_s = -1.0;                // when, in the session's seconds
+    geometry::ResectionReport report;
+    std::string error;
+    int64_t updates = 0, moves = 0;
+    std::vector<double> update_ms;
+    std::vector<render::EmbeddedLook> looks;  // the structures' colours before the margins'
+  } plan;
+  std::string plan_message;
+
   // Plots.
   History h_displacement, h_volume, h_step_us, h_rate;
 
@@ -153,6 +177,14 @@ struct ViewSession::State {
   void handle_mouse(const render::Input& in);
   void start_left_gesture(const render::Input& in);
   void cut_along_path();
+  // view_plan.cpp
+  void toggle_plan();
+  void update_plan();  // each frame: the plan again when the plane or the organ moved
+  bool press_on_plane(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction);
+  void move_plane(const Eigen::Vector2d& drag_px, bool turn);
+  void resect_plan();
+  void plan_panel();
+  nlohmann::json plan_json() const;
   // view_panels.cpp
   void panels();
   void embedded_panel(const Model& m);  // the Display panel's embedded surfaces

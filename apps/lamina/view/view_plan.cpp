@@ -1,0 +1,273 @@
+// The resection plane (P; issue 49, docs/viewer.md): a translucent square over the organ, moved
+// by a left drag on it (along its normal) or turned by a Shift+left drag; the plan
+// (model::plan_on_model: remnant, FLR, each tumour's margin, the vessels it crosses) follows it
+// live on the organ's current shape; the tumours and the plane take the margin's colours; X (or
+// "Resect") divides the organ along it with the simulated cut.
+#include <fmt/format.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/model/embed_surface.h"
+#include "lamina/model/plan_on_model.h"
+#include "lamina/render/camera.h"
+#include "view_session_state.h"
+
+namespace lamina::cli {
+namespace {
+
+constexpr const char* kPlaneName = "resection_plane";
+
+// Margin colours: divided or inside the wanted margin, left in the remnant, clear.
+const Eigen::Vector3f kRed(0.92f, 0.15f, 0.12f), kAmber(0.95f, 0.65f, 0.1f),
+    kGreen(0.25f, 0.8f, 0.35f);
+
+// A model holding the plane's square, so the engine draws it beside the organ. Each triangle
+// twice, once each way: a translucent skin is drawn by its front faces only, and the plane is
+// seen from both sides.
+Model square_model(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  Model m;
+  m.X = V;
+  m.mass_kg.assign(static_cast<size_t>(V.rows()), 1.0);
+  m.layer_of.assign(static_cast<size_t>(V.rows()), 0);
+  m.fixed.assign(static_cast<size_t>(V.rows()), 0);
+  ModelLayer layer;
+  layer.node_count = static_cast<int32_t>(V.rows());
+  layer.F.resize(2 * F.rows(), 3);
+  layer.F.topRows(F.rows()) = F;
+  layer.F.bottomRows(F.rows()) = F.rowwise().reverse();
+  m.layers.push_back(layer);
+  m.source = "resection plane";
+  return m;
+}
+
+// The colour of a tumour's worst piece.
+Eigen::Vector3f margin_color(const geometry::TumourMargin& t) {
+  if (t.side == "divided" || (t.side == "resected" && !t.clear)) return kRed;
+  if (t.side == "remnant") return kAmber;
+  return kGreen;
+}
+
+}  // namespace
+
+void ViewSession::State::toggle_plan() {
+  plan.on = !plan.on;
+  if (plan.on) {
+    if (!plan.placed) {
+      // Through the organ's centre, across its longest extent.
+      const Eigen::MatrixX3d& x = snap.x.rows() == vm->model.node_count() ? snap.x : vm->model.X;
+      const Eigen::Vector3d lo = x.colwise().minCoeff().transpose(),
+                            hi = x.colwise().maxCoeff().transpose();
+      plan.point = 0.5 * (lo + hi);
+      Eigen::Index axis = 0;
+      (hi - lo).maxCoeff(&axis);
+      plan.normal = Eigen::Vector3d::Unit(axis);
+      plan.size_mm = 1.2 * (hi - lo).norm();
+      plan.placed = true;
+    }
+    plan.looks = style.embedded;
+    plan.dirty = true;
+  } else {
+    if (render::has_model(kPlaneName)) render::remove_model(kPlaneName);
+    style.embedded = plan.looks;
+  }
+}
+
+void ViewSession::State::update_plan() {
+  if (!plan.on) return;
+  const bool have_x = snap.x.rows() == vm->model.node_count();
+  // The plane moved: plan now. The organ moved: at most 10 times a second.
+  const double t = seconds();
+  const bool organ_moved = have_x && snap.generation != plan.generation && t - plan.last_s >= 0.1;
+  if (!plan.dirty && !organ_moved) return;
+  plan.dirty = false;
+  plan.generation = snap.generation;
+  plan.last_s = t;
+  const auto start = Clock::now();
+  const Eigen::MatrixX3d& x = have_x ? snap.x : vm->model.X;
+  std::vector<const Eigen::MatrixX3d*> embedded_x;
+  if (render::has_model(kModelName))
+    for (const Eigen::MatrixX3d& e : render::embedded_positions(kModelName))
+      embedded_x.push_back(e.rows() > 0 ? &e : nullptr);
+  geometry::ResectionOptions o;
+  o.margin_mm = plan.margin_mm;
+  o.liver = static_cast<geometry::LiverCondition>(plan.liver);
+  if (plan.keep == 1) o.keep_point = plan.point + plan.normal;
+  if (plan.keep == 2) o.keep_point = plan.point - plan.normal;
+  try {
+    const geometry::ResectionSurface s = geometry::plane_surface(plan.point, plan.normal);
+    plan.report = model::plan_on_model(vm->model, x, s, o, embedded_x);
+    plan.error.clear();
+  } catch (const Error& e) {
+    plan.error = e.what();
+  }
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  plan.update_ms.push_back(ms);
+  ++plan.updates;
+
+  // The square, and the margin colours.
+  Eigen::MatrixX3d V;
+  Eigen::MatrixX3i F;
+  geometry::surface_triangles(geometry::plane_surface(plan.point, plan.normal), plan.point,
+                              plan.size_mm, V, F);
+  if (!render::has_model(kPlaneName)) {
+    render::register_model(kPlaneName, square_model(V, F));
+  } else {
+    render::update_positions(kPlaneName, V);
+  }
+  Eigen::Vector3f plane_color = kGreen;
+  style.embedded = plan.looks;
+  for (size_t s = 0; s < vm->model.embedded.size() && s < style.embedded.size(); ++s) {
+    const EmbeddedSurface& e = vm->model.embedded[s];
+    bool first = true;
+    for (const geometry::TumourMargin& tm : plan.report.tumours) {
+      if (tm.name != e.name) continue;
+      const Eigen::Vector3f c = margin_color(tm);
+      // A surface takes its worst piece's colour; the plane the worst of all.
+      if (first || c == kRed || (c == kAmber && style.embedded[s].color == kGreen))
+        style.embedded[s].color = c;
+      first = false;
+      if (c == kRed) plane_color = kRed;
+    }
+  }
+  if (!plan.error.empty()) plane_color = Eigen::Vector3f(0.6f, 0.6f, 0.6f);
+  render::Style ps;
+  ps.organ_color = plane_color;
+  ps.skin_alpha = 0.4f;
+  ps.inner = render::InnerLayers::kHidden;
+  render::set_style(kPlaneName, ps);
+}
+
+bool ViewSession::State::press_on_plane(const Eigen::Vector3d& origin,
+                                        const Eigen::Vector3d& direction) {
+  if (!plan.on) return false;
+  const double along = direction.dot(plan.normal);
+  if (std::abs(along) < 1e-9) return false;
+  const double t = (plan.point - origin).dot(plan.normal) / along;
+  if (t <= 0.0) return false;
+  const Eigen::Vector3d at = origin + t * direction;
+  const Eigen::Vector3d off = at - plan.point;
+  // Inside the square (its half-width along any in-plane direction at most, loosely: a disc).
+  if (off.norm() > 0.5 * plan.size_mm) return false;
+  plan.grab = at;
+  plan.point_at_press = plan.point;
+  plan.normal_at_press = plan.normal;
+  ++plan.moves;
+  return true;
+}
+
+void ViewSession::State::move_plane(const Eigen::Vector2d& drag_px, bool turn) {
+  const Eigen::Vector2i size = render::window_size();
+  const Eigen::Vector3d d =
+      render::drag_in_view_plane(render::camera(), size.y(), plan.grab, drag_px.x(), drag_px.y());
+  if (turn) {
+    // The normal tips towards the drag: a drag of the square's half-width turns it 45 degrees.
+    const Eigen::Vector3d n =
+        plan.normal_at_press + d / (0.5 * plan.size_mm) -
+        (d / (0.5 * plan.size_mm)).dot(plan.normal_at_press) * plan.normal_at_press;
+    if (n.norm() > 1e-9) plan.normal = n.normalized();
+    plan.point = plan.point_at_press;
+  } else {
+    plan.point = plan.point_at_press + d.dot(plan.normal_at_press) * plan.normal_at_press;
+  }
+  plan.dirty = true;
+}
+
+void ViewSession::State::resect_plan() {
+  if (!plan.on || !plan.error.empty()) {
+    plan_message = plan.on ? "nothing to resect: " + plan.error : "place the plane first (P)";
+    return;
+  }
+  // The blade sweeps the whole square: its path along one side, its depth across the other.
+  Eigen::MatrixX3d V;
+  Eigen::MatrixX3i F;
+  geometry::surface_triangles(geometry::plane_surface(plan.point, plan.normal), plan.point,
+                              plan.size_mm, V, F);
+  const Eigen::Vector3d a = V.row(0), b = V.row(1), c = V.row(3);
+  try {
+    loop->cut({a, b}, (c - a).normalized(), (c - a).norm());
+  } catch (const Error& e) {
+    plan_message = e.what();
+    return;
+  }
+  plan.resected = true;
+  plan_message =
+      fmt::format("resecting: remnant {:.1f} mL ({:.1f}%), resected {:.1f} mL",
+                  plan.report.remnant_ml, plan.report.flr_percent, plan.report.resected_ml);
+  cut_message = "cutting...";
+  log::info("lamina view: {}", plan_message);
+  toggle_plan();  // the plane goes; the cut's report follows (adopt_cut)
+}
+
+void ViewSession::State::plan_panel() {
+  if (!ImGui::CollapsingHeader("Resection plan", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  bool on = plan.on;
+  if (ImGui::Checkbox("Plan a resection (P)", &on)) toggle_plan();
+  if (!plan_message.empty()) ImGui::TextWrapped("%s", plan_message.c_str());
+  if (!plan.on) return;
+  ImGui::TextWrapped("Drag the plane to move it, Shift+drag to turn it.");
+  plan.dirty |= ImGui::SliderFloat("margin wanted, mm", &plan.margin_mm, 0.0f, 30.0f, "%.0f");
+  const char* livers[] = {"normal (20%)", "chemotherapy (30%)", "cirrhosis (40%)"};
+  plan.dirty |= ImGui::Combo("liver", &plan.liver, livers, 3);
+  const char* keeps[] = {"larger side", "front", "back"};
+  plan.dirty |= ImGui::Combo("keep", &plan.keep, keeps, 3);
+  if (!plan.error.empty()) {
+    ImGui::TextColored(ImVec4(0.9f, 0.4f, 0.3f, 1.0f), "%s", plan.error.c_str());
+  } else {
+    const geometry::ResectionReport& r = plan.report;
+    ImGui::Text("remnant %.0f mL, resected %.0f mL", r.remnant_ml, r.resected_ml);
+    const ImVec4 ok(0.4f, 0.9f, 0.45f, 1.0f), bad(0.95f, 0.3f, 0.25f, 1.0f),
+        warn(0.95f, 0.7f, 0.2f, 1.0f);
+    ImGui::TextColored(r.flr_sufficient ? ok : bad, "FLR %.1f%% (at least %.0f%%)", r.flr_percent,
+                       r.flr_threshold_percent);
+    for (const geometry::TumourMargin& t : r.tumours) {
+      const Eigen::Vector3f c = margin_color(t);
+      ImGui::TextColored(c == kRed     ? bad
+                         : c == kAmber ? warn
+                                       : ok,
+                         "%s %d: %s, margin %.1f mm", t.name.c_str(), t.piece, t.side.c_str(),
+                         t.margin_mm);
+    }
+    for (const geometry::StructureCrossing& c : r.crossings)
+      ImGui::Text("crosses %s, %.1f mm", c.name.c_str(), c.diameter_mm);
+    if (r.remnant_pieces.size() > 1)
+      ImGui::TextColored(bad, "remnant in %zu pieces", r.remnant_pieces.size());
+  }
+  if (!plan.update_ms.empty())
+    ImGui::Text("plan: %.1f ms (%lld updates)", plan.update_ms.back(),
+                static_cast<long long>(plan.updates));
+  if (ImGui::Button("Resect (X)")) resect_plan();
+}
+
+nlohmann::json ViewSession::State::plan_json() const {
+  nlohmann::json j;
+  j["on"] = plan.on;
+  j["resected"] = plan.resected;
+  j["point_mm"] = {plan.point.x(), plan.point.y(), plan.point.z()};
+  j["normal"] = {plan.normal.x(), plan.normal.y(), plan.normal.z()};
+  j["moves"] = plan.moves;
+  j["updates"] = plan.updates;
+  std::vector<double> ms = plan.update_ms;
+  if (!ms.empty()) {
+    std::sort(ms.begin(), ms.end());
+    j["update_ms_median"] = ms[ms.size() / 2];
+    j["update_ms_max"] = ms.back();
+  }
+  j["error"] = plan.error;
+  j["message"] = plan_message;
+  j["remnant_ml"] = plan.report.remnant_ml;
+  j["resected_ml"] = plan.report.resected_ml;
+  j["flr_percent"] = plan.report.flr_percent;
+  nlohmann::json tumours = nlohmann::json::array();
+  for (const auto& t : plan.report.tumours)
+    tumours.push_back({{"name", t.name}, {"side", t.side}, {"margin_mm", t.margin_mm}});
+  j["tumours"] = tumours;
+  j["crossings"] = plan.report.crossings.size();
+  return j;
+}
+
+}  // namespace lamina::cli
