@@ -187,7 +187,9 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
   if (opt.organ_labels.size() > 1) mo.labels = opt.organ_labels;
   mo.structures = n_structures > 0 ? &structures : nullptr;
   mo.structure_count = n_structures;
-  const Mask organ = prepare_mask(volume, mo).mask;
+  ResectionPlan plan;
+  plan.organ = prepare_mask(volume, mo).mask;
+  const Mask& organ = plan.organ;
   const GridFrame& g = organ.frame;
   const Axes in_axes(f), axes(g);
   // The mask's voxel (i, j, k) is the input's (i + off): same spacing and directions.
@@ -272,7 +274,6 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
                                     std::to_string(static_cast<int64_t>(whole_mm3 / 1000.0 + 0.5)) +
                                     " mL lie on one side");
 
-  ResectionPlan plan;
   ResectionReport& r = plan.report;
   r.input = source;
   r.liver = opt.liver;

@@ -23,6 +23,21 @@ EmbeddedLook embedded_look(const Model& model, size_t index) {
   return look;
 }
 
+Model mesh_model(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, bool two_sided) {
+  Model m;
+  m.X = V;
+  m.mass_kg.assign(static_cast<size_t>(V.rows()), 1.0);
+  m.layer_of.assign(static_cast<size_t>(V.rows()), 0);
+  m.fixed.assign(static_cast<size_t>(V.rows()), 0);
+  ModelLayer layer;
+  layer.node_count = static_cast<int32_t>(V.rows());
+  layer.F.resize((two_sided ? 2 : 1) * F.rows(), 3);
+  layer.F.topRows(F.rows()) = F;
+  if (two_sided) layer.F.bottomRows(F.rows()) = F.rowwise().reverse();
+  m.layers.push_back(std::move(layer));
+  return m;
+}
+
 Style default_style(const Model& model) {
   Style style;
   for (size_t i = 0; i < model.embedded.size(); ++i)

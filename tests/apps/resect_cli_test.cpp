@@ -66,6 +66,10 @@ TEST(ResectCli, ThePhantomsPlanIsReportedAndWrittenForSlicer) {
   EXPECT_EQ(counted[2], j["voxels_by_centre"]["resected"].get<int64_t>());
   EXPECT_TRUE(fs::exists(d.work / "plan" / "surface.obj"));
   EXPECT_TRUE(fs::exists(d.work / "plan" / "surface.vtp"));
+  // The picture (EGL, no display): a PNG, named in the report.
+  const std::string png = test::read_text(d.work / "plan" / "resection.png");
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  EXPECT_EQ(file["outputs"]["picture"], "plan/resection.png");
 }
 
 TEST(ResectCli, AnObliqueGridsPartsKeepItsFrame) {

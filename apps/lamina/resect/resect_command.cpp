@@ -7,21 +7,26 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 
 #include "commands.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/geometry/display_skin.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/plan_resection.h"
+#include "lamina/geometry/winding_number.h"
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/mesh_file.h"
 #include "lamina/io/model_file.h"
 #include "lamina/io/resection_input.h"
 #include "lamina/io/resection_report.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/model/plan_on_model.h"
 #include "plots.h"
+#include "resection_picture.h"
 
 namespace lamina::cli {
 namespace {
@@ -106,6 +111,77 @@ void parts_extent(const LabelVolume& parts, Eigen::Vector3d& centre, double& dia
   diagonal = (hi - lo).norm();
 }
 
+// What the picture shows, from a segmentation or a model.
+struct PictureInputs {
+  SurfaceMesh organ;
+  std::vector<PictureStructure> structures;
+  std::function<bool(const Eigen::Vector3d&)> inside;
+};
+
+// A label's voxels as a mask cropped to their box, with two voxels of background around.
+Mask label_mask(const LabelVolume& v, int32_t label) {
+  const GridFrame& f = v.frame;
+  std::array<int64_t, 3> lo{f.size[0], f.size[1], f.size[2]}, hi{-1, -1, -1};
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i)
+        if (v.labels[static_cast<size_t>(f.index(i, j, k))] == label) {
+          lo = {std::min(lo[0], i), std::min(lo[1], j), std::min(lo[2], k)};
+          hi = {std::max(hi[0], i), std::max(hi[1], j), std::max(hi[2], k)};
+        }
+  Mask m;
+  m.frame = f;
+  constexpr int64_t pad = 2;
+  for (int a = 0; a < 3; ++a) m.frame.size[a] = hi[a] - lo[a] + 1 + 2 * pad;
+  m.frame.origin_mm =
+      f.to_physical(static_cast<double>(lo[0] - pad), static_cast<double>(lo[1] - pad),
+                    static_cast<double>(lo[2] - pad));
+  m.inside.assign(static_cast<size_t>(m.frame.voxel_count()), 0);
+  for (int64_t k = lo[2]; k <= hi[2]; ++k)
+    for (int64_t j = lo[1]; j <= hi[1]; ++j)
+      for (int64_t i = lo[0]; i <= hi[0]; ++i)
+        m.inside[static_cast<size_t>(
+            m.frame.index(i - lo[0] + pad, j - lo[1] + pad, k - lo[2] + pad))] =
+            v.labels[static_cast<size_t>(f.index(i, j, k))] == label;
+  return m;
+}
+
+PictureInputs picture_inputs(const LabelVolume& v, const Mask& organ,
+                             const geometry::ResectionOptions& opt) {
+  PictureInputs in;
+  in.organ = geometry::display_skin(organ, 60000);
+  for (const geometry::ResectionStructure& s : opt.structures)
+    in.structures.push_back(
+        {s.name, geometry::structure_surface(label_mask(v, s.label), 15000, s.name), s.tumour});
+  // Inside: the organ mask's voxel holding the point (its frame's axes are orthonormal).
+  in.inside = [&organ](const Eigen::Vector3d& p) {
+    const GridFrame& f = organ.frame;
+    int64_t idx[3];
+    for (int a = 0; a < 3; ++a) {
+      const Eigen::Vector3d axis(f.direction[a], f.direction[3 + a], f.direction[6 + a]);
+      const Eigen::Vector3d o(f.origin_mm[0], f.origin_mm[1], f.origin_mm[2]);
+      idx[a] = std::llround((p - o).dot(axis) / f.spacing_mm[a]);
+      if (idx[a] < 0 || idx[a] >= f.size[a]) return false;
+    }
+    return organ.inside[static_cast<size_t>(f.index(idx[0], idx[1], idx[2]))] != 0;
+  };
+  return in;
+}
+
+PictureInputs picture_inputs(const Model& m) {
+  PictureInputs in;
+  const int32_t skin = model::display_skin_index(m);
+  in.organ = skin >= 0 ? SurfaceMesh{m.embedded[skin].V, m.embedded[skin].F}
+                       : SurfaceMesh{m.X, m.layers[0].F};
+  for (const EmbeddedSurface& e : m.embedded)
+    if (e.label != 0)
+      in.structures.push_back({e.name, {e.V, e.F}, geometry::is_tumour_name(e.name)});
+  in.inside = [&m](const Eigen::Vector3d& p) {
+    return geometry::winding_number(m.X, m.layers[0].F, p) > 0.5;
+  };
+  return in;
+}
+
 }  // namespace
 
 int run_resect(const ResectArgs& a) {
@@ -146,16 +222,18 @@ int run_resect(const ResectArgs& a) {
   }
   // A model: its own surfaces (plan_on_model); a segmentation: its voxels.
   geometry::ResectionPlan plan;
+  std::optional<Model> m;
+  std::optional<LabelVolume> volume;
   if (model_input) {
     if (!a.labels.empty() || !a.embed.empty())
       throw invalid_input(a.input,
                           "a model's structures are its own: --label and --embed are "
                           "for segmentations");
-    const Model m = io::load_model(a.input);
-    plan.report = model::plan_on_model(m, m.X, surface, opt);
+    m = io::load_model(a.input);
+    plan.report = model::plan_on_model(*m, m->X, surface, opt);
   } else {
-    const LabelVolume volume = phantom ? geometry::planning_phantom() : read_input(a.input);
-    plan = geometry::plan_resection(volume, geometry::SideOf(surface), opt);
+    volume = phantom ? geometry::planning_phantom() : read_input(a.input);
+    plan = geometry::plan_resection(*volume, geometry::SideOf(surface), opt);
   }
   const geometry::ResectionReport& r = plan.report;
   ojson j = ojson::parse(io::resection_report_json(r, surface, a.surface));
@@ -180,6 +258,17 @@ int run_resect(const ResectArgs& a) {
     if (!model_input) {
       j["outputs"]["parts"] = parts;
       j["outputs"]["parts_labels"] = {{"1", "remnant"}, {"2", "resected"}};
+    }
+    // The picture; without EGL the rest is written and the picture's absence said.
+    const std::string picture = (out / "resection.png").string();
+    try {
+      const PictureInputs in = m ? picture_inputs(*m) : picture_inputs(*volume, plan.organ, opt);
+      write_resection_picture(picture, in.organ, in.structures, surface, opt.margin_mm, in.inside);
+      j["outputs"]["picture"] = picture;
+    } catch (const Error& e) {
+      if (e.kind() != ErrorKind::kUnavailable) throw;
+      log::warn("lamina resect: no picture: {}", e.what());
+      j["outputs"]["picture"] = nullptr;
     }
   }
   const double seconds =

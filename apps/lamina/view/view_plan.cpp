@@ -15,6 +15,7 @@
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/plan_on_model.h"
 #include "lamina/render/camera.h"
+#include "lamina/render/frame.h"
 #include "view_session_state.h"
 
 namespace lamina::cli {
@@ -25,25 +26,6 @@ constexpr const char* kPlaneName = "resection_plane";
 // Margin colours: divided or inside the wanted margin, left in the remnant, clear.
 const Eigen::Vector3f kRed(0.92f, 0.15f, 0.12f), kAmber(0.95f, 0.65f, 0.1f),
     kGreen(0.25f, 0.8f, 0.35f);
-
-// A model holding the plane's square, so the engine draws it beside the organ. Each triangle
-// twice, once each way: a translucent skin is drawn by its front faces only, and the plane is
-// seen from both sides.
-Model square_model(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
-  Model m;
-  m.X = V;
-  m.mass_kg.assign(static_cast<size_t>(V.rows()), 1.0);
-  m.layer_of.assign(static_cast<size_t>(V.rows()), 0);
-  m.fixed.assign(static_cast<size_t>(V.rows()), 0);
-  ModelLayer layer;
-  layer.node_count = static_cast<int32_t>(V.rows());
-  layer.F.resize(2 * F.rows(), 3);
-  layer.F.topRows(F.rows()) = F;
-  layer.F.bottomRows(F.rows()) = F.rowwise().reverse();
-  m.layers.push_back(layer);
-  m.source = "resection plane";
-  return m;
-}
 
 // The colour of a tumour's worst piece.
 Eigen::Vector3f margin_color(const geometry::TumourMargin& t) {
@@ -115,7 +97,7 @@ void ViewSession::State::update_plan() {
   geometry::surface_triangles(geometry::plane_surface(plan.point, plan.normal), plan.point,
                               plan.size_mm, V, F);
   if (!render::has_model(kPlaneName)) {
-    render::register_model(kPlaneName, square_model(V, F));
+    render::register_model(kPlaneName, render::mesh_model(V, F, /*two_sided=*/true));
   } else {
     render::update_positions(kPlaneName, V);
   }

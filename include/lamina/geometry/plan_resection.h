@@ -106,6 +106,9 @@ struct ResectionPlan {
   /// On the input's grid: 1 for the remnant's voxels, 2 for the resected ones (by the side of
   /// each voxel's centre), 0 elsewhere.
   LabelVolume parts;
+  /// The organ as planned (its labels, the structures it encloses, largest piece, cavities
+  /// filled), cropped to its box with a voxel of background around: for its surface.
+  Mask organ;
 };
 
 /// The built-in phantom for planning: its carved-out anatomy (liver, portal vein, two tumours,

@@ -54,6 +54,11 @@ EmbeddedLook embedded_look(const Model& model, size_t index);
 /// that the structures are seen through it; `embedded` filled by embedded_look().
 Style default_style(const Model& model);
 
+/// Triangles as a one-layer model the renderer and the viewer engine draw (a resection plane, a
+/// segmentation's surface): no springs, no tetrahedra. `two_sided`: each triangle twice, once
+/// each way, so that a translucent surface (drawn by its front faces) is seen from both sides.
+Model mesh_model(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, bool two_sided = false);
+
 /// The BFS rings 0..levels-1 of a node, coloured level by level as in the paper's figure 2.
 struct RingHighlight {
   int32_t node = -1;

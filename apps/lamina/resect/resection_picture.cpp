@@ -1,0 +1,171 @@
+// write_resection_picture (resection_picture.h): each surface a one-layer model in its colour,
+// the bands as models of their own (the renderer colours a model, not a triangle), drawn in one
+// picture: opaque structures first, then the translucent organ, then the plane.
+#include "resection_picture.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "lamina/model/structure_colors.h"
+#include "lamina/render/camera.h"
+#include "lamina/render/frame.h"
+#include "lamina/render/legend.h"
+#include "lamina/render/offscreen.h"
+#include "lamina/render/renderer.h"
+
+namespace lamina::cli {
+namespace {
+
+const Eigen::Vector3f kBand(0.92f, 0.12f, 0.10f);          // within the margin
+const Eigen::Vector3f kPlane(0.35f, 0.75f, 0.95f);         // the plane beyond it
+const Eigen::Vector3f kTumourColour(0.94f, 0.78f, 0.16f);  // structure_colors' tumour yellow
+
+// The triangles of F whose `keep` is true, with their own vertices.
+SurfaceMesh subset(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                   const std::vector<bool>& keep) {
+  SurfaceMesh out;
+  std::vector<int> index(static_cast<size_t>(V.rows()), -1);
+  std::vector<Eigen::Vector3i> tris;
+  std::vector<Eigen::Vector3d> verts;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    if (!keep[static_cast<size_t>(f)]) continue;
+    Eigen::Vector3i t;
+    for (int c = 0; c < 3; ++c) {
+      int& i = index[static_cast<size_t>(F(f, c))];
+      if (i < 0) {
+        i = static_cast<int>(verts.size());
+        verts.push_back(V.row(F(f, c)).transpose());
+      }
+      t[c] = i;
+    }
+    tris.push_back(t);
+  }
+  out.V.resize(static_cast<Eigen::Index>(verts.size()), 3);
+  for (size_t v = 0; v < verts.size(); ++v) out.V.row(static_cast<Eigen::Index>(v)) = verts[v];
+  out.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (size_t t = 0; t < tris.size(); ++t) out.F.row(static_cast<Eigen::Index>(t)) = tris[t];
+  return out;
+}
+
+struct Layer {
+  Model model;
+  render::Style style;
+  std::string name;
+};
+
+Layer layer(const SurfaceMesh& s, const Eigen::Vector3f& colour, float alpha, bool two_sided,
+            std::string name) {
+  Layer l{render::mesh_model(s.V, s.F, two_sided), {}, std::move(name)};
+  l.style.organ_color = colour;
+  l.style.skin_alpha = alpha;
+  l.style.inner = render::InnerLayers::kHidden;
+  l.style.background = {1.0f, 1.0f, 1.0f, 1.0f};
+  return l;
+}
+
+}  // namespace
+
+void write_resection_picture(const std::string& path, const SurfaceMesh& organ,
+                             const std::vector<PictureStructure>& structures,
+                             const geometry::ResectionSurface& plane, double margin_mm,
+                             const std::function<bool(const Eigen::Vector3d&)>& inside) {
+  render::HeadlessContext context;
+  const geometry::SideOf side(plane);
+  std::vector<Layer> opaque, translucent;
+  // The tumours' points (at most a few thousand) for the plane's band.
+  std::vector<Eigen::Vector3d> tumour_points;
+  for (const PictureStructure& s : structures) {
+    if (!s.tumour) {
+      const auto c = model::color_by_name(s.name).value_or(model::Rgb8{60, 200, 180});
+      opaque.push_back(
+          layer(s.surface, Eigen::Vector3f(c[0], c[1], c[2]) / 255.0f, 1.0f, false, s.name));
+      continue;
+    }
+    std::vector<bool> near(static_cast<size_t>(s.surface.F.rows()));
+    for (Eigen::Index f = 0; f < s.surface.F.rows(); ++f) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k) c += s.surface.V.row(s.surface.F(f, k)).transpose() / 3.0;
+      near[static_cast<size_t>(f)] = std::abs(side.signed_mm(c)) < margin_mm;
+    }
+    std::vector<bool> far(near.size());
+    std::transform(near.begin(), near.end(), far.begin(), [](bool b) { return !b; });
+    opaque.push_back(
+        layer(subset(s.surface.V, s.surface.F, far), kTumourColour, 1.0f, false, s.name));
+    opaque.push_back(
+        layer(subset(s.surface.V, s.surface.F, near), kBand, 1.0f, false, "within the margin"));
+    const Eigen::Index step = std::max<Eigen::Index>(1, s.surface.V.rows() / 3000);
+    for (Eigen::Index v = 0; v < s.surface.V.rows(); v += step)
+      tumour_points.push_back(s.surface.V.row(v).transpose());
+  }
+  translucent.push_back(layer(organ, Eigen::Vector3f(0.60f, 0.22f, 0.17f), 0.3f, false, "organ"));
+
+  // The plane: a fine grid over the organ's box, its triangles inside the organ, red where within
+  // the margin of a tumour.
+  const Eigen::Vector3d lo = organ.V.colwise().minCoeff().transpose(),
+                        hi = organ.V.colwise().maxCoeff().transpose();
+  Eigen::MatrixX3d square;
+  Eigen::MatrixX3i two;
+  geometry::surface_triangles(plane, 0.5 * (lo + hi), (hi - lo).norm(), square, two);
+  if (plane.is_plane) {
+    const int n = 160;
+    const Eigen::Vector3d o = square.row(0), u = square.row(1) - square.row(0),
+                          w = square.row(3) - square.row(0);
+    Eigen::MatrixX3d V((n + 1) * (n + 1), 3);
+    Eigen::MatrixX3i F(2 * n * n, 3);
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i)
+        V.row(j * (n + 1) + i) = (o + (double(i) / n) * u + (double(j) / n) * w).transpose();
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const int a = j * (n + 1) + i;
+        F.row(2 * (j * n + i)) << a, a + 1, a + n + 2;
+        F.row(2 * (j * n + i) + 1) << a, a + n + 2, a + n + 1;
+      }
+    std::vector<bool> band(static_cast<size_t>(F.rows())), rest(band.size());
+    for (Eigen::Index f = 0; f < F.rows(); ++f) {
+      const Eigen::Vector3d c =
+          (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))).transpose() / 3.0;
+      if (!inside(c)) continue;
+      double least = INFINITY;
+      for (const Eigen::Vector3d& p : tumour_points) least = std::min(least, (p - c).squaredNorm());
+      (std::sqrt(least) < margin_mm ? band : rest)[static_cast<size_t>(f)] = true;
+    }
+    translucent.push_back(layer(subset(V, F, rest), kPlane, 0.55f, true, "resection plane"));
+    translucent.push_back(layer(subset(V, F, band), kBand, 0.8f, true, "within the margin"));
+  } else {
+    translucent.push_back(layer({plane.V, plane.F}, kPlane, 0.55f, true, "resection surface"));
+  }
+
+  std::vector<Layer*> all;
+  for (Layer& l : opaque) all.push_back(&l);
+  for (Layer& l : translucent) all.push_back(&l);
+  all.erase(std::remove_if(all.begin(), all.end(), [](Layer* l) { return l->model.X.rows() == 0; }),
+            all.end());
+  const Model& frame_model = translucent.front().model;  // the organ
+  render::Camera camera = render::fit_camera(frame_model);
+  std::vector<render::LegendEntry> legend;
+  for (const Layer* l : all) {
+    bool seen = false;
+    for (const auto& e : legend) seen |= e.name == l->name;
+    if (!seen) legend.push_back({l->name, l->style.organ_color});
+  }
+  std::vector<std::unique_ptr<render::Renderer>> renderers;
+  for (size_t i = 0; i < all.size(); ++i) renderers.push_back(std::make_unique<render::Renderer>());
+  const double radius = render::scene_radius(frame_model, camera) * 1.5;
+  render::write_png(render::render_image(
+                        [&](int w, int h) {
+                          for (size_t i = 0; i < all.size(); ++i) {
+                            render::Frame f;
+                            f.model = &all[i]->model;
+                            f.style = all[i]->style;
+                            renderers[i]->draw(f, camera, w, h,
+                                               {.clear = i == 0, .scene_radius_mm = radius});
+                          }
+                          render::draw_legend(legend, w, h);
+                        },
+                        1200, 900),
+                    path);
+}
+
+}  // namespace lamina::cli
