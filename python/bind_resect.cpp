@@ -10,10 +10,12 @@
 #include "bindings.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/plan_resection.h"
+#include "lamina/io/model_file.h"
 #include "lamina/io/resection_input.h"
 #include "lamina/io/resection_report.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
+#include "lamina/model/plan_on_model.h"
 
 namespace py = pybind11;
 
@@ -73,12 +75,24 @@ void bind_resect(py::module_& m) {
         const geometry::ResectionSurface s =
             plane ? geometry::plane_surface(vec(plane->first), vec(plane->second))
                   : io::read_resection_surface(*surface);
-        const LabelVolume volume =
-            phantom ? geometry::planning_phantom()
-                    : (py::isinstance<py::str>(input) ? io::read_input(input.cast<std::string>())
-                                                      : input.cast<LabelVolume>());
         auto plan = std::make_shared<geometry::ResectionPlan>();
-        {
+        // A model (a Model, or a .vtu path): planned from its own surfaces, no parts.
+        std::shared_ptr<const Model> model;
+        if (py::isinstance<Model>(input)) model = input.cast<std::shared_ptr<Model>>();
+        if (py::isinstance<py::str>(input) && input.cast<std::string>().ends_with(".vtu"))
+          model = std::make_shared<Model>(io::load_model(input.cast<std::string>()));
+        if (model) {
+          if (!labels.empty() || embed.size() > 0)
+            throw invalid_input("resect",
+                                "a model's structures are its own: labels and embed "
+                                "are for segmentations");
+          py::gil_scoped_release release;
+          plan->report = model::plan_on_model(*model, model->X, s, o);
+        } else {
+          const LabelVolume volume =
+              phantom ? geometry::planning_phantom()
+                      : (py::isinstance<py::str>(input) ? io::read_input(input.cast<std::string>())
+                                                        : input.cast<LabelVolume>());
           py::gil_scoped_release release;
           const geometry::SideOf side(s);
           *plan = geometry::plan_resection(volume, side, o);
@@ -86,6 +100,7 @@ void bind_resect(py::module_& m) {
         py::dict report = py::module_::import("json").attr("loads")(
             io::resection_report_json(plan->report, s, surface.value_or("")));
         // The parts as a (k, j, i) int32 array that owns a copy of them, and as a lamina.Mask.
+        if (model) return report;
         py::object mask = py::cast(plan->parts);
         report["parts"] = mask.attr("labels").attr("copy")();
         report["parts_mask"] = mask;
@@ -96,7 +111,8 @@ void bind_resect(py::module_& m) {
       py::arg("liver") = "normal", py::arg("labels") = std::vector<int32_t>{},
       py::arg("embed") = py::list(),
       "Plans a resection (lamina resect): mask is a Mask or a path ('phantom' = the built-in\n"
-      "one with its carved-out anatomy, already named). plane=((x, y, z), (nx, ny, nz)) mm LPS,\n"
+      "one with its carved-out anatomy, already named), or a Model or .vtu path (planned from\n"
+      "its own surfaces along a plane; no parts). plane=((x, y, z), (nx, ny, nz)) mm LPS,\n"
       "or surface=PATH (.mrk.json plane or closed curve, .obj, .ply, .stl, .off); keep: a point\n"
       "on the side kept (None: the larger); margin_mm: the margin wanted around tumours; liver:\n"
       "normal (20%), chemotherapy (30%) or cirrhosis (40%); labels: the organ's labels; embed:\n"

@@ -247,7 +247,8 @@ TEST(View, RealMouseEventsFromXdotoolCutTheOrganInScalpelModeAndUUndoesIt) {
 TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
   // The phantom with its anatomy embedded; P shows the resection plane, a Shift+drag on it turns
   // it, a drag moves it along its normal, the plan follows (the report's resection), and X
-  // divides the organ along it with the simulated cut: two pieces, the plan's volumes.
+  // divides the organ along it with the simulated cut: two pieces, the plan's volumes; the
+  // resected piece is taken away and a drag then dents the remnant, simulated on its own.
   test::TempDir dir;
   const std::string cli = quoted(test::lamina_cli());
   std::ofstream(dir.path / "prepare.sh")
@@ -255,7 +256,8 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
       << " build p.nii.gz --label 1 --embed 2=portal_vein,3=tumour,4=hepatic_veins -o m.vtu\n";
   ASSERT_EQ(run_shell(dir, "sh prepare.sh", "prepare_run.sh").exit_code, 0);
   std::ofstream(dir.path / "quit.json")
-      << R"({"events": [{"at": 6.4, "window_screenshot": "planned.png"}, {"at": 11.0, "quit": true}]})";
+      << R"({"events": [{"at": 6.4, "window_screenshot": "planned.png"},)"
+      << R"( {"at": 13.2, "window_screenshot": "remnant.png"}, {"at": 14.0, "quit": true}]})";
   std::ofstream(dir.path / "session.sh")
       << cli << " -v view m.vtu --script quit.json --report report.json & "
       << "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1.5; "
@@ -265,7 +267,9 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
          "mouseup 1 keyup shift sleep 0.5 mousemove --window $w 800 450 sleep 0.3 mousedown 1 "
          "sleep 0.3 mousemove --window $w 840 450 sleep 0.1 mousemove --window $w 880 450 "
          "sleep 0.1 mousemove --window $w 920 450 sleep 0.3 mouseup 1 sleep 1.5 "
-         "key --window $w x sleep 2.5; wait\n";
+         "key --window $w x sleep 3.5 mousemove --window $w 700 450 sleep 0.3 mousedown 1 "
+         "sleep 0.3 mousemove --window $w 700 480 sleep 0.1 mousemove --window $w 700 510 "
+         "sleep 0.1 mousemove --window $w 700 540 sleep 1.0 mouseup 1; wait\n";
   const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json rep = json::parse(test::read_text(dir.path / "report.json"));
@@ -279,7 +283,6 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
   EXPECT_EQ(plan["error"], "");
   // The cut divided the organ in two; its larger piece is the plan's remnant (the display skin's
   // volume against the tetrahedra's, which lie 1-2% inside it).
-  EXPECT_EQ(rep["cuts"], 1) << r.err;
   const size_t at = r.err.find("lamina view: cut ");
   ASSERT_NE(at, std::string::npos) << r.err;
   EXPECT_NE(r.err.find("2 piece(s)", at), std::string::npos) << r.err.substr(at, 200);
@@ -287,6 +290,14 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
   const double piece = std::stod(r.err.substr(r.err.find("piece(s): ", at) + 10));
   EXPECT_NEAR(piece, remnant, 0.03 * remnant);
   EXPECT_TRUE(is_png(dir.path / "planned.png"));
+  // The resected piece is gone: the remnant alone is simulated (a model of its own, swapped in
+  // as a rebuild is), and the drag after it dented it (the plane's drags moved no tissue).
+  EXPECT_NE(plan["message"].get<std::string>().find("simulated on its own"), std::string::npos)
+      << plan.dump();
+  EXPECT_EQ(rep["rebuilds"], 1);
+  EXPECT_EQ(rep["drags"], 1) << r.err;
+  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 1.0) << r.err;
+  EXPECT_TRUE(is_png(dir.path / "remnant.png"));
   EXPECT_EQ(rep["unstable_events"], 0);
 }
 

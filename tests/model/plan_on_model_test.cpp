@@ -11,6 +11,8 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/volume_by_plane.h"
 #include "lamina/model/build_model.h"
+#include "lamina/model/cut_tetrahedra.h"
+#include "lamina/model/keep_piece.h"
 
 namespace lamina::model {
 namespace {
@@ -96,6 +98,49 @@ TEST(PlanOnModel, FollowsTheShapeItIsGiven) {
   EXPECT_NEAR(a.tumours[1].margin_mm, c.tumours[1].margin_mm, 1e-9);
   EXPECT_THROW(
       plan_on_model(b.model, b.model.X, geometry::plane_surface({0, 0, 300}, {0, 0, 1}), o), Error);
+}
+
+TEST(KeepPiece, TheRemnantAfterAPlanesCutIsAWholeModelOfItsVolume) {
+  // The plane x = 30 cuts the phantom in two; the pieces behind it (x < 30) kept: their volume is
+  // the cut's larger piece's, every element refers to nodes it has, the tetrahedra keep their
+  // orientation, the display skin and the structures keep only what the kept nodes carry, and
+  // the remnant simulates.
+  const Model& m = built().model;
+  Blade blade;
+  geometry::surface_triangles(geometry::plane_surface({30, 0, 0}, {1, 0, 0}), {30, 0, 0}, 600.0,
+                              blade.V, blade.F);
+  Model cut;
+  std::vector<int32_t> origin;
+  CutReport report;
+  cut_tetrahedra(m, m.X, blade, cut, origin, report);
+  ASSERT_EQ(report.pieces.size(), 2u);
+  const std::vector<uint8_t> keep = nodes_of_pieces_on_side(cut, {30, 0, 0}, {1, 0, 0}, false);
+  std::vector<int32_t> index;
+  const Model rem = keep_nodes(cut, keep, index);
+  double volume = 0.0;
+  for (Eigen::Index t = 0; t < rem.tets.T.rows(); ++t) {
+    for (int c = 0; c < 4; ++c) ASSERT_LT(rem.tets.T(t, c), rem.node_count());
+    const Eigen::Vector3d a = rem.X.row(rem.tets.T(t, 0)), b = rem.X.row(rem.tets.T(t, 1)),
+                          c = rem.X.row(rem.tets.T(t, 2)), d = rem.X.row(rem.tets.T(t, 3));
+    const double v = (b - a).dot((c - a).cross(d - a)) / 6.0;
+    ASSERT_GT(v, 0.0);
+    volume += v * rem.tets.share_of(t);
+  }
+  EXPECT_NEAR(volume, report.pieces[0].volume_mm3, 1e-9 * volume);
+  EXPECT_LT(rem.node_count(), cut.node_count());
+  for (const ModelLayer& l : rem.layers)
+    if (l.F.rows() > 0) EXPECT_LT(l.F.maxCoeff(), rem.node_count());
+  for (size_t e = 0; e < rem.springs.size(); ++e) ASSERT_LT(rem.springs.j[e], rem.node_count());
+  ASSERT_FALSE(rem.embedded.empty());
+  for (const EmbeddedSurface& e : rem.embedded) {
+    EXPECT_LT(e.corners.maxCoeff(), rem.node_count()) << e.name;
+    if (e.F.rows() > 0) EXPECT_LT(e.F.maxCoeff(), e.V.rows()) << e.name;
+    // Nothing of the resected side (x > 30 at rest) is carried on, bar the cut's own face.
+    EXPECT_LT(e.V.col(0).maxCoeff(), 30.0 + 1e-6) << e.name;
+  }
+  EXPECT_EQ(rem.rings.locality, m.rings.locality);
+  EXPECT_EQ(static_cast<int64_t>(rem.rings.offsets.size()),
+            static_cast<int64_t>(rem.node_count()) * rem.rings.locality + 1);
 }
 
 }  // namespace

@@ -46,3 +46,18 @@ def test_resect_refuses_a_plane_that_misses_the_organ():
     assert e.value.exit_code == 2
     with pytest.raises(lamina.Error, match="plane="):
         lamina.resect()
+
+
+def test_resect_plans_a_model_from_its_own_surfaces():
+    mask = lamina.phantom(carved_out=True)
+    model = lamina.build_model(mask, label=1, embed=[(2, "portal_vein"), (3, "tumour")],
+                               display_triangles=20000, structure_triangles=4000)
+    a = lamina.resect(model, plane=((30, 0, 0), (1, 0, 0)))
+    b = lamina.resect(mask, plane=((30, 0, 0), (1, 0, 0)), labels=[1],
+                      embed=[(2, "portal_vein"), (3, "tumour")])
+    assert "parts" not in a and "parts" in b
+    for part in ("remnant", "resected"):
+        assert abs(a["volumes_ml"][part] / b["volumes_ml"][part] - 1) < 0.01, part
+    assert [t["side"] for t in a["tumours"]] == [t["side"] for t in b["tumours"]]
+    with pytest.raises(lamina.Error, match="its own"):
+        lamina.resect(model, plane=((30, 0, 0), (1, 0, 0)), labels=[1])

@@ -13,6 +13,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/model/embed_surface.h"
+#include "lamina/model/keep_piece.h"
 #include "lamina/model/plan_on_model.h"
 #include "lamina/render/camera.h"
 #include "lamina/render/frame.h"
@@ -177,12 +178,54 @@ void ViewSession::State::resect_plan() {
     return;
   }
   plan.resected = true;
+  plan.awaiting_cut = true;
+  plan.remnant_in_front = plan.report.remnant_in_front;
   plan_message =
       fmt::format("resecting: remnant {:.1f} mL ({:.1f}%), resected {:.1f} mL",
                   plan.report.remnant_ml, plan.report.flr_percent, plan.report.resected_ml);
   cut_message = "cutting...";
   log::info("lamina view: {}", plan_message);
   toggle_plan();  // the plane goes; the cut's report follows (adopt_cut)
+}
+
+void ViewSession::State::take_away_resected() {
+  plan.awaiting_cut = false;
+  const Model& cut = vm->model;
+  const std::vector<uint8_t> keep =
+      model::nodes_of_pieces_on_side(cut, plan.point, plan.normal, plan.remnant_in_front);
+  std::vector<int32_t> new_index;
+  auto next = std::make_unique<ViewModel>();
+  try {
+    next->model = model::keep_nodes(cut, keep, new_index);
+  } catch (const Error& e) {
+    plan_message = std::string("the resected part stays: ") + e.what();
+    return;
+  }
+  // The boundary, by rest position: every copy of a fixed or supported node.
+  const auto same = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return (a - b).squaredNorm() < 1e-18;
+  };
+  const Eigen::MatrixX3d& X = next->model.X;
+  for (Eigen::Index n = 0; n < X.rows(); ++n) {
+    const Eigen::Vector3d p = X.row(n).transpose();
+    if (std::any_of(fixed_at.begin(), fixed_at.end(), [&](const auto& q) { return same(p, q); }))
+      next->fixed.push_back(static_cast<int32_t>(n));
+    for (const auto& [q, k] : support_at)
+      if (same(p, q)) {
+        next->support.nodes.push_back(static_cast<int32_t>(n));
+        next->support.stiffness_n_per_m.push_back(k);
+        break;
+      }
+  }
+  next->material = material;
+  next->source = vm->source;
+  const double kept_ml = plan.report.remnant_ml;
+  {
+    std::lock_guard lock(rebuild_mutex);
+    rebuilt = std::move(next);  // swapped in at the next frame, as a rebuild is
+  }
+  plan_message = fmt::format("resected; the remnant ({:.0f} mL) is simulated on its own", kept_ml);
+  log::info("lamina view: {}", plan_message);
 }
 
 void ViewSession::State::plan_panel() {

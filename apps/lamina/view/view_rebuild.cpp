@@ -59,6 +59,11 @@ void ViewSession::State::adopt_rebuilt() {
   last_drag_node = drag_peak_node = -1;
   drag_peak_mm = 0.0;
   released_at_sim_s = settle_3s_mm = -1.0;
+  // A new loop has made no cut: the cuts in force are the new model's own (the marks of vessels
+  // cut before stay where they were cut; U cannot take those cuts back).
+  model_version = 0;
+  cuts = 0;
+  crossed_before.clear();
   start_loop();
   ++rebuilds;
   status =

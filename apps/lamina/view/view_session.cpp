@@ -130,6 +130,12 @@ void ViewSession::State::start_loop() {
   sim::Simulation s = sim::make_simulation(vm->model, material, solver);
   sim::fix_nodes(s, vm->fixed);
   sim::support_nodes(s, vm->support.nodes, vm->support.stiffness_n_per_m);
+  fixed_at.clear();
+  support_at.clear();
+  for (const int32_t n : vm->fixed) fixed_at.push_back(vm->model.X.row(n).transpose());
+  for (size_t k = 0; k < vm->support.nodes.size(); ++k)
+    support_at.emplace_back(vm->model.X.row(vm->support.nodes[k]).transpose(),
+                            vm->support.stiffness_n_per_m[k]);
   interact::LoopOptions lo;
   lo.rate_hz = rate_hz;
   lo.threads = 1;  // the window draws on the other core (llvmpipe renders on the CPU)
@@ -308,6 +314,7 @@ void ViewSession::State::adopt_cut() {
   }
   cuts = snap.cuts;
   crossed_before.push_back(crossed.size());
+  if (plan.awaiting_cut) take_away_resected();
   const model::CutReport& r = snap.last_cut;
   std::string pieces;
   for (const model::CutPiece& p : r.pieces)

@@ -114,7 +114,13 @@ struct ViewSession::State {
     int64_t updates = 0, moves = 0;
     std::vector<double> update_ms;
     std::vector<render::EmbeddedLook> looks;  // the structures' colours before the margins'
+    bool awaiting_cut = false;  // X was pressed: the resected pieces go once the cut is in
+    bool remnant_in_front = true;
   } plan;
+  // The boundary by rest position (a cut's copies keep their node's): the fixed nodes and the
+  // supported ones with their stiffness, as the loop started; the remnant after X takes them.
+  std::vector<Eigen::Vector3d> fixed_at;
+  std::vector<std::pair<Eigen::Vector3d, double>> support_at;
   std::string plan_message;
 
   // Plots.
@@ -183,6 +189,7 @@ struct ViewSession::State {
   bool press_on_plane(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction);
   void move_plane(const Eigen::Vector2d& drag_px, bool turn);
   void resect_plan();
+  void take_away_resected();  // after X's cut: the remnant alone, simulated on
   void plan_panel();
   nlohmann::json plan_json() const;
   // view_panels.cpp
