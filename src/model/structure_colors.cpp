@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "lamina/geometry/plan_resection.h"
+#include "lamina/geometry/structure_names.h"
 #include "lamina/model/embed_surface.h"
 
 namespace lamina::model {

@@ -11,6 +11,7 @@
 
 #include "lamina/core/grid.h"
 #include "lamina/geometry/resection_surface.h"
+#include "lamina/geometry/structure_names.h"
 
 namespace lamina::geometry {
 
@@ -28,14 +29,6 @@ struct ResectionStructure {
   std::string name;
   bool tumour = false;
 };
-
-/// A structure's name as compared: lower case, without spaces, '_' and '-' ("Portal_Vein" and
-/// "portal vein" alike).
-std::string name_key(const std::string& name);
-
-/// True for names that say tumour: "tumour", "lesion", "metastasis", "HCC", ... (any case, with
-/// or without '_', '-' or spaces).
-bool is_tumour_name(const std::string& name);
 
 struct ResectionOptions {
   /// The organ's labels (their union; the structures' voxels it encloses join it, as in
