@@ -188,9 +188,10 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     return f.index(i, j, k);
   };
 
-  // 1. Every organ voxel's side; the ones the surface passes through split by sub-samples. Blocks
-  // of voxels far from the surface are decided by their centre (one query for 64 voxels: the
-  // triangles' queries are the cost).
+  // 1. Every organ voxel's side; the ones the surface passes through split exactly. Blocks of
+  // voxels far from the surface are decided by their centre (one query for 64 voxels: the
+  // triangles' queries are the cost). Each row of blocks sums its own volumes, added in order
+  // afterwards: the same sums on any number of threads.
   const double voxel_mm3 = g.voxel_volume_mm3();
   constexpr int64_t kBlock = 4;
   double block_radius = 0.0;
@@ -198,15 +199,18 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     block_radius += std::pow(static_cast<double>(kBlock) * axes.spacing[a], 2);
   block_radius = 0.5 * std::sqrt(block_radius);
   std::vector<uint8_t> sides(organ.inside.size(), kOutside);
-  double front_mm3 = 0.0, back_mm3 = 0.0;
   std::vector<std::vector<CrossingVoxel>> crossing_parts(
       static_cast<size_t>(omp_get_max_threads()));
   const int64_t blocks[3] = {(g.size[0] + kBlock - 1) / kBlock, (g.size[1] + kBlock - 1) / kBlock,
                              (g.size[2] + kBlock - 1) / kBlock};
-#pragma omp parallel for collapse(2) schedule(dynamic, 4) reduction(+ : front_mm3, back_mm3)
+  std::vector<double> row_front(static_cast<size_t>(blocks[1] * blocks[2]), 0.0),
+      row_back(row_front.size(), 0.0);
+#pragma omp parallel for collapse(2) schedule(dynamic, 4)
   for (int64_t bk = 0; bk < blocks[2]; ++bk)
     for (int64_t bj = 0; bj < blocks[1]; ++bj) {
       auto& crossings = crossing_parts[static_cast<size_t>(omp_get_thread_num())];
+      double& front_mm3 = row_front[static_cast<size_t>(bk * blocks[1] + bj)];
+      double& back_mm3 = row_back[static_cast<size_t>(bk * blocks[1] + bj)];
       for (int64_t bi = 0; bi < blocks[0]; ++bi) {
         const int64_t lo[3] = {bi * kBlock, bj * kBlock, bk * kBlock};
         const int64_t hi[3] = {std::min(lo[0] + kBlock, g.size[0]),
@@ -251,6 +255,11 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
             }
       }
     }
+  double front_mm3 = 0.0, back_mm3 = 0.0;
+  for (size_t row = 0; row < row_front.size(); ++row) {
+    front_mm3 += row_front[row];
+    back_mm3 += row_back[row];
+  }
   const double whole_mm3 = front_mm3 + back_mm3;
   if (std::min(front_mm3, back_mm3) < voxel_mm3)
     throw invalid_input(source, "the resection surface misses the organ: all of its " +
@@ -388,6 +397,9 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
   std::vector<CrossingVoxel> crossing_voxels;
   for (auto& part : crossing_parts)
     crossing_voxels.insert(crossing_voxels.end(), part.begin(), part.end());
+  // In the grid's order, whichever thread found them: the same sums every run.
+  std::sort(crossing_voxels.begin(), crossing_voxels.end(),
+            [](const CrossingVoxel& a, const CrossingVoxel& b) { return a.index < b.index; });
   for (int32_t s = 0; s < n_structures; ++s) {
     if (opt.structures[s].tumour) continue;
     Mask cut;

@@ -4,6 +4,7 @@
 #include "lamina/geometry/plan_resection.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -350,6 +351,26 @@ TEST(PlanResection, RefusesASurfaceThatMissesTheOrganAndAbsentLabels) {
   EXPECT_THROW(plane_surface({0, 0, 0}, {0, 0, 0}), Error);
   EXPECT_THROW(closed_curve_surface({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}}, "curve"), Error);
   EXPECT_THROW(closed_curve_surface({{0, 0, 0}, {1, 1, 1}}, "curve"), Error);
+}
+
+TEST(PlanResection, IsTheSameOnOneThreadAsOnTwo) {
+  // Threads share the voxel pass; the sums are added in the grid's order all the same.
+  const LabelVolume v = carved_phantom();
+  const SideOf side(plane_surface({25, 3, 0}, {1, 0.3, 0.2}));
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const ResectionReport one = plan_resection(v, side, carved_options()).report;
+  omp_set_num_threads(2);
+  const ResectionReport two = plan_resection(v, side, carved_options()).report;
+  omp_set_num_threads(threads);
+  EXPECT_EQ(one.remnant_ml, two.remnant_ml);
+  EXPECT_EQ(one.resected_ml, two.resected_ml);
+  ASSERT_EQ(one.crossings.size(), two.crossings.size());
+  ASSERT_FALSE(one.crossings.empty());
+  for (size_t c = 0; c < one.crossings.size(); ++c) {
+    EXPECT_EQ(one.crossings[c].area_mm2, two.crossings[c].area_mm2);
+    EXPECT_EQ(one.crossings[c].position_mm, two.crossings[c].position_mm);
+  }
 }
 
 TEST(PlanResection, AClosedCurveSpansTheSurfaceItsTurnFaces) {
