@@ -117,6 +117,70 @@ void surface_triangles(const ResectionSurface& surface, const Eigen::Vector3d& c
   F << 0, 1, 2, 0, 2, 3;  // u x w = n: the square's winding faces the front
 }
 
+SurfaceMesh triangle_subset(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                            const std::vector<bool>& take) {
+  std::vector<int> index(static_cast<size_t>(V.rows()), -1);
+  std::vector<Eigen::Vector3i> tris;
+  std::vector<Eigen::Vector3d> verts;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    if (!take[static_cast<size_t>(f)]) continue;
+    Eigen::Vector3i t;
+    for (int c = 0; c < 3; ++c) {
+      int& i = index[static_cast<size_t>(F(f, c))];
+      if (i < 0) {
+        i = static_cast<int>(verts.size());
+        verts.push_back(V.row(F(f, c)).transpose());
+      }
+      t[c] = i;
+    }
+    tris.push_back(t);
+  }
+  SurfaceMesh out;
+  out.V.resize(static_cast<Eigen::Index>(verts.size()), 3);
+  for (size_t v = 0; v < verts.size(); ++v) out.V.row(static_cast<Eigen::Index>(v)) = verts[v];
+  out.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (size_t t = 0; t < tris.size(); ++t) out.F.row(static_cast<Eigen::Index>(t)) = tris[t];
+  return out;
+}
+
+void plane_margin_band(const ResectionSurface& plane, const Eigen::Vector3d& centre, double size_mm,
+                       int n, const std::vector<Eigen::Vector3d>& points, double margin_mm,
+                       const std::function<bool(const Eigen::Vector3d&)>& keep, SurfaceMesh& band,
+                       SurfaceMesh& rest) {
+  Eigen::MatrixX3d square;
+  Eigen::MatrixX3i two;
+  surface_triangles(plane, centre, size_mm, square, two);
+  const Eigen::Vector3d o = square.row(0).transpose();
+  const Eigen::Vector3d u = (square.row(1) - square.row(0)).transpose();
+  const Eigen::Vector3d w = (square.row(3) - square.row(0)).transpose();
+  Eigen::MatrixX3d V((n + 1) * (n + 1), 3);
+  Eigen::MatrixX3i F(2 * n * n, 3);
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i)
+      V.row(j * (n + 1) + i) = (o + (double(i) / n) * u + (double(j) / n) * w).transpose();
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i;
+      F.row(2 * (j * n + i)) << a, a + 1, a + n + 2;  // the square's winding: facing the front
+      F.row(2 * (j * n + i) + 1) << a, a + n + 2, a + n + 1;
+    }
+  std::vector<bool> in_band(static_cast<size_t>(F.rows()), false), in_rest(in_band.size(), false);
+  const double margin2 = margin_mm * margin_mm;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d c = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))).transpose() / 3.0;
+    if (keep && !keep(c)) continue;
+    bool near = false;
+    for (const Eigen::Vector3d& p : points)
+      if ((p - c).squaredNorm() < margin2) {
+        near = true;
+        break;
+      }
+    (near ? in_band : in_rest)[static_cast<size_t>(f)] = true;
+  }
+  band = triangle_subset(V, F, in_band);
+  rest = triangle_subset(V, F, in_rest);
+}
+
 SideOf::SideOf(const ResectionSurface& surface) : surface_(surface) {
   if (surface.is_plane) return;
   tree_ = std::make_unique<Tree>();

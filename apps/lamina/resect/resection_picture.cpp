@@ -21,33 +21,6 @@ const Eigen::Vector3f kBand(0.92f, 0.12f, 0.10f);          // within the margin
 const Eigen::Vector3f kPlane(0.35f, 0.75f, 0.95f);         // the plane beyond it
 const Eigen::Vector3f kTumourColour(0.94f, 0.78f, 0.16f);  // structure_colors' tumour yellow
 
-// The triangles of F whose `keep` is true, with their own vertices.
-SurfaceMesh subset(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                   const std::vector<bool>& keep) {
-  SurfaceMesh out;
-  std::vector<int> index(static_cast<size_t>(V.rows()), -1);
-  std::vector<Eigen::Vector3i> tris;
-  std::vector<Eigen::Vector3d> verts;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    if (!keep[static_cast<size_t>(f)]) continue;
-    Eigen::Vector3i t;
-    for (int c = 0; c < 3; ++c) {
-      int& i = index[static_cast<size_t>(F(f, c))];
-      if (i < 0) {
-        i = static_cast<int>(verts.size());
-        verts.push_back(V.row(F(f, c)).transpose());
-      }
-      t[c] = i;
-    }
-    tris.push_back(t);
-  }
-  out.V.resize(static_cast<Eigen::Index>(verts.size()), 3);
-  for (size_t v = 0; v < verts.size(); ++v) out.V.row(static_cast<Eigen::Index>(v)) = verts[v];
-  out.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
-  for (size_t t = 0; t < tris.size(); ++t) out.F.row(static_cast<Eigen::Index>(t)) = tris[t];
-  return out;
-}
-
 struct Layer {
   Model model;
   render::Style style;
@@ -90,10 +63,10 @@ void write_resection_picture(const std::string& path, const SurfaceMesh& organ,
     }
     std::vector<bool> far(near.size());
     std::transform(near.begin(), near.end(), far.begin(), [](bool b) { return !b; });
-    opaque.push_back(
-        layer(subset(s.surface.V, s.surface.F, far), kTumourColour, 1.0f, false, s.name));
-    opaque.push_back(
-        layer(subset(s.surface.V, s.surface.F, near), kBand, 1.0f, false, "within the margin"));
+    opaque.push_back(layer(geometry::triangle_subset(s.surface.V, s.surface.F, far), kTumourColour,
+                           1.0f, false, s.name));
+    opaque.push_back(layer(geometry::triangle_subset(s.surface.V, s.surface.F, near), kBand, 1.0f,
+                           false, "within the margin"));
     const Eigen::Index step = std::max<Eigen::Index>(1, s.surface.V.rows() / 3000);
     for (Eigen::Index v = 0; v < s.surface.V.rows(); v += step)
       tumour_points.push_back(s.surface.V.row(v).transpose());
@@ -104,35 +77,12 @@ void write_resection_picture(const std::string& path, const SurfaceMesh& organ,
   // the margin of a tumour.
   const Eigen::Vector3d lo = organ.V.colwise().minCoeff().transpose(),
                         hi = organ.V.colwise().maxCoeff().transpose();
-  Eigen::MatrixX3d square;
-  Eigen::MatrixX3i two;
-  geometry::surface_triangles(plane, 0.5 * (lo + hi), (hi - lo).norm(), square, two);
   if (plane.is_plane) {
-    const int n = 160;
-    const Eigen::Vector3d o = square.row(0), u = square.row(1) - square.row(0),
-                          w = square.row(3) - square.row(0);
-    Eigen::MatrixX3d V((n + 1) * (n + 1), 3);
-    Eigen::MatrixX3i F(2 * n * n, 3);
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i)
-        V.row(j * (n + 1) + i) = (o + (double(i) / n) * u + (double(j) / n) * w).transpose();
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const int a = j * (n + 1) + i;
-        F.row(2 * (j * n + i)) << a, a + 1, a + n + 2;
-        F.row(2 * (j * n + i) + 1) << a, a + n + 2, a + n + 1;
-      }
-    std::vector<bool> band(static_cast<size_t>(F.rows())), rest(band.size());
-    for (Eigen::Index f = 0; f < F.rows(); ++f) {
-      const Eigen::Vector3d c =
-          (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))).transpose() / 3.0;
-      if (!inside(c)) continue;
-      double least = INFINITY;
-      for (const Eigen::Vector3d& p : tumour_points) least = std::min(least, (p - c).squaredNorm());
-      (std::sqrt(least) < margin_mm ? band : rest)[static_cast<size_t>(f)] = true;
-    }
-    translucent.push_back(layer(subset(V, F, rest), kPlane, 0.55f, true, "resection plane"));
-    translucent.push_back(layer(subset(V, F, band), kBand, 0.8f, true, "within the margin"));
+    SurfaceMesh band, rest;
+    geometry::plane_margin_band(plane, 0.5 * (lo + hi), (hi - lo).norm(), 160, tumour_points,
+                                margin_mm, inside, band, rest);
+    translucent.push_back(layer(rest, kPlane, 0.55f, true, "resection plane"));
+    translucent.push_back(layer(band, kBand, 0.8f, true, "within the margin"));
   } else {
     translucent.push_back(layer({plane.V, plane.F}, kPlane, 0.55f, true, "resection surface"));
   }

@@ -12,6 +12,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/geometry/structure_names.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/keep_piece.h"
 #include "lamina/model/plan_on_model.h"
@@ -23,6 +24,29 @@ namespace lamina::cli {
 namespace {
 
 constexpr const char* kPlaneName = "resection_plane";
+constexpr const char* kBandName = "resection_margin_band";  // the plane within the margin
+// The tumours, drawn by the plan in its place while it is on: their triangles within the margin
+// of the plane, and the others by their side.
+constexpr const char* kTumourBandName = "tumour_within_margin";
+constexpr const char* kTumourResectedName = "tumour_resected";
+constexpr const char* kTumourRemnantName = "tumour_in_remnant";
+constexpr const char* kPlanModels[] = {kPlaneName, kBandName, kTumourBandName, kTumourResectedName,
+                                       kTumourRemnantName};
+
+// Registers `mesh` under `name` (drawn in `colour`), or removes the name when it is empty.
+void show_mesh(const char* name, const SurfaceMesh& mesh, const Eigen::Vector3f& colour,
+               float alpha, bool two_sided) {
+  if (mesh.F.rows() == 0) {
+    if (render::has_model(name)) render::remove_model(name);
+    return;
+  }
+  render::register_model(name, render::mesh_model(mesh.V, mesh.F, two_sided));
+  render::Style st;
+  st.organ_color = colour;
+  st.skin_alpha = alpha;
+  st.inner = render::InnerLayers::kHidden;
+  render::set_style(name, st);
+}
 
 // Margin colours: divided or inside the wanted margin, left in the remnant, clear.
 const Eigen::Vector3f kRed(0.92f, 0.15f, 0.12f), kAmber(0.95f, 0.65f, 0.1f),
@@ -55,7 +79,8 @@ void ViewSession::State::toggle_plan() {
     plan.looks = style.embedded;
     plan.dirty = true;
   } else {
-    if (render::has_model(kPlaneName)) render::remove_model(kPlaneName);
+    for (const char* name : kPlanModels)
+      if (render::has_model(name)) render::remove_model(name);
     style.embedded = plan.looks;
   }
 }
@@ -92,37 +117,63 @@ void ViewSession::State::update_plan() {
   plan.update_ms.push_back(ms);
   ++plan.updates;
 
-  // The square, and the margin colours.
-  Eigen::MatrixX3d V;
-  Eigen::MatrixX3i F;
-  geometry::surface_triangles(geometry::plane_surface(plan.point, plan.normal), plan.point,
-                              plan.size_mm, V, F);
-  if (!render::has_model(kPlaneName)) {
-    render::register_model(kPlaneName, render::mesh_model(V, F, /*two_sided=*/true));
-  } else {
-    render::update_positions(kPlaneName, V);
-  }
-  Eigen::Vector3f plane_color = kGreen;
-  style.embedded = plan.looks;
-  for (size_t s = 0; s < vm->model.embedded.size() && s < style.embedded.size(); ++s) {
+  // The square, its band within the margin of a tumour (their current points, a few hundred of
+  // each), and the margin colours.
+  std::vector<Eigen::Vector3d> tumour_points;
+  SurfaceMesh near_plane, resected_side, remnant_side;
+  const auto append = [](SurfaceMesh& to, const SurfaceMesh& from) {
+    const auto base = static_cast<int>(to.V.rows());
+    to.V.conservativeResize(to.V.rows() + from.V.rows(), 3);
+    to.V.bottomRows(from.V.rows()) = from.V;
+    to.F.conservativeResize(to.F.rows() + from.F.rows(), 3);
+    to.F.bottomRows(from.F.rows()) = from.F.array() + base;
+  };
+  for (size_t s = 0; s < vm->model.embedded.size(); ++s) {
     const EmbeddedSurface& e = vm->model.embedded[s];
-    bool first = true;
-    for (const geometry::TumourMargin& tm : plan.report.tumours) {
-      if (tm.name != e.name) continue;
-      const Eigen::Vector3f c = margin_color(tm);
-      // A surface takes its worst piece's colour; the plane the worst of all.
-      if (first || c == kRed || (c == kAmber && style.embedded[s].color == kGreen))
-        style.embedded[s].color = c;
-      first = false;
-      if (c == kRed) plane_color = kRed;
+    if (!geometry::is_tumour_name(e.name)) continue;
+    Eigen::MatrixX3d own_positions;
+    const Eigen::MatrixX3d* p = s < embedded_x.size() ? embedded_x[s] : nullptr;
+    if (p == nullptr) {
+      model::embedded_positions(e, x, own_positions);
+      p = &own_positions;
     }
+    const Eigen::Index step = std::max<Eigen::Index>(1, p->rows() / 400);
+    for (Eigen::Index v = 0; v < p->rows(); v += step)
+      tumour_points.push_back(p->row(v).transpose());
+    // Each triangle by its centre's distance to the plane and side.
+    std::vector<bool> near(static_cast<size_t>(e.F.rows())), cut_off(near.size()),
+        kept(near.size());
+    for (Eigen::Index f = 0; f < e.F.rows(); ++f) {
+      const Eigen::Vector3d c =
+          (p->row(e.F(f, 0)) + p->row(e.F(f, 1)) + p->row(e.F(f, 2))).transpose() / 3.0;
+      const double d = (c - plan.point).dot(plan.normal);
+      const auto i = static_cast<size_t>(f);
+      if (std::abs(d) < plan.margin_mm)
+        near[i] = true;
+      else
+        ((d > 0.0) == plan.report.remnant_in_front ? kept : cut_off)[i] = true;
+    }
+    append(near_plane, geometry::triangle_subset(*p, e.F, near));
+    append(resected_side, geometry::triangle_subset(*p, e.F, cut_off));
+    append(remnant_side, geometry::triangle_subset(*p, e.F, kept));
   }
+  show_mesh(kTumourBandName, near_plane, kRed, 1.0f, false);
+  show_mesh(kTumourResectedName, resected_side, kGreen, 1.0f, false);
+  show_mesh(kTumourRemnantName, remnant_side, kAmber, 1.0f, false);
+  SurfaceMesh band, rest;
+  geometry::plane_margin_band(geometry::plane_surface(plan.point, plan.normal), plan.point,
+                              plan.size_mm, 40, tumour_points, plan.margin_mm, {}, band, rest);
+  // The plane: green while every tumour is clear or kept, amber when one is not; the band, red.
+  Eigen::Vector3f plane_color = kGreen;
+  for (const geometry::TumourMargin& tm : plan.report.tumours)
+    if (margin_color(tm) == kRed) plane_color = kAmber;
   if (!plan.error.empty()) plane_color = Eigen::Vector3f(0.6f, 0.6f, 0.6f);
-  render::Style ps;
-  ps.organ_color = plane_color;
-  ps.skin_alpha = 0.4f;
-  ps.inner = render::InnerLayers::kHidden;
-  render::set_style(kPlaneName, ps);
+  show_mesh(kPlaneName, rest, plane_color, 0.4f, true);
+  show_mesh(kBandName, band, kRed, 0.75f, true);
+  // The tumours' own surfaces are hidden while the plan draws them.
+  style.embedded = plan.looks;
+  for (size_t s = 0; s < vm->model.embedded.size() && s < style.embedded.size(); ++s)
+    if (geometry::is_tumour_name(vm->model.embedded[s].name)) style.embedded[s].visible = false;
 }
 
 bool ViewSession::State::press_on_plane(const Eigen::Vector3d& origin,

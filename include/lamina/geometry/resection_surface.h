@@ -4,9 +4,12 @@
 /// point is on.
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "lamina/geometry/surface_mesh.h"
 
 namespace lamina::geometry {
 
@@ -41,6 +44,19 @@ ResectionSurface closed_curve_surface(const std::vector<Eigen::Vector3d>& curve,
 /// plane's square is centred on the point nearest `centre` and `size_mm` wide.
 void surface_triangles(const ResectionSurface& surface, const Eigen::Vector3d& centre,
                        double size_mm, Eigen::MatrixX3d& V, Eigen::MatrixX3i& F);
+
+/// The margin band on a plane: its square (as surface_triangles() places it) as an n x n grid of
+/// triangle pairs, split into the triangles whose centres lie within `margin_mm` of any of
+/// `points` (a tumour's), `band`, and the others, `rest`. A triangle whose centre `keep` refuses
+/// (outside the organ) is in neither; an empty `keep` keeps all.
+void plane_margin_band(const ResectionSurface& plane, const Eigen::Vector3d& centre, double size_mm,
+                       int n, const std::vector<Eigen::Vector3d>& points, double margin_mm,
+                       const std::function<bool(const Eigen::Vector3d&)>& keep, SurfaceMesh& band,
+                       SurfaceMesh& rest);
+
+/// The triangles of F that `take` marks, with their own vertices (renumbered in order).
+SurfaceMesh triangle_subset(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                            const std::vector<bool>& take);
 
 /// Where a point is against a resection surface.
 struct SideQuery {
