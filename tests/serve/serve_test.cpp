@@ -570,11 +570,13 @@ TEST(Serve, TheReactionStreamsAtTheStepRateAndTheSkinAtItsOwn) {
   EXPECT_EQ(s.dropped, 0);
   // One reaction a step, at whatever rate this machine steps (1000 a second in real time; under
   // ASan about 350): compared with the steps per second the server itself counted over its run,
-  // not with a rate fixed here. The skin keeps its own 30 Hz, never faster.
+  // not with a rate fixed here; never more than the run's steps. (Its run's mean is no upper
+  // bound for the client's second: under the ASan suite's load a server once made 139 steps in
+  // 1.29 s, 138 of them in the client's second.) The skin keeps its own 30 Hz, never faster.
   ASSERT_GT(s.wall_s, 0.0);
   const double steps_per_s = static_cast<double>(s.steps) / s.wall_s;
   EXPECT_GT(reactions, 0.5 * steps_per_s) << server.log();
-  EXPECT_LT(reactions, 1.1 * steps_per_s + 5.0) << "more reactions than steps\n" << server.log();
+  EXPECT_LE(reactions, s.steps) << "more reactions than steps\n" << server.log();
   EXPECT_GT(skins, 0);
   EXPECT_LE(skins, 40);
 }
