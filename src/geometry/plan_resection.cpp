@@ -111,6 +111,43 @@ const char* to_string(LiverCondition condition) {
   return "normal";
 }
 
+void fill_volumes(ResectionReport& r, double front_mm3, double back_mm3, double least_mm3,
+                  std::optional<double> keep_signed_mm, const ResectionOptions& opt,
+                  const std::string& source) {
+  const double whole_mm3 = front_mm3 + back_mm3;
+  if (std::min(front_mm3, back_mm3) < least_mm3)
+    throw invalid_input(source, "the resection surface misses the organ: all of its " +
+                                    std::to_string(static_cast<int64_t>(whole_mm3 / 1000.0 + 0.5)) +
+                                    " mL lie on one side");
+  r.input = source;
+  r.liver = opt.liver;
+  r.margin_mm = opt.margin_mm;
+  if (keep_signed_mm) {
+    if (!std::isfinite(*keep_signed_mm) || *keep_signed_mm == 0.0)
+      throw invalid_input("--keep", "the point to keep lies on the resection surface");
+    r.remnant_in_front = *keep_signed_mm > 0.0;
+  } else {
+    r.remnant_in_front = front_mm3 >= back_mm3;
+  }
+  r.whole_ml = whole_mm3 / 1000.0;
+  r.remnant_ml = (r.remnant_in_front ? front_mm3 : back_mm3) / 1000.0;
+  r.resected_ml = (r.remnant_in_front ? back_mm3 : front_mm3) / 1000.0;
+  r.flr_percent = 100.0 * r.remnant_ml / r.whole_ml;
+  r.flr_threshold_percent = flr_threshold_percent(opt.liver);
+  r.flr_sufficient = r.flr_percent >= r.flr_threshold_percent;
+}
+
+void file_remnant_pieces(ResectionReport& r, const std::vector<RemnantPiece>& pieces) {
+  for (const RemnantPiece& p : pieces) {
+    if (p.volume_ml >= kMinPieceMl)
+      r.remnant_pieces.push_back(p);
+    else
+      r.remnant_fragments_ml += p.volume_ml;
+  }
+  std::sort(r.remnant_pieces.begin(), r.remnant_pieces.end(),
+            [](const RemnantPiece& a, const RemnantPiece& b) { return a.volume_ml > b.volume_ml; });
+}
+
 LabelVolume planning_phantom() {
   PhantomOptions o;
   o.carved_out = true;
@@ -260,31 +297,11 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     front_mm3 += row_front[row];
     back_mm3 += row_back[row];
   }
-  const double whole_mm3 = front_mm3 + back_mm3;
-  if (std::min(front_mm3, back_mm3) < voxel_mm3)
-    throw invalid_input(source, "the resection surface misses the organ: all of its " +
-                                    std::to_string(static_cast<int64_t>(whole_mm3 / 1000.0 + 0.5)) +
-                                    " mL lie on one side");
-
   ResectionReport& r = plan.report;
-  r.input = source;
-  r.liver = opt.liver;
-  r.margin_mm = opt.margin_mm;
-  if (opt.keep_point) {
-    const double s = side.signed_mm(*opt.keep_point);
-    if (!std::isfinite(s) || s == 0.0)
-      throw invalid_input("--keep", "the point to keep lies on the resection surface");
-    r.remnant_in_front = s > 0.0;
-  } else {
-    r.remnant_in_front = front_mm3 >= back_mm3;
-  }
+  std::optional<double> keep;
+  if (opt.keep_point) keep = side.signed_mm(*opt.keep_point);
+  fill_volumes(r, front_mm3, back_mm3, voxel_mm3, keep, opt, source);
   const uint8_t remnant = r.remnant_in_front ? kFront : kBack;
-  r.whole_ml = whole_mm3 / 1000.0;
-  r.remnant_ml = (r.remnant_in_front ? front_mm3 : back_mm3) / 1000.0;
-  r.resected_ml = (r.remnant_in_front ? back_mm3 : front_mm3) / 1000.0;
-  r.flr_percent = 100.0 * r.remnant_ml / r.whole_ml;
-  r.flr_threshold_percent = flr_threshold_percent(opt.liver);
-  r.flr_sufficient = r.flr_percent >= r.flr_threshold_percent;
 
   // 2. The parts on the input's grid, and the remnant's pieces.
   plan.parts.frame = f;

@@ -10,11 +10,6 @@
 namespace lamina::model {
 namespace {
 
-int32_t find(std::vector<int32_t>& parent, int32_t a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
-}
-
 // The rows of `v` that `keep` marks, in order.
 template <class T>
 std::vector<T> kept(const std::vector<T>& v, const std::vector<uint8_t>& keep) {
@@ -27,32 +22,48 @@ std::vector<T> kept(const std::vector<T>& v, const std::vector<uint8_t>& keep) {
 
 }  // namespace
 
+std::vector<int32_t> tet_pieces(const Eigen::MatrixX4i& T, int32_t nodes,
+                                const std::vector<uint8_t>& take) {
+  std::vector<int32_t> parent(static_cast<size_t>(nodes));
+  std::iota(parent.begin(), parent.end(), 0);
+  const auto find = [&parent](int32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  std::vector<uint8_t> used(parent.size(), 0);
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    if (!take.empty() && !take[static_cast<size_t>(t)]) continue;
+    used[T(t, 0)] = 1;
+    for (int k = 1; k < 4; ++k) {
+      used[T(t, k)] = 1;
+      const int32_t a = find(T(t, 0)), b = find(T(t, k));
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  std::vector<int32_t> piece(parent.size(), -1);
+  for (int32_t n = 0; n < nodes; ++n)
+    if (used[n]) piece[n] = find(n);
+  return piece;
+}
+
 std::vector<uint8_t> nodes_of_pieces_on_side(const Model& model, const Eigen::Vector3d& point,
                                              const Eigen::Vector3d& normal, bool front) {
   const Eigen::MatrixX4i& T = model.tets.T;
-  std::vector<int32_t> parent(static_cast<size_t>(model.node_count()));
-  std::iota(parent.begin(), parent.end(), 0);
-  for (Eigen::Index t = 0; t < T.rows(); ++t)
-    for (int k = 1; k < 4; ++k) {
-      const int32_t a = find(parent, T(t, 0)), b = find(parent, T(t, k));
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
+  const std::vector<int32_t> piece = tet_pieces(T, model.node_count());
   // Each piece's volume and first moment about the plane's point, along its normal.
-  std::vector<double> volume(parent.size(), 0.0), moment(parent.size(), 0.0);
+  std::vector<double> volume(piece.size(), 0.0), moment(piece.size(), 0.0);
   const Eigen::MatrixX3d& X = model.X;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
     const Eigen::Vector3d a = X.row(T(t, 0)), b = X.row(T(t, 1)), c = X.row(T(t, 2)),
                           d = X.row(T(t, 3));
     const double v = std::abs((b - a).dot((c - a).cross(d - a))) / 6.0 * model.tets.share_of(t);
-    const int32_t r = find(parent, T(t, 0));
+    const int32_t r = piece[T(t, 0)];
     volume[r] += v;
     moment[r] += v * (((a + b + c + d) / 4.0 - point).dot(normal));
   }
-  std::vector<uint8_t> out(parent.size(), 0);
-  for (size_t n = 0; n < parent.size(); ++n) {
-    const int32_t r = find(parent, static_cast<int32_t>(n));
-    if (volume[r] > 0.0) out[n] = (moment[r] > 0.0) == front;
-  }
+  std::vector<uint8_t> out(piece.size(), 0);
+  for (size_t n = 0; n < piece.size(); ++n)
+    if (piece[n] >= 0 && volume[piece[n]] > 0.0) out[n] = (moment[piece[n]] > 0.0) == front;
   return out;
 }
 

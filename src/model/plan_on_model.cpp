@@ -7,45 +7,14 @@
 #include <numeric>
 
 #include "lamina/core/error.h"
+#include "lamina/geometry/mesh_measures.h"
 #include "lamina/geometry/volume_by_plane.h"
 #include "lamina/geometry/winding_number.h"
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/model/embed_surface.h"
+#include "lamina/model/keep_piece.h"
 
 namespace lamina::model {
-namespace {
-
-int32_t find(std::vector<int32_t>& parent, int32_t a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
-}
-
-void join(std::vector<int32_t>& parent, int32_t a, int32_t b) {
-  a = find(parent, a), b = find(parent, b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
-}
-
-// Each vertex's connected piece of the triangles F (0.. in order of first vertex), and the count.
-int32_t surface_pieces(const Eigen::MatrixX3i& F, Eigen::Index vertices,
-                       std::vector<int32_t>& piece) {
-  std::vector<int32_t> parent(static_cast<size_t>(vertices));
-  std::iota(parent.begin(), parent.end(), 0);
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    join(parent, F(f, 0), F(f, 1));
-    join(parent, F(f, 0), F(f, 2));
-  }
-  piece.assign(static_cast<size_t>(vertices), -1);
-  std::vector<int32_t> id(static_cast<size_t>(vertices), -1);
-  int32_t count = 0;
-  for (Eigen::Index v = 0; v < vertices; ++v) {
-    const int32_t r = find(parent, static_cast<int32_t>(v));
-    if (id[r] < 0) id[r] = count++;
-    piece[v] = id[r];
-  }
-  return count;
-}
-
-}  // namespace
 
 geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX3d& x,
                                         const geometry::ResectionSurface& plane,
@@ -66,9 +35,6 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
   };
 
   geometry::ResectionReport r;
-  r.input = source;
-  r.liver = options.liver;
-  r.margin_mm = options.margin_mm;
   // 1. Volumes.
   geometry::PlaneSides sides;
   const int32_t skin = display_skin_index(model);
@@ -80,25 +46,10 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
     sides = geometry::volume_by_plane(x, model.tets.T, p0, n);
   else
     sides = geometry::surface_volume_by_plane(x, model.layers[0].F, p0, n);
-  const double whole = sides.front_mm3 + sides.back_mm3;
-  if (std::min(sides.front_mm3, sides.back_mm3) < 1e-6 * whole)
-    throw invalid_input(source, "the resection surface misses the organ: all of its " +
-                                    std::to_string(static_cast<int64_t>(whole / 1000.0 + 0.5)) +
-                                    " mL lie on one side");
-  if (options.keep_point) {
-    const double s = (*options.keep_point - p0).dot(n);
-    if (!std::isfinite(s) || s == 0.0)
-      throw invalid_input("--keep", "the point to keep lies on the resection surface");
-    r.remnant_in_front = s > 0.0;
-  } else {
-    r.remnant_in_front = sides.front_mm3 >= sides.back_mm3;
-  }
-  r.whole_ml = whole / 1000.0;
-  r.remnant_ml = (r.remnant_in_front ? sides.front_mm3 : sides.back_mm3) / 1000.0;
-  r.resected_ml = (r.remnant_in_front ? sides.back_mm3 : sides.front_mm3) / 1000.0;
-  r.flr_percent = 100.0 * r.remnant_ml / r.whole_ml;
-  r.flr_threshold_percent = geometry::flr_threshold_percent(options.liver);
-  r.flr_sufficient = r.flr_percent >= r.flr_threshold_percent;
+  std::optional<double> keep;
+  if (options.keep_point) keep = (*options.keep_point - p0).dot(n);
+  geometry::fill_volumes(r, sides.front_mm3, sides.back_mm3,
+                         1e-6 * (sides.front_mm3 + sides.back_mm3), keep, options, source);
 
   // 2. Tumours: each piece of each tumour surface.
   for (size_t s = 0; s < model.embedded.size(); ++s) {
@@ -106,8 +57,12 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
     if (e.label == 0 || !geometry::is_tumour_name(e.name)) continue;
     Eigen::MatrixX3d mine;
     const Eigen::MatrixX3d& V = at(s, mine);
-    std::vector<int32_t> piece;
-    const int32_t pieces = surface_pieces(e.F, V.rows(), piece);
+    // Each vertex's piece, from its triangles'.
+    int pieces = 0;
+    const std::vector<int> face_piece = geometry::face_components(e.F, V.rows(), pieces);
+    std::vector<int32_t> piece(static_cast<size_t>(V.rows()), 0);
+    for (Eigen::Index f = 0; f < e.F.rows(); ++f)
+      for (int c = 0; c < 3; ++c) piece[e.F(f, c)] = face_piece[f];
     struct Acc {
       int64_t front = 0, back = 0, vertices = 0;
       double least = INFINITY, volume = 0.0;
@@ -173,36 +128,30 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
   // 4. The remnant's pieces: its tetrahedra joined where they share a node.
   if (model.has_tets()) {
     const Eigen::MatrixX4i& T = model.tets.T;
-    std::vector<int32_t> parent(static_cast<size_t>(model.node_count()));
-    std::iota(parent.begin(), parent.end(), 0);
     std::vector<uint8_t> kept(static_cast<size_t>(T.rows()), 0);
     for (Eigen::Index t = 0; t < T.rows(); ++t) {
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       for (int k = 0; k < 4; ++k) c += x.row(T(t, k)).transpose() / 4.0;
       kept[t] = ((c - p0).dot(n) > 0.0) == r.remnant_in_front;
-      if (kept[t])
-        for (int k = 1; k < 4; ++k) join(parent, T(t, 0), T(t, k));
     }
+    const std::vector<int32_t> piece = tet_pieces(T, model.node_count(), kept);
     std::vector<geometry::RemnantPiece> pieces(static_cast<size_t>(model.node_count()));
     for (Eigen::Index t = 0; t < T.rows(); ++t) {
       if (!kept[t]) continue;
       const Eigen::Vector3d a = x.row(T(t, 0)), b = x.row(T(t, 1)), c = x.row(T(t, 2)),
                             d = x.row(T(t, 3));
       const double v = std::abs((b - a).dot((c - a).cross(d - a))) / 6.0 / 1000.0;
-      geometry::RemnantPiece& p = pieces[find(parent, T(t, 0))];
+      geometry::RemnantPiece& p = pieces[piece[T(t, 0)]];
       p.volume_ml += v;
       p.centre_mm += v * (a + b + c + d) / 4.0;
     }
-    for (geometry::RemnantPiece& p : pieces) {
-      if (p.volume_ml <= 0.0) continue;
-      p.centre_mm /= p.volume_ml;
-      if (p.volume_ml >= geometry::kMinPieceMl)
-        r.remnant_pieces.push_back(p);
-      else
-        r.remnant_fragments_ml += p.volume_ml;
-    }
-    std::sort(r.remnant_pieces.begin(), r.remnant_pieces.end(),
-              [](const auto& a, const auto& b) { return a.volume_ml > b.volume_ml; });
+    std::vector<geometry::RemnantPiece> found;
+    for (geometry::RemnantPiece& p : pieces)
+      if (p.volume_ml > 0.0) {
+        p.centre_mm /= p.volume_ml;
+        found.push_back(p);
+      }
+    geometry::file_remnant_pieces(r, found);
   }
   return r;
 }

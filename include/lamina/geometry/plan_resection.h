@@ -94,6 +94,19 @@ struct ResectionReport {
   int64_t remnant_voxels = 0, resected_voxels = 0;
 };
 
+/// A report's volumes, remnant side and future liver remnant from the organ's volume on each side
+/// of the surface (both planners: the voxels', the model's). `keep_signed_mm`: the point to keep's
+/// signed distance to the surface, none for the larger side.
+/// \note Throws lamina::Error (kInvalidInput): the smaller side under `least_mm3` ("the resection
+///   surface misses the organ", naming `source`), a point to keep on the surface ("--keep").
+void fill_volumes(ResectionReport& report, double front_mm3, double back_mm3, double least_mm3,
+                  std::optional<double> keep_signed_mm, const ResectionOptions& options,
+                  const std::string& source);
+
+/// Files the remnant's pieces (each centre already the volume's mean): those of kMinPieceMl or
+/// more in remnant_pieces, largest first, the others' volume in remnant_fragments_ml.
+void file_remnant_pieces(ResectionReport& report, const std::vector<RemnantPiece>& pieces);
+
 struct ResectionPlan {
   ResectionReport report;
   /// On the input's grid: 1 for the remnant's voxels, 2 for the resected ones (by the side of

@@ -11,6 +11,12 @@
 
 namespace lamina::model {
 
+/// The pieces of the tetrahedra `take` marks (#T; all when empty), joined where they share a
+/// node (a cut's copies share none across it): per node, a representative node of its piece
+/// (the piece's smallest node index), -1 for the nodes of no such tetrahedron.
+std::vector<int32_t> tet_pieces(const Eigen::MatrixX4i& T, int32_t nodes,
+                                const std::vector<uint8_t>& take = {});
+
 /// The nodes of the pieces on one side of a plane: the tetrahedra joined where they share a node
 /// (a cut's copies share none across it), each piece on the side of its volume's centroid.
 /// @return #nodes, 1 for the nodes of the pieces whose centroid is in front of the plane
