@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (CMake preset "fuzz", clang + ASan + UBSan) and runs each one for
 # SECONDS (default 30) on a seed corpus generated here by the release `lamina` (docs/testing.md).
-#   scripts/fuzz.sh [SECONDS] [TARGET...]     targets: volume model obj scene checkpoint cut
+#   scripts/fuzz.sh [SECONDS] [TARGET...]     targets: volume model obj vtp scene checkpoint cut
 #   scripts/fuzz.sh --ci                      CI's run: 3000 inputs per target from seed 1 on a
 #                                             fresh corpus
 # Findings go to build/fuzz/crashes/; the corpus grows in build/fuzz/corpus/ across runs.
@@ -17,7 +17,7 @@ fi
 seconds=${1:-30}
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(volume model obj scene checkpoint cut)
+((${#targets[@]})) || targets=(volume model obj vtp scene checkpoint cut)
 
 lamina=build/release/lamina
 if [ ! -x "$lamina" ]; then
@@ -31,7 +31,7 @@ cmake --build --preset fuzz -j2
 seeds=build/fuzz/seeds
 if [ ! -f "$seeds/.done" ]; then
   rm -rf "$seeds"
-  mkdir -p "$seeds"/{volume,model,obj,scene,checkpoint,cut}
+  mkdir -p "$seeds"/{volume,model,obj,vtp,scene,checkpoint,cut}
   work=$(mktemp -d)
   trap 'rm -rf "$work"' EXIT
   "$lamina" -q phantom --size 16,16,16 --spacing 12 -o "$work/p.nii"
@@ -56,6 +56,7 @@ if [ ! -f "$seeds/.done" ]; then
   "$lamina" -q build "$work/p.nii" -o "$seeds/model/tiny.vtu" --skin-vertices 60 >/dev/null
   "$lamina" -q export "$seeds/model/tiny.vtu" -o "$seeds/obj/tiny_skin.obj"
   "$lamina" -q export "$seeds/model/tiny.vtu" -o "$seeds/obj/tiny_inner.obj" --layer 1
+  cp tests/io/vtp/*.vtp "$seeds/vtp/"  # written by VTK itself, every encoding it has
   cp examples/*.json "$seeds/scene/"
   cat >"$work/scene.json" <<'JSON'
 {"model": {"model": "tiny.vtu"}, "solver": {"mode": "local"},

@@ -1,5 +1,5 @@
 // read_resection_surface (resection_input.h): 3D Slicer markups (nlohmann::json) and surface
-// files (our OBJ reader; CGAL's polygon soup reader for PLY, STL and OFF).
+// files (our OBJ and VTP readers; CGAL's polygon soup reader for PLY, STL and OFF).
 #include "lamina/io/resection_input.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -158,11 +158,15 @@ geometry::ResectionSurface read_resection_surface(const std::string& path) {
     const SurfaceMesh mesh = read_obj(path);
     return geometry::mesh_surface(mesh.V, mesh.F, path);
   }
+  if (name.ends_with(".vtp")) {
+    const SurfaceMesh mesh = read_vtp(path);
+    return geometry::mesh_surface(mesh.V, mesh.F, path);
+  }
   if (name.ends_with(".ply") || name.ends_with(".stl") || name.ends_with(".off"))
     return read_soup(path);
   throw invalid_input(path,
-                      "unsupported resection surface (use .mrk.json, .obj, .ply, .stl or .off; "
-                      "3D Slicer saves a model as .ply or .obj)");
+                      "unsupported resection surface (use .mrk.json, .vtp, .obj, .ply, .stl or "
+                      ".off; 3D Slicer saves a model as .vtp, .ply or .obj, not as legacy .vtk)");
 }
 
 }  // namespace lamina::io

@@ -146,8 +146,14 @@ TEST(ResectCli, SlicerMarkupsGiveTheSamePlanAsThePlane) {
   const auto plane = lamina(d, "resect --plane 30,0,0:1,0,0 --json");
   ASSERT_EQ(plane.exit_code, 0) << plane.err;
   const json expected = json::parse(plane.out)["volumes_ml"];
-  for (const char* file : {"plane.mrk.json", "curve.mrk.json", "axes.mrk.json"}) {
-    const auto r = lamina(d, std::string("resect --surface ") + file + " --json");
+  // And the sheet x = 30 as VTK's writer saves a model (appended, base64, zlib; what 3D Slicer
+  // writes for .vtp), and as raw big-endian triangle data (tests/io/vtp).
+  const std::string sheet = test::quoted(test::source_path("tests/io/vtp/default.vtp").string());
+  const std::string raw =
+      test::quoted(test::source_path("tests/io/vtp/raw_big_endian.vtp").string());
+  for (const std::string& file : {std::string("plane.mrk.json"), std::string("curve.mrk.json"),
+                                  std::string("axes.mrk.json"), sheet, raw}) {
+    const auto r = lamina(d, "resect --surface " + file + " --json");
     ASSERT_EQ(r.exit_code, 0) << file << ": " << r.err;
     EXPECT_EQ(json::parse(r.out)["volumes_ml"], expected) << file;
   }
@@ -162,6 +168,9 @@ TEST(ResectCli, RefusesBadSurfacesWithOneLineAndWritesNothing) {
         R"({"markups": [{"type": "Fiducial", "controlPoints": [{"position": [0, 0, 0]}]}]})");
   write(d.work / "broken.mrk.json", R"({"markups": [{"type": "Plane", )");
   write(d.work / "flat.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n");
+  write(d.work / "cut.vtp",
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\"><PolyData>"
+        "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">");
   struct Case {
     std::string args;
     std::vector<std::string> says;
@@ -177,6 +186,7 @@ TEST(ResectCli, RefusesBadSurfacesWithOneLineAndWritesNothing) {
       {"--surface flat.obj", {"flat.obj", "degenerate"}},
       {"--surface missing.ply", {"missing.ply", "not found"}},
       {"--surface plan.vtk", {"plan.vtk", "unsupported"}},
+      {"--surface cut.vtp", {"cut.vtp", "truncated"}},
       {"", {"--plane", "--surface"}},
       {"--plane 0,0,0:1,0,0 --keep 0,5,5", {"--keep", "on the resection surface"}},
       {"--plane 0,0,0:1,0,0 --embed 9=bile", {"label 9"}},

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Writing triangle meshes for other tools (MeshLab, ParaView, slicers) and reading OBJ files.
+/// Writing triangle meshes for other tools (MeshLab, ParaView, slicers); reading OBJ and VTP files.
 
 #include <optional>
 #include <string>
@@ -35,5 +35,17 @@ void write_mesh(const SurfaceMesh& mesh, const std::string& path,
 ///   lamina::Error (kInvalidInput) naming `path` (and the line) for a missing file, a malformed
 ///   `v` or `f` line, an index outside the vertex list, or a file without faces.
 SurfaceMesh read_obj(const std::string& path);
+
+/// Reads the points, polygons and triangle strips of a VTK XML PolyData file (.vtp), as VTK,
+/// ParaView and 3D Slicer write it: ascii, binary or appended (base64 or raw) data, uncompressed
+/// or zlib-compressed, UInt32 or UInt64 headers, either byte order; several pieces are joined.
+/// @param[in] path  .vtp file
+/// @return V (#V by 3) and F (#F by 3, 0-based); polygons are fan-triangulated from their first
+///   corner, strips split into triangles of alternating order (VTK's); verts and lines are skipped
+/// \note Throws lamina::Error (kInvalidInput) naming `path` for a missing file, a file that is not
+///   VTK XML PolyData or is cut off, an LZ4 or LZMA compressor, corrupt base64 or zlib data, a
+///   count that disagrees with the piece, a point that is not finite, a cell naming a point the
+///   piece does not have, or a file without polygons or strips.
+SurfaceMesh read_vtp(const std::string& path);
 
 }  // namespace lamina::io
