@@ -94,3 +94,5 @@ endif()
 # OpenIGTLink 1.11 (`lamina serve`, docs/openigtlink.md): Debian installs its package outside
 # CMake's search path.
 find_package(OpenIGTLink REQUIRED PATHS /usr/lib/openigtlink NO_DEFAULT_PATH)
+# `lamina serve --web` (docs/web.md): Boost.Beast and Boost.Asio, header-only.
+find_package(Boost 1.74 REQUIRED)

@@ -24,7 +24,12 @@ pkgs=(
   clang-14 libclang-rt-14-dev libomp-14-dev
   # the formatting check (scripts/check_format.sh, .clang-format)
   clang-format-14
+  # `lamina serve --web` (docs/web.md): Boost.Beast (header-only), TLS; the page's browser test
+  # drives Debian's chromium (headless, swiftshader) with playwright-core from npm
+  libboost1.74-dev libssl-dev chromium
 )
+# node and npm: the machine's own if it has them (a newer Node from elsewhere), else Debian's.
+if ! command -v npm >/dev/null; then pkgs+=(nodejs npm); fi
 
 missing=()
 for p in "${pkgs[@]}"; do
@@ -40,4 +45,16 @@ if ((${#missing[@]})); then
   $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 else
   echo "lamina setup: all Debian packages present" >&2
+fi
+
+# The page's JavaScript (three.js, meshoptimizer's decoder) and its test drivers (playwright-core,
+# iwer), from the npm registry at the versions web/package-lock.json pins; again only when the
+# lockfile changed since the last install.
+web="$(dirname "$0")/../web"
+if [ ! -f "$web/node_modules/.package-lock.json" ] ||
+   [ "$web/package-lock.json" -nt "$web/node_modules/.package-lock.json" ]; then
+  echo "lamina setup: npm ci in web/ (package-lock.json)" >&2
+  (cd "$web" && npm ci --no-audit --no-fund --loglevel=error)
+else
+  echo "lamina setup: web/node_modules matches package-lock.json" >&2
 fi

@@ -216,6 +216,14 @@ struct ServeArgs {
   double stall_timeout_s = 5.0;         ///< a client silent this long mid-message is dropped
   int max_clients = 16;
   int threads = 0;  ///< threads per step; 0 = OpenMP's default
+  /// The web edge (docs/web.md): the page and its WebSocket stream, beside OpenIGTLink.
+  bool web = false;
+  std::string web_host = "127.0.0.1";  ///< --listen: the web server's address
+  int web_port = 8765;                 ///< 0 = any free one (logged)
+  double web_hz = 60.0;                ///< frames per second to each page
+  std::string web_token;               ///< empty: a random one (in the logged address)
+  std::string web_root;                ///< the page's files; empty: the build's (or install's)
+  double gain_n_per_mm = 0.01;         ///< a page's mouse drag: force per mm dragged
   bool verbose = false;
 };
 /// Runs the simulation as an OpenIGTLink server (docs/openigtlink.md): tool poses in, the

@@ -313,6 +313,20 @@ int main(int argc, char** argv) {
   se->add_option("--threads", serve.threads,
                  "threads per simulation step (default: OpenMP's; 1 on a machine shared with "
                  "other busy programs)");
+  se->add_flag("--web", serve.web,
+               "also serve the page for a browser or a headset (WebXR) and its stream "
+               "(docs/web.md); the address with its token is logged");
+  se->add_option("--listen", serve.web_host,
+                 "the web server's address (default 127.0.0.1: this machine only; 0.0.0.0: "
+                 "every interface)");
+  se->add_option("--web-port", serve.web_port, "the web server's port (default 8765; 0 = any)");
+  se->add_option("--web-hz", serve.web_hz, "frames per second to each page (default 60)");
+  se->add_option("--token", serve.web_token,
+                 "the token the page's address needs (default: a random one)");
+  se->add_option("--web-root", serve.web_root,
+                 "the page's files (default: the build's web/ beside the lamina binary)");
+  se->add_option("--gain", serve.gain_n_per_mm,
+                 "a page's mouse drag: force per mm dragged, N/mm (default 0.01)");
 
   cli::BenchArgs bench;
   auto* be = app.add_subcommand("bench",

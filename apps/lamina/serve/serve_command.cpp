@@ -6,9 +6,11 @@
 #include <fmt/format.h>
 
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <set>
 
 #include "commands.h"
@@ -21,6 +23,7 @@
 #include "lamina/sim/simulation.h"
 #include "scalpel_stroke.h"
 #include "serve_rate.h"
+#include "web_session.h"
 
 namespace lamina::cli {
 namespace {
@@ -72,6 +75,35 @@ void check_args(const ServeArgs& a) {
   if (!(a.stall_timeout_s > 0.0)) throw invalid_input("--stall-timeout", "must be > 0 s");
   if (a.max_clients < 1) throw invalid_input("--max-clients", "must be >= 1");
   if (a.threads < 0) throw invalid_input("--threads", "must be >= 0 (0 = OpenMP's default)");
+  if (!(a.web_hz > 0.0 && a.web_hz <= 240.0))
+    throw invalid_input("--web-hz", "must be in (0, 240] frames per second");
+  if (a.web_port < 0 || a.web_port > 65535)
+    throw invalid_input("--web-port", "must be in [0, 65535]");
+  if (!(a.gain_n_per_mm > 0.0 && a.gain_n_per_mm <= 1.0))
+    throw invalid_input("--gain", "must be in (0, 1] N/mm");
+  for (const char c : a.web_token)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_')
+      throw invalid_input("--token", "may hold letters, digits, '-' and '_' only");
+}
+
+// The page's files: --web-root, or web/ beside the lamina binary (the build's), or the
+// installed share/lamina/web.
+std::string web_root(const ServeArgs& a) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> tried;
+  if (!a.web_root.empty()) {
+    tried.push_back(a.web_root);
+  } else {
+    const fs::path exe = fs::canonical("/proc/self/exe").parent_path();
+    tried = {exe / "web", exe.parent_path() / "share" / "lamina" / "web"};
+  }
+  for (const fs::path& p : tried)
+    if (fs::exists(p / "index.html") && fs::exists(p / "vendor" / "three" / "three.module.js"))
+      return p.string();
+  throw invalid_input(a.web_root.empty() ? "--web" : "--web-root",
+                      "the page's files are not at " + tried.front().string() +
+                          " (index.html and vendor/three): build with npm present "
+                          "(scripts/setup.sh installs it), or give --web-root");
 }
 
 // The device name of layer k's POLYDATA: LaminaSkin for the skin, LaminaLayer1... inside.
@@ -207,6 +239,19 @@ int run_serve(const ServeArgs& a) {
   so.max_clients = a.max_clients;
   net::Server server(so);
   log::info("listening on {}:{}", a.host, server.port());
+  std::unique_ptr<web::Server> web_server;
+  if (a.web) {
+    web::ServerOptions wo;
+    wo.host = a.web_host;
+    wo.port = a.web_port;
+    wo.token = a.web_token;
+    wo.root = web_root(a);
+    wo.max_clients = a.max_clients;
+    wo.stall_timeout_s = std::max(a.stall_timeout_s, 2.0);
+    web_server = std::make_unique<web::Server>(wo);
+    log::info("web: listening on {}:{}; the page is at {}", a.web_host, web_server->port(),
+              web_server->url());
+  }
   const io::ReadyScene ready =
       io::make_ready_scene(scene, volume_read_options, stderr_progress(a.verbose));
   scene = ready.scene;
@@ -243,6 +288,21 @@ int run_serve(const ServeArgs& a) {
   int64_t poses = 0;
   std::set<std::pair<int, std::string>> noted;  // (client, type) already logged as skipped
 
+  // The web edge (--web): its own server beside OpenIGTLink's, on this thread, sharing the
+  // tool tip and the grasper.
+  std::unique_ptr<web::Session> web_session;
+  if (web_server) {
+    web::SessionOptions so_web;
+    so_web.frame_hz = a.web_hz;
+    so_web.gain_n_per_mm = a.gain_n_per_mm;
+    so_web.hello_fields = {{"max_force_mn", 1000.0 * a.max_force_n},
+                           {"tip_radius_mm", a.tip_radius_mm},
+                           {"grasp_radius_mm", so_web.grasp_radius_mm},
+                           {"frame_hz", a.web_hz}};
+    web_session = std::make_unique<web::Session>(std::move(web_server), so_web, loop,
+                                                 web::SharedTools{tip, tool_client, grasper_client},
+                                                 ready.model);
+  }
   const auto open_grasper = [&](const std::string& why) {
     if (grasper_client < 0) return;
     grasper_client = -1;
@@ -431,6 +491,7 @@ int run_serve(const ServeArgs& a) {
     if (stroke.client >= 0)
       wait_s = std::min(wait_s, stroke.last_pose_s + a.scalpel_pause_s - now_s);
     if (a.duration_s > 0.0) wait_s = std::min(wait_s, seconds(deadline - now));
+    if (web_session) wait_s = std::min(wait_s, web_session->poll());
     server.poll(std::max(wait_s, 0.0), handle, closed);
     if (a.reaction_hz > 0.0 && Clock::now() >= next_reaction) {
       next_reaction += reaction_tick;
@@ -530,6 +591,7 @@ int run_serve(const ServeArgs& a) {
         "model or, on a busy machine, --threads 1 keeps up",
         rtf);
   outgoing->log_embedded(true);
+  if (web_session) web_session->log_summary();
   const net::ServerCounters& c = server.counters();
   fmt::print(stderr,
              "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "

@@ -1,0 +1,273 @@
+// `lamina serve --web` as a browser sees it, over real sockets on 127.0.0.1: the page's files
+// and their token, the stream decoded as the page decodes it (web_stream.cpp's decoder, the C++
+// twin of lamina.js's), a hand that pushes a dent, and clients that send what no page should.
+// The page itself, in Chromium, is tests/web/ (docs/web.md).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <regex>
+
+#include "beast.h"
+#include "serve_support.h"
+#include "support/temp_dir.h"
+#include "web_stream.h"
+
+namespace lamina::test {
+namespace {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
+using json = nlohmann::json;
+
+struct WebServer {
+  TempDir dir;
+  std::optional<Server> server;
+  int port = 0;
+  std::string token;
+
+  explicit WebServer(std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"--web", "--web-port", "0", "--duration", "40"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    server.emplace(dir.path, args);
+    static const std::regex kUrl(
+        R"(the page is at http://127\.0\.0\.1:([0-9]+)/\?token=([0-9a-z]+))");
+    const auto t0 = Clock::now();
+    std::smatch m;
+    while (seconds_since(t0) < 30.0) {
+      const std::string log = server->log();
+      if (std::regex_search(log, m, kUrl)) {
+        port = std::stoi(m[1]);
+        token = m[2];
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    throw std::runtime_error("no web address in the log: " + server->log());
+  }
+};
+
+http::response<http::string_body> get(int port, const std::string& target) {
+  asio::io_context ioc;
+  beast::tcp_stream s(ioc);
+  s.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port)));
+  http::request<http::empty_body> req(http::verb::get, target, 11);
+  req.set(http::field::host, "127.0.0.1");
+  req.keep_alive(false);
+  http::write(s, req);
+  beast::flat_buffer b;
+  http::response<http::string_body> res;
+  http::read(s, b, res);
+  return res;
+}
+
+// A page's WebSocket, read and written synchronously.
+struct Page {
+  asio::io_context ioc;
+  websocket::stream<beast::tcp_stream> ws{ioc};
+  json hello;
+  std::vector<std::string> setup;
+  std::vector<uint16_t> rest;
+
+  Page(int port, const std::string& token) {
+    beast::get_lowest_layer(ws).connect(
+        tcp::endpoint(asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port)));
+    ws.handshake("127.0.0.1", "/stream?token=" + token);
+  }
+  std::string read(bool* text = nullptr, double timeout_s = 10.0) {
+    beast::get_lowest_layer(ws).expires_after(std::chrono::milliseconds(int(timeout_s * 1000)));
+    beast::flat_buffer b;
+    ws.read(b);
+    if (text) *text = ws.got_text();
+    return beast::buffers_to_string(b.data());
+  }
+  // The hello, each surface and the rest, as the page takes them.
+  void take_setup() {
+    bool text = false;
+    hello = json::parse(read(&text));
+    EXPECT_TRUE(text);
+    const size_t surfaces = hello["surfaces"].size();
+    for (size_t k = 0; k <= surfaces; ++k) setup.push_back(read(&text));
+    rest = cli::web::decode_rest(setup.back());
+  }
+  // The next frame, decoded; frames of another model are skipped.
+  std::vector<uint16_t> frame(cli::web::FrameInfo& info) {
+    for (;;) {
+      bool text = false;
+      const std::string m = read(&text);
+      if (text) continue;  // events
+      uint32_t kind = 0;
+      std::memcpy(&kind, m.data(), 4);
+      if (kind == static_cast<uint32_t>(cli::web::Kind::kFrame))
+        return cli::web::decode_frame(m, rest, &info);
+    }
+  }
+  void send(const json& m) {
+    ws.text(true);
+    ws.write(asio::buffer(m.dump()));
+  }
+  Eigen::Vector3d point(const std::vector<uint16_t>& q, size_t i) const {
+    const double step = hello["step_mm"];
+    return Eigen::Vector3d(hello["origin_mm"][0].get<double>() + step * q[4 * i],
+                           hello["origin_mm"][1].get<double>() + step * q[4 * i + 1],
+                           hello["origin_mm"][2].get<double>() + step * q[4 * i + 2]);
+  }
+};
+
+TEST(Web, ThePageNeedsTheTokenAndItsScriptsAreServedFromTheBuild) {
+  WebServer w;
+  EXPECT_EQ(get(w.port, "/").result(), http::status::forbidden);
+  EXPECT_EQ(get(w.port, "/?token=wrong").result(), http::status::forbidden);
+  const auto page = get(w.port, "/?token=" + w.token);
+  ASSERT_EQ(page.result(), http::status::ok);
+  EXPECT_NE(page.body().find("lamina.js"), std::string::npos);
+  for (const char* file :
+       {"/lamina.js", "/vendor/three/three.module.js", "/vendor/three/three.core.js",
+        "/vendor/meshopt_decoder.mjs", "/vendor/three/addons/controls/OrbitControls.js"}) {
+    const auto r = get(w.port, file);
+    EXPECT_EQ(r.result(), http::status::ok) << file;
+    EXPECT_EQ(r[http::field::content_type], "text/javascript; charset=utf-8") << file;
+  }
+  EXPECT_EQ(get(w.port, "/../../etc/passwd").result(), http::status::bad_request);
+  EXPECT_EQ(get(w.port, "/missing.js").result(), http::status::not_found);
+  // A WebSocket without the token is refused at its handshake.
+  EXPECT_THROW(Page(w.port, "wrong"), beast::system_error);
+  w.server->process().terminate();
+  EXPECT_EQ(w.server->process().wait(20.0), 0) << w.server->log();
+  EXPECT_NE(w.server->log().find("a WebSocket without the session's token"), std::string::npos);
+}
+
+TEST(Web, TheStreamCarriesTheOrganAndAHandPushesADentThatComesBack) {
+  WebServer w;
+  Page page(w.port, w.token);
+  page.take_setup();
+  const json& h = page.hello;
+  EXPECT_EQ(h["type"], "hello");
+  ASSERT_GE(h["surfaces"].size(), 1u);
+  EXPECT_GT(h["max_force_mn"].get<double>(), 0.0);
+  const int me = h["client"];
+  // The streamed points at rest lie in the quantization box; a frame without a tool is the rest.
+  const size_t n = page.rest.size() / 4;
+  ASSERT_EQ(n, h["points"].get<size_t>());
+  cli::web::FrameInfo info;
+  std::vector<uint16_t> q = page.frame(info);
+  EXPECT_EQ(info.tools[0].client, -1);
+  size_t far = 0;  // the point farthest along +x: on the skin
+  for (size_t i = 0; i < n; ++i)
+    if (page.point(page.rest, i).x() > page.point(page.rest, far).x()) far = i;
+  const Eigen::Vector3d surface = page.point(page.rest, far);
+  EXPECT_LT((page.point(q, far) - surface).norm(), 0.5);
+  // The right hand's trigger held 4 mm inside the skin there: the tip pushes it in.
+  const Eigen::Vector3d tip = surface - Eigen::Vector3d(4.0, 0.0, 0.0);
+  uint32_t pose = 0;
+  double dent = 0.0;
+  const auto t0 = Clock::now();
+  while (seconds_since(t0) < 10.0 && dent < 1.0) {
+    page.send({{"type", "hand"},
+               {"hand", 0},
+               {"pose", ++pose},
+               {"position", {tip.x(), tip.y(), tip.z()}},
+               {"trigger", 1.0},
+               {"grip", 0.0}});
+    q = page.frame(info);
+    dent = surface.x() - page.point(q, far).x();
+  }
+  EXPECT_GE(dent, 1.0) << "the skin did not move in under the tip";
+  EXPECT_EQ(info.tools[0].client, me);
+  EXPECT_EQ(info.tools[0].hand, 0);
+  EXPECT_TRUE(info.tools[0].contact);
+  EXPECT_GT(info.tools[0].pose, 0u);
+  EXPECT_LE(info.tools[0].pose, pose);
+  // The tissue pushes the tool back out (+x), within the force limit the hello gave.
+  EXPECT_GT(info.tools[0].reaction_mn.x(), 0.0);
+  EXPECT_LE(info.tools[0].reaction_mn.norm(), h["max_force_mn"].get<double>() * 1.001);
+  // Trigger let go: the tool leaves and the skin comes back.
+  page.send({{"type", "hand"},
+             {"hand", 0},
+             {"pose", ++pose},
+             {"position", {tip.x(), tip.y(), tip.z()}},
+             {"trigger", 0.0},
+             {"grip", 0.0}});
+  const auto t1 = Clock::now();
+  while (seconds_since(t1) < 10.0) {
+    q = page.frame(info);
+    if (info.tools[0].client == -1 && (page.point(q, far) - surface).norm() < 0.5) break;
+  }
+  EXPECT_EQ(info.tools[0].client, -1);
+  EXPECT_LT((page.point(q, far) - surface).norm(), 0.5);
+}
+
+TEST(Web, MalformedOversizedAndStalledClientsAreDroppedAndTheOthersGoOn) {
+  WebServer w;
+  Page good(w.port, w.token);
+  good.take_setup();
+  cli::web::FrameInfo info;
+  good.frame(info);
+  const int64_t steps_before = info.steps;
+  // Slowloris: half a request, then nothing.
+  asio::io_context slow_ioc;
+  tcp::socket slow(slow_ioc);
+  slow.connect(
+      tcp::endpoint(asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(w.port)));
+  asio::write(slow, asio::buffer(std::string("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n")));
+  const auto slow_start = Clock::now();
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"not json", "not JSON"},
+      {R"({"type": "hand", "hand": 0, "pose": 1, "position": [0, 0], "trigger": 1, "grip": 0})",
+       "'position' is not three numbers"},
+      {R"({"type": "hand", "hand": 0, "pose": 1, "position": [0, 0, 1e300], "trigger": 1, "grip": 0})",
+       "not finite or beyond"},
+      {R"({"type": "teleport"})", "unknown type 'teleport'"},
+      {std::string(100000, ' '), "a message larger than"},
+  };
+  for (const auto& [message, says] : bad) {
+    Page p(w.port, w.token);
+    p.take_setup();
+    p.ws.text(true);
+    p.ws.write(asio::buffer(message));
+    // The server closes it: the next read fails (after any frames already on their way).
+    bool closed = false;
+    try {
+      for (int k = 0; k < 1000; ++k) p.read(nullptr, 5.0);
+    } catch (const beast::system_error&) {
+      closed = true;
+    }
+    EXPECT_TRUE(closed) << says;
+    EXPECT_NE(w.server->log().find(says), std::string::npos) << w.server->log();
+    good.frame(info);  // (a page answers the server's pings while it reads)
+  }
+  {  // A binary message: the stream takes JSON text only.
+    Page p(w.port, w.token);
+    p.take_setup();
+    p.ws.binary(true);
+    p.ws.write(asio::buffer(std::string(16, '\1')));
+    EXPECT_THROW(for (int k = 0; k < 1000; ++k) p.read(nullptr, 5.0), beast::system_error);
+  }
+  // Slowloris (begun above): dropped once the request timeout (5 s) has passed, while the good
+  // client kept reading.
+  while (seconds_since(slow_start) < 6.0) good.frame(info);
+  {
+    char byte;
+    beast::error_code ec;
+    slow.non_blocking(true);
+    slow.read_some(asio::buffer(&byte, 1), ec);
+    EXPECT_TRUE(ec == asio::error::eof || ec == asio::error::connection_reset) << ec.message();
+    EXPECT_NE(w.server->log().find("no whole request within"), std::string::npos);
+  }
+  // The good client still streams, and the simulation went on.
+  good.frame(info);
+  EXPECT_GT(info.steps, steps_before);
+  // A client that reconnects gets the model again.
+  Page again(w.port, w.token);
+  again.take_setup();
+  EXPECT_EQ(again.setup, good.setup);
+  w.server->process().terminate();
+  EXPECT_EQ(w.server->process().wait(20.0), 0) << w.server->log();
+  const std::optional<Summary> s = parse_summary(w.server->log());
+  ASSERT_TRUE(s) << w.server->log();
+}
+
+}  // namespace
+}  // namespace lamina::test

@@ -1,0 +1,256 @@
+// The page of `lamina serve --web` in a real browser (docs/web.md): Debian's Chromium, headless
+// with SwiftShader's WebGL, driven by playwright-core; the headset emulated by IWER (a Meta
+// Quest 3 and its controllers). CTest runs it when node and chromium are present:
+//   node tests/web/page_test.mjs --lamina build/release/lamina --out DIR
+// It asserts what a user relies on and prints what it measured as one JSON line; screenshots go
+// to DIR (desktop.png, headset.png).
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { mkdirSync, mkdtempSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { dirname, join } from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const here = dirname(fileURLToPath(import.meta.url));
+const modules = join(here, '..', '..', 'web', 'node_modules');
+const { chromium } = await import(join(modules, 'playwright-core', 'index.mjs'));
+
+const args = Object.fromEntries(process.argv.slice(2).reduce((pairs, a, i, all) =>
+  (a.startsWith('--') ? [...pairs, [a.slice(2), all[i + 1]]] : pairs), []));
+const lamina = args.lamina;
+const out = args.out || mkdtempSync(join(tmpdir(), 'lamina_web_'));
+mkdirSync(out, { recursive: true });
+const measured = {};
+
+function run(cmd, argv, cwd) {
+  return new Promise((resolve, reject) => {
+    const p = spawn(cmd, argv, { cwd, stdio: ['ignore', 'ignore', 'pipe'] });
+    let err = '';
+    p.stderr.on('data', (d) => { err += d; });
+    p.on('exit', (code) => (code === 0 ? resolve() : reject(new Error(`${argv.join(' ')}: ${err}`))));
+  });
+}
+
+const median = (v) => { const s = [...v].sort((a, b) => a - b); return s.length ? s[Math.floor(s.length / 2)] : NaN; };
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+// The carved-out phantom with its anatomy: a portal vein, a tumour, hepatic veins.
+const work = mkdtempSync(join(tmpdir(), 'lamina_web_model_'));
+await run(lamina, ['-q', 'phantom', '--carved-out', '-o', 'p.nii.gz'], work);
+await run(lamina, ['-q', 'build', 'p.nii.gz', '--label', '1', '--embed',
+                   '2=portal_vein,3=tumour,4=hepatic_veins', '-o', 'm.vtu'], work);
+
+const server = spawn(lamina, ['serve', 'm.vtu', '--web', '--web-port', '0', '--port', '0',
+                              '--duration', '170'], { cwd: work, stdio: ['ignore', 'ignore', 'pipe'] });
+let log = '';
+server.stderr.on('data', (d) => { log += d; });
+const url = await new Promise((resolve, reject) => {
+  const t0 = Date.now();
+  const t = setInterval(() => {
+    const m = log.match(/the page is at (http\S+)/);
+    if (m) { clearInterval(t); resolve(m[1]); }
+    if (Date.now() - t0 > 60000) { clearInterval(t); reject(new Error('no address: ' + log)); }
+  }, 50);
+});
+
+const browser = await chromium.launch({
+  executablePath: args.chromium || '/usr/bin/chromium',
+  args: ['--use-gl=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist', '--no-sandbox'],
+});
+let failed = false;
+try {
+  const context = await browser.newContext({ viewport: { width: 1100, height: 760 } });
+  // No network but loopback: anything else the page asks for is refused and counted.
+  const offsite = [];
+  await context.route('**/*', (route) => {
+    const host = new URL(route.request().url()).hostname;
+    if (host === '127.0.0.1' || host === 'localhost') return route.continue();
+    offsite.push(route.request().url());
+    return route.abort();
+  });
+  const page = await context.newPage();
+  const pageErrors = [];
+  page.on('pageerror', (e) => pageErrors.push(e.message));
+  const stats = () => page.evaluate(() => {
+    const s = window.lamina.stats;
+    return { frames: s.frames, applied: s.framesApplied, render: s.renderFrames, xr: s.xrFrames,
+             closes: s.closes, errors: s.errors, pulses: s.pulses.slice(), connected: s.connected,
+             decode: s.decodeMs.slice(), bytes: s.frameBytes.slice(), latency: s.latencyMs.slice(),
+             hello: s.hello && { client: s.hello.client, surfaces: s.hello.surfaces.map((x) => x.name) } };
+  });
+  const organ = () => page.evaluate(() => window.lamina.organPositions()[0]);
+  const maxMove = (a, b) => {
+    let m = 0;
+    for (let i = 0; i < a.length; i += 3) m = Math.max(m, Math.hypot(a[i] - b[i], a[i + 1] - b[i + 1], a[i + 2] - b[i + 2]));
+    return m;
+  };
+
+  // --- Desktop: the organ with its anatomy, streamed ---
+  await page.goto(url);
+  await page.waitForFunction(() => window.lamina.stats.framesApplied > 10, null, { timeout: 60000 });
+  let s = await stats();
+  assert.deepEqual(s.errors, []);
+  assert.deepEqual(offsite, [], 'the page asked for something beyond loopback');
+  assert.deepEqual(s.hello.surfaces, ['display_skin', 'portal_vein', 'tumour', 'hepatic_veins']);
+  const rest = await organ();
+  await page.screenshot({ path: join(out, 'desktop.png') });
+  const d0 = await page.evaluate(() => [window.lamina.stats.renderFrames, performance.now()]);
+  await sleep(3000);
+  const d1 = await page.evaluate(() => [window.lamina.stats.renderFrames, performance.now()]);
+  measured.desktop_fps = +((1000 * (d1[0] - d0[0])) / (d1[1] - d0[1])).toFixed(1);
+
+  // A left-drag from the organ's middle pushes it (force = gain x drag), and it comes back.
+  const box = await page.locator('#view canvas').boundingBox();
+  const cx = box.x + box.width / 2, cy = box.y + box.height / 2;
+  await page.mouse.move(cx, cy);
+  await page.mouse.down();
+  await page.mouse.move(cx + 120, cy - 40, { steps: 12 });
+  await sleep(1500);
+  const dragged = maxMove(await organ(), rest);
+  await page.screenshot({ path: join(out, 'dragged.png') });
+  await page.mouse.up();
+  await sleep(4000);
+  const after = maxMove(await organ(), rest);
+  measured.desktop_drag_mm = +dragged.toFixed(2);
+  measured.after_release_mm = +after.toFixed(2);
+  assert.ok(dragged > 3, `a drag moved the skin ${dragged} mm`);
+  assert.ok(after < 0.5 * dragged, `released, the skin stays ${after} mm from rest`);
+
+  // --- Bad clients beside it: a wrong token, garbage: each dropped, the page streams on ---
+  const before = (await stats()).frames;
+  await page.evaluate((u) => {
+    const base = new URL(u);
+    const ws = `ws://${base.host}/stream?token=`;
+    window.badResults = [];
+    const wrong = new WebSocket(ws + 'wrong');
+    wrong.onclose = () => window.badResults.push('wrong token closed');
+    const garbage = new WebSocket(ws + base.searchParams.get('token'));
+    garbage.onopen = () => garbage.send('{"type": "hand", "hand": 7}');
+    garbage.onclose = () => window.badResults.push('garbage closed');
+    const huge = new WebSocket(ws + base.searchParams.get('token'));
+    huge.onopen = () => huge.send('x'.repeat(200000));
+    huge.onclose = () => window.badResults.push('huge closed');
+  }, url);
+  await page.waitForFunction(() => window.badResults.length === 3, null, { timeout: 20000 });
+  await sleep(500);
+  s = await stats();
+  assert.ok(s.frames > before + 10, 'the page kept streaming beside the bad clients');
+  assert.ok(s.connected);
+  assert.match(log, /a WebSocket without the session's token/);
+  assert.match(log, /'hand' is 7, outside \[0, 1\]/);
+  assert.match(log, /a message larger than/);
+
+  // A client that loses its connection reconnects and is streamed the model again.
+  const closesBefore = s.closes, appliedBefore = s.applied;
+  await page.evaluate(() => window.lamina.closeSocket());
+  await page.waitForFunction((n) => window.lamina.stats.closes > n && window.lamina.stats.connected,
+                             closesBefore, { timeout: 20000 });
+  await page.waitForFunction((n) => window.lamina.stats.framesApplied > n + 10, appliedBefore,
+                             { timeout: 20000 });
+
+  // --- Headset: IWER's Quest 3, installed over headless Chromium's own navigator.xr ---
+  await page.close();  // (one page rendering at a time: the machine has two cores)
+  const xrPage = await context.newPage();
+  xrPage.on('pageerror', (e) => pageErrors.push(e.message));
+  await xrPage.addInitScript({ path: join(modules, 'iwer', 'build', 'iwer.min.js') });
+  await xrPage.addInitScript(() => {
+    const device = new IWER.XRDevice(IWER.metaQuest3);
+    device.installRuntime({ forceInstall: true });
+    window.iwer = device;
+  });
+  await xrPage.goto(url);
+  await xrPage.waitForFunction(() => window.lamina.stats.framesApplied > 5, null, { timeout: 60000 });
+  await xrPage.locator('#enter-vr').click({ timeout: 20000 });
+  await xrPage.waitForFunction(() => window.lamina.stats.xrFrames > 30, null, { timeout: 30000 });
+  // Frame rate of the session's loop (rendering both eyes, the anatomy, SwiftShader).
+  const x0 = await xrPage.evaluate(() => [window.lamina.stats.xrFrames, performance.now()]);
+  await sleep(3000);
+  const x1 = await xrPage.evaluate(() => [window.lamina.stats.xrFrames, performance.now()]);
+  measured.xr_fps = +((1000 * (x1[0] - x0[0])) / (x1[1] - x0[1])).toFixed(1);
+  measured.xr_framebuffer = await xrPage.evaluate(() => {
+    const l = window.lamina.session().renderState.baseLayer;
+    return l ? [l.framebufferWidth, l.framebufferHeight] : null;
+  });
+
+  // The organ's surface along -x from beside it (world coordinates, metres).
+  const hit = await xrPage.evaluate(() => {
+    const b = window.lamina.organBox();
+    const c = b.min.map((v, i) => (v + b.max[i]) / 2);
+    return { right: window.lamina.hitOrgan([c[0] + 0.5, c[1], c[2]], [-1, 0, 0]),
+             left: window.lamina.hitOrgan([c[0] - 0.5, c[1], c[2]], [1, 0, 0]) };
+  });
+  assert.ok(hit.right && hit.left, 'the organ is in front of the user');
+  // Watch the pulses as the page calls them (wrapping each actuator's pulse).
+  await xrPage.evaluate(() => {
+    window.pulseCalls = [];
+    for (const source of window.lamina.session().inputSources) {
+      const a = source.gamepad && source.gamepad.hapticActuators && source.gamepad.hapticActuators[0];
+      if (!a) continue;
+      const original = a.pulse.bind(a);
+      a.pulse = (value, duration) => { window.pulseCalls.push({ hand: source.handedness, value }); return original(value, duration); };
+    }
+  });
+  const xrOrganRest = await xrPage.evaluate(() => window.lamina.organPositions()[0]);
+  const pushAt = async (depth_m) => {
+    await xrPage.evaluate(([p, d]) => {
+      const r = window.iwer.controllers.right;
+      r.position.set(p[0] - d, p[1], p[2]);
+      r.updateButtonValue('trigger', 1);
+    }, [hit.right, depth_m]);
+    await sleep(1500);
+    return xrPage.evaluate(() => {
+      const calls = window.pulseCalls.filter((c) => c.hand === 'right').slice(-10);
+      return calls.length ? calls.reduce((a, c) => a + c.value, 0) / calls.length : 0;
+    });
+  };
+  const shallow = await pushAt(0.004);
+  const deep = await pushAt(0.012);
+  const pushed = maxMove(await xrPage.evaluate(() => window.lamina.organPositions()[0]), xrOrganRest);
+  await xrPage.screenshot({ path: join(out, 'headset.png') });
+  measured.pulse_amplitude = { at_4mm: +shallow.toFixed(3), at_12mm: +deep.toFixed(3) };
+  measured.xr_push_mm = +pushed.toFixed(2);
+  assert.ok(pushed > 1, `the controller's push moved the skin ${pushed} mm`);
+  assert.ok(shallow > 0, 'the pulse is called while the tip touches');
+  assert.ok(deep > shallow, `the pulse grows with the force (${shallow} -> ${deep})`);
+  const latency = await xrPage.evaluate(() => window.lamina.stats.latencyMs.slice());
+  measured.latency_ms = { median: +median(latency).toFixed(1), samples: latency.length };
+  await xrPage.evaluate(() => window.iwer.controllers.right.updateButtonValue('trigger', 0));
+  await sleep(3000);
+
+  // The left hand's grip grasps the other side and pulls it out 15 mm.
+  const grasped = await xrPage.evaluate(async ([p]) => {
+    const l = window.iwer.controllers.left;
+    l.position.set(p[0] + 0.001, p[1], p[2]);
+    l.updateButtonValue('squeeze', 1);
+    await new Promise((r) => setTimeout(r, 500));
+    l.position.set(p[0] - 0.015, p[1], p[2]);
+    await new Promise((r) => setTimeout(r, 2000));
+    return window.lamina.organPositions()[0];
+  }, [hit.left]);
+  const pulled = maxMove(grasped, xrOrganRest);
+  measured.grasp_pull_mm = +pulled.toFixed(2);
+  assert.ok(pulled > 5, `the grasp pulled the skin ${pulled} mm`);
+  assert.match(log, /hand 1 closes the grasper/);
+  await xrPage.evaluate(() => window.iwer.controllers.left.updateButtonValue('squeeze', 0));
+
+  // The stream's costs, as the page measured them.
+  const xrStats = await xrPage.evaluate(() => ({ decode: window.lamina.stats.decodeMs.slice(),
+                                                 apply: window.lamina.stats.applyMs.slice(),
+                                                 bytes: window.lamina.stats.frameBytes.slice() }));
+  measured.decode_ms_median = +median(xrStats.decode).toFixed(3);
+  measured.apply_ms_median = +median(xrStats.apply).toFixed(3);
+  measured.frame_kb_max = +(Math.max(...xrStats.bytes) / 1000).toFixed(1);
+  assert.deepEqual(pageErrors, []);
+} catch (e) {
+  failed = true;
+  console.error(e);
+  console.error('--- lamina serve log ---\n' + log);
+} finally {
+  await browser.close();
+  server.kill('SIGTERM');
+  await new Promise((r) => server.on('exit', r));
+}
+measured.server_summary = (log.match(/web: [0-9]+ clients.*/) || [''])[0];
+console.log(JSON.stringify(measured));
+writeFileSync(join(out, 'measured.json'), JSON.stringify(measured, null, 2));
+process.exit(failed ? 1 : 0);
