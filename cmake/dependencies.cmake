@@ -96,3 +96,4 @@ endif()
 find_package(OpenIGTLink REQUIRED PATHS /usr/lib/openigtlink NO_DEFAULT_PATH)
 # `lamina serve --web` (docs/web.md): Boost.Beast and Boost.Asio, header-only.
 find_package(Boost 1.74 REQUIRED)
+find_package(OpenSSL 3 REQUIRED)

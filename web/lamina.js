@@ -13,7 +13,7 @@ const token = new URLSearchParams(location.search).get('token') || '';
 const stats = {
   connected: false, hello: null, frames: 0, framesApplied: 0, lastFrame: null,
   decodeMs: [], applyMs: [], frameBytes: [], latencyMs: [], renderFrames: 0, xrFrames: 0, pulses: [],
-  closes: 0, errors: [],
+  closes: 0, errors: [], cuts: [],
 };
 window.lamina = { stats };
 // For the browser tests (tests/web): the drawn positions, a ray cast on the organ in world
@@ -199,6 +199,15 @@ function onFrame(buf) {
   stats.lastFrame = f;
 }
 
+// A cut the server made (a scalpel over OpenIGTLink): what it divided and each vessel it crossed,
+// a simulator's bleeding cue. The model that follows comes as a new hello.
+function onCut(m) {
+  stats.cuts.push(m);
+  const crossed = m.structures_cut.map((c) => `${c.name} (${c.diameter_mm.toFixed(1)} mm)`);
+  status(`cut ${m.cuts}: ${m.cut_tets} tetrahedra divided, ${m.pieces.length} piece(s)` +
+         (crossed.length ? `; crossed ${crossed.join(', ')}` : ''), crossed.length > 0);
+}
+
 // --- Connection ---
 let ws = null;
 let poseNumber = 0;
@@ -225,6 +234,7 @@ function connect() {
         const m = JSON.parse(event.data);
         if (m.type === 'hello') makeSurfaces(m);
         else if (m.type === 'event') status(m.text, m.bad);
+        else if (m.type === 'cut') onCut(m);
         return;
       }
       const kind = new DataView(event.data).getUint32(0, true);
@@ -316,9 +326,15 @@ enterVr.addEventListener('click', async () => {
   await renderer.xr.setSession(session);
 });
 let placeInXr = false;  // the organ is put before the user at the session's first frame
+let desktopClip = null;  // the desktop camera's near and far (mm), put back after the session
 renderer.xr.addEventListener('sessionstart', () => {
   organ.scale.setScalar(0.001);  // mm to m
   placeInXr = true;
+  // The session's clipping planes are the camera's, and the headset's units are metres.
+  desktopClip = [camera.near, camera.far];
+  camera.near = 0.01;
+  camera.far = 50;
+  camera.updateProjectionMatrix();
   const session = renderer.xr.getSession();
   const assign = () => {
     for (const h of hands) h.source = null;
@@ -332,6 +348,8 @@ renderer.xr.addEventListener('sessionstart', () => {
 });
 renderer.xr.addEventListener('sessionend', () => {
   organ.scale.setScalar(1); organ.position.set(0, 0, 0);
+  if (desktopClip) [camera.near, camera.far] = desktopClip;
+  camera.updateProjectionMatrix();
 });
 
 // At table height before the user: half a metre ahead of the eyes and 35 cm below them.

@@ -223,6 +223,8 @@ struct ServeArgs {
   double web_hz = 60.0;                ///< frames per second to each page
   std::string web_token;               ///< empty: a random one (in the logged address)
   std::string web_root;                ///< the page's files; empty: the build's (or install's)
+  bool self_signed = false;            ///< TLS with a certificate made for the session
+  std::string cert, key;               ///< TLS with these PEM files
   double gain_n_per_mm = 0.01;         ///< a page's mouse drag: force per mm dragged
   bool verbose = false;
 };

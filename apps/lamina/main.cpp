@@ -325,6 +325,11 @@ int main(int argc, char** argv) {
                  "the token the page's address needs (default: a random one)");
   se->add_option("--web-root", serve.web_root,
                  "the page's files (default: the build's web/ beside the lamina binary)");
+  se->add_flag("--self-signed", serve.self_signed,
+               "the web server speaks TLS (https, wss) with a certificate made for the session; "
+               "its fingerprint is logged (a headset off this machine needs TLS for WebXR)");
+  se->add_option("--cert", serve.cert, "the web server speaks TLS with this PEM certificate");
+  se->add_option("--key", serve.key, "... and this PEM private key");
   se->add_option("--gain", serve.gain_n_per_mm,
                  "a page's mouse drag: force per mm dragged, N/mm (default 0.01)");
 

@@ -130,6 +130,30 @@ class Server {
   int port_ = 0;
 };
 
+/// A port someone else listens on (127.0.0.1), for the tests of a port in use; closed when done.
+class BusyPort {
+ public:
+  BusyPort() {
+    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof(a)) != 0 || ::listen(fd_, 1) != 0)
+      throw std::runtime_error("cannot listen on a free port");
+    socklen_t len = sizeof(a);
+    ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len);
+    port_ = ntohs(a.sin_port);
+  }
+  ~BusyPort() { ::close(fd_); }
+  BusyPort(const BusyPort&) = delete;
+  BusyPort& operator=(const BusyPort&) = delete;
+  std::string port() const { return std::to_string(port_); }
+
+ private:
+  int fd_ = -1;
+  int port_ = 0;
+};
+
 /// The numbers of the server's exit summary line.
 struct Summary {
   int64_t steps = 0, clients = 0, messages_in = 0, poses = 0, messages_out = 0, dropped = 0;

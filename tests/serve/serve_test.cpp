@@ -694,17 +694,9 @@ TEST(Serve, BadOptionsAndABusyPortAreOneLineErrors) {
   EXPECT_EQ(force.exit_code, 2);
   EXPECT_NE(force.err.find("--max-force: must be in (0, 100] N"), std::string::npos) << force.err;
   // A port someone else listens on: refused before any model is built.
-  const int busy = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::bind(busy, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
-  ASSERT_EQ(::listen(busy, 1), 0);
-  socklen_t len = sizeof(a);
-  ::getsockname(busy, reinterpret_cast<sockaddr*>(&a), &len);
-  const std::string port = std::to_string(ntohs(a.sin_port));
+  const BusyPort busy;
+  const std::string port = busy.port();
   const RunResult taken = run_cli(lamina_cli(), dir.path, dir.path, "serve --port " + port);
-  ::close(busy);
   EXPECT_EQ(taken.exit_code, 2);
   EXPECT_NE(taken.err.find("--port: 127.0.0.1:" + port + ": cannot listen: in use"),
             std::string::npos)

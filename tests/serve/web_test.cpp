@@ -3,12 +3,18 @@
 // twin of lamina.js's), a hand that pushes a dent, and clients that send what no page should.
 // The page itself, in Chromium, is tests/web/ (docs/web.md).
 #include <gtest/gtest.h>
+#include <openssl/evp.h>
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
 
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
 
 #include "beast.h"
+#include "lamina/io/model_file.h"
 #include "serve_support.h"
+#include "support/embedded_phantom.h"
 #include "support/temp_dir.h"
 #include "web_stream.h"
 
@@ -29,11 +35,11 @@ struct WebServer {
   std::string token;
 
   explicit WebServer(std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"--web", "--web-port", "0", "--duration", "40"};
-    args.insert(args.end(), extra.begin(), extra.end());
+    std::vector<std::string> args = std::move(extra);
+    args.insert(args.end(), {"--web", "--web-port", "0", "--duration", "40"});
     server.emplace(dir.path, args);
     static const std::regex kUrl(
-        R"(the page is at http://127\.0\.0\.1:([0-9]+)/\?token=([0-9a-z]+))");
+        R"(the page is at https?://127\.0\.0\.1:([0-9]+)/\?token=([0-9a-z]+))");
     const auto t0 = Clock::now();
     std::smatch m;
     while (seconds_since(t0) < 30.0) {
@@ -267,6 +273,126 @@ TEST(Web, MalformedOversizedAndStalledClientsAreDroppedAndTheOthersGoOn) {
   EXPECT_EQ(w.server->process().wait(20.0), 0) << w.server->log();
   const std::optional<Summary> s = parse_summary(w.server->log());
   ASSERT_TRUE(s) << w.server->log();
+}
+
+// A scalpel stroke over OpenIGTLink cuts the organ: the page hears what it divided and each
+// vessel it crossed (a text event, in the model's frame), then is sent the new model.
+TEST(Web, ACutReachesThePageAsAnEventAndTheCutModel) {
+  TempDir models;
+  const std::string path = save_embedded_phantom(models.file("embedded.vtu"));
+  const Model m = io::load_model(path);
+  WebServer w({path, "--scalpel-depth", "200"});
+  Page page(w.port, w.token);
+  page.take_setup();
+  const size_t points_before = page.rest.size() / 4;
+  Client hand(w.server->port());
+  const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
+  const double x0 = m.X.col(0).mean() + 0.31;
+  const Eigen::Vector3d from(x0, lo.y() - 5, hi.z() + 5), to(x0, hi.y() + 5, hi.z() + 5);
+  const auto ras = [](Eigen::Vector3d p) { return Eigen::Vector3d(-p.x(), -p.y(), p.z()); };
+  for (int k = 0; k <= 40; ++k) {
+    hand.send_bytes(transform_bytes("LaminaScalpel", ras(from + (to - from) * (k / 40.0))));
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  hand.send_bytes(transform_bytes("LaminaScalpelUp", ras(to)));
+  // Frames until the event, then the new hello.
+  json cut;
+  const auto t0 = Clock::now();
+  while (seconds_since(t0) < 20.0 && cut.is_null()) {
+    bool text = false;
+    const std::string message = page.read(&text);
+    if (!text) continue;
+    const json j = json::parse(message);
+    if (j["type"] == "cut") cut = j;
+  }
+  ASSERT_FALSE(cut.is_null()) << w.server->log();
+  EXPECT_EQ(cut["cuts"], 1);
+  EXPECT_EQ(cut["pieces"].size(), 2u) << cut.dump();
+  bool vessels = false;
+  for (const json& c : cut["structures_cut"])
+    if (c["name"] == "vessels") {
+      vessels = true;
+      EXPECT_NEAR(c["position_mm"][0].get<double>(), x0, 1.0) << c.dump();  // LPS, as the model
+    }
+  EXPECT_TRUE(vessels) << cut.dump();
+  Page cut_model(w.port, w.token);  // (a page connecting now is sent the cut model)
+  cut_model.take_setup();
+  EXPECT_GT(cut_model.rest.size() / 4, points_before) << "the copies' nodes are carried";
+  page.take_setup();  // the page connected before is sent it too
+  EXPECT_EQ(page.rest, cut_model.rest);
+}
+
+// --self-signed: https and wss with a certificate made for the session, whose fingerprint the
+// log gives; plain http to that port is refused.
+TEST(Web, SelfSignedTlsServesThePageAndTheStream) {
+  WebServer w({"--self-signed"});
+  std::smatch m;
+  const std::string log = w.server->log();
+  ASSERT_TRUE(std::regex_search(log, m, std::regex(R"(certificate SHA-256 ([0-9A-F:]{95}))")))
+      << log;
+  const std::string logged = m[1];
+  asio::io_context ioc;
+  asio::ssl::context ctx(asio::ssl::context::tls_client);
+  ctx.set_verify_mode(asio::ssl::verify_none);  // self-signed: checked by its fingerprint below
+  websocket::stream<beast::ssl_stream<beast::tcp_stream>> ws(ioc, ctx);
+  beast::get_lowest_layer(ws).connect(
+      tcp::endpoint(asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(w.port)));
+  beast::get_lowest_layer(ws).expires_after(std::chrono::seconds(10));
+  ws.next_layer().handshake(asio::ssl::stream_base::client);
+  X509* cert = SSL_get1_peer_certificate(ws.next_layer().native_handle());
+  ASSERT_NE(cert, nullptr);
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int n = 0;
+  X509_digest(cert, EVP_sha256(), md, &n);
+  X509_free(cert);
+  std::string presented;
+  for (unsigned int i = 0; i < n; ++i) {
+    char hex[4];
+    std::snprintf(hex, sizeof hex, "%s%02X", i ? ":" : "", md[i]);
+    presented += hex;
+  }
+  EXPECT_EQ(presented, logged);
+  ws.handshake("127.0.0.1", "/stream?token=" + w.token);
+  beast::flat_buffer b;
+  ws.read(b);
+  EXPECT_TRUE(ws.got_text());
+  EXPECT_EQ(json::parse(beast::buffers_to_string(b.data()))["type"], "hello");
+  // Plain http to the TLS port: refused, with a line.
+  EXPECT_ANY_THROW(get(w.port, "/?token=" + w.token));
+  const auto t0 = Clock::now();
+  while (seconds_since(t0) < 5.0 &&
+         w.server->log().find("the TLS handshake failed") == std::string::npos)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_NE(w.server->log().find("the TLS handshake failed"), std::string::npos);
+}
+
+// Bad web options: one error line, exit 2, before any model is built.
+TEST(Web, BadWebOptionsAreOneLineErrorsBeforeTheModelIsBuilt) {
+  TempDir dir;
+  std::ofstream(dir.path / "not.pem") << "hello\n";
+  const BusyPort busy;
+  const std::string port = busy.port();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--web --web-hz 0", "--web-hz: must be in (0, 240]"},
+      {"--web --token 'a b'", "--token: may hold letters, digits"},
+      {"--self-signed", "--self-signed: is for the web server: add --web"},
+      {"--web --cert not.pem", "--cert: needs the other"},
+      {"--web --self-signed --cert not.pem --key not.pem", "give either --self-signed or"},
+      {"--web --cert missing.pem --key not.pem", "missing.pem: file not found"},
+      {"--web --cert not.pem --key not.pem", "not.pem: holds no PEM certificate"},
+      {"--web --web-root .", "--web-root: the page's files are not at ."},
+      {"--web --web-port " + port, "--web-port: cannot listen on 127.0.0.1:" + port},
+      {"--web --listen nowhere", "'nowhere' is not an IP address"},
+  };
+  for (const auto& [args, says] : cases) {
+    const RunResult r = run_cli(lamina_cli(), dir.path, dir.path, "serve --port 0 " + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(says), std::string::npos) << args << "\n" << r.err;
+    EXPECT_EQ(r.err.find("tetrahedra"), std::string::npos) << "a model was built: " << r.err;
+    const size_t errors = static_cast<size_t>(std::count(r.err.begin(), r.err.end(), '\n')) -
+                          (r.err.find("listening on") != std::string::npos ? 1 : 0);
+    EXPECT_EQ(errors, 1u) << args << "\n" << r.err;
+  }
 }
 
 }  // namespace

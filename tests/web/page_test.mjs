@@ -40,18 +40,24 @@ await run(lamina, ['-q', 'phantom', '--carved-out', '-o', 'p.nii.gz'], work);
 await run(lamina, ['-q', 'build', 'p.nii.gz', '--label', '1', '--embed',
                    '2=portal_vein,3=tumour,4=hepatic_veins', '-o', 'm.vtu'], work);
 
-const server = spawn(lamina, ['serve', 'm.vtu', '--web', '--web-port', '0', '--port', '0',
-                              '--duration', '170'], { cwd: work, stdio: ['ignore', 'ignore', 'pipe'] });
-let log = '';
-server.stderr.on('data', (d) => { log += d; });
-const url = await new Promise((resolve, reject) => {
-  const t0 = Date.now();
-  const t = setInterval(() => {
-    const m = log.match(/the page is at (http\S+)/);
-    if (m) { clearInterval(t); resolve(m[1]); }
-    if (Date.now() - t0 > 60000) { clearInterval(t); reject(new Error('no address: ' + log)); }
-  }, 50);
-});
+// `lamina serve m.vtu --web ...ARGS`, and the page's address once it is logged.
+async function serve(extra) {
+  const child = spawn(lamina, ['serve', 'm.vtu', '--web', '--web-port', '0', '--port', '0', ...extra],
+                      { cwd: work, stdio: ['ignore', 'ignore', 'pipe'] });
+  const s = { child, log: '' };
+  child.stderr.on('data', (d) => { s.log += d; });
+  s.url = await new Promise((resolve, reject) => {
+    const t0 = Date.now();
+    const t = setInterval(() => {
+      const m = s.log.match(/the page is at (https?\S+)/);
+      if (m) { clearInterval(t); resolve(m[1]); }
+      if (Date.now() - t0 > 60000) { clearInterval(t); reject(new Error('no address: ' + s.log)); }
+    }, 50);
+  });
+  return s;
+}
+const served = await serve(['--duration', '170']);
+const server = served.child, url = served.url;
 
 const browser = await chromium.launch({
   executablePath: args.chromium || '/usr/bin/chromium',
@@ -136,9 +142,9 @@ try {
   s = await stats();
   assert.ok(s.frames > before + 10, 'the page kept streaming beside the bad clients');
   assert.ok(s.connected);
-  assert.match(log, /a WebSocket without the session's token/);
-  assert.match(log, /'hand' is 7, outside \[0, 1\]/);
-  assert.match(log, /a message larger than/);
+  assert.match(served.log, /a WebSocket without the session's token/);
+  assert.match(served.log, /'hand' is 7, outside \[0, 1\]/);
+  assert.match(served.log, /a message larger than/);
 
   // A client that loses its connection reconnects and is streamed the model again.
   const closesBefore = s.closes, appliedBefore = s.applied;
@@ -230,7 +236,7 @@ try {
   const pulled = maxMove(grasped, xrOrganRest);
   measured.grasp_pull_mm = +pulled.toFixed(2);
   assert.ok(pulled > 5, `the grasp pulled the skin ${pulled} mm`);
-  assert.match(log, /hand 1 closes the grasper/);
+  assert.match(served.log, /hand 1 closes the grasper/);
   await xrPage.evaluate(() => window.iwer.controllers.left.updateButtonValue('squeeze', 0));
 
   // The stream's costs, as the page measured them.
@@ -241,16 +247,34 @@ try {
   measured.apply_ms_median = +median(xrStats.apply).toFixed(3);
   measured.frame_kb_max = +(Math.max(...xrStats.bytes) / 1000).toFixed(1);
   assert.deepEqual(pageErrors, []);
+  await xrPage.close();
+
+  // Over TLS (--self-signed, as for a headset off this machine): https and wss.
+  const tls = await serve(['--self-signed', '--duration', '60']);
+  try {
+    const tlsUrl = tls.url;
+    // The browser is told to accept the session's certificate, as a user does after comparing
+    // its fingerprint.
+    const tlsContext = await browser.newContext({ ignoreHTTPSErrors: true });
+    const tlsPage = await tlsContext.newPage();
+    await tlsPage.goto(tlsUrl);
+    await tlsPage.waitForFunction(() => window.lamina.stats.framesApplied > 5, null, { timeout: 60000 });
+    assert.deepEqual(await tlsPage.evaluate(() => window.lamina.stats.errors), []);
+    measured.tls = 'https and wss: streamed';
+  } finally {
+    tls.child.kill('SIGTERM');
+    await new Promise((r) => tls.child.on('exit', r));
+  }
 } catch (e) {
   failed = true;
   console.error(e);
-  console.error('--- lamina serve log ---\n' + log);
+  console.error('--- lamina serve log ---\n' + served.log);
 } finally {
   await browser.close();
   server.kill('SIGTERM');
   await new Promise((r) => server.on('exit', r));
 }
-measured.server_summary = (log.match(/web: [0-9]+ clients.*/) || [''])[0];
+measured.server_summary = (served.log.match(/web: [0-9]+ clients.*/) || [''])[0];
 console.log(JSON.stringify(measured));
 writeFileSync(join(out, 'measured.json'), JSON.stringify(measured, null, 2));
 process.exit(failed ? 1 : 0);

@@ -3,8 +3,13 @@
 // (interact::RealtimeLoop, as in the viewer); this thread only talks to the network: tool poses
 // in, the deformed surfaces and the tissue's reaction force out. A client that misbehaves is
 // dropped with a log line and never holds up a step.
+#include <arpa/inet.h>
 #include <fmt/format.h>
+#include <ifaddrs.h>
+#include <netinet/in.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <chrono>
@@ -24,6 +29,7 @@
 #include "scalpel_stroke.h"
 #include "serve_rate.h"
 #include "web_session.h"
+#include "web_tls.h"
 
 namespace lamina::cli {
 namespace {
@@ -81,9 +87,37 @@ void check_args(const ServeArgs& a) {
     throw invalid_input("--web-port", "must be in [0, 65535]");
   if (!(a.gain_n_per_mm > 0.0 && a.gain_n_per_mm <= 1.0))
     throw invalid_input("--gain", "must be in (0, 1] N/mm");
+  if (a.self_signed && (!a.cert.empty() || !a.key.empty()))
+    throw invalid_input("--self-signed", "give either --self-signed or --cert and --key");
+  if (a.cert.empty() != a.key.empty())
+    throw invalid_input(a.cert.empty() ? "--key" : "--cert", "needs the other: --cert and --key");
+  if ((a.self_signed || !a.cert.empty()) && !a.web)
+    throw invalid_input(a.self_signed ? "--self-signed" : "--cert",
+                        "is for the web server: add --web");
   for (const char c : a.web_token)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_')
       throw invalid_input("--token", "may hold letters, digits, '-' and '_' only");
+}
+
+// The addresses a client may reach the web server by: the one it listens on, or for 0.0.0.0
+// every IPv4 address of this machine, and its host name.
+std::vector<std::string> local_addresses(const std::string& listen) {
+  std::vector<std::string> out;
+  if (listen != "0.0.0.0") return {listen};
+  char name[256] = {};
+  if (gethostname(name, sizeof name - 1) == 0 && name[0] != '\0') out.emplace_back(name);
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) == 0) {
+    for (const ifaddrs* i = list; i != nullptr; i = i->ifa_next) {
+      if (i->ifa_addr == nullptr || i->ifa_addr->sa_family != AF_INET) continue;
+      char text[INET_ADDRSTRLEN] = {};
+      inet_ntop(AF_INET, &reinterpret_cast<const sockaddr_in*>(i->ifa_addr)->sin_addr, text,
+                sizeof text);
+      out.emplace_back(text);
+    }
+    freeifaddrs(list);
+  }
+  return out;
 }
 
 // The page's files: --web-root, or web/ beside the lamina binary (the build's), or the
@@ -248,7 +282,22 @@ int run_serve(const ServeArgs& a) {
     wo.root = web_root(a);
     wo.max_clients = a.max_clients;
     wo.stall_timeout_s = std::max(a.stall_timeout_s, 2.0);
+    if (!a.cert.empty()) {
+      wo.tls = web::read_identity(a.cert, a.key);
+    } else if (a.self_signed) {
+      // Named for this machine and every address a headset may reach it by.
+      std::vector<std::string> hosts = {"localhost", "127.0.0.1"};
+      for (const std::string& h : local_addresses(a.web_host))
+        if (std::find(hosts.begin(), hosts.end(), h) == hosts.end()) hosts.push_back(h);
+      wo.tls = web::self_signed_identity(hosts);
+    }
     web_server = std::make_unique<web::Server>(wo);
+    if (wo.tls)
+      log::info("web: TLS with {} (certificate SHA-256 {}){}", wo.tls->source,
+                wo.tls->fingerprint_sha256,
+                a.self_signed ? "; a browser warns of a certificate it does not know: compare "
+                                "the fingerprint, then accept it"
+                              : "");
     log::info("web: listening on {}:{}; the page is at {}", a.web_host, web_server->port(),
               web_server->url());
   }

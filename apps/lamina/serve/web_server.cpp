@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <type_traits>
 
 #include "beast.h"
 #include "lamina/core/error.h"
@@ -91,16 +92,15 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
   Closed closed;
   int next_id = 1;
 
-  struct Client;
-  std::map<int, std::shared_ptr<Client>> clients;
+  std::optional<asio::ssl::context> tls;  // with --self-signed or --cert: https and wss only
 
   // One WebSocket client: a read loop, and writes one at a time from its queue, then its frame.
-  struct Client : std::enable_shared_from_this<Client> {
+  // The queue and the frame are the same over TCP and over TLS (ClientBase); the WebSocket is a
+  // Client of one or the other.
+  struct ClientBase {
     State& server;
     int id;
     std::string peer;
-    websocket::stream<beast::tcp_stream> ws;
-    beast::flat_buffer in;
     struct Out {
       std::shared_ptr<const std::string> message;
       bool binary;
@@ -111,19 +111,52 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
     bool writing = false;
     bool gone = false;
 
-    Client(State& s, int i, std::string p, beast::tcp_stream&& stream)
-        : server(s), id(i), peer(std::move(p)), ws(std::move(stream)) {}
+    ClientBase(State& s, int i, std::string p) : server(s), id(i), peer(std::move(p)) {}
+    virtual ~ClientBase() = default;
+    virtual void write_next() = 0;
+    virtual void close() = 0;
+
+    void enqueue(std::shared_ptr<const std::string> message, bool binary) {
+      queued_bytes += message->size();
+      queue.push_back({std::move(message), binary});
+      if (queued_bytes > server.options.max_backlog_bytes)
+        return server.drop(id, fmt::format("{} MB queued and not read", queued_bytes >> 20));
+      write_next();
+    }
+
+    // The next message to write: the queue's first, else the newest frame.
+    std::shared_ptr<const std::string> next(bool& binary, bool& is_frame) {
+      if (!queue.empty()) {
+        auto m = queue.front().message;
+        binary = queue.front().binary;
+        queued_bytes -= m->size();
+        queue.pop_front();
+        return m;
+      }
+      is_frame = true;
+      return std::exchange(frame, nullptr);
+    }
+  };
+
+  template <class Next>
+  struct Client : ClientBase, std::enable_shared_from_this<Client<Next>> {
+    websocket::stream<Next> ws;
+    beast::flat_buffer in;
+
+    Client(State& s, int i, std::string p, Next&& stream)
+        : ClientBase(s, i, std::move(p)), ws(std::move(stream)) {}
 
     void read() {
-      ws.async_read(
-          in, [self = shared_from_this()](beast::error_code ec, size_t) { self->on_read(ec); });
+      ws.async_read(in, [self = this->shared_from_this()](beast::error_code ec, size_t) {
+        self->on_read(ec);
+      });
     }
 
     void on_read(beast::error_code ec) {
       if (gone) return;
       if (ec == websocket::error::closed || ec == asio::error::eof ||
           ec == asio::error::connection_reset || ec == asio::error::not_connected ||
-          ec == asio::error::broken_pipe) {
+          ec == asio::error::broken_pipe || ec == asio::ssl::error::stream_truncated) {
         log::info("web client {} disconnected", peer);
         return server.remove(id);
       }
@@ -145,25 +178,14 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
       if (!gone) read();
     }
 
-    void write_next() {
+    void write_next() override {
       if (writing || gone) return;
-      std::shared_ptr<const std::string> message;
       bool binary = true, is_frame = false;
-      if (!queue.empty()) {
-        message = queue.front().message;
-        binary = queue.front().binary;
-        queued_bytes -= message->size();
-        queue.pop_front();
-      } else if (frame) {
-        message = std::move(frame);
-        frame.reset();
-        is_frame = true;
-      } else {
-        return;
-      }
+      std::shared_ptr<const std::string> message = next(binary, is_frame);
+      if (!message) return;
       writing = true;
       ws.binary(binary);
-      ws.async_write(asio::buffer(*message), [self = shared_from_this(), message, is_frame](
+      ws.async_write(asio::buffer(*message), [self = this->shared_from_this(), message, is_frame](
                                                  beast::error_code ec, size_t bytes) {
         self->writing = false;
         if (self->gone) return;
@@ -176,15 +198,7 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
       });
     }
 
-    void enqueue(std::shared_ptr<const std::string> message, bool binary) {
-      queued_bytes += message->size();
-      queue.push_back({std::move(message), binary});
-      if (queued_bytes > server.options.max_backlog_bytes)
-        return server.drop(id, fmt::format("{} MB queued and not read", queued_bytes >> 20));
-      write_next();
-    }
-
-    void close() {
+    void close() override {
       gone = true;
       beast::error_code ec;
       beast::get_lowest_layer(ws).socket().shutdown(tcp::socket::shutdown_both, ec);
@@ -192,34 +206,65 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
     }
   };
 
-  // An HTTP connection until it asks for the WebSocket (or is answered and closed).
-  struct Request : std::enable_shared_from_this<Request> {
+  std::map<int, std::shared_ptr<ClientBase>> clients;
+
+  // An HTTP connection (over TCP, or TLS once its handshake is done) until it asks for the
+  // WebSocket, or is answered and closed.
+  template <class Stream>
+  struct Request : std::enable_shared_from_this<Request<Stream>> {
     State& server;
-    beast::tcp_stream stream;
+    Stream stream;
     std::string peer;
     beast::flat_buffer buffer;
     std::optional<http::request_parser<http::string_body>> parser;
 
-    Request(State& s, tcp::socket&& socket)
-        : server(s), stream(std::move(socket)), peer(peer_name(stream.socket())) {}
+    template <class... Args>
+    Request(State& s, tcp::socket&& socket, Args&... tls)
+        : server(s),
+          stream(std::move(socket), tls...),
+          peer(peer_name(beast::get_lowest_layer(stream).socket())) {}
+
+    auto& lowest() { return beast::get_lowest_layer(stream); }
+
+    void expire() {
+      lowest().expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(server.options.request_timeout_s)));
+    }
+
+    void start() {
+      if constexpr (std::is_same_v<Stream, beast::tcp_stream>) {
+        read();
+      } else {
+        expire();
+        stream.async_handshake(asio::ssl::stream_base::server, [self = this->shared_from_this()](
+                                                                   beast::error_code ec) {
+          if (ec == beast::error::timeout) return self->quiet_close();  // a connection opened ahead
+          if (ec) return self->refuse("the TLS handshake failed (" + ec.message() + ")");
+          self->read();
+        });
+      }
+    }
 
     void read() {
       parser.emplace();
       parser->header_limit(16 * 1024);
       parser->body_limit(16 * 1024);
-      stream.expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-          std::chrono::duration<double>(server.options.request_timeout_s)));
+      expire();
       http::async_read(
           stream, buffer, *parser,
-          [self = shared_from_this()](beast::error_code ec, size_t) { self->on_read(ec); });
+          [self = this->shared_from_this()](beast::error_code ec, size_t) { self->on_read(ec); });
+    }
+
+    void quiet_close() {
+      beast::error_code ignored;
+      lowest().socket().shutdown(tcp::socket::shutdown_both, ignored);
+      lowest().close();
     }
 
     void refuse(const std::string& problem) {
       log::warn("web client {}: {}; connection dropped", peer, problem);
       ++server.counters.dropped;
-      beast::error_code ec;
-      stream.socket().shutdown(tcp::socket::shutdown_both, ec);
-      stream.close();
+      quiet_close();
     }
 
     void answer(http::status status, std::string body, const char* type, bool keep_alive) {
@@ -232,28 +277,20 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
       res->body() = std::move(body);
       res->prepare_payload();
       http::async_write(stream, *res,
-                        [self = shared_from_this(), res](beast::error_code ec, size_t) {
-                          if (ec || !res->keep_alive()) {
-                            beast::error_code ignored;
-                            self->stream.socket().shutdown(tcp::socket::shutdown_send, ignored);
-                            return;
-                          }
+                        [self = this->shared_from_this(), res](beast::error_code ec, size_t) {
+                          if (ec || !res->keep_alive()) return self->quiet_close();
                           self->read();
                         });
     }
 
     void on_read(beast::error_code ec) {
       if (ec == http::error::end_of_stream || ec == asio::error::eof ||
-          ec == asio::error::connection_reset)
-        return;  // the browser closed a kept-alive connection: nothing wrong
+          ec == asio::error::connection_reset || ec == asio::ssl::error::stream_truncated)
+        return quiet_close();  // the browser closed a kept-alive connection: nothing wrong
       if (ec == beast::error::timeout) {
         // A browser opens connections ahead of need and keeps answered ones open: one that has
         // sent nothing is closed quietly; half a request held open is a slowloris.
-        if (!parser->got_some() && buffer.size() == 0) {
-          beast::error_code ignored;
-          stream.socket().shutdown(tcp::socket::shutdown_both, ignored);
-          return stream.close();
-        }
+        if (!parser->got_some() && buffer.size() == 0) return quiet_close();
         return refuse(
             fmt::format("no whole request within {:g} s", server.options.request_timeout_s));
       }
@@ -295,16 +332,23 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
   void accept() {
     acceptor.async_accept([self = shared_from_this()](beast::error_code ec, tcp::socket socket) {
       if (!self->acceptor.is_open()) return;
-      if (!ec) std::make_shared<Request>(*self, std::move(socket))->read();
+      if (!ec) {
+        if (self->tls)
+          std::make_shared<Request<beast::ssl_stream<beast::tcp_stream>>>(*self, std::move(socket),
+                                                                          *self->tls)
+              ->start();
+        else
+          std::make_shared<Request<beast::tcp_stream>>(*self, std::move(socket))->start();
+      }
       self->accept();
     });
   }
 
-  void upgrade(beast::tcp_stream&& stream, const std::string& peer,
-               http::request<http::string_body> req) {
-    stream.expires_never();  // the WebSocket's own timeouts take over
+  template <class Next>
+  void upgrade(Next&& stream, const std::string& peer, http::request<http::string_body> req) {
+    beast::get_lowest_layer(stream).expires_never();  // the WebSocket's own timeouts take over
     const int id = next_id++;
-    auto client = std::make_shared<Client>(*this, id, peer, std::move(stream));
+    auto client = std::make_shared<Client<Next>>(*this, id, peer, std::move(stream));
     websocket::stream_base::timeout t{};
     t.handshake_timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
         std::chrono::duration<double>(options.request_timeout_s));
@@ -331,7 +375,7 @@ struct Server::State : std::enable_shared_from_this<Server::State> {
   void remove(int id) {
     const auto it = clients.find(id);
     if (it == clients.end()) return;
-    const std::shared_ptr<Client> c = it->second;
+    const std::shared_ptr<ClientBase> c = it->second;
     clients.erase(it);
     c->close();
     if (closed) closed(id);
@@ -352,7 +396,7 @@ Server::Server(ServerOptions options) : state_(std::make_shared<State>()) {
   const ServerOptions& o = state_->options;
   beast::error_code ec;
   const auto address = asio::ip::make_address(o.host, ec);
-  if (ec) throw invalid_input("--web-host", "'" + o.host + "' is not an IP address");
+  if (ec) throw invalid_input("--listen", "'" + o.host + "' is not an IP address");
   const tcp::endpoint endpoint(address, static_cast<unsigned short>(o.port));
   tcp::acceptor& a = state_->acceptor;
   a.open(endpoint.protocol(), ec);
@@ -362,6 +406,20 @@ Server::Server(ServerOptions options) : state_(std::make_shared<State>()) {
   if (ec)
     throw invalid_input("--web-port",
                         fmt::format("cannot listen on {}:{}: {}", o.host, o.port, ec.message()));
+  if (o.tls) {
+    // Modern TLS only (1.2 and 1.3): what headset browsers speak.
+    asio::ssl::context& ctx = state_->tls.emplace(asio::ssl::context::tls_server);
+    ctx.set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
+                    asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
+                    asio::ssl::context::no_tlsv1_1);
+    try {
+      ctx.use_certificate_chain(asio::buffer(o.tls->certificate_pem));
+      ctx.use_private_key(asio::buffer(o.tls->key_pem), asio::ssl::context::pem);
+    } catch (const boost::system::system_error& e) {
+      throw invalid_input(o.tls->source,
+                          std::string("cannot use the certificate and key: ") + e.what());
+    }
+  }
   state_->accept();
 }
 
@@ -384,7 +442,7 @@ const std::string& Server::token() const {
 std::string Server::url() const {
   const std::string& h = state_->options.host;
   const std::string host = h == "0.0.0.0" ? "HOST" : h;
-  return fmt::format("http://{}:{}/?token={}", host, port(), token());
+  return fmt::format("{}://{}:{}/?token={}", state_->tls ? "https" : "http", host, port(), token());
 }
 
 void Server::on(Opened opened, Handler handle, Closed closed) {

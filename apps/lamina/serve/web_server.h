@@ -10,10 +10,18 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace lamina::cli::web {
+
+/// A certificate and its private key, PEM, for https and wss (web_tls.h makes or reads them).
+struct TlsIdentity {
+  std::string certificate_pem, key_pem;
+  std::string fingerprint_sha256;  ///< the certificate's, AA:BB:..., to check in a browser
+  std::string source;              ///< the files they came from, or "--self-signed"
+};
 
 struct ServerOptions {
   std::string host = "127.0.0.1";  ///< the address to listen on (0.0.0.0: every interface)
@@ -25,6 +33,9 @@ struct ServerOptions {
   double stall_timeout_s = 10.0;   ///< a WebSocket silent this long (pings unanswered) is dropped
   int max_clients = 8;             ///< WebSocket clients beyond this are refused
   size_t max_backlog_bytes = 64u << 20;  ///< setup and events queued for a client not reading
+  /// Given: https and wss only (a headset's browser grants WebXR only to a secure context, which
+  /// plain http off localhost is not).
+  std::optional<TlsIdentity> tls;
 };
 
 struct ServerCounters {
@@ -40,7 +51,7 @@ struct ServerCounters {
 class Server {
  public:
   /// Listens on options.host:options.port.
-  /// \note Throws lamina::Error (kInvalidInput) naming --web-host or --web-port when the address
+  /// \note Throws lamina::Error (kInvalidInput) naming --listen or --web-port when the address
   ///   cannot be used.
   explicit Server(ServerOptions options);
   ~Server();

@@ -10,6 +10,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pick.h"
+#include "scalpel_stroke.h"
 
 namespace lamina::cli::web {
 namespace {
@@ -194,8 +195,15 @@ void Session::closed(int client) {
 
 void Session::send_frame() {
   loop_.latest(snap_);
-  // A cut makes another model: every page is told it anew.
+  // A cut makes another model: every page hears what it divided (the vessels crossed, in the
+  // model's frame) and is sent the new model.
   if (snap_.model && snap_.model_version != stream_version_) {
+    if (snap_.cuts > cuts_seen_) {
+      json cut = json::parse(cut_event_text(snap_, net::Frame::kLps));
+      cut["type"] = "cut";
+      server_->broadcast(std::make_shared<const std::string>(cut.dump()), false);
+    }
+    cuts_seen_ = snap_.cuts;
     stream_ = std::make_unique<WebStream>(snap_.model, options_.hello_fields);
     stream_version_ = snap_.model_version;
     for (int c : server_->client_ids()) opened(c);

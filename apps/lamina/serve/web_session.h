@@ -80,6 +80,7 @@ class Session {
   SharedTools tools_;
   std::unique_ptr<WebStream> stream_;
   uint64_t stream_version_ = 0;
+  int64_t cuts_seen_ = 0;
   interact::LoopSnapshot snap_;
   Hand tip_hand_, grasp_hand_;
   bool grasp_missed_ = false;  // the last grasp found nothing (said once per press)
