@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# ThreadSanitizer over the simulation thread and its viewer handoff (docs/testing.md): builds
-# tests/tsan/loop_handoff.cpp with the realtime loop's sources under -fsanitize=thread (preset
-# "tsan"), makes a small model with the release CLI, and runs it for SECONDS (default 10).
+# ThreadSanitizer over the simulation thread, its viewer handoff and the web edge
+# (docs/testing.md): builds tests/tsan/loop_handoff.cpp and tests/tsan/web_session.cpp with the
+# realtime loop's sources under -fsanitize=thread (preset "tsan"), makes a small model with the
+# release CLI, and runs each for SECONDS (default 10).
 # OMP_NUM_THREADS=1: GCC's libgomp is not instrumented; with one thread it starts no pool.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,3 +18,7 @@ model=build/tsan/handoff_model.vtu
 [ -f "$model" ] || "$lamina" -q build phantom -o "$model" --skin-vertices 400 >/dev/null
 OMP_NUM_THREADS=1 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
   build/tsan/tests/tsan/tsan_loop_handoff "$model" "$seconds"
+# `lamina serve --web`'s edge: the session polled as the serve loop does, beside the loop's
+# thread and two pages' (tests/tsan/web_session.cpp).
+OMP_NUM_THREADS=1 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+  build/tsan/tests/tsan/tsan_web_session "$model" "$seconds"

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <thread>
 
 #include "beast.h"
 #include "lamina/io/model_file.h"
@@ -364,6 +365,69 @@ TEST(Web, SelfSignedTlsServesThePageAndTheStream) {
          w.server->log().find("the TLS handshake failed") == std::string::npos)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_NE(w.server->log().find("the TLS handshake failed"), std::string::npos);
+}
+
+// Two pages (one pushing with a hand) and an OpenIGTLink client at once: each page is streamed
+// at the frame rate asked, the OpenIGTLink client gets its skin, and the server keeps real time
+// or says it cannot (the rate target, asserted as honesty, not as a speed).
+TEST(Web, TwoPagesAndAnOpenIGTLinkClientAtOnceAndTheServerKeepsItsRateOrSaysSo) {
+  WebServer w({"--web-hz", "30"});
+  Page pusher(w.port, w.token), watcher(w.port, w.token);
+  pusher.take_setup();
+  watcher.take_setup();
+  Client slicer(w.server->port());
+  cli::web::FrameInfo first;
+  std::vector<uint16_t> q = pusher.frame(first);
+  size_t far = 0;
+  for (size_t i = 0; i < q.size() / 4; ++i)
+    if (pusher.point(pusher.rest, i).x() > pusher.point(pusher.rest, far).x()) far = i;
+  const Eigen::Vector3d tip = pusher.point(pusher.rest, far) - Eigen::Vector3d(4.0, 0.0, 0.0);
+  constexpr double kSeconds = 3.0;
+  int watched = 0, pushed = 0, polydata = 0;
+  std::thread watch([&] {
+    cli::web::FrameInfo info;
+    const auto t0 = Clock::now();
+    while (seconds_since(t0) < kSeconds) {
+      watcher.frame(info);
+      ++watched;
+    }
+  });
+  std::thread skin([&] {
+    const auto t0 = Clock::now();
+    while (seconds_since(t0) < kSeconds)
+      if (slicer.receive("POLYDATA", "LaminaSkin", kSeconds)) ++polydata;
+  });
+  cli::web::FrameInfo info;
+  const auto t0 = Clock::now();
+  for (uint32_t pose = 1; seconds_since(t0) < kSeconds; ++pose) {
+    pusher.send({{"type", "hand"},
+                 {"hand", 0},
+                 {"pose", pose},
+                 {"position", {tip.x(), tip.y(), tip.z()}},
+                 {"trigger", 1.0},
+                 {"grip", 0.0}});
+    pusher.frame(info);
+    ++pushed;
+  }
+  watch.join();
+  skin.join();
+  // 30 frames a second to each page, 30 skins a second to Slicer (--send-hz's default): at
+  // least half of each in the 3 s, on a loaded machine.
+  EXPECT_GE(watched, 45);
+  EXPECT_GE(pushed, 45);
+  EXPECT_GE(polydata, 45);
+  EXPECT_EQ(info.tools[0].client, pusher.hello["client"].get<int>());
+  w.server->process().terminate();
+  ASSERT_EQ(w.server->process().wait(20.0), 0) << w.server->log();
+  const std::optional<Summary> s = parse_summary(w.server->log());
+  ASSERT_TRUE(s) << w.server->log();
+  EXPECT_EQ(s->dropped, 0) << w.server->log();
+  const bool said = w.server->log().find("behind real time") != std::string::npos ||
+                    w.server->log().find("x real time over the whole run") != std::string::npos ||
+                    w.server->log().find("stepping at") != std::string::npos;
+  EXPECT_TRUE(s->real_time_factor >= 0.95 || said) << "behind real time without saying so:\n"
+                                                   << w.server->log();
+  EXPECT_NE(w.server->log().find("web: 2 clients"), std::string::npos) << w.server->log();
 }
 
 // Bad web options: one error line, exit 2, before any model is built.
