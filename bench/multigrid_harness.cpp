@@ -157,7 +157,8 @@ void build_geometric(const sim::detail::SparseRows& A, const Eigen::MatrixX3d& f
   const Model coarse = model::build_model(geometry::make_phantom(), options).model;
   Eigen::MatrixX3i one(1, 3);
   one << 0, 1, 2;
-  const EmbeddedSurface e = model::embed_surface(coarse, fine_points, one, "fine nodes");
+  const EmbeddedSurface e =
+      model::embed_surface(coarse, fine_points, one, "fine nodes", SurfaceRole::kStructure);
   std::vector<int32_t> column(static_cast<size_t>(coarse.node_count()), -1);
   std::vector<Eigen::Triplet<double>> t;
   std::vector<Eigen::Vector3d> points;

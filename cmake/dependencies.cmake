@@ -1,4 +1,5 @@
-# Every third-party dependency, found once. Names and gotchas: ../shared/STACK.md.
+# Every third-party dependency, found once. Names and gotchas: the team's STACK.md (docs/architecture.md
+# says where this build departs from it).
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
 find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(CLI11 REQUIRED)

@@ -8,7 +8,7 @@ would, one task each. A local cluster by default (one single-threaded worker per
 lamina and read the masks at the same paths.
 
     PYTHONPATH=build/release/python /usr/bin/python3 examples/sweep.py \
-        --young-modulus-kpa 3 6 12 --masks phantom ../shared/data/liver_totalseg_example_3mm.nii.gz
+        --young-modulus-kpa 3 6 12 --masks phantom tests/data/liver_totalseg_example_3mm.nii.gz
 """
 import argparse
 import csv

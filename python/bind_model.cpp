@@ -50,14 +50,15 @@ std::shared_ptr<const LabelVolume> mask_of(const py::handle& what) {
 }
 
 // build_model's `embed` entries, as `lamina build --embed` / `--embed-mask` take them: a label
-// of the same segmentation (an int, or (label, name)), a separate mask ((Mask or path, name)),
-// or a dict with `label`, `name` and `mask` (each optional but one of label and mask).
+// of the same segmentation (an int, or (label, name[, role])), a separate mask ((Mask or path,
+// name[, role])), or a dict with `label`, `name`, `mask` and `role` (each optional but one of
+// label and mask). Without a role, the one its name suggests.
 model::EmbedStructure embed_structure(const py::handle& entry, size_t k) {
   const std::string what = "build_model: embed[" + std::to_string(k) + "]";
   const auto refuse = [&]() -> model::EmbedStructure {
     throw invalid_input(what, "is " + py::repr(entry).cast<std::string>() +
-                                  "; a label, (label, name), (Mask or path, name) or a dict "
-                                  "with label, name, mask expected");
+                                  "; a label, (label, name[, role]), (Mask or path, name[, role]) "
+                                  "or a dict with label, name, mask, role expected");
   };
   model::EmbedStructure s;
   py::object mask = py::none();
@@ -65,8 +66,12 @@ model::EmbedStructure embed_structure(const py::handle& entry, size_t k) {
     s.label = entry.cast<int32_t>();
   } else if (py::isinstance<py::tuple>(entry) || py::isinstance<py::list>(entry)) {
     const auto t = py::reinterpret_borrow<py::sequence>(entry);
-    if (t.size() != 2 || !py::isinstance<py::str>(t[1])) return refuse();
+    if (t.size() < 2 || t.size() > 3 || !py::isinstance<py::str>(t[1])) return refuse();
     s.name = t[1].cast<std::string>();
+    if (t.size() == 3) {
+      if (!py::isinstance<py::str>(t[2])) return refuse();
+      s.role = structure_role_of(t[2].cast<std::string>(), what);
+    }
     if (py::isinstance<py::int_>(t[0]) && !py::isinstance<py::bool_>(t[0]))
       s.label = t[0].cast<int32_t>();
     else if (py::isinstance<py::str>(t[0]) || py::isinstance<LabelVolume>(t[0]))
@@ -83,8 +88,10 @@ model::EmbedStructure embed_structure(const py::handle& entry, size_t k) {
         s.name = value.cast<std::string>();
       else if (name == "mask")
         mask = py::reinterpret_borrow<py::object>(value);
+      else if (name == "role")
+        s.role = structure_role_of(value.cast<std::string>(), what);
       else
-        throw invalid_input(what, "has key '" + name + "'; label, name and mask expected");
+        throw invalid_input(what, "has key '" + name + "'; label, name, mask and role expected");
     }
     if (mask.is_none() && s.label == 0) return refuse();
   } else {
@@ -136,7 +143,7 @@ void bind_model(py::module_& m) {
   m.def(
       "phantom",
       [](const std::variant<double, std::array<double, 3>>& spacing_mm, bool anatomy,
-         bool carved_out) {
+         bool carved_out, bool wrapped) {
         geometry::PhantomOptions o;
         if (const double* s = std::get_if<double>(&spacing_mm))
           o.spacing_mm = {*s, *s, *s};
@@ -144,15 +151,18 @@ void bind_model(py::module_& m) {
           o.spacing_mm = std::get<std::array<double, 3>>(spacing_mm);
         o.anatomy = anatomy;
         o.carved_out = carved_out;
+        o.wrapped = wrapped;
         return geometry::make_phantom(o);
       },
       py::kw_only(), py::arg("spacing_mm") = 1.5, py::arg("anatomy") = false,
-      py::arg("carved_out") = false,
+      py::arg("carved_out") = false, py::arg("wrapped") = false,
       "The built-in liver-like phantom mask. spacing_mm: voxel size, one value or (i, j, k);\n"
       "anatomy: labels 1 liver, 2 a vessel tree, 3 a tumour (lamina phantom --labels), the\n"
       "organ their union; carved_out: the anatomy as most labelmaps store it (lamina phantom\n"
       "--carved-out): 1 parenchyma only, 2 portal vein (its trunk beyond the organ), 3 tumours,\n"
-      "4 hepatic veins, 5 inferior vena cava; build it with label=1 and embed; else label 1.");
+      "4 hepatic veins, 5 inferior vena cava; build it with label=1 and embed; else label 1.\n"
+      "wrapped: the vena cava wrapped by the liver (lamina phantom --wrapped): with carved_out,\n"
+      "the vena cava and the veins draining into it are tunnels through label 1.");
 
   py::class_<EmbeddedSurface>(
       m, "EmbeddedSurface",
@@ -160,6 +170,9 @@ void bind_model(py::module_& m) {
       "organ): vertex v lies at sum_c weights[v, c] * x[corners[v, c]] + offsets[v]. Arrays\n"
       "are read-only views of the model's memory.")
       .def_readonly("name", &EmbeddedSurface::name, "'display_skin', or the structure's name")
+      .def_property_readonly(
+          "role", [](const EmbeddedSurface& e) { return std::string(role_name(e.role)); },
+          "what it is: 'display_skin', 'vessel', 'tumour', 'structure' or 'wound'")
       .def_readonly("label", &EmbeddedSurface::label,
                     "the segmentation label it came from (0: the organ's own skin)")
       .def_readonly("outside", &EmbeddedSurface::outside,
@@ -190,9 +203,9 @@ void bind_model(py::module_& m) {
                              "the largest sum of |weights|: no vertex moves more than this many\n"
                              "times its tetrahedron's largest node motion (at most 2)")
       .def("__repr__", [](const EmbeddedSurface& e) {
-        return "<lamina.EmbeddedSurface '" + e.name + "' label " + std::to_string(e.label) + ", " +
-               std::to_string(e.V.rows()) + " vertices, " + std::to_string(e.F.rows()) +
-               " triangles>";
+        return "<lamina.EmbeddedSurface '" + e.name + "' (" + std::string(role_name(e.role)) +
+               ") label " + std::to_string(e.label) + ", " + std::to_string(e.V.rows()) +
+               " vertices, " + std::to_string(e.F.rows()) + " triangles>";
       });
 
   py::class_<Model, std::shared_ptr<Model>>(m, "Model",

@@ -28,19 +28,26 @@ Eigen::Vector3d vec(const Point& p) {
   return {p[0], p[1], p[2]};
 }
 
-// embed entries: 2, or (2, "portal_vein"); named by label when unnamed.
+// embed entries: 2, (2, "portal_vein") or (2, "portal_vein", "vessel"); named by label when
+// unnamed, of the role its name suggests when none is given.
 geometry::ResectionStructure structure_of(const py::handle& entry) {
   geometry::ResectionStructure s;
+  std::optional<SurfaceRole> role;
   if (py::isinstance<py::int_>(entry)) {
     s.label = entry.cast<int32_t>();
     s.name = "label " + std::to_string(s.label);
   } else {
-    const auto pair = entry.cast<std::pair<int32_t, std::string>>();
-    s.label = pair.first;
-    s.name = pair.second;
+    const auto t = entry.cast<py::sequence>();
+    if (t.size() < 2 || t.size() > 3)
+      throw invalid_input("resect: embed",
+                          "a structure is LABEL, (LABEL, NAME) or (LABEL, NAME, "
+                          "ROLE)");
+    s.label = t[0].cast<int32_t>();
+    s.name = t[1].cast<std::string>();
+    if (t.size() == 3) role = structure_role_of(t[2].cast<std::string>(), "resect: embed");
   }
   if (s.label <= 0) throw invalid_input("resect: embed", "a structure's label must be > 0");
-  s.tumour = geometry::is_tumour_name(s.name);
+  s.role = role.value_or(geometry::guess_role(s.name));
   return s;
 }
 

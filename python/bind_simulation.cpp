@@ -532,6 +532,7 @@ void bind_simulation(py::module_& m) {
             for (const model::StructureCut& c : r.structures_cut) {
               py::dict cd;
               cd["name"] = c.name;
+              cd["role"] = std::string(role_name(c.role));
               cd["label"] = c.label;
               cd["position_mm"] = Eigen::Vector3d(c.position_mm);
               cd["diameter_mm"] = c.diameter_mm;

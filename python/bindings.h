@@ -3,9 +3,22 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <string>
 #include <vector>
 
+#include "lamina/core/error.h"
+#include "lamina/core/surface_role.h"
+
 namespace lamina::python {
+
+// A structure's role as Python names it ("vessel", "tumour", "structure"), or a one-line error
+// naming `what`.
+inline SurfaceRole structure_role_of(const std::string& word, const std::string& what) {
+  const auto r = role_from_name(word);
+  if (!r || !is_anatomy(*r))
+    throw invalid_input(what, "role '" + word + "' is not vessel, tumour or structure");
+  return *r;
+}
 
 void bind_model(pybind11::module_& m);       // masks, models (bind_model.cpp)
 void bind_simulation(pybind11::module_& m);  // simulations, tools, scenes (bind_simulation.cpp)

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """A clinical-size liver mask for timing `lamina validate` (docs/validation.md, "A clinical-size
-mask"): the TotalSegmentator example liver (3 mm, ../shared/data) resampled, nearest neighbour,
+mask"): the TotalSegmentator example liver (3 mm, tests/data) resampled, nearest neighbour,
 onto a 512 x 512 x 129 grid of 0.57 x 0.57 x 1.6 mm centred on the organ, the size and spacing of
 an abdominal CT. Its shape is the 3 mm mask's; its voxel count (2.1 million inside, 33.8 million
 in all) and anisotropy are a clinical scan's. Plain Python (gzip, struct), no numpy; ~2 s.
@@ -18,7 +18,7 @@ SPACING = (0.57, 0.57, 1.6)
 
 def main(argv):
     here = os.path.dirname(os.path.abspath(__file__))
-    default = os.path.join(here, "..", "..", "shared", "data", "liver_totalseg_example_3mm.nii.gz")
+    default = os.path.join(here, "..", "tests", "data", "liver_totalseg_example_3mm.nii.gz")
     if len(argv) not in (2, 3):
         sys.exit(__doc__)
     src, dst = (argv[1], argv[2]) if len(argv) == 3 else (default, argv[1])

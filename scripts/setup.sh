@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package Lamina needs to build, test and run (see ../shared/STACK.md).
+# Installs every Debian 12 package Lamina needs to build, test and run (the team's STACK.md lists them).
 # Idempotent: re-running it on a machine that already has everything is fast.
 set -euo pipefail
 

@@ -26,8 +26,20 @@ window.lamina.hitOrgan = (origin, direction) => {
   return hits.length ? hits[0].point.toArray() : null;
 };
 window.lamina.organBox = () => {
-  const b = new THREE.Box3().setFromObject(organ);
+  const b = organBox();
   return { min: b.min.toArray(), max: b.max.toArray() };
+};
+// The organ's box as the camera shows it, in normalized device coordinates (-1..1 across the
+// view): the first view frames the organ, not the anatomy reaching beyond it.
+window.lamina.organOnScreen = () => {
+  const b = organBox(), lo = [Infinity, Infinity], hi = [-Infinity, -Infinity];
+  for (let c = 0; c < 8; ++c) {
+    const p = new THREE.Vector3(c & 1 ? b.max.x : b.min.x, c & 2 ? b.max.y : b.min.y,
+      c & 4 ? b.max.z : b.min.z).project(camera);
+    lo[0] = Math.min(lo[0], p.x); lo[1] = Math.min(lo[1], p.y);
+    hi[0] = Math.max(hi[0], p.x); hi[1] = Math.max(hi[1], p.y);
+  }
+  return { lo, hi };
 };
 window.lamina.session = () => renderer.xr.getSession();
 window.lamina.closeSocket = () => ws && ws.close();
@@ -296,8 +308,18 @@ window.addEventListener('pointerup', () => {
   send({ type: 'release' });
 });
 
+// The organ's own surfaces' box (the display skin; the skin layer of a model without one), not
+// everything drawn: a real segmentation's vena cava and portal trunk run far beyond the liver.
+function organBox() {
+  organ.updateMatrixWorld(true);
+  const box = new THREE.Box3();
+  const own = surfaces.filter((s) => s.desc.role === 'display_skin');
+  for (const s of (own.length ? own : surfaces)) box.expandByObject(s.mesh);
+  return box;
+}
+
 function placeCamera() {
-  const box = new THREE.Box3().setFromObject(organ);
+  const box = organBox();
   const center = box.getCenter(new THREE.Vector3()), size = box.getSize(new THREE.Vector3()).length();
   controls.target.copy(center);
   camera.position.copy(center).add(new THREE.Vector3(0, 0, 1.4 * size));
@@ -365,7 +387,7 @@ function placeBeforeUser(xrFrame) {
   ahead.normalize();
   organ.position.set(0, 0, 0);
   organ.updateMatrixWorld(true);
-  const c = new THREE.Box3().setFromObject(organ).getCenter(new THREE.Vector3());
+  const c = organBox().getCenter(new THREE.Vector3());
   organ.position.set(eye.x, eye.y - 0.35, eye.z).addScaledVector(ahead, 0.5).sub(c);
   placeInXr = false;
 }

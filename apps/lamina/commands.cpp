@@ -24,6 +24,7 @@
 #include "lamina/model/compute_rings.h"
 #include "lamina/model/summarize_model.h"
 #include "lamina/sim/simulation.h"
+#include "structure_entry.h"
 
 namespace lamina::cli {
 
@@ -111,31 +112,21 @@ int run_phantom(const PhantomArgs& a) {
 
 namespace {
 
-// "TEXT=NAME" split at its first '='; NAME is empty without one.
-std::pair<std::string, std::string> split_name(const std::string& entry) {
-  const size_t eq = entry.find('=');
-  if (eq == std::string::npos) return {entry, ""};
-  return {entry.substr(0, eq), entry.substr(eq + 1)};
-}
-
 // --label, --embed and --embed-mask into the build options; the masks are read here.
 model::BuildOptions with_structures(const BuildArgs& a) {
   model::BuildOptions o = a.options;
   if (a.labels.size() == 1) o.label = a.labels[0];
   if (a.labels.size() > 1) o.labels = a.labels;
   for (const std::string& entry : a.embed) {
-    const auto [text, name] = split_name(entry);
-    int32_t label = 0;
-    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), label);
-    if (ec != std::errc() || end != text.data() + text.size())
-      throw invalid_input("--embed", "'" + entry + "' is not LABEL[=NAME] with LABEL a number");
-    o.embed.push_back({.name = name, .label = label});
+    const StructureEntry e = split_structure_entry(entry, "--embed");
+    o.embed.push_back({.name = e.name, .label = entry_label(e, entry, "--embed"), .role = e.role});
   }
   for (const std::string& entry : a.embed_masks) {
-    const auto [path, name] = split_name(entry);
+    const StructureEntry e = split_structure_entry(entry, "--embed-mask");
     // Unnamed, it is named after the file (build_model's EmbedStructure::name).
-    o.embed.push_back(
-        {.name = name, .mask = std::make_shared<const LabelVolume>(read_input(path))});
+    o.embed.push_back({.name = e.name,
+                       .mask = std::make_shared<const LabelVolume>(read_input(e.source)),
+                       .role = e.role});
   }
   return o;
 }

@@ -97,6 +97,11 @@ int main(int argc, char** argv) {
                "the anatomy as most labelmaps store it (implies --labels): 1 liver parenchyma "
                "only, 2 portal vein (its trunk leaving the organ), 3 tumour, 4 hepatic veins, "
                "5 inferior vena cava (mostly outside the organ); build it with --label 1 --embed");
+  ph->add_flag("--wrapped", phantom.options.wrapped,
+               "the vena cava wrapped by the liver (a bridge of caudate tissue behind it): with "
+               "--carved-out the vena cava, the hepatic veins draining into it and the right "
+               "one reaching the lateral surface are tunnels through label 1, and the lesion "
+               "bulges 12 mm out; alone, the same organ's whole mask");
 
   cli::BuildArgs build;
   auto& bo = build.options;

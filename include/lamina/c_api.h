@@ -63,15 +63,24 @@ lamina_status lamina_model_rest_positions(const lamina_model* model, double* xyz
 /* ---- embedded surfaces ----------------------------------------------------------------- */
 
 /* Surfaces carried by the model's tetrahedra (docs/model_format.md): the display skin
- * ("display_skin", label 0: the organ's fine surface), structures inside the organ ("vessels",
- * "tumour": `lamina build --embed`). Each vertex follows its tetrahedron: a weighted sum of four
- * nodes (W x). Surface k is 0 .. embedded_count - 1. */
+ * (LAMINA_ROLE_DISPLAY_SKIN: the organ's fine surface), structures inside the organ (vessels,
+ * tumours, others: `lamina build --embed`), a cut's wound. Each vertex follows its tetrahedron: a
+ * weighted sum of four nodes (W x). Surface k is 0 .. embedded_count - 1. */
+typedef enum lamina_role {
+  LAMINA_ROLE_DISPLAY_SKIN = 0,
+  LAMINA_ROLE_VESSEL = 1,
+  LAMINA_ROLE_TUMOUR = 2,
+  LAMINA_ROLE_STRUCTURE = 3,
+  LAMINA_ROLE_WOUND = 4
+} lamina_role;
+
 typedef struct lamina_embedded_info {
   const char* name;       /* "display_skin", or the structure's; valid while the model lives */
   int32_t label;          /* the segmentation label it came from (0: the organ's own skin) */
   int32_t vertex_count;   /* its vertices */
   int32_t triangle_count; /* its triangles */
   int32_t outside;        /* vertices in no tetrahedron at rest (they follow the nearest) */
+  int32_t role;           /* what it is: a lamina_role; read this, not the name or the label */
 } lamina_embedded_info;
 
 int32_t lamina_model_embedded_count(const lamina_model* model);

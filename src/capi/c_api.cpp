@@ -31,6 +31,13 @@ struct lamina_sim {
   std::vector<Eigen::MatrixX3d> embedded_x;  // W x per embedded surface, kept between calls
 };
 
+// The C roles are the library's, value for value.
+static_assert(LAMINA_ROLE_DISPLAY_SKIN == static_cast<int>(lamina::SurfaceRole::kDisplaySkin));
+static_assert(LAMINA_ROLE_VESSEL == static_cast<int>(lamina::SurfaceRole::kVessel));
+static_assert(LAMINA_ROLE_TUMOUR == static_cast<int>(lamina::SurfaceRole::kTumour));
+static_assert(LAMINA_ROLE_STRUCTURE == static_cast<int>(lamina::SurfaceRole::kStructure));
+static_assert(LAMINA_ROLE_WOUND == static_cast<int>(lamina::SurfaceRole::kWound));
+
 namespace {
 
 using lamina::Error;
@@ -230,7 +237,8 @@ lamina_status lamina_model_embedded_info(const lamina_model* model, int32_t k,
         .label = e.label,
         .vertex_count = static_cast<int32_t>(e.V.rows()),
         .triangle_count = static_cast<int32_t>(e.F.rows()),
-        .outside = e.outside};
+        .outside = e.outside,
+        .role = static_cast<int32_t>(e.role)};
   });
 }
 

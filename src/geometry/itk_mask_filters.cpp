@@ -3,14 +3,15 @@
 #include <itkConnectedComponentImageFilter.h>
 #include <itkConnectedThresholdImageFilter.h>
 #include <itkImportImageFilter.h>
-#include <itkSignedMaurerDistanceMapImageFilter.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "core/itk_frame.h"
+#include "distance_transform.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/mask_filters.h"
+#include "lamina/geometry/prepare_mask.h"
 
 namespace lamina::geometry {
 namespace {
@@ -127,29 +128,34 @@ Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors) {
   return out;
 }
 
-namespace {
-
-// Exact Euclidean distance (mm) from every voxel OUTSIDE `inside` to the nearest voxel inside
-// it; 0 on inside voxels. ITK's Maurer filter measures to the foreground's contour voxels, and
-// for a background voxel the nearest foreground voxel is always a contour voxel.
-std::vector<float> distance_to_foreground(const GridFrame& frame,
-                                          const std::vector<uint8_t>& inside) {
-  using RealImage = itk::Image<float, 3>;
-  auto input = wrap<uint8_t>(frame, inside.data());
-  auto maurer = itk::SignedMaurerDistanceMapImageFilter<MaskImage, RealImage>::New();
-  maurer->SetInput(input);
-  maurer->SetInsideIsPositive(false);
-  maurer->SetUseImageSpacing(true);
-  maurer->SetSquaredDistance(false);
-  maurer->SetBackgroundValue(0);
-  update(maurer.GetPointer(), "signed distance map");
-  const float* d = maurer->GetOutput()->GetBufferPointer();
-  std::vector<float> out(inside.size());
-  for (size_t v = 0; v < out.size(); ++v) out[v] = inside[v] ? 0.0f : d[v];
+Mask close_mask(const Mask& mask, double radius_mm) {
+  // On a grid padded by the ball: beyond the mask's grid is background, and a dilation that
+  // reached its edge would find no background left to erode from. A closing never leaves the
+  // mask's convex hull, so what it adds lies on the mask's own grid.
+  const auto& s = mask.frame.spacing_mm;
+  const int pad = 2 + static_cast<int>(std::ceil(radius_mm / std::min({s[0], s[1], s[2]})));
+  const Mask padded = pad_mask(mask, pad);
+  // A voxel is in the dilation when a mask voxel lies within the radius; in the closing when no
+  // voxel outside the dilation does.
+  const std::vector<float> to_mask = detail::distance_to_foreground(padded.frame, padded.inside);
+  const float r = static_cast<float>(radius_mm);
+  std::vector<uint8_t> outside_dilation(padded.inside.size());
+  for (size_t v = 0; v < to_mask.size(); ++v) outside_dilation[v] = to_mask[v] > r ? 1 : 0;
+  const std::vector<float> to_outside =
+      detail::distance_to_foreground(padded.frame, outside_dilation);
+  Mask out;
+  out.frame = mask.frame;
+  out.inside.resize(mask.inside.size());
+  const GridFrame &f = mask.frame, &g = padded.frame;
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i) {
+        const size_t v = static_cast<size_t>(f.index(i, j, k));
+        const size_t w = static_cast<size_t>(g.index(i + pad, j + pad, k + pad));
+        out.inside[v] = (mask.inside[v] || (!outside_dilation[w] && to_outside[w] > r)) ? 1 : 0;
+      }
   return out;
 }
-
-}  // namespace
 
 DistanceField signed_distance(const Mask& mask) {
   // Two one-sided transforms rather than one signed one: ITK's signed map measures inside
@@ -158,8 +164,8 @@ DistanceField signed_distance(const Mask& mask) {
   // other side's voxel centres is exact and symmetric.
   std::vector<uint8_t> outside(mask.inside.size());
   for (size_t v = 0; v < outside.size(); ++v) outside[v] = mask.inside[v] ? 0 : 1;
-  const std::vector<float> d_out = distance_to_foreground(mask.frame, mask.inside);
-  std::vector<float> d_in = distance_to_foreground(mask.frame, outside);
+  const std::vector<float> d_out = detail::distance_to_foreground(mask.frame, mask.inside);
+  std::vector<float> d_in = detail::distance_to_foreground(mask.frame, outside);
   // Voxel centres are half a voxel from the boundary between them: shifting both sides by half
   // a voxel (geometric mean of the spacing) puts the zero level on the voxel faces.
   const auto& s = mask.frame.spacing_mm;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "lamina/core/error.h"
 
@@ -80,6 +81,18 @@ constexpr Segment kHepaticVeins[] = {
     {{10, 30, 38}, {40, -4, 34}, 3.0},     //   into the left lobe
 };
 
+// The wrapped variant (PhantomOptions::wrapped). The vena cava runs 12 mm further forward, into
+// the right lobe's back, and a bridge of liver tissue around its axis (19 mm in radius: 9 mm of
+// tissue around its 10 mm), from z = -25 to 35 mm, blended into the lobe, closes behind it; the
+// flattening against the spine (y < 85) still bounds the organ. So the vena cava passes through
+// the organ (a tunnel, open below and above), the three hepatic veins drain into it inside, the
+// right one runs on to the lateral surface, and the lesion sits 6 mm higher than the carved
+// variant's (its centre 2 mm above the left lobe's upper surface: 12 mm out, 8 mm in).
+constexpr Segment kWrappedVenaCava = {{-20, 68, -140}, {-16, 46, 150}, 10.0};
+constexpr Segment kCavalBridge = {{-18.41, 59.28, -25.0}, {-17.59, 54.72, 35.0}, 19.0};
+constexpr Segment kRightVeinToSurface = {{-88, -2, 28}, {-128, -34, 22}, 3.5};
+constexpr double kBulgingLesionCentre[3] = {60, -14, 49.5};
+
 // True when p is inside the capsule; the box test first, since the carved-out grid evaluates
 // every voxel against every segment.
 bool in_segment(double x, double y, double z, const Segment& s) {
@@ -101,23 +114,42 @@ int32_t phantom_anatomy(double x, double y, double z) {
   return kPhantomLiver;
 }
 
-int32_t phantom_carved_structure(double x, double y, double z) {
-  const double t[3] = {x - kTumourCentre[0], y - kTumourCentre[1], z - kTumourCentre[2]};
-  if (t[0] * t[0] + t[1] * t[1] + t[2] * t[2] < kTumourRadius * kTumourRadius)
-    return kPhantomTumour;
-  const double u[3] = {x - kLesionCentre[0], y - kLesionCentre[1], z - kLesionCentre[2]};
-  if (u[0] * u[0] + u[1] * u[1] + u[2] * u[2] < kLesionRadius * kLesionRadius)
+namespace {
+
+bool in_ball(double x, double y, double z, const double c[3], double r) {
+  const double d[3] = {x - c[0], y - c[1], z - c[2]};
+  return d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < r * r;
+}
+
+// A carved-out variant's structure at a point: both lesions (the subcapsular one at
+// `lesion_centre`), the portal tree with its trunk, the hepatic veins (and `extra_vein`, if any),
+// the vena cava along `cava`.
+int32_t carved_structure(double x, double y, double z, const double lesion_centre[3],
+                         const Segment& cava, const Segment* extra_vein) {
+  if (in_ball(x, y, z, kTumourCentre, kTumourRadius) ||
+      in_ball(x, y, z, lesion_centre, kLesionRadius))
     return kPhantomTumour;
   if (in_segment(x, y, z, kPortalTrunkBelow)) return kPhantomVessel;
   for (const Segment& v : kVessels)
     if (in_segment(x, y, z, v)) return kPhantomVessel;
   for (const Segment& v : kHepaticVeins)
     if (in_segment(x, y, z, v)) return kPhantomHepaticVeins;
-  if (in_segment(x, y, z, kVenaCava)) return kPhantomVenaCava;
+  if (extra_vein && in_segment(x, y, z, *extra_vein)) return kPhantomHepaticVeins;
+  if (in_segment(x, y, z, cava)) return kPhantomVenaCava;
   return 0;
 }
 
-double phantom_implicit(double x, double y, double z) {
+}  // namespace
+
+int32_t phantom_wrapped_structure(double x, double y, double z) {
+  return carved_structure(x, y, z, kBulgingLesionCentre, kWrappedVenaCava, &kRightVeinToSurface);
+}
+
+int32_t phantom_carved_structure(double x, double y, double z) {
+  return carved_structure(x, y, z, kLesionCentre, kVenaCava, nullptr);
+}
+
+double phantom_implicit(double x, double y, double z, bool wrapped) {
   // Right lobe: the bulk of the liver, on the patient's right (x < 0), tall and deep.
   const double right = ellipsoid(x, y, z, -45, 8, 0, 76, 70, 66);
   // Left lobe: thinner and flatter, reaching across the midline, raised towards the heart.
@@ -129,6 +161,9 @@ double phantom_implicit(double x, double y, double z) {
   d = smooth_subtract(d, ellipsoid(x, y, z, -48, 22, -88, 40, 36, 58), 10.0);
   // Gallbladder fossa: a groove on the anterior underside of the right lobe.
   d = smooth_subtract(d, ellipsoid(x, y, z, -22, -50, -40, 14, 30, 14), 6.0);
+  // The caudate bridge behind the vena cava (the wrapped variant), before the flattening.
+  if (wrapped)
+    d = smooth_min(d, capsule(x, y, z, kCavalBridge.a, kCavalBridge.b, kCavalBridge.r), 8.0);
   // Diaphragmatic dome stays convex; the posterior surface is flattened against the spine.
   d = smooth_subtract(d, 85.0 - y, 20.0);
   return d;
@@ -137,9 +172,11 @@ double phantom_implicit(double x, double y, double z) {
 LabelVolume make_phantom(const PhantomOptions& options) {
   LabelVolume v;
   const bool carved = options.carved_out;  // implies the anatomy
-  v.source = carved            ? "built-in phantom with carved-out anatomy"
-             : options.anatomy ? "built-in phantom with anatomy"
-                               : "built-in phantom";
+  const bool wrapped = options.wrapped;
+  v.source = std::string(carved            ? "built-in phantom with carved-out anatomy"
+                         : options.anatomy ? "built-in phantom with anatomy"
+                                           : "built-in phantom") +
+             (wrapped ? ", its vena cava wrapped" : "");
   GridFrame& f = v.frame;
   f.spacing_mm = options.spacing_mm;
   for (int a = 0; a < 3; ++a) {
@@ -174,9 +211,10 @@ LabelVolume make_phantom(const PhantomOptions& options) {
         if (carved) {
           // A structure's voxel is the structure's, in the organ or beyond it; the rest of the
           // organ is parenchyma.
-          label = phantom_carved_structure(x, y, z);
-          if (label == 0 && in_box && phantom_implicit(x, y, z) < 0.0) label = kPhantomLiver;
-        } else if (in_box && phantom_implicit(x, y, z) < 0.0) {
+          label = wrapped ? phantom_wrapped_structure(x, y, z) : phantom_carved_structure(x, y, z);
+          if (label == 0 && in_box && phantom_implicit(x, y, z, wrapped) < 0.0)
+            label = kPhantomLiver;
+        } else if (in_box && phantom_implicit(x, y, z, wrapped) < 0.0) {
           label = options.anatomy ? phantom_anatomy(x, y, z) : kPhantomLiver;
         }
       }

@@ -158,10 +158,10 @@ LabelVolume planning_phantom() {
 ResectionOptions planning_phantom_options() {
   ResectionOptions o;
   o.organ_labels = {kPhantomLiver};
-  o.structures = {{kPhantomVessel, "portal_vein", false},
-                  {kPhantomTumour, "tumour", true},
-                  {kPhantomHepaticVeins, "hepatic_veins", false},
-                  {kPhantomVenaCava, "vena_cava", false}};
+  o.structures = {{kPhantomVessel, "portal_vein", SurfaceRole::kVessel},
+                  {kPhantomTumour, "tumour", SurfaceRole::kTumour},
+                  {kPhantomHepaticVeins, "hepatic_veins", SurfaceRole::kVessel},
+                  {kPhantomVenaCava, "vena_cava", SurfaceRole::kVessel}};
   return o;
 }
 
@@ -207,6 +207,8 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
   if (opt.organ_labels.size() > 1) mo.labels = opt.organ_labels;
   mo.structures = n_structures > 0 ? &structures : nullptr;
   mo.structure_count = n_structures;
+  for (const ResectionStructure& s : opt.structures)
+    mo.whole_structures.push_back(s.role == SurfaceRole::kTumour ? 1 : 0);
   ResectionPlan plan;
   plan.organ = prepare_mask(volume, mo).mask;
   const Mask& organ = plan.organ;
@@ -287,7 +289,7 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
               back_mm3 += (1.0 - share) * voxel_mm3;
               const int64_t w = input_index(i, j, k);
               const int32_t s = w < 0 ? 0 : structures[static_cast<size_t>(w)];
-              if (s > 0 && !opt.structures[s - 1].tumour)
+              if (s > 0 && opt.structures[s - 1].role != SurfaceRole::kTumour)
                 crossings.push_back({s - 1, v, q.nearest, h});
             }
       }
@@ -347,7 +349,7 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
 
   // 3. Each tumour's pieces against the surface.
   for (int32_t s = 0; s < n_structures; ++s) {
-    if (!opt.structures[s].tumour) continue;
+    if (opt.structures[s].role != SurfaceRole::kTumour) continue;
     const auto& b = box[s];
     Mask t;
     t.frame = f;
@@ -418,7 +420,7 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
   std::sort(crossing_voxels.begin(), crossing_voxels.end(),
             [](const CrossingVoxel& a, const CrossingVoxel& b) { return a.index < b.index; });
   for (int32_t s = 0; s < n_structures; ++s) {
-    if (opt.structures[s].tumour) continue;
+    if (opt.structures[s].role == SurfaceRole::kTumour) continue;
     Mask cut;
     cut.frame = g;
     cut.inside.assign(organ.inside.size(), 0);
@@ -442,6 +444,7 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     for (int32_t p = 0; p < pieces; ++p) {
       StructureCrossing& c = found[p];
       c.name = opt.structures[s].name;
+      c.role = opt.structures[s].role;
       c.label = opt.structures[s].label;
       c.position_mm /= static_cast<double>(voxels[p]);
       c.diameter_mm = 2.0 * std::sqrt(c.area_mm2 / M_PI);

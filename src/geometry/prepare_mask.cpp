@@ -113,12 +113,18 @@ PreparedMask prepare_mask(const LabelVolume& volume, const MaskOptions& options)
     if (options.structures->size() != volume.labels.size())
       throw invalid_input(name, "the structures' buffer does not match the image size");
     r.structures =
-        add_enclosed_structures(f, selected, *options.structures, options.structure_count, lo, hi);
+        add_enclosed_structures(f, selected, *options.structures, options.structure_count,
+                                options.whole_structures, lo, hi);
     if (r.structures.organ_own == 0)
       throw invalid_input(name,
                           "every voxel selected as the organ is an embedded structure's; the "
                           "organ needs a label of its own (name it with --label)");
     count += r.structures.added;
+    // A tumour taken whole can reach beyond the organ's own box.
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], r.structures.added_lo[a]);
+      hi[a] = std::max(hi[a], r.structures.added_hi[a]);
+    }
   }
   r.label = options.label;
   r.selected_voxels = count;

@@ -1,9 +1,18 @@
-// name_key and is_tumour_name (structure_names.h).
+// name_key, is_tumour_name, is_vessel_name and guess_role (structure_names.h).
 #include "lamina/geometry/structure_names.h"
 
 #include <cctype>
 
 namespace lamina::geometry {
+namespace {
+
+bool has_any(const std::string& key, std::initializer_list<const char*> parts) {
+  for (const char* p : parts)
+    if (key.find(p) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
 
 std::string name_key(const std::string& name) {
   std::string out;
@@ -14,11 +23,23 @@ std::string name_key(const std::string& name) {
 }
 
 bool is_tumour_name(const std::string& name) {
+  return has_any(name_key(name), {"tumo", "lesion", "mass", "metasta", "carcinom", "hcc", "cancer",
+                                  "neoplas", "nodule"});
+}
+
+bool is_vessel_name(const std::string& name) {
+  // "ivc" and "pv" as whole keys only: as parts they occur in other words.
   const std::string n = name_key(name);
-  for (const char* t :
-       {"tumo", "lesion", "mass", "metasta", "carcinom", "hcc", "cancer", "neoplas", "nodule"})
-    if (n.find(t) != std::string::npos) return true;
-  return false;
+  return n == "ivc" || n == "pv" || n == "hv" ||
+         has_any(n, {"vessel", "vein", "venous", "vena", "cava", "portal", "arter", "aorta", "bile",
+                     "biliar", "duct", "vascul"});
+}
+
+SurfaceRole guess_role(const std::string& name) {
+  // A tumour's name first: "tumour thrombus in the portal vein" is a lesion.
+  if (is_tumour_name(name)) return SurfaceRole::kTumour;
+  if (is_vessel_name(name)) return SurfaceRole::kVessel;
+  return SurfaceRole::kStructure;
 }
 
 }  // namespace lamina::geometry

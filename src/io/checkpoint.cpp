@@ -24,7 +24,8 @@ static_assert(std::endian::native == std::endian::little, "checkpoints are littl
 
 constexpr char kMagic[8] = {'L', 'A', 'M', 'C', 'K', 'P', 'T', '\n'};
 // Version 2 added each series' name and a run's scalpels (a cut model); version 1 still reads.
-constexpr uint32_t kVersion = 2;
+// Version 3 added the role of each surface and structure a scalpel section holds.
+constexpr uint32_t kVersion = 3;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 4;
 
 }  // namespace
@@ -107,7 +108,7 @@ RunCheckpoint load_checkpoint(const std::string& path) {
   if (crc(0, data, payload) != sum)
     throw bad("checkpoint is corrupt: its checksum does not match its contents");
 
-  Reader r{path, data, data + payload};
+  Reader r{path, data, data + payload, version};
   RunCheckpoint k;
   k.scene_path = r.str();
   k.scene_crc = r.pod<uint32_t>();

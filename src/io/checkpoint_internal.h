@@ -53,6 +53,7 @@ struct Reader {
   const std::string& path;
   const char* p;
   const char* end;
+  uint32_t version = 0;  ///< the checkpoint's format version (what the fields hold)
   [[noreturn]] void truncated() const {
     throw invalid_input(path, "checkpoint is truncated or corrupt (a field runs past its end)");
   }

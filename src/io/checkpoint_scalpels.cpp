@@ -1,21 +1,41 @@
-// The checkpoint's scalpel section (version 2): the cut model as a model file's text (so that
-// load_model()'s checks vouch for it), the support and tool vertices the cuts carried over, and
-// each scalpel's progress, whose blade columns at rest and surfaces as they were before it cut
-// a resumed run needs to go on cutting exactly as the run it continues would have.
+// The checkpoint's scalpel section (version 2; roles from version 3): the cut model as a model
+// file's text (so that load_model()'s checks vouch for it), the support and tool vertices the cuts
+// carried over, and each scalpel's progress, whose blade columns at rest and surfaces as they were
+// before it cut a resumed run needs to go on cutting exactly as the run it continues would have.
 #include <sstream>
 #include <string>
 #include <utility>
 
 #include "checkpoint_internal.h"
+#include "lamina/geometry/structure_names.h"
 #include "lamina/model/compute_rings.h"
+#include "lamina/model/cut_tetrahedra.h"
+#include "lamina/model/embed_surface.h"
 #include "model_file_internal.h"
 
 namespace lamina::io::checkpoint_detail {
 namespace {
 
+// Files before version 3 hold no roles: the role the readers of their time saw in the name.
+SurfaceRole legacy_role(const std::string& name, int32_t label) {
+  if (label == 0 && name == model::kDisplaySkinName) return SurfaceRole::kDisplaySkin;
+  if (label == 0 && name == model::kWoundName) return SurfaceRole::kWound;
+  return geometry::guess_role(name);
+}
+
+SurfaceRole read_role(Reader& r, const std::string& name, int32_t label) {
+  if (r.version < 3) return legacy_role(name, label);
+  const auto role = r.pod<uint8_t>();
+  if (role > static_cast<uint8_t>(SurfaceRole::kWound))
+    throw invalid_input(r.path, "checkpoint is inconsistent: " + name.substr(0, 40) + " has role " +
+                                    std::to_string(role));
+  return static_cast<SurfaceRole>(role);
+}
+
 void write_surface(Writer& w, const EmbeddedSurface& e) {
   w.str(e.name);
   w.pod(e.label);
+  w.pod(static_cast<uint8_t>(e.role));
   w.pod(e.outside);
   w.matrix(e.V);
   w.matrix(e.F);
@@ -28,6 +48,7 @@ EmbeddedSurface read_surface(Reader& r) {
   EmbeddedSurface e;
   e.name = r.str();
   e.label = r.pod<int32_t>();
+  e.role = read_role(r, e.name, e.label);
   e.outside = r.pod<int32_t>();
   e.V = r.matrix<Eigen::MatrixX3d>();
   e.F = r.matrix<Eigen::MatrixX3i>();
@@ -48,6 +69,7 @@ EmbeddedSurface read_surface(Reader& r) {
 void write_structure(Writer& w, const model::StructureCut& c) {
   w.str(c.name);
   w.pod(c.label);
+  w.pod(static_cast<uint8_t>(c.role));
   w.bytes(c.position_mm.data(), 3 * sizeof(double));
   w.pod(c.area_mm2);
   w.pod(c.diameter_mm);
@@ -58,6 +80,7 @@ model::StructureCut read_structure(Reader& r) {
   model::StructureCut c;
   c.name = r.str();
   c.label = r.pod<int32_t>();
+  c.role = read_role(r, c.name, c.label);
   r.take(c.position_mm.data(), 3 * sizeof(double));
   c.area_mm2 = r.pod<double>();
   c.diameter_mm = r.pod<double>();

@@ -230,9 +230,11 @@ using namespace detail;
 // after the springs, counted by tet_count). Version 1 files (layers joined by links) still load.
 // Version 5 added the shares and materials of a cut model's springs and tetrahedra (CellData
 // share and material); an uncut model is still written as the oldest version that holds it.
-constexpr int32_t kFormatVersion = 5;
-constexpr int32_t kFormatVersionWithoutCut = 4;
-constexpr int32_t kFormatVersionWithoutOffsets = 3;
+// Version 6 added each embedded surface's role (FieldData embedded_role): every model with
+// embedded surfaces is written as version 6; in older files the reader gives each the role the
+// older readers saw in its name and label (read_embedded_fields).
+constexpr int32_t kFormatVersion = 6;
+constexpr int32_t kFormatVersionCut = 5;
 constexpr int32_t kFormatVersionWithoutEmbedded = 2;
 
 // Only what would make save_model() itself read out of bounds; load_model() checks the rest.
@@ -354,10 +356,9 @@ void detail::write_model(const Model& m, const std::string& path, std::ostream& 
   // as in version 2.
   add_embedded(m, piece);
   const std::vector<uint8_t> source(m.source.begin(), m.source.end());
-  const int32_t version = is_cut(m)                 ? kFormatVersion
-                          : m.embedded.empty()      ? kFormatVersionWithoutEmbedded
-                          : has_embedded_offsets(m) ? kFormatVersionWithoutCut
-                                                    : kFormatVersionWithoutOffsets;
+  const int32_t version = !m.embedded.empty() ? kFormatVersion
+                          : is_cut(m)         ? kFormatVersionCut
+                                              : kFormatVersionWithoutEmbedded;
 
   {
     const char* const field = "      ";
@@ -442,7 +443,7 @@ Model detail::parse_model(const std::string& path, std::string_view text) {
   const bool has_embedded =
       version >= 3 && (version < 5 || f.arrays.contains("FieldData/embedded_vertex_count"));
   const EmbeddedLayout embedded =
-      has_embedded ? read_embedded_fields(path, f, m) : EmbeddedLayout{};
+      has_embedded ? read_embedded_fields(path, f, version, m) : EmbeddedLayout{};
   if (embedded.vertices > points_in_file)
     throw bad("the embedded surfaces hold " + std::to_string(embedded.vertices) +
               " vertices but the file has only " + std::to_string(points_in_file) + " points");
@@ -622,7 +623,8 @@ Model detail::parse_model(const std::string& path, std::string_view text) {
   // value (an edited position or stiffness). Files written before it existed have none.
   if (f.arrays.contains("FieldData/content_crc32")) {
     const int64_t stored = read_values<int64_t>(path, f, "FieldData/content_crc32", 1)[0];
-    if (stored != static_cast<int64_t>(model_fingerprint(m)))
+    // Files before version 6 were summed without the roles.
+    if (stored != static_cast<int64_t>(detail::fingerprint(m, /*roles=*/version >= 6)))
       throw bad(
           "contents do not match their checksum (content_crc32): the file was edited or "
           "damaged; rebuild it with lamina build");
@@ -631,6 +633,14 @@ Model detail::parse_model(const std::string& path, std::string_view text) {
 }
 
 uint32_t model_fingerprint(const Model& m) {
+  return detail::fingerprint(m, /*roles=*/true);
+}
+
+}  // namespace lamina::io
+
+namespace lamina::io::detail {
+
+uint32_t fingerprint(const Model& m, bool roles) {
   uint32_t c = crc(0, m.X.data(), static_cast<size_t>(m.X.size()) * sizeof(double));
   c = crc(c, m.mass_kg.data(), m.mass_kg.size() * sizeof(double));
   c = crc(c, m.fixed.data(), m.fixed.size());
@@ -649,8 +659,8 @@ uint32_t model_fingerprint(const Model& m) {
   }
   // Models without embedded surfaces keep the checksum version 2 gave them (checkpoints name
   // their model by it).
-  if (!m.embedded.empty()) c = embedded_fingerprint(c, m);
+  if (!m.embedded.empty()) c = embedded_fingerprint(c, m, roles);
   return cut_fingerprint(c, m);
 }
 
-}  // namespace lamina::io
+}  // namespace lamina::io::detail

@@ -11,6 +11,9 @@
 #include <vector>
 
 #include "lamina/core/error.h"
+#include "lamina/geometry/structure_names.h"
+#include "lamina/model/cut_tetrahedra.h"
+#include "lamina/model/embed_surface.h"
 #include "lamina/model/structure_colors.h"
 #include "model_file_internal.h"
 
@@ -109,12 +112,13 @@ void write_embedded_point_data(std::ostream& out, const char* indent, const Mode
 
 void write_embedded_field_data(std::ostream& out, const char* indent, const Model& m) {
   if (m.embedded.empty()) return;
-  std::vector<int32_t> vertex_count, face_count, label, outside;
+  std::vector<int32_t> vertex_count, face_count, label, outside, role;
   std::vector<uint8_t> names;  // joined by '\n', as bytes: no XML escaping needed
   for (const EmbeddedSurface& e : m.embedded) {
     vertex_count.push_back(static_cast<int32_t>(e.V.rows()));
     face_count.push_back(static_cast<int32_t>(e.F.rows()));
     label.push_back(e.label);
+    role.push_back(static_cast<int32_t>(e.role));
     outside.push_back(e.outside);
     if (!names.empty()) names.push_back('\n');
     names.insert(names.end(), e.name.begin(), e.name.end());
@@ -122,17 +126,21 @@ void write_embedded_field_data(std::ostream& out, const char* indent, const Mode
   write_array(out, indent, "embedded_vertex_count", vertex_count, 1, true);
   write_array(out, indent, "embedded_face_count", face_count, 1, true);
   write_array(out, indent, "embedded_label", label, 1, true);
+  write_array(out, indent, "embedded_role", role, 1, true);
   write_array(out, indent, "embedded_outside", outside, 1, true);
   write_array(out, indent, "embedded_names", names, 1, true);
 }
 
-EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, Model& m) {
+EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, int32_t version,
+                                    Model& m) {
   const auto bad = [&](const std::string& problem) { return invalid_input(path, problem); };
   const int64_t count = tuple_count(path, f, "FieldData/embedded_vertex_count");
   EmbeddedLayout layout;
   layout.vertex_count = read_values<int32_t>(path, f, "FieldData/embedded_vertex_count", count);
   layout.face_count = read_values<int32_t>(path, f, "FieldData/embedded_face_count", count);
   const auto label = read_values<int32_t>(path, f, "FieldData/embedded_label", count);
+  const auto role = version >= 6 ? read_values<int32_t>(path, f, "FieldData/embedded_role", count)
+                                 : std::vector<int32_t>{};
   const auto outside = read_values<int32_t>(path, f, "FieldData/embedded_outside", count);
   const auto bytes = read_values<uint8_t>(path, f, "FieldData/embedded_names",
                                           tuple_count(path, f, "FieldData/embedded_names"));
@@ -153,6 +161,18 @@ EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, M
     EmbeddedSurface& e = m.embedded[s];
     e.name = names[s];
     e.label = label[s];
+    if (version >= 6) {
+      if (role[s] < 0 || role[s] > static_cast<int32_t>(SurfaceRole::kWound))
+        throw bad(surface_named(m, s) + " has role " + std::to_string(role[s]) +
+                  "; expected 0 (display skin) to 4 (wound)");
+      e.role = static_cast<SurfaceRole>(role[s]);
+    } else if (e.label == 0 && e.name == model::kDisplaySkinName) {
+      e.role = SurfaceRole::kDisplaySkin;
+    } else if (e.label == 0 && e.name == model::kWoundName) {
+      e.role = SurfaceRole::kWound;
+    } else {
+      e.role = geometry::guess_role(e.name);
+    }
     e.outside = outside[s];
     const int32_t vertices = layout.vertex_count[s], faces = layout.face_count[s];
     if (vertices < 0 || faces < 0 || e.outside < 0 || e.outside > vertices)
@@ -265,11 +285,12 @@ void read_embedded_cells(const std::string& path, CellWalker& cells, const Embed
   }
 }
 
-uint32_t embedded_fingerprint(uint32_t c, const Model& m) {
+uint32_t embedded_fingerprint(uint32_t c, const Model& m, bool roles) {
   for (const EmbeddedSurface& e : m.embedded) {
     c = crc(c, e.name.data(), e.name.size());
     c = crc(c, "\n", 1);  // so that no two lists of names give the same bytes
     c = crc(c, &e.label, sizeof e.label);
+    if (roles) c = crc(c, &e.role, sizeof e.role);
     c = crc(c, &e.outside, sizeof e.outside);
     c = crc(c, e.V.data(), static_cast<size_t>(e.V.size()) * sizeof(double));
     c = crc(c, e.F.data(), static_cast<size_t>(e.F.size()) * sizeof(int));

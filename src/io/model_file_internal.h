@@ -119,8 +119,11 @@ struct EmbeddedLayout {
   std::vector<int32_t> vertex_count, face_count;
   int64_t vertices = 0, faces = 0;  // summed over the surfaces
 };
-// Reads and checks the FieldData arrays; m.embedded gets each surface's name, label and outside.
-EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, Model& m);
+// Reads and checks the FieldData arrays; m.embedded gets each surface's name, role, label and
+// outside. Files before `version` 6 hold no roles: each surface gets the one the readers of its
+// time saw (label 0 named "display_skin" or "wound": those; else the role its name suggests).
+EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, int32_t version,
+                                    Model& m);
 // The points from `n` on are the surfaces' vertices: checks their point data, reads
 // embed_corners and embed_weights (checking the nodes' entries too), and with `offsets` (version
 // 4) embed_offset; fills V, corners, weights, offsets.
@@ -129,8 +132,11 @@ void read_embedded_points(const std::string& path, const VtuFile& f, const Piece
 // The cells after the tetrahedra: each surface's triangles, on its own vertices.
 void read_embedded_cells(const std::string& path, CellWalker& cells, const EmbeddedLayout& layout,
                          int32_t n, Model& m);
-// model_fingerprint()'s share of the surfaces, continuing checksum `c`.
-uint32_t embedded_fingerprint(uint32_t c, const Model& m);
+// model_fingerprint()'s share of the surfaces, continuing checksum `c`; with `roles` (files of
+// version 6 on) their roles too.
+uint32_t embedded_fingerprint(uint32_t c, const Model& m, bool roles);
+// model_fingerprint(), or the sum files before version 6 stored (without the roles).
+uint32_t fingerprint(const Model& m, bool roles);
 
 // --- A cut model's shares and materials (model_file_cut.cpp, format version 5). ---
 

@@ -88,6 +88,7 @@ std::string resection_report_json(const geometry::ResectionReport& r,
   ojson crossings = ojson::array();
   for (const auto& c : r.crossings)
     crossings.push_back({{"name", c.name},
+                         {"role", std::string(role_name(c.role))},
                          {"label", c.label},
                          {"position_mm", vec(c.position_mm)},
                          {"area_mm2", round2(c.area_mm2)},

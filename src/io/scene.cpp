@@ -206,6 +206,7 @@ std::string run_summary_json(const RunSummary& s) {
       crossed.push_back(
           {{"time_s", c.time_s},
            {"name", c.cut.name},
+           {"role", std::string(role_name(c.cut.role))},
            {"label", c.cut.label},
            {"position_mm", {c.cut.position_mm.x(), c.cut.position_mm.y(), c.cut.position_mm.z()}},
            {"diameter_mm", c.cut.diameter_mm},

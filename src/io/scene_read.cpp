@@ -56,12 +56,21 @@ inline constexpr auto in_output = at<&Scene::output, Member>;
 
 constexpr int64_t kInt32Max = std::numeric_limits<int32_t>::max();
 
-// model.build.embed[k]: a structure of the same segmentation, {"label": L, "name": "vessels"}.
+// model.build.embed[k]: a structure of the same segmentation, {"label": L, "name": "vessels",
+// "role": "vessel"} (the role optional: the one the name suggests).
 void read_embed(const Value& v, Scene& s) {
   using Embed = model::EmbedStructure;
   static const Keys<Embed> kKeys = {
       {"label", integer(&Embed::label, 1, kInt32Max)},
       {"name", [](const Value& n, Embed& e) { e.name = n.string(); }},
+      {"role",
+       [](const Value& n, Embed& e) {
+         const std::string word = n.string();
+         const auto r = role_from_name(word);
+         if (!r || !is_anatomy(*r))
+           n.fail("expected \"vessel\", \"tumour\" or \"structure\", got \"" + word + "\"");
+         e.role = *r;
+       }},
   };
   if (!v.data.is_array())
     v.fail("expected an array of structures [{\"label\": 2, \"name\": \"vessels\"}, ...], got " +

@@ -25,13 +25,16 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
   j["embedded"] = nlohmann::json::array();
   for (const auto& e : s.embedded)
     j["embedded"].push_back({{"name", e.name},
+                             {"role", std::string(role_name(e.role))},
                              {"label", e.label},
                              {"vertices", e.vertices},
                              {"faces", e.faces},
                              {"outside", e.outside},
                              {"offset", e.offset},
                              {"max_amplification", e.max_amplification},
-                             {"volume_ml", e.volume_ml}});
+                             {"volume_ml", e.volume_ml},
+                             {"closed", e.closed},
+                             {"manifold", e.manifold}});
   if (s.tets.count > 0)
     j["tets"] = {{"count", s.tets.count},
                  {"min_dihedral_deg", s.tets.min_dihedral_deg},
@@ -82,14 +85,21 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
                  {"touches_scan_border", m.touches_scan_border},
                  {"volume_ml", b->mask_volume_ml}};
     // Structures carved out of the organ's label: their voxels inside it count as organ.
+    // docs/segmentations.md, "What counts as the organ": the voxels each rule took in.
     if (!m.structures.voxels.empty()) {
       j["mask"]["structure_voxels_taken_in"] = m.structures.added;
+      j["mask"]["taken_in_by"] = {{"lines", m.structures.by_lines},
+                                  {"rays", m.structures.by_rays},
+                                  {"whole_tumours", m.structures.by_whole}};
       json st = json::array();
       for (size_t k = 0; k < m.structures.voxels.size(); ++k)
-        st.push_back({{"name", k < b->structure_names.size() ? b->structure_names[k] : ""},
-                      {"voxels", m.structures.voxels[k]},
-                      {"inside_organ", m.structures.inside[k]},
-                      {"beside_organ", m.structures.beside[k]}});
+        st.push_back(
+            {{"name", k < b->structure_names.size() ? b->structure_names[k] : ""},
+             {"role", k < b->structure_roles.size() ? std::string(role_name(b->structure_roles[k]))
+                                                    : std::string()},
+             {"voxels", m.structures.voxels[k]},
+             {"inside_organ", m.structures.inside[k]},
+             {"beside_organ", m.structures.beside[k]}});
       j["mask"]["structures"] = st;
     }
     j["skin_volume_error_pct"] = b->skin_volume_error_pct;
@@ -98,6 +108,17 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
     j["target_edge_mm"] = b->target_edge_mm;
     j["max_depth_mm"] = b->max_depth_mm;
     j["skin_genus"] = b->skin_genus;
+    j["skin_attempts"] = b->skin_attempts;
+    j["gaps_closed"] = {{"radius_mm", b->gaps.radius_mm},
+                        {"voxels", b->gaps.voxels},
+                        {"volume_ml", b->gaps.volume_ml}};
+    j["tunnels"] = {{"found", b->tunnels.tunnels_before},
+                    {"plugged", b->tunnels.tunnels_before - b->tunnels.tunnels_after},
+                    {"kept", b->tunnels.tunnels_after},
+                    {"largest_plug_radius_mm", b->tunnels.radius_mm},
+                    {"plug_voxels", b->tunnels.voxels},
+                    {"corner_voxels", b->tunnels.corner_voxels},
+                    {"plug_volume_ml", b->tunnels.volume_ml}};
     json stages = json::object();
     for (const auto& [name, sec] : b->stage_seconds) stages[name] = sec;
     j["stage_seconds"] = stages;
@@ -152,8 +173,8 @@ std::string summary_table(const model::ModelSummary& s, const model::BuildReport
         q.components, q.closed ? "yes" : "NO", q.manifold ? "yes" : "NO", l.nested ? "yes" : "NO");
   }
   for (const auto& e : s.embedded)
-    out += fmt::format("  embedded {} (label {}): {} vertices, {} triangles, {:.1f} mL{}\n", e.name,
-                       e.label, e.vertices, e.faces, e.volume_ml,
+    out += fmt::format("  embedded {} ({}, label {}): {} vertices, {} triangles, {:.1f} mL{}\n",
+                       e.name, role_name(e.role), e.label, e.vertices, e.faces, e.volume_ml,
                        e.outside > 0
                            ? fmt::format(", {} outside the tetrahedra ({} by an offset), moving at "
                                          "most {:.2f}x their tetrahedron",

@@ -10,6 +10,7 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/display_skin.h"
 #include "lamina/geometry/mesh_measures.h"
+#include "lamina/geometry/structure_names.h"
 #include "lamina/model/embed_surface.h"
 
 namespace lamina::model::detail {
@@ -38,13 +39,19 @@ bool same_grid(const GridFrame& a, const GridFrame& b) {
   return true;
 }
 
-bool is_organ_label(int32_t label, const BuildOptions& o) {
-  if (!o.labels.empty())
-    return std::find(o.labels.begin(), o.labels.end(), label) != o.labels.end();
-  return o.label != 0 && label == o.label;
+}  // namespace
+
+}  // namespace lamina::model::detail
+
+namespace lamina::model {
+
+SurfaceRole structure_role(const EmbedStructure& s) {
+  return s.role ? *s.role : geometry::guess_role(detail::structure_name(s));
 }
 
-}  // namespace
+}  // namespace lamina::model
+
+namespace lamina::model::detail {
 
 std::string structure_name(const EmbedStructure& s) {
   if (!s.name.empty()) return s.name;
@@ -71,18 +78,20 @@ void check_embedding(const LabelVolume& volume, const BuildOptions& o) {
                                     "'; give each its own name (LABEL=NAME)");
     if (structure_name(s).find('\n') != std::string::npos)
       throw invalid_input(file, what + ": a name cannot hold a line break");
+    if (!is_anatomy(structure_role(s)))
+      throw invalid_input(file, what +
+                                    ": a structure is a vessel, a tumour or a structure, not a " +
+                                    std::string(role_name(structure_role(s))));
     if (s.mask) {
       if (!same_grid(s.mask->frame, volume.frame))
         throw invalid_input(file, what + ": its grid (" + describe(s.mask->frame) +
                                       ") is not the segmentation's (" + describe(volume.frame) +
                                       "); resample the mask onto " + volume.source);
     } else {
+      // A label that is also the organ's (--label 1,2 --embed 2=NAME) is the union layout:
+      // all its voxels are organ, and it is embedded as well.
       if (s.label == 0)
         throw invalid_input(file, "--embed label 0 is the background; name a structure's label");
-      if (is_organ_label(s.label, o))
-        throw invalid_input(file, "label " + std::to_string(s.label) + " (" + what +
-                                      ") is also the organ's (--label); a structure must be a "
-                                      "label of its own");
     }
     const bool present =
         s.label == 0
@@ -152,10 +161,12 @@ void check_structures_in_organ(const LabelVolume& volume, const BuildOptions& o,
 void add_embedded(Model& m, const LabelVolume& volume, const Mask& organ, const BuildOptions& o,
                   BuildReport& report) {
   if (!m.has_tets()) return;
-  const auto add = [&](const SurfaceMesh& surface, const std::string& name, int32_t label) {
-    m.embedded.push_back(embed_surface(m, surface.V, surface.F, name, label));
+  const auto add = [&](const SurfaceMesh& surface, const std::string& name, SurfaceRole role,
+                       int32_t label) {
+    m.embedded.push_back(embed_surface(m, surface.V, surface.F, name, role, label));
     const EmbeddedSurface& e = m.embedded.back();
     report.embedded.push_back({.name = name,
+                               .role = role,
                                .label = label,
                                .vertices = e.V.rows(),
                                .faces = e.F.rows(),
@@ -164,19 +175,20 @@ void add_embedded(Model& m, const LabelVolume& volume, const Mask& organ, const 
     // The display skin lies on the mask's boundary, outside the coarse skin's flat faces wherever
     // the organ is convex: its outside vertices are expected (counted, not warned about). A
     // structure's are worth a note: it reaches beyond the organ.
-    if (e.outside > 0 && label != 0)
+    if (e.outside > 0 && role != SurfaceRole::kDisplaySkin)
       report.warnings.push_back(fmt::format(
           "{}: {} of {} vertices lie outside the organ's tetrahedra; they follow the nearest one",
           name, e.outside, e.V.rows()));
   };
   if (o.display_triangles > 0)
-    add(geometry::display_skin(organ, o.display_triangles), kDisplaySkinName, 0);
+    add(geometry::display_skin(organ, o.display_triangles), kDisplaySkinName,
+        SurfaceRole::kDisplaySkin, 0);
   for (const EmbedStructure& s : o.embed) {
     const LabelVolume& v = source_of(s, volume);
     geometry::MaskOptions select{.label = s.label, .clean = false, .min_voxels = 1};
     const Mask mask = geometry::prepare_mask(v, select).mask;
     add(geometry::structure_surface(mask, o.structure_triangles, structure_name(s)),
-        structure_name(s), s.label);
+        structure_name(s), structure_role(s), s.label);
   }
 }
 

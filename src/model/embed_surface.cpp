@@ -217,7 +217,7 @@ Eigen::Vector3d limit_amplification(const Model& m, int32_t t, const Eigen::Vect
 }  // namespace
 
 EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                              const std::string& name, int32_t label) {
+                              const std::string& name, SurfaceRole role, int32_t label) {
   if (!m.has_tets())
     throw invalid_input(name, "the model has no tetrahedra to carry it (build with tetrahedra)");
   if (V.rows() == 0 || F.rows() == 0) throw invalid_input(name, "the surface is empty");
@@ -225,7 +225,7 @@ EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const E
     throw invalid_input(name, "a triangle names a vertex the surface does not have");
   if (!V.allFinite()) throw invalid_input(name, "a vertex is not finite");
   EmbeddedSurface s;
-  s.name = name, s.label = label, s.V = V, s.F = F;
+  s.name = name, s.role = role, s.label = label, s.V = V, s.F = F;
   s.corners.resize(V.rows(), 4);
   s.weights.resize(V.rows(), 4);
   const TetGrid g = make_grid(m);
@@ -289,8 +289,7 @@ int32_t offset_vertices(const EmbeddedSurface& s) {
 
 int32_t display_skin_index(const Model& model) {
   for (size_t i = 0; i < model.embedded.size(); ++i)
-    if (model.embedded[i].label == 0 && model.embedded[i].name == kDisplaySkinName)
-      return static_cast<int32_t>(i);
+    if (model.embedded[i].role == SurfaceRole::kDisplaySkin) return static_cast<int32_t>(i);
   return -1;
 }
 

@@ -101,7 +101,7 @@ LabelsInside labels_inside_organ(const LabelVolume& volume, const BuildOptions& 
       }
   if (hi[0] < 0) return out;
   const geometry::EnclosedCounts c = geometry::add_enclosed_structures(
-      f, organ, structures, static_cast<int32_t>(others.size()), lo, hi);
+      f, organ, structures, static_cast<int32_t>(others.size()), {}, lo, hi);
   std::vector<std::string> names, counts;
   for (size_t s = 0; s < others.size(); ++s)
     if (c.inside[s] > 0 &&
@@ -138,24 +138,36 @@ std::string explain_mesh_failure(const LabelVolume& volume, const BuildOptions& 
   // (a portal trunk, the vena cava) come with it as thin tubes.
   const std::vector<int32_t> present = present_labels(volume);
   if (o.label == 0 && o.labels.empty() && present.size() > 1) {
-    std::vector<std::string> names;
-    for (const int32_t l : present) names.push_back(std::to_string(l));
+    // The organ is most likely the largest label; the advice is a command line that builds.
+    std::map<int32_t, int64_t> count;
+    for (const int32_t l : volume.labels)
+      if (l != 0) ++count[l];
+    const int32_t organ =
+        std::max_element(count.begin(), count.end(), [](const auto& a, const auto& b) {
+          return a.second < b.second;
+        })->first;
+    std::vector<std::string> names, embed;
+    for (const int32_t l : present) {
+      names.push_back(std::to_string(l));
+      if (l != organ) embed.push_back(fmt::format("{}=NAME", l));
+    }
     return head + fmt::format(
                       "the organ is every non-zero label ({}) together, with any vessel that "
-                      "leaves it; name the organ's own label with --label and embed the "
-                      "structures (--embed {}=NAME,...): they then count as organ only inside it",
-                      and_list(names), present[1]);
+                      "leaves it; name the organ's own label and embed the others, e.g. "
+                      "--label {} --embed {} (label {} is the largest): they then count as "
+                      "organ only where it surrounds them",
+                      and_list(names), organ, fmt::join(embed, ","), organ);
   }
+  // Tunnels narrower than a skin edge were plugged (geometry::plug_tunnels); these are wider,
+  // yet the skin could not pass through them cleanly.
   if (skin_genus > 0)
     return head + fmt::format(
-                      "the organ's {} has {} tunnel(s) through it (its surface's genus is {}), "
-                      "none filled by another label{}; fill them in the segmentation, or add "
-                      "what runs through them to the organ (--label {},N)",
-                      organ_labels(o), skin_genus, skin_genus,
-                      o.embed.empty() ? ""
-                                      : " (an embedded structure that crosses the whole "
-                                        "organ in a straight line is not taken in)",
-                      o.labels.empty() ? std::to_string(o.label) : fmt::format("{}", o.labels[0]));
+                      "the organ's {} keeps {} tunnel(s) through it wider than {:.1f} mm that no "
+                      "label fills (its surface's genus is {}), and its skin's triangles (edges "
+                      "of {:.1f} mm) cross there; fill them in the segmentation, or give the "
+                      "skin finer triangles (--skin-vertices {})",
+                      organ_labels(o), skin_genus, 2.0 * rep.target_edge_mm, skin_genus,
+                      rep.target_edge_mm, 4 * o.skin_vertices);
   return head + fmt::format(
                     "parts of the organ are thinner than the skin's triangles (edges of "
                     "{:.1f} mm){}; try a different --skin-vertices (more vertices resolve thinner "

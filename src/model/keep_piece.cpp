@@ -134,6 +134,7 @@ Model keep_nodes(const Model& m, const std::vector<uint8_t>& keep,
   for (const EmbeddedSurface& e : m.embedded) {
     EmbeddedSurface k;
     k.name = e.name;
+    k.role = e.role;
     k.label = e.label;
     std::vector<int32_t> vindex(static_cast<size_t>(e.V.rows()), -1);
     int32_t vcount = 0;

@@ -54,7 +54,7 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
   // 2. Tumours: each piece of each tumour surface.
   for (size_t s = 0; s < model.embedded.size(); ++s) {
     const EmbeddedSurface& e = model.embedded[s];
-    if (e.label == 0 || !geometry::is_tumour_name(e.name)) continue;
+    if (e.role != SurfaceRole::kTumour) continue;
     Eigen::MatrixX3d mine;
     const Eigen::MatrixX3d& V = at(s, mine);
     // Each vertex's piece, from its triangles'.
@@ -110,7 +110,7 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
   // 3. Crossings of the other structures, inside the organ.
   Eigen::Vector3d lo = x.colwise().minCoeff().transpose(), hi = x.colwise().maxCoeff().transpose();
   for (const EmbeddedSurface& e : model.embedded) {
-    if (e.label == 0) continue;
+    if (!is_anatomy(e.role)) continue;
     // Structures reach beyond the organ (a trunk leaving it): the blade covers them too.
     lo = lo.cwiseMin(e.V.colwise().minCoeff().transpose());
     hi = hi.cwiseMax(e.V.colwise().maxCoeff().transpose());
@@ -118,9 +118,9 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
   Blade blade;
   geometry::surface_triangles(plane, 0.5 * (lo + hi), 2.0 * (hi - lo).norm(), blade.V, blade.F);
   for (const StructureCut& c : structures_crossed(model, x, blade, lo, hi)) {
-    if (geometry::is_tumour_name(c.name)) continue;
+    if (c.role == SurfaceRole::kTumour) continue;
     if (geometry::winding_number(x, model.layers[0].F, c.position_mm) < 0.5) continue;
-    r.crossings.push_back({c.name, c.label, c.position_mm, c.area_mm2, c.diameter_mm});
+    r.crossings.push_back({c.name, c.role, c.label, c.position_mm, c.area_mm2, c.diameter_mm});
   }
   std::sort(r.crossings.begin(), r.crossings.end(),
             [](const auto& a, const auto& b) { return a.diameter_mm > b.diameter_mm; });

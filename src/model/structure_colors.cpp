@@ -54,11 +54,21 @@ std::vector<Rgb8> structure_colors(const Model& model) {
   const int32_t skin = display_skin_index(model);
   std::vector<Rgb8> out(model.embedded.size(), kOrganColor);
   std::vector<Rgb8> taken;
-  // Named structures first, in order, each keeping its colour unless an earlier one has it.
+  // Named structures first, in order, each keeping its colour unless an earlier one has it. The
+  // role decides the display skin's, the wound's and a tumour's colour; a vessel's or other
+  // structure's name, its convention's (the two venous trees of a liver told apart).
   std::vector<size_t> unnamed;
   for (size_t i = 0; i < model.embedded.size(); ++i) {
-    if (static_cast<int32_t>(i) == skin) continue;
-    const std::optional<Rgb8> c = color_by_name(model.embedded[i].name);
+    const EmbeddedSurface& e = model.embedded[i];
+    if (static_cast<int32_t>(i) == skin || e.role == SurfaceRole::kDisplaySkin) continue;
+    std::optional<Rgb8> c;
+    if (e.role == SurfaceRole::kWound)
+      c = kWound;
+    else if (e.role == SurfaceRole::kTumour)
+      c = kTumour;
+    else if (const auto named = color_by_name(e.name);
+             named && *named != kTumour && *named != kWound)
+      c = named;
     if (c && std::find(taken.begin(), taken.end(), *c) == taken.end()) {
       out[i] = *c;
       taken.push_back(*c);

@@ -32,15 +32,20 @@ ModelSummary summarize_model(const Model& model, const BuildReport* build) {
                                     : s.volume_springs)++;
   s.interior_nodes = model.node_count() - model.surface_node_count();
   if (model.has_tets()) s.tets = geometry::measure_tets(model.X, model.tets.T);
-  for (const EmbeddedSurface& e : model.embedded)
+  for (const EmbeddedSurface& e : model.embedded) {
+    const geometry::MeshQuality q = geometry::measure_mesh({e.V, e.F});
     s.embedded.push_back({.name = e.name,
+                          .role = e.role,
                           .label = e.label,
                           .vertices = e.V.rows(),
                           .faces = e.F.rows(),
                           .outside = e.outside,
                           .offset = offset_vertices(e),
                           .max_amplification = max_amplification(e),
-                          .volume_ml = geometry::enclosed_volume({e.V, e.F}) / 1000.0});
+                          .volume_ml = q.volume_mm3 / 1000.0,
+                          .closed = q.closed,
+                          .manifold = q.manifold});
+  }
   s.total_mass_kg = std::accumulate(model.mass_kg.begin(), model.mass_kg.end(), 0.0);
   s.locality = model.rings.locality;
   s.ring_entries = static_cast<int64_t>(model.rings.members.size());

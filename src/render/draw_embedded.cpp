@@ -169,8 +169,7 @@ void EmbeddedDrawing::draw_structures(const Frame& fr, GLint u_lit) {
     glVertexAttrib4f(2, c[0], c[1], c[2], 1.0f);
     // The wound lies where a cut closed the skin's pieces (their caps, on the same plane):
     // pulled towards the eye, it is drawn over them rather than fighting them for depth.
-    const bool wound =
-        fr.model->embedded[i].label == 0 && fr.model->embedded[i].name == model::kWoundName;
+    const bool wound = fr.model->embedded[i].role == SurfaceRole::kWound;
     if (wound) glEnable(GL_POLYGON_OFFSET_FILL), glPolygonOffset(-1.0f, -2.0f);
     glDrawElements(GL_TRIANGLES, surfaces_[i].indices, GL_UNSIGNED_INT, nullptr);
     if (wound) glDisable(GL_POLYGON_OFFSET_FILL);

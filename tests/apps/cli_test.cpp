@@ -385,6 +385,20 @@ std::vector<BadCase> bad_cases() {
   scene_case("SceneInfiniteForce", R"({"tools": [{"vertex": 0, "force_n": [0, 1e999, 0]}]})",
              {"scene.json", "1e999"});
   scene_case("SceneMissingModelFile", R"({"model": {"model": "nowhere.vtu"}})", {"nowhere.vtu"});
+  scene_case("SceneEmbedOfAnUnknownRole",
+             R"({"model": {"build": {"embed": [{"label": 2, "name": "pv", "role": "wound"}]}}})",
+             {"scene.json", "model.build.embed[0].role", "wound"});
+  // A structure's role (issue 61): only what a structure is.
+  c.push_back({"BuildEmbedOfAnUnknownRole",
+               [](const TempDir& d) {
+                 io::write_label_volume(
+                     geometry::make_phantom({.spacing_mm = {4, 4, 4}, .anatomy = true}),
+                     d.file("a.nii.gz"));
+                 return "build " + quoted(d.file("a.nii.gz")) + " -o " + quoted(d.file("a.vtu")) +
+                        " --embed 2=pv:artery";
+               },
+               {"--embed", "'2=pv:artery'", "not a role"},
+               {"a.vtu"}});
 
   // Checkpoints (lamina run --resume).
   c.push_back({"ResumeFromAFileThatIsNotACheckpoint",

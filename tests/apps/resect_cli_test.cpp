@@ -2,11 +2,13 @@
 // would read them), 3D Slicer's markups, and the inputs it refuses.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "lamina/geometry/make_phantom.h"
 #include "lamina/io/label_volume_io.h"
 #include "support/refusal.h"
 #include "support/run_cli.h"
@@ -75,7 +77,7 @@ TEST(ResectCli, ThePhantomsPlanIsReportedAndWrittenForSlicer) {
 TEST(ResectCli, AnObliqueGridsPartsKeepItsFrame) {
   // The TotalSegmentator example (direction diag(-1, -1, 1)), as NRRD.
   const Dir d;
-  const std::string input = test::shared_data("liver_totalseg_example_3mm_labels.nii.gz");
+  const std::string input = test::real_data("liver_totalseg_example_3mm_labels.nii.gz");
   const auto r = lamina(d, "resect " + test::quoted(input) +
                                " --label 1 --embed 2=portal_vein,3=vena_cava,4=gallbladder "
                                "--plane -66,-185,392:1,0.2,0 --format nrrd -o out --json");
@@ -119,7 +121,52 @@ TEST(ResectCli, AModelIsPlannedFromItsOwnSurfaces) {
         << part;
   EXPECT_EQ(m["tumours"].size(), a["tumours"].size());
   EXPECT_EQ(m["structures_crossed"].size(), a["structures_crossed"].size());
+  EXPECT_FALSE(m["structures_crossed"].empty());
   EXPECT_FALSE(m.contains("voxels_by_centre"));
+
+  // The same anatomy as separate masks beside the organ's own label (issue 61: masks were
+  // embedded as label 0, read as the display skin, and the plan reported none of them): the
+  // same findings.
+  {
+    const LabelVolume v = geometry::make_phantom({.carved_out = true});
+    const auto write_only = [&](int32_t label, const char* file) {
+      LabelVolume m = v;
+      for (int32_t& l : m.labels) l = l == label ? 1 : 0;
+      io::write_label_volume(m, (d.work / file).string());
+    };
+    write_only(1, "organ.nii.gz");
+    write_only(2, "portal.nii.gz");
+    write_only(3, "tumour.nii.gz");
+    write_only(4, "hepatic.nii.gz");
+  }
+  const auto bm =
+      lamina(d,
+             "build organ.nii.gz --embed-mask portal.nii.gz=portal_vein "
+             "--embed-mask tumour.nii.gz=tumour --embed-mask hepatic.nii.gz=hepatic_veins "
+             "--display-triangles 30000 --structure-triangles 6000 -o masks.vtu");
+  ASSERT_EQ(bm.exit_code, 0) << bm.err;
+  const auto masks = lamina(d, "resect masks.vtu --plane 30,0,0:1,0,0 --json");
+  ASSERT_EQ(masks.exit_code, 0) << masks.err;
+  const json k = json::parse(masks.out);
+  for (const char* part : {"remnant", "resected"})
+    EXPECT_NEAR(k["volumes_ml"][part].get<double>(), m["volumes_ml"][part].get<double>(),
+                0.005 * m["volumes_ml"][part].get<double>())
+        << part;
+  ASSERT_EQ(k["tumours"].size(), m["tumours"].size());
+  const double diagonal = 1.5 * std::sqrt(3.0);
+  for (size_t t = 0; t < m["tumours"].size(); ++t) {
+    EXPECT_EQ(k["tumours"][t]["side"], m["tumours"][t]["side"]);
+    EXPECT_NEAR(k["tumours"][t]["margin_mm"].get<double>(),
+                m["tumours"][t]["margin_mm"].get<double>(), diagonal);
+  }
+  ASSERT_EQ(k["structures_crossed"].size(), m["structures_crossed"].size());
+  for (size_t c = 0; c < m["structures_crossed"].size(); ++c) {
+    EXPECT_EQ(k["structures_crossed"][c]["name"], m["structures_crossed"][c]["name"]);
+    EXPECT_EQ(k["structures_crossed"][c]["role"], "vessel");
+    EXPECT_NEAR(k["structures_crossed"][c]["diameter_mm"].get<double>(),
+                m["structures_crossed"][c]["diameter_mm"].get<double>(), 1.0);
+  }
+  EXPECT_EQ(k["findings"].size(), m["findings"].size());
   EXPECT_FALSE(fs::exists(d.work / "plan" / "parts.nii.gz"));
   EXPECT_TRUE(fs::exists(d.work / "plan" / "report.json"));
   const auto refused = lamina(d, "resect m.vtu --embed 2=x --plane 30,0,0:1,0,0 -o out");

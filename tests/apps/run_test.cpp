@@ -169,7 +169,7 @@ double thickness_under_first_tool(const fs::path& scene_path) {
   return far;
 }
 
-TEST(LaminaRun, PaperScenesOnTheSharedLiversConvergeThroughALargeDeformation) {
+TEST(LaminaRun, PaperScenesOnTheRealLiversConvergeThroughALargeDeformation) {
   for (const char* name : {"liver_totalseg.json", "liver_sofa.json"}) {
     SCOPED_TRACE(name);
     test::TempDir dir;

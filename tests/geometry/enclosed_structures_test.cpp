@@ -15,6 +15,7 @@ using namespace lamina;
 struct Scene {
   GridFrame f;
   std::vector<uint8_t> organ, structures;
+  std::vector<uint8_t> whole;  ///< per structure: taken whole (a tumour)
   Scene() {
     f.size = {40, 40, 40};
     f.spacing_mm = {1.0, 1.0, 1.0};
@@ -37,7 +38,7 @@ struct Scene {
           }
   }
   geometry::EnclosedCounts run(int32_t count) {
-    return geometry::add_enclosed_structures(f, organ, structures, count, {10, 10, 10},
+    return geometry::add_enclosed_structures(f, organ, structures, count, whole, {10, 10, 10},
                                              {29, 29, 29});
   }
   bool is_organ(int64_t i, int64_t j, int64_t k) const {
@@ -88,6 +89,45 @@ TEST(EnclosedStructures, ATumourAtTheSurfaceFillsItsCraterButNotItsBulge) {
           [](double i, double j, double k) { return std::hypot(i - 20, j - 20, k - 29.5) <= 6.0; });
   s.run(1);
   EXPECT_EQ(s.differences_from_cube(), 0);
+}
+
+TEST(EnclosedStructures, AVesselThroughTheWholeOrganIsTakenInButNotItsTrunks) {
+  // A vessel crossing the organ in a straight line from face to face and running on beyond both
+  // (a hepatic vein into the vena cava, a vena cava the caudate lobe wraps): the line along it is
+  // open both ways, yet every ray across it meets the organ. Along an axis and along a diagonal.
+  for (const bool diagonal : {false, true}) {
+    SCOPED_TRACE(diagonal ? "diagonal" : "along k");
+    Scene s;
+    s.carve(1, [&](double i, double j, double k) {
+      if (!diagonal) return std::hypot(i - 20, j - 20) <= 3.5;  // k from 0 to 39
+      // Along (1, 0.5, 0.25) through the cube's centre, leaving it through the middle of two
+      // opposite faces (x = 10 and 30, at y = 15 and 25): distance from the line.
+      const double u = i - 20, v = j - 20, w = k - 20;
+      const double t = (u + 0.5 * v + 0.25 * w) / (1.0 + 0.25 + 0.0625);
+      return std::hypot(u - t, v - 0.5 * t, w - 0.25 * t) <= 3.5;
+    });
+    const geometry::EnclosedCounts c = s.run(1);
+    EXPECT_EQ(s.differences_from_cube(), 0);
+    // Along an axis the line along the tunnel runs out both ways: the ray rule takes it in (at
+    // an angle to every one of the 13 lines, the line rule does).
+    if (!diagonal) EXPECT_GT(c.by_rays, 0) << "the line rule alone leaves the tunnel open";
+    EXPECT_LT(c.inside[0], c.voxels[0]);  // the trunks beyond the faces stay out
+  }
+}
+
+TEST(EnclosedStructures, ATumourTakenWholeKeepsItsBulge) {
+  // The same tumour as above, as a tumour (a lesion is the organ's tissue): all of it is organ,
+  // its bulge through the capsule too; one away from the organ is not.
+  Scene s;
+  s.carve(1,
+          [](double i, double j, double k) { return std::hypot(i - 20, j - 20, k - 29.5) <= 6.0; });
+  s.carve(2, [](double i, double j, double k) { return std::hypot(i - 3, j - 3, k - 3) <= 2; });
+  s.whole = {1, 1};
+  const geometry::EnclosedCounts c = s.run(2);
+  EXPECT_EQ(c.inside[0], c.voxels[0]);
+  EXPECT_GT(c.by_whole, 0);
+  EXPECT_EQ(c.inside[1], 0);
+  EXPECT_TRUE(s.is_organ(20, 20, 33));  // above the upper face, in the bulge
 }
 
 TEST(EnclosedStructures, AVeinInAGrooveAlongTheOrganIsNotTakenIn) {

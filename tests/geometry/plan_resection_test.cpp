@@ -161,7 +161,7 @@ TEST(PlanResection, VolumesMatchTheVoxelsOnEachSide) {
   po.anatomy = true;
   const LabelVolume phantom = make_phantom(po);
   const LabelVolume total =
-      io::read_label_volume(test::shared_data("liver_totalseg_example_3mm_labels.nii.gz"));
+      io::read_label_volume(test::real_data("liver_totalseg_example_3mm_labels.nii.gz"));
   struct Case {
     const LabelVolume* v;
     std::vector<int32_t> organ;
@@ -341,7 +341,7 @@ TEST(PlanResection, RefusesASurfaceThatMissesTheOrganAndAbsentLabels) {
   EXPECT_NE(message(plane_surface({0, 0, 300}, {0, 0, 1}), carved_options()).find("misses"),
             std::string::npos);
   ResectionOptions absent = carved_options();
-  absent.structures.push_back({9, "bile_ducts", false});
+  absent.structures.push_back({9, "bile_ducts", SurfaceRole::kVessel});
   EXPECT_NE(message(plane_surface({0, 0, 0}, {1, 0, 0}), absent).find("label 9"),
             std::string::npos);
   ResectionOptions on_plane = carved_options();

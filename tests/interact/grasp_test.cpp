@@ -92,7 +92,7 @@ TEST(Grasp, RetractingThePhantomsEdge30mmIsStableAndItComesBack) {
 }
 
 TEST(Grasp, RetractingTheTotalSegmentatorLiversEdge30mmIsStableAndItComesBack) {
-  const std::string liver = test::shared_data("liver_totalseg_example_3mm.nii.gz");
+  const std::string liver = test::real_data("liver_totalseg_example_3mm.nii.gz");
   if (!std::filesystem::exists(liver)) GTEST_SKIP() << liver << " is not here";
   expect_a_clean_retraction(retract_edge(liver));
 }

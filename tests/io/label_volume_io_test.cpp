@@ -122,9 +122,9 @@ TEST(WriteLabelVolume, MissingFolderIsAnOutputError) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The shared real masks, against the numbers in ../shared/data/PROVENANCE.md.
+// The real masks of tests/data, against the numbers in tests/data/PROVENANCE.md.
 
-struct SharedMask {
+struct RealMask {
   std::string file;
   std::array<int64_t, 3> size;
   double spacing_mm;
@@ -134,11 +134,11 @@ struct SharedMask {
   std::array<int64_t, 3> bbox_lo, bbox_hi;  ///< index bounding box; {-1,...} = not documented
 };
 
-class SharedData : public ::testing::TestWithParam<SharedMask> {};
+class RealData : public ::testing::TestWithParam<RealMask> {};
 
-TEST_P(SharedData, MatchesProvenance) {
-  const SharedMask& m = GetParam();
-  const LabelVolume v = read_label_volume(test::shared_data(m.file));
+TEST_P(RealData, MatchesProvenance) {
+  const RealMask& m = GetParam();
+  const LabelVolume v = read_label_volume(test::real_data(m.file));
   EXPECT_EQ(v.frame.size, m.size);
   for (int a = 0; a < 3; ++a) EXPECT_NEAR(v.frame.spacing_mm[a], m.spacing_mm, 1e-6);
   // ITK reports patient LPS: a positive-diagonal RAS affine becomes direction diag(-1, -1, 1)
@@ -168,31 +168,31 @@ TEST_P(SharedData, MatchesProvenance) {
   EXPECT_EQ(hi, m.bbox_hi);
 }
 
-INSTANTIATE_TEST_SUITE_P(Masks, SharedData,
-                         ::testing::Values(SharedMask{"liver_sofa_smooth_voxelized_1mm.nii.gz",
-                                                      {72, 57, 52},
-                                                      1.0,
-                                                      {-50, -1, -20},
-                                                      1e-6,
-                                                      39284,
-                                                      {-1, -1, -1},
-                                                      {-1, -1, -1}},
-                                           SharedMask{"liver_totalseg_example_3mm.nii.gz",
-                                                      {122, 101, 112},
-                                                      3.0,
-                                                      {-177.956, 11.319, 94.302},
-                                                      1e-3,
-                                                      41602,
-                                                      {36, 25, 70},
-                                                      {105, 86, 111}},
-                                           SharedMask{"kidney_right_totalseg_example_3mm.nii.gz",
-                                                      {122, 101, 112},
-                                                      3.0,
-                                                      {-177.956, 11.319, 94.302},
-                                                      1e-3,
-                                                      6993,
-                                                      {70, 29, 66},
-                                                      {93, 54, 101}}),
+INSTANTIATE_TEST_SUITE_P(Masks, RealData,
+                         ::testing::Values(RealMask{"liver_sofa_smooth_voxelized_1mm.nii.gz",
+                                                    {72, 57, 52},
+                                                    1.0,
+                                                    {-50, -1, -20},
+                                                    1e-6,
+                                                    39284,
+                                                    {-1, -1, -1},
+                                                    {-1, -1, -1}},
+                                           RealMask{"liver_totalseg_example_3mm.nii.gz",
+                                                    {122, 101, 112},
+                                                    3.0,
+                                                    {-177.956, 11.319, 94.302},
+                                                    1e-3,
+                                                    41602,
+                                                    {36, 25, 70},
+                                                    {105, 86, 111}},
+                                           RealMask{"kidney_right_totalseg_example_3mm.nii.gz",
+                                                    {122, 101, 112},
+                                                    3.0,
+                                                    {-177.956, 11.319, 94.302},
+                                                    1e-3,
+                                                    6993,
+                                                    {70, 29, 66},
+                                                    {93, 54, 101}}),
                          [](const auto& info) {
                            const std::string& f = info.param.file;
                            std::string name = f.substr(0, f.find('.'));

@@ -36,14 +36,16 @@ namespace fs = std::filesystem;
 Model with_surfaces() {
   Model m = tet_phantom();
   const ModelLayer& skin = m.layers[0];
-  m.embedded.push_back(
-      model::embed_surface(m, m.X.topRows(skin.node_count), skin.F, "display_skin", 0));
+  m.embedded.push_back(model::embed_surface(m, m.X.topRows(skin.node_count), skin.F, "display_skin",
+                                            SurfaceRole::kDisplaySkin, 0));
   const Eigen::RowVector3d centre = m.X.colwise().mean();
   const SurfaceMesh tumour = octahedron(5.0 + 1.0 / 3.0, centre);
-  m.embedded.push_back(model::embed_surface(m, tumour.V, tumour.F, "tumour", 3));
+  m.embedded.push_back(
+      model::embed_surface(m, tumour.V, tumour.F, "tumour", SurfaceRole::kTumour, 3));
   const Eigen::RowVector3d beyond(m.X.col(0).maxCoeff() + 20.0, centre.y(), centre.z());
   const SurfaceMesh probe = octahedron(4.0, beyond);
-  m.embedded.push_back(model::embed_surface(m, probe.V, probe.F, "probe", 7));
+  m.embedded.push_back(
+      model::embed_surface(m, probe.V, probe.F, "probe", SurfaceRole::kStructure, 7));
   return m;
 }
 

@@ -15,11 +15,13 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/mesh_measures.h"
+#include "lamina/geometry/plug_tunnels.h"
 #include "lamina/interact/run_tools.h"
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene_model.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/embed_surface.h"
+#include "lamina/model/summarize_model.h"
 #include "support/temp_dir.h"
 #include "support/test_paths.h"
 
@@ -316,25 +318,116 @@ TEST(CarvedOut, LitsLayoutATumourCarvedOutOfTheLiverBuildsTheWholeOrgan) {
   o.structure_triangles = 3000;
   o.embed = {{.name = "tumour", .label = geometry::kPhantomTumour}};
   const model::BuildResult r = model::build_model(lits, o);
-  const double organ = static_cast<double>(count_non_zero(whole()));
-  EXPECT_NEAR(static_cast<double>(r.report.mask.kept_voxels), organ, 0.01 * organ);
-  // The crater the subcapsular lesion leaves in label 1 is closed across at the organ's outline;
-  // only its bulge beyond the outline (5% of the tumours' voxels) stays out.
+  // A tumour is the organ's tissue, all of it: the crater it leaves in label 1 is filled and its
+  // bulge beyond the organ's outline is organ too (LiTS's whole liver is label 1 with label 2).
   const geometry::EnclosedCounts& c = r.report.mask.structures;
-  int64_t in_outline = 0;
-  for (size_t v = 0; v < lits.labels.size(); ++v)
-    in_outline += lits.labels[v] == geometry::kPhantomTumour && carved().labels[v] != 0 &&
-                  whole().labels[v] != 0;
-  EXPECT_LT(in_outline, c.voxels[0]) << "the lesion bulges out";
-  EXPECT_NEAR(static_cast<double>(c.inside[0]), static_cast<double>(in_outline),
-              0.01 * static_cast<double>(in_outline));
+  EXPECT_EQ(c.inside[0], c.voxels[0]);
+  EXPECT_GT(c.by_whole, 0) << "the bulge is taken in whole";
+  EXPECT_EQ(r.report.structure_roles[0], SurfaceRole::kTumour);
+  const double organ = static_cast<double>(count_non_zero(lits));
+  EXPECT_NEAR(static_cast<double>(r.report.mask.kept_voxels), organ, 1e-9 * organ);
   expect_structures_whole(r, lits, o);
+}
+
+// --- Issue 61: every layout as it comes. ---
+
+// The wrapped variant (the vena cava through a bridge of caudate tissue, the hepatic veins
+// draining into it inside, the right one reaching the lateral surface, a lesion bulging 12 mm
+// out) carved out of label 1, and the same organ's whole mask.
+const LabelVolume& wrapped() {
+  static const LabelVolume v = [] {
+    LabelVolume c = geometry::make_phantom(
+        {.spacing_mm = {1.2, 1.2, 1.2}, .carved_out = true, .wrapped = true});
+    c.source = "wrapped.nii.gz";
+    return c;
+  }();
+  return v;
+}
+
+const LabelVolume& wrapped_whole() {
+  static const LabelVolume v =
+      geometry::make_phantom({.spacing_mm = {1.2, 1.2, 1.2}, .wrapped = true});
+  return v;
+}
+
+Mask label_mask(const LabelVolume& v, int32_t label) {
+  Mask m;
+  m.frame = v.frame;
+  m.inside.resize(v.labels.size());
+  for (size_t i = 0; i < v.labels.size(); ++i) m.inside[i] = v.labels[i] == label;
+  return m;
+}
+
+TEST(EveryLayout, AVenaCavaTheLiverWrapsAndVeinsThroughItBuildTheWholeOrgan) {
+  // Label 1 alone has tunnels: the vena cava through the bridge, the veins to the surface.
+  ASSERT_LT(geometry::euler_characteristic(label_mask(wrapped(), geometry::kPhantomLiver)), 0);
+  const model::BuildResult r = model::build_model(wrapped(), carved_options());
+  // Inside the bridge the vena cava is the organ's (the ray rule: the organ surrounds it);
+  // above and below, and the portal trunk, it is not.
+  EXPECT_GT(r.report.mask.structures.by_rays, 0);
+  EXPECT_EQ(r.report.skin_genus, 0);
+  // The skin within 3% of the same organ's whole mask (issue 61's target), the mask within 1%.
+  const double whole_ml = static_cast<double>(count_non_zero(wrapped_whole())) *
+                          wrapped_whole().frame.voxel_volume_mm3() / 1000.0;
+  const double skin_ml = geometry::enclosed_volume(model::layer_mesh(r.model, 0)) / 1000.0;
+  EXPECT_NEAR(skin_ml, whole_ml, 0.03 * whole_ml);
+  EXPECT_NEAR(r.report.mask_volume_ml, whole_ml, 0.01 * whole_ml);
+  expect_structures_whole(r, wrapped(), carved_options());
+  // Each structure embedded with its role, the tumours whole.
+  ASSERT_EQ(r.model.embedded.size(), 5u);
+  EXPECT_EQ(r.model.embedded[0].role, SurfaceRole::kDisplaySkin);
+  EXPECT_EQ(r.model.embedded[1].role, SurfaceRole::kVessel);
+  EXPECT_EQ(r.model.embedded[2].role, SurfaceRole::kTumour);
+  const geometry::EnclosedCounts& c = r.report.mask.structures;
+  EXPECT_EQ(c.inside[1], c.voxels[1]);
+}
+
+TEST(EveryLayout, TheUnionLayoutBuildsWithItsStructuresEmbedded) {
+  // --label 1,2,3,4,5 --embed 2=...,5=...: every structure voxel is organ (the trunks too: the
+  // user said so), and each is embedded as well; before issue 61 this was refused.
+  model::BuildOptions o = carved_options();
+  o.label = 0;
+  o.labels = {1, 2, 3, 4, 5};
+  const model::BuildResult r = model::build_model(carved(), o);
+  const double all = static_cast<double>(count_non_zero(carved()));
+  EXPECT_NEAR(static_cast<double>(r.report.mask.kept_voxels), all, 0.01 * all);
+  EXPECT_EQ(r.report.mask.structures.added, 0) << "nothing to take in: it is all organ";
+  ASSERT_EQ(r.model.embedded.size(), 5u);
+  expect_structures_whole(r, carved(), o);
+}
+
+TEST(EveryLayout, SeparateMasksGiveTheStructuresTheirRolesAsLabelsDo) {
+  // The same anatomy as masks of their own beside a whole-organ mask: the same roles, the
+  // same surfaces (issue 61: masks used to be embedded as label 0, read as the display skin).
+  LabelVolume organ = whole();
+  organ.source = "organ.nii.gz";
+  model::BuildOptions o;
+  o.display_triangles = 5000;
+  o.structure_triangles = 3000;
+  const char* names[] = {"portal vein", "tumours", "hepatic veins", "vena cava"};
+  const int32_t labels[] = {geometry::kPhantomVessel, geometry::kPhantomTumour,
+                            geometry::kPhantomHepaticVeins, geometry::kPhantomVenaCava};
+  for (int s = 0; s < 4; ++s) {
+    auto mask = std::make_shared<LabelVolume>(carved());
+    for (int32_t& l : mask->labels) l = l == labels[s] ? 1 : 0;
+    mask->source = std::string(names[s]) + ".nii.gz";
+    o.embed.push_back({.name = names[s], .mask = mask});
+  }
+  const model::BuildResult r = model::build_model(organ, o);
+  ASSERT_EQ(r.model.embedded.size(), 5u);
+  const SurfaceRole roles[] = {SurfaceRole::kVessel, SurfaceRole::kTumour, SurfaceRole::kVessel,
+                               SurfaceRole::kVessel};
+  for (int s = 0; s < 4; ++s) {
+    EXPECT_EQ(r.model.embedded[s + 1].role, roles[s]) << names[s];
+    EXPECT_EQ(r.model.embedded[s + 1].label, 0) << "a separate mask's every non-zero voxel";
+  }
+  EXPECT_EQ(model::display_skin_index(r.model), 0);
 }
 
 TEST(CarvedOut, TotalSegmentatorsNeighboursBesideTheLiverStillBuild) {
   // Its structures lie beside the liver, not carved out of it: the liver takes in little.
   LabelVolume v =
-      io::read_label_volume(test::shared_data("liver_totalseg_example_3mm_labels.nii.gz"));
+      io::read_label_volume(test::real_data("liver_totalseg_example_3mm_labels.nii.gz"));
   model::BuildOptions o;
   o.label = 1;
   o.display_triangles = 5000;

@@ -29,7 +29,7 @@ const model::BuildResult& built(const std::string& input) {
   auto it = cache.find(input);
   if (it == cache.end()) {
     const LabelVolume v = input == "phantom" ? geometry::make_phantom()
-                                             : io::read_label_volume(test::shared_data(input));
+                                             : io::read_label_volume(test::real_data(input));
     it = cache.emplace(input, model::build_model(v, {})).first;
   }
   return it->second;
@@ -37,7 +37,7 @@ const model::BuildResult& built(const std::string& input) {
 
 class BuildOnOrgan : public ::testing::TestWithParam<std::string> {};
 
-INSTANTIATE_TEST_SUITE_P(PhantomAndSharedMasks, BuildOnOrgan,
+INSTANTIATE_TEST_SUITE_P(PhantomAndRealMasks, BuildOnOrgan,
                          ::testing::Values("phantom", "liver_sofa_smooth_voxelized_1mm.nii.gz",
                                            "liver_totalseg_example_3mm.nii.gz",
                                            "kidney_right_totalseg_example_3mm.nii.gz"),
@@ -290,7 +290,7 @@ TEST(BuildModel, SkinFromTheSofaVoxelisationLiesOnTheOriginalSofaMesh) {
   // rebuild from it must lie on that mesh to within about a voxel. The OBJ is in the NIfTI's
   // RAS frame; ITK (and so Lamina) works in LPS: x and y flip.
   const auto& b = built("liver_sofa_smooth_voxelized_1mm.nii.gz");
-  SurfaceMesh sofa = io::read_obj(test::shared_data("liver_sofa_smooth_mm.obj"));
+  SurfaceMesh sofa = io::read_obj(test::real_data("liver_sofa_smooth_mm.obj"));
   sofa.V.col(0) *= -1.0;
   sofa.V.col(1) *= -1.0;
   const SurfaceMesh skin = model::layer_mesh(b.model, 0);

@@ -34,7 +34,8 @@ TEST(EmbedSurface, AtRestItIsTheSurfaceAndAnAffineMotionIsReproducedExactly) {
   const Eigen::RowVector3d centre = V.colwise().mean();
   const Eigen::MatrixX3d inner = (V.rowwise() - centre) * 0.8 + centre.replicate(V.rows(), 1);
   for (const Eigen::MatrixX3d* surface : {static_cast<const Eigen::MatrixX3d*>(&V), &inner}) {
-    const EmbeddedSurface e = model::embed_surface(m, *surface, F, "skin copy");
+    const EmbeddedSurface e =
+        model::embed_surface(m, *surface, F, "skin copy", SurfaceRole::kDisplaySkin);
     EXPECT_EQ(e.outside, 0);
     EXPECT_LT((e.weights.rowwise().sum().array() - 1.0).abs().maxCoeff(), 1e-12);
     Eigen::MatrixX3d out;
@@ -58,7 +59,7 @@ TEST(EmbedSurface, AVertexOnANodeFollowsItUnderAnyDeformation) {
   Eigen::MatrixX3d V;
   Eigen::MatrixX3i F;
   skin_of(m, V, F);
-  const EmbeddedSurface e = model::embed_surface(m, V, F, "skin copy");
+  const EmbeddedSurface e = model::embed_surface(m, V, F, "skin copy", SurfaceRole::kDisplaySkin);
   const Eigen::MatrixX3d x = test::jiggle(m.X, 2.0, 4);
   Eigen::MatrixX3d out;
   model::embedded_positions(e, x, out);
@@ -73,7 +74,8 @@ TEST(EmbedSurface, VerticesOutsideFollowTheTetrahedronTheyAreLeastOutsideOfAndAr
   // Grown 3% about the centroid: most of the skin's vertices leave the organ.
   const Eigen::RowVector3d centre = V.colwise().mean();
   const Eigen::MatrixX3d outer = (V.rowwise() - centre) * 1.03 + centre.replicate(V.rows(), 1);
-  const EmbeddedSurface e = model::embed_surface(m, outer, F, "grown skin");
+  const EmbeddedSurface e =
+      model::embed_surface(m, outer, F, "grown skin", SurfaceRole::kDisplaySkin);
   EXPECT_GT(e.outside, V.rows() / 2);
   EXPECT_LT(e.outside, V.rows() + 1);
   Eigen::MatrixX3d out;
@@ -103,13 +105,17 @@ TEST(EmbedSurface, BadInputIsRefusedByName) {
   };
   Eigen::MatrixX3i bad_f = F;
   bad_f(0, 0) = static_cast<int>(V.rows());
-  refused([&] { model::embed_surface(m, V, bad_f, "vessel"); }, "vertex the surface does not have");
+  refused([&] { model::embed_surface(m, V, bad_f, "vessel", SurfaceRole::kVessel); },
+          "vertex the surface does not have");
   Eigen::MatrixX3d bad_v = V;
   bad_v(3, 1) = std::nan("");
-  refused([&] { model::embed_surface(m, bad_v, F, "vessel"); }, "not finite");
-  refused([&] { model::embed_surface(m, Eigen::MatrixX3d(0, 3), F, "vessel"); }, "empty");
+  refused([&] { model::embed_surface(m, bad_v, F, "vessel", SurfaceRole::kVessel); }, "not finite");
+  refused(
+      [&] { model::embed_surface(m, Eigen::MatrixX3d(0, 3), F, "vessel", SurfaceRole::kVessel); },
+      "empty");
   const Model& links = test::sphere_model(nullptr, model::Structure::kLinks);
-  refused([&] { model::embed_surface(links, V, F, "vessel"); }, "no tetrahedra");
+  refused([&] { model::embed_surface(links, V, F, "vessel", SurfaceRole::kVessel); },
+          "no tetrahedra");
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <regex>
+#include <sstream>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
@@ -119,6 +121,71 @@ TEST(ExplainFailure, EveryLabelAsTheOrganIsToldToNameTheOrgansLabel) {
   const std::string thin =
       model::detail::explain_mesh_failure(plain, {}, report, 0, "not manifold", torus(8, 10, 3), 0);
   EXPECT_NE(thin.find("try a different --skin-vertices"), std::string::npos) << thin;
+}
+
+// The options an advice names ("--label 1 --embed 2=NAME,3=NAME"), followed as a user would:
+// each NAME made a name of its own.
+model::BuildOptions follow(const std::string& advice, model::BuildOptions o) {
+  std::smatch m;
+  if (std::regex_search(advice, m, std::regex("--label (\\d+)"))) {
+    o.label = std::stoi(m[1]);
+    o.labels.clear();
+  }
+  if (std::regex_search(advice, m, std::regex("--embed ([0-9=A-Z,]+)"))) {
+    std::stringstream list(m[1]);
+    std::string entry;
+    while (std::getline(list, entry, ',')) {
+      const int32_t label = std::stoi(entry.substr(0, entry.find('=')));
+      o.embed.push_back({.name = "structure " + std::to_string(label), .label = label});
+    }
+  }
+  return o;
+}
+
+TEST(ExplainFailure, EveryAdviceBuildsWhenFollowed) {
+  // Issue 61: "add what runs through them to the organ (--label 1,N)" was refused when followed.
+  // Each advice the build gives, taken as written, builds, and the trouble named is gone.
+  LabelVolume v =
+      geometry::make_phantom({.spacing_mm = {2.0, 2.0, 2.0}, .carved_out = true, .wrapped = true});
+  v.source = "labels.nii.gz";
+  model::BuildOptions base;
+  base.display_triangles = 2000;
+  base.structure_triangles = 1000;
+  model::BuildReport report;
+  report.target_edge_mm = 9.0;
+  // Every label taken as the organ: name the organ's label and embed the others.
+  const std::string every = model::detail::explain_mesh_failure(
+      v, base, report, 0, "self-intersecting", torus(8, 10.0, 3.0), 0);
+  ASSERT_NE(every.find("--label 1 --embed 2=NAME,3=NAME,4=NAME,5=NAME"), std::string::npos)
+      << every;
+  const model::BuildOptions followed = follow(every, base);
+  const model::BuildResult r = model::build_model(v, followed);
+  EXPECT_EQ(r.report.skin_genus, 0);
+  for (const std::string& w : r.report.warnings)
+    EXPECT_EQ(w.find("lie inside the organ"), std::string::npos) << w;
+  // The organ's label alone: the labels inside it are named, with the --embed that takes them.
+  model::BuildOptions alone = base;
+  alone.label = geometry::kPhantomLiver;
+  std::string advice;
+  try {
+    const model::BuildResult a = model::build_model(v, alone);
+    for (const std::string& w : a.report.warnings)
+      if (w.find("--embed") != std::string::npos) advice = w;
+  } catch (const Error& e) {
+    advice = e.what();
+  }
+  ASSERT_NE(advice.find("--embed 2=NAME,3=NAME,4=NAME"), std::string::npos) << advice;
+  const model::BuildResult b = model::build_model(v, follow(advice, alone));
+  for (const std::string& w : b.report.warnings)
+    EXPECT_EQ(w.find("lie inside the organ"), std::string::npos) << w;
+  // Wide tunnels no label fills, that the skin crossed: finer triangles, as said.
+  report.target_edge_mm = 9.0;
+  const std::string wide = model::detail::explain_mesh_failure(
+      geometry::make_phantom({.spacing_mm = {4.0, 4.0, 4.0}}), {}, report, 0, "self-intersecting",
+      torus(8, 10.0, 3.0), 2);
+  EXPECT_NE(wide.find("keeps 2 tunnel(s) through it wider than 18.0 mm"), std::string::npos)
+      << wide;
+  EXPECT_NE(wide.find("--skin-vertices 5136"), std::string::npos) << wide;
 }
 
 }  // namespace

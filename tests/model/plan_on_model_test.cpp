@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <memory>
 #include <random>
 
 #include "lamina/core/error.h"
@@ -17,22 +18,42 @@
 namespace lamina::model {
 namespace {
 
+// The planning phantom built with its structures from its labels, or (issue 61) from separate
+// masks beside the organ's own label as a mask: the same anatomy however it was loaded.
 struct Built {
   LabelVolume volume = geometry::planning_phantom();
   Model model;
-  Built() {
+  explicit Built(bool from_masks = false) {
     BuildOptions o;
-    o.label = geometry::kPhantomLiver;
     o.display_triangles = 40000;
     o.structure_triangles = 8000;
-    for (const auto& s : geometry::planning_phantom_options().structures)
-      if (s.name != "vena_cava") o.embed.push_back({.name = s.name, .label = s.label});
-    model = build_model(volume, o).model;
+    LabelVolume organ = volume;
+    if (from_masks)
+      for (int32_t& l : organ.labels) l = l == geometry::kPhantomLiver ? 1 : 0;
+    else
+      o.label = geometry::kPhantomLiver;
+    for (const auto& s : geometry::planning_phantom_options().structures) {
+      if (s.name == "vena_cava") continue;
+      if (!from_masks) {
+        o.embed.push_back({.name = s.name, .label = s.label});
+        continue;
+      }
+      auto mask = std::make_shared<LabelVolume>(volume);
+      for (int32_t& l : mask->labels) l = l == s.label ? 1 : 0;
+      mask->source = s.name + ".nii.gz";
+      o.embed.push_back({.name = s.name, .mask = mask});
+    }
+    model = build_model(organ, o).model;
   }
 };
 
 const Built& built() {
   static const Built b;
+  return b;
+}
+
+const Built& built_from_masks() {
+  static const Built b(true);
   return b;
 }
 
@@ -81,6 +102,34 @@ TEST(PlanOnModel, GivesTheSegmentationsPlanFromItsOwnSurfaces) {
       EXPECT_EQ(found, 1) << c.name << " at " << c.position_mm.transpose();
     }
     EXPECT_EQ(surfaces.remnant_pieces.size(), 1u);
+  }
+}
+
+TEST(PlanOnModel, StructuresFromSeparateMasksArePlannedAsStructuresFromLabels) {
+  // Issue 61: structures embedded from masks were label 0, taken for the display skin, and a
+  // plane through a tumour and a portal branch reported neither. Now the same findings.
+  const Built& labels = built();
+  const Built& masks = built_from_masks();
+  const double diag = 1.5 * std::sqrt(3.0);
+  for (const double x0 : {-30.0, 30.0}) {
+    const auto plane = geometry::plane_surface({x0, 0, 0}, {1, 0, 0});
+    const geometry::ResectionOptions o;
+    const auto a = plan_on_model(labels.model, labels.model.X, plane, o);
+    const auto b = plan_on_model(masks.model, masks.model.X, plane, o);
+    ASSERT_FALSE(a.tumours.empty());
+    ASSERT_FALSE(a.crossings.empty()) << "the plane crosses the vessels";
+    EXPECT_NEAR(b.remnant_ml, a.remnant_ml, 1e-3 * a.whole_ml) << x0;
+    ASSERT_EQ(b.tumours.size(), a.tumours.size()) << x0;
+    for (size_t t = 0; t < a.tumours.size(); ++t) {
+      EXPECT_EQ(b.tumours[t].side, a.tumours[t].side) << x0;
+      EXPECT_NEAR(b.tumours[t].margin_mm, a.tumours[t].margin_mm, diag) << x0;
+    }
+    ASSERT_EQ(b.crossings.size(), a.crossings.size()) << x0;
+    for (size_t c = 0; c < a.crossings.size(); ++c) {
+      EXPECT_EQ(b.crossings[c].name, a.crossings[c].name);
+      EXPECT_EQ(b.crossings[c].role, SurfaceRole::kVessel);
+      EXPECT_NEAR(b.crossings[c].diameter_mm, a.crossings[c].diameter_mm, 1.0);
+    }
   }
 }
 

@@ -297,6 +297,27 @@ def test_a_carved_out_label_map_builds_as_the_organ_with_its_structures_inside()
     assert max(s.max_amplification for s in m.embedded) <= 2.0
 
 
+def test_every_structure_has_a_role_given_or_from_its_name():
+    """Issue 61: a structure's role is stored with it, given as a third element or a dict's
+    "role", else the one its name suggests; masks and labels alike; refused when not a role."""
+    carved = lamina.phantom(spacing_mm=3.0, carved_out=True)
+    m = lamina.build_model(carved, label=1, skin_vertices=400, display_triangles=2000,
+                           structure_triangles=600,
+                           embed=[(2, "pv", "vessel"), {"label": 4, "name": "hepatic veins"},
+                                  (5, "cava", "structure")])
+    assert [(s.name, s.role) for s in m.embedded] == [
+        ("display_skin", "display_skin"), ("pv", "vessel"), ("hepatic veins", "vessel"),
+        ("cava", "structure")]
+    assert "(vessel)" in repr(m.embedded[1])
+    with pytest.raises(lamina.Error, match="role 'artery' is not vessel, tumour or structure"):
+        lamina.build_model(carved, label=1, embed=[(2, "pv", "artery")])
+    # A plan reads the roles: the tumours are the tumour-role surfaces, whatever their names.
+    r = lamina.resect(carved, plane=((-30, 0, 0), (1, 0, 0)), labels=[1],
+                      embed=[(2, "pv"), (3, "lesions", "tumour"), (4, "hv")])
+    assert r["tumours"] and all(t["name"] == "lesions" for t in r["tumours"])
+    assert all(c["role"] == "vessel" for c in r["structures_crossed"])
+
+
 def test_embedded_positions_follow_the_nodes(anatomy_model):
     m = anatomy_model
     sim = lamina.Simulation(m, integrator="implicit_euler", fixed=back_nodes(m))
@@ -457,7 +478,7 @@ def test_errors_carry_the_one_line_messages(phantom_model):
     assert sim.fixed == []
     # A mask is not a saved model: load_model does not quietly build one from it.
     with pytest.raises(lamina.Error, match="liver_totalseg_example_3mm.nii.gz"):
-        lamina.load_model(str(REPO.parent / "shared" / "data" / "liver_totalseg_example_3mm.nii.gz"))
+        lamina.load_model(str(REPO / "tests" / "data" / "liver_totalseg_example_3mm.nii.gz"))
     with pytest.raises(lamina.Error, match=re.escape("scene dict: solver.dt_s")):
         lamina.scene_simulation({"solver": {"dt_s": -1}})
     with pytest.raises(lamina.Error, match="held forces"):

@@ -362,66 +362,71 @@ TEST(Serve, EachEmbeddedSurfaceStreamsAsAPolyDataNamedAfterIt) {
 // with the copies' nodes and the wound streams as a surface of its own; LaminaScalpelUndo takes
 // the cut back.
 TEST(Serve, AScalpelStrokeCutsTheOrganAndTheVesselsCrossedComeBackAsAnEvent) {
-  TempDir dir;
-  const std::string path = save_embedded_phantom(dir.file("embedded.vtu"));
-  const Model m = io::load_model(path);
-  Server server(dir.path, with({path, "--embedded-hz", "10", "--scalpel-depth", "200"}));
-  Client hand(server.port()), watcher(server.port());
-  const auto before = hand.receive("POLYDATA", "LaminaSkin", 30.0);
-  ASSERT_TRUE(before) << server.log();
-  const Eigen::Index skin_points = polydata_points(*before).rows();
+  // The anatomy from labels and from separate masks (issue 61): the same event.
+  for (const bool from_masks : {false, true}) {
+    SCOPED_TRACE(from_masks ? "structures from separate masks" : "structures from labels");
+    TempDir dir;
+    const std::string path = save_embedded_phantom(dir.file("embedded.vtu"), from_masks);
+    const Model m = io::load_model(path);
+    Server server(dir.path, with({path, "--embedded-hz", "10", "--scalpel-depth", "200"}));
+    Client hand(server.port()), watcher(server.port());
+    const auto before = hand.receive("POLYDATA", "LaminaSkin", 30.0);
+    ASSERT_TRUE(before) << server.log();
+    const Eigen::Index skin_points = polydata_points(*before).rows();
 
-  // LPS, as the model is: across x = x0 from front to back, the tip below the organ, the blade
-  // reaching up through all of it; sent in RAS (x and y negated).
-  const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
-  const double x0 = m.X.col(0).mean() + 0.31;
-  const Eigen::Vector3d from(x0, lo.y() - 5, hi.z() + 5), to(x0, hi.y() + 5, hi.z() + 5);
-  ASSERT_LT(hi.z() - lo.z() + 10, 200.0);
-  const auto ras = [](Eigen::Vector3d p) { return Eigen::Vector3d(-p.x(), -p.y(), p.z()); };
-  for (int k = 0; k <= 40; ++k) {
-    const Eigen::Vector3d tip = from + (to - from) * (k / 40.0);
-    hand.send_bytes(transform_bytes("LaminaScalpel", ras(tip)));  // identity: z into the tissue
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    // LPS, as the model is: across x = x0 from front to back, the tip below the organ, the blade
+    // reaching up through all of it; sent in RAS (x and y negated).
+    const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
+    const double x0 = m.X.col(0).mean() + 0.31;
+    const Eigen::Vector3d from(x0, lo.y() - 5, hi.z() + 5), to(x0, hi.y() + 5, hi.z() + 5);
+    ASSERT_LT(hi.z() - lo.z() + 10, 200.0);
+    const auto ras = [](Eigen::Vector3d p) { return Eigen::Vector3d(-p.x(), -p.y(), p.z()); };
+    for (int k = 0; k <= 40; ++k) {
+      const Eigen::Vector3d tip = from + (to - from) * (k / 40.0);
+      hand.send_bytes(transform_bytes("LaminaScalpel", ras(tip)));  // identity: z into the tissue
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    hand.send_bytes(transform_bytes("LaminaScalpelUp", ras(to)));
+    const auto event = watcher.receive("STRING", "LaminaCut", 20.0);
+    ASSERT_TRUE(event) << server.log();
+    const auto text = unpack<igtl::StringMessage>(*event);
+    const nlohmann::json cut = nlohmann::json::parse(text->GetString());
+    EXPECT_EQ(cut["cuts"], 1);
+    EXPECT_GT(cut["cut_tets"].get<int>(), 50) << cut.dump();
+    EXPECT_EQ(cut["pieces"].size(), 2u) << cut.dump();  // through its whole depth: two pieces
+    bool vessels = false;
+    for (const nlohmann::json& c : cut["structures_cut"]) {
+      if (c["name"] != "vessels") continue;
+      vessels = true;
+      EXPECT_EQ(c["role"], "vessel") << c.dump();
+      EXPECT_GT(c["diameter_mm"].get<double>(), 0.5);
+      // Where: on the blade's plane (x0 in LPS is -x0 in RAS), inside the organ's box.
+      EXPECT_NEAR(c["position_mm"][0].get<double>(), -x0, 1.0) << c.dump();
+      EXPECT_GT(c["position_mm"][2].get<double>(), lo.z());
+      EXPECT_LT(c["position_mm"][2].get<double>(), hi.z());
+    }
+    EXPECT_TRUE(vessels) << cut.dump();
+    EXPECT_TRUE(hand.receive("STRING", "LaminaCut", 20.0)) << "every client gets the event";
+
+    const auto wound = watcher.receive("POLYDATA", "wound", 20.0);
+    ASSERT_TRUE(wound) << server.log();
+    EXPECT_GT(polydata_points(*wound).rows(), 100);
+    const auto after = latest(hand, "POLYDATA", "LaminaSkin", 0.5);
+    ASSERT_TRUE(after);
+    EXPECT_GT(polydata_points(*after).rows(), skin_points) << "the copies' nodes are streamed";
+
+    hand.send_bytes(transform_bytes("LaminaScalpelUndo", ras(to)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(800));
+    const auto undone = latest(hand, "POLYDATA", "LaminaSkin", 0.5);
+    ASSERT_TRUE(undone);
+    EXPECT_EQ(polydata_points(*undone).rows(), skin_points) << server.log();
+    const Summary s = stop(server);
+    EXPECT_EQ(s.dropped, 0) << server.log();
+    const std::string log = server.log();
+    EXPECT_NE(log.find("begins a scalpel stroke"), std::string::npos) << log;
+    EXPECT_NE(log.find("vessels cut across at"), std::string::npos) << log;
+    EXPECT_NE(log.find("a cut is undone"), std::string::npos) << log;
   }
-  hand.send_bytes(transform_bytes("LaminaScalpelUp", ras(to)));
-  const auto event = watcher.receive("STRING", "LaminaCut", 20.0);
-  ASSERT_TRUE(event) << server.log();
-  const auto text = unpack<igtl::StringMessage>(*event);
-  const nlohmann::json cut = nlohmann::json::parse(text->GetString());
-  EXPECT_EQ(cut["cuts"], 1);
-  EXPECT_GT(cut["cut_tets"].get<int>(), 50) << cut.dump();
-  EXPECT_EQ(cut["pieces"].size(), 2u) << cut.dump();  // through its whole depth: two pieces
-  bool vessels = false;
-  for (const nlohmann::json& c : cut["structures_cut"]) {
-    if (c["name"] != "vessels") continue;
-    vessels = true;
-    EXPECT_GT(c["diameter_mm"].get<double>(), 0.5);
-    // Where: on the blade's plane (x0 in LPS is -x0 in RAS), inside the organ's box.
-    EXPECT_NEAR(c["position_mm"][0].get<double>(), -x0, 1.0) << c.dump();
-    EXPECT_GT(c["position_mm"][2].get<double>(), lo.z());
-    EXPECT_LT(c["position_mm"][2].get<double>(), hi.z());
-  }
-  EXPECT_TRUE(vessels) << cut.dump();
-  EXPECT_TRUE(hand.receive("STRING", "LaminaCut", 20.0)) << "every client gets the event";
-
-  const auto wound = watcher.receive("POLYDATA", "wound", 20.0);
-  ASSERT_TRUE(wound) << server.log();
-  EXPECT_GT(polydata_points(*wound).rows(), 100);
-  const auto after = latest(hand, "POLYDATA", "LaminaSkin", 0.5);
-  ASSERT_TRUE(after);
-  EXPECT_GT(polydata_points(*after).rows(), skin_points) << "the copies' nodes are streamed";
-
-  hand.send_bytes(transform_bytes("LaminaScalpelUndo", ras(to)));
-  std::this_thread::sleep_for(std::chrono::milliseconds(800));
-  const auto undone = latest(hand, "POLYDATA", "LaminaSkin", 0.5);
-  ASSERT_TRUE(undone);
-  EXPECT_EQ(polydata_points(*undone).rows(), skin_points) << server.log();
-  const Summary s = stop(server);
-  EXPECT_EQ(s.dropped, 0) << server.log();
-  const std::string log = server.log();
-  EXPECT_NE(log.find("begins a scalpel stroke"), std::string::npos) << log;
-  EXPECT_NE(log.find("vessels cut across at"), std::string::npos) << log;
-  EXPECT_NE(log.find("a cut is undone"), std::string::npos) << log;
 }
 
 // --embedded-hz 0: no embedded surface is streamed, the skin still is, and a GET_POLYDATA naming

@@ -279,48 +279,52 @@ TEST(Web, MalformedOversizedAndStalledClientsAreDroppedAndTheOthersGoOn) {
 // A scalpel stroke over OpenIGTLink cuts the organ: the page hears what it divided and each
 // vessel it crossed (a text event, in the model's frame), then is sent the new model.
 TEST(Web, ACutReachesThePageAsAnEventAndTheCutModel) {
-  TempDir models;
-  const std::string path = save_embedded_phantom(models.file("embedded.vtu"));
-  const Model m = io::load_model(path);
-  WebServer w({path, "--scalpel-depth", "200"});
-  Page page(w.port, w.token);
-  page.take_setup();
-  const size_t points_before = page.rest.size() / 4;
-  Client hand(w.server->port());
-  const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
-  const double x0 = m.X.col(0).mean() + 0.31;
-  const Eigen::Vector3d from(x0, lo.y() - 5, hi.z() + 5), to(x0, hi.y() + 5, hi.z() + 5);
-  const auto ras = [](Eigen::Vector3d p) { return Eigen::Vector3d(-p.x(), -p.y(), p.z()); };
-  for (int k = 0; k <= 40; ++k) {
-    hand.send_bytes(transform_bytes("LaminaScalpel", ras(from + (to - from) * (k / 40.0))));
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  hand.send_bytes(transform_bytes("LaminaScalpelUp", ras(to)));
-  // Frames until the event, then the new hello.
-  json cut;
-  const auto t0 = Clock::now();
-  while (seconds_since(t0) < 20.0 && cut.is_null()) {
-    bool text = false;
-    const std::string message = page.read(&text);
-    if (!text) continue;
-    const json j = json::parse(message);
-    if (j["type"] == "cut") cut = j;
-  }
-  ASSERT_FALSE(cut.is_null()) << w.server->log();
-  EXPECT_EQ(cut["cuts"], 1);
-  EXPECT_EQ(cut["pieces"].size(), 2u) << cut.dump();
-  bool vessels = false;
-  for (const json& c : cut["structures_cut"])
-    if (c["name"] == "vessels") {
-      vessels = true;
-      EXPECT_NEAR(c["position_mm"][0].get<double>(), x0, 1.0) << c.dump();  // LPS, as the model
+  // The anatomy from labels and from separate masks (issue 61): the same event.
+  for (const bool from_masks : {false, true}) {
+    SCOPED_TRACE(from_masks ? "structures from separate masks" : "structures from labels");
+    TempDir models;
+    const std::string path = save_embedded_phantom(models.file("embedded.vtu"), from_masks);
+    const Model m = io::load_model(path);
+    WebServer w({path, "--scalpel-depth", "200"});
+    Page page(w.port, w.token);
+    page.take_setup();
+    const size_t points_before = page.rest.size() / 4;
+    Client hand(w.server->port());
+    const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
+    const double x0 = m.X.col(0).mean() + 0.31;
+    const Eigen::Vector3d from(x0, lo.y() - 5, hi.z() + 5), to(x0, hi.y() + 5, hi.z() + 5);
+    const auto ras = [](Eigen::Vector3d p) { return Eigen::Vector3d(-p.x(), -p.y(), p.z()); };
+    for (int k = 0; k <= 40; ++k) {
+      hand.send_bytes(transform_bytes("LaminaScalpel", ras(from + (to - from) * (k / 40.0))));
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
-  EXPECT_TRUE(vessels) << cut.dump();
-  Page cut_model(w.port, w.token);  // (a page connecting now is sent the cut model)
-  cut_model.take_setup();
-  EXPECT_GT(cut_model.rest.size() / 4, points_before) << "the copies' nodes are carried";
-  page.take_setup();  // the page connected before is sent it too
-  EXPECT_EQ(page.rest, cut_model.rest);
+    hand.send_bytes(transform_bytes("LaminaScalpelUp", ras(to)));
+    // Frames until the event, then the new hello.
+    json cut;
+    const auto t0 = Clock::now();
+    while (seconds_since(t0) < 20.0 && cut.is_null()) {
+      bool text = false;
+      const std::string message = page.read(&text);
+      if (!text) continue;
+      const json j = json::parse(message);
+      if (j["type"] == "cut") cut = j;
+    }
+    ASSERT_FALSE(cut.is_null()) << w.server->log();
+    EXPECT_EQ(cut["cuts"], 1);
+    EXPECT_EQ(cut["pieces"].size(), 2u) << cut.dump();
+    bool vessels = false;
+    for (const json& c : cut["structures_cut"])
+      if (c["name"] == "vessels") {
+        vessels = true;
+        EXPECT_NEAR(c["position_mm"][0].get<double>(), x0, 1.0) << c.dump();  // LPS, as the model
+      }
+    EXPECT_TRUE(vessels) << cut.dump();
+    Page cut_model(w.port, w.token);  // (a page connecting now is sent the cut model)
+    cut_model.take_setup();
+    EXPECT_GT(cut_model.rest.size() / 4, points_before) << "the copies' nodes are carried";
+    page.take_setup();  // the page connected before is sent it too
+    EXPECT_EQ(page.rest, cut_model.rest);
+  }
 }
 
 // --self-signed: https and wss with a certificate made for the session, whose fingerprint the

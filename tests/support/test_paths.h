@@ -1,5 +1,6 @@
 #pragma once
-// Where the tests find the `lamina` binary, the source tree and ../shared/data: resolved at run
+// Where the tests find the `lamina` binary, the source tree and its real organ data (tests/data):
+// resolved at run
 // time from the test program's own location, with the relative paths tests/CMakeLists.txt
 // computes. No compile definition names the checkout, so a clone at another path compiles the
 // same test sources to the same objects and ccache reuses them (cmake/ccache.cmake).
@@ -8,8 +9,7 @@
 #include <filesystem>
 #include <string>
 
-#if !defined(LAMINA_CLI_FROM_TEST) || !defined(LAMINA_SOURCE_FROM_TEST) || \
-    !defined(LAMINA_SHARED_DATA_FROM_TEST)
+#if !defined(LAMINA_CLI_FROM_TEST) || !defined(LAMINA_SOURCE_FROM_TEST)
 #error "tests/CMakeLists.txt defines the LAMINA_*_FROM_TEST paths for every test program"
 #endif
 
@@ -32,9 +32,10 @@ inline std::filesystem::path source_path(const std::string& relative) {
   return beside_test_program(LAMINA_SOURCE_FROM_TEST) / relative;
 }
 
-/// A file of ../shared/data (real organ data, never copied into the repository).
-inline std::string shared_data(const std::string& name) {
-  return (beside_test_program(LAMINA_SHARED_DATA_FROM_TEST) / name).string();
+/// A file of tests/data: the real organ data the tests use, with its provenance and licences
+/// (tests/data/PROVENANCE.md). The repository holds it, so a clone tests itself.
+inline std::string real_data(const std::string& name) {
+  return (source_path("tests/data") / name).string();
 }
 
 }  // namespace lamina::test

@@ -99,6 +99,16 @@ try {
   assert.deepEqual(offsite, [], 'the page asked for something beyond loopback');
   assert.deepEqual(s.hello.surfaces, ['display_skin', 'portal_vein', 'tumour', 'hepatic_veins']);
   const rest = await organ();
+  // The first view frames the organ (issue 61: the anatomy's trunks reach far beyond it): its box
+  // centred and filling a good part of the view, all of it inside.
+  const onScreen = await page.evaluate(() => window.lamina.organOnScreen());
+  measured.organ_on_screen = onScreen;
+  for (let a = 0; a < 2; ++a) {
+    assert.ok(Math.abs((onScreen.lo[a] + onScreen.hi[a]) / 2) < 0.2, `the organ is off centre: ${JSON.stringify(onScreen)}`);
+    assert.ok(onScreen.lo[a] > -1 && onScreen.hi[a] < 1, `the organ leaves the view: ${JSON.stringify(onScreen)}`);
+  }
+  assert.ok(Math.max(onScreen.hi[0] - onScreen.lo[0], onScreen.hi[1] - onScreen.lo[1]) > 0.6,
+    `the organ is small in the view: ${JSON.stringify(onScreen)}`);
   await page.screenshot({ path: join(out, 'desktop.png') });
   const d0 = await page.evaluate(() => [window.lamina.stats.renderFrames, performance.now()]);
   await sleep(3000);

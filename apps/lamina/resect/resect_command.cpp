@@ -27,6 +27,7 @@
 #include "lamina/model/plan_on_model.h"
 #include "plots.h"
 #include "resection_picture.h"
+#include "structure_entry.h"
 
 namespace lamina::cli {
 namespace {
@@ -152,7 +153,7 @@ PictureInputs picture_inputs(const LabelVolume& v, const Mask& organ,
   in.organ = geometry::display_skin(organ, 60000);
   for (const geometry::ResectionStructure& s : opt.structures)
     in.structures.push_back(
-        {s.name, geometry::structure_surface(label_mask(v, s.label), 15000, s.name), s.tumour});
+        {s.name, geometry::structure_surface(label_mask(v, s.label), 15000, s.name), s.role});
   // Inside: the organ mask's voxel holding the point (its frame's axes are orthonormal).
   in.inside = [&organ](const Eigen::Vector3d& p) {
     const GridFrame& f = organ.frame;
@@ -174,8 +175,7 @@ PictureInputs picture_inputs(const Model& m) {
   in.organ = skin >= 0 ? SurfaceMesh{m.embedded[skin].V, m.embedded[skin].F}
                        : SurfaceMesh{m.X, m.layers[0].F};
   for (const EmbeddedSurface& e : m.embedded)
-    if (e.label != 0)
-      in.structures.push_back({e.name, {e.V, e.F}, geometry::is_tumour_name(e.name)});
+    if (is_anatomy(e.role)) in.structures.push_back({e.name, {e.V, e.F}, e.role});
   in.inside = [&m](const Eigen::Vector3d& p) {
     return geometry::winding_number(m.X, m.layers[0].F, p) > 0.5;
   };
@@ -207,14 +207,15 @@ int run_resect(const ResectArgs& a) {
   const bool model_input = a.input.ends_with(".vtu");
   opt.organ_labels = a.labels;
   for (const std::string& entry : a.embed) {
-    const size_t eq = entry.find('=');
-    const std::string text = entry.substr(0, eq);
-    int32_t label = 0;
-    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), label);
-    if (ec != std::errc() || end != text.data() + text.size() || label <= 0)
-      throw invalid_input("--embed", "'" + entry + "' is not LABEL[=NAME] with LABEL a number > 0");
-    const std::string name = eq == std::string::npos ? "label " + text : entry.substr(eq + 1);
-    opt.structures.push_back({label, name, geometry::is_tumour_name(name)});
+    const StructureEntry e = split_structure_entry(entry, "--embed");
+    const int32_t label = entry_label(e, entry, "--embed");
+    const std::string name = e.name.empty() ? "label " + e.source : e.name;
+    const SurfaceRole role = e.role.value_or(geometry::guess_role(name));
+    if (!is_anatomy(role))
+      throw invalid_input("--embed", "'" + entry +
+                                         "': a structure is a vessel, a tumour or a "
+                                         "structure");
+    opt.structures.push_back({label, name, role});
   }
   if (phantom && a.labels.empty() && a.embed.empty()) {
     opt.organ_labels = geometry::planning_phantom_options().organ_labels;

@@ -49,7 +49,7 @@ void write_resection_picture(const std::string& path, const SurfaceMesh& organ,
   // The tumours' points (at most a few thousand) for the plane's band.
   std::vector<Eigen::Vector3d> tumour_points;
   for (const PictureStructure& s : structures) {
-    if (!s.tumour) {
+    if (s.role != SurfaceRole::kTumour) {
       const auto c = model::color_by_name(s.name).value_or(model::Rgb8{60, 200, 180});
       opaque.push_back(
           layer(s.surface, Eigen::Vector3f(c[0], c[1], c[2]) / 255.0f, 1.0f, false, s.name));

@@ -16,7 +16,7 @@ namespace lamina::cli {
 struct PictureStructure {
   std::string name;
   SurfaceMesh surface;
-  bool tumour = false;
+  SurfaceRole role = SurfaceRole::kVessel;  ///< tumours get the margin bands
 };
 
 /// Renders the picture without a window (EGL) and writes it as PNG.

@@ -333,7 +333,7 @@ struct RunOutputs {
 struct Cutting {
   std::shared_ptr<const Model> model;  // the model the simulation runs on, replaced by each cut
   interact::ScalpelDriver scalpels;
-  std::vector<interact::CutEvent> events;
+  std::vector<interact::CutEvent> events{};
 };
 
 // How the stepping loop ended and what it measured along the way.

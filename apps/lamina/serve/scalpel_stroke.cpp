@@ -53,6 +53,7 @@ std::string cut_event_text(const interact::LoopSnapshot& snap, net::Frame frame)
   for (const model::StructureCut& c : r.structures_cut) {
     const Eigen::Vector3d at = net::change_frame(c.position_mm, frame);
     crossed.push_back({{"name", c.name},
+                       {"role", std::string(role_name(c.role))},
                        {"position_mm", {at.x(), at.y(), at.z()}},
                        {"diameter_mm", c.diameter_mm},
                        {"closed", c.closed}});

@@ -72,9 +72,13 @@ WebStream::WebStream(std::shared_ptr<const Model> model, const nlohmann::json& s
   for (size_t e = 0; e < m.embedded.size(); ++e) drawn_.push_back(static_cast<int32_t>(e));
   const std::vector<model::Rgb8> colors = model::structure_colors(m);
   nlohmann::json surfaces = nlohmann::json::array();
-  auto describe = [&](const std::string& name, model::Rgb8 color, Eigen::Index nv, Eigen::Index nt,
-                      bool organ) {
+  // `organ`: the organ's own surface (the display skin, a cut's wound), drawn translucent over
+  // the anatomy, picked by a drag and framed by the first view; `role` says what each is.
+  auto describe = [&](const std::string& name, SurfaceRole role, model::Rgb8 color, Eigen::Index nv,
+                      Eigen::Index nt) {
+    const bool organ = role == SurfaceRole::kDisplaySkin || role == SurfaceRole::kWound;
     surfaces.push_back({{"name", name},
+                        {"role", std::string(role_name(role))},
                         {"color", {color[0], color[1], color[2]}},
                         {"vertices", nv},
                         {"triangles", nt},
@@ -84,11 +88,11 @@ WebStream::WebStream(std::shared_ptr<const Model> model, const nlohmann::json& s
   };
   if (drawn_.empty()) {
     const ModelLayer& skin = m.layers[0];
-    describe("skin", model::kOrganColor, skin.node_count, skin.F.rows(), true);
+    describe("skin", SurfaceRole::kDisplaySkin, model::kOrganColor, skin.node_count, skin.F.rows());
   } else {
     for (const int32_t e : drawn_) {
       const EmbeddedSurface& s = m.embedded[static_cast<size_t>(e)];
-      describe(s.name, colors[static_cast<size_t>(e)], s.V.rows(), s.F.rows(), s.label == 0);
+      describe(s.name, s.role, colors[static_cast<size_t>(e)], s.V.rows(), s.F.rows());
     }
   }
   by_nodes_ = carry == Carry::kAuto ? static_cast<size_t>(m.node_count()) < drawn_vertices_

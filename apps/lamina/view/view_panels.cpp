@@ -35,15 +35,19 @@ void plot(const std::string& label, const History& h) {
                    ImVec2(std::max(ImGui::GetContentRegionAvail().x, 100.0f), 70));
 }
 
-// The left panel's place and width, pixels (where the viewer first puts it).
-constexpr float kPanelMargin = 10.0f, kPanelWidth = 440.0f;
+// The left panel's place and width, pixels (where the viewer first puts it), and the plots
+// panel's width at the window's right edge.
+constexpr float kPanelMargin = 10.0f, kPanelWidth = 440.0f, kPlotsWidth = 420.0f;
 
 }  // namespace
 
+// The organ (its nodes: the anatomy's trunks beyond it are not framed) in the columns the two
+// panels leave free: with the plots panel ignored, a real liver sat half behind it (issue 61).
 void ViewSession::State::frame_organ(const Model& m) const {
   const Eigen::Vector2i size = render::window_size();
   render::camera() = render::frame_beside_panels(
-      m, size.x(), size.y(), static_cast<int>(2.0f * kPanelMargin + kPanelWidth), 0);
+      m, size.x(), size.y(), static_cast<int>(2.0f * kPanelMargin + kPanelWidth),
+      static_cast<int>(2.0f * kPanelMargin + kPlotsWidth));
 }
 
 // The model's embedded surfaces: the display skin in place of the simulation's, and each
@@ -339,9 +343,11 @@ void ViewSession::State::panels() {
   if (!status.empty()) ImGui::TextWrapped("%s", status.c_str());
   ImGui::End();
 
-  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(render::window_size().x()) - 430, 10),
-                          ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(420, 370), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(
+      ImVec2(static_cast<float>(render::window_size().x()) - kPanelMargin - kPlotsWidth,
+             kPanelMargin),
+      ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(kPlotsWidth, 370), ImGuiCond_FirstUseEver);
   ImGui::Begin("Plots (last 600 frames)");
   plot("displacement of node " + std::to_string(watched) + ", mm", h_displacement);
   plot("skin volume change, %", h_volume);

@@ -12,7 +12,6 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
-#include "lamina/geometry/structure_names.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/keep_piece.h"
 #include "lamina/model/plan_on_model.h"
@@ -130,7 +129,7 @@ void ViewSession::State::update_plan() {
   };
   for (size_t s = 0; s < vm->model.embedded.size(); ++s) {
     const EmbeddedSurface& e = vm->model.embedded[s];
-    if (!geometry::is_tumour_name(e.name)) continue;
+    if (e.role != SurfaceRole::kTumour) continue;
     Eigen::MatrixX3d own_positions;
     const Eigen::MatrixX3d* p = s < embedded_x.size() ? embedded_x[s] : nullptr;
     if (p == nullptr) {
@@ -173,7 +172,7 @@ void ViewSession::State::update_plan() {
   // The tumours' own surfaces are hidden while the plan draws them.
   style.embedded = plan.looks;
   for (size_t s = 0; s < vm->model.embedded.size() && s < style.embedded.size(); ++s)
-    if (geometry::is_tumour_name(vm->model.embedded[s].name)) style.embedded[s].visible = false;
+    if (vm->model.embedded[s].role == SurfaceRole::kTumour) style.embedded[s].visible = false;
 }
 
 bool ViewSession::State::press_on_plane(const Eigen::Vector3d& origin,

@@ -120,6 +120,7 @@ nlohmann::json ViewSession::State::report() const {
                            : i >= style.embedded.size() || style.embedded[i].visible;
     if (drawn)
       j["embedded_drawn"].push_back({{"name", m.embedded[i].name},
+                                     {"role", std::string(role_name(m.embedded[i].role))},
                                      {"label", m.embedded[i].label},
                                      {"vertices", m.embedded[i].V.rows()},
                                      {"triangles", m.embedded[i].F.rows()}});

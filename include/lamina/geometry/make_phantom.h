@@ -30,6 +30,13 @@ struct PhantomOptions {
   /// is the parenchyma alone; the organ (the voxels of the phantom without anatomy) is label 1
   /// with the structures' parts inside it.
   bool carved_out = false;
+  /// The vena cava wrapped by the liver, as the caudate lobe wraps it in most patients: a bridge
+  /// of liver tissue closes behind it over 60 mm, so that with `carved_out` the vena cava and the
+  /// hepatic veins draining into it inside the bridge are tunnels through the organ's label, not
+  /// a groove; the right hepatic vein runs on to the organ's lateral surface (another tunnel),
+  /// and the subcapsular lesion bulges 12 mm out. Without `carved_out` it changes only the
+  /// organ's shape (the whole-organ segmentation of the same patient).
+  bool wrapped = false;
 };
 
 /// The phantom's labels with `anatomy` (lamina phantom --labels; docs/cli.md).
@@ -58,8 +65,12 @@ int32_t phantom_anatomy(double x, double y, double z);
 /// kPhantomVenaCava, or 0 for none.
 int32_t phantom_carved_structure(double x, double y, double z);
 
+/// The wrapped variant's structure at a point (mm, organ frame), as phantom_carved_structure().
+int32_t phantom_wrapped_structure(double x, double y, double z);
+
 /// Signed implicit function of the phantom at a point (mm, organ frame): negative inside.
-/// Not an exact distance, but Lipschitz-bounded near the surface.
-double phantom_implicit(double x, double y, double z);
+/// Not an exact distance, but Lipschitz-bounded near the surface. `wrapped`: with the bridge of
+/// caudate tissue behind the vena cava (PhantomOptions::wrapped).
+double phantom_implicit(double x, double y, double z, bool wrapped = false);
 
 }  // namespace lamina::geometry

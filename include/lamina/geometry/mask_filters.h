@@ -57,6 +57,12 @@ inline std::array<int, 3> working_grid_factors(const std::array<double, 3>& spac
 /// @param[in] factors  >= 1 per axis; all ones returns a copy
 Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors);
 
+/// The mask's closing by a ball of `radius_mm` (dilation, then erosion, from two exact Euclidean
+/// distance transforms): every voxel that no ball of that radius around it clear of the mask can
+/// reach. Fills gaps, grooves and tunnels narrower than the ball. Beyond the grid is background:
+/// the result is on the mask's grid (a closing stays inside the mask's convex hull).
+Mask close_mask(const Mask& mask, double radius_mm);
+
 /// Signed distance (mm) to the mask boundary, negative inside, from two exact Euclidean
 /// distance transforms (ITK's Maurer filter): inside voxels measure to the nearest outside voxel
 /// and vice versa.

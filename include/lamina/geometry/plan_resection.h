@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "lamina/core/grid.h"
+#include "lamina/core/surface_role.h"
 #include "lamina/geometry/resection_surface.h"
 #include "lamina/geometry/structure_names.h"
 
@@ -27,7 +28,7 @@ const char* to_string(LiverCondition condition);
 struct ResectionStructure {
   int32_t label = 0;
   std::string name;
-  bool tumour = false;
+  SurfaceRole role = SurfaceRole::kVessel;  ///< kTumour: its margin; otherwise its crossings
 };
 
 struct ResectionOptions {
@@ -60,6 +61,7 @@ struct TumourMargin {
 /// A place where the surface divides a structure (a vessel cut across).
 struct StructureCrossing {
   std::string name;
+  SurfaceRole role = SurfaceRole::kVessel;
   int32_t label = 0;
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  ///< the section's centre, on the surface
   double area_mm2 = 0.0;                                  ///< the section's area

@@ -16,7 +16,7 @@ struct MaskOptions {
   int32_t label = 0;  ///< label to select; 0 = any non-zero label
   /// When not empty: the union of these labels is selected (`label` is ignored), and each must
   /// be present.
-  std::vector<int32_t> labels;
+  std::vector<int32_t> labels{};
   /// Keep the largest component and fill cavities (an organ). false: every piece as it is (an
   /// embedded structure: a vessel tree in several pieces, a tumour with a necrotic core).
   bool clean = true;
@@ -26,8 +26,11 @@ struct MaskOptions {
   /// with its vessels and tumours carved out of the organ's label gives the whole organ.
   const std::vector<uint8_t>* structures = nullptr;
   int32_t structure_count = 0;  ///< structures in `structures`
-  int pad_voxels = 1;           ///< background margin kept around the organ's bounding box, voxels
-  int64_t min_voxels = 27;      ///< fewer voxels than this cannot make a meaningful surface
+  /// #structures or empty: 1 for a structure the organ takes whole where it touches it (a
+  /// tumour), add_enclosed_structures()
+  std::vector<uint8_t> whole_structures{};
+  int pad_voxels = 1;       ///< background margin kept around the organ's bounding box, voxels
+  int64_t min_voxels = 27;  ///< fewer voxels than this cannot make a meaningful surface
 };
 
 /// What prepare_mask() did, for the build report.

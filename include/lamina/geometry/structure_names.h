@@ -1,9 +1,12 @@
 #pragma once
 /// \file
-/// What a structure's name says: the resection plan's tumours (their margins) and the viewer's
-/// colours read it the same way.
+/// What a structure's name says, read once where a structure enters (the command line, a scene,
+/// Python, the C API): the role it is given when the user names none. Consumers read the role
+/// stored with the structure (core/surface_role.h), never the name.
 
 #include <string>
+
+#include "lamina/core/surface_role.h"
 
 namespace lamina::geometry {
 
@@ -14,5 +17,13 @@ std::string name_key(const std::string& name);
 /// True for names that say tumour: "tumour", "lesion", "metastasis", "HCC", ... (any case, with
 /// or without '_', '-' or spaces).
 bool is_tumour_name(const std::string& name);
+
+/// True for names that say vessel: "portal vein", "hepatic veins", "vena cava", "IVC", "artery",
+/// "aorta", "vessel", "bile duct", "biliary" ... (any case, with or without '_', '-' or spaces).
+bool is_vessel_name(const std::string& name);
+
+/// The role a structure called `name` gets when its role is not given: kTumour for a tumour's
+/// name, kVessel for a vessel's, else kStructure.
+SurfaceRole guess_role(const std::string& name);
 
 }  // namespace lamina::geometry

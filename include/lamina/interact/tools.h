@@ -195,20 +195,21 @@ void keep_touched_movable(sim::Simulation& sim, std::vector<int32_t>& touched);
 
 /// Drives a simulation with tools: activates and releases them by time, routes their forces into
 /// sim.f_ext, and in local mode makes exactly the ring nodes movable.
+// (Every member has an initialiser, so that `{.tools = t, .routing = r}` names only what it sets.)
 struct ToolDriver {
-  std::vector<Tool> tools;
-  RoutingOptions routing;
-  std::vector<ForceRoute> routes;  ///< per tool; computed when the tool starts
-  std::vector<uint8_t> active;     ///< per tool
+  std::vector<Tool> tools{};
+  RoutingOptions routing{};
+  std::vector<ForceRoute> routes{};  ///< per tool; computed when the tool starts
+  std::vector<uint8_t> active{};     ///< per tool
   /// Local mode: every node that has received force since the start stays movable, so that a
   /// released region can return to rest.
-  std::vector<int32_t> touched;
-  Loads loads;                ///< the nodes apply_tools() gave force
-  std::vector<Grasp> grasps;  ///< per tool; what a grasper holds while it acts
+  std::vector<int32_t> touched{};
+  Loads loads{};                ///< the nodes apply_tools() gave force
+  std::vector<Grasp> grasps{};  ///< per tool; what a grasper holds while it acts
   /// Forces held on nodes besides the tools', mN: #nodes by 3, or empty. When given,
   /// apply_tools() starts f_ext from them each step instead of from zero (the Python module's
   /// raw forces, which the tools add to).
-  Eigen::MatrixX3d held_forces;
+  Eigen::MatrixX3d held_forces{};
 };
 
 /// Updates sim.f_ext (and, in local mode, the movable nodes) for time sim.time_s.

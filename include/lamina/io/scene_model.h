@@ -29,7 +29,7 @@ struct SceneModel {
   std::string source;  ///< the mask's or the saved model's path, or the phantom's name
   /// Wall seconds per stage, in order: "read" (the mask or the model file), then the build's
   /// own stages (BuildReport::stage_seconds) or "rings" for a loaded model.
-  std::vector<std::pair<std::string, double>> stage_seconds;
+  std::vector<std::pair<std::string, double>> stage_seconds{};
 };
 
 /// Builds the scene's model from its input with scene.build, or loads scene.model_path (its
@@ -60,7 +60,7 @@ struct ReadyScene {
   SceneSetup setup;    ///< fixed and supported nodes, what resolve_material() decided
   /// Wall seconds per stage: SceneModel's, then "prepare_scene" (support, material, the slowest
   /// vibration for a damping ratio).
-  std::vector<std::pair<std::string, double>> stage_seconds;
+  std::vector<std::pair<std::string, double>> stage_seconds{};
 };
 
 /// make_scene_model(), then make_ready_scene() on the model.

@@ -3,12 +3,14 @@
 /// From a segmentation to the multi-layer mass-spring model: the whole model-building pipeline.
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "lamina/core/grid.h"
 #include "lamina/core/progress.h"
 #include "lamina/geometry/measure_tets.h"
+#include "lamina/geometry/plug_tunnels.h"
 #include "lamina/geometry/prepare_mask.h"
 #include "lamina/model/model.h"
 
@@ -35,8 +37,15 @@ struct EmbedStructure {
   int32_t label = 0;  ///< its label; 0 (separate masks only) = every non-zero voxel
   /// nullptr: a label of the organ's own segmentation; else a separate mask, which must lie on
   /// the organ's grid (same size, spacing, origin and directions).
-  std::shared_ptr<const LabelVolume> mask;
+  std::shared_ptr<const LabelVolume> mask{};
+  /// What it is (kVessel, kTumour or kStructure), stored with its surface; none: the role its
+  /// name suggests (geometry::guess_role), said in the build report. It also decides what of
+  /// its voxels the organ takes in (geometry::add_enclosed_structures): all of a tumour's.
+  std::optional<SurfaceRole> role{};
 };
+
+/// The role a structure is built with: its own, else the one its name suggests.
+SurfaceRole structure_role(const EmbedStructure& s);
 
 /// Options for build_model(). Defaults reproduce the reference paper's layers, filled with
 /// tetrahedra.
@@ -77,6 +86,7 @@ struct LayerBuildInfo {
 /// One embedded surface as built.
 struct EmbeddedBuildInfo {
   std::string name;
+  SurfaceRole role = SurfaceRole::kStructure;
   int32_t label = 0;
   int64_t vertices = 0, faces = 0;
   int32_t outside = 0;     ///< vertices in no tetrahedron at rest (they follow the nearest)
@@ -90,8 +100,20 @@ struct BuildReport {
   std::array<double, 3> working_spacing_mm{};  ///< grid the distance field was computed on
   double max_depth_mm = 0.0;                   ///< deepest point inside the organ
   double target_edge_mm = 0.0;                 ///< edge length all layers were remeshed to
-  /// Tunnels through the organ: the genus of its surface on the working grid (0: none)
+  /// Tunnels through the organ: the genus of its surface on the working grid, after the plugs
+  /// (0: none)
   int32_t skin_genus = 0;
+  /// Tunnels too narrow for the skin's triangles, plugged on the working grid
+  geometry::TunnelPlugs tunnels;
+  /// Gaps of the organ narrower than the skin's triangles, closed when the skin crossed itself
+  /// in them (the working grid's closing by a ball of `radius_mm`; 0 voxels: none)
+  struct ClosedGaps {
+    double radius_mm = 0.0;
+    int64_t voxels = 0;
+    double volume_ml = 0.0;
+  } gaps;
+  /// Times the skin was made: 1, or more when it crossed itself and the mask was made again
+  int32_t skin_attempts = 1;
   int32_t layers_requested = 0;
   std::vector<LayerBuildInfo> layers;       ///< one per built layer
   std::vector<std::string> warnings;        ///< vanished/split layers, dropped pieces
@@ -100,8 +122,9 @@ struct BuildReport {
   geometry::TetQuality tets;                ///< the tetrahedra at rest (count 0 for kLinks)
   int32_t interior_nodes = 0;               ///< nodes the tetrahedral mesher added (on no layer)
   std::vector<EmbeddedBuildInfo> embedded;  ///< the display skin first, then each structure
-  /// The structures' names in BuildOptions::embed order (mask.structures' entries)
+  /// The structures' names and roles in BuildOptions::embed order (mask.structures' entries)
   std::vector<std::string> structure_names;
+  std::vector<SurfaceRole> structure_roles;
   double build_seconds = 0.0;  ///< wall time of build_model (no file reading)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< per stage, in order
 };

@@ -57,6 +57,7 @@ struct CutPiece {
 /// A structure the blade crosses (a vessel cut across: a surgical simulator's bleeding cue).
 struct StructureCut {
   std::string name;                                       ///< the embedded surface's
+  SurfaceRole role = SurfaceRole::kVessel;                ///< its role (is_anatomy())
   int32_t label = 0;                                      ///< its segmentation label
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  ///< the cross-section's centre
   double area_mm2 = 0.0;                                  ///< the cross-section's area in the blade
@@ -66,7 +67,7 @@ struct StructureCut {
   bool closed = true;
 };
 
-/// Each crossing of an embedded structure (every embedded surface but the display skin, at the
+/// Each crossing of an embedded structure (every embedded surface of the anatomy, at the
 /// positions x) by the blade's surface, one per loop of the section; only the structure's
 /// triangles that meet `near` are looked at (a progressive cut's newest part; pass the blade's
 /// box for all).
@@ -100,8 +101,8 @@ struct CutReport {
   std::vector<StructureCut> structures_cut;
 };
 
-/// The name of the embedded surface a cut adds to the model (label 0, like the display skin):
-/// the wound, each side's cut surface inside the organ, carried by the copies on that side
+/// The name of the embedded surface a cut adds to the model (role SurfaceRole::kWound): the
+/// wound, each side's cut surface inside the organ, carried by the copies on that side
 /// (its vertices on their edges), so it opens as the cut does. Each cut adds its part.
 inline constexpr const char* kWoundName = "wound";
 

@@ -19,14 +19,14 @@ namespace lamina::model {
 /// `name` when the model has no tetrahedra, the surface is empty, a triangle indexes no vertex or a
 /// vertex is not finite.
 EmbeddedSurface embed_surface(const Model& model, const Eigen::MatrixX3d& V,
-                              const Eigen::MatrixX3i& F, const std::string& name,
+                              const Eigen::MatrixX3i& F, const std::string& name, SurfaceRole role,
                               int32_t label = 0);
 
-/// The name `lamina build` gives the display skin it embeds (label 0).
+/// The name `lamina build` gives the display skin it embeds.
 inline constexpr const char* kDisplaySkinName = "display_skin";
 
-/// The index of the model's embedded display skin (kDisplaySkinName, label 0) in
-/// Model::embedded, or -1.
+/// The index of the model's display skin (the first embedded surface of role
+/// SurfaceRole::kDisplaySkin) in Model::embedded, or -1.
 int32_t display_skin_index(const Model& model);
 
 /// The largest sum of |weights| over the surface's vertices: no vertex moves more than this many

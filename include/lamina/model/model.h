@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "lamina/core/surface_role.h"
+
 namespace lamina {
 
 /// What a spring joins.
@@ -97,8 +99,13 @@ struct Rings {
 /// tetrahedron's nearest point, and a fixed rest-space offset to itself: it follows that point
 /// by translation, moving at most kMaxAmplification times as far as the tetrahedron's nodes.
 struct EmbeddedSurface {
-  std::string name;          ///< "display_skin", or the structure's name
-  int32_t label = 0;         ///< the segmentation label it came from (0: the organ's own skin)
+  std::string name;  ///< "display_skin", "wound", or the structure's name: for people only
+  /// What it is: every consumer (cuts, plans, colours, the viewer, the stream) reads this, never
+  /// the name or the label
+  SurfaceRole role = SurfaceRole::kStructure;
+  /// The segmentation label it came from (0: the organ's own skin, a wound, or a separate mask's
+  /// every non-zero voxel): where it came from, not what it is
+  int32_t label = 0;
   Eigen::MatrixX3d V;        ///< rest positions, mm
   Eigen::MatrixX3i F;        ///< triangles (rows of V), outward winding
   Eigen::MatrixX4i corners;  ///< per vertex: the nodes of its tetrahedron

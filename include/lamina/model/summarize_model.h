@@ -26,6 +26,7 @@ struct LayerSummary {
 /// One surface carried by the tetrahedra (Model::embedded).
 struct EmbeddedSummary {
   std::string name;
+  SurfaceRole role = SurfaceRole::kStructure;
   int32_t label = 0;
   int64_t vertices = 0, faces = 0;
   int32_t outside = 0;  ///< vertices in no tetrahedron at rest
@@ -34,6 +35,8 @@ struct EmbeddedSummary {
   /// of its tetrahedron's nodes (at most kMaxAmplification)
   double max_amplification = 0.0;
   double volume_ml = 0.0;  ///< enclosed volume at rest
+  bool closed = false;     ///< every edge in exactly two triangles (a surface that encloses)
+  bool manifold = false;   ///< and consistently oriented, one fan per vertex
 };
 
 /// The whole model's statistics.

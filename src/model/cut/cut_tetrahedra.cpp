@@ -185,7 +185,10 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
     int at = 0;
     for (int k = 0; k < 4; ++k)
       if (k != omitted && (copies.mask[c] >> k & 1)) m[at++] = T(copies.tet[c], k);
-    std::sort(m.begin(), m.begin() + at);
+    // At most three, sorted by insertion: GCC 12 cannot tell that std::sort's heap paths stay
+    // inside `m` and warns that they may not (-Warray-bounds).
+    for (int a = 1; a < at; ++a)
+      for (int b = a; b > 0 && m[b - 1] > m[b]; --b) std::swap(m[b - 1], m[b]);
     return std::pair{m, at};
   };
   for (const auto& [key, use] : faces)
@@ -532,10 +535,10 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   m.embedded = model.embedded;
   if (afresh)
     for (EmbeddedSurface& s : m.embedded) {
-      if (s.label == 0 && s.name == kWoundName) continue;
+      if (s.role == SurfaceRole::kWound) continue;
       for (const EmbeddedSurface& u : *options.unsplit) {
         const Eigen::Index n0 = u.V.rows();
-        if (u.name != s.name || u.label != s.label || n0 > s.V.rows()) continue;
+        if (u.name != s.name || u.role != s.role || u.label != s.label || n0 > s.V.rows()) continue;
         // The surface before the cut began, its vertices where the model's now are embedded.
         EmbeddedSurface fresh = u;
         fresh.corners = s.corners.topRows(n0);

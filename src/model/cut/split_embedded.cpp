@@ -538,7 +538,7 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   };
   const SurfaceMesh splitter = splitter_of(rest_blade);
   for (size_t e = 0; e < embedded.size(); ++e) {
-    if (embedded[e].name == kWoundName && embedded[e].label == 0) continue;
+    if (embedded[e].role == SurfaceRole::kWound) continue;
     hints[e] =
         split_one(where, around, tets, corners, is_divided, index, splitter, wide, embedded[e]);
   }

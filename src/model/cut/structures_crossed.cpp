@@ -81,6 +81,7 @@ void loops_of(const EmbeddedSurface& s, const Eigen::MatrixX3d& p, const BladeIn
   for (size_t l = 0; l < centre.size(); ++l) {
     if (count[l] < 3) continue;  // a graze across one edge or two: no section
     out.push_back({.name = s.name,
+                   .role = s.role,
                    .label = s.label,
                    .position_mm = centre[l],
                    .area_mm2 = area[l],
@@ -99,7 +100,7 @@ std::vector<StructureCut> structures_crossed(const Model& model, const Eigen::Ma
   if (blade.tris.empty()) return out;
   Eigen::MatrixX3d p;
   for (const EmbeddedSurface& s : model.embedded) {
-    if (s.label == 0) continue;  // the display skin: the organ itself
+    if (!is_anatomy(s.role)) continue;  // the display skin, the wound: the organ itself
     embedded_positions(s, x, p);
     loops_of(s, p, blade, near_lo, near_hi, out);
   }

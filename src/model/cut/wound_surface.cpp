@@ -13,6 +13,8 @@ namespace lamina::model::detail {
 namespace {
 
 struct WoundBuilder {
+  explicit WoundBuilder(EmbeddedSurface& surface) : s(surface) {}
+
   EmbeddedSurface& s;
   std::vector<Eigen::RowVector3d> V;
   std::vector<Eigen::RowVector4i> corners;
@@ -46,14 +48,16 @@ void add_wound(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
   if (divided.empty()) return;
   EmbeddedSurface* wound = nullptr;
   for (EmbeddedSurface& e : embedded)
-    if (e.label == 0 && e.name == kWoundName) wound = &e;
+    if (e.role == SurfaceRole::kWound) wound = &e;
   if (!wound) {
     EmbeddedSurface& e = embedded.emplace_back();
     e.name = kWoundName;
+    e.role = SurfaceRole::kWound;
+    e.label = 0;
     e.V.resize(0, 3), e.F.resize(0, 3), e.corners.resize(0, 4), e.weights.resize(0, 4);
     wound = &e;
   }
-  WoundBuilder b{.s = *wound};
+  WoundBuilder b(*wound);
   for (size_t k = 0; k < divided.size(); ++k) {
     const int32_t t = divided[k].tet;
     const uint8_t side = divided[k].side;
