@@ -31,8 +31,8 @@ inline StructureEntry split_structure_entry(const std::string& entry, const char
       e.role = *r;
       rest.resize(colon);
     } else if (rest.find('=') != std::string::npos && rest.find('=') < colon) {
-      throw invalid_input(option, "'" + entry + "': '" + word +
-                                      "' is not a role (vessel, tumour or structure)");
+      throw invalid_input(
+          option, "'" + entry + "': '" + word + "' is not a role (vessel, tumour or structure)");
     }
   }
   const size_t eq = rest.find('=');
@@ -46,8 +46,8 @@ inline int32_t entry_label(const StructureEntry& e, const std::string& entry, co
   int32_t label = 0;
   const auto [end, ec] = std::from_chars(e.source.data(), e.source.data() + e.source.size(), label);
   if (ec != std::errc() || end != e.source.data() + e.source.size() || label <= 0)
-    throw invalid_input(option, "'" + entry +
-                                    "' is not LABEL[=NAME][:ROLE] with LABEL a number > 0");
+    throw invalid_input(option,
+                        "'" + entry + "' is not LABEL[=NAME][:ROLE] with LABEL a number > 0");
   return label;
 }
 

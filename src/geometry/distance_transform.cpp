@@ -59,7 +59,8 @@ std::vector<float> distance_to_foreground(const GridFrame& frame,
   std::vector<float> g(static_cast<size_t>(total));
   const float inf = std::numeric_limits<float>::infinity();
 #pragma omp parallel for schedule(static)
-  for (int64_t v = 0; v < total; ++v) g[static_cast<size_t>(v)] = inside[static_cast<size_t>(v)] ? 0.0f : inf;
+  for (int64_t v = 0; v < total; ++v)
+    g[static_cast<size_t>(v)] = inside[static_cast<size_t>(v)] ? 0.0f : inf;
   const int64_t stride[3] = {1, n[0], n[0] * n[1]};
   for (int a = 0; a < 3; ++a) {
     const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;
@@ -82,12 +83,14 @@ std::vector<float> distance_to_foreground(const GridFrame& frame,
           }
           if (!any) continue;  // nothing in this line yet: it stays +inf
           envelope(line.data(), len, h, v.data(), z.data(), d.data());
-          for (int64_t t = 0; t < len; ++t) p[t * stride[a]] = static_cast<float>(line[static_cast<size_t>(t)]);
+          for (int64_t t = 0; t < len; ++t)
+            p[t * stride[a]] = static_cast<float>(line[static_cast<size_t>(t)]);
         }
     }
   }
 #pragma omp parallel for schedule(static)
-  for (int64_t v = 0; v < total; ++v) g[static_cast<size_t>(v)] = std::sqrt(g[static_cast<size_t>(v)]);
+  for (int64_t v = 0; v < total; ++v)
+    g[static_cast<size_t>(v)] = std::sqrt(g[static_cast<size_t>(v)]);
   return g;
 }
 

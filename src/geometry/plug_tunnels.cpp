@@ -48,7 +48,7 @@ std::vector<int64_t> euler_changes(const Mask& mask, const std::vector<int32_t>&
         const int64_t self = f.index(i, j, k);
         // A block counts when all its voxels are in, and (i, j, k) is its first voxel of the
         // piece (the lowest linear index among those).
-        const auto counts = [&](const int64_t (*o)[3], int n, const int64_t base[3]) {
+        const auto counts = [&](const int64_t(*o)[3], int n, const int64_t base[3]) {
           bool first = true;
           for (int c = 0; c < n; ++c) {
             const int64_t a = base[0] + o[c][0], b = base[1] + o[c][1], d = base[2] + o[c][2];
@@ -179,8 +179,7 @@ int64_t make_well_composed(Mask& mask) {
   return total;
 }
 
-TunnelPlugs plug_tunnels(Mask& mask, double radius_mm, std::vector<uint8_t>* added,
-                         bool corners) {
+TunnelPlugs plug_tunnels(Mask& mask, double radius_mm, std::vector<uint8_t>* added, bool corners) {
   TunnelPlugs out;
   if (added) added->assign(mask.inside.size(), 0);
   // No tunnel: nothing to do, the mask as it was.

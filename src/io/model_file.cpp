@@ -616,7 +616,9 @@ Model detail::parse_model(const std::string& path, std::string_view text) {
     m.tets.region[static_cast<size_t>(t)] = cell_layer[cell];
   }
   if (has_embedded) read_embedded_cells(path, cells_in_order, embedded, static_cast<int32_t>(n), m);
-  if (version >= 5)
+  // A cut model: version 5 always; from version 6 (roles) a model with embedded surfaces is
+  // written as 6 cut or not, so the shares are there when it is cut.
+  if (version == 5 || (version >= 6 && f.arrays.contains("CellData/share")))
     read_cut_cells(path, f, cells, triangles, triangles + spring_count,
                    triangles + spring_count + tet_count, m);
   // Every value above passed its own check; the checksum catches one changed to another valid

@@ -534,11 +534,13 @@ TEST(CliWorkflow, BuildEmbedsTheAnatomyAndRefusesBadEmbeddings) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(json::parse(r.out).at("embedded"), built);
 
-  const char* bad[][2] = {{"--embed 7=portal", "label 7"},
-                          {"--label 1 --embed 1", "also the organ's"},
-                          {"--embed two", "--embed"},
-                          {"--embed-mask missing.nii.gz", "missing.nii.gz"},
-                          {"--structure links --embed 2", "tetrahedra"}};
+  const char* bad[][2] = {
+      {"--embed 7=portal", "label 7"},
+      {"--label 1 --embed 1", "every voxel selected as the organ is an embedded"},
+      {"--embed 2=pv:artery", "not a role"},
+      {"--embed two", "--embed"},
+      {"--embed-mask missing.nii.gz", "missing.nii.gz"},
+      {"--structure links --embed 2", "tetrahedra"}};
   for (const auto& [args, says] : bad) {
     r = run_lamina(dir, std::string("build A.nii.gz -o B.vtu ") + args);
     EXPECT_EQ(r.exit_code, 2) << args;

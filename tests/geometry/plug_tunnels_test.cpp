@@ -74,9 +74,9 @@ TEST(PlugTunnels, ANarrowTunnelIsPluggedAndNothingElseChanges) {
     for (int64_t j = 0; j < 40; ++j)
       for (int64_t i = 0; i < 40; ++i) {
         const size_t v = static_cast<size_t>(m.frame.index(i, j, k));
-        const bool in_tunnel = box(static_cast<double>(i), static_cast<double>(j),
-                                   static_cast<double>(k)) &&
-                               std::hypot(i - 20.0, j - 20.0) <= 2.5;
+        const bool in_tunnel =
+            box(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k)) &&
+            std::hypot(i - 20.0, j - 20.0) <= 2.5;
         // A closing leaves a dimple at a tunnel's mouths, no deeper than the ball's radius.
         if (in_tunnel && k >= 12 && k < 28) EXPECT_TRUE(m.inside[v]) << i << " " << j << " " << k;
         if (!in_tunnel) EXPECT_EQ(m.inside[v], before.inside[v]) << i << " " << j << " " << k;

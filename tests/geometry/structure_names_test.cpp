@@ -7,23 +7,23 @@ namespace {
 using namespace lamina;
 
 TEST(StructureNames, ANameSuggestsItsRoleWhenNoneIsGiven) {
-  for (const char* n : {"portal_vein", "Portal Vein", "hepatic_veins", "IVC", "vena cava",
-                        "inferior_vena_cava", "arteries", "aorta", "bile ducts", "vessels",
-                        "venous system"})
+  for (const char* n :
+       {"portal_vein", "Portal Vein", "hepatic_veins", "IVC", "vena cava", "inferior_vena_cava",
+        "arteries", "aorta", "bile ducts", "vessels", "venous system"})
     EXPECT_EQ(geometry::guess_role(n), SurfaceRole::kVessel) << n;
   for (const char* n : {"tumour", "Tumor", "liver_tumours", "lesion", "metastases", "HCC"})
     EXPECT_EQ(geometry::guess_role(n), SurfaceRole::kTumour) << n;
   // A tumour's name wins (a tumour thrombus is a lesion); the rest are structures.
   EXPECT_EQ(geometry::guess_role("tumour thrombus in the portal vein"), SurfaceRole::kTumour);
   for (const char* n : {"gallbladder", "label 3", "marker", "cystic duct"})
-    EXPECT_EQ(geometry::guess_role(n), n == std::string("cystic duct") ? SurfaceRole::kVessel
-                                                                     : SurfaceRole::kStructure)
+    EXPECT_EQ(geometry::guess_role(n),
+              n == std::string("cystic duct") ? SurfaceRole::kVessel : SurfaceRole::kStructure)
         << n;
 }
 
 TEST(StructureNames, RolesAreSpelledOneWayEachAndReadBack) {
-  for (const SurfaceRole r : {SurfaceRole::kDisplaySkin, SurfaceRole::kVessel,
-                              SurfaceRole::kTumour, SurfaceRole::kStructure, SurfaceRole::kWound})
+  for (const SurfaceRole r : {SurfaceRole::kDisplaySkin, SurfaceRole::kVessel, SurfaceRole::kTumour,
+                              SurfaceRole::kStructure, SurfaceRole::kWound})
     EXPECT_EQ(role_from_name(role_name(r)), r);
   EXPECT_EQ(role_from_name("tumor"), SurfaceRole::kTumour);
   EXPECT_FALSE(role_from_name("vein").has_value());

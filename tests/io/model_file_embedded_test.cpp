@@ -97,7 +97,7 @@ TEST(ModelFileEmbedded, SurfacesRoundTripBitExactly) {
 
   const std::string text = file_text(path);
   EXPECT_NE(text.find("Name=\"lamina_format_version\" NumberOfTuples=\"1\" format=\"ascii\">\n"
-                      "        4\n"),
+                      "        6\n"),
             std::string::npos);
   // For ParaView (not read back): the organ's colour on the nodes, each surface's on its points.
   EXPECT_NE(text.find("Name=\"color\" NumberOfComponents=\"3\" format=\"ascii\">\n"
@@ -111,8 +111,9 @@ TEST(ModelFileEmbedded, SurfacesRoundTripBitExactly) {
             std::string::npos);
 }
 
-TEST(ModelFileEmbedded, AModelWithoutOffsetsIsStillWrittenAsVersionThree) {
-  // Builds from before version 4 read it: no vertex far enough out to need an offset.
+TEST(ModelFileEmbedded, SurfacesAreWrittenWithTheirRolesAndOldFilesGetTheRolesTheyHad) {
+  // Version 6: each surface's role stored; no vertex far enough out needs an offset here, so
+  // none is written.
   const TempDir dir;
   Model m = with_surfaces();
   m.embedded.pop_back();
@@ -120,10 +121,29 @@ TEST(ModelFileEmbedded, AModelWithoutOffsetsIsStillWrittenAsVersionThree) {
   save_model(m, path);
   const std::string text = file_text(path);
   EXPECT_NE(text.find("Name=\"lamina_format_version\" NumberOfTuples=\"1\" format=\"ascii\">\n"
-                      "        3\n"),
+                      "        6\n"),
             std::string::npos);
+  EXPECT_NE(text.find("Name=\"embedded_role\""), std::string::npos);
   EXPECT_EQ(text.find("embed_offset"), std::string::npos);
   expect_same_model(m, load_model(path));
+  // The same model as version 3 wrote it (no roles, its checksum without them): the display
+  // skin, and the tumour by its name, as the readers of that time saw them.
+  std::string v3 = replace_values(text, "lamina_format_version", "3");
+  const size_t role = v3.find("<DataArray type=\"Int32\" Name=\"embedded_role\"");
+  ASSERT_NE(role, std::string::npos);
+  v3.erase(role, v3.find("</DataArray>", role) + std::string("</DataArray>").size() - role);
+  const size_t crc = v3.find("<DataArray type=\"Int64\" Name=\"content_crc32\"");  // none yet
+  ASSERT_NE(crc, std::string::npos);
+  v3.erase(crc, v3.find("</DataArray>", crc) + std::string("</DataArray>").size() - crc);
+  const std::string old_path = dir.file("old.vtu");
+  write_text(old_path, v3);
+  const Model read = load_model(old_path);
+  ASSERT_EQ(read.embedded.size(), m.embedded.size());
+  EXPECT_EQ(read.embedded[0].role, SurfaceRole::kDisplaySkin);
+  EXPECT_EQ(read.embedded[1].role, SurfaceRole::kTumour);
+  // A role that is none is refused by name.
+  write_text(old_path, replace_values(text, "embedded_role", "0 9"));
+  expect_load_error(old_path, "has role 9");
 }
 
 TEST(ModelFileEmbedded, AModelWithoutSurfacesIsStillWrittenAsVersionTwo) {

@@ -348,18 +348,23 @@ TEST(StructureColors, NamesGiveTheConventionsAndNoTwoStructuresShareOne) {
   EXPECT_EQ(*model::color_by_name("hepatic artery"), *model::color_by_name("aorta"));
   EXPECT_NE(*model::color_by_name("bile ducts"), *model::color_by_name("gallbladder"));
   EXPECT_FALSE(model::color_by_name("segment IV").has_value());
-  // A model: the display skin the organ's colour; two vein trees of one blue and two unknown
-  // names all come out different.
+  // A model: the display skin (by its role) the organ's colour; two vein trees of one blue and
+  // two unknown names all come out different; a tumour by its role, whatever its name.
   Model m;
-  for (const char* name : {"display_skin", "vessels", "hepatic veins", "segment 2", "segment 3"}) {
+  for (const char* name :
+       {"display_skin", "vessels", "hepatic veins", "segment 2", "segment 3", "lesions"}) {
     EmbeddedSurface e;
     e.name = name;
     m.embedded.push_back(e);
   }
+  m.embedded[0].role = SurfaceRole::kDisplaySkin;
+  m.embedded[5].name = "segment 5";
+  m.embedded[5].role = SurfaceRole::kTumour;
   const std::vector<model::Rgb8> c = model::structure_colors(m);
-  ASSERT_EQ(c.size(), 5u);
+  ASSERT_EQ(c.size(), 6u);
   EXPECT_EQ(c[0], model::kOrganColor);
   EXPECT_EQ(c[1], *model::color_by_name("vessels"));
+  EXPECT_EQ(c[5], *model::color_by_name("tumour"));
   for (size_t i = 1; i < c.size(); ++i)
     for (size_t j = i + 1; j < c.size(); ++j) EXPECT_NE(c[i], c[j]) << i << " " << j;
 }

@@ -65,6 +65,7 @@ inline void expect_same_model(const Model& a, const Model& b) {
     const EmbeddedSurface &e = a.embedded[s], &f = b.embedded[s];
     EXPECT_EQ(e.name, f.name) << "surface " << s;
     EXPECT_EQ(e.label, f.label) << e.name;
+    EXPECT_EQ(e.role, f.role) << e.name;
     EXPECT_EQ(e.outside, f.outside) << e.name;
     EXPECT_EQ(e.F, f.F) << e.name;
     EXPECT_EQ(e.corners, f.corners) << e.name;

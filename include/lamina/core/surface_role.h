@@ -46,8 +46,8 @@ constexpr std::string_view role_name(SurfaceRole r) {
 
 /// The role named `name` (role_name()'s spelling; "tumor" too), or none.
 constexpr std::optional<SurfaceRole> role_from_name(std::string_view name) {
-  for (const SurfaceRole r : {SurfaceRole::kDisplaySkin, SurfaceRole::kVessel,
-                              SurfaceRole::kTumour, SurfaceRole::kStructure, SurfaceRole::kWound})
+  for (const SurfaceRole r : {SurfaceRole::kDisplaySkin, SurfaceRole::kVessel, SurfaceRole::kTumour,
+                              SurfaceRole::kStructure, SurfaceRole::kWound})
     if (role_name(r) == name) return r;
   if (name == "tumor") return SurfaceRole::kTumour;
   return std::nullopt;
