@@ -128,6 +128,10 @@ Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors) {
   return out;
 }
 
+std::vector<float> distance_to_mask(const Mask& mask) {
+  return detail::distance_to_foreground(mask.frame, mask.inside);
+}
+
 Mask close_mask(const Mask& mask, double radius_mm) {
   // On a grid padded by the ball: beyond the mask's grid is background, and a dilation that
   // reached its edge would find no background left to erode from. A closing never leaves the

@@ -189,35 +189,58 @@ TunnelPlugs plug_tunnels(Mask& mask, double radius_mm, std::vector<uint8_t>* add
   out.tunnels_before = static_cast<int32_t>(std::max<int64_t>(0, 1 - euler_characteristic(mask)));
   out.tunnels_after = out.tunnels_before;
 
-  // Balls of growing radius, from a voxel and a half to `radius_mm`: a tunnel is plugged by the
-  // smallest ball that closes it, so a plug holds the tunnel and the gaps narrower than the
-  // tunnel beside it, not every groove the largest ball would close.
+  // Balls of growing radius, doubling from a voxel and a half to `radius_mm`: a tunnel is
+  // plugged by the smallest ball that closes it, so a plug holds the tunnel and the gaps
+  // narrower than the tunnel beside it, not every groove the largest ball would close.
+  // The closings are made on a copy padded by the largest ball (beyond the grid is background),
+  // and the distance to the organ, their first transform, is kept from ball to ball while no
+  // plug changes the organ.
   const GridFrame& f = mask.frame;
   const auto& s = f.spacing_mm;
   const double coarsest = std::max({s[0], s[1], s[2]});
+  const int pad = 2 + static_cast<int>(std::ceil(radius_mm / std::min({s[0], s[1], s[2]})));
+  Mask p = pad_mask(mask, pad);
+  std::vector<float> to_organ = distance_to_mask(p);
   for (double r = std::min(1.5 * coarsest, radius_mm); out.tunnels_after > 0;
-       r = std::min(1.5 * r, radius_mm)) {
-    Mask gap = close_mask(mask, r);  // the background the closing fills
-    for (size_t v = 0; v < gap.inside.size(); ++v) gap.inside[v] = gap.inside[v] && !mask.inside[v];
+       r = std::min(2.0 * r, radius_mm)) {
+    // The closing: no ball of radius r around a voxel clear of the organ reaches it.
+    const float rf = static_cast<float>(r);
+    Mask clear;
+    clear.frame = p.frame;
+    clear.inside.resize(p.inside.size());
+    for (size_t v = 0; v < p.inside.size(); ++v) clear.inside[v] = to_organ[v] > rf;
+    const std::vector<float> to_clear = distance_to_mask(clear);
+    Mask gap;  // the background the closing fills
+    gap.frame = p.frame;
+    gap.inside.resize(p.inside.size());
+    for (size_t v = 0; v < p.inside.size(); ++v)
+      gap.inside[v] = !p.inside[v] && !clear.inside[v] && to_clear[v] > rf;
     std::vector<int32_t> piece;
     const int32_t pieces = label_components(gap, /*fully_connected=*/true, piece);
-    const std::vector<int64_t> change = euler_changes(mask, piece, pieces);
+    const std::vector<int64_t> change = euler_changes(p, piece, pieces);
     int32_t plugs = 0;
-    for (int32_t p = 1; p <= pieces; ++p) plugs += change[static_cast<size_t>(p)] > 0;
+    for (int32_t q = 1; q <= pieces; ++q) plugs += change[static_cast<size_t>(q)] > 0;
     if (plugs > 0) {
-      for (size_t v = 0; v < mask.inside.size(); ++v)
-        if (piece[v] != 0 && change[static_cast<size_t>(piece[v])] > 0) mask.inside[v] = 1;
+      for (size_t v = 0; v < p.inside.size(); ++v)
+        if (piece[v] != 0 && change[static_cast<size_t>(piece[v])] > 0) p.inside[v] = 1;
       // A plug that sealed a void (two tunnels meeting inside) leaves a cavity: the organ's too;
       // and a plug's edge may touch the organ by a corner alone.
-      fill_cavities(mask);
-      if (corners) out.corner_voxels += make_well_composed(mask);
-      out.tunnels_after =
-          static_cast<int32_t>(std::max<int64_t>(0, 1 - euler_characteristic(mask)));
+      fill_cavities(p);
+      if (corners) out.corner_voxels += make_well_composed(p);
+      out.tunnels_after = static_cast<int32_t>(std::max<int64_t>(0, 1 - euler_characteristic(p)));
       out.plugs += plugs;
       out.radius_mm = r;
+      if (out.tunnels_after > 0 && r < radius_mm) to_organ = distance_to_mask(p);
     }
     if (r >= radius_mm) break;
   }
+  // Back on the mask's grid (a closing stays inside the organ's convex hull: nothing was added
+  // in the padding).
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i)
+        mask.inside[static_cast<size_t>(f.index(i, j, k))] =
+            p.inside[static_cast<size_t>(p.frame.index(i + pad, j + pad, k + pad))];
   for (size_t v = 0; v < mask.inside.size(); ++v)
     if (mask.inside[v] && !before[v]) {
       ++out.voxels;

@@ -233,6 +233,7 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   DistanceField sdf;
   SurfaceMesh skin;
   double adaptivity = 0.0;
+  bool skin_clean = false;  // checked here: it does not cross itself
   for (int attempt = 0;; ++attempt) {
     const double plug_edges = attempt < 2 ? 1.0 : (attempt == 2 ? 2.0 : 4.0);
     if (attempt >= 2) {
@@ -293,7 +294,8 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
     }
     rep.target_edge_mm = edge;
     // The skin is checked with the other layers below; here only whether to make it again.
-    if (attempt < 3 && geometry::self_intersects(skin)) {
+    if (attempt < 3) skin_clean = !geometry::self_intersects(skin);
+    if (attempt < 3 && !skin_clean) {
       rep.skin_attempts = attempt + 2;
       // Tunnels through corners matter only where the skin has a handle.
       if (attempt == 0 && rep.skin_genus == 0) ++attempt;
@@ -398,7 +400,7 @@ BuildResult build_model(const LabelVolume& volume, const BuildOptions& opt,
   report_progress(progress, "checking layers", 0.75);
   for (size_t k = 0; k < layers.size(); ++k) {
     const geometry::MeshQuality q = geometry::measure_mesh(layers[k]);
-    const bool crossed = geometry::self_intersects(layers[k]);
+    const bool crossed = k == 0 && skin_clean ? false : geometry::self_intersects(layers[k]);
     std::vector<std::string> failed;
     if (!q.closed) failed.emplace_back("not closed");
     if (!q.manifold) failed.emplace_back("not manifold");

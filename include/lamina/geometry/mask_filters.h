@@ -63,6 +63,10 @@ Mask downsample_mask(const Mask& mask, const std::array<int, 3>& factors);
 /// the result is on the mask's grid (a closing stays inside the mask's convex hull).
 Mask close_mask(const Mask& mask, double radius_mm);
 
+/// The distance (mm) of every voxel's centre to the nearest centre of a voxel of the mask (0 on
+/// the mask), exact, on the mask's grid; +infinity everywhere for an empty mask.
+std::vector<float> distance_to_mask(const Mask& mask);
+
 /// Signed distance (mm) to the mask boundary, negative inside, from two exact Euclidean
 /// distance transforms (ITK's Maurer filter): inside voxels measure to the nearest outside voxel
 /// and vice versa.
