@@ -96,7 +96,7 @@ const Model& block() {
       SV.row(static_cast<Eigen::Index>(v)) =
           (Eigen::Vector3d::Constant(20.0) + 14.0 * V[v]).transpose();
     for (size_t f = 0; f < F.size(); ++f) SF.row(static_cast<Eigen::Index>(f)) = F[f].transpose();
-    b.embedded.push_back(model::embed_surface(b, SV, SF, "sphere", 1));
+    b.embedded.push_back(model::embed_surface(b, SV, SF, "sphere", SurfaceRole::kStructure, 1));
     return b;
   }();
   return m;
