@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "lamina/core/error.h"
+#include "lamina/sim/contact_springs.h"
 #include "solver.h"
 
 namespace lamina::sim {
@@ -342,6 +343,41 @@ void hold_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
     sim.x.row(nodes[k]) = positions.row(static_cast<Eigen::Index>(k));
   ++s.held_moves;                 // work done on the organ: the energy watch waits
   refresh_frozen_positions(sim);  // the caches of what stays put see the new positions
+}
+
+void set_contact_stiffness(Simulation& sim, const std::vector<int32_t>& nodes,
+                           const std::vector<double>& stiffness_n_per_m) {
+  if (nodes.size() != stiffness_n_per_m.size())
+    throw invalid_input("contact nodes",
+                        fmt::format("need one stiffness per node, got {} nodes and {} values",
+                                    nodes.size(), stiffness_n_per_m.size()));
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    check_node(sim, nodes[k], "contact nodes");
+    if (!(stiffness_n_per_m[k] >= 0.0 && std::isfinite(stiffness_n_per_m[k])))
+      throw invalid_input("contact nodes",
+                          fmt::format("node {}: stiffness must be >= 0 N/m, got {}", nodes[k],
+                                      stiffness_n_per_m[k]));
+  }
+  if (sim.options().integrator == Integrator::kProjective && !nodes.empty())
+    throw invalid_input("contact nodes",
+                        "projective dynamics prefactors its system: it cannot take contact "
+                        "springs that change every step (use implicit Euler)");
+  Solver& s = sim.solver();
+  SupportTerm& t = s.support;
+  const double anchor = s.material.anchor_stiffness_n_per_m;
+  const auto refresh_node = [&](int32_t i) {
+    const auto u = static_cast<size_t>(i);
+    t.stiffness_n_per_m[u] = anchor + t.support_n_per_m[u] + t.contact_n_per_m[u];
+  };
+  for (int32_t i : t.contact_nodes) t.contact_n_per_m[static_cast<size_t>(i)] = 0.0;
+  for (int32_t i : t.contact_nodes) refresh_node(i);
+  t.contact_nodes.assign(nodes.begin(), nodes.end());
+  for (size_t k = 0; k < nodes.size(); ++k)
+    t.contact_n_per_m[static_cast<size_t>(nodes[k])] += stiffness_n_per_m[k];
+  for (int32_t i : nodes) refresh_node(i);
+  ++s.held_moves;  // work done from outside: the energy watch waits
+  // Semi-implicit Euler's substeps follow its stability limit, which the springs lower.
+  if (sim.options().integrator == Integrator::kSemiImplicitEuler) ++s.setup_version;
 }
 
 void release_nodes(Simulation& sim, const std::vector<int32_t>& nodes) {

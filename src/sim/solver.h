@@ -232,8 +232,11 @@ struct VolumeTerm {
 /// What holds the organ besides fixed nodes (support_term.cpp): per node a zero-length spring
 /// to its rest position, from Material::anchor_stiffness_n_per_m and support_nodes().
 struct SupportTerm {
-  std::vector<double> support_n_per_m;    ///< per node, from support_nodes() (0 elsewhere)
-  std::vector<double> stiffness_n_per_m;  ///< per node: anchor + support
+  std::vector<double> support_n_per_m;  ///< per node, from support_nodes() (0 elsewhere)
+  /// per node, from set_contact_stiffness() (0 elsewhere): a world's contact and attachments
+  std::vector<double> contact_n_per_m;
+  std::vector<int32_t> contact_nodes;     ///< the nodes contact_n_per_m was last set on
+  std::vector<double> stiffness_n_per_m;  ///< per node: anchor + support + contact
 };
 
 /// What step() remembers to tell an unstable simulation (stability_watch.cpp).

@@ -11,9 +11,14 @@ void setup_support(Solver& s) {
   const auto n = static_cast<size_t>(s.model->node_count());
   SupportTerm& t = s.support;
   if (t.support_n_per_m.size() != n) t.support_n_per_m.assign(n, 0.0);
+  if (t.contact_n_per_m.size() != n) {
+    t.contact_n_per_m.assign(n, 0.0);
+    t.contact_nodes.clear();
+  }
   t.stiffness_n_per_m.resize(n);
   for (size_t i = 0; i < n; ++i)
-    t.stiffness_n_per_m[i] = s.material.anchor_stiffness_n_per_m + t.support_n_per_m[i];
+    t.stiffness_n_per_m[i] =
+        s.material.anchor_stiffness_n_per_m + t.support_n_per_m[i] + t.contact_n_per_m[i];
 }
 
 double NodeSupport::energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {

@@ -1,0 +1,118 @@
+// The skin's triangles in a hashed uniform grid, rebuilt every step in place: a radix of
+// (bucket, triangle) keys sorted once, so the step allocates nothing once the buffers have grown.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "lamina/geometry/closest_on_triangle.h"
+#include "world_work.h"
+
+namespace lamina::world::detail {
+namespace {
+
+uint64_t hash_cell(int64_t i, int64_t j, int64_t k) {
+  return static_cast<uint64_t>(i) * 73856093ULL ^ static_cast<uint64_t>(j) * 19349663ULL ^
+         static_cast<uint64_t>(k) * 83492791ULL;
+}
+
+int64_t cell_of(double v, double cell) {
+  return static_cast<int64_t>(std::floor(v / cell));
+}
+
+}  // namespace
+
+uint64_t grid_bucket(const SkinGrid& grid, const Eigen::Vector3d& p) {
+  return hash_cell(cell_of(p.x(), grid.cell_mm), cell_of(p.y(), grid.cell_mm),
+                   cell_of(p.z(), grid.cell_mm)) &
+         grid.mask;
+}
+
+void build_skin_grid(const Model& model, const Eigen::MatrixX3d& x, double reach_mm,
+                     SkinGrid& grid) {
+  const Eigen::MatrixX3i& F = model.layers.front().F;
+  if (grid.mean_edge_mm <= 0.0) {
+    double sum = 0.0;
+    for (Eigen::Index f = 0; f < F.rows(); ++f)
+      sum += (model.X.row(F(f, 0)) - model.X.row(F(f, 1))).norm();
+    grid.mean_edge_mm = F.rows() > 0 ? sum / static_cast<double>(F.rows()) : 1.0;
+  }
+  // Cells of about two edges: a triangle grown by the reach covers a few of them.
+  grid.cell_mm = std::max(2.0 * grid.mean_edge_mm, 2.0 * reach_mm);
+  uint64_t buckets = 64;
+  while (buckets < 2 * static_cast<uint64_t>(F.rows())) buckets *= 2;
+  grid.mask = buckets - 1;
+  grid.keys.clear();
+  grid.lo.setConstant(std::numeric_limits<double>::infinity());
+  grid.hi.setConstant(-std::numeric_limits<double>::infinity());
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    Eigen::Vector3d lo = x.row(F(f, 0)).transpose(), hi = lo;
+    for (int c = 1; c < 3; ++c) {
+      lo = lo.cwiseMin(x.row(F(f, c)).transpose());
+      hi = hi.cwiseMax(x.row(F(f, c)).transpose());
+    }
+    grid.lo = grid.lo.cwiseMin(lo);
+    grid.hi = grid.hi.cwiseMax(hi);
+    lo.array() -= reach_mm;
+    hi.array() += reach_mm;
+    const int64_t i0 = cell_of(lo.x(), grid.cell_mm), i1 = cell_of(hi.x(), grid.cell_mm);
+    const int64_t j0 = cell_of(lo.y(), grid.cell_mm), j1 = cell_of(hi.y(), grid.cell_mm);
+    const int64_t k0 = cell_of(lo.z(), grid.cell_mm), k1 = cell_of(hi.z(), grid.cell_mm);
+    for (int64_t i = i0; i <= i1; ++i)
+      for (int64_t j = j0; j <= j1; ++j)
+        for (int64_t k = k0; k <= k1; ++k)
+          grid.keys.push_back(((hash_cell(i, j, k) & grid.mask) << 32) | static_cast<uint64_t>(f));
+  }
+  std::sort(grid.keys.begin(), grid.keys.end());
+  grid.keys.erase(std::unique(grid.keys.begin(), grid.keys.end()), grid.keys.end());
+  grid.start.assign(buckets + 1, 0);
+  grid.items.resize(grid.keys.size());
+  for (size_t n = 0; n < grid.keys.size(); ++n) {
+    ++grid.start[(grid.keys[n] >> 32) + 1];
+    grid.items[n] = static_cast<int32_t>(grid.keys[n] & 0xffffffffULL);
+  }
+  for (size_t b = 0; b < buckets; ++b) grid.start[b + 1] += grid.start[b];
+}
+
+bool nearest_on_skin(const Model& other_model, const Eigen::MatrixX3d& other_x,
+                     const SkinGrid& grid, const Eigen::Vector3d& p, int32_t node, bool self,
+                     const Model& node_model, double exclusion_mm, double reach_mm,
+                     Contact& contact) {
+  const Eigen::MatrixX3i& F = other_model.layers.front().F;
+  const uint64_t b = grid_bucket(grid, p);
+  double best = reach_mm * reach_mm;
+  bool found = false;
+  const double excl2 = exclusion_mm * exclusion_mm;
+  for (int32_t n = grid.start[b]; n < grid.start[b + 1]; ++n) {
+    const int32_t f = grid.items[static_cast<size_t>(n)];
+    const int32_t i = F(f, 0), j = F(f, 1), k = F(f, 2);
+    if (self) {
+      if (i == node || j == node || k == node) continue;
+      // Its own neighbourhood: any corner near the node at rest.
+      const Eigen::Vector3d r = node_model.X.row(node).transpose();
+      if ((node_model.X.row(i).transpose() - r).squaredNorm() < excl2 ||
+          (node_model.X.row(j).transpose() - r).squaredNorm() < excl2 ||
+          (node_model.X.row(k).transpose() - r).squaredNorm() < excl2)
+        continue;
+    }
+    const Eigen::Vector3d a = other_x.row(i).transpose(), bb = other_x.row(j).transpose(),
+                          c = other_x.row(k).transpose();
+    const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, bb, c);
+    const Eigen::Vector3d q = w.x() * a + w.y() * bb + w.z() * c;
+    const double d2 = (p - q).squaredNorm();
+    if (d2 >= best) continue;
+    const Eigen::Vector3d nrm = (bb - a).cross(c - a);
+    const double len = nrm.norm();
+    if (len <= 0.0) continue;
+    best = d2;
+    found = true;
+    contact.corners = {i, j, k};
+    contact.weights = w;
+    contact.normal = nrm / len;
+    // Signed: > 0 behind the triangle (inside the skin).
+    const double s = (p - q).dot(contact.normal);
+    contact.depth_mm = s < 0.0 ? std::sqrt(d2) : -std::sqrt(d2);
+  }
+  return found;
+}
+
+}  // namespace lamina::world::detail

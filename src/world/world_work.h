@@ -1,0 +1,98 @@
+#pragma once
+// The world step's reusable buffers and internal passes (private to module world): each body's
+// skin triangles in a hashed grid, the contacts found, each node's inverse mass. Sized once and
+// reused, so that a step allocates nothing once the contacts' count has been reached.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "lamina/world/body_contact.h"
+#include "lamina/world/world.h"
+
+namespace lamina::world::detail {
+
+/// A body's skin triangles at the current positions, bucketed by a hashed uniform grid: each
+/// triangle in every cell its box (grown by the reach) overlaps. Rebuilt every step, in place.
+struct SkinGrid {
+  double cell_mm = 1.0;
+  uint64_t mask = 0;           ///< buckets - 1 (a power of two)
+  std::vector<int32_t> start;  ///< buckets + 1 offsets into items
+  std::vector<int32_t> items;  ///< triangle rows of layer 0's F
+  std::vector<uint64_t> keys;  ///< scratch: (bucket, triangle) pairs before sorting
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();  ///< skin's box
+  double mean_edge_mm = 0.0;  ///< of the skin at rest
+};
+
+/// A node of one body held at a point of another body's skin (or its own) by an implicit
+/// zero-length spring: a contact (the point: where the node entered, at its rest overlap) or a
+/// tie (the point: its length away from where it is tied).
+struct Coupling {
+  int32_t body = -1, node = -1;  ///< the spring's node (a slot, a node)
+  int32_t other = -1;            ///< the skin's body (a slot)
+  std::array<int32_t, 3> corners{};
+  Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();  ///< where the spring pulls the node, mm
+  double stiffness_n_per_m = 0.0;
+  Tie* tie = nullptr;                                ///< a tie's coupling; null for a contact
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< a contact's: the skin's outward normal
+  double allowance_mm = 0.0;                         ///< a contact's rest overlap
+};
+
+/// A force waiting for the next step: the other end of a coupling's spring.
+struct PendingForce {
+  int32_t node = -1;
+  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();
+  bool contact = true;  ///< a contact's (else an attachment's)
+};
+
+struct WorldWork {
+  std::vector<SkinGrid> grids;                 ///< per slot
+  std::vector<std::vector<double>> node_area;  ///< per slot, per node: skin area, mm^2
+  std::vector<Contact> contacts;
+  std::vector<Coupling> couplings;
+  std::vector<std::vector<int32_t>> spring_nodes;   ///< per slot: the couplings' nodes
+  std::vector<std::vector<double>> spring_k;        ///< per slot: their stiffness
+  std::vector<std::vector<PendingForce>> pending;   ///< per slot: forces for the next step
+  std::vector<std::vector<PendingForce>> arriving;  ///< per slot: the ones this step applies
+  /// per slot, per node: its contact spring pushed it out at the end of the last step (it
+  /// stays in contact within ContactOptions::margin_mm outside the skin: no on-off chatter)
+  std::vector<std::vector<uint8_t>> pushed;
+  std::vector<uint8_t> had_springs;  ///< per slot: it had couplings last step
+  std::vector<int32_t> row_of_slot;  ///< per slot, its row of WorldStepStats::bodies
+};
+
+/// Fills `grid` with the skin of `model` at positions x, grown by `reach_mm`.
+void build_skin_grid(const Model& model, const Eigen::MatrixX3d& x, double reach_mm,
+                     SkinGrid& grid);
+
+/// The bucket of the cell holding point p.
+uint64_t grid_bucket(const SkinGrid& grid, const Eigen::Vector3d& p);
+
+/// The nearest point within `reach_mm` of node `node` (body `node_body`, position p) on the skin
+/// of body `other` (its grid), skipping in self-contact the triangles whose corners all lie
+/// within `exclusion_mm` of the node at rest. Fills `contact` (depth: the distance, signed:
+/// > 0 inside) and returns false when no triangle is within reach.
+bool nearest_on_skin(const Model& other_model, const Eigen::MatrixX3d& other_x,
+                     const SkinGrid& grid, const Eigen::Vector3d& p, int32_t node, bool self,
+                     const Model& node_model, double exclusion_mm, double reach_mm,
+                     Contact& contact);
+
+/// Every skin node inside a skin at the current positions (ContactOptions), into
+/// work.contacts; with `rest_overlap` false, depths beyond each node's rest overlap.
+void find_contacts(World& world, bool measure_rest);
+
+/// Before the solves: the couplings of this step (contacts found now, active ties), each one's
+/// spring on its node (sim::set_contact_stiffness and its constant force in f_ext), and the
+/// other ends' forces from the last step into f_ext (their share of the stats in `out`).
+void begin_couplings(World& world, WorldStepStats& out);
+
+/// After the solves: each spring's force at the new positions, its other end's force kept for
+/// the next step, the ties' pulls (torn past their strength) and the contacts' depths.
+void end_couplings(World& world, WorldStepStats& out);
+
+/// The skin area each node of layer 0 stands for (a third of its triangles'), mm^2.
+std::vector<double> skin_node_area(const Model& model);
+
+}  // namespace lamina::world::detail

@@ -1,0 +1,258 @@
+// A world of bodies: contact conserves force and holds a 2 N press within 0.5 mm, the bodies
+// come back to rest, one body steps exactly as its simulation alone, stale handles and
+// overlapping bodies are refused, attachments hold, tear and are divided.
+#include "lamina/world/world.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/sim/contact_springs.h"
+#include "support/held_sphere.h"
+#include "support/sphere_model.h"
+
+namespace lamina::world {
+namespace {
+
+// The test sphere scaled by `scale` about its centre (masses with its volume), moved by `offset`.
+std::shared_ptr<Model> sphere_at(const Eigen::Vector3d& offset, double scale = 1.0) {
+  Eigen::Vector3d c;
+  auto m = std::make_shared<Model>(test::sphere_model(&c));
+  if (scale != 1.0) {
+    m->X = ((m->X.rowwise() - c.transpose()) * scale).rowwise() + c.transpose();
+    for (double& k : m->mass_kg) k *= scale * scale * scale;
+    for (double& l : m->springs.rest_length_mm) l *= scale;
+  }
+  m->X.rowwise() += offset.transpose();
+  return m;
+}
+
+Eigen::Vector3d sphere_centre() {
+  Eigen::Vector3d c;
+  test::sphere_model(&c);
+  return c;
+}
+
+sim::Simulation tissue_on(const Model& m) {
+  return test::soft_tissue(m);
+}
+
+// Skin nodes whose x is beyond `x` on the side of `sign`.
+std::vector<int32_t> cap(const Model& m, double x, double sign) {
+  std::vector<int32_t> nodes;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (sign * (m.X(i, 0) - x) > 0.0) nodes.push_back(i);
+  return nodes;
+}
+
+int32_t skin_node_with_least_x(const Model& m) {
+  int32_t best = 0;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (m.X(i, 0) < m.X(best, 0)) best = i;
+  return best;
+}
+
+double rest_distance(const Body& b) {
+  return (b.sim.x - b.model->X).rowwise().norm().maxCoeff();
+}
+
+// Two spheres side by side along x, 0.5 mm apart: A, elastically supported on its far cap,
+// pressed towards B by `press_n` over its far half until `press_end_s`; B's far side fixed.
+struct TwoSpheres {
+  World world;
+  BodyId a, b;
+};
+
+TwoSpheres two_spheres(double gap_mm, double press_n, double press_end_s, double scale = 1.0) {
+  TwoSpheres t;
+  const Eigen::Vector3d c = sphere_centre();
+  const double r = 20.0 * scale;
+  auto ma = sphere_at(Eigen::Vector3d::Zero(), scale);
+  auto mb = sphere_at(Eigen::Vector3d(2.0 * r + gap_mm, 0.0, 0.0), scale);
+  sim::Simulation sa = tissue_on(*ma), sb = tissue_on(*mb);
+  std::vector<int32_t> held;
+  for (int32_t i = 0; i < ma->layers[0].node_count; ++i)
+    if (ma->X(i, 0) < c.x() - 0.6 * r) held.push_back(i);
+  sim::support_nodes(sa, held, std::vector<double>(held.size(), 1.0));
+  sim::fix_nodes(sb, cap(*mb, c.x() + 2.0 * r + gap_mm + 0.6 * r, +1.0));
+  interact::ToolDriver press{
+      .tools = {{.vertex = skin_node_with_least_x(*ma),
+                 .force_mn = Eigen::Vector3d(1000.0 * press_n, 0.0, 0.0),
+                 .start_s = 0.0,
+                 .end_s = press_end_s,
+                 .radius_mm = 1.25 * r}},  // the whole far half: a press, not an indentation
+      .routing = {.routing = interact::Routing::kNone, .touch = interact::Touch::kSkin}};
+  t.a =
+      create_body(t.world, {.name = "a", .model = ma, .simulation = std::move(sa), .tools = press});
+  t.b = create_body(t.world, {.name = "b", .model = mb, .simulation = std::move(sb), .tools = {}});
+  return t;
+}
+
+TEST(World, OneBodyStepsExactlyAsItsSimulationAlone) {
+  const Eigen::Vector3d c = sphere_centre();
+  auto m = sphere_at(Eigen::Vector3d::Zero());
+  const interact::ToolDriver poke{
+      .tools = {{.vertex = skin_node_with_least_x(*m),
+                 .force_mn = Eigen::Vector3d(300.0, 0.0, 0.0),
+                 .end_s = 0.05}},
+      .routing = {.routing = interact::Routing::kNone, .touch = interact::Touch::kSkin}};
+  sim::Simulation alone = tissue_on(*m);
+  sim::fix_nodes(alone, cap(*m, c.x() + 12.0, +1.0));
+  sim::Simulation in_world = alone;
+  interact::ToolDriver driver = poke;
+  World world;
+  const BodyId id = create_body(
+      world, {.name = "organ", .model = m, .simulation = std::move(in_world), .tools = poke});
+  for (int k = 0; k < 120; ++k) {
+    interact::apply_tools(alone, driver);
+    sim::step(alone);
+    step(world);
+  }
+  const Body& b = body(world, id);
+  EXPECT_EQ((b.sim.x - alone.x).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((b.sim.v - alone.v).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT(rest_distance(b), 0.1);  // it did move
+}
+
+TEST(World, StaleHandlesAndOverlappingBodiesAreRefusedLeavingTheWorldAsItWas) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  destroy_body(t.world, t.b);
+  EXPECT_FALSE(is_valid(t.world, t.b));
+  try {
+    (void)body(t.world, t.b);
+    FAIL() << "a stale handle was taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("stale"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(destroy_body(t.world, t.b), Error);
+  // The slot is reused by the next body, under a new generation: the old handle stays stale.
+  auto mc = sphere_at(Eigen::Vector3d(40.5, 0.0, 0.0));
+  const BodyId c =
+      create_body(t.world, {.name = "c", .model = mc, .simulation = tissue_on(*mc), .tools = {}});
+  EXPECT_EQ(c.index, t.b.index);
+  EXPECT_FALSE(is_valid(t.world, t.b));
+  EXPECT_THROW(create_attachment(t.world, {.body_a = t.a.index,
+                                           .body_b = t.b.index,
+                                           .generation_a = t.a.generation,
+                                           .generation_b = t.b.generation}),
+               Error);
+  // A body placed half inside another is refused, naming both.
+  auto md = sphere_at(Eigen::Vector3d(20.0, 0.0, 0.0));
+  try {
+    create_body(t.world, {.name = "d", .model = md, .simulation = tissue_on(*md), .tools = {}});
+    FAIL() << "an overlapping body was taken";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'d'"), std::string::npos) << what;
+    EXPECT_NE(what.find("overlap"), std::string::npos) << what;
+  }
+  EXPECT_EQ(body_ids(t.world).size(), 2u);
+  EXPECT_EQ(find_body(t.world, "d").index, -1);
+}
+
+AttachmentId attach(TwoSpheres& t, double strength_kpa) {
+  return create_attachment(t.world, {.body_a = t.a.index,
+                                     .body_b = t.b.index,
+                                     .generation_a = t.a.generation,
+                                     .generation_b = t.b.generation,
+                                     .reach_mm = 2.0,
+                                     .stiffness_kpa_per_mm = 2.0,
+                                     .strength_kpa = strength_kpa});
+}
+
+TEST(World, AttachmentsHoldConserveForceAndTearPastTheirStrength) {
+  double moved[2] = {0.0, 0.0};
+  int run = 0;
+  for (const double strength : {1000.0, 5.0}) {
+    // A (supported on its far cap) pulled away from B (fixed far side) by 1 N.
+    TwoSpheres t = two_spheres(0.5, -1.0, 10.0);
+    const AttachmentId id = attach(t, strength);
+    const int64_t ties = count_ties(t.world).total;
+    ASSERT_GT(ties, 10);
+    WorldStepStats st;
+    for (int k = 0; k < 600; ++k) {
+      step(t.world, st);
+      ASSERT_EQ(st.unstable, sim::Instability::kNone);
+    }
+    const Attachment& at = attachment(t.world, id);
+    const auto torn =
+        std::count_if(at.ties.begin(), at.ties.end(), [](const Tie& x) { return x.torn; });
+    moved[run++] = rest_distance(body(t.world, t.a));
+    if (strength > 100.0) {
+      // Held, and once settled what one body receives the other gives (each spring's far end
+      // gets its force a step later).
+      const Eigen::Vector3d fa = st.bodies[0].attachment_force_mn,
+                            fb = st.bodies[1].attachment_force_mn;
+      EXPECT_GT(fa.norm(), 100.0);
+      EXPECT_LE((fa + fb).norm(), 0.01 * fa.norm());
+      EXPECT_EQ(torn, 0) << "strong ties tore";
+    } else {
+      EXPECT_EQ(torn, ties) << "weak ties held a 1 N pull";
+      EXPECT_EQ(st.bodies[0].attachment_force_mn.norm(), 0.0);
+    }
+  }
+  EXPECT_GT(moved[1], moved[0] + 2.0) << "A came away no farther once its ties tore";
+}
+
+TEST(World, ABladeBetweenTheBodiesDividesTheirTies) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  attach(t, 30.0);
+  const Eigen::Vector3d c = sphere_centre();
+  const double x = c.x() + 20.25;  // the plane between them
+  // A blade edge along z swept along y through the whole contact.
+  const BladeSweep half{.a0 = {x, c.y() - 30.0, c.z() - 30.0},
+                        .b0 = {x, c.y() - 30.0, c.z() + 30.0},
+                        .a1 = {x, c.y(), c.z() - 30.0},
+                        .b1 = {x, c.y(), c.z() + 30.0}};
+  const int32_t first = divide_ties(t.world, half);
+  const TieCount after_half = count_ties(t.world);
+  EXPECT_GT(first, 0);
+  EXPECT_LT(after_half.divided, after_half.total);  // only the half the blade passed
+  BladeSweep rest = half;
+  rest.a0 = half.a1;
+  rest.b0 = half.b1;
+  rest.a1.y() = rest.b1.y() = c.y() + 30.0;
+  divide_ties(t.world, rest);
+  EXPECT_EQ(count_ties(t.world).divided, count_ties(t.world).total);
+  // Divided, they pull no more.
+  WorldStepStats st;
+  step(t.world, st);
+  EXPECT_EQ(st.bodies[0].attachment_force_mn.norm(), 0.0);
+}
+
+}  // namespace
+}  // namespace lamina::world
+
+namespace lamina::world {
+namespace {
+
+// The couplings' spring: stiffness inside the implicit step plus its constant force holds a node
+// at a point, stably at a stiffness far beyond an explicit force's reach, and lets go when
+// cleared.
+TEST(World, AContactSpringHoldsANodeAtItsPointInsideTheImplicitStepAndLetsGo) {
+  const Eigen::Vector3d c = sphere_centre();
+  auto m = sphere_at(Eigen::Vector3d::Zero());
+  sim::Simulation s = tissue_on(*m);
+  sim::fix_nodes(s, cap(*m, c.x() + 12.0, +1.0));
+  const int32_t n = skin_node_with_least_x(*m);
+  const Eigen::Vector3d target = m->X.row(n).transpose() - Eigen::Vector3d(3.0, 0.0, 0.0);
+  const double k = 1e5;  // N/m: k dt^2 / m of about 6000 on this node
+  sim::set_contact_stiffness(s, {n}, {k});
+  s.f_ext.row(n) = (k * (target - m->X.row(n).transpose())).transpose();
+  const sim::StepStats held = sim::run_to_convergence(s);
+  EXPECT_EQ(held.unstable, sim::Instability::kNone);
+  EXPECT_TRUE(held.converged);
+  EXPECT_LT((s.x.row(n).transpose() - target).norm(), 0.01);
+  sim::set_contact_stiffness(s, {}, {});
+  s.f_ext.setZero();
+  const sim::StepStats released = sim::run_to_convergence(s);
+  EXPECT_TRUE(released.converged);
+  EXPECT_LT((s.x - m->X).rowwise().norm().maxCoeff(), 0.05);
+  EXPECT_THROW(sim::set_contact_stiffness(s, {n}, {-1.0}), Error);
+  EXPECT_THROW(sim::set_contact_stiffness(s, {m->node_count()}, {1.0}), Error);
+}
+
+}  // namespace
+}  // namespace lamina::world
