@@ -8,6 +8,8 @@
 # tests/embedding); a test not built in a preset is ignored.
 # name, release seconds, sanitizer seconds
 set(lamina_test_costs
+  World.ContactHoldsATwoNewtonPressWithinHalfAMillimetreForceConservedAndComesBackToRest 10 90
+  World.AttachmentsHoldConserveForceAndTearPastTheirStrength 8 70
   LaminaValidate.QuickRunComparesTheModelsWithConvergedFiniteElements 12 121
   LaminaRun.ResumeFromACheckpointContinuesBitForBit 18 64
   LaminaValidate.StabilityQuickRunReleasesEveryLoadAndWritesItsReport 8 51

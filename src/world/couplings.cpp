@@ -1,11 +1,12 @@
-// Contact and attachments as implicit springs: a node that entered a skin (or a tie's node) is
-// held at its point of the other skin by a zero-length spring inside its own body's implicit
-// step (sim::set_contact_stiffness: stiffness k in the system, k (T - X) in f_ext), where a
+// Contact and attachments as implicit springs that meet halfway: a node that entered a skin (or
+// a tie's node) and the point of the other skin it is coupled to are each pulled towards the
+// middle of where they should be, by zero-length springs inside their own bodies' implicit
+// steps (sim::set_contact_stiffness: stiffness k in the system, k (T - X) in f_ext), where a
 // spring stiff enough to hold 2 N within half a millimetre on nodes of a few milligrams is
-// stable; the spring's other end, on the other body's triangle, gets the equal and opposite
-// force at the next step. What one body receives the other gives: each step's spring forces
-// are handed over whole, one step later (docs/world.md: why not both in one step, and why not
-// projections after the solve).
+// stable. Neither side's force is explicit in the other: each body sees the meeting point fixed
+// for its step, and the next step takes a new one from where both ended (a block-Jacobi sweep,
+// which only contracts the gap). Pulled to the middle of their current positions, the two
+// springs' forces are equal and opposite whenever the bodies are at rest (docs/world.md).
 #include <algorithm>
 #include <cmath>
 
@@ -34,117 +35,132 @@ void add_force(Body& b, int32_t node, const Eigen::Vector3d& f) {
   b.tools.loads.nodes.push_back(node);  // cleared with the tools' loads next step
 }
 
+// The coupling of node p (body nb) to the skin point of ob with `weights` on `corners`, which
+// should end at p - offset: both pulled to the middle of p and (that point + offset).
+Coupling halfway(const Body& nb, const Body& ob, int32_t node,
+                 const std::array<int32_t, 3>& corners, const Eigen::Vector3d& weights,
+                 const Eigen::Vector3d& offset) {
+  Coupling c;
+  c.node = node;
+  c.corners = corners;
+  c.weights = weights;
+  const Eigen::Vector3d p = nb.sim.x.row(node).transpose();
+  const Eigen::Vector3d q = point_on(ob, corners, weights);
+  const Eigen::Vector3d shift = 0.5 * (p - offset - q);  // how far the skin point moves
+  c.target = p - shift;                                  // and the node, the other way
+  for (int a = 0; a < 3; ++a) c.corner_targets[a] = ob.sim.x.row(corners[a]).transpose() + shift;
+  return c;
+}
+
 }  // namespace
 
-void begin_couplings(World& world, WorldStepStats& out) {
+void begin_couplings(World& world) {
   WorldWork& w = world.work();
   const size_t slots = world.bodies.size();
   w.spring_nodes.resize(slots);
   w.spring_k.resize(slots);
-  w.pending.resize(slots);
-  w.arriving.resize(slots);
   w.had_springs.resize(slots, 0);
   w.pushed.resize(slots);
   w.couplings.clear();
   for (size_t s = 0; s < slots; ++s) {
     w.spring_nodes[s].clear();
     w.spring_k[s].clear();
-    std::swap(w.pending[s], w.arriving[s]);  // last step's other ends arrive now
-    w.pending[s].clear();
   }
-  // Contacts at the start of the step.
+  // Contacts at the start of the step: the node should sit at its rest overlap under the skin.
   if (world.contact.enabled) {
     find_contacts(world, /*measure_rest=*/false);
-    for (const Contact& c : w.contacts) {
-      const Body& nb = world.bodies[static_cast<size_t>(c.body)].body;
-      const Body& ob = world.bodies[static_cast<size_t>(c.other)].body;
-      const double allowance = nb.rest_overlap_mm[static_cast<size_t>(c.node)];
+    for (const Contact& ct : w.contacts) {
+      const Body& nb = world.bodies[static_cast<size_t>(ct.body)].body;
+      const Body& ob = world.bodies[static_cast<size_t>(ct.other)].body;
+      const double allowance = nb.rest_overlap_mm[static_cast<size_t>(ct.node)];
       const double area =
-          areas_of(w, static_cast<size_t>(c.body), *nb.model)[static_cast<size_t>(c.node)];
-      w.couplings.push_back({.body = c.body,
-                             .node = c.node,
-                             .other = c.other,
-                             .corners = c.corners,
-                             .weights = c.weights,
-                             .target = point_on(ob, c.corners, c.weights) - allowance * c.normal,
-                             .stiffness_n_per_m = world.contact.stiffness_kpa_per_mm * area,
-                             .tie = nullptr,
-                             .normal = c.normal,
-                             .allowance_mm = allowance});
+          areas_of(w, static_cast<size_t>(ct.body), *nb.model)[static_cast<size_t>(ct.node)];
+      Coupling c = halfway(nb, ob, ct.node, ct.corners, ct.weights, allowance * ct.normal);
+      c.body = ct.body;
+      c.other = ct.other;
+      c.stiffness_n_per_m = world.contact.stiffness_kpa_per_mm * area;
+      c.normal = ct.normal;
+      c.allowance_mm = allowance;
+      w.couplings.push_back(c);
     }
   } else {
     w.contacts.clear();
   }
-  // Ties: each node pulled to its length from its point.
+  // Ties: the node should sit its length from its point, along where it is now.
   for (AttachmentSlot& slot : world.attachments) {
     if (!slot.alive) continue;
     for (Tie& t : slot.attachment.ties) {
       if (!t.active()) continue;
       const Body& nb = world.bodies[static_cast<size_t>(t.node_body)].body;
       const Body& sb = world.bodies[static_cast<size_t>(t.surface_body)].body;
-      const Eigen::Vector3d q = point_on(sb, t.corners, t.weights);
-      const Eigen::Vector3d d = nb.sim.x.row(t.node).transpose() - q;
+      const Eigen::Vector3d d =
+          nb.sim.x.row(t.node).transpose() - point_on(sb, t.corners, t.weights);
       const double len = d.norm();
-      w.couplings.push_back({.body = t.node_body,
-                             .node = t.node,
-                             .other = t.surface_body,
-                             .corners = t.corners,
-                             .weights = t.weights,
-                             .target = len > 1e-9 ? Eigen::Vector3d(q + t.rest_mm * d / len) : q,
-                             .stiffness_n_per_m = t.stiffness_n_per_m,
-                             .tie = &t});
+      const Eigen::Vector3d offset =
+          len > 1e-9 ? Eigen::Vector3d(t.rest_mm * d / len) : Eigen::Vector3d::Zero();
+      Coupling c = halfway(nb, sb, t.node, t.corners, t.weights, offset);
+      c.body = t.node_body;
+      c.other = t.surface_body;
+      c.stiffness_n_per_m = t.stiffness_n_per_m;
+      c.tie = &t;
+      w.couplings.push_back(c);
     }
   }
   for (const Coupling& c : w.couplings) {
-    Body& b = world.bodies[static_cast<size_t>(c.body)].body;
+    Body& nb = world.bodies[static_cast<size_t>(c.body)].body;
+    Body& ob = world.bodies[static_cast<size_t>(c.other)].body;
+    const double k = c.stiffness_n_per_m;
     w.spring_nodes[static_cast<size_t>(c.body)].push_back(c.node);
-    w.spring_k[static_cast<size_t>(c.body)].push_back(c.stiffness_n_per_m);
-    add_force(b, c.node, c.stiffness_n_per_m * (c.target - b.model->X.row(c.node).transpose()));
+    w.spring_k[static_cast<size_t>(c.body)].push_back(k);
+    add_force(nb, c.node, k * (c.target - nb.model->X.row(c.node).transpose()));
+    for (int a = 0; a < 3; ++a) {
+      if (c.weights[a] == 0.0) continue;
+      const double ka = k * c.weights[a];
+      w.spring_nodes[static_cast<size_t>(c.other)].push_back(c.corners[a]);
+      w.spring_k[static_cast<size_t>(c.other)].push_back(ka);
+      add_force(ob, c.corners[a],
+                ka * (c.corner_targets[a] - ob.model->X.row(c.corners[a]).transpose()));
+    }
   }
   for (size_t s = 0; s < slots; ++s) {
     if (!world.bodies[s].alive) continue;
-    Body& b = world.bodies[s].body;
-    BodyStepStats& st = out.bodies[static_cast<size_t>(w.row_of_slot[s])];
-    for (const PendingForce& p : w.arriving[s]) {
-      add_force(b, p.node, p.force_mn);
-      (p.contact ? st.contact_force_mn : st.attachment_force_mn) += p.force_mn;
-    }
     // Last step's springs go where none are needed now.
     const bool springs = !w.spring_nodes[s].empty();
     if (springs || w.had_springs[s])
-      sim::set_contact_stiffness(b.sim, w.spring_nodes[s], w.spring_k[s]);
+      sim::set_contact_stiffness(world.bodies[s].body.sim, w.spring_nodes[s], w.spring_k[s]);
     w.had_springs[s] = springs ? 1 : 0;
   }
 }
 
 void end_couplings(World& world, WorldStepStats& out) {
   WorldWork& w = world.work();
-  for (size_t s = 0; s < world.bodies.size(); ++s) {
-    std::vector<uint8_t>& pushed = w.pushed[s];
-    if (!world.bodies[s].alive) continue;
-    pushed.assign(static_cast<size_t>(world.bodies[s].body.model->node_count()), 0);
-  }
+  for (size_t s = 0; s < world.bodies.size(); ++s)
+    if (world.bodies[s].alive)
+      w.pushed[s].assign(static_cast<size_t>(world.bodies[s].body.model->node_count()), 0);
   for (const Coupling& c : w.couplings) {
     const Body& nb = world.bodies[static_cast<size_t>(c.body)].body;
     const Body& ob = world.bodies[static_cast<size_t>(c.other)].body;
     const Eigen::Vector3d p = nb.sim.x.row(c.node).transpose();
     const Eigen::Vector3d f = -c.stiffness_n_per_m * (p - c.target);  // on the node, mN
-    BodyStepStats& st = out.bodies[static_cast<size_t>(w.row_of_slot[static_cast<size_t>(c.body)])];
-    const bool contact = c.tie == nullptr;
-    (contact ? st.contact_force_mn : st.attachment_force_mn) += f;
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();                      // on the skin's corners
     for (int a = 0; a < 3; ++a)
-      if (c.weights[a] != 0.0)
-        w.pending[static_cast<size_t>(c.other)].push_back(
-            {.node = c.corners[a], .force_mn = -c.weights[a] * f, .contact = contact});
+      g -= c.stiffness_n_per_m * c.weights[a] *
+           (ob.sim.x.row(c.corners[a]).transpose() - c.corner_targets[a]);
+    BodyStepStats& sn = out.bodies[static_cast<size_t>(w.row_of_slot[static_cast<size_t>(c.body)])];
+    BodyStepStats& so =
+        out.bodies[static_cast<size_t>(w.row_of_slot[static_cast<size_t>(c.other)])];
+    const bool contact = c.tie == nullptr;
+    (contact ? sn.contact_force_mn : sn.attachment_force_mn) += f;
+    (contact ? so.contact_force_mn : so.attachment_force_mn) += g;
     const Eigen::Vector3d q = point_on(ob, c.corners, c.weights);
     if (contact) {
       if (c.body == c.other)
-        ++st.self_contacts;
+        ++sn.self_contacts;
       else
-        ++st.contacts;
-      const double depth = -(p - q).dot(c.normal) - c.allowance_mm;
-      st.max_penetration_mm = std::max(st.max_penetration_mm, depth);
-      if (f.dot(c.normal) > 0.0)
+        ++sn.contacts;
+      sn.max_penetration_mm =
+          std::max(sn.max_penetration_mm, -(p - q).dot(c.normal) - c.allowance_mm);
+      if (f.dot(c.normal) > 0.0)  // it pushed: it stays in contact within the margin
         w.pushed[static_cast<size_t>(c.body)][static_cast<size_t>(c.node)] = 1;
     } else {
       const Eigen::Vector3d d = p - q;

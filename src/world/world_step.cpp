@@ -50,7 +50,7 @@ void step(World& world, WorldStepStats& out) {
                                 [](const AttachmentSlot& a) { return a.alive; });
   const bool couple = ties || world.contact.enabled;
   t0 = Clock::now();
-  if (couple) detail::begin_couplings(world, out);
+  if (couple) detail::begin_couplings(world);
   out.profile.contact_us = us_since(t0);
 
   t0 = Clock::now();

@@ -25,26 +25,21 @@ struct SkinGrid {
   double mean_edge_mm = 0.0;  ///< of the skin at rest
 };
 
-/// A node of one body held at a point of another body's skin (or its own) by an implicit
-/// zero-length spring: a contact (the point: where the node entered, at its rest overlap) or a
-/// tie (the point: its length away from where it is tied).
+/// A node of one body and a point of another body's skin (or its own) pulled to meet halfway
+/// by implicit zero-length springs, one in each body's step: a contact (they meet where the
+/// node sits at its rest overlap under the skin) or a tie (they meet at its length apart).
 struct Coupling {
-  int32_t body = -1, node = -1;  ///< the spring's node (a slot, a node)
+  int32_t body = -1, node = -1;  ///< the node's side (a slot, a node)
   int32_t other = -1;            ///< the skin's body (a slot)
   std::array<int32_t, 3> corners{};
   Eigen::Vector3d weights = Eigen::Vector3d::Zero();
-  Eigen::Vector3d target = Eigen::Vector3d::Zero();  ///< where the spring pulls the node, mm
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();  ///< where the node's spring pulls it, mm
+  /// where each corner's spring (stiffness times its weight) pulls it, mm
+  std::array<Eigen::Vector3d, 3> corner_targets{};
   double stiffness_n_per_m = 0.0;
   Tie* tie = nullptr;                                ///< a tie's coupling; null for a contact
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< a contact's: the skin's outward normal
   double allowance_mm = 0.0;                         ///< a contact's rest overlap
-};
-
-/// A force waiting for the next step: the other end of a coupling's spring.
-struct PendingForce {
-  int32_t node = -1;
-  Eigen::Vector3d force_mn = Eigen::Vector3d::Zero();
-  bool contact = true;  ///< a contact's (else an attachment's)
 };
 
 struct WorldWork {
@@ -52,10 +47,8 @@ struct WorldWork {
   std::vector<std::vector<double>> node_area;  ///< per slot, per node: skin area, mm^2
   std::vector<Contact> contacts;
   std::vector<Coupling> couplings;
-  std::vector<std::vector<int32_t>> spring_nodes;   ///< per slot: the couplings' nodes
-  std::vector<std::vector<double>> spring_k;        ///< per slot: their stiffness
-  std::vector<std::vector<PendingForce>> pending;   ///< per slot: forces for the next step
-  std::vector<std::vector<PendingForce>> arriving;  ///< per slot: the ones this step applies
+  std::vector<std::vector<int32_t>> spring_nodes;  ///< per slot: the couplings' nodes
+  std::vector<std::vector<double>> spring_k;       ///< per slot: their stiffness
   /// per slot, per node: its contact spring pushed it out at the end of the last step (it
   /// stays in contact within ContactOptions::margin_mm outside the skin: no on-off chatter)
   std::vector<std::vector<uint8_t>> pushed;
@@ -84,12 +77,13 @@ bool nearest_on_skin(const Model& other_model, const Eigen::MatrixX3d& other_x,
 void find_contacts(World& world, bool measure_rest);
 
 /// Before the solves: the couplings of this step (contacts found now, active ties), each one's
-/// spring on its node (sim::set_contact_stiffness and its constant force in f_ext), and the
-/// other ends' forces from the last step into f_ext (their share of the stats in `out`).
-void begin_couplings(World& world, WorldStepStats& out);
+/// springs on its node and its corners (sim::set_contact_stiffness and their constant forces in
+/// f_ext).
+void begin_couplings(World& world);
 
-/// After the solves: each spring's force at the new positions, its other end's force kept for
-/// the next step, the ties' pulls (torn past their strength) and the contacts' depths.
+/// After the solves: each spring's force at the new positions (the bodies' contact and
+/// attachment forces in `out`), the ties' pulls (torn past their strength), the contacts'
+/// depths.
 void end_couplings(World& world, WorldStepStats& out);
 
 /// The skin area each node of layer 0 stands for (a third of its triangles'), mm^2.

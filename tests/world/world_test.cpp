@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "lamina/core/error.h"
 #include "lamina/sim/contact_springs.h"
@@ -88,6 +89,39 @@ TwoSpheres two_spheres(double gap_mm, double press_n, double press_end_s, double
       create_body(t.world, {.name = "a", .model = ma, .simulation = std::move(sa), .tools = press});
   t.b = create_body(t.world, {.name = "b", .model = mb, .simulation = std::move(sb), .tools = {}});
   return t;
+}
+
+// Spheres of 60 mm (the test sphere scaled 3x: nodes of about half a gram, as an organ's at
+// the paper's size), A pressed onto B with 2 N for 1.5 s, then released.
+TEST(World, ContactHoldsATwoNewtonPressWithinHalfAMillimetreForceConservedAndComesBackToRest) {
+  TwoSpheres t = two_spheres(0.5, 2.0, 1.5, 3.0);
+  WorldStepStats st;
+  double worst_penetration = 0.0;
+  for (int k = 0; k < 1500; ++k) {
+    step(t.world, st);
+    ASSERT_EQ(st.unstable, sim::Instability::kNone) << "step " << k << ": " << st.unstable_body;
+    for (const BodyStepStats& b : st.bodies)
+      worst_penetration = std::max(worst_penetration, b.max_penetration_mm);
+  }
+  EXPECT_LE(worst_penetration, 0.5);
+  // Pressed and settled: B takes what A's own support does not, the press's direction equal
+  // and opposite within 1% (docs/world.md: the sideways share, a slow creep, is not yet).
+  const Eigen::Vector3d fa = st.bodies[0].contact_force_mn, fb = st.bodies[1].contact_force_mn;
+  EXPECT_GT(fb.x(), 500.0);
+  EXPECT_LT(fb.x(), 2000.0);
+  EXPECT_LE(std::abs(fa.x() + fb.x()), 0.01 * std::abs(fa.x()));
+  EXPECT_LT(std::max(st.bodies[0].sim.max_speed_mm_per_s, st.bodies[1].sim.max_speed_mm_per_s), 2.0)
+      << "the pressed pair does not come to rest";
+  for (int k = 0; k < 3000; ++k) {
+    step(t.world, st);
+    ASSERT_EQ(st.unstable, sim::Instability::kNone);
+  }
+  std::printf("released: A %.3f mm, B %.3f mm from rest\n", rest_distance(body(t.world, t.a)),
+              rest_distance(body(t.world, t.b)));
+  // B, fixed, is back within 0.05 mm; A, held only by a weak support on its far cap, is still
+  // creeping back 3 s after release (docs/world.md).
+  EXPECT_LT(rest_distance(body(t.world, t.b)), 0.05);
+  EXPECT_LT(rest_distance(body(t.world, t.a)), 0.25);
 }
 
 TEST(World, OneBodyStepsExactlyAsItsSimulationAlone) {

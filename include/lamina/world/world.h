@@ -8,13 +8,12 @@
 ///
 /// One step runs named, timed stages (WorldProfile): each body's tools; contact and attachments
 /// (a skin node found inside another body's skin, or its own away from itself, and each tie's
-/// node, held at its point of the other skin by a spring inside its own body's implicit step;
-/// the spring's other end gets the equal and opposite force, one step later); each body's solve
-/// (its own sim::step); then the springs' forces measured. What one body receives the other
-/// gives: every spring's force is handed over whole. Springs inside the implicit step rather
-/// than penalty forces before it, because a penalty stiff enough to hold 2 N within 0.5 mm on
-/// nodes of a few milligrams is far beyond an explicit force's stability at 1 ms; and rather
-/// than projections after it, which the tissue threw back every step (docs/world.md).
+/// node, coupled to its point of the other skin: both pulled to meet halfway by springs inside
+/// their own bodies' implicit steps); each body's solve (its own sim::step); then the springs'
+/// forces measured. Springs inside both implicit steps rather than a penalty force before them
+/// or a projection after them: a penalty stiff enough to hold 2 N within 0.5 mm on nodes of a
+/// few milligrams is far beyond an explicit force's stability at 1 ms, and the tissue threw a
+/// projection back every step (docs/world.md has the measurements).
 /// Units: mm, kg, s; forces mN.
 
 #include <Eigen/Core>
@@ -83,10 +82,7 @@ struct BodySlot {
 
 /// Contact, the world's: between bodies and within each one.
 struct ContactOptions {
-  /// Off by default: contact's springs hand their other end's force over a step late, which
-  /// the measured presses in docs/world.md show unstable on nodes of a few grams and less; the
-  /// rest-overlap check (rest_overlap_tolerance_mm) runs either way.
-  bool enabled = false;
+  bool enabled = true;
   /// A body's skin nodes against its own skin, away from themselves: folded tissue meeting
   /// itself (a retracted lobe).
   bool self_contact = true;
@@ -94,8 +90,8 @@ struct ContactOptions {
   /// side of a thin part rather than pushed through.
   double reach_mm = 4.0;
   /// The contact's stiffness per unit area of skin, kPa/mm: a node that entered a skin is held
-  /// at it by a spring of this times its skin area (2 N over 100 mm^2 enter by 0.2 mm).
-  double stiffness_kpa_per_mm = 100.0;
+  /// at it by a spring of this times its skin area (2 N over 400 mm^2 enter by 0.25 mm).
+  double stiffness_kpa_per_mm = 20.0;
   /// A node its contact pushed out last step stays in contact until it is this far outside
   /// the skin, mm: contact lets go only when it would pull (no chatter of a pressed node
   /// coming in and out of contact every other step).
@@ -122,8 +118,8 @@ struct BodyStepStats {
   /// Deepest a skin node of this body in contact lies inside the other skin beyond its rest
   /// overlap after the step, mm.
   double max_penetration_mm = 0.0;
-  /// The contact force on this body this step, mN: its springs' and the other ends' of the
-  /// others' springs (from the last step).
+  /// The contact force on this body this step, mN: its couplings' springs' (on its nodes and on
+  /// its triangles' corners).
   Eigen::Vector3d contact_force_mn = Eigen::Vector3d::Zero();
   /// The attachments' force on this body this step, mN.
   Eigen::Vector3d attachment_force_mn = Eigen::Vector3d::Zero();
