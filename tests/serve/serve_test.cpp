@@ -212,7 +212,12 @@ TEST(Serve, APoseOnTheSkinPushesItAndTheReactionComesBackAgainstThePush) {
   std::memcpy(position.data(), &away, position.size());
   tool.send_bytes(
       concat(header_bytes(1, "POSITION", "Needle", position.size(), position), position));
-  EXPECT_EQ(reaction_after(0.5).norm(), 0.0);
+  // Under a sanitizer the loop may stream a few more reactions of the old pose first (an ASan
+  // run of 2026-11-28 still saw 34.5 mN 0.5 s after): the latest within up to 5 s.
+  double away_reaction = NAN;
+  for (int i = 0; i < 10 && !(away_reaction == 0.0); ++i)
+    away_reaction = reaction_after(0.5).norm();
+  EXPECT_EQ(away_reaction, 0.0);
 
   // Header version 2: an extended header (12 bytes, no metadata) before the same content.
   const std::vector<uint8_t> v1 = transform_bytes("Needle", node - 3.0 * push_direction);
