@@ -257,8 +257,10 @@ std::vector<Out> decode(const VtkXmlFrame& f, const VtkXmlArray& a, size_t count
   const bool any = count == kAnyCount;
   if (any) count = (size_t{1} << 31) / size;  // the bound: 2 GB of values
   std::vector<Out> out;
-  if (!any) out.reserve(count);
   if (format == "ascii") {
+    // The count is the file's claim: reserve no more than its text could hold (a value and a
+    // space each), or a claim of 10^13 values is a 80 TB allocation before the first is read.
+    if (!any) out.reserve(std::min(count, a.text.size() / 2 + 1));
     const char* p = a.text.data();
     const char* stop = p + a.text.size();
     while (true) {

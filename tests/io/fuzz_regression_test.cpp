@@ -51,6 +51,8 @@ bool refused(const std::string& target, const std::string& data, const test::Tem
       io::load_model(write("input.vtu", data));
     } else if (target == "obj") {
       io::read_obj(write("input.obj", data));
+    } else if (target == "vtp") {
+      io::read_vtp(write("input.vtp", data));
     } else if (target == "scene") {
       io::parse_scene(data, "input.json");
     } else if (target == "checkpoint") {
