@@ -8,6 +8,9 @@
 # tests/embedding); a test not built in a preset is ignored.
 # name, release seconds, sanitizer seconds
 set(lamina_test_costs
+  LaminaRunWorld.TheCholecystectomyFreesTheGallbladderAndTheLiverComesBackToRest 16 160
+  LaminaBuildOrgans.AModelPerOrganAndAWorldSceneOfThemThatRuns 4 35
+  World.TheContactSearchSkipsOnlyNodesThatCannotReachASkin 2 20
   World.ContactHoldsATwoNewtonPressWithinHalfAMillimetreForceConservedAndComesBackToRest 10 90
   World.AttachmentsHoldConserveForceAndTearPastTheirStrength 8 70
   LaminaValidate.QuickRunComparesTheModelsWithConvergedFiniteElements 12 121

@@ -28,8 +28,6 @@
 
 namespace lamina::cli {
 
-namespace {}  // namespace
-
 void check_output(const std::string& path, const std::vector<std::string>& extensions,
                   const char* what) {
   bool ok = false;
@@ -110,8 +108,6 @@ int run_phantom(const PhantomArgs& a) {
   return 0;
 }
 
-namespace {
-
 // --label, --embed and --embed-mask into the build options; the masks are read here.
 model::BuildOptions with_structures(const BuildArgs& a) {
   model::BuildOptions o = a.options;
@@ -131,9 +127,8 @@ model::BuildOptions with_structures(const BuildArgs& a) {
   return o;
 }
 
-}  // namespace
-
 int run_build(const BuildArgs& a) {
+  if (!a.organs.empty() || !a.organ_masks.empty()) return run_build_organs(a);
   check_output(a.output, {".vtu"}, "model");
   model::check_build_options(a.options);
   const LabelVolume volume = read_input(a.input);

@@ -49,9 +49,16 @@ struct BuildArgs {
   std::vector<int32_t> labels;           ///< --label: one, or several (their union)
   std::vector<std::string> embed;        ///< --embed LABEL[=NAME] entries
   std::vector<std::string> embed_masks;  ///< --embed-mask FILE[=NAME] entries
+  std::vector<std::string> organs;       ///< --organ LABEL=NAME entries: a model per organ
+  std::vector<std::string> organ_masks;  ///< --organ-mask FILE=NAME entries
   model::BuildOptions options;
 };
 int run_build(const BuildArgs& args);
+/// `lamina build --organ/--organ-mask`: a model per organ and a world scene in the folder
+/// args.output (organs_command.cpp); run_build() hands such a build here.
+int run_build_organs(const BuildArgs& args);
+/// --label, --embed and --embed-mask of `args` in its build options (the masks read).
+model::BuildOptions with_structures(const BuildArgs& args);
 
 struct InfoArgs {
   std::string model;
@@ -82,6 +89,9 @@ struct RunArgs {
 /// Simulates a scene: writes OUTDIR/metrics.csv, summary.json, skin.pvd and frames/ (layout in
 /// docs/scenes.md).
 int run_run(const RunArgs& args);
+/// `lamina run` on a world scene (io::is_world_scene_file()): several bodies in one world;
+/// run_run() hands such a scene here.
+int run_world(const RunArgs& args);
 
 struct ViewArgs {
   std::string what = io::kScenePhantom;  ///< model, input or scene

@@ -111,7 +111,8 @@ int main(int argc, char** argv) {
   bu->add_option(
       "input", build.input,
       "NIfTI/NRRD/MetaImage file or DICOM folder; 'phantom' (default) = built-in phantom");
-  bu->add_option("-o,--output", build.output, "model file to write (.vtu, opens in ParaView)")
+  bu->add_option("-o,--output", build.output,
+                 "model file to write (.vtu, opens in ParaView); a folder with --organ")
       ->required();
   bu->add_option("--layers", bo.layers, "number of layers S, skin included (default 2)");
   bu->add_option("--skin-vertices", bo.skin_vertices, "target skin vertex count (default 1284)");
@@ -130,6 +131,14 @@ int main(int argc, char** argv) {
   bu->add_option("--embed-mask", build.embed_masks,
                  "a structure from a separate mask on the segmentation's grid: FILE[=NAME] "
                  "(repeatable)");
+  bu->add_option("--organ", build.organs,
+                 "several organs of the segmentation, each a model of its own: LABEL=NAME,... "
+                 "e.g. 1=liver,4=gallbladder; -o is then a folder, with a model per organ and "
+                 "scene.json, a world scene of them (docs/world.md)")
+      ->delimiter(',');
+  bu->add_option("--organ-mask", build.organ_masks,
+                 "an organ from a separate mask on the segmentation's grid: FILE=NAME "
+                 "(repeatable; with or without --organ)");
   bu->add_option("--structure-triangles", bo.structure_triangles,
                  "triangles of each embedded structure's surface (default 20000)");
   bu->add_option("--locality", bo.locality, "BFS rings precomputed per node (default 4)");

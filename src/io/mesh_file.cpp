@@ -1,5 +1,7 @@
 #include "lamina/io/mesh_file.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
@@ -182,6 +184,44 @@ void write_mesh(const SurfaceMesh& mesh, const std::string& path, const Color& c
   const std::string bytes = encode(mesh, color);
   write_file_atomically(
       path, [&](std::ostream& out) { out.write(bytes.data(), std::ssize(bytes)); }, true);
+}
+
+void write_segments_vtp(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to,
+                        const std::vector<double>& value, const std::string& value_name,
+                        const std::string& path) {
+  if (!path.ends_with(".vtp")) throw invalid_input(path, "segments are written as .vtp only");
+  const Eigen::Index n = from.rows();
+  if (to.rows() != n || static_cast<Eigen::Index>(value.size()) != n)
+    throw invalid_input(path, "segments: ends and values differ in number");
+  std::string s =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" "
+      "header_type=\"UInt64\">\n  <PolyData>\n    <Piece NumberOfPoints=\"" +
+      std::to_string(2 * n) + "\" NumberOfVerts=\"0\" NumberOfLines=\"" + std::to_string(n) +
+      "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n      <Points>\n"
+      "        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" "
+      "format=\"ascii\">\n";
+  for (Eigen::Index r = 0; r < n; ++r)
+    for (const Eigen::MatrixX3d* m : {&from, &to}) {
+      s += "         ";
+      for (int c = 0; c < 3; ++c) append_number(s += ' ', (*m)(r, c));
+      s += '\n';
+    }
+  s += "        </DataArray>\n      </Points>\n      <CellData>\n        <DataArray "
+       "type=\"Float64\" Name=\"" +
+       value_name + "\" format=\"ascii\">\n";
+  for (const double v : value) {
+    append_number(s += "          ", v);
+    s += '\n';
+  }
+  s += "        </DataArray>\n      </CellData>\n      <Lines>\n        <DataArray "
+       "type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  for (Eigen::Index r = 0; r < n; ++r) s += fmt::format("          {} {}\n", 2 * r, 2 * r + 1);
+  s += "        </DataArray>\n        <DataArray type=\"Int64\" Name=\"offsets\" "
+       "format=\"ascii\">\n";
+  for (Eigen::Index r = 0; r < n; ++r) s += fmt::format("          {}\n", 2 * (r + 1));
+  s += "        </DataArray>\n      </Lines>\n    </Piece>\n  </PolyData>\n</VTKFile>\n";
+  write_file_atomically(path, [&](std::ostream& out) { out << s; });
 }
 
 SurfaceMesh read_obj(const std::string& path) {

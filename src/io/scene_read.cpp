@@ -13,6 +13,7 @@
 #include <string>
 
 #include "io/scene_keys.h"
+#include "io/scene_object.h"
 #include "lamina/io/scene.h"
 
 namespace lamina::io {
@@ -497,18 +498,12 @@ void read_output(const Value& v, Scene& s) {
 
 }  // namespace
 
-Scene parse_scene(const std::string& json_text, const std::string& source_name) {
-  static const Keys<Scene> kKeys = {
-      {"model", read_model}, {"material", read_material}, {"solver", read_solver},
-      {"tools", read_tools}, {"boundary", read_boundary}, {"output", read_output},
-  };
-  Scene s;
-  s.source = source_name;
-  const Reader r(s.source);
-  json doc;
+namespace detail {
+
+json parse_scene_json(const std::string& json_text, const std::string& source_name) {
   try {
     // Comments are allowed: a scene file is written by hand and worth annotating.
-    doc = json::parse(json_text, nullptr, true, true);
+    return json::parse(json_text, nullptr, true, true);
   } catch (const json::exception& e) {
     // "[json.exception.parse_error.101] parse error at line 3, column 5: ...": the bracketed
     // tag means nothing to a person editing the file.
@@ -517,15 +512,46 @@ Scene parse_scene(const std::string& json_text, const std::string& source_name) 
       what = what.substr(what.find("] ") + 2);
     throw invalid_input(source_name, "invalid JSON: " + what);
   }
-  if (!doc.is_object())
+}
+
+Scene read_scene_object(const json& doc, const std::string& source_name, const std::string& top) {
+  static const Keys<Scene> kKeys = {
+      {"model", read_model}, {"material", read_material}, {"solver", read_solver},
+      {"tools", read_tools}, {"boundary", read_boundary}, {"output", read_output},
+  };
+  Scene s;
+  s.source = source_name;
+  const Reader r(s.source);
+  if (!doc.is_object()) {
+    if (top.empty())
+      throw invalid_input(source_name,
+                          "expected a JSON object {...} at the top, got " + Reader::describe(doc));
+    r.require_object(doc, top);
+  }
+  // A world scene read as one organ would be the default scene with its bodies ignored.
+  if (top.empty() && doc.contains("bodies"))
     throw invalid_input(source_name,
-                        "expected a JSON object {...} at the top, got " + Reader::describe(doc));
-  const std::string top;
+                        "is a world scene (it has \"bodies\"): `lamina run` runs it; this command "
+                        "drives one organ for now (docs/world.md)");
   r.warn_unknown(doc, top, kKeys);
   read_keys(Object{r, doc, top}, kKeys, s);
   // Rings must reach as far as the routing spreads force.
   s.build.locality = std::max(s.build.locality, s.routing.locality);
   return s;
+}
+
+interact::Scalpel read_blade(const Reader& r, const json& data, const std::string& path) {
+  Scene holder;
+  const Object in{r, data, path};
+  read_scalpel(Value{in, data, path}, holder);
+  return holder.scalpels.front();
+}
+
+}  // namespace detail
+
+Scene parse_scene(const std::string& json_text, const std::string& source_name) {
+  return detail::read_scene_object(detail::parse_scene_json(json_text, source_name), source_name,
+                                   "");
 }
 
 Scene load_scene(const std::string& path) {

@@ -21,7 +21,9 @@ const LabelVolume& source_of(const EmbedStructure& s, const LabelVolume& organ) 
   return s.mask ? *s.mask : organ;
 }
 
-std::string describe(const GridFrame& f) {
+}  // namespace
+
+std::string describe_grid(const GridFrame& f) {
   return fmt::format("{}x{}x{} voxels of {:g}x{:g}x{:g} mm at ({:g}, {:g}, {:g})", f.size[0],
                      f.size[1], f.size[2], f.spacing_mm[0], f.spacing_mm[1], f.spacing_mm[2],
                      f.origin_mm[0], f.origin_mm[1], f.origin_mm[2]);
@@ -38,8 +40,6 @@ bool same_grid(const GridFrame& a, const GridFrame& b) {
     if (std::abs(a.direction[c] - b.direction[c]) > 1e-6) return false;
   return true;
 }
-
-}  // namespace
 
 }  // namespace lamina::model::detail
 
@@ -84,9 +84,10 @@ void check_embedding(const LabelVolume& volume, const BuildOptions& o) {
                                     std::string(role_name(structure_role(s))));
     if (s.mask) {
       if (!same_grid(s.mask->frame, volume.frame))
-        throw invalid_input(file, what + ": its grid (" + describe(s.mask->frame) +
-                                      ") is not the segmentation's (" + describe(volume.frame) +
-                                      "); resample the mask onto " + volume.source);
+        throw invalid_input(file, what + ": its grid (" + describe_grid(s.mask->frame) +
+                                      ") is not the segmentation's (" +
+                                      describe_grid(volume.frame) + "); resample the mask onto " +
+                                      volume.source);
     } else {
       // A label that is also the organ's (--label 1,2 --embed 2=NAME) is the union layout:
       // all its voxels are organ, and it is embedded as well.

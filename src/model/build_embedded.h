@@ -6,6 +6,12 @@
 
 namespace lamina::model::detail {
 
+/// "512x512x129 voxels of 0.57x0.57x1.6 mm at (x, y, z)", for messages.
+std::string describe_grid(const GridFrame& f);
+
+/// Same voxels in space: sizes equal, spacing, origin and directions to a micrometre.
+bool same_grid(const GridFrame& a, const GridFrame& b);
+
 /// The name a structure is shown and saved by: its own, else its mask file's name without the
 /// extensions, else "label N".
 std::string structure_name(const EmbedStructure& s);

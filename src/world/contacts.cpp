@@ -13,25 +13,37 @@ bool boxes_meet(const SkinGrid& a, const SkinGrid& b, double reach) {
          (b.lo.array() - reach <= a.hi.array()).all();
 }
 
-double self_exclusion(const ContactOptions& o, const SkinGrid& g) {
-  return o.self_exclusion_mm > 0.0 ? o.self_exclusion_mm : 3.0 * g.mean_edge_mm;
+// The skin's mean edge at rest, mm (the self-contact's exclusion is three of them).
+double mean_edge(const Model& m) {
+  const Eigen::MatrixX3i& F = m.layers.front().F;
+  double sum = 0.0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) sum += (m.X.row(F(f, 0)) - m.X.row(F(f, 1))).norm();
+  return F.rows() > 0 ? sum / static_cast<double>(F.rows()) : 1.0;
 }
 
 }  // namespace
 
-void find_contacts(World& world, bool measure_rest) {
+void find_contacts(World& world, bool measure_rest, bool every_node) {
   WorldWork& w = world.work();
   const ContactOptions& o = world.contact;
   w.contacts.clear();
   const auto slots = static_cast<int32_t>(world.bodies.size());
   w.grids.resize(world.bodies.size());
-  for (int32_t s = 0; s < slots; ++s) {
-    BodySlot& slot = world.bodies[static_cast<size_t>(s)];
-    if (!slot.alive) continue;
-    const Body& b = slot.body;
-    build_skin_grid(*b.model, measure_rest ? b.model->X : b.sim.x, o.reach_mm,
-                    w.grids[static_cast<size_t>(s)]);
-  }
+  w.grid_ready.assign(world.bodies.size(), 0);
+  // A grid is built when a node first needs it (at rest every skin's, for the boxes and the
+  // overlaps); the skins' farthest moves bound who can need one.
+  const auto grid = [&](int32_t t) -> const SkinGrid& {
+    SkinGrid& g = w.grids[static_cast<size_t>(t)];
+    if (!w.grid_ready[static_cast<size_t>(t)]) {
+      const Body& b = world.bodies[static_cast<size_t>(t)].body;
+      build_skin_grid(*b.model, measure_rest ? b.model->X : b.sim.x, o.reach_mm, g);
+      w.grid_ready[static_cast<size_t>(t)] = 1;
+    }
+    return g;
+  };
+  if (measure_rest)
+    for (int32_t s = 0; s < slots; ++s)
+      if (world.bodies[static_cast<size_t>(s)].alive) grid(s);
   Contact c;
   for (int32_t s = 0; s < slots; ++s) {
     const BodySlot& node_slot = world.bodies[static_cast<size_t>(s)];
@@ -44,15 +56,31 @@ void find_contacts(World& world, bool measure_rest) {
       if (!other_slot.alive) continue;
       const bool self = s == t;
       if (self && !o.self_contact) continue;
-      const SkinGrid& g = w.grids[static_cast<size_t>(t)];
-      if (!self && !boxes_meet(w.grids[static_cast<size_t>(s)], g, o.reach_mm)) continue;
       const Body& ob = other_slot.body;
       const Eigen::MatrixX3d& ox = measure_rest ? ob.model->X : ob.sim.x;
-      const double exclusion = self ? self_exclusion(o, g) : 0.0;
+      SkinGrid& own = w.grids[static_cast<size_t>(t)];
+      if (self && own.mean_edge_mm <= 0.0) own.mean_edge_mm = mean_edge(*ob.model);
+      const double exclusion =
+          self ? (o.self_exclusion_mm > 0.0 ? o.self_exclusion_mm : 3.0 * own.mean_edge_mm) : 0.0;
       // Self-contact reaches half as deep: a thin part's far side is not its own inside.
       const double reach = self ? 0.5 * o.reach_mm : o.reach_mm;
+      const Clearance* clear =
+          measure_rest || every_node ? nullptr : &clearance_of(world, s, t, exclusion);
+      // No node can have come within reach of the other skin with more clearance than this
+      // beyond its own move since the reference.
+      const double slack = clear == nullptr ? 0.0 : reach + o.margin_mm + clear->other_move_mm;
+      int meet = -1;  // whether the skins' boxes meet: asked once a node needs the grids
       for (int32_t n = skin.first_node; n < skin.first_node + skin.node_count; ++n) {
         const Eigen::Vector3d p = nx.row(n).transpose();
+        if (clear != nullptr) {
+          const auto k = static_cast<Eigen::Index>(n - skin.first_node);
+          if (static_cast<double>(clear->mm[static_cast<size_t>(k)]) >
+              slack + (p - clear->node_ref.row(k).transpose()).norm())
+            continue;
+        }
+        if (meet < 0) meet = self || boxes_meet(grid(s), grid(t), o.reach_mm);
+        if (meet == 0) break;
+        const SkinGrid& g = grid(t);
         if (!self &&
             ((p.array() < g.lo.array() - reach).any() || (p.array() > g.hi.array() + reach).any()))
           continue;

@@ -16,13 +16,6 @@
 namespace lamina::world::detail {
 namespace {
 
-Eigen::Vector3d point_on(const Body& b, const std::array<int32_t, 3>& corners,
-                         const Eigen::Vector3d& weights) {
-  Eigen::Vector3d q = Eigen::Vector3d::Zero();
-  for (int a = 0; a < 3; ++a) q += weights[a] * b.sim.x.row(corners[a]).transpose();
-  return q;
-}
-
 const std::vector<double>& areas_of(WorldWork& w, size_t slot, const Model& model) {
   if (w.node_area.size() <= slot) w.node_area.resize(slot + 1);
   std::vector<double>& a = w.node_area[slot];

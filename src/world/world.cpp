@@ -6,9 +6,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/closest_on_triangle.h"
+#include "lamina/geometry/winding_number.h"
+#include "lamina/model/summarize_model.h"
 #include "world_work.h"
 
 namespace lamina::world {
@@ -61,6 +65,54 @@ void measure_rest_overlaps(World& world) {
   }
 }
 
+// How deep the deepest of a sample of `a`'s interior nodes lies inside `b`'s skin at rest, and
+// where. A body inside another, or two in one place, meets no skin within the contact's reach,
+// so the contact search sees no overlap there: its inner nodes are tested instead (winding
+// number, then the distance to the skin), at most about 400 of them.
+std::pair<double, Eigen::Vector3d> deepest_inside(const Model& a, const Model& b) {
+  const SurfaceMesh skin = model::layer_mesh(b, 0);
+  const Eigen::Vector3d lo = skin.V.colwise().minCoeff(), hi = skin.V.colwise().maxCoeff();
+  const int32_t first = a.layers[0].node_count, n = a.node_count();
+  const int32_t stride = std::max<int32_t>(1, (n - first) / 400);
+  std::pair<double, Eigen::Vector3d> deepest{0.0, Eigen::Vector3d::Zero()};
+  for (int32_t i = first; i < n; i += stride) {
+    const Eigen::Vector3d p = a.X.row(i);
+    if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+    if (geometry::winding_number(skin.V, skin.F, p) < 0.5) continue;
+    double d = std::numeric_limits<double>::infinity();
+    for (Eigen::Index f = 0; f < skin.F.rows(); ++f) {
+      const Eigen::Vector3d u = skin.V.row(skin.F(f, 0)), v = skin.V.row(skin.F(f, 1)),
+                            w = skin.V.row(skin.F(f, 2));
+      const Eigen::Vector3d c = geometry::closest_on_triangle(p, u, v, w);
+      d = std::min(d, (p - (c.x() * u + c.y() * v + c.z() * w)).norm());
+    }
+    if (d > deepest.first) deepest = {d, p};
+  }
+  return deepest;
+}
+
+// Refuses `def` if one of its inner nodes lies inside a body of the world, or one of theirs
+// inside it, deeper than the tolerance.
+void refuse_deep_overlap(const World& world, const BodyDef& def) {
+  for (const BodySlot& s : world.bodies) {
+    if (!s.alive) continue;
+    const Model& other = *s.body.model;
+    for (const bool mine : {true, false}) {
+      const auto [depth, at] =
+          mine ? deepest_inside(*def.model, other) : deepest_inside(other, *def.model);
+      if (depth <= world.contact.rest_overlap_tolerance_mm) continue;
+      const std::string& in = mine ? def.name : s.body.name;
+      const std::string& out = mine ? s.body.name : def.name;
+      throw refused(fmt::format(
+          "bodies '{}' and '{}' overlap by {:.1f} mm at rest (a node inside '{}' at ({:.1f}, "
+          "{:.1f}, {:.1f}) mm lies inside '{}'), more than contact.rest_overlap_tolerance_mm = "
+          "{:g}: place them apart, or resolve the overlap in the segmentation",
+          s.body.name, def.name, depth, in, at.x(), at.y(), at.z(), out,
+          world.contact.rest_overlap_tolerance_mm));
+    }
+  }
+}
+
 }  // namespace
 
 BodyId create_body(World& world, BodyDef def) {
@@ -76,10 +128,16 @@ BodyId create_body(World& world, BodyDef def) {
   if (dt > 0.0 && def.simulation.options().dt_s != dt)
     throw refused(fmt::format("body '{}': its dt {:g} s differs from the world's {:g} s", def.name,
                               def.simulation.options().dt_s, dt));
+  refuse_deep_overlap(world, def);
   size_t slot = 0;
   while (slot < world.bodies.size() && world.bodies[slot].alive) ++slot;
   if (slot == world.bodies.size()) world.bodies.emplace_back();
   BodySlot& s = world.bodies[slot];
+  // What the step cached of the slot's last body (its skin's grid and clearances) is not this
+  // one's.
+  detail::WorldWork& work = world.work();
+  if (slot < work.grids.size()) work.grids[slot] = detail::SkinGrid{};
+  work.clearance.clear();  // made again on the next step, for every pair
   s.body = Body{.name = std::move(def.name),
                 .model = std::move(def.model),
                 .sim = std::move(def.simulation),
@@ -258,17 +316,19 @@ double distance_to_sweep(const BladeSweep& s, const Eigen::Vector3d& p) {
   return std::min(to_triangle(s.a0, s.b0, s.b1), to_triangle(s.a0, s.b1, s.a1));
 }
 
+std::pair<Eigen::Vector3d, Eigen::Vector3d> tie_ends(const World& world, const Tie& tie) {
+  const Body& nb = world.bodies[static_cast<size_t>(tie.node_body)].body;
+  const Body& sb = world.bodies[static_cast<size_t>(tie.surface_body)].body;
+  return {nb.sim.x.row(tie.node).transpose(), detail::point_on(sb, tie.corners, tie.weights)};
+}
+
 int32_t divide_ties(World& world, const BladeSweep& sweep, double reach_mm) {
   int32_t divided = 0;
   for (AttachmentSlot& slot : world.attachments) {
     if (!slot.alive) continue;
     for (Tie& t : slot.attachment.ties) {
       if (!t.active()) continue;
-      const Body& nb = world.bodies[static_cast<size_t>(t.node_body)].body;
-      const Body& sb = world.bodies[static_cast<size_t>(t.surface_body)].body;
-      Eigen::Vector3d q = Eigen::Vector3d::Zero();
-      for (int a = 0; a < 3; ++a) q += t.weights[a] * sb.sim.x.row(t.corners[a]).transpose();
-      const Eigen::Vector3d p = nb.sim.x.row(t.node);
+      const auto [p, q] = tie_ends(world, t);
       if (distance_to_sweep(sweep, 0.5 * (p + q)) <= std::max(reach_mm, 0.5 * (p - q).norm())) {
         t.divided = true;
         ++divided;

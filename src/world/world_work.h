@@ -18,9 +18,10 @@ namespace lamina::world::detail {
 struct SkinGrid {
   double cell_mm = 1.0;
   uint64_t mask = 0;           ///< buckets - 1 (a power of two)
-  std::vector<int32_t> start;  ///< buckets + 1 offsets into items
+  std::vector<int32_t> start;  ///< buckets + 1 offsets into items: bucket b from start[b] ...
+  std::vector<int32_t> end;    ///< ... to end[b] (a bucket's slots may end unused)
   std::vector<int32_t> items;  ///< triangle rows of layer 0's F
-  std::vector<uint64_t> keys;  ///< scratch: (bucket, triangle) pairs before sorting
+  std::vector<int32_t> fill;   ///< scratch: each bucket's next slot while placing
   Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();  ///< skin's box
   double mean_edge_mm = 0.0;  ///< of the skin at rest
 };
@@ -42,8 +43,27 @@ struct Coupling {
   double allowance_mm = 0.0;                         ///< a contact's rest overlap
 };
 
+/// A pair of bodies' clearances (clearance.cpp): per skin node of the first, its distance from
+/// the second's skin (capped) at reference positions of both, for the models they were made on.
+struct Clearance {
+  const Model* node_model = nullptr;
+  const Model* skin_model = nullptr;
+  double exclusion_mm = -1.0;
+  std::vector<float> mm;
+  Eigen::MatrixX3d node_ref, skin_ref;  ///< the two skins' rows at the reference
+  double other_move_mm = 0.0;           ///< the second skin's farthest move since, mm
+  SkinGrid grid;                        ///< scratch: the second skin at the reference
+  int64_t made = 0;                     ///< references taken (for tests and profiles)
+};
+
+/// Clearances are searched this far, mm: a node farther has this. The references are taken
+/// again once the two skins have moved half of it.
+inline constexpr double kClearanceCapMm = 16.0;
+
 struct WorldWork {
   std::vector<SkinGrid> grids;                 ///< per slot
+  std::vector<uint8_t> grid_ready;             ///< per slot: its grid holds this step's skin
+  std::vector<Clearance> clearance;            ///< per pair of slots (s * slots + t)
   std::vector<std::vector<double>> node_area;  ///< per slot, per node: skin area, mm^2
   std::vector<Contact> contacts;
   std::vector<Coupling> couplings;
@@ -60,6 +80,14 @@ struct WorldWork {
 void build_skin_grid(const Model& model, const Eigen::MatrixX3d& x, double reach_mm,
                      SkinGrid& grid);
 
+/// The point of body b's skin with barycentric `weights` on the triangle `corners`, now.
+inline Eigen::Vector3d point_on(const Body& b, const std::array<int32_t, 3>& corners,
+                                const Eigen::Vector3d& weights) {
+  Eigen::Vector3d q = Eigen::Vector3d::Zero();
+  for (int a = 0; a < 3; ++a) q += weights[a] * b.sim.x.row(corners[a]).transpose();
+  return q;
+}
+
 /// The bucket of the cell holding point p.
 uint64_t grid_bucket(const SkinGrid& grid, const Eigen::Vector3d& p);
 
@@ -73,8 +101,10 @@ bool nearest_on_skin(const Model& other_model, const Eigen::MatrixX3d& other_x,
                      Contact& contact);
 
 /// Every skin node inside a skin at the current positions (ContactOptions), into
-/// work.contacts; with `rest_overlap` false, depths beyond each node's rest overlap.
-void find_contacts(World& world, bool measure_rest);
+/// work.contacts; with `rest_overlap` false, depths beyond each node's rest overlap. Nodes
+/// whose clearance (clearance_of()) leaves them out of reach are not searched, unless
+/// `every_node` (the tests' reference).
+void find_contacts(World& world, bool measure_rest, bool every_node = false);
 
 /// Before the solves: the couplings of this step (contacts found now, active ties), each one's
 /// springs on its node and its corners (sim::set_contact_stiffness and their constant forces in
@@ -85,6 +115,11 @@ void begin_couplings(World& world);
 /// attachment forces in `out`), the ties' pulls (torn past their strength), the contacts'
 /// depths.
 void end_couplings(World& world, WorldStepStats& out);
+
+/// Body t's skin's clearance from each skin node of body s (s == t: self-contact, the triangles
+/// within `exclusion_mm` of the node at rest left out), with other_move_mm of this step; taken
+/// again when the skins have moved far since the last reference.
+const Clearance& clearance_of(World& world, int32_t s, int32_t t, double exclusion_mm);
 
 /// The skin area each node of layer 0 stands for (a third of its triangles'), mm^2.
 std::vector<double> skin_node_area(const Model& model);

@@ -257,7 +257,7 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
   ASSERT_EQ(run_shell(dir, "sh prepare.sh", "prepare_run.sh").exit_code, 0);
   std::ofstream(dir.path / "quit.json")
       << R"({"events": [{"at": 6.4, "window_screenshot": "planned.png"},)"
-      << R"( {"at": 13.2, "window_screenshot": "remnant.png"}, {"at": 14.0, "quit": true}]})";
+      << R"( {"at": 15.2, "window_screenshot": "remnant.png"}, {"at": 16.0, "quit": true}]})";
   std::ofstream(dir.path / "session.sh")
       << cli << " -v view m.vtu --script quit.json --report report.json & "
       << "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1.5; "
@@ -267,7 +267,7 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
          "mouseup 1 keyup shift sleep 0.5 mousemove --window $w 800 450 sleep 0.3 mousedown 1 "
          "sleep 0.3 mousemove --window $w 840 450 sleep 0.1 mousemove --window $w 880 450 "
          "sleep 0.1 mousemove --window $w 920 450 sleep 0.3 mouseup 1 sleep 1.5 "
-         "key --window $w x sleep 3.5 mousemove --window $w 700 450 sleep 0.3 mousedown 1 "
+         "key --window $w x sleep 5.5 mousemove --window $w 700 450 sleep 0.3 mousedown 1 "
          "sleep 0.3 mousemove --window $w 700 480 sleep 0.1 mousemove --window $w 700 510 "
          "sleep 0.1 mousemove --window $w 700 540 sleep 1.0 mouseup 1; wait\n";
   const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");

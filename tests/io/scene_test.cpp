@@ -14,6 +14,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/io/scene_model.h"
+#include "lamina/io/world_scene.h"
 #include "lamina/model/compute_rings.h"
 #include "support/sphere_model.h"
 #include "support/temp_dir.h"
@@ -629,6 +630,21 @@ TEST(LoadScene, EveryShippedExampleParsesWithoutWarnings) {
     if (e.path().extension() != ".json") continue;
     SCOPED_TRACE(e.path().string());
     LogCapture log;
+    if (is_world_scene_file(e.path().string())) {
+      // A world scene (examples/cholecystectomy.json): its bodies, each a scene.
+      WorldScene w;
+      ASSERT_NO_THROW(w = load_world_scene(e.path().string()));
+      EXPECT_EQ(log.text(), "");
+      EXPECT_GE(w.bodies.size(), 2u);
+      try {
+        load_scene(e.path().string());
+        ADD_FAILURE() << "a world scene was read as one organ's";
+      } catch (const Error& x) {
+        EXPECT_NE(std::string(x.what()).find("is a world scene"), std::string::npos) << x.what();
+      }
+      ++count;
+      continue;
+    }
     Scene s;
     ASSERT_NO_THROW(s = load_scene(e.path().string()));
     EXPECT_EQ(log.text(), "");

@@ -8,11 +8,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "lamina/core/error.h"
 #include "lamina/sim/contact_springs.h"
 #include "support/held_sphere.h"
 #include "support/sphere_model.h"
+#include "world/world_work.h"
 
 namespace lamina::world {
 namespace {
@@ -122,6 +124,29 @@ TEST(World, ContactHoldsATwoNewtonPressWithinHalfAMillimetreForceConservedAndCom
   // creeping back 3 s after release (docs/world.md).
   EXPECT_LT(rest_distance(body(t.world, t.b)), 0.05);
   EXPECT_LT(rest_distance(body(t.world, t.a)), 0.25);
+}
+
+// The search skips a node only when its clearance at rest, less its own move and the farthest
+// move of the other skin, leaves it out of reach: while A is pressed onto B (contacts coming and
+// staying) and after, the contacts found are exactly those a search of every node finds.
+TEST(World, TheContactSearchSkipsOnlyNodesThatCannotReachASkin) {
+  TwoSpheres t = two_spheres(0.5, 2.0, 1.5, 3.0);
+  WorldStepStats st;
+  const auto found = [&](bool every_node) {
+    detail::find_contacts(t.world, /*measure_rest=*/false, every_node);
+    std::set<std::array<int32_t, 3>> out;
+    for (const Contact& c : t.world.work().contacts) out.insert({c.body, c.node, c.other});
+    return out;
+  };
+  int64_t compared = 0;
+  for (int k = 0; k <= 900; ++k) {
+    step(t.world, st);
+    if (k % 60 != 0) continue;
+    const auto skipping = found(false), all = found(true);
+    EXPECT_EQ(skipping, all) << "step " << k;
+    compared += static_cast<int64_t>(all.size());
+  }
+  EXPECT_GT(compared, 50);  // contacts were there to find
 }
 
 TEST(World, OneBodyStepsExactlyAsItsSimulationAlone) {

@@ -31,48 +31,19 @@
 #include "lamina/io/mesh_file.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/summary_json.h"
+#include "lamina/io/world_scene.h"
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/structure_colors.h"
 #include "lamina/model/summarize_model.h"
 #include "lamina/sim/simulation.h"
 #include "scalpel_checkpoint.h"
+#include "series_files.h"
 
 namespace lamina::cli {
 namespace {
 
 namespace fs = std::filesystem;
-// Frames of an earlier run in the same folder would be mistaken for this run's (a longer earlier
-// run leaves higher-numbered files); only names this command writes are removed (`series`: the
-// series' names), and a resumed run keeps the `keep` frames written before its checkpoint.
-void remove_stale_frames(const fs::path& frames, const std::set<std::string>& series,
-                         int32_t keep) {
-  static const std::regex kFrameName(R"((.+)_([0-9]{6})\.(vtp|obj))");
-  static const std::regex kPiece(R"(piece[0-9]+)");  // a cut's pieces' series, made as they appear
-  std::error_code ec;
-  std::smatch match;
-  for (const auto& e : fs::directory_iterator(frames, ec)) {
-    const std::string name = e.path().filename().string();
-    if (e.is_regular_file(ec) && std::regex_match(name, match, kFrameName) &&
-        (series.contains(match[1].str()) || std::regex_match(match[1].str(), kPiece)) &&
-        std::stoi(match[2].str()) >= keep)
-      fs::remove(e.path(), ec);
-  }
-}
-
-// A series' file name for an embedded surface: its name with anything but letters, digits,
-// '-', '_' and '.' made '_' ("label 2" -> "label_2"), and made unique among `taken` (a
-// structure named "skin" becomes "skin_2").
-std::string series_name(const std::string& surface, const std::set<std::string>& taken) {
-  std::string name = surface;
-  for (char& c : name)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_' && c != '.') c = '_';
-  if (name.empty() || name.front() == '.') name.insert(0, "_");
-  const std::string base = name;
-  for (int k = 2; taken.contains(name); ++k) name = base + "_" + std::to_string(k);
-  return name;
-}
-
 // One VTK time series: a layer's or an embedded surface's mesh written at every frame, listed in
 // NAME.pvd.
 struct Series {
@@ -98,19 +69,6 @@ void write_frame(Series& series, const sim::Simulation& s, const fs::path& out, 
   io::write_mesh(series.mesh, (out / (stem + ".vtp")).string(), series.color);
   if (obj) io::write_mesh(series.mesh, (out / (stem + ".obj")).string());
   series.files.emplace_back(s.time_s, stem + ".vtp");
-}
-
-// ParaView's collection format: one DataSet per frame with its time.
-void write_pvd(const Series& series, const fs::path& out) {
-  write_file_atomically((out / (series.name + ".pvd")).string(), [&](std::ostream& f) {
-    f << "<?xml version=\"1.0\"?>\n"
-         "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-         "  <Collection>\n";
-    for (const auto& [time, file] : series.files)
-      f << fmt::format("    <DataSet timestep=\"{:.10g}\" group=\"\" part=\"0\" file=\"{}\"/>\n",
-                       time, file);
-    f << "  </Collection>\n</VTKFile>\n";
-  });
 }
 
 constexpr const char* kMetricsHeader =
@@ -325,7 +283,7 @@ struct RunOutputs {
   void write_results(const io::RunProgress& so_far) {
     write_file_atomically((out / "metrics.csv").string(),
                           [&](std::ostream& f) { f << so_far.metrics_csv; });
-    for (const Series& se : series) write_pvd(se, out);
+    for (const Series& se : series) write_pvd(out, se.name, se.files);
   }
 };
 
@@ -557,6 +515,7 @@ void print_run(const io::RunSummary& sum, const std::string& output,
 }  // namespace
 
 int run_run(const RunArgs& a) {
+  if (!a.scene.empty() && io::is_world_scene_file(a.scene)) return run_world(a);
   const auto t_start = Clock::now();
   if (a.realtime && !(a.rate_hz > 0.0 && a.rate_hz <= 1e6))
     throw invalid_input("--rate", "must be in (0, 1e6] steps per second");

@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "lamina/geometry/surface_mesh.h"
 #include "lamina/model/structure_colors.h"
@@ -25,6 +26,14 @@ namespace lamina::io {
 ///   [0, #V), before anything is written; (kOutput) if the file cannot be written.
 void write_mesh(const SurfaceMesh& mesh, const std::string& path,
                 const std::optional<model::Rgb8>& color = std::nullopt);
+
+/// Writes line segments (from.row(k) to to.row(k), mm) as VTK XML PolyData Lines with one
+/// value per segment (a cell array named `value_name`): a world's ties, drawn in ParaView.
+/// \note Throws lamina::Error (kInvalidInput) for another extension than .vtp or sizes that
+///   differ; (kOutput) if the file cannot be written.
+void write_segments_vtp(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to,
+                        const std::vector<double>& value, const std::string& value_name,
+                        const std::string& path);
 
 /// Reads the vertices and faces of a Wavefront OBJ file.
 /// @param[in] path  .obj file

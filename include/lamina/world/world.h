@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lamina/interact/tools.h"
@@ -205,6 +206,9 @@ const Attachment& attachment(const World& world, AttachmentId id);
 /// a dissection divides the connective tissue it passes through.
 /// @return the ties divided
 int32_t divide_ties(World& world, const BladeSweep& sweep, double reach_mm = 1.5);
+
+/// Where a tie's two ends are now, mm: its node, and its point on the other body's skin.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> tie_ends(const World& world, const Tie& tie);
 
 /// Ties of all attachments, and those divided or torn.
 struct TieCount {
