@@ -23,6 +23,7 @@ inline SurfaceRole structure_role_of(const std::string& word, const std::string&
 void bind_model(pybind11::module_& m);       // masks, models (bind_model.cpp)
 void bind_simulation(pybind11::module_& m);  // simulations, tools, scenes (bind_simulation.cpp)
 void bind_resect(pybind11::module_& m);      // resection planning (bind_resect.cpp)
+void bind_world(pybind11::module_& m);       // worlds of several organs (bind_world.cpp)
 
 // A read-only numpy view of `data` (shape, strides in bytes) kept alive by `owner`: numpy's
 // base is `owner`, so the memory lives as long as any view of it.

@@ -28,4 +28,5 @@ PYBIND11_MODULE(_lamina, m) {
   lamina::python::bind_model(m);
   lamina::python::bind_simulation(m);
   lamina::python::bind_resect(m);
+  lamina::python::bind_world(m);
 }

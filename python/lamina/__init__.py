@@ -47,9 +47,9 @@ if "GOMP_SPINCOUNT" not in os.environ and "OMP_WAIT_POLICY" not in os.environ:
     os.environ["GOMP_SPINCOUNT"] = "3000"
 
 try:
-    from ._lamina import (EmbeddedSurface, Error, Mask, Model, Simulation, StepStats,
+    from ._lamina import (EmbeddedSurface, Error, Mask, Model, Simulation, StepStats, World,
                           __version__, build_model, load_model, nodes_near_plane, phantom,
-                          read_mask, resect, scene_simulation)
+                          read_mask, resect, scene_simulation, world_scene)
 except ImportError as _e:
     _built = sorted(os.path.basename(p) for p in glob.glob(os.path.join(_HERE, "_lamina*.so")))
     raise _cannot_import(
@@ -59,9 +59,9 @@ except ImportError as _e:
         "with this interpreter (cmake -DPython3_EXECUTABLE=%s) or run the one it was built "
         "with." % (", ".join(_built) or "none", sys.executable)) from _e
 
-__all__ = ["EmbeddedSurface", "Error", "Mask", "Model", "Simulation", "StepStats", "__version__", "build_model",
-           "load_model", "nodes_near_plane", "phantom", "read_mask", "resect", "scene_simulation",
-           "run_scene", "validate", "executable"]
+__all__ = ["EmbeddedSurface", "Error", "Mask", "Model", "Simulation", "StepStats", "World", "__version__",
+           "build_model", "load_model", "nodes_near_plane", "phantom", "read_mask", "resect",
+           "scene_simulation", "world_scene", "run_scene", "validate", "executable"]
 
 
 def run_scene(scene="phantom", *, paper=False, until_s=float("inf")):

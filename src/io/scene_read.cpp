@@ -531,8 +531,9 @@ Scene read_scene_object(const json& doc, const std::string& source_name, const s
   // A world scene read as one organ would be the default scene with its bodies ignored.
   if (top.empty() && doc.contains("bodies"))
     throw invalid_input(source_name,
-                        "is a world scene (it has \"bodies\"): `lamina run` runs it; this command "
-                        "drives one organ for now (docs/world.md)");
+                        "is a world scene (it has \"bodies\"): `lamina run` or "
+                        "lamina.world_scene() runs it; this command drives one organ for now "
+                        "(docs/world.md)");
   r.warn_unknown(doc, top, kKeys);
   read_keys(Object{r, doc, top}, kKeys, s);
   // Rings must reach as far as the routing spreads force.

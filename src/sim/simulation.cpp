@@ -300,19 +300,28 @@ void fix_nodes(Simulation& sim, const std::vector<int32_t>& nodes) {
   refresh(sim);
 }
 
+namespace {
+
+// Nodes with a stiffness each (support, contact springs): one per node, each node of the model,
+// each stiffness finite and >= 0; `what` names them in the message.
+void check_node_stiffness(const Simulation& sim, const std::vector<int32_t>& nodes,
+                          const std::vector<double>& stiffness_n_per_m, const char* what) {
+  if (nodes.size() != stiffness_n_per_m.size())
+    throw invalid_input(what, fmt::format("need one stiffness per node, got {} nodes and {} values",
+                                          nodes.size(), stiffness_n_per_m.size()));
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    check_node(sim, nodes[k], what);
+    if (!(stiffness_n_per_m[k] >= 0.0 && std::isfinite(stiffness_n_per_m[k])))
+      throw invalid_input(what, fmt::format("node {}: stiffness must be >= 0 N/m, got {}", nodes[k],
+                                            stiffness_n_per_m[k]));
+  }
+}
+
+}  // namespace
+
 void support_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
                    const std::vector<double>& stiffness_n_per_m) {
-  if (nodes.size() != stiffness_n_per_m.size())
-    throw invalid_input("supported nodes",
-                        fmt::format("need one stiffness per node, got {} nodes and {} values",
-                                    nodes.size(), stiffness_n_per_m.size()));
-  for (size_t k = 0; k < nodes.size(); ++k) {
-    check_node(sim, nodes[k], "supported nodes");
-    if (!(stiffness_n_per_m[k] >= 0.0 && std::isfinite(stiffness_n_per_m[k])))
-      throw invalid_input("supported nodes",
-                          fmt::format("node {}: stiffness must be >= 0 N/m, got {}", nodes[k],
-                                      stiffness_n_per_m[k]));
-  }
+  check_node_stiffness(sim, nodes, stiffness_n_per_m, "supported nodes");
   Solver& s = sim.solver();
   s.support.support_n_per_m.assign(static_cast<size_t>(s.model->node_count()), 0.0);
   for (size_t k = 0; k < nodes.size(); ++k)
@@ -347,17 +356,7 @@ void hold_nodes(Simulation& sim, const std::vector<int32_t>& nodes,
 
 void set_contact_stiffness(Simulation& sim, const std::vector<int32_t>& nodes,
                            const std::vector<double>& stiffness_n_per_m) {
-  if (nodes.size() != stiffness_n_per_m.size())
-    throw invalid_input("contact nodes",
-                        fmt::format("need one stiffness per node, got {} nodes and {} values",
-                                    nodes.size(), stiffness_n_per_m.size()));
-  for (size_t k = 0; k < nodes.size(); ++k) {
-    check_node(sim, nodes[k], "contact nodes");
-    if (!(stiffness_n_per_m[k] >= 0.0 && std::isfinite(stiffness_n_per_m[k])))
-      throw invalid_input("contact nodes",
-                          fmt::format("node {}: stiffness must be >= 0 N/m, got {}", nodes[k],
-                                      stiffness_n_per_m[k]));
-  }
+  check_node_stiffness(sim, nodes, stiffness_n_per_m, "contact nodes");
   if (sim.options().integrator == Integrator::kProjective && !nodes.empty())
     throw invalid_input("contact nodes",
                         "projective dynamics prefactors its system: it cannot take contact "

@@ -74,6 +74,7 @@ struct WorldWork {
   std::vector<std::vector<uint8_t>> pushed;
   std::vector<uint8_t> had_springs;  ///< per slot: it had couplings last step
   std::vector<int32_t> row_of_slot;  ///< per slot, its row of WorldStepStats::bodies
+  std::vector<int32_t> solve_order;  ///< live slots, the largest body first
 };
 
 /// Fills `grid` with the skin of `model` at positions x, grown by `reach_mm`.

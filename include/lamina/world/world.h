@@ -107,10 +107,9 @@ struct ContactOptions {
 
 /// Where a world step's time went, microseconds.
 struct WorldProfile {
-  double tools_us = 0.0;        ///< every body's tools
-  double solve_us = 0.0;        ///< every body's sim::step
-  double contact_us = 0.0;      ///< the contact search, the springs set and measured
-  double attachments_us = 0.0;  ///< (in contact_us: contact and ties are one set of springs)
+  double tools_us = 0.0;    ///< every body's tools
+  double solve_us = 0.0;    ///< every body's sim::step
+  double contact_us = 0.0;  ///< contact and ties: the search, the springs set and measured
 };
 
 /// What one body's part of a world step measured.

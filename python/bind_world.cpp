@@ -1,0 +1,162 @@
+// Worlds of several organs (docs/world.md, docs/python.md): a world scene made ready as
+// `lamina run` makes it, stepped from Python, each body's positions as numpy views.
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <string>
+
+#include "bindings.h"
+#include "lamina/io/world_scene.h"
+#include "lamina/model/summarize_model.h"
+#include "lamina/world/world.h"
+
+namespace py = pybind11;
+
+namespace lamina::python {
+namespace {
+
+struct PyWorld {
+  io::WorldScene scene;
+  std::unique_ptr<io::ReadyWorld> ready;
+  world::WorldStepStats last;
+};
+
+const world::Body& body_named(const PyWorld& w, const std::string& name) {
+  const world::BodyId id = world::find_body(w.ready->world, name);
+  if (id.index < 0) {
+    std::string known;
+    for (const world::BodyId b : w.ready->ids)
+      known += (known.empty() ? "" : ", ") + world::body(w.ready->world, b).name;
+    throw invalid_input("world", "no body is named '" + name + "' (the bodies: " + known + ")");
+  }
+  return world::body(w.ready->world, id);
+}
+
+py::dict stats_dict(const PyWorld& w) {
+  const world::WorldStepStats& st = w.last;
+  py::list bodies;
+  for (size_t k = 0; k < st.bodies.size() && k < w.ready->ids.size(); ++k) {
+    const world::BodyStepStats& b = st.bodies[k];
+    py::dict d;
+    d["name"] = world::body(w.ready->world, w.ready->ids[k]).name;
+    d["max_displacement_mm"] = b.sim.max_displacement_mm;
+    d["volume_change_pct"] = b.sim.volume_change_pct;
+    d["max_speed_mm_per_s"] = b.sim.max_speed_mm_per_s;
+    d["max_penetration_mm"] = b.max_penetration_mm;
+    d["contacts"] = b.contacts + b.self_contacts;
+    d["contact_force_mn"] = Eigen::Vector3d(b.contact_force_mn);
+    d["attachment_force_mn"] = Eigen::Vector3d(b.attachment_force_mn);
+    d["converged"] = b.sim.converged;
+    bodies.append(d);
+  }
+  const world::TieCount ties = world::count_ties(w.ready->world);
+  py::dict out;
+  out["time_s"] = w.ready->world.time_s;
+  out["steps"] = w.ready->world.steps;
+  out["step_us"] = st.step_us;
+  out["contact_us"] = st.profile.contact_us;
+  out["solve_us"] = st.profile.solve_us;
+  out["converged"] = st.converged;
+  out["unstable"] = st.unstable != sim::Instability::kNone;
+  out["unstable_body"] = st.unstable_body;
+  out["ties"] = py::dict(py::arg("total") = ties.total, py::arg("divided") = ties.divided,
+                         py::arg("torn") = ties.torn);
+  out["bodies"] = bodies;
+  return out;
+}
+
+}  // namespace
+
+void bind_world(py::module_& m) {
+  py::class_<PyWorld>(m, "World",
+                      "Several organs stepped in one world: contact, attachments, dissections\n"
+                      "(docs/world.md). Made by lamina.world_scene().")
+      .def_property_readonly("bodies",
+                             [](const PyWorld& w) {
+                               std::vector<std::string> names;
+                               for (const world::BodyId id : w.ready->ids)
+                                 names.push_back(world::body(w.ready->world, id).name);
+                               return names;
+                             })
+      .def_property_readonly("time_s", [](const PyWorld& w) { return w.ready->world.time_s; })
+      .def_property_readonly("dt_s", [](const PyWorld& w) { return w.scene.solver.dt_s; })
+      .def(
+          "step",
+          [](PyWorld& w, int64_t steps) {
+            if (steps < 1) throw invalid_input("steps", "must be >= 1");
+            {
+              py::gil_scoped_release release;
+              for (int64_t k = 0; k < steps; ++k) {
+                const double t = w.ready->world.time_s;
+                io::advance_dissections(w.scene.dissections, w.ready->world, t,
+                                        t + w.scene.solver.dt_s);
+                world::step(w.ready->world, w.last);
+                if (w.last.unstable != sim::Instability::kNone) break;
+              }
+            }
+            return stats_dict(w);
+          },
+          py::arg("steps") = 1,
+          "Takes `steps` world steps (the dissections' blades moved, then tools, contact and\n"
+          "ties, each body's solve); returns the last one's measures as a dict: time_s,\n"
+          "step_us, contact_us, converged, unstable (it stops early when a body is),\n"
+          "unstable_body, ties {total, divided, torn}, bodies [{name, max_displacement_mm,\n"
+          "max_penetration_mm, contacts, contact_force_mn, attachment_force_mn, ...}].")
+      .def(
+          "x",
+          [](py::object self, const std::string& name) {
+            return matrix_view(body_named(self.cast<const PyWorld&>(), name).sim.x, self);
+          },
+          py::arg("body"), "Body `body`'s node positions, (nodes, 3) mm, a read-only view.")
+      .def(
+          "rest",
+          [](py::object self, const std::string& name) {
+            return matrix_view(body_named(self.cast<const PyWorld&>(), name).model->X, self);
+          },
+          py::arg("body"), "Body `body`'s rest positions, (nodes, 3) mm, a read-only view.")
+      .def(
+          "skin_faces",
+          [](const PyWorld& w, const std::string& name) {
+            return Eigen::MatrixX3i(model::layer_mesh(*body_named(w, name).model, 0).F);
+          },
+          py::arg("body"), "Body `body`'s skin triangles, rows of x() (its first nodes).")
+      .def(
+          "ties",
+          [](const PyWorld& w) {
+            const world::TieCount t = world::count_ties(w.ready->world);
+            return py::dict(py::arg("total") = t.total, py::arg("divided") = t.divided,
+                            py::arg("torn") = t.torn);
+          },
+          "The attachments' ties: total, divided by a blade, torn past their strength.")
+      .def(
+          "reset",
+          [](PyWorld& w) {
+            world::reset(w.ready->world);
+            w.last = {};
+          },
+          "Every body back at rest and every tie in place, time 0.");
+
+  m.def(
+      "world_scene",
+      [](const py::object& what) {
+        auto w = std::make_unique<PyWorld>();
+        if (py::isinstance<py::dict>(what)) {
+          // A dict is a world scene file's content (docs/scenes.md), paths as the caller's.
+          w->scene = io::parse_world_scene(
+              py::module_::import("json").attr("dumps")(what).cast<std::string>(),
+              "world scene dict");
+        } else {
+          w->scene = io::load_world_scene(what.cast<std::string>());
+        }
+        py::gil_scoped_release release;
+        w->ready = io::make_ready_world(w->scene);
+        return w;
+      },
+      py::arg("scene"),
+      "A world as `lamina run SCENE` makes it: SCENE is a world scene .json (one with\n"
+      "\"bodies\", docs/scenes.md) or a dict with its keys. Every body's model is made and\n"
+      "prepared, the bodies' places checked, the attachments tied.");
+}
+
+}  // namespace lamina::python

@@ -1,0 +1,84 @@
+"""Worlds of several organs from Python (lamina.world_scene): the TotalSegmentator liver and
+gallbladder tied in their bed, stepped, the gallbladder pulled, a blade dividing the ties, the
+bodies' positions as views, a bad scene refused in one line."""
+import os
+
+import numpy as np
+import pytest
+
+import lamina
+from conftest import REPO
+
+LABELS = os.path.join(REPO, "tests", "data", "liver_totalseg_example_3mm_labels.nii.gz")
+
+
+def scene(**extra):
+    s = {
+        "bodies": [
+            {"name": "liver",
+             "model": {"input": LABELS, "build": {"label": 1, "display_triangles": 0}}},
+            {"name": "gallbladder",
+             "model": {"input": LABELS, "build": {"label": 4, "skin_vertices": 400,
+                                                  "display_triangles": 0}},
+             "tools": [{"point": [-81.97, -234.98, 357.20], "radius_mm": 8,
+                        "grasp": {"pull_mm": [0, -24, -4], "pull_s": 0.3}}]},
+        ],
+        "attachments": [{"bodies": ["liver", "gallbladder"], "reach_mm": 3}],
+        "contact": {"rest_overlap_tolerance_mm": 6},
+    }
+    s.update(extra)
+    return s
+
+
+def test_a_world_steps_its_bodies_and_the_ties_pull_the_liver():
+    w = lamina.world_scene(scene())
+    assert w.bodies == ["liver", "gallbladder"]
+    assert w.ties()["total"] > 100
+    x0 = np.array(w.x("liver"))
+    assert not w.x("liver").flags.writeable
+    np.testing.assert_array_equal(w.x("liver"), w.rest("liver"))
+    st = w.step(300)  # the grasper's pull, 0.3 s
+    assert abs(st["time_s"] - 0.3) < 1e-9 and not st["unstable"]
+    names = [b["name"] for b in st["bodies"]]
+    assert names == ["liver", "gallbladder"]
+    gb = st["bodies"][1]
+    assert gb["max_displacement_mm"] > 15.0
+    # The bed's ties pull the liver after the gallbladder; held there and settled, the forces
+    # between them are equal and opposite within 1% (issue 62's target; during the pull they
+    # differ by what the step moved each side, docs/world.md).
+    liver_moved = np.linalg.norm(np.array(w.x("liver")) - x0, axis=1).max()
+    assert liver_moved > 2.0
+    st = w.step(300)
+    fa = np.array(st["bodies"][0]["attachment_force_mn"])
+    fb = np.array(st["bodies"][1]["attachment_force_mn"])
+    assert np.linalg.norm(fa) > 500.0
+    assert np.linalg.norm(fa + fb) <= 0.01 * np.linalg.norm(fa)
+    f = w.skin_faces("gallbladder")
+    assert f.shape[1] == 3 and f.max() < w.x("gallbladder").shape[0]
+    w.reset()
+    assert w.time_s == 0.0 and w.ties()["divided"] == 0
+
+
+def test_a_dissection_divides_the_ties_it_passes():
+    blade = {"path": [[-84.9, -252.2, 368.2], [-79.1, -188.2, 340.6]],
+             "direction": [0.867, 0.129, 0.482], "depth_mm": 46, "start_s": 0.0,
+             "end_s": 0.05, "reach_mm": 40.0}
+    w = lamina.world_scene(scene(dissections=[blade]))
+    total = w.ties()["total"]
+    st = w.step(60)
+    assert st["ties"]["divided"] == total  # a blade reaching 40 mm passes every tie of the bed
+    # The same blade 100 mm away, in front of the organs, divides none.
+    away = dict(blade, path=[[x, y - 100.0, z] for x, y, z in blade["path"]])
+    w = lamina.world_scene(scene(dissections=[away]))
+    assert w.step(60)["ties"]["divided"] == 0
+
+
+def test_a_bad_world_scene_is_one_line():
+    with pytest.raises(lamina.Error) as e:
+        lamina.world_scene({"bodies": [{"name": "liver"}],
+                            "attachments": [{"bodies": ["liver", "stomach"]}]})
+    assert "attachments[0].bodies[1]: no body is named \"stomach\"" in str(e.value)
+    assert "\n" not in str(e.value) and e.value.exit_code == 2
+    w = lamina.world_scene(scene())
+    with pytest.raises(lamina.Error):
+        w.x("spleen")
