@@ -119,11 +119,12 @@ std::vector<OrganContact> organ_contacts(const GridFrame& f, const std::vector<O
   return out;
 }
 
-// The organ each structure goes to: the one most of its voxels are in or face-adjacent to.
+// The organ each structure goes to: the one most of its voxels (`sv`: detail::structure_voxels)
+// are in or face-adjacent to.
 std::vector<int> structure_owners(const LabelVolume& volume, const BuildOptions& options,
                                   const std::vector<OrganSource>& org,
-                                  const std::vector<uint8_t>& organ) {
-  const std::vector<uint8_t> sv = detail::structure_voxels(volume, options);
+                                  const std::vector<uint8_t>& organ,
+                                  const std::vector<uint8_t>& sv) {
   const size_t ns = options.embed.size(), count = org.size();
   std::vector<int64_t> touch(ns * count, 0);
   const GridFrame& f = volume.frame;
@@ -221,7 +222,9 @@ OrgansResult build_organs(const LabelVolume& volume, const std::vector<OrganSour
         throw invalid_input(volume.source, fmt::format("label {} is organ '{}' and structure '{}': "
                                                        "a label is one or the other",
                                                        s.label, o.name, detail::structure_name(s)));
-  const std::vector<int> owner = structure_owners(volume, options, organs, owners.organ);
+  // The structures' voxels, once: their owners are found on them and each organ's volume made.
+  const std::vector<uint8_t> sv = detail::structure_voxels(volume, options);
+  const std::vector<int> owner = structure_owners(volume, options, organs, owners.organ, sv);
   result.contacts = organ_contacts(volume.frame, organs, owners.organ);
   std::vector<int64_t> faces(organs.size());
   for (size_t k = 0; k < organs.size(); ++k)
@@ -230,7 +233,6 @@ OrgansResult build_organs(const LabelVolume& volume, const std::vector<OrganSour
 
   // Each organ on a volume of its own: organ voxels label 1, its structures' label-voxels
   // renumbered 2, 3, ... (their masks kept as they are), everything else background.
-  const std::vector<uint8_t> sv = detail::structure_voxels(volume, options);
   for (size_t k = 0; k < organs.size(); ++k) {
     LabelVolume own{.frame = volume.frame,
                     .labels = std::vector<int32_t>(volume.labels.size(), 0),

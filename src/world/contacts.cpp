@@ -13,14 +13,6 @@ bool boxes_meet(const SkinGrid& a, const SkinGrid& b, double reach) {
          (b.lo.array() - reach <= a.hi.array()).all();
 }
 
-// The skin's mean edge at rest, mm (the self-contact's exclusion is three of them).
-double mean_edge(const Model& m) {
-  const Eigen::MatrixX3i& F = m.layers.front().F;
-  double sum = 0.0;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) sum += (m.X.row(F(f, 0)) - m.X.row(F(f, 1))).norm();
-  return F.rows() > 0 ? sum / static_cast<double>(F.rows()) : 1.0;
-}
-
 }  // namespace
 
 void find_contacts(World& world, bool measure_rest, bool every_node) {
@@ -59,7 +51,7 @@ void find_contacts(World& world, bool measure_rest, bool every_node) {
       const Body& ob = other_slot.body;
       const Eigen::MatrixX3d& ox = measure_rest ? ob.model->X : ob.sim.x;
       SkinGrid& own = w.grids[static_cast<size_t>(t)];
-      if (self && own.mean_edge_mm <= 0.0) own.mean_edge_mm = mean_edge(*ob.model);
+      if (self && own.mean_edge_mm <= 0.0) own.mean_edge_mm = skin_mean_edge(*ob.model);
       const double exclusion =
           self ? (o.self_exclusion_mm > 0.0 ? o.self_exclusion_mm : 3.0 * own.mean_edge_mm) : 0.0;
       // Self-contact reaches half as deep: a thin part's far side is not its own inside.

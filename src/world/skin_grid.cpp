@@ -27,15 +27,18 @@ uint64_t grid_bucket(const SkinGrid& grid, const Eigen::Vector3d& p) {
          grid.mask;
 }
 
+double skin_mean_edge(const Model& model) {
+  const Eigen::MatrixX3i& F = model.layers.front().F;
+  double sum = 0.0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    sum += (model.X.row(F(f, 0)) - model.X.row(F(f, 1))).norm();
+  return F.rows() > 0 ? sum / static_cast<double>(F.rows()) : 1.0;
+}
+
 void build_skin_grid(const Model& model, const Eigen::MatrixX3d& x, double reach_mm,
                      SkinGrid& grid) {
   const Eigen::MatrixX3i& F = model.layers.front().F;
-  if (grid.mean_edge_mm <= 0.0) {
-    double sum = 0.0;
-    for (Eigen::Index f = 0; f < F.rows(); ++f)
-      sum += (model.X.row(F(f, 0)) - model.X.row(F(f, 1))).norm();
-    grid.mean_edge_mm = F.rows() > 0 ? sum / static_cast<double>(F.rows()) : 1.0;
-  }
+  if (grid.mean_edge_mm <= 0.0) grid.mean_edge_mm = skin_mean_edge(model);
   // Cells of about two edges: a triangle grown by the reach covers a few of them.
   grid.cell_mm = std::max(2.0 * grid.mean_edge_mm, 2.0 * reach_mm);
   uint64_t buckets = 64;

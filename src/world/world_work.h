@@ -77,6 +77,10 @@ struct WorldWork {
   std::vector<int32_t> solve_order;  ///< live slots, the largest body first
 };
 
+/// The mean edge of `model`'s skin at rest, mm (one edge of each triangle): the grid's cell and
+/// the self-contact's exclusion are multiples of it.
+double skin_mean_edge(const Model& model);
+
 /// Fills `grid` with the skin of `model` at positions x, grown by `reach_mm`.
 void build_skin_grid(const Model& model, const Eigen::MatrixX3d& x, double reach_mm,
                      SkinGrid& grid);
