@@ -124,6 +124,16 @@ class Server {
   int port() const { return port_; }
   Child& process() { return *child_; }
   std::string log() const { return child_->err(); }
+  /// Whether the log says `text` within `seconds`: the server may log a drop after the client has
+  /// already seen the close (beast closes the WebSocket before the read handler runs).
+  bool log_shows(const std::string& text, double seconds = 5.0) const {
+    const auto t0 = Clock::now();
+    while (log().find(text) == std::string::npos) {
+      if (seconds_since(t0) > seconds) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return true;
+  }
 
  private:
   std::optional<Child> child_;
