@@ -37,6 +37,22 @@ void find_contacts(World& world, bool measure_rest, bool every_node) {
     for (int32_t s = 0; s < slots; ++s)
       if (world.bodies[static_cast<size_t>(s)].alive) grid(s);
   Contact c;
+  // The nearest triangle c of node n (body s) in body t's skin is a contact if it lies deeper
+  // than the node's rest overlap.
+  const auto keep = [&](int32_t s, int32_t n, int32_t t) {
+    const Body& nb = world.bodies[static_cast<size_t>(s)].body;
+    const double allowance = measure_rest ? 0.0 : nb.rest_overlap_mm[static_cast<size_t>(n)];
+    // A node the contact pushed out last step stays in contact a margin outside the skin.
+    const bool held = !measure_rest && w.pushed.size() > static_cast<size_t>(s) &&
+                      !w.pushed[static_cast<size_t>(s)].empty() &&
+                      w.pushed[static_cast<size_t>(s)][static_cast<size_t>(n)] != 0;
+    if (c.depth_mm - allowance <= (held ? -o.margin_mm : 0.0)) return;
+    c.body = s;
+    c.node = n;
+    c.other = t;
+    c.depth_mm -= allowance;
+    w.contacts.push_back(c);
+  };
   for (int32_t s = 0; s < slots; ++s) {
     const BodySlot& node_slot = world.bodies[static_cast<size_t>(s)];
     if (!node_slot.alive) continue;
@@ -56,20 +72,25 @@ void find_contacts(World& world, bool measure_rest, bool every_node) {
           self ? (o.self_exclusion_mm > 0.0 ? o.self_exclusion_mm : 3.0 * own.mean_edge_mm) : 0.0;
       // Self-contact reaches half as deep: a thin part's far side is not its own inside.
       const double reach = self ? 0.5 * o.reach_mm : o.reach_mm;
-      const Clearance* clear =
-          measure_rest || every_node ? nullptr : &clearance_of(world, s, t, exclusion);
-      // No node can have come within reach of the other skin with more clearance than this
-      // beyond its own move since the reference.
-      const double slack = clear == nullptr ? 0.0 : reach + o.margin_mm + clear->other_move_mm;
+      // The step reads the near lists; at rest and for the tests' reference, every node.
+      if (!measure_rest && !every_node) {
+        const NearLists& near = near_lists_of(world, s, t, exclusion, reach);
+        const Eigen::MatrixX3i& F = ob.model->layers.front().F;
+        for (size_t i = 0; i < near.nodes.size(); ++i) {
+          const int32_t n = skin.first_node + near.nodes[i];
+          if (self && nb.rest_overlap_mm[static_cast<size_t>(n)] > 0.0) continue;
+          const Eigen::Vector3d p = nx.row(n).transpose();
+          double best = reach * reach;
+          bool found = false;
+          for (int32_t j = near.start[i]; j < near.start[i + 1]; ++j)
+            found |= nearer_triangle(F, ox, near.triangles[static_cast<size_t>(j)], p, best, c);
+          if (found) keep(s, n, t);
+        }
+        continue;
+      }
       int meet = -1;  // whether the skins' boxes meet: asked once a node needs the grids
       for (int32_t n = skin.first_node; n < skin.first_node + skin.node_count; ++n) {
         const Eigen::Vector3d p = nx.row(n).transpose();
-        if (clear != nullptr) {
-          const auto k = static_cast<Eigen::Index>(n - skin.first_node);
-          if (static_cast<double>(clear->mm[static_cast<size_t>(k)]) >
-              slack + (p - clear->node_ref.row(k).transpose()).norm())
-            continue;
-        }
         if (meet < 0) meet = self || boxes_meet(grid(s), grid(t), o.reach_mm);
         if (meet == 0) break;
         const SkinGrid& g = grid(t);
@@ -78,19 +99,8 @@ void find_contacts(World& world, bool measure_rest, bool every_node) {
           continue;
         // A node of a thin part already behind its own far side at rest takes no self-contact.
         if (self && !measure_rest && nb.rest_overlap_mm[static_cast<size_t>(n)] > 0.0) continue;
-        if (!nearest_on_skin(*ob.model, ox, g, p, n, self, *nb.model, exclusion, reach, c))
-          continue;
-        const double allowance = measure_rest ? 0.0 : nb.rest_overlap_mm[static_cast<size_t>(n)];
-        // A node the contact pushed out last step stays in contact a margin outside the skin.
-        const bool held = !measure_rest && w.pushed.size() > static_cast<size_t>(s) &&
-                          !w.pushed[static_cast<size_t>(s)].empty() &&
-                          w.pushed[static_cast<size_t>(s)][static_cast<size_t>(n)] != 0;
-        if (c.depth_mm - allowance <= (held ? -o.margin_mm : 0.0)) continue;
-        c.body = s;
-        c.node = n;
-        c.other = t;
-        c.depth_mm -= allowance;
-        w.contacts.push_back(c);
+        if (nearest_on_skin(*ob.model, ox, g, p, n, self, *nb.model, exclusion, reach, c))
+          keep(s, n, t);
       }
     }
   }

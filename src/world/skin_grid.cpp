@@ -91,6 +91,42 @@ void build_skin_grid(const Model& model, const Eigen::MatrixX3d& x, double reach
   grid.end.assign(grid.fill.begin(), grid.fill.end());
 }
 
+bool own_neighbourhood(const Model& model, int32_t f, int32_t node, double exclusion_mm) {
+  const Eigen::MatrixX3i& F = model.layers.front().F;
+  const int32_t i = F(f, 0), j = F(f, 1), k = F(f, 2);
+  if (i == node || j == node || k == node) return true;
+  const double excl2 = exclusion_mm * exclusion_mm;
+  const Eigen::RowVector3d r = model.X.row(node);
+  return (model.X.row(i) - r).squaredNorm() < excl2 || (model.X.row(j) - r).squaredNorm() < excl2 ||
+         (model.X.row(k) - r).squaredNorm() < excl2;
+}
+
+bool nearer_triangle(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x, int32_t f,
+                     const Eigen::Vector3d& p, double& best, Contact& contact) {
+  const int32_t i = F(f, 0), j = F(f, 1), k = F(f, 2);
+  const Eigen::Vector3d a = x.row(i).transpose(), b = x.row(j).transpose(),
+                        c = x.row(k).transpose();
+  // The triangle's box is no nearer than the best so far: most of a bucket's triangles (it
+  // holds every one within reach of its cell) end here, before the exact distance.
+  const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+  if ((lo - p).cwiseMax(p - hi).cwiseMax(0.0).squaredNorm() >= best) return false;
+  const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, b, c);
+  const Eigen::Vector3d q = w.x() * a + w.y() * b + w.z() * c;
+  const double d2 = (p - q).squaredNorm();
+  if (d2 >= best) return false;
+  const Eigen::Vector3d nrm = (b - a).cross(c - a);
+  const double len = nrm.norm();
+  if (len <= 0.0) return false;
+  best = d2;
+  contact.corners = {i, j, k};
+  contact.weights = w;
+  contact.normal = nrm / len;
+  // Signed: > 0 behind the triangle (inside the skin).
+  const double s = (p - q).dot(contact.normal);
+  contact.depth_mm = s < 0.0 ? std::sqrt(d2) : -std::sqrt(d2);
+  return true;
+}
+
 bool nearest_on_skin(const Model& other_model, const Eigen::MatrixX3d& other_x,
                      const SkinGrid& grid, const Eigen::Vector3d& p, int32_t node, bool self,
                      const Model& node_model, double exclusion_mm, double reach_mm,
@@ -99,36 +135,10 @@ bool nearest_on_skin(const Model& other_model, const Eigen::MatrixX3d& other_x,
   const uint64_t b = grid_bucket(grid, p);
   double best = reach_mm * reach_mm;
   bool found = false;
-  const double excl2 = exclusion_mm * exclusion_mm;
   for (int32_t n = grid.start[b]; n < grid.end[b]; ++n) {
     const int32_t f = grid.items[static_cast<size_t>(n)];
-    const int32_t i = F(f, 0), j = F(f, 1), k = F(f, 2);
-    if (self) {
-      if (i == node || j == node || k == node) continue;
-      // Its own neighbourhood: any corner near the node at rest.
-      const Eigen::Vector3d r = node_model.X.row(node).transpose();
-      if ((node_model.X.row(i).transpose() - r).squaredNorm() < excl2 ||
-          (node_model.X.row(j).transpose() - r).squaredNorm() < excl2 ||
-          (node_model.X.row(k).transpose() - r).squaredNorm() < excl2)
-        continue;
-    }
-    const Eigen::Vector3d a = other_x.row(i).transpose(), bb = other_x.row(j).transpose(),
-                          c = other_x.row(k).transpose();
-    const Eigen::Vector3d w = geometry::closest_on_triangle(p, a, bb, c);
-    const Eigen::Vector3d q = w.x() * a + w.y() * bb + w.z() * c;
-    const double d2 = (p - q).squaredNorm();
-    if (d2 >= best) continue;
-    const Eigen::Vector3d nrm = (bb - a).cross(c - a);
-    const double len = nrm.norm();
-    if (len <= 0.0) continue;
-    best = d2;
-    found = true;
-    contact.corners = {i, j, k};
-    contact.weights = w;
-    contact.normal = nrm / len;
-    // Signed: > 0 behind the triangle (inside the skin).
-    const double s = (p - q).dot(contact.normal);
-    contact.depth_mm = s < 0.0 ? std::sqrt(d2) : -std::sqrt(d2);
+    if (self && own_neighbourhood(node_model, f, node, exclusion_mm)) continue;
+    found |= nearer_triangle(F, other_x, f, p, best, contact);
   }
   return found;
 }

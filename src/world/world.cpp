@@ -138,6 +138,7 @@ BodyId create_body(World& world, BodyDef def) {
   detail::WorldWork& work = world.work();
   if (slot < work.grids.size()) work.grids[slot] = detail::SkinGrid{};
   work.clearance.clear();  // made again on the next step, for every pair
+  work.near.clear();
   s.body = Body{.name = std::move(def.name),
                 .model = std::move(def.model),
                 .sim = std::move(def.simulation),

@@ -51,19 +51,42 @@ struct Clearance {
   double exclusion_mm = -1.0;
   std::vector<float> mm;
   Eigen::MatrixX3d node_ref, skin_ref;  ///< the two skins' rows at the reference
-  double other_move_mm = 0.0;           ///< the second skin's farthest move since, mm
-  SkinGrid grid;                        ///< scratch: the second skin at the reference
-  int64_t made = 0;                     ///< references taken (for tests and profiles)
+  /// the second skin's mean move since the reference, mm: the moves below are beyond it
+  Eigen::RowVector3d shift = Eigen::RowVector3d::Zero();
+  double other_move_mm = 0.0;  ///< the second skin's farthest move since, mm (beyond shift)
+  SkinGrid grid;               ///< scratch: the second skin at the reference
+  int64_t made = 0;            ///< references taken (for tests and profiles)
 };
 
 /// Clearances are searched this far, mm: a node farther has this. The references are taken
 /// again once the two skins have moved half of it.
 inline constexpr double kClearanceCapMm = 16.0;
 
+/// A pair of bodies' near lists (near_lists.cpp): each skin node of the first that was within
+/// radius_mm of the second's skin at the lists' reference, with the triangles of that skin it
+/// was within radius_mm of (in-row order; self-contact's own neighbourhood left out). Good
+/// while the two skins have moved no more than kNearSlackMm relative to the second's mean move.
+struct NearLists {
+  const Model* node_model = nullptr;
+  const Model* skin_model = nullptr;
+  double exclusion_mm = -1.0, radius_mm = -1.0;
+  Eigen::MatrixX3d node_ref, skin_ref;  ///< the two skins' rows at the reference
+  std::vector<int32_t> nodes;           ///< the listed nodes' rows of the first skin (k)
+  std::vector<int32_t> start;           ///< nodes + 1 offsets into triangles
+  std::vector<int32_t> triangles;       ///< rows of the second skin's F
+  SkinGrid grid;                        ///< scratch: the second skin at the reference
+  int64_t made = 0;                     ///< lists made (for tests and profiles)
+};
+
+/// The near lists' slack, mm: the search radius beyond the contact's reach, and how far the
+/// skins may move (relative to each other) before the lists are made again.
+inline constexpr double kNearSlackMm = 2.0;
+
 struct WorldWork {
   std::vector<SkinGrid> grids;                 ///< per slot
   std::vector<uint8_t> grid_ready;             ///< per slot: its grid holds this step's skin
   std::vector<Clearance> clearance;            ///< per pair of slots (s * slots + t)
+  std::vector<NearLists> near;                 ///< per pair of slots (s * slots + t)
   std::vector<std::vector<double>> node_area;  ///< per slot, per node: skin area, mm^2
   std::vector<Contact> contacts;
   std::vector<Coupling> couplings;
@@ -96,6 +119,16 @@ inline Eigen::Vector3d point_on(const Body& b, const std::array<int32_t, 3>& cor
 /// The bucket of the cell holding point p.
 uint64_t grid_bucket(const SkinGrid& grid, const Eigen::Vector3d& p);
 
+/// Whether triangle f of the skin (its rows of F at positions x) is nearer p than `best`
+/// (squared, mm^2); if so, `best` and the contact's triangle, weights, normal and signed depth
+/// (> 0 inside) are its. The one test of both searches (a grid's bucket, a near list).
+bool nearer_triangle(const Eigen::MatrixX3i& F, const Eigen::MatrixX3d& x, int32_t f,
+                     const Eigen::Vector3d& p, double& best, Contact& contact);
+
+/// Whether triangle f of body `skin_model`'s skin is node `node`'s own neighbourhood in
+/// self-contact: the node is a corner, or a corner lies within `exclusion_mm` of it at rest.
+bool own_neighbourhood(const Model& model, int32_t f, int32_t node, double exclusion_mm);
+
 /// The nearest point within `reach_mm` of node `node` (body `node_body`, position p) on the skin
 /// of body `other` (its grid), skipping in self-contact the triangles whose corners all lie
 /// within `exclusion_mm` of the node at rest. Fills `contact` (depth: the distance, signed:
@@ -122,9 +155,25 @@ void begin_couplings(World& world);
 void end_couplings(World& world, WorldStepStats& out);
 
 /// Body t's skin's clearance from each skin node of body s (s == t: self-contact, the triangles
-/// within `exclusion_mm` of the node at rest left out), with other_move_mm of this step; taken
-/// again when the skins have moved far since the last reference.
+/// within `exclusion_mm` of the node at rest left out), with shift and other_move_mm of this
+/// step; taken again when the skins have moved far (relative to t's mean move) since the last
+/// reference.
 const Clearance& clearance_of(World& world, int32_t s, int32_t t, double exclusion_mm);
+
+/// The mean move of the skin's rows of x from `ref` (the skin's rows at a reference), mm.
+Eigen::RowVector3d skin_mean_move(const Eigen::MatrixX3d& x, const ModelLayer& skin,
+                                  const Eigen::MatrixX3d& ref);
+
+/// Whether a skin row of x has moved from its row of `ref` more than `limit` mm beyond
+/// `shift`; if not, `worst` is the farthest such move.
+bool skin_moved_past(const Eigen::MatrixX3d& x, const ModelLayer& skin, const Eigen::MatrixX3d& ref,
+                     const Eigen::RowVector3d& shift, double limit, double& worst);
+
+/// Body t's near lists for the skin nodes of body s within `radius_mm` (s == t: self-contact,
+/// its neighbourhood within `exclusion_mm` left out), made again when the skins have moved
+/// kNearSlackMm since (the clearances, clearance_of(), skip the far nodes while making them).
+const NearLists& near_lists_of(World& world, int32_t s, int32_t t, double exclusion_mm,
+                               double radius_mm);
 
 /// The skin area each node of layer 0 stands for (a third of its triangles'), mm^2.
 std::vector<double> skin_node_area(const Model& model);

@@ -126,11 +126,12 @@ TEST(World, ContactHoldsATwoNewtonPressWithinHalfAMillimetreForceConservedAndCom
   EXPECT_LT(rest_distance(body(t.world, t.a)), 0.25);
 }
 
-// The search skips a node only when its clearance at rest, less its own move and the farthest
-// move of the other skin, leaves it out of reach: while A is pressed onto B (contacts coming and
+// The step's search reads near lists (each node that could reach a skin, with the triangles it
+// could reach), made again as the skins move: while A is pressed onto B (contacts coming and
 // staying) and after, the contacts found are exactly those a search of every node finds.
 TEST(World, TheContactSearchSkipsOnlyNodesThatCannotReachASkin) {
-  TwoSpheres t = two_spheres(0.5, 2.0, 1.5, 3.0);
+  // A starts 9 mm away: the nodes that touch B were on no list at the start.
+  TwoSpheres t = two_spheres(9.0, 4.0, 1.5, 3.0);
   WorldStepStats st;
   const auto found = [&](bool every_node) {
     detail::find_contacts(t.world, /*measure_rest=*/false, every_node);
@@ -147,6 +148,17 @@ TEST(World, TheContactSearchSkipsOnlyNodesThatCannotReachASkin) {
     compared += static_cast<int64_t>(all.size());
   }
   EXPECT_GT(compared, 50);  // contacts were there to find
+  // The lists were made again while A moved (not only once at the start), and the nodes far from
+  // any skin were left off them.
+  int64_t made = 0;
+  size_t listed = 0;
+  for (const detail::NearLists& l : t.world.work().near) {
+    made += l.made;
+    listed = std::max(listed, l.nodes.size());
+  }
+  EXPECT_GT(made, 4);
+  EXPECT_GT(listed, 0u);
+  EXPECT_LT(listed, static_cast<size_t>(body(t.world, t.a).model->layers.front().node_count / 2));
 }
 
 TEST(World, OneBodyStepsExactlyAsItsSimulationAlone) {
