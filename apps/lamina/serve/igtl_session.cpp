@@ -1,0 +1,341 @@
+// The OpenIGTLink side of `lamina serve` (igtl_session.h).
+#include "igtl_session.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <limits>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/sim/simulation.h"
+#include "web_session.h"
+
+namespace lamina::cli {
+namespace {
+
+double seconds(IgtlSession::Clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+}  // namespace
+
+IgtlSession::IgtlSession(const ServeArgs& args, net::Server& server, interact::RealtimeLoop& loop,
+                         ServeRate& rate, std::shared_ptr<const Model> model,
+                         Clock::time_point start)
+    : a_(args),
+      server_(server),
+      loop_(loop),
+      rate_(rate),
+      frame_(args.frame == "lps" ? net::Frame::kLps : net::Frame::kRas),
+      start_(start),
+      outgoing_(std::make_unique<Outgoing>(model, frame_)),
+      streamed_layers_(args.all_layers ? model->layer_count() : 1),
+      grasper_open_(args.grasper_device + "Open"),
+      next_unstable_log_(start),
+      next_behind_warning_(start) {
+  tip_.radius_mm = args.tip_radius_mm;
+  tip_.stiffness_n_per_m = args.tip_stiffness_n_per_m;
+  tip_.max_force_n = args.max_force_n;
+}
+
+Outgoing& IgtlSession::sent_for(const interact::LoopSnapshot& snap) {
+  if (snap.model && snap.model_version != outgoing_version_) {
+    outgoing_ = std::make_unique<Outgoing>(snap.model, frame_);
+    outgoing_version_ = snap.model_version;
+  }
+  return *outgoing_;
+}
+
+void IgtlSession::open_grasper(const std::string& why) {
+  if (grasper_client_ < 0) return;
+  grasper_client_ = -1;
+  loop_.set_grasper(std::nullopt);
+  log::info("the grasper opens: {}", why);
+}
+
+// LaminaRealTime: the rate stepped at, who chose it and whether the machine keeps it. To one
+// client (its answer to LaminaRate), or (-1) as news: to every client while the server streams,
+// and with --send-hz 0 (nothing pushed: a client reads the answer to its request next) only to
+// the client whose rate it is.
+void IgtlSession::send_rate(int client, const interact::LoopSnapshot& now) {
+  const net::Packed status = net::pack_string("LaminaRealTime", rate_.status(now));
+  if (client >= 0)
+    server_.send(client, status);
+  else if (a_.send_hz > 0.0)
+    server_.broadcast(status);
+  else if (rate_.client() >= 0)
+    server_.send(rate_.client(), status);
+}
+
+void IgtlSession::tell_rate(int client) {
+  interact::LoopSnapshot now;
+  loop_.latest(now);
+  send_rate(client, now);
+}
+
+// The scalpel's device: its poses trace a stroke, "Up" ends it (the cut), "Undo" takes the last
+// cut back.
+bool IgtlSession::scalpel_message(const net::Message& msg) {
+  const std::string& type = msg.header.type;
+  const std::string& device = msg.header.device;
+  if (a_.scalpel_device.empty()) return false;
+  if (device == a_.scalpel_device + "Up") {
+    if (stroke_.client >= 0) log::info("{}", stroke_.finish(loop_, a_.scalpel_depth_mm));
+  } else if (device == a_.scalpel_device + "Undo") {
+    log::info("OpenIGTLink client {}: {} '{}' takes the last cut back", msg.peer, type, device);
+    loop_.undo_cut();
+  } else if (device == a_.scalpel_device && (type == "TRANSFORM" || type == "POSITION")) {
+    const net::Pose pose = net::read_pose(type, msg.content, msg.size);
+    if (stroke_.client >= 0 && stroke_.client != msg.client)
+      log::info("{}", stroke_.finish(loop_, a_.scalpel_depth_mm));  // another hand's stroke
+    if (stroke_.client < 0)
+      log::info("OpenIGTLink client {}: {} '{}' begins a scalpel stroke", msg.peer, type, device);
+    stroke_.add(msg.client, net::change_frame(pose.position, frame_),
+                net::change_frame(pose.z_axis, frame_), seconds(Clock::now() - start_));
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// The grasper's device: a pose closes its jaws there (or moves what they hold), "Open" lets go.
+bool IgtlSession::grasper_message(const net::Message& msg) {
+  const std::string& type = msg.header.type;
+  if (a_.grasper_device.empty()) return false;
+  if (msg.header.device == grasper_open_) {
+    open_grasper(fmt::format("client {} sent {} '{}'", msg.peer, type, grasper_open_));
+    return true;
+  }
+  if (msg.header.device != a_.grasper_device || (type != "TRANSFORM" && type != "POSITION"))
+    return false;
+  const interact::Jaws jaws{
+      .center_mm = net::change_frame(net::read_position(type, msg.content, msg.size), frame_),
+      .radius_mm = a_.grasper_radius_mm};
+  try {
+    loop_.set_grasper(jaws);
+  } catch (const Error& e) {  // nothing under the jaws: said, and nothing held
+    if (noted_.insert({msg.client, "grasp-miss"}).second)
+      log::warn("OpenIGTLink client {}: {} (further misses are not logged)", msg.peer, e.what());
+    return true;
+  }
+  if (grasper_client_ != msg.client)
+    log::info("OpenIGTLink client {}: {} '{}' closes the grasper's jaws", msg.peer, type,
+              msg.header.device);
+  grasper_client_ = msg.client;
+  return true;
+}
+
+// Any other pose drives the tool tip (the --tool-device's only, when given).
+void IgtlSession::tool_pose(const net::Message& msg) {
+  const std::string& type = msg.header.type;
+  const Eigen::Vector3d p = net::read_position(type, msg.content, msg.size);
+  if (!a_.tool_device.empty() && msg.header.device != a_.tool_device) {
+    if (noted_.insert({msg.client, type + msg.header.device}).second)
+      log::info("OpenIGTLink client {}: {} '{}' is not the tool (--tool-device {}); skipped",
+                msg.peer, type, msg.header.device, a_.tool_device);
+    return;
+  }
+  ++poses_;
+  if (tool_client_ != msg.client)
+    log::info("OpenIGTLink client {}: {} '{}' drives the tool tip", msg.peer, type,
+              msg.header.device);
+  tool_client_ = msg.client;
+  tip_.center_mm = net::change_frame(p, frame_);
+  tip_.active = true;
+  loop_.set_tool_tip(tip_);
+}
+
+void IgtlSession::handle(const net::Message& msg) {
+  const std::string& type = msg.header.type;
+  if (scalpel_message(msg) || grasper_message(msg)) return;
+  if (type == "TRANSFORM" || type == "POSITION") {
+    tool_pose(msg);
+  } else if (type == "STRING" && msg.header.device == "LaminaRate") {
+    const std::string text = net::read_string(msg.content, msg.size);
+    const std::optional<double> hz = rate_.ask(msg.client, msg.peer, text);
+    if (hz) loop_.set_rate(*hz);
+    // A new rate to every client while streaming (this one included), else the answer to it.
+    tell_rate(hz && a_.send_hz > 0.0 ? -1 : msg.client);
+  } else if (type == "GET_POLYDATA") {
+    interact::LoopSnapshot snap;
+    loop_.latest(snap);
+    server_.send(msg.client, sent_for(snap).requested(snap, msg.header.device));
+  } else if (type == "GET_TRANS") {
+    interact::LoopSnapshot snap;
+    loop_.latest(snap);
+    server_.send(msg.client, outgoing_->reaction(snap.reaction_mn));
+  } else if (noted_.insert({msg.client, type}).second) {
+    // The protocol: a receiver skips the types it does not use.
+    log::info(
+        "OpenIGTLink client {}: skipped {} '{}' (a type lamina serve does not use; "
+        "further ones are skipped silently)",
+        msg.peer, type, msg.header.device);
+  }
+}
+
+void IgtlSession::closed(int client) {
+  std::erase_if(noted_, [&](const auto& n) { return n.first == client; });
+  if (const auto hz = rate_.gone(client)) {
+    loop_.set_rate(*hz);
+    tell_rate(-1);
+  }
+  if (client == grasper_client_) open_grasper("its client has gone");
+  if (client == stroke_.client) log::info("{}", stroke_.finish(loop_, a_.scalpel_depth_mm));
+  if (client != tool_client_) return;
+  tool_client_ = -1;
+  tip_.active = false;
+  loop_.set_tool_tip(tip_);
+  log::info("the tool tip is released: its client has gone");
+}
+
+double IgtlSession::finish_paused_stroke(double now_s) {
+  if (stroke_.client >= 0 && now_s - stroke_.last_pose_s >= a_.scalpel_pause_s)
+    log::info("{} (its poses paused)", stroke_.finish(loop_, a_.scalpel_depth_mm));
+  return stroke_.client >= 0 ? stroke_.last_pose_s + a_.scalpel_pause_s - now_s
+                             : std::numeric_limits<double>::infinity();
+}
+
+// From the loop's per-step sample: no positions are copied for it.
+void IgtlSession::stream_reaction() {
+  const interact::ReactionSample r = loop_.latest_reaction();
+  max_reaction_mn_ = std::max(max_reaction_mn_, r.reaction_mn.norm());
+  if (r.steps != reaction_sent_step_ && server_.client_count() > 0) {
+    server_.stream({outgoing_->reaction(r.reaction_mn)}, net::Stream::kSurfaces);
+    reaction_sent_step_ = r.steps;
+  }
+}
+
+// Their own stream, so that a client still taking one never misses a skin or a reaction.
+void IgtlSession::stream_embedded() {
+  if (server_.client_count() == 0) return;
+  loop_.latest(snap_);
+  Outgoing& out = sent_for(snap_);
+  embedded_batch_.clear();
+  for (int32_t e = 0; e < out.embedded_count(); ++e)
+    embedded_batch_.push_back(out.embedded(snap_, e));
+  server_.stream(embedded_batch_, net::Stream::kEmbedded);
+}
+
+// Each cut (or undo) in the log, and to every client as a STRING named LaminaCut (what it
+// divided, the pieces, each vessel it crossed: a simulator's bleeding cue). A cut refused is the
+// loop's to log.
+void IgtlSession::report_cuts(const interact::LoopSnapshot& sn) {
+  if (sn.model_version == cuts_version_) return;
+  cuts_version_ = sn.model_version;
+  if (sn.cuts <= cuts_seen_) {
+    log::info("a cut is undone ({} in force)", sn.cuts);
+  } else {
+    // (The loop has logged each vessel crossed.)
+    log::info(
+        "cut {}: {} tetrahedra divided, {} piece(s), {} structure(s) crossed; sent as "
+        "STRING 'LaminaCut'",
+        sn.cuts, sn.last_cut.cut_tets, sn.last_cut.pieces.size(),
+        sn.last_cut.structures_cut.size());
+    server_.broadcast(net::pack_string("LaminaCut", cut_event_text(sn, frame_)));
+  }
+  cuts_seen_ = sn.cuts;
+}
+
+// Unstable: the loop has stopped and sends no reaction; said in the log, the organ put back at
+// rest so that the session goes on, and the exit code says it happened.
+void IgtlSession::watch_stability() {
+  if (snap_.stats.unstable == sim::Instability::kNone) {
+    awaiting_reset_ = false;
+    return;
+  }
+  if (awaiting_reset_) return;
+  ++unstable_events_;
+  awaiting_reset_ = true;
+  // A tool held where it blew the organ up blows it up again after each reset: said once, then
+  // at most every 10 s with the count.
+  if (Clock::now() >= next_unstable_log_) {
+    log::error(
+        "the simulation became unstable at t = {:.3f} s: {}; the organ is reset "
+        "to rest (a lower --tip-stiffness, a lower --rate or a stiffer material "
+        "avoids it){}",
+        snap_.time_s, sim::describe(snap_.stats.unstable),
+        unstable_events_ > 1 ? fmt::format(" ({} times so far)", unstable_events_) : "");
+    next_unstable_log_ = Clock::now() + std::chrono::seconds(10);
+  }
+  loop_.reset();
+}
+
+// The loop measures real time over one-second windows; each new window is judged once. Every
+// client hears of a new rate, and each second the machine cannot keep the one a client (a
+// haptic device's 1 kHz) or --rate asked for, and when it keeps it again.
+void IgtlSession::judge_second() {
+  const uint64_t window =
+      static_cast<uint64_t>(snap_.steps > 0 ? seconds(Clock::now() - start_) : 0);
+  if (window == last_window_) return;
+  last_window_ = window;
+  const double asked_hz = rate_.rate_hz();  // what the second just measured was asked to keep
+  const std::optional<double> new_rate = rate_.follow(snap_);
+  if (new_rate) loop_.set_rate(*new_rate);
+  if (new_rate || (snap_.measured_rate_hz == rate_.rate_hz() && (!snap_.keeping_up || behind_)))
+    send_rate(-1, snap_);
+  // A second measured at another rate than the one asked for says nothing of it.
+  if (snap_.measured_rate_hz != asked_hz) return;
+  if (!snap_.keeping_up) {
+    behind_s_ += 1.0;
+    // (The machine's rate moving down has said so itself.)
+    if (!new_rate && (!behind_ || Clock::now() >= next_behind_warning_)) {
+      log::warn(
+          "behind real time: {:.2f} simulated seconds per wall second ({:.0f} of {:.0f} "
+          "steps/s, {:.0f} us a step); a lower --rate, a smaller model or, on a busy machine, "
+          "--threads 1 keeps up",
+          snap_.real_time_factor, snap_.achieved_rate_hz, rate_.rate_hz(), snap_.mean_step_us);
+      next_behind_warning_ = Clock::now() + std::chrono::seconds(10);
+    }
+  } else if (behind_) {
+    log::info("back in real time ({:.2f} simulated seconds per wall second)",
+              snap_.real_time_factor);
+  }
+  behind_ = !snap_.keeping_up;
+}
+
+void IgtlSession::tick() {
+  loop_.latest(snap_);
+  max_reaction_mn_ = std::max(max_reaction_mn_, snap_.reaction_mn.norm());
+  report_cuts(snap_);
+  watch_stability();
+  if (a_.send_hz > 0.0 && server_.client_count() > 0) {
+    std::vector<net::Packed> batch;
+    Outgoing& out = sent_for(snap_);
+    for (int32_t k = 0; k < streamed_layers_; ++k) batch.push_back(out.layer(snap_, k));
+    if (a_.reaction_hz == 0.0) batch.push_back(out.reaction(snap_.reaction_mn));
+    server_.stream(batch, net::Stream::kSurfaces);
+  }
+  judge_second();
+}
+
+int IgtlSession::finish(double wall_s, const web::Session* web) {
+  loop_.latest(snap_);
+  const double rtf = wall_s > 0.0 ? snap_.time_s / wall_s : 0.0;
+  if (rtf < 0.95)
+    log::warn(
+        "the simulation ran at {:.2f}x real time over the whole run; a lower --rate, a smaller "
+        "model or, on a busy machine, --threads 1 keeps up",
+        rtf);
+  outgoing_->log_embedded(true);
+  if (web != nullptr) web->log_summary();
+  const net::ServerCounters& c = server_.counters();
+  fmt::print(stderr,
+             "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "
+             "behind, last at {:g} steps/s chosen by the {}); {} clients, {} messages in ({} "
+             "poses), {} out ({:.1f} MB, {} frames "
+             "skipped), {} connections dropped; max reaction {:.3g} mN; steps waited for the "
+             "server {} times, at most {:.3f} ms\n",
+             snap_.steps, snap_.time_s, wall_s, rtf, behind_s_, rate_.rate_hz(),
+             rate_.chosen_by(), c.clients, c.messages_in, poses_, c.messages_out,
+             static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped, c.dropped,
+             max_reaction_mn_, snap_.lock_waits, 1e-3 * snap_.longest_lock_wait_us);
+  if (unstable_events_ > 0) {
+    log::error("the simulation became unstable {} time(s) during the session (see above)",
+               unstable_events_);
+    return static_cast<int>(ErrorKind::kUnstable);
+  }
+  return 0;
+}
+
+}  // namespace lamina::cli

@@ -1,0 +1,108 @@
+#pragma once
+// The OpenIGTLink side of `lamina serve` (docs/openigtlink.md): what each client's message does
+// to the loop (the tool tip, the grasper, the scalpel, the rate), and what the server streams
+// and says as the loop steps (the surfaces, the reaction, each cut, a blow-up, real time kept or
+// not). The server's thread calls it between polls; the loop steps on its own thread.
+
+#include <chrono>
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "commands.h"
+#include "igtl_server.h"
+#include "lamina/interact/realtime_loop.h"
+#include "scalpel_stroke.h"
+#include "serve_outgoing.h"
+#include "serve_rate.h"
+
+namespace lamina::cli {
+
+namespace web {
+class Session;
+}
+
+class IgtlSession {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  IgtlSession(const ServeArgs& args, net::Server& server, interact::RealtimeLoop& loop,
+              ServeRate& rate, std::shared_ptr<const Model> model, Clock::time_point start);
+
+  /// A client's message; `closed`: a client has gone (what it held is let go).
+  void handle(const net::Message& msg);
+  void closed(int client);
+
+  /// A scalpel stroke whose poses paused past --scalpel-pause is finished (it cuts); returns
+  /// how long the server may wait before the one under way would be (s; large: none).
+  double finish_paused_stroke(double now_s);
+  /// The reaction after the loop's latest step, to every client (once per step).
+  void stream_reaction();
+  /// The embedded surfaces, on their own stream (heavier: their own rate).
+  void stream_embedded();
+  /// Each tick: the latest snapshot's cuts reported, a blow-up said and the organ reset, the
+  /// surfaces streamed, and (each new second) the rate followed and real time judged.
+  void tick();
+
+  bool has_embedded() const { return outgoing_->embedded_count() > 0; }
+  /// The tool tip and whose hands hold the tip and the grasper: the web session shares them.
+  interact::ToolTip& tip() { return tip_; }
+  int& tool_client() { return tool_client_; }
+  int& grasper_client() { return grasper_client_; }
+
+  /// The session's last words (the web session's among them, if any): the summary line, and
+  /// the exit code (ErrorKind::kUnstable if the simulation blew up at any time).
+  int finish(double wall_s, const web::Session* web);
+  void log_embedded(bool at_exit) const { outgoing_->log_embedded(at_exit); }
+
+ private:
+  Outgoing& sent_for(const interact::LoopSnapshot& snap);
+  bool scalpel_message(const net::Message& msg);
+  bool grasper_message(const net::Message& msg);
+  void tool_pose(const net::Message& msg);
+  void open_grasper(const std::string& why);
+  void send_rate(int client, const interact::LoopSnapshot& now);
+  void tell_rate(int client);
+  void report_cuts(const interact::LoopSnapshot& snap);
+  void watch_stability();
+  void judge_second();
+
+  const ServeArgs& a_;
+  net::Server& server_;
+  interact::RealtimeLoop& loop_;
+  ServeRate& rate_;
+  const net::Frame frame_;
+  const Clock::time_point start_;
+  // What is sent is laid out for a model; a cut makes another (and adds the wound), which the
+  // snapshots then carry: each message is packed for the model of the snapshot it shows.
+  std::unique_ptr<Outgoing> outgoing_;
+  uint64_t outgoing_version_ = 0;
+  const int32_t streamed_layers_;
+  ScalpelStroke stroke_;
+  interact::ToolTip tip_;
+  int tool_client_ = -1;     // whose pose the tip follows
+  int grasper_client_ = -1;  // whose pose the grasper follows (its jaws closed)
+  const std::string grasper_open_;
+  int64_t poses_ = 0;
+  std::set<std::pair<int, std::string>> noted_;  // (client, type) already logged as skipped
+  interact::LoopSnapshot snap_;
+  std::vector<net::Packed> embedded_batch_;
+  int64_t reaction_sent_step_ = -1;
+  double max_reaction_mn_ = 0.0;
+  // Each cut (or undo) the loop has made since the last look.
+  uint64_t cuts_version_ = 0;
+  int64_t cuts_seen_ = 0;
+  // Blow-ups: counted, said once and then at most every 10 s.
+  int64_t unstable_events_ = 0;
+  bool awaiting_reset_ = false;
+  Clock::time_point next_unstable_log_;
+  // Real time, judged on the loop's one-second windows.
+  uint64_t last_window_ = 0;
+  bool behind_ = false;
+  double behind_s_ = 0.0;
+  Clock::time_point next_behind_warning_;
+};
+
+}  // namespace lamina::cli

@@ -1,0 +1,62 @@
+#pragma once
+// What `lamina serve` sends over OpenIGTLink, packed from the loop's snapshot: the layers'
+// surfaces (LaminaSkin, LaminaLayerK), the embedded surfaces (named as in the model) and the
+// tissue's reaction (LaminaReaction), each packer laid out once for a model with its triangles.
+// A cut makes another model: a new Outgoing is made for it (IgtlSession::sent_for).
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "igtl_wire.h"
+#include "lamina/interact/realtime_loop.h"
+#include "lamina/model/model.h"
+
+namespace lamina::cli {
+
+/// OpenIGTLink's device names hold at most this many characters.
+inline constexpr size_t kMaxDeviceName = 20;
+
+/// The device name of layer k's POLYDATA: LaminaSkin for the skin, LaminaLayer1... inside.
+std::string layer_device(int32_t k);
+
+class Outgoing {
+ public:
+  /// Laid out for `model` (kept while sent); an embedded surface whose name the wire cannot
+  /// carry, or that another message has, is said in the log and not sent.
+  Outgoing(std::shared_ptr<const Model> model, net::Frame frame);
+
+  /// A GET_POLYDATA names a layer (LaminaLayerK) or an embedded surface; any other name means
+  /// the skin (the protocol's example client asks as "Client").
+  net::Packed requested(const interact::LoopSnapshot& snap, const std::string& device);
+  net::Packed layer(const interact::LoopSnapshot& snap, int32_t k);
+  /// The embedded surface's points W x; its buffers are kept from one frame to the next.
+  net::Packed embedded(const interact::LoopSnapshot& snap, int32_t e);
+  int32_t embedded_count() const { return static_cast<int32_t>(embedded_.size()); }
+  net::Packed reaction(const Eigen::Vector3d& reaction_mn) const;
+  /// One line per embedded surface sent: its size on the wire and (at exit) what a frame of it
+  /// cost.
+  void log_embedded(bool at_exit) const;
+
+  static constexpr const char* kReactionDevice = "LaminaReaction";
+
+ private:
+  struct Embedded {
+    const EmbeddedSurface* surface;
+    net::PolyDataPacker packer;
+    Eigen::MatrixX3d points;  // W x, mm, LPS
+    double pack_s = 0.0;      // time spent on W x and packing, s
+    int64_t packs = 0;
+  };
+  int32_t requested_layer(const std::string& device) const;
+  int32_t find_embedded(const std::string& device) const;
+
+  std::shared_ptr<const Model> shared_;  // a cut replaces the loop's: kept while sent
+  const Model& model_;
+  net::Frame frame_;
+  std::vector<net::PolyDataPacker> layers_;
+  std::vector<Embedded> embedded_;
+};
+
+}  // namespace lamina::cli

@@ -1,0 +1,67 @@
+// The real-time loop's publications (realtime_loop.h): the snapshot a caller copies when it
+// draws, the reaction a haptic device reads every step, and the stepping thread's count of the
+// times a caller held a lock it needed.
+#include <algorithm>
+
+#include "lamina/interact/realtime_loop.h"
+#include "lamina/sim/simulation.h"
+#include "loop_clock.h"
+
+namespace lamina::interact {
+
+ReactionSample RealtimeLoop::latest_reaction() const {
+  std::lock_guard lock(reaction_mutex_);
+  return reaction_;
+}
+
+void RealtimeLoop::publish(bool force) {
+  const double t = now_s();
+  if (!force && t - last_publish_s_ < options_.publish_interval_s) return;
+  last_publish_s_ = t;
+
+  // The last step's reaction (one_step computes it for latest_reaction()), not a second pass.
+  const Eigen::Vector3d reaction = latest_reaction().reaction_mn;
+
+  std::unique_lock lock(snapshot_mutex_, std::defer_lock);
+  acquire(lock);
+  LoopSnapshot& s = published_;
+  s.x = sim_.x;
+  s.stats = last_stats_;
+  s.time_s = sim_.time_s;
+  s.steps = sim_.steps;
+  s.recoveries = sim_.recoveries;
+  s.achieved_rate_hz = achieved_rate_hz_;
+  s.measured_rate_hz = measured_rate_hz_;
+  s.dt_s = sim_.options().dt_s;
+  s.multigrid = sim::uses_multigrid(sim_);
+  s.real_time_factor = real_time_factor_;
+  s.keeping_up = keeping_up_;
+  s.mean_step_us = mean_step_us_;
+  s.worst_jitter_us = published_worst_jitter_;
+  s.reaction_mn = reaction;
+  s.contact_nodes.clear();
+  for (const ForceRoute& r : routes_) s.contact_nodes.push_back(r.contact_node);
+  if (tip_contact_ >= 0) s.contact_nodes.push_back(tip_contact_);
+  s.tool_tip_touching = tip_contact_ >= 0;
+  s.grasped_nodes = grasp_.nodes;
+  s.lock_waits = lock_waits_;
+  s.longest_cut_pause_us = longest_cut_pause_us_;
+  s.longest_lock_wait_us = longest_lock_wait_us_;
+  s.model = model_;
+  s.model_version = model_version_;
+  s.cuts = cuts_;
+  s.undoable = static_cast<int32_t>(undo_.size());
+  s.last_cut = last_cut_;
+  s.cut_error = cut_error_;
+  ++s.generation;
+}
+
+void RealtimeLoop::acquire(std::unique_lock<std::mutex>& lock) {
+  if (lock.try_lock()) return;
+  const double t0 = now_s();
+  lock.lock();
+  ++lock_waits_;
+  longest_lock_wait_us_ = std::max(longest_lock_wait_us_, 1e6 * (now_s() - t0));
+}
+
+}  // namespace lamina::interact
