@@ -8,6 +8,8 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,23 +29,28 @@ struct Organ {
   std::shared_ptr<Model> model;
 };
 
-const std::vector<Organ>& organs() {
-  static const std::vector<Organ> o = [] {
-    const std::string data = LAMINA_BENCH_DATA;
-    const LabelVolume labels =
-        io::read_label_volume(data + "/liver_totalseg_example_3mm_labels.nii.gz");
-    const LabelVolume kidney =
-        io::read_label_volume(data + "/kidney_right_totalseg_example_3mm.nii.gz");
-    const auto build = [](const LabelVolume& v, int32_t label, int32_t skin) {
-      return std::make_shared<Model>(
-          model::build_model(v, {.label = label, .display_triangles = 0, .skin_vertices = skin})
-              .model);
-    };
-    return std::vector<Organ>{{"liver", build(labels, 1, 1284)},
-                              {"gallbladder", build(labels, 4, 400)},
-                              {"kidney_right", build(kidney, 0, 600)}};
-  }();
-  return o;
+// The three organs at one density: the liver with `liver_skin` skin vertices (1284: the
+// paper's size), the gallbladder and the kidney in proportion (400 and 600 at the paper's size).
+// Built once per size.
+const std::vector<Organ>& organs(int32_t liver_skin = 1284) {
+  static std::map<int32_t, std::vector<Organ>> built;
+  const auto it = built.find(liver_skin);
+  if (it != built.end()) return it->second;
+  const std::string data = LAMINA_BENCH_DATA;
+  static const LabelVolume labels =
+      io::read_label_volume(data + "/liver_totalseg_example_3mm_labels.nii.gz");
+  static const LabelVolume kidney =
+      io::read_label_volume(data + "/kidney_right_totalseg_example_3mm.nii.gz");
+  const auto build = [](const LabelVolume& v, int32_t label, int32_t skin) {
+    return std::make_shared<Model>(
+        model::build_model(v, {.label = label, .display_triangles = 0, .skin_vertices = skin})
+            .model);
+  };
+  const double f = liver_skin / 1284.0;
+  return built[liver_skin] = {
+             {"liver", build(labels, 1, liver_skin)},
+             {"gallbladder", build(labels, 4, static_cast<int32_t>(std::lround(400 * f)))},
+             {"kidney_right", build(kidney, 0, static_cast<int32_t>(std::lround(600 * f)))}};
 }
 
 // The default scene's physical tissue on `m`, its posterior surface supported; the poke only on
@@ -64,11 +71,13 @@ world::BodyDef body_of(const Organ& organ, bool poke) {
 
 void BM_WorldStep(benchmark::State& state) {
   const int32_t bodies = static_cast<int32_t>(state.range(0));
+  const auto liver_skin = static_cast<int32_t>(state.range(1));
   world::World w;
   w.contact.rest_overlap_tolerance_mm = 6.0;  // two voxels: reported below
   std::vector<world::BodyId> ids;
   for (int32_t b = 0; b < bodies; ++b)
-    ids.push_back(world::create_body(w, body_of(organs()[static_cast<size_t>(b)], b == 0)));
+    ids.push_back(
+        world::create_body(w, body_of(organs(liver_skin)[static_cast<size_t>(b)], b == 0)));
   if (bodies >= 2)
     world::create_attachment(w, {.body_a = ids[0].index,
                                  .body_b = ids[1].index,
@@ -104,16 +113,30 @@ void BM_WorldStep(benchmark::State& state) {
   state.counters["steps_per_s"] = benchmark::Counter(n, benchmark::Counter::kIsRate);
   state.counters["peak_rss_mb"] = bench::peak_rss_mb();
 }
+// At the paper's size, then at the sizes a user picks (about 10k, 40k and 100k nodes in all):
+// fewer steps where a step takes longer.
 BENCHMARK(BM_WorldStep)
-    ->Arg(1)
-    ->Arg(3)
-    ->ArgName("bodies")
+    ->Args({1, 1284})
+    ->Args({3, 1284})
+    ->ArgNames({"bodies", "liver_skin"})
     ->Iterations(1000)
     ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_WorldStep)
+    ->Args({3, 5000})
+    ->ArgNames({"bodies", "liver_skin"})
+    ->Iterations(200)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_WorldStep)
+    ->Args({3, 20000})
+    ->Args({3, 50000})
+    ->ArgNames({"bodies", "liver_skin"})
+    ->Iterations(30)
+    ->Unit(benchmark::kMillisecond);
 
-// The reference: the liver's own simulation stepped alone, the same poke.
+// The reference: the liver's own simulation stepped alone, the same poke, at each size.
 void BM_LiverAloneStep(benchmark::State& state) {
-  world::BodyDef def = body_of(organs()[0], true);
+  const Organ& liver = organs(static_cast<int32_t>(state.range(0)))[0];
+  world::BodyDef def = body_of(liver, true);
   sim::Simulation& s = def.simulation;
   for (int k = 0; k < 50; ++k) {
     interact::apply_tools(s, def.tools);
@@ -123,12 +146,27 @@ void BM_LiverAloneStep(benchmark::State& state) {
     interact::apply_tools(s, def.tools);
     sim::step(s);
   }
-  state.counters["nodes"] = organs()[0].model->node_count();
+  state.counters["nodes"] = liver.model->node_count();
   state.counters["steps_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["peak_rss_mb"] = bench::peak_rss_mb();
 }
-BENCHMARK(BM_LiverAloneStep)->Iterations(1000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LiverAloneStep)
+    ->Arg(1284)
+    ->ArgName("liver_skin")
+    ->Iterations(1000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LiverAloneStep)
+    ->Arg(5000)
+    ->ArgName("liver_skin")
+    ->Iterations(200)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LiverAloneStep)
+    ->Arg(20000)
+    ->Arg(50000)
+    ->ArgName("liver_skin")
+    ->Iterations(30)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

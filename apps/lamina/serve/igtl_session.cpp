@@ -326,8 +326,8 @@ int IgtlSession::finish(double wall_s, const web::Session* web) {
              "poses), {} out ({:.1f} MB, {} frames "
              "skipped), {} connections dropped; max reaction {:.3g} mN; steps waited for the "
              "server {} times, at most {:.3f} ms\n",
-             snap_.steps, snap_.time_s, wall_s, rtf, behind_s_, rate_.rate_hz(),
-             rate_.chosen_by(), c.clients, c.messages_in, poses_, c.messages_out,
+             snap_.steps, snap_.time_s, wall_s, rtf, behind_s_, rate_.rate_hz(), rate_.chosen_by(),
+             c.clients, c.messages_in, poses_, c.messages_out,
              static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped, c.dropped,
              max_reaction_mn_, snap_.lock_waits, 1e-3 * snap_.longest_lock_wait_us);
   if (unstable_events_ > 0) {
