@@ -12,13 +12,6 @@
 #include "web_session.h"
 
 namespace lamina::cli {
-namespace {
-
-double seconds(IgtlSession::Clock::duration d) {
-  return std::chrono::duration<double>(d).count();
-}
-
-}  // namespace
 
 IgtlSession::IgtlSession(const ServeArgs& args, net::Server& server, interact::RealtimeLoop& loop,
                          ServeRate& rate, std::shared_ptr<const Model> model,

@@ -15,6 +15,7 @@
 #include "igtl_server.h"
 #include "lamina/interact/realtime_loop.h"
 #include "scalpel_stroke.h"
+#include "serve_clock.h"
 #include "serve_outgoing.h"
 #include "serve_rate.h"
 
@@ -26,7 +27,7 @@ class Session;
 
 class IgtlSession {
  public:
-  using Clock = std::chrono::steady_clock;
+  using Clock = ServeClock;
 
   IgtlSession(const ServeArgs& args, net::Server& server, interact::RealtimeLoop& loop,
               ServeRate& rate, std::shared_ptr<const Model> model, Clock::time_point start);

@@ -33,15 +33,11 @@
 namespace lamina::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using Clock = ServeClock;
 
 std::atomic<bool> stop_requested{false};
 void request_stop(int) {
   stop_requested = true;
-}
-
-double seconds(Clock::duration d) {
-  return std::chrono::duration<double>(d).count();
 }
 
 void check_args(const ServeArgs& a) {

@@ -7,15 +7,12 @@
 
 #include "lamina/core/log.h"
 #include "lamina/model/embed_surface.h"
+#include "serve_clock.h"
 
 namespace lamina::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds(Clock::duration d) {
-  return std::chrono::duration<double>(d).count();
-}
+using Clock = ServeClock;
 
 }  // namespace
 
