@@ -89,8 +89,8 @@ void bind_world(py::module_& m) {
               py::gil_scoped_release release;
               for (int64_t k = 0; k < steps; ++k) {
                 const double t = w.ready->world.time_s;
-                io::advance_dissections(w.scene.dissections, w.ready->world, t,
-                                        t + w.scene.solver.dt_s);
+                world::advance_dissections(w.scene.dissections, w.ready->world, t,
+                                           t + w.scene.solver.dt_s);
                 world::step(w.ready->world, w.last);
                 if (w.last.unstable != sim::Instability::kNone) break;
               }

@@ -24,6 +24,15 @@ double next_rate(double rate_hz, double mean_step_us, bool keeping_up) {
 
 std::optional<double> rate_to_follow(double rate_hz, const LoopSnapshot& snap,
                                      const char* forced_by) {
+  RateWindow w;
+  w.measured_rate_hz = snap.measured_rate_hz;
+  w.mean_step_us = snap.mean_step_us;
+  w.keeping_up = snap.keeping_up;
+  return rate_to_follow(rate_hz, w, forced_by);
+}
+
+std::optional<double> rate_to_follow(double rate_hz, const RateWindow& snap,
+                                     const char* forced_by) {
   if (snap.measured_rate_hz != rate_hz || !(snap.mean_step_us > 0.0)) return std::nullopt;
   const double next = next_rate(rate_hz, snap.mean_step_us, snap.keeping_up);
   if (next == rate_hz) return std::nullopt;

@@ -35,8 +35,7 @@ RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
   // made here, not in the stepping thread's first step (a 0.8 s hitch at 6,228 nodes and 60 Hz
   // in the viewer).
   sim::prepare_solver(sim_);
-  window_start_s_ = now_s();
-  window_sim_start_s_ = sim_.time_s;
+  window_.restart(now_s(), sim_.time_s);
   publish(true);
 }
 
@@ -179,7 +178,7 @@ void RealtimeLoop::apply_pending() {
     sim::reset(sim_);
     last_stats_ = {};  // an unstable simulation steps again from rest
     proxy_ = {};       // the tip's proxy is placed afresh on the rest shape
-    window_sim_start_s_ = sim_.time_s;
+    window_.restart_sim(sim_.time_s);
     reset_requested_ = false;
     reroute = true;
   }
@@ -191,13 +190,7 @@ void RealtimeLoop::apply_pending() {
     reroute = true;
   }
   if (rate_hz_ != stepping_rate_hz_) {
-    // A new rate is judged on its own steps: the measuring window starts again (a window
-    // holding the old rate's steps said "behind" of a rate that had just been lowered).
-    window_start_s_ = now_s();
-    window_sim_start_s_ = sim_.time_s;
-    window_step_sum_us_ = 0.0;
-    window_steps_ = 0;
-    worst_jitter_us_ = 0.0;
+    window_.restart(now_s(), sim_.time_s);  // a new rate is judged on its own steps
   }
   stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
@@ -286,24 +279,7 @@ void RealtimeLoop::one_step() {
     reaction_ = {reaction, sim_.steps, sim_.time_s};
   }
 
-  // Rolling one-second window of rate, step time and jitter.
-  window_step_sum_us_ += 1e6 * (t1 - t0);
-  ++window_steps_;
-  worst_jitter_us_ = std::max(worst_jitter_us_, late_us_);
-  if (t1 - window_start_s_ >= 1.0) {
-    achieved_rate_hz_ = static_cast<double>(window_steps_) / (t1 - window_start_s_);
-    measured_rate_hz_ = stepping_rate_hz_;
-    real_time_factor_ = (sim_.time_s - window_sim_start_s_) / (t1 - window_start_s_);
-    window_sim_start_s_ = sim_.time_s;
-    // Behind: real time was asked for and the simulated clock fell more than 5% behind.
-    keeping_up_ = !(options_.real_time && stepping_rate_hz_ > 0.0) || real_time_factor_ >= 0.95;
-    mean_step_us_ = window_step_sum_us_ / static_cast<double>(window_steps_);
-    published_worst_jitter_ = worst_jitter_us_;
-    window_step_sum_us_ = 0.0;
-    window_steps_ = 0;
-    worst_jitter_us_ = 0.0;
-    window_start_s_ = t1;
-  }
+  window_.add(1e6 * (t1 - t0), late_us_, t1, sim_.time_s, stepping_rate_hz_, options_.real_time);
 }
 
 // The grasper's jaws where the caller last put them: closed on the current shape when they were

@@ -1,6 +1,5 @@
 // The real-time loop's publications (realtime_loop.h): the snapshot a caller copies when it
-// draws, the reaction a haptic device reads every step, and the stepping thread's count of the
-// times a caller held a lock it needed.
+// draws and the reaction a haptic device reads every step.
 #include <algorithm>
 
 #include "lamina/interact/realtime_loop.h"
@@ -30,23 +29,23 @@ void RealtimeLoop::publish(bool force) {
   s.time_s = sim_.time_s;
   s.steps = sim_.steps;
   s.recoveries = sim_.recoveries;
-  s.achieved_rate_hz = achieved_rate_hz_;
-  s.measured_rate_hz = measured_rate_hz_;
+  s.achieved_rate_hz = window_.achieved_rate_hz;
+  s.measured_rate_hz = window_.measured_rate_hz;
   s.dt_s = sim_.options().dt_s;
   s.multigrid = sim::uses_multigrid(sim_);
-  s.real_time_factor = real_time_factor_;
-  s.keeping_up = keeping_up_;
-  s.mean_step_us = mean_step_us_;
-  s.worst_jitter_us = published_worst_jitter_;
+  s.real_time_factor = window_.real_time_factor;
+  s.keeping_up = window_.keeping_up;
+  s.mean_step_us = window_.mean_step_us;
+  s.worst_jitter_us = window_.worst_jitter_us;
   s.reaction_mn = reaction;
   s.contact_nodes.clear();
   for (const ForceRoute& r : routes_) s.contact_nodes.push_back(r.contact_node);
   if (tip_contact_ >= 0) s.contact_nodes.push_back(tip_contact_);
   s.tool_tip_touching = tip_contact_ >= 0;
   s.grasped_nodes = grasp_.nodes;
-  s.lock_waits = lock_waits_;
+  s.lock_waits = lock_waits_.count;
   s.longest_cut_pause_us = longest_cut_pause_us_;
-  s.longest_lock_wait_us = longest_lock_wait_us_;
+  s.longest_lock_wait_us = lock_waits_.longest_us;
   s.model = model_;
   s.model_version = model_version_;
   s.cuts = cuts_;
@@ -57,11 +56,7 @@ void RealtimeLoop::publish(bool force) {
 }
 
 void RealtimeLoop::acquire(std::unique_lock<std::mutex>& lock) {
-  if (lock.try_lock()) return;
-  const double t0 = now_s();
-  lock.lock();
-  ++lock_waits_;
-  longest_lock_wait_us_ = std::max(longest_lock_wait_us_, 1e6 * (now_s() - t0));
+  lock_waits_.acquire(lock);
 }
 
 }  // namespace lamina::interact

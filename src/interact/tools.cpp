@@ -220,7 +220,9 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
                                              std::to_string(d.held_forces.rows()) + " rows");
     s.f_ext = d.held_forces;  // replaces clearing the last step's loads
     d.loads.nodes.clear();
-    d.loads.cleared = true;
+    // Not "cleared": held forces lie on nodes no load lists, so once they are dropped the next
+    // clear_loads() zeroes the whole of f_ext (they stayed on for ever when this said cleared).
+    d.loads.cleared = false;
   }
   for (size_t t = 0; t < n; ++t)
     if (d.active[t] && !d.tools[t].grasp) add_load(s, d.routes[t], d.loads);

@@ -139,7 +139,7 @@ void read_dissections(const Value& v, WorldScene& w) {
     const std::string path = item(v.path, k);
     v.in.r.require_object(v.data[k], path);
     json blade = v.data[k];
-    Dissection d;
+    world::Dissection d;
     if (blade.contains("reach_mm")) {
       d.reach_mm = v.in.r.number(blade["reach_mm"], path + ".reach_mm");
       if (!(d.reach_mm > 0.0))
@@ -292,43 +292,6 @@ std::unique_ptr<ReadyWorld> make_ready_world(const WorldScene& scene,
     }
   }
   return ready;
-}
-
-namespace {
-
-// The blade's upper end at `time_s`: along its path at constant speed.
-Eigen::Vector3d on_path(const interact::Scalpel& b, double time_s) {
-  double total = 0.0;
-  for (size_t k = 1; k < b.path.size(); ++k) total += (b.path[k] - b.path[k - 1]).norm();
-  const double f = std::clamp((time_s - b.start_s) / (b.end_s - b.start_s), 0.0, 1.0);
-  double left = f * total;
-  for (size_t k = 1; k < b.path.size(); ++k) {
-    const double len = (b.path[k] - b.path[k - 1]).norm();
-    if (left <= len && len > 0.0) return b.path[k - 1] + (left / len) * (b.path[k] - b.path[k - 1]);
-    left -= len;
-  }
-  return b.path.back();
-}
-
-}  // namespace
-
-world::BladeSweep blade_sweep(const interact::Scalpel& blade, double from_s, double to_s) {
-  const Eigen::Vector3d down = blade.depth_mm * blade.depth_direction.normalized();
-  world::BladeSweep s;
-  s.a0 = on_path(blade, from_s);
-  s.b0 = s.a0 + down;
-  s.a1 = on_path(blade, to_s);
-  s.b1 = s.a1 + down;
-  return s;
-}
-
-int32_t advance_dissections(const std::vector<Dissection>& dissections, world::World& world,
-                            double from_s, double to_s) {
-  int32_t divided = 0;
-  for (const Dissection& d : dissections)
-    if (to_s >= d.blade.start_s && from_s <= d.blade.end_s)
-      divided += world::divide_ties(world, blade_sweep(d.blade, from_s, to_s), d.reach_mm);
-  return divided;
 }
 
 }  // namespace lamina::io

@@ -134,7 +134,7 @@ TEST(WorldScene, AWorldOfTheTotalSegmentatorOrgansTiesTheGallbladderToItsBed) {
     lo = lo.cwiseMin(mid);
     hi = hi.cwiseMax(mid);
   }
-  io::Dissection cut;
+  world::Dissection cut;
   cut.blade.path = {Eigen::Vector3d(lo.x() - 5, lo.y() - 5, 0.5 * (lo.z() + hi.z())),
                     Eigen::Vector3d(hi.x() + 5, hi.y() + 5, 0.5 * (lo.z() + hi.z()))};
   cut.blade.depth_direction = Eigen::Vector3d(1, -1, 0);
@@ -142,8 +142,8 @@ TEST(WorldScene, AWorldOfTheTotalSegmentatorOrgansTiesTheGallbladderToItsBed) {
   cut.reach_mm = (hi - lo).norm();
   cut.blade.start_s = 0.0;
   cut.blade.end_s = 1.0;
-  EXPECT_EQ(io::advance_dissections({cut}, ready->world, 2.0, 3.0), 0);  // after it ended
-  const int32_t divided = io::advance_dissections({cut}, ready->world, 0.0, 1.0);
+  EXPECT_EQ(world::advance_dissections({cut}, ready->world, 2.0, 3.0), 0);  // after it ended
+  const int32_t divided = world::advance_dissections({cut}, ready->world, 0.0, 1.0);
   EXPECT_EQ(divided, static_cast<int32_t>(bed.ties.size()));
   EXPECT_EQ(world::count_ties(ready->world).divided, static_cast<int64_t>(bed.ties.size()));
 }

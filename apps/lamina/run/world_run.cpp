@@ -153,7 +153,7 @@ double settle_from_s(const io::ReadyWorld& w, const io::WorldScene& scene) {
   for (const world::BodyId id : w.ids)
     for (const interact::Tool& tool : world::body(w.world, id).tools.tools)
       t = std::max(t, std::isfinite(tool.end_s) ? tool.end_s : tool.start_s);
-  for (const io::Dissection& d : scene.dissections) t = std::max(t, d.blade.end_s);
+  for (const world::Dissection& d : scene.dissections) t = std::max(t, d.blade.end_s);
   return t;
 }
 
@@ -279,7 +279,7 @@ WorldLoop step_world(const RunArgs& a, const io::WorldScene& scene, io::ReadyWor
     const double t0 = w.world.time_s;
     const auto c0 = Clock::now();
     const int32_t divided =
-        io::advance_dissections(scene.dissections, w.world, t0, t0 + scene.solver.dt_s);
+        world::advance_dissections(scene.dissections, w.world, t0, t0 + scene.solver.dt_s);
     world::step(w.world, st);
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - c0).count();
     loop.step_us.push_back(us);

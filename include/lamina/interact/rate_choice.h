@@ -38,5 +38,8 @@ double next_rate(double rate_hz, double mean_step_us, bool keeping_up);
 /// logged, naming `forced_by` (what forces a rate instead). The viewer's and `lamina serve`'s.
 std::optional<double> rate_to_follow(double rate_hz, const LoopSnapshot& snap,
                                      const char* forced_by);
+/// The same, judged on a loop's RateWindow (the world loop's).
+std::optional<double> rate_to_follow(double rate_hz, const RateWindow& measured,
+                                     const char* forced_by);
 
 }  // namespace lamina::interact

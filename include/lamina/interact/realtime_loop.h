@@ -21,8 +21,10 @@
 #include <thread>
 #include <vector>
 
+#include "lamina/core/lock_waits.h"
 #include "lamina/interact/grasp.h"
 #include "lamina/interact/haptic_proxy.h"
+#include "lamina/interact/rate_window.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/sim/simulation.h"
@@ -272,17 +274,9 @@ class RealtimeLoop {
   bool warned_inside_ = false;    // the device-inside-the-organ warning was logged for this entry
   double last_publish_s_ = -1.0;
   sim::StepStats last_stats_;
-  double window_step_sum_us_ = 0.0;
-  double window_start_s_ = 0.0;
-  int64_t window_steps_ = 0;
-  double achieved_rate_hz_ = 0.0, mean_step_us_ = 0.0, worst_jitter_us_ = 0.0;
-  double measured_rate_hz_ = 0.0;
-  double window_sim_start_s_ = 0.0, real_time_factor_ = 0.0;
-  bool keeping_up_ = true;
-  double published_worst_jitter_ = 0.0;
+  RateWindow window_;     // the last second's rate, step time, jitter and real-time factor
   double late_us_ = 0.0;  // how late the current step started, us
-  int64_t lock_waits_ = 0;
-  double longest_lock_wait_us_ = 0.0;
+  LockWaits lock_waits_;
 
   // The last step's reaction, guarded by reaction_mutex_ (a lock per step, held for a copy of
   // five numbers: the snapshot's lock is held while positions are copied).

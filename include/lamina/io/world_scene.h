@@ -16,6 +16,7 @@
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
+#include "lamina/world/dissection.h"
 #include "lamina/world/world.h"
 
 namespace lamina::io {
@@ -33,22 +34,14 @@ struct WorldAttachmentScene {
   world::AttachmentDef def;  ///< its name, reach, stiffness and strength (body slots unset)
 };
 
-/// A blade drawn through the world that divides the ties within `reach_mm` of where it passes
-/// (world::divide_ties), at the bodies' current positions: a dissection of connective tissue.
-/// It does not cut the bodies' tetrahedra (a body's scalpel in a world is refused).
-struct Dissection {
-  interact::Scalpel blade;
-  double reach_mm = 1.5;
-};
-
 /// A parsed world scene.
 struct WorldScene {
   std::string source;
   std::vector<WorldBodyScene> bodies;
   std::vector<WorldAttachmentScene> attachments;
   world::ContactOptions contact;
-  std::vector<Dissection> dissections;
-  sim::SolverOptions solver;  ///< the world's: every body steps with it
+  std::vector<world::Dissection> dissections;  ///< blades that divide ties (dissection.h)
+  sim::SolverOptions solver;                   ///< the world's: every body steps with it
   SceneOutput output;
 };
 
@@ -86,16 +79,5 @@ struct ReadyWorld {
 std::unique_ptr<ReadyWorld> make_ready_world(const WorldScene& scene,
                                              const ReadVolumeOptions& read_options = {},
                                              const ProgressFn& progress = {});
-
-/// The surface the edge of `blade` sweeps from `from_s` to `to_s` (each clamped to the blade's
-/// start and end): its upper end moving along the path at constant speed, its lower end
-/// depth_mm along its direction, mm.
-world::BladeSweep blade_sweep(const interact::Scalpel& blade, double from_s, double to_s);
-
-/// Moves the dissections' blades from `from_s` to `to_s` (a step) and divides the ties each
-/// passes (world::divide_ties at its reach).
-/// @return the ties divided
-int32_t advance_dissections(const std::vector<Dissection>& dissections, world::World& world,
-                            double from_s, double to_s);
 
 }  // namespace lamina::io

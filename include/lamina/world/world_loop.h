@@ -1,0 +1,152 @@
+#pragma once
+/// \file
+/// A world stepping in its own thread at the wall clock's pace (world::step, one step every
+/// 1 / rate seconds), decoupled from whoever draws it: the world's counterpart of the one-organ
+/// interact::RealtimeLoop, which the viewer runs a world scene with (docs/world.md, "The world
+/// in real time"). Callers push and pull bodies with live forces, sweep a blade through the
+/// attachments, pause, reset and change the rate at any time; the commands take effect between
+/// two steps. The loop publishes a snapshot (every body's positions, model and topology
+/// generation, the ties, the stages' times, the achieved rate) that a caller copies when it
+/// draws: neither side waits for the other.
+///
+/// Only the loop's thread touches the World while it runs; every public member function is safe
+/// to call from any one other thread. A command naming a body by a stale handle, or by nodes of
+/// an older topology generation of it, is refused (lamina::Error kInvalidInput), not applied to
+/// whatever holds that slot or those numbers now.
+///
+///     world::WorldLoop loop(std::move(ready->world), {.dissections = scene.dissections});
+///     loop.start();
+///     world::WorldSnapshot snap;
+///     while (drawing) { if (loop.latest(snap)) draw(snap); }
+
+#include <Eigen/Core>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "lamina/interact/rate_window.h"
+#include "lamina/interact/tools.h"
+#include "lamina/world/dissection.h"
+#include "lamina/world/world.h"
+
+namespace lamina::world {
+
+struct WorldLoopOptions {
+  /// Steps per wall-clock second; 0 = as fast as possible, at the bodies' own dt.
+  double rate_hz = 1000.0;
+  /// Real time: every body's step becomes 1 / rate_hz, so that the simulated clock follows the
+  /// wall clock; when the machine cannot keep up the snapshot says so (rate.keeping_up), dt is
+  /// never stretched to hide it. false: the bodies' dt whatever the rate.
+  bool real_time = true;
+  /// Threads each step may use; 0 = OpenMP's default (a viewer drawing on the same cores sets 1,
+  /// as it does for the one-organ loop: realtime_loop.h).
+  int threads = 0;
+  /// Minimum wall time between two published snapshots, s.
+  double publish_interval_s = 1.0 / 240.0;
+  /// A scene's blades, on the world's clock (a reset plays them again from the start).
+  std::vector<Dissection> dissections;
+};
+
+/// One body as the loop last published it.
+struct BodyView {
+  BodyId id;
+  std::string name;
+  std::shared_ptr<const Model> model;
+  uint32_t topology = 0;  ///< the body's topology generation: node numbers are of this one
+  Eigen::MatrixX3d x;     ///< #nodes by 3, mm
+  BodyStepStats stats;    ///< its part of the last step
+  std::vector<int32_t> force_nodes;    ///< where the live forces act (skin nodes)
+  std::vector<int32_t> grasped_nodes;  ///< what the scene's graspers hold now
+};
+
+/// An active tie as drawn: its node and its point on the other skin, and its pull.
+struct TieLine {
+  Eigen::Vector3d from = Eigen::Vector3d::Zero(), to = Eigen::Vector3d::Zero();
+  double pull_mn = 0.0;
+};
+
+/// What the loop last published. Everything is a copy: valid as long as the caller keeps it.
+struct WorldSnapshot {
+  std::vector<BodyView> bodies;  ///< the live bodies, in slot order
+  std::vector<TieLine> ties;     ///< active ties
+  TieCount tie_count;
+  WorldProfile profile;  ///< the last step's stages, us
+  double step_us = 0.0;  ///< the last step's
+  double time_s = 0.0;   ///< simulated
+  int64_t steps = 0;
+  double dt_s = 0.0;
+  uint64_t generation = 0;    ///< increases with each publication
+  interact::RateWindow rate;  ///< the last whole second: achieved rate, real-time factor...
+  bool paused = false;
+  /// Every body at rest and no tie torn in the last step.
+  bool converged = false;
+  /// Set when a body became unstable: the loop stops stepping until reset().
+  sim::Instability unstable = sim::Instability::kNone;
+  std::string unstable_body;
+  int32_t ties_divided_by_strokes = 0;  ///< by dissect() since the last reset
+  /// How many times the stepping thread found a lock held by a caller, and its longest wait, us.
+  int64_t lock_waits = 0;
+  double longest_lock_wait_us = 0.0;
+};
+
+class WorldLoop {
+ public:
+  /// Takes over `world` (every body stepping at the same dt, as create_body() requires). Does not
+  /// start stepping.
+  /// \note Throws lamina::Error (kInvalidInput) for a world with no body or options out of range.
+  explicit WorldLoop(World world, WorldLoopOptions options = {});
+  ~WorldLoop();  ///< stops the thread
+  WorldLoop(const WorldLoop&) = delete;
+  WorldLoop& operator=(const WorldLoop&) = delete;
+
+  void start();  ///< starts the thread (no-op if running)
+  void stop();   ///< stops and joins the thread (no-op if stopped)
+  bool running() const { return thread_.joinable(); }
+
+  /// Replaces the live forces on `body` (an empty list releases them): each on a skin node of
+  /// the body's topology generation `topology`, routed on the shape of the moment as the
+  /// one-organ loop routes them. The other bodies' forces are kept.
+  /// \note Throws lamina::Error (kInvalidInput), nothing changing, for a stale handle, an older
+  ///   topology generation, a node that is not on the body's skin or a force that is not finite.
+  void set_forces(BodyId body, uint32_t topology, std::vector<interact::LiveForce> forces);
+  /// Releases every body's live forces.
+  void clear_forces();
+  /// Sweeps a blade through the world at once, between two steps (dissect_along()): the upper
+  /// end along `path`, the lower end depth_mm along `direction`, dividing the ties within
+  /// reach_mm of it.
+  /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a path of fewer than two
+  ///   finite points, a direction that is not finite and non-zero, or a depth or reach that is
+  ///   not a positive number.
+  void dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
+               double reach_mm = 1.5);
+  /// New rate (0 = as fast as possible). In real time every body's step becomes 1 / rate_hz.
+  void set_rate(double rate_hz);
+  void set_paused(bool paused);
+  /// Every body back at rest, every tie in place and the clock at 0 (the scene's tools and
+  /// blades play again); live forces are kept. The way on after an instability.
+  void reset();
+
+  /// Copies the latest snapshot into `out` if it is newer than out.generation.
+  /// @return true if `out` was updated
+  bool latest(WorldSnapshot& out) const;
+
+  /// Runs `steps` steps on the calling thread (the loop must not be running): the same physics
+  /// without a thread, for tests and fixed-step tools.
+  void run_steps(int64_t steps);
+
+  /// The live bodies' handles and their topology generations as of the latest snapshot.
+  std::vector<std::pair<BodyId, uint32_t>> bodies() const;
+
+ private:
+  struct Impl;  // world_loop.cpp: the world, the commands and the stepping thread's state
+  void thread_main();
+  std::unique_ptr<Impl> impl_;
+  std::thread thread_;
+};
+
+}  // namespace lamina::world

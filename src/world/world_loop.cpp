@@ -1,0 +1,271 @@
+// The world's real-time loop (world_loop.h): the callers' commands, checked on their threads and
+// taken between two steps; the stepping thread, paced by the wall clock. Its snapshots are in
+// world_loop_publish.cpp.
+#include "lamina/world/world_loop.h"
+
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/interact/pacer.h"
+#include "world_loop_impl.h"
+
+namespace lamina::world {
+
+WorldLoop::WorldLoop(World world, WorldLoopOptions options)
+    : impl_(std::make_unique<Impl>(std::move(world), std::move(options))) {
+  Impl& m = *impl_;
+  if (body_ids(m.world).empty()) throw invalid_input("world loop", "the world has no body");
+  if (!(m.options.rate_hz >= 0.0 && m.options.rate_hz <= 1e6))
+    throw invalid_input("world loop: rate_hz", "must be in [0, 1e6] steps per second");
+  if (!(m.options.publish_interval_s >= 0.0))
+    throw invalid_input("world loop: publish_interval_s", "must be >= 0 s");
+  m.rate_hz = m.stepping_rate_hz = m.options.rate_hz;
+  m.live.resize(m.world.bodies.size());
+  for (const BodyId id : body_ids(m.world)) {
+    const Body& b = body(m.world, id);
+    m.handles.push_back({id, b.topology, b.model->layers[0].node_count});
+  }
+  m.follow_the_clock();
+  // Made here, not in the stepping thread's first step: each body's multigrid or factor at the
+  // step the clock gives.
+  for (const BodyId id : body_ids(m.world)) sim::prepare_solver(body(m.world, id).sim);
+  m.window.restart(now_s(), m.world.time_s);
+  m.publish(true);
+}
+
+WorldLoop::~WorldLoop() {
+  stop();
+}
+
+void WorldLoop::start() {
+  if (thread_.joinable()) return;
+  {
+    std::lock_guard lock(impl_->mutex);
+    impl_->stop_requested = false;
+  }
+  thread_ = std::thread([this] { thread_main(); });
+}
+
+void WorldLoop::stop() {
+  if (!thread_.joinable()) return;
+  {
+    std::lock_guard lock(impl_->mutex);
+    impl_->stop_requested = true;
+  }
+  impl_->wake.notify_all();
+  thread_.join();
+}
+
+void WorldLoop::set_forces(BodyId id, uint32_t topology, std::vector<interact::LiveForce> forces) {
+  Impl& m = *impl_;
+  std::lock_guard lock(m.mutex);
+  const auto h = std::find_if(m.handles.begin(), m.handles.end(),
+                              [&](const Impl::Handle& e) { return e.id == id; });
+  if (h == m.handles.end())
+    throw invalid_input("world loop: body handle",
+                        fmt::format("handle {} (generation {}) is stale: it names no body of this "
+                                    "world (take the handles from the latest snapshot)",
+                                    id.index, id.generation));
+  if (topology != h->topology)
+    throw invalid_input("world loop: body handle",
+                        fmt::format("its nodes are of topology generation {}, the body's is {} "
+                                    "now: pick them again on the latest snapshot",
+                                    topology, h->topology));
+  const int32_t skin = h->skin_nodes;
+  for (const interact::LiveForce& f : forces) {
+    if (f.node < 0 || f.node >= skin)
+      throw invalid_input(
+          "world loop: force",
+          fmt::format("node {} is not on the body's skin (nodes 0..{})", f.node, skin - 1));
+    if (!f.force_mn.allFinite() || !(f.radius_mm > 0.0 && std::isfinite(f.radius_mm)))
+      throw invalid_input("world loop: force",
+                          "a force and its radius must be finite (radius > 0)");
+  }
+  m.new_forces.emplace_back(id.index, std::move(forces));
+}
+
+void WorldLoop::clear_forces() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->new_forces.clear();
+  impl_->clear_all_forces = true;
+}
+
+void WorldLoop::dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction,
+                        double depth_mm, double reach_mm) {
+  if (path.size() < 2) throw invalid_input("dissection: path", "needs at least two points");
+  for (const Eigen::Vector3d& p : path)
+    if (!p.allFinite()) throw invalid_input("dissection: path", "a point is not finite");
+  if (!direction.allFinite() || direction.norm() == 0.0)
+    throw invalid_input("dissection: direction", "must be finite and not zero");
+  if (!(depth_mm > 0.0 && std::isfinite(depth_mm)))
+    throw invalid_input("dissection: depth_mm", "must be > 0 mm");
+  if (!(reach_mm > 0.0 && std::isfinite(reach_mm)))
+    throw invalid_input("dissection: reach_mm", "must be > 0 mm");
+  std::lock_guard lock(impl_->mutex);
+  impl_->strokes.push_back({std::move(path), direction, depth_mm, reach_mm});
+}
+
+void WorldLoop::set_rate(double rate_hz) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->rate_hz = std::clamp(std::isfinite(rate_hz) ? rate_hz : 0.0, 0.0, 1e6);
+}
+
+void WorldLoop::set_paused(bool paused) {
+  {
+    std::lock_guard lock(impl_->mutex);
+    impl_->paused = paused;
+  }
+  impl_->wake.notify_all();
+}
+
+void WorldLoop::reset() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->reset_requested = true;
+}
+
+std::vector<std::pair<BodyId, uint32_t>> WorldLoop::bodies() const {
+  std::lock_guard lock(impl_->mutex);
+  std::vector<std::pair<BodyId, uint32_t>> out;
+  for (const Impl::Handle& h : impl_->handles) out.emplace_back(h.id, h.topology);
+  return out;
+}
+
+void WorldLoop::run_steps(int64_t steps) {
+  if (thread_.joinable()) throw Error(ErrorKind::kInternal, "run_steps() while the loop runs");
+  Impl& m = *impl_;
+  {
+    std::lock_guard lock(m.mutex);
+    m.apply_pending();
+  }
+  for (int64_t k = 0; k < steps && !m.halted(); ++k) m.one_step();
+  m.publish(true);
+}
+
+void WorldLoop::thread_main() {
+  Impl& m = *impl_;
+  if (m.options.threads > 0) omp_set_num_threads(m.options.threads);
+  interact::Pacer pacer;
+  std::unique_lock lock(m.mutex);
+  while (!m.stop_requested) {
+    if (m.paused || m.halted()) {  // unstable: no more steps until reset()
+      m.wake.wait_for(lock, std::chrono::milliseconds(20));
+      m.apply_pending();
+      lock.unlock();
+      m.publish(true);
+      m.lock_waits.acquire(lock);
+      pacer.restart();
+      continue;
+    }
+    m.apply_pending();
+    pacer.set_rate(m.stepping_rate_hz);
+    lock.unlock();
+    m.late_us = pacer.lateness_us();
+    m.one_step();
+    m.publish(false);
+    m.lock_waits.acquire(lock);
+    const interact::Pacer::Clock::time_point tick = pacer.advance();
+    if (pacer.paced()) m.wake.wait_until(lock, tick, [&m] { return m.stop_requested; });
+  }
+}
+
+// ---- the stepping thread's side (Impl) ----------------------------------------------------
+
+void WorldLoop::Impl::follow_the_clock() {
+  if (!options.real_time || !(stepping_rate_hz > 0.0)) return;
+  const double dt = 1.0 / stepping_rate_hz;
+  for (const BodyId id : body_ids(world)) {
+    sim::Simulation& s = body(world, id).sim;
+    if (s.options().dt_s == dt) continue;
+    sim::SolverOptions o = s.options();
+    o.dt_s = dt;
+    sim::set_parameters(s, s.material(), o);
+  }
+}
+
+void WorldLoop::Impl::apply_pending() {
+  stepping_paused = paused;
+  std::vector<int32_t> reroute;
+  if (reset_requested) {
+    world::reset(world);
+    unstable = sim::Instability::kNone;
+    unstable_body.clear();
+    strokes_divided = 0;
+    window.restart_sim(world.time_s);
+    reset_requested = false;
+    for (size_t k = 0; k < live.size(); ++k) reroute.push_back(static_cast<int32_t>(k));
+  }
+  if (rate_hz != stepping_rate_hz) {
+    stepping_rate_hz = rate_hz;
+    window.restart(now_s(), world.time_s);  // a new rate is judged on its own steps
+    follow_the_clock();
+  }
+  if (clear_all_forces) {
+    for (size_t k = 0; k < live.size(); ++k) {
+      live[k].forces.clear();
+      reroute.push_back(static_cast<int32_t>(k));
+    }
+    clear_all_forces = false;
+  }
+  for (auto& [slot, forces] : new_forces) {
+    live[static_cast<size_t>(slot)].forces = std::move(forces);
+    reroute.push_back(slot);
+  }
+  new_forces.clear();
+  for (const Stroke& s : strokes)
+    strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
+  strokes.clear();
+  std::sort(reroute.begin(), reroute.end());
+  reroute.erase(std::unique(reroute.begin(), reroute.end()), reroute.end());
+  for (const int32_t slot : reroute) route_forces(slot);
+}
+
+// A body's live forces routed on its shape of the moment (as the one-organ loop routes them:
+// when they change, not every step) into the forces its tools hold on its nodes.
+void WorldLoop::Impl::route_forces(int32_t slot) {
+  BodySlot& bs = world.bodies[static_cast<size_t>(slot)];
+  if (!bs.alive) return;
+  Body& b = bs.body;
+  Live& l = live[static_cast<size_t>(slot)];
+  l.routes.clear();
+  if (l.forces.empty()) {
+    b.tools.held_forces.resize(0, 3);
+    return;
+  }
+  b.tools.held_forces.setZero(b.sim.x.rows(), 3);
+  for (const interact::LiveForce& f : l.forces) {
+    l.routes.push_back(interact::load_at_node(*b.model, b.sim.x, f.node, f.force_mn, f.radius_mm,
+                                              b.tools.routing));
+    const interact::ForceRoute& r = l.routes.back();
+    for (size_t k = 0; k < r.nodes.size(); ++k)
+      b.tools.held_forces.row(r.nodes[k]) += r.forces.row(static_cast<Eigen::Index>(k));
+    if (b.sim.options().mode == sim::Mode::kLocal)
+      b.tools.touched.insert(b.tools.touched.end(), r.nodes.begin(), r.nodes.end());
+  }
+  if (b.sim.options().mode == sim::Mode::kLocal)
+    interact::keep_touched_movable(b.sim, b.tools.touched);
+}
+
+void WorldLoop::Impl::one_step() {
+  const double t0 = now_s();
+  const double from = world.time_s;
+  double dt = 0.0;
+  for (const BodySlot& bs : world.bodies)
+    if (bs.alive) dt = bs.body.sim.options().dt_s;
+  advance_dissections(options.dissections, world, from, from + dt);
+  step(world, stats);
+  if (stats.unstable != sim::Instability::kNone) {
+    unstable = stats.unstable;
+    unstable_body = stats.unstable_body;
+    log::error("world: body '{}' unstable at t = {:.3f} s ({}); stepping stops until a reset",
+               unstable_body, world.time_s, sim::describe(unstable));
+  }
+  const double t1 = now_s();
+  window.add(1e6 * (t1 - t0), late_us, t1, world.time_s, stepping_rate_hz, options.real_time);
+}
+
+}  // namespace lamina::world

@@ -1,0 +1,78 @@
+#pragma once
+// The world loop's state (private to module world): the world, the callers' commands guarded by
+// `mutex`, the stepping thread's own state, and the published snapshot guarded by
+// `snapshot_mutex`. world_loop.cpp and world_loop_publish.cpp share it.
+#include <condition_variable>
+#include <mutex>
+#include <utility>
+#include <vector>
+
+#include "lamina/core/clock.h"
+#include "lamina/core/lock_waits.h"
+#include "lamina/world/world_loop.h"
+
+namespace lamina::world {
+
+// Wall seconds since the first call: the loop's times compare across its files.
+inline double now_s() {
+  static const Clock::time_point t0 = Clock::now();
+  return seconds_since(t0);
+}
+
+struct WorldLoop::Impl {
+  Impl(World w, WorldLoopOptions o) : world(std::move(w)), options(std::move(o)) {}
+
+  World world;
+  WorldLoopOptions options;
+
+  // Commands from the callers, guarded by mutex.
+  mutable std::mutex mutex;
+  std::condition_variable wake;
+  bool stop_requested = false, paused = false, reset_requested = false, clear_all_forces = false;
+  std::vector<std::pair<int32_t, std::vector<interact::LiveForce>>> new_forces;  // slot, forces
+  struct Stroke {
+    std::vector<Eigen::Vector3d> path;
+    Eigen::Vector3d direction;
+    double depth_mm, reach_mm;
+  };
+  std::vector<Stroke> strokes;
+  double rate_hz = 1000.0;
+  // The live bodies, their topology generations and skins' sizes: what a caller's handle and
+  // nodes are checked against, on the caller's thread.
+  struct Handle {
+    BodyId id;
+    uint32_t topology = 0;
+    int32_t skin_nodes = 0;
+  };
+  std::vector<Handle> handles;
+
+  // The stepping thread's.
+  double stepping_rate_hz = 1000.0;
+  struct Live {  // a body's live forces, and their routes on the shape they were set on
+    std::vector<interact::LiveForce> forces;
+    std::vector<interact::ForceRoute> routes;
+  };
+  std::vector<Live> live;  // per body slot
+  WorldStepStats stats;
+  interact::RateWindow window;
+  double late_us = 0.0;
+  bool stepping_paused = false;  // paused as last taken under mutex
+  int32_t strokes_divided = 0;
+  sim::Instability unstable = sim::Instability::kNone;
+  std::string unstable_body;
+  double last_publish_s = -1.0;
+  LockWaits lock_waits;
+
+  // The published snapshot.
+  mutable std::mutex snapshot_mutex;
+  WorldSnapshot published;
+
+  bool halted() const { return unstable != sim::Instability::kNone; }
+  void follow_the_clock();  // every body's dt = 1 / rate in real time
+  void apply_pending();     // under mutex
+  void route_forces(int32_t slot);
+  void one_step();
+  void publish(bool force);  // world_loop_publish.cpp
+};
+
+}  // namespace lamina::world

@@ -1,0 +1,71 @@
+// The world loop's snapshots (world_loop.h): what a caller copies when it draws.
+#include <algorithm>
+
+#include "lamina/world/world_loop.h"
+#include "world_loop_impl.h"
+
+namespace lamina::world {
+
+bool WorldLoop::latest(WorldSnapshot& out) const {
+  std::lock_guard lock(impl_->snapshot_mutex);
+  if (impl_->published.generation <= out.generation && !out.bodies.empty()) return false;
+  out = impl_->published;
+  return true;
+}
+
+void WorldLoop::Impl::publish(bool force) {
+  const double t = now_s();
+  if (!force && t - last_publish_s < options.publish_interval_s) return;
+  last_publish_s = t;
+
+  std::unique_lock lock(snapshot_mutex, std::defer_lock);
+  lock_waits.acquire(lock);
+  WorldSnapshot& s = published;
+  size_t n = 0;
+  for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
+    const BodySlot& bs = world.bodies[slot];
+    if (!bs.alive) continue;
+    if (s.bodies.size() <= n) s.bodies.emplace_back();
+    BodyView& v = s.bodies[n];
+    const Body& b = bs.body;
+    v.id = {static_cast<int32_t>(slot), bs.generation};
+    v.name = b.name;
+    v.model = b.model;
+    v.topology = b.topology;
+    v.x = b.sim.x;
+    v.stats = n < stats.bodies.size() ? stats.bodies[n] : BodyStepStats{};
+    v.force_nodes.clear();
+    for (const interact::ForceRoute& r : live[slot].routes) v.force_nodes.push_back(r.contact_node);
+    v.grasped_nodes.clear();
+    for (const interact::Grasp& g : b.tools.grasps)
+      v.grasped_nodes.insert(v.grasped_nodes.end(), g.nodes.begin(), g.nodes.end());
+    ++n;
+  }
+  s.bodies.resize(n);
+  s.ties.clear();
+  for (const AttachmentSlot& a : world.attachments)
+    if (a.alive)
+      for (const Tie& tie : a.attachment.ties)
+        if (tie.active()) {
+          const auto [p, q] = tie_ends(world, tie);
+          s.ties.push_back({p, q, tie.force_mn});
+        }
+  s.tie_count = count_ties(world);
+  s.profile = stats.profile;
+  s.step_us = stats.step_us;
+  s.time_s = world.time_s;
+  s.steps = world.steps;
+  for (const BodySlot& bs : world.bodies)
+    if (bs.alive) s.dt_s = bs.body.sim.options().dt_s;
+  s.rate = window;
+  s.paused = stepping_paused;
+  s.converged = stats.converged;
+  s.unstable = unstable;
+  s.unstable_body = unstable_body;
+  s.ties_divided_by_strokes = strokes_divided;
+  s.lock_waits = lock_waits.count;
+  s.longest_lock_wait_us = lock_waits.longest_us;
+  ++s.generation;
+}
+
+}  // namespace lamina::world
