@@ -21,6 +21,7 @@
 #include "lamina/model/build_model.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/render/viewer.h"
+#include "support/session_frames.h"
 #include "support/sphere_model.h"
 #include "support/temp_dir.h"
 #include "support/volumes.h"
@@ -74,23 +75,8 @@ double largest_displacement(const ViewSession& s) {
   return (x - s.model().X).rowwise().norm().maxCoeff();
 }
 
-// Frames until `done()` (or the wall-clock limit), a few milliseconds apart.
-template <class Done>
-bool frames_until(ViewSession& s, Done done, double limit_s = 60.0) {
-  const auto t0 = std::chrono::steady_clock::now();
-  while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < limit_s) {
-    if (!s.frame()) return done();
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(3));
-  }
-  return false;
-}
-
-// Frames for `seconds` of simulated time.
-bool simulate_for(ViewSession& s, double seconds) {
-  const double until = s.snapshot().time_s + seconds;
-  return frames_until(s, [&] { return s.snapshot().time_s >= until; });
-}
+using test::frames_until;
+using test::simulate_for;
 
 class ViewSessionTest : public ::testing::Test {
  protected:

@@ -13,6 +13,7 @@
 #include "lamina/interact/scalpel.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
+#include "lamina/io/world_scene.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/render/camera.h"
 #include "lamina/render/legend.h"
@@ -21,6 +22,7 @@
 #include "lamina/render/viewer.h"
 #include "lamina/sim/simulation.h"
 #include "view_session.h"
+#include "world_view.h"
 
 namespace lamina::cli {
 namespace {
@@ -58,6 +60,32 @@ CameraOption parse_camera(const std::string& text) {
   return c;
 }
 
+// `lamina view SCENE.json` of a world scene: every body, their contact and ties, in one world
+// stepping in its own thread (view/world_view.h).
+int run_world_view(const ViewArgs& a, const ProgressFn& progress) {
+  if (a.paper)
+    throw invalid_input("--paper", "cannot be given with a world scene (" + a.what + ")");
+  io::WorldScene scene = io::load_world_scene(a.what);
+  std::unique_ptr<io::ReadyWorld> ready =
+      io::make_ready_world(scene, volume_read_options, progress);
+  WorldViewOptions o{.rate_hz = a.rate_hz,
+                     .auto_rate = a.auto_rate,
+                     .gain_n_per_mm = a.gain_n_per_mm,
+                     .script = a.script,
+                     .report = a.report};
+  render::ViewerOptions window;
+  window.width = a.size[0];
+  window.height = a.size[1];
+  window.title = "Lamina - " + scene.source;
+  WorldViewSession session(std::move(o), std::move(scene), std::move(ready));
+  window.platform_mouse = !session.script_drives_mouse();
+  render::init(window);
+  struct Shutdown {
+    ~Shutdown() { render::shutdown(); }
+  } engine_guard;
+  return session.run();
+}
+
 }  // namespace
 
 int run_view(const ViewArgs& a) {
@@ -69,6 +97,7 @@ int run_view(const ViewArgs& a) {
   if (!a.script.empty()) check_view_script(a.script);
   render::check_display();
   const ProgressFn progress = stderr_progress(a.verbose);
+  if (io::is_world_scene_file(a.what)) return run_world_view(a, progress);
   io::ReadyScene p = prepare(a.what, progress, a.paper);
   const bool from_scene_file = a.what.ends_with(".json");
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "camera_moves.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pick.h"
@@ -164,21 +165,16 @@ void ViewSession::State::handle_mouse(const render::Input& in) {
   if (gesture == Gesture::kNone && !in.ui_wants_mouse) {
     if (left)
       start_left_gesture(in);
-    else if (in.went_down(render::MouseButton::kRight) ||
-             in.went_down(render::MouseButton::kMiddle))
+    else if (pan_pressed_and_zoom(in))
       gesture = Gesture::kPan;
-    if (in.wheel != 0.0) render::zoom(camera, std::pow(0.9, in.wheel));
   }
   const bool left_down = in.down(render::MouseButton::kLeft);
   switch (gesture) {
     case Gesture::kOrbit:
-      render::orbit(camera, -0.3 * delta.x(), 0.3 * delta.y());
-      if (!left_down) gesture = Gesture::kNone;
+      if (!orbit_frame(in, delta)) gesture = Gesture::kNone;
       break;
     case Gesture::kPan:
-      render::pan(camera, size.y(), delta.x(), delta.y());
-      if (!in.down(render::MouseButton::kRight) && !in.down(render::MouseButton::kMiddle))
-        gesture = Gesture::kNone;
+      if (!pan_frame(in, delta)) gesture = Gesture::kNone;
       break;
     case Gesture::kDrag: {
       // The paper's interaction: force = gain x drag, the drag measured in the plane facing

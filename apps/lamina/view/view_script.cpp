@@ -74,8 +74,11 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
           throw invalid_input(at, "expected a number of wheel clicks");
         ev.scroll = value.get<double>();
       } else if (key == "mode") {
-        if (value != "drag" && value != "tool" && value != "grasp" && value != "scalpel")
-          throw invalid_input(at, "expected \"drag\", \"tool\", \"grasp\" or \"scalpel\"");
+        if (value != "drag" && value != "tool" && value != "grasp" && value != "scalpel" &&
+            value != "dissect")
+          throw invalid_input(at,
+                              "expected \"drag\", \"tool\", \"grasp\", \"scalpel\" or "
+                              "\"dissect\" (a world scene's)");
         ev.mode = value.get<std::string>();
       } else if (key == "key") {
         if (value != "r" && value != "space" && value != "c" && value != "t" && value != "g" &&

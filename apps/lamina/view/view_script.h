@@ -17,12 +17,12 @@ struct ScriptEvent {
   int press = -1, release = -1;          ///< button: 0 left, 1 right, 2 middle
   std::optional<bool> shift;             ///< Shift held from now on
   double scroll = 0.0;                   ///< wheel clicks (> 0 away from the user)
-  std::string mode;                      ///< "drag" or "tool"
-  std::string key;                       ///< "r" reset, "space" pause, "c" release pinned, "t"
-  std::string screenshot;                ///< PNG path: the 3-D view, without the panels
-  std::string window_screenshot;         ///< PNG path: the whole window, panels included
-  int rebuild_layers = 0;                ///< > 0: rebuild the model with this many layers...
-  int rebuild_skin_vertices = 0;         ///< ...and about this many skin vertices
+  std::string mode;               ///< "drag", "tool", "grasp", "scalpel"; "dissect" (a world scene)
+  std::string key;                ///< "r" reset, "space" pause, "c" release pinned, "t"
+  std::string screenshot;         ///< PNG path: the 3-D view, without the panels
+  std::string window_screenshot;  ///< PNG path: the whole window, panels included
+  int rebuild_layers = 0;         ///< > 0: rebuild the model with this many layers...
+  int rebuild_skin_vertices = 0;  ///< ...and about this many skin vertices
   /// Hold the script's clock here until something that takes this machine's own time is done:
   /// "rebuild" (the model a rebuild before this event asked for is in use) or "settled" (3
   /// simulated seconds have passed since the last drag's release, and the report measured it).

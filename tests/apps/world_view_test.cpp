@@ -1,0 +1,149 @@
+// `lamina view` of a world (apps/lamina/view/world_view.h) on the viewer engine's mock backend:
+// two spheres tied where they meet. Both are drawn, the ties as beads; a drag on one body dents
+// it and, released, it returns to rest; a dissection drag across their meeting divides the ties
+// it passes; R puts them back; the report says what happened. The world steps as fast as it can
+// and the tests wait on simulated time.
+#include "world_view.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "lamina/render/camera.h"
+#include "lamina/render/viewer.h"
+#include "support/session_frames.h"
+#include "world/two_spheres.h"
+
+namespace lamina::cli {
+namespace {
+
+using render::InputEvent;
+using render::MouseButton;
+using ::testing::HasSubstr;
+
+std::unique_ptr<WorldViewSession> tied_spheres() {
+  auto ready = std::make_unique<io::ReadyWorld>();
+  world::test_world::TwoSpheres t = world::test_world::two_spheres(0.5, 0.0, 0.0);
+  world::test_world::attach(t, 30.0);
+  ready->world = std::move(t.world);
+  io::WorldScene scene;
+  scene.source = "two tied spheres";
+  return std::make_unique<WorldViewSession>(WorldViewOptions{.rate_hz = 0.0, .gain_n_per_mm = 0.05},
+                                            std::move(scene), std::move(ready));
+}
+
+using test::frames_until;
+using test::simulate_for;
+
+double moved(const world::BodyView& b) {
+  return (b.x - b.model->X).rowwise().norm().maxCoeff();
+}
+
+// The pixel whose ray passes nearest to `p` (a scan, then a finer one around the best).
+Eigen::Vector2d pixel_of(const Eigen::Vector3d& p) {
+  const Eigen::Vector2i size = render::window_size();
+  const auto off = [&](double x, double y) {
+    const render::Ray r = render::pixel_ray(render::camera(), size.x(), size.y(), x, y);
+    const Eigen::Vector3d d = p - r.origin;
+    return (d - d.dot(r.direction) * r.direction).norm();
+  };
+  Eigen::Vector2d best(0, 0);
+  for (double step : {8.0, 1.0}) {
+    const Eigen::Vector2d around = best;
+    const double span = step == 8.0 ? std::max(size.x(), size.y()) : 8.0;
+    for (double x = std::max(0.0, around.x() - span);
+         x <= std::min<double>(size.x(), around.x() + span); x += step)
+      for (double y = std::max(0.0, around.y() - span);
+           y <= std::min<double>(size.y(), around.y() + span); y += step)
+        if (off(x, y) < off(best.x(), best.y())) best = {x, y};
+  }
+  return best;
+}
+
+class WorldViewTest : public ::testing::Test {
+ protected:
+  void SetUp() override { render::init({.backend = render::Backend::kMock}); }
+  void TearDown() override { render::shutdown(); }
+};
+
+TEST_F(WorldViewTest, BothBodiesAndTheTiesAreDrawnAndADragDentsOneThatComesBackWhenReleased) {
+  auto s = tied_spheres();
+  s->start();
+  ASSERT_TRUE(simulate_for(*s, 0.2));
+  ASSERT_EQ(s->snapshot().bodies.size(), 2u);
+  const int64_t ties = s->snapshot().tie_count.total;
+  ASSERT_GT(ties, 10);
+  s->frame();
+  const auto& drawn = render::last_frame();
+  ASSERT_EQ(drawn.size(), 2u);
+  size_t beads = 0;
+  for (const render::DrawnModel& d : drawn) beads += d.overlays.markers.size();
+  EXPECT_EQ(static_cast<int64_t>(beads), ties) << "every active tie is drawn";
+
+  // A drag on body a (the camera is fitted on it: the window's centre is on it).
+  const Eigen::Vector2d c = render::window_size().cast<double>() / 2.0;
+  render::inject(InputEvent::move_to(c));
+  s->frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s->frame();
+  EXPECT_THAT(s->last_press(), HasSubstr("drag a node"));
+  for (int i = 1; i <= 5; ++i) {
+    render::inject(InputEvent::move_to(c - Eigen::Vector2d(0, 24.0 * i)));
+    s->frame();
+  }
+  ASSERT_TRUE(simulate_for(*s, 1.0));
+  EXPECT_GT(moved(s->snapshot().bodies[0]), 1.0) << "the drag did not move body a";
+  bool arrow = false;
+  for (const render::DrawnModel& d : render::last_frame()) arrow |= !d.overlays.arrows.empty();
+  EXPECT_TRUE(arrow) << "the drag's force is not drawn";
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s->frame();
+  ASSERT_TRUE(simulate_for(*s, 4.0));
+  EXPECT_LT(moved(s->snapshot().bodies[0]), 0.3) << "released, body a did not come back";
+  s->finish();
+  const nlohmann::json r = s->report();
+  EXPECT_EQ(r["drags"], 1);
+  EXPECT_EQ(r["bodies"].size(), 2u);
+  EXPECT_GT(r["bodies"][0]["max_displacement_mm"].get<double>(), 1.0);
+  EXPECT_EQ(r["unstable_events"], 0);
+}
+
+TEST_F(WorldViewTest, ADissectionDragAcrossTheMeetingDividesTheTiesItPassesAndResetPutsThemBack) {
+  auto s = tied_spheres();
+  s->start();
+  ASSERT_TRUE(simulate_for(*s, 0.1));
+  const Eigen::Vector3d meet =
+      world::test_world::sphere_centre() + Eigen::Vector3d(20.25, 0.0, 0.0);
+  const Eigen::Vector2d m = pixel_of(meet);
+  render::inject(InputEvent::key_down("x"));
+  render::inject(InputEvent::key_up("x"));
+  s->frame();
+  render::inject(InputEvent::move_to(m - Eigen::Vector2d(0, 60)));
+  s->frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s->frame();
+  EXPECT_THAT(s->last_press(), HasSubstr("dissection"));
+  for (int i = 1; i <= 12; ++i) {
+    render::inject(InputEvent::move_to(m - Eigen::Vector2d(0, 60 - 10.0 * i)));
+    s->frame();
+  }
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s->frame();
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().tie_count.divided > 0; }, 10.0))
+      << "the stroke divided nothing";
+  EXPECT_EQ(s->snapshot().ties_divided_by_strokes, s->snapshot().tie_count.divided);
+  EXPECT_EQ(s->report()["strokes"], 1);
+  render::inject(InputEvent::key_down("r"));
+  render::inject(InputEvent::key_up("r"));
+  s->frame();
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().tie_count.divided == 0; }, 10.0))
+      << "a reset did not put the ties back";
+  s->finish();
+}
+
+}  // namespace
+}  // namespace lamina::cli
