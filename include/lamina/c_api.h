@@ -6,8 +6,9 @@
  * Units as everywhere in Lamina: mm, kg, s; forces in mN (1 N = 1000 mN), stiffness in N/m.
  * Arrays of points are interleaved: x0 y0 z0 x1 y1 z1 ... (a vertex buffer's layout).
  *
- * A simulation steps on the calling thread, when asked (lamina_sim_step): a game engine calls it
- * from its physics tick. Handles are not shared between threads without a lock. */
+ * A simulation or a world steps on the calling thread, when asked (lamina_sim_step,
+ * lamina_world_step): a game engine calls it from its physics tick. Handles are not shared between
+ * threads without a lock. */
 #ifndef LAMINA_C_API_H
 #define LAMINA_C_API_H
 
@@ -29,6 +30,7 @@ typedef enum lamina_status {
 
 typedef struct lamina_model lamina_model; /* a multi-layer mass-spring model */
 typedef struct lamina_sim lamina_sim;     /* a simulation of a model (owns a reference to it) */
+typedef struct lamina_world lamina_world; /* several organs in contact and attached */
 
 /* The last error on this thread, one line ("" after a success). Valid until the next call. */
 const char* lamina_last_error(void);
@@ -226,6 +228,56 @@ lamina_status lamina_sim_positions(const lamina_sim* sim, double* xyz, int64_t c
  * Allocates only on the first call for a surface. */
 lamina_status lamina_sim_embedded_positions(lamina_sim* sim, int32_t k, double* xyz,
                                             int64_t capacity);
+
+/* ---- worlds: several organs in contact and attached (docs/world.md) ----------------------- */
+
+/* A world scene (a scene .json with "bodies"): every body's model made and prepared, placed
+ * where the CT has it, the attachments tied, as `lamina run` sets it up; the scene's graspers
+ * and dissections play on the world's clock as it steps. Bodies are named by their index,
+ * 0..lamina_world_body_count-1, in the scene's order. LAMINA_ERROR_INVALID_INPUT for a scene
+ * that is not a world scene (lamina_sim_create_from_scene takes those) or cannot be made. */
+lamina_status lamina_world_create_from_scene(const char* scene, lamina_world** out);
+void lamina_world_free(lamina_world* world);
+int32_t lamina_world_body_count(const lamina_world* world);
+/* Body `body`'s name (valid while the world lives), or NULL for an index out of range. */
+const char* lamina_world_body_name(const lamina_world* world, int32_t body);
+/* Body `body`'s model (owned by the world: do not free), or NULL for an index out of range. */
+const lamina_model* lamina_world_body_model(const lamina_world* world, int32_t body);
+/* Copies body `body`'s current positions, mm, interleaved (capacity >= 3 * its node count). */
+lamina_status lamina_world_body_positions(const lamina_world* world, int32_t body, double* xyz,
+                                          int64_t capacity);
+/* Replaces the forces held on body `body`'s skin nodes (count 0 releases them), as
+ * lamina_sim_set_forces does for one organ; the other bodies' forces are kept. */
+lamina_status lamina_world_set_forces(lamina_world* world, int32_t body, const int32_t* skin_nodes,
+                                      const double* forces_mn, int32_t count);
+/* Sweeps a blade through the world at once (a dissection): its upper end along the `points`
+ * points of `path_xyz` (mm, interleaved, >= 2), reaching depth_mm along `direction`; every tie
+ * of the attachments within reach_mm of it is divided. `divided` (may be NULL) gets how many. */
+lamina_status lamina_world_dissect(lamina_world* world, const double* path_xyz, int32_t points,
+                                   const double direction[3], double depth_mm, double reach_mm,
+                                   int32_t* divided);
+
+/* What the last world step measured. */
+typedef struct lamina_world_stats {
+  double time_s;              /* simulated time after the step */
+  int64_t steps;              /* steps since the start */
+  double max_displacement_mm; /* largest node distance from rest, any body */
+  double max_penetration_mm;  /* deepest skin node inside another skin (or its own), any body */
+  int64_t ties;               /* the attachments' ties... */
+  int64_t ties_divided;       /* ...divided by a blade... */
+  int64_t ties_torn;          /* ...and torn past their strength */
+  int32_t at_rest;            /* 1 when every body is at rest and no tie tore */
+  double contact_us;          /* the last step's contact and ties stage, us */
+  double step_us;             /* the last step, us */
+} lamina_world_stats;
+
+/* Takes `steps` steps of the world (every body at the scene's dt) on the calling thread;
+ * `stats` (may be NULL) gets the last one's measurements. LAMINA_ERROR_UNSTABLE, naming the
+ * body, once one has left physical bounds: no more steps until lamina_world_reset. */
+lamina_status lamina_world_step(lamina_world* world, int32_t steps, lamina_world_stats* stats);
+/* Every body back at rest, every tie in place, time 0 (the scene's tools and blades play
+ * again); forces are kept. */
+lamina_status lamina_world_reset(lamina_world* world);
 
 #ifdef __cplusplus
 }

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "c_api_support.h"
 #include "lamina/core/error.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/io/model_file.h"
@@ -18,10 +19,6 @@
 #include "lamina/model/build_model.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
-
-struct lamina_model {
-  std::shared_ptr<const lamina::Model> model;
-};
 
 struct lamina_sim {
   lamina_model model;  // the simulation's own reference (lamina_sim_model hands it out)
@@ -43,47 +40,13 @@ namespace {
 using lamina::Error;
 using lamina::ErrorKind;
 
-std::string& last_error() {
-  thread_local std::string message;
-  return message;
-}
-
-// Runs `body`, mapping whatever it throws to a status and a one-line message.
-template <class Body>
-lamina_status guarded(Body&& body) {
-  try {
-    body();
-    last_error().clear();
-    return LAMINA_OK;
-  } catch (const Error& e) {
-    last_error() = e.what();
-    return static_cast<lamina_status>(e.exit_code());
-  } catch (const std::bad_alloc&) {
-    last_error() = "out of memory";
-  } catch (const std::exception& e) {
-    last_error() = e.what();
-  } catch (...) {
-    last_error() = "unknown error";
-  }
-  return LAMINA_ERROR_INTERNAL;
-}
-
-template <class T>
-T& need(T* handle, const char* what) {
-  if (handle == nullptr) throw lamina::invalid_input(what, "is NULL");
-  return *handle;
-}
-
-std::string need_text(const char* text, const char* what) {
-  if (text == nullptr) throw lamina::invalid_input(what, "is NULL");
-  return text;
-}
-
-void need_capacity(int64_t capacity, int64_t needed, const char* what) {
-  if (capacity < needed)
-    throw lamina::invalid_input(what, "holds " + std::to_string(capacity) + " values; " +
-                                          std::to_string(needed) + " are needed");
-}
+using lamina::capi::copy_points;
+using lamina::capi::guarded;
+using lamina::capi::last_error;
+using lamina::capi::need;
+using lamina::capi::need_capacity;
+using lamina::capi::need_finite;
+using lamina::capi::need_text;
 
 // Embedded surface k of a model, or an error naming `what` and the range.
 const lamina::EmbeddedSurface& need_embedded(const lamina_model* model, int32_t k,
@@ -94,16 +57,6 @@ const lamina::EmbeddedSurface& need_embedded(const lamina_model* model, int32_t 
                                                   std::to_string(m.embedded.size()) +
                                                   " embedded surfaces");
   return m.embedded[static_cast<size_t>(k)];
-}
-
-void need_finite(const double* v, int n, const char* what) {
-  for (int k = 0; k < n; ++k)
-    if (!std::isfinite(v[k])) throw lamina::invalid_input(what, "is not finite");
-}
-
-void copy_points(const Eigen::MatrixX3d& p, double* xyz) {
-  for (Eigen::Index i = 0; i < p.rows(); ++i)
-    for (int c = 0; c < 3; ++c) xyz[3 * i + c] = p(i, c);
 }
 
 void copy_triangles(const Eigen::MatrixX3i& f, int32_t* indices) {

@@ -8,25 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int failures = 0;
-
-#define CHECK(cond)                                                            \
-  do {                                                                         \
-    if (!(cond)) {                                                             \
-      fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #cond); \
-      ++failures;                                                              \
-    }                                                                          \
-  } while (0)
-
-#define CHECK_OK(call)                                                                   \
-  do {                                                                                   \
-    lamina_status s_ = (call);                                                           \
-    if (s_ != LAMINA_OK) {                                                               \
-      fprintf(stderr, "%s:%d: %s returned %d: %s\n", __FILE__, __LINE__, #call, (int)s_, \
-              lamina_last_error());                                                      \
-      exit(1);                                                                           \
-    }                                                                                    \
-  } while (0)
+#include "c_check.h"
 
 int main(void) {
   lamina_model* model = NULL;
