@@ -191,6 +191,7 @@ function onFrame(buf) {
     behind: v.getUint8(95) !== 0, count: v.getUint32(96, true),
   };
   ++stats.frames;
+  stats.time = f.time;  // the simulated clock of the newest frame
   stats.frameBytes.push(buf.byteLength);
   const now = performance.now();
   // Latency: from a pose sent to the first frame whose positions reflect it (a tool this page

@@ -91,4 +91,10 @@ std::vector<Rgb8> structure_colors(const Model& model) {
   return out;
 }
 
+Rgb8 organ_color(const std::string& name, size_t index) {
+  if (const auto c = color_by_name(name)) return *c;
+  static constexpr std::array<Rgb8, 3> kOthers = {{{128, 64, 96}, {196, 150, 80}, {110, 120, 150}}};
+  return index == 0 ? kOrganColor : kOthers[(index - 1) % kOthers.size()];
+}
+
 }  // namespace lamina::model

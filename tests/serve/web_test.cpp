@@ -206,6 +206,67 @@ TEST(Web, TheStreamCarriesTheOrganAndAHandPushesADentThatComesBack) {
   EXPECT_LT((page.point(q, far) - surface).norm(), 0.5);
 }
 
+// A world scene (docs/web.md, "A world"): the cholecystectomy's liver and gallbladder, both
+// drawn, each an organ the page's drag picks; a drag on the liver (the ray from above: the liver
+// is the topmost body) pulls it up and, released, it comes back; a hand is told it does nothing.
+TEST(Web, AWorldSceneStreamsEveryBodyAndADragPullsTheOnePressed) {
+  WebServer w({source_path("examples/cholecystectomy.json").string()});
+  Page page(w.port, w.token);
+  page.take_setup();
+  const json& h = page.hello;
+  EXPECT_TRUE(h["world"].get<bool>());
+  ASSERT_EQ(h["bodies"].size(), 2u);
+  ASSERT_EQ(h["surfaces"].size(), 2u);
+  EXPECT_EQ(h["surfaces"][0]["name"], "liver");
+  EXPECT_EQ(h["surfaces"][1]["name"], "gallbladder");
+  EXPECT_TRUE(h["surfaces"][0]["organ"].get<bool>() && h["surfaces"][1]["organ"].get<bool>());
+  EXPECT_NE(h["surfaces"][0]["color"], h["surfaces"][1]["color"]);
+  EXPECT_EQ(h["carried_by"], "vertices");
+  const size_t first = h["bodies"][0]["first_point"], count = h["bodies"][0]["points"];
+  ASSERT_EQ(first + count, h["bodies"][1]["first_point"].get<size_t>());
+  ASSERT_EQ(page.rest.size() / 4, h["points"].get<size_t>());
+  // The liver's topmost point, and a ray down onto it from above.
+  size_t top = first;
+  for (size_t i = first; i < first + count; ++i)
+    if (page.point(page.rest, i).z() > page.point(page.rest, top).z()) top = i;
+  const Eigen::Vector3d p = page.point(page.rest, top);
+  page.send(
+      {{"type", "press"}, {"origin", {p.x(), p.y(), p.z() + 200.0}}, {"direction", {0, 0, -1}}});
+  ASSERT_TRUE(w.server->log_shows("drags liver node", 10.0)) << w.server->log();
+  cli::web::FrameInfo info;
+  double lift = 0.0;
+  const auto t0 = Clock::now();
+  std::vector<uint16_t> q;
+  while (seconds_since(t0) < 15.0 && lift < 1.0) {
+    page.send({{"type", "drag"}, {"drag_mm", {0.0, 0.0, 60.0}}});
+    q = page.frame(info);
+    lift = page.point(q, top).z() - p.z();
+  }
+  EXPECT_GE(lift, 1.0) << "the drag did not pull the liver up";
+  page.send({{"type", "hand"},
+             {"hand", 0},
+             {"pose", 1},
+             {"position", {p.x(), p.y(), p.z()}},
+             {"trigger", 1.0},
+             {"grip", 0.0}});
+  bool text = false, told = false;
+  for (int k = 0; k < 200 && !told; ++k) {
+    const std::string m = page.read(&text);
+    told = text && m.find("hands do nothing") != std::string::npos;
+  }
+  EXPECT_TRUE(told) << "the page was not told its hands do nothing in a world";
+  page.send({{"type", "release"}});
+  const auto t1 = Clock::now();
+  while (seconds_since(t1) < 15.0) {
+    q = page.frame(info);
+    if (std::abs(page.point(q, top).z() - p.z()) < 0.5) break;
+  }
+  EXPECT_LT(std::abs(page.point(q, top).z() - p.z()), 0.5)
+      << "released, the liver did not come back";
+  EXPECT_EQ(w.server->process().wait(0.0), std::nullopt)
+      << "the server stopped: " << w.server->log();
+}
+
 TEST(Web, MalformedOversizedAndStalledClientsAreDroppedAndTheOthersGoOn) {
   WebServer w;
   Page good(w.port, w.token);

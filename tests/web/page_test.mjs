@@ -41,8 +41,8 @@ await run(lamina, ['-q', 'build', 'p.nii.gz', '--label', '1', '--embed',
                    '2=portal_vein,3=tumour,4=hepatic_veins', '-o', 'm.vtu'], work);
 
 // `lamina serve m.vtu --web ...ARGS`, and the page's address once it is logged.
-async function serve(extra) {
-  const child = spawn(lamina, ['serve', 'm.vtu', '--web', '--web-port', '0', '--port', '0', ...extra],
+async function serve(extra, what = 'm.vtu') {
+  const child = spawn(lamina, ['serve', what, '--web', '--web-port', '0', '--port', '0', ...extra],
                       { cwd: work, stdio: ['ignore', 'ignore', 'pipe'] });
   const s = { child, log: '' };
   child.stderr.on('data', (d) => { s.log += d; });
@@ -275,6 +275,55 @@ try {
     tls.child.kill('SIGTERM');
     await new Promise((r) => tls.child.on('exit', r));
   }
+
+  // A world scene (issue 62): the cholecystectomy's liver and gallbladder on one page, the
+  // scene's grasper retracting the gallbladder as the world steps on the server.
+  const world = await serve(['--duration', '150'],
+                            join(here, '..', '..', 'examples', 'cholecystectomy.json'));
+  try {
+    const worldPage = await context.newPage();
+    worldPage.on('pageerror', (e) => pageErrors.push(e.message));
+    await worldPage.goto(world.url);
+    await worldPage.waitForFunction(() => window.lamina.stats.framesApplied > 10, null, { timeout: 60000 });
+    const hello = await worldPage.evaluate(() => window.lamina.stats.hello.surfaces.map((x) => x.name));
+    assert.deepEqual(hello, ['liver', 'gallbladder']);
+    // Once the scene's grasper and blades are done (4.2 s of simulated time; the liver then
+    // rests), a drag from the view's middle pushes what it presses, and released it comes back.
+    await worldPage.waitForFunction(() => window.lamina.stats.time > 5.0, null, { timeout: 90000 });
+    const both = async () => (await worldPage.evaluate(() => window.lamina.organPositions())).flat();
+    const w0 = await both();
+    // The view frames both organs: its middle may fall between them. Pressed from the middle
+    // outwards until the server says a press took an organ.
+    const wbox = await worldPage.locator('#view canvas').boundingBox();
+    let wx = 0, wy = 0;
+    for (const [fx, fy] of [[0, 0], [-0.1, 0], [0.1, 0], [0, -0.1], [0, 0.1], [-0.2, -0.1], [0.2, 0.1]]) {
+      wx = wbox.x + wbox.width * (0.5 + fx);
+      wy = wbox.y + wbox.height * (0.5 + fy);
+      await worldPage.mouse.move(wx, wy);
+      await worldPage.mouse.down();
+      await sleep(300);
+      if (world.log.includes('drags ')) break;
+      await worldPage.mouse.up();
+    }
+    assert.ok(world.log.includes('drags '), 'no press on the view took an organ');
+    measured.world_pressed = (world.log.match(/drags [a-z_]+ node [0-9]+/) || [''])[0];
+    await worldPage.mouse.move(wx + 120, wy - 40, { steps: 12 });
+    await sleep(1500);
+    const worldDragged = maxMove(await both(), w0);
+    await worldPage.screenshot({ path: join(out, 'world.png') });
+    await worldPage.mouse.up();
+    await sleep(4000);
+    const worldAfter = maxMove(await both(), w0);
+    measured.world_drag_mm = +worldDragged.toFixed(2);
+    measured.world_after_release_mm = +worldAfter.toFixed(2);
+    assert.ok(worldDragged > 3, `a drag moved the world's organs ${worldDragged} mm`);
+    assert.ok(worldAfter < 0.5 * worldDragged, `released, the organs stay ${worldAfter} mm away`);
+    assert.deepEqual(await worldPage.evaluate(() => window.lamina.stats.errors), []);
+  } finally {
+    world.child.kill('SIGTERM');
+    await new Promise((r) => world.child.on('exit', r));
+  }
+  assert.deepEqual(pageErrors, []);
 } catch (e) {
   failed = true;
   console.error(e);

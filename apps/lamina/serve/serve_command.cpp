@@ -25,10 +25,12 @@
 #include "lamina/core/log.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/io/scene.h"
+#include "lamina/io/world_scene.h"
 #include "lamina/sim/simulation.h"
 #include "serve_rate.h"
 #include "web_session.h"
 #include "web_tls.h"
+#include "world_serve.h"
 
 namespace lamina::cli {
 namespace {
@@ -38,6 +40,14 @@ using Clock = ServeClock;
 std::atomic<bool> stop_requested{false};
 void request_stop(int) {
   stop_requested = true;
+}
+
+// Ctrl-C and SIGTERM end the serve loop, which then stops the simulation and logs its summary.
+void install_stop_signals() {
+  struct sigaction action {};
+  action.sa_handler = request_stop;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
 }
 
 void check_args(const ServeArgs& a) {
@@ -169,6 +179,17 @@ std::unique_ptr<web::Server> start_web(const ServeArgs& a) {
 
 int run_serve(const ServeArgs& a) {
   check_args(a);
+  if (io::is_world_scene_file(a.what)) {
+    if (a.paper)
+      throw invalid_input("--paper", "cannot be given with a world scene (" + a.what + ")");
+    if (!a.web)
+      throw invalid_input(a.what,
+                          "a world scene is served to the web page only: add --web "
+                          "(OpenIGTLink streams one organ's surfaces)");
+    std::unique_ptr<web::Server> web_server = start_web(a);  // a port in use fails at once
+    install_stop_signals();
+    return run_world_serve(a, std::move(web_server), stop_requested);
+  }
   io::Scene scene = io::scene_for(a.what, a.paper);
   // The tool comes over the network; a scene's own tools would push on their own.
   if (!scene.tools.empty())
@@ -204,23 +225,13 @@ int run_serve(const ServeArgs& a) {
   // The web edge shares the tool tip and the grasper, on this thread.
   std::unique_ptr<web::Session> web_session;
   if (web_server) {
-    web::SessionOptions so_web;
-    so_web.frame_hz = a.web_hz;
-    so_web.gain_n_per_mm = a.gain_n_per_mm;
-    so_web.hello_fields = {{"max_force_mn", 1000.0 * a.max_force_n},
-                           {"tip_radius_mm", a.tip_radius_mm},
-                           {"grasp_radius_mm", so_web.grasp_radius_mm},
-                           {"frame_hz", a.web_hz}};
     web_session = std::make_unique<web::Session>(
-        std::move(web_server), so_web, loop,
+        std::move(web_server), web_session_options(a), loop,
         web::SharedTools{session.tip(), session.tool_client(), session.grasper_client()},
         ready.model);
   }
 
-  struct sigaction action {};
-  action.sa_handler = request_stop;
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
+  install_stop_signals();
 
   log::info(
       "lamina serve: {} ({} nodes, skin {} nodes and {} triangles, {} layers), {} "

@@ -11,41 +11,13 @@
 #include "lamina/core/log.h"
 #include "lamina/interact/pick.h"
 #include "scalpel_stroke.h"
+#include "web_message.h"
 
 namespace lamina::cli::web {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 using json = nlohmann::json;
-
-// A field of a client's message, checked: a message that lacks it or holds something else is
-// malformed, and drops its client.
-double number(const json& m, const char* key, double lo, double hi) {
-  const auto it = m.find(key);
-  if (it == m.end() || !it->is_number())
-    throw invalid_input("message", std::string("'") + key + "' is missing or not a number");
-  const double v = it->get<double>();
-  if (!(v >= lo && v <= hi))
-    throw invalid_input("message", fmt::format("'{}' is {}, outside [{}, {}]", key, v, lo, hi));
-  return v;
-}
-
-Eigen::Vector3d vector3(const json& m, const char* key, double bound) {
-  const auto it = m.find(key);
-  if (it == m.end() || !it->is_array() || it->size() != 3 ||
-      !std::all_of(it->begin(), it->end(), [](const json& v) { return v.is_number(); }))
-    throw invalid_input("message", std::string("'") + key + "' is not three numbers");
-  Eigen::Vector3d v((*it)[0].get<double>(), (*it)[1].get<double>(), (*it)[2].get<double>());
-  if (!v.allFinite() || v.cwiseAbs().maxCoeff() > bound)
-    throw invalid_input("message", fmt::format("'{}' is not finite or beyond {} mm", key, bound));
-  return v;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 
@@ -98,14 +70,7 @@ void Session::tools_changed() {
 }
 
 void Session::handle(int client, const std::string& peer, const std::string& text) {
-  json m;
-  try {
-    m = json::parse(text);
-  } catch (const json::exception&) {
-    throw invalid_input("message", "not JSON");
-  }
-  if (!m.is_object() || !m.contains("type") || !m["type"].is_string())
-    throw invalid_input("message", "not an object with a \"type\"");
+  const json m = parse_message(text);
   const std::string type = m["type"].get<std::string>();
   const int id = client + kWebClientBase;
   tools_changed();

@@ -64,13 +64,14 @@ struct Reader {
 
 }  // namespace
 
-WebStream::WebStream(std::shared_ptr<const Model> model, const nlohmann::json& session, Carry carry)
+WebStream::WebStream(std::shared_ptr<const Model> model, const nlohmann::json& session, Carry carry,
+                     std::vector<model::Rgb8> colors)
     : model_(std::move(model)) {
   const Model& m = *model_;
   // Drawn: every embedded surface (the display skin and the structures); a model without them,
   // its skin layer.
   for (size_t e = 0; e < m.embedded.size(); ++e) drawn_.push_back(static_cast<int32_t>(e));
-  const std::vector<model::Rgb8> colors = model::structure_colors(m);
+  if (colors.size() != m.embedded.size()) colors = model::structure_colors(m);
   nlohmann::json surfaces = nlohmann::json::array();
   // `organ`: the organ's own surface (the display skin, a cut's wound), drawn translucent over
   // the anatomy, picked by a drag and framed by the first view; `role` says what each is.

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "lamina/model/model.h"
+#include "lamina/model/structure_colors.h"
 
 namespace lamina::cli::web {
 
@@ -59,8 +60,10 @@ class WebStream {
  public:
   /// Lays out the stream for `model` (kept alive while streamed); `session`'s fields (the
   /// tools' limits, the rate) join the hello.
+  /// `colors`: one per embedded surface (a world's organs, docs/world.md); empty: each
+  /// structure's own (model::structure_colors).
   WebStream(std::shared_ptr<const Model> model, const nlohmann::json& session,
-            Carry carry = Carry::kAuto);
+            Carry carry = Carry::kAuto, std::vector<model::Rgb8> colors = {});
 
   /// The model's description, a JSON text message for `client`: surfaces (name, colour, vertex
   /// and triangle counts), how the shape is carried ("nodes" or "vertices"), the quantization

@@ -13,9 +13,9 @@
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
-#include "lamina/interact/pick.h"
 #include "lamina/interact/rate_choice.h"
 #include "lamina/render/camera.h"
+#include "lamina/world/pick_body.h"
 #include "world_view_state.h"
 
 namespace lamina::cli {
@@ -68,7 +68,7 @@ void WorldViewSession::start() {
     const world::BodyView& body = v.snap.bodies[b];
     render::register_model(body.name, *body.model);
     render::Style style = render::default_style(*body.model);
-    const model::Rgb8 c = body_color(body.name, b);
+    const model::Rgb8 c = model::organ_color(body.name, b);
     style.organ_color = Eigen::Vector3f(c[0], c[1], c[2]) / 255.0f;
     render::set_style(body.name, style);
   }
@@ -191,27 +191,13 @@ void WorldViewSession::State::handle_key(const std::string& key) {
   }
 }
 
-// The skin nearest along the ray, of any body: its index in the snapshot and the hit.
-static std::pair<int32_t, interact::SkinHit> pick_body(const world::WorldSnapshot& snap,
-                                                       const render::Ray& ray) {
-  std::pair<int32_t, interact::SkinHit> best{-1, {}};
-  for (size_t b = 0; b < snap.bodies.size(); ++b) {
-    const world::BodyView& body = snap.bodies[b];
-    const interact::SkinHit hit =
-        interact::pick_skin(*body.model, body.x, ray.origin, ray.direction);
-    if (hit.node >= 0 && (best.first < 0 || hit.distance_mm < best.second.distance_mm))
-      best = {static_cast<int32_t>(b), hit};
-  }
-  return best;
-}
-
 void WorldViewSession::State::start_left_gesture(const render::Input& in) {
   const Eigen::Vector2i size = render::window_size();
   const render::Camera& camera = render::camera();
   press_pos = in.mouse_px;
   const render::Ray ray =
       render::pixel_ray(camera, size.x(), size.y(), in.mouse_px.x(), in.mouse_px.y());
-  const auto [b, hit] = pick_body(snap, ray);
+  const auto [b, hit] = world::pick_body(snap, ray.origin, ray.direction);
   const std::string where =
       fmt::format("press at ({:.0f}, {:.0f})", in.mouse_px.x(), in.mouse_px.y());
   if (dissect_mode) {
@@ -269,7 +255,7 @@ void WorldViewSession::State::handle_mouse(const render::Input& in) {
     case Gesture::kDissect: {
       const render::Ray ray =
           render::pixel_ray(camera, size.x(), size.y(), in.mouse_px.x(), in.mouse_px.y());
-      const auto [b, hit] = pick_body(snap, ray);
+      const auto [b, hit] = world::pick_body(snap, ray.origin, ray.direction);
       if (b >= 0) stroke_reach_mm = hit.distance_mm;
       const Eigen::Vector3d p = ray.origin + stroke_reach_mm * ray.direction;
       if ((p - stroke.back()).norm() >= 0.5) stroke.push_back(p);

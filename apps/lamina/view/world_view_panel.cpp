@@ -5,21 +5,12 @@
 #include <imgui.h>
 
 #include <algorithm>
-#include <array>
 
 #include "lamina/core/error.h"
 #include "lamina/interact/rate_choice.h"
 #include "world_view_state.h"
 
 namespace lamina::cli {
-
-model::Rgb8 body_color(const std::string& name, size_t index) {
-  if (const auto c = model::color_by_name(name)) return *c;
-  // Kidney-like plum, pancreas-like ochre, a muted blue-grey: apart from the structures' colours.
-  static constexpr std::array<model::Rgb8, 3> kOthers = {
-      {{128, 64, 96}, {196, 150, 80}, {110, 120, 150}}};
-  return index == 0 ? model::kOrganColor : kOthers[(index - 1) % kOthers.size()];
-}
 
 void WorldViewSession::State::panel() {
   ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);

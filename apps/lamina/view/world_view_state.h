@@ -15,10 +15,6 @@
 
 namespace lamina::cli {
 
-/// A body's colour: its name's (model::color_by_name: the gallbladder olive...), else the
-/// liver's red-brown for the first body and a palette's for the others.
-model::Rgb8 body_color(const std::string& name, size_t index);
-
 struct WorldViewSession::State {
   WorldViewOptions options;
   io::WorldScene scene;

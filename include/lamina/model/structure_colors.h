@@ -37,4 +37,9 @@ std::optional<Rgb8> color_by_name(const std::string& name);
 /// model uses yet.
 std::vector<Rgb8> structure_colors(const Model& model);
 
+/// The colour of organ `index` of a world (docs/world.md) called `name`: its name's colour
+/// (color_by_name: the gallbladder Slicer's olive), else the liver's red-brown for the first and
+/// a palette apart from the structures' colours for the others (a plum, an ochre, a blue-grey).
+Rgb8 organ_color(const std::string& name, size_t index);
+
 }  // namespace lamina::model

@@ -1,0 +1,59 @@
+#pragma once
+// A page's message (docs/web.md "Messages from the page"), read with checks: a message that
+// lacks a field or holds something else is malformed, and its client is dropped. Shared by the
+// one-organ session and the world's.
+#include <fmt/format.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "lamina/core/error.h"
+
+namespace lamina::cli::web {
+
+/// The message as JSON with a string "type"; throws lamina::Error (kInvalidInput) otherwise.
+inline nlohmann::json parse_message(const std::string& text) {
+  nlohmann::json m;
+  try {
+    m = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception&) {
+    throw invalid_input("message", "not JSON");
+  }
+  if (!m.is_object() || !m.contains("type") || !m["type"].is_string())
+    throw invalid_input("message", "not an object with a \"type\"");
+  return m;
+}
+
+/// Field `key`, a number in [lo, hi].
+inline double number(const nlohmann::json& m, const char* key, double lo, double hi) {
+  const auto it = m.find(key);
+  if (it == m.end() || !it->is_number())
+    throw invalid_input("message", std::string("'") + key + "' is missing or not a number");
+  const double v = it->get<double>();
+  if (!(v >= lo && v <= hi))
+    throw invalid_input("message", fmt::format("'{}' is {}, outside [{}, {}]", key, v, lo, hi));
+  return v;
+}
+
+/// Field `key`, three finite numbers each within `bound` in size.
+inline Eigen::Vector3d vector3(const nlohmann::json& m, const char* key, double bound) {
+  const auto it = m.find(key);
+  if (it == m.end() || !it->is_array() || it->size() != 3 ||
+      !std::all_of(it->begin(), it->end(), [](const nlohmann::json& v) { return v.is_number(); }))
+    throw invalid_input("message", std::string("'") + key + "' is not three numbers");
+  Eigen::Vector3d v((*it)[0].get<double>(), (*it)[1].get<double>(), (*it)[2].get<double>());
+  if (!v.allFinite() || v.cwiseAbs().maxCoeff() > bound)
+    throw invalid_input("message", fmt::format("'{}' is not finite or beyond {} mm", key, bound));
+  return v;
+}
+
+inline double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace lamina::cli::web
