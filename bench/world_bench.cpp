@@ -8,16 +8,19 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "lamina/io/label_volume_io.h"
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
 #include "lamina/world/world.h"
+#include "lamina/world/world_loop.h"
 #include "peak_rss.h"
 
 namespace {
@@ -69,12 +72,10 @@ world::BodyDef body_of(const Organ& organ, bool poke) {
   return def;
 }
 
-void BM_WorldStep(benchmark::State& state) {
-  const int32_t bodies = static_cast<int32_t>(state.range(0));
-  const auto liver_skin = static_cast<int32_t>(state.range(1));
+// `bodies` of the organs (the liver poked), the gallbladder attached to the liver.
+world::World make_world(int32_t bodies, int32_t liver_skin, std::vector<world::BodyId>& ids) {
   world::World w;
   w.contact.rest_overlap_tolerance_mm = 6.0;  // two voxels: reported below
-  std::vector<world::BodyId> ids;
   for (int32_t b = 0; b < bodies; ++b)
     ids.push_back(
         world::create_body(w, body_of(organs(liver_skin)[static_cast<size_t>(b)], b == 0)));
@@ -84,6 +85,14 @@ void BM_WorldStep(benchmark::State& state) {
                                  .generation_a = ids[0].generation,
                                  .generation_b = ids[1].generation,
                                  .reach_mm = 3.0});
+  return w;
+}
+
+void BM_WorldStep(benchmark::State& state) {
+  const int32_t bodies = static_cast<int32_t>(state.range(0));
+  const auto liver_skin = static_cast<int32_t>(state.range(1));
+  std::vector<world::BodyId> ids;
+  world::World w = make_world(bodies, liver_skin, ids);
   world::WorldStepStats st;
   for (int k = 0; k < 50; ++k) world::step(w, st);  // into the motion
   double contact_us = 0.0, step_us = 0.0, contacts = 0.0;
@@ -134,6 +143,50 @@ BENCHMARK(BM_WorldStep)
     ->Unit(benchmark::kMillisecond);
 
 // The reference: the liver's own simulation stepped alone, the same poke, at each size.
+// The same world of three in a world::WorldLoop, the viewer's and the web page's: one step on
+// the caller's thread per iteration (run_steps: the commands taken, the scene's blades advanced,
+// the rate window kept, a snapshot published), against BM_WorldStep's bare step.
+void BM_WorldLoopRunSteps(benchmark::State& state) {
+  std::vector<world::BodyId> ids;
+  world::WorldLoop loop(make_world(3, 1284, ids), {.rate_hz = 0.0, .real_time = false});
+  loop.run_steps(50);
+  for (auto _ : state) loop.run_steps(1);
+  state.counters["steps_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["peak_rss_mb"] = bench::peak_rss_mb();
+}
+BENCHMARK(BM_WorldLoopRunSteps)->Iterations(1000)->Unit(benchmark::kMicrosecond);
+
+// ...and in its own thread as fast as it can go (rate 0), snapshots published at 240 Hz and
+// copied by this thread as a viewer does: steps per wall second over 0.5 s an iteration.
+void BM_WorldLoopThread(benchmark::State& state) {
+  std::vector<world::BodyId> ids;
+  world::WorldLoop loop(make_world(3, 1284, ids), {.rate_hz = 0.0, .real_time = false});
+  world::WorldSnapshot snap;
+  loop.start();
+  int64_t steps = 0;
+  double seconds = 0.0;
+  for (auto _ : state) {
+    loop.latest(snap);
+    const int64_t s0 = snap.steps;
+    const auto t0 = std::chrono::steady_clock::now();
+    while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(500)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(16));  // a display's frame
+      loop.latest(snap);
+    }
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    state.SetIterationTime(dt);
+    steps += snap.steps - s0;
+    seconds += dt;
+  }
+  loop.stop();
+  state.counters["steps_per_s"] = static_cast<double>(steps) / seconds;
+  state.counters["lock_waits"] = static_cast<double>(snap.lock_waits);
+  state.counters["longest_lock_wait_us"] = snap.longest_lock_wait_us;
+  state.counters["peak_rss_mb"] = bench::peak_rss_mb();
+}
+BENCHMARK(BM_WorldLoopThread)->Iterations(4)->UseManualTime()->Unit(benchmark::kMillisecond);
+
 void BM_LiverAloneStep(benchmark::State& state) {
   const Organ& liver = organs(static_cast<int32_t>(state.range(0)))[0];
   world::BodyDef def = body_of(liver, true);

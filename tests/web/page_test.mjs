@@ -301,18 +301,25 @@ try {
       wy = wbox.y + wbox.height * (0.5 + fy);
       await worldPage.mouse.move(wx, wy);
       await worldPage.mouse.down();
-      await sleep(300);
+      await sleep(600);
       if (world.log.includes('drags ')) break;
       await worldPage.mouse.up();
     }
     assert.ok(world.log.includes('drags '), 'no press on the view took an organ');
     measured.world_pressed = (world.log.match(/drags [a-z_]+ node [0-9]+/) || [''])[0];
     await worldPage.mouse.move(wx + 120, wy - 40, { steps: 12 });
-    await sleep(1500);
+    // Held for 1 s and released for 3 s of simulated time: under the sanitizers the world steps
+    // at 60 Hz and far behind real time, and a wall-clock wait would see it barely move.
+    const simTime = () => worldPage.evaluate(() => window.lamina.stats.time);
+    const simulate = async (seconds) => {
+      const until = (await simTime()) + seconds;
+      await worldPage.waitForFunction((t) => window.lamina.stats.time >= t, until, { timeout: 120000 });
+    };
+    await simulate(1.0);
     const worldDragged = maxMove(await both(), w0);
     await worldPage.screenshot({ path: join(out, 'world.png') });
     await worldPage.mouse.up();
-    await sleep(4000);
+    await simulate(3.0);
     const worldAfter = maxMove(await both(), w0);
     measured.world_drag_mm = +worldDragged.toFixed(2);
     measured.world_after_release_mm = +worldAfter.toFixed(2);
