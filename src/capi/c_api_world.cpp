@@ -33,6 +33,13 @@ const lamina::world::BodyView& need_body(const lamina_world& w, int32_t body, co
   return w.snapshot.bodies[static_cast<size_t>(body)];
 }
 
+// Steps the world `steps` steps (0: only the commands given since are taken) and keeps the
+// snapshot the other calls read.
+void advance(lamina_world& w, int64_t steps) {
+  w.loop->run_steps(steps);
+  w.loop->latest(w.snapshot);
+}
+
 }  // namespace
 
 extern "C" {
@@ -54,8 +61,7 @@ lamina_status lamina_world_create_from_scene(const char* scene, lamina_world** o
         std::move(ready->world),
         lamina::world::WorldLoopOptions{
             .rate_hz = 0.0, .real_time = false, .dissections = s.dissections});
-    w->loop->run_steps(0);
-    w->loop->latest(w->snapshot);
+    advance(*w, 0);
     for (const lamina::world::BodyView& b : w->snapshot.bodies) w->models.push_back({b.model});
     *out = w.release();
   });
@@ -107,8 +113,7 @@ lamina_status lamina_world_set_forces(lamina_world* world, int32_t body, const i
           {.node = skin_nodes[k],
            .force_mn = {forces_mn[3 * k], forces_mn[3 * k + 1], forces_mn[3 * k + 2]}});
     w.loop->set_forces(b.id, b.topology, std::move(forces));  // checks the nodes
-    w.loop->run_steps(0);
-    w.loop->latest(w.snapshot);
+    advance(w, 0);
   });
 }
 
@@ -126,8 +131,7 @@ lamina_status lamina_world_dissect(lamina_world* world, const double* path_xyz, 
     const int32_t before = w.snapshot.ties_divided_by_strokes;
     w.loop->dissect(std::move(path), Eigen::Vector3d(direction[0], direction[1], direction[2]),
                     depth_mm, reach_mm);
-    w.loop->run_steps(0);
-    w.loop->latest(w.snapshot);
+    advance(w, 0);
     if (divided != nullptr) *divided = w.snapshot.ties_divided_by_strokes - before;
   });
 }
@@ -136,8 +140,7 @@ lamina_status lamina_world_step(lamina_world* world, int32_t steps, lamina_world
   return guarded([&] {
     lamina_world& w = need(world, "lamina_world_step: world");
     if (steps < 0) throw lamina::invalid_input("lamina_world_step: steps", "is negative");
-    w.loop->run_steps(steps);
-    w.loop->latest(w.snapshot);
+    advance(w, steps);
     const lamina::world::WorldSnapshot& s = w.snapshot;
     if (s.unstable != lamina::sim::Instability::kNone)
       throw lamina::Error(
@@ -168,8 +171,7 @@ lamina_status lamina_world_reset(lamina_world* world) {
   return guarded([&] {
     lamina_world& w = need(world, "lamina_world_reset: world");
     w.loop->reset();
-    w.loop->run_steps(0);
-    w.loop->latest(w.snapshot);
+    advance(w, 0);
   });
 }
 

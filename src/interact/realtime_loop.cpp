@@ -11,12 +11,12 @@
 #include <chrono>
 #include <cmath>
 
+#include "lamina/core/clock.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/grasp.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pacer.h"
-#include "loop_clock.h"
 
 namespace lamina::interact {
 

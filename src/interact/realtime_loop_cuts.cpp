@@ -8,12 +8,12 @@
 #include <chrono>
 #include <numeric>
 
+#include "lamina/core/clock.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/interact/scalpel.h"
 #include "lamina/sim/carry_over.h"
-#include "loop_clock.h"
 
 namespace lamina::interact {
 

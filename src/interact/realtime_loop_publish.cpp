@@ -2,9 +2,9 @@
 // draws and the reaction a haptic device reads every step.
 #include <algorithm>
 
+#include "lamina/core/clock.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/sim/simulation.h"
-#include "loop_clock.h"
 
 namespace lamina::interact {
 

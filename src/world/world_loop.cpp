@@ -12,6 +12,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pacer.h"
+#include "lamina/model/cut_tetrahedra.h"
 #include "world_loop_impl.h"
 
 namespace lamina::world {
@@ -97,13 +98,9 @@ void WorldLoop::clear_forces() {
 
 void WorldLoop::dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction,
                         double depth_mm, double reach_mm) {
-  if (path.size() < 2) throw invalid_input("dissection: path", "needs at least two points");
-  for (const Eigen::Vector3d& p : path)
-    if (!p.allFinite()) throw invalid_input("dissection: path", "a point is not finite");
-  if (!direction.allFinite() || direction.norm() == 0.0)
-    throw invalid_input("dissection: direction", "must be finite and not zero");
-  if (!(depth_mm > 0.0 && std::isfinite(depth_mm)))
-    throw invalid_input("dissection: depth_mm", "must be > 0 mm");
+  // The blade a scalpel's is (a path, a depth, a direction that sweeps a surface).
+  if (const auto p = model::blade_problem(path, direction, depth_mm))
+    throw invalid_input("dissection: " + p->first, p->second);
   if (!(reach_mm > 0.0 && std::isfinite(reach_mm)))
     throw invalid_input("dissection: reach_mm", "must be > 0 mm");
   std::lock_guard lock(impl_->mutex);

@@ -13,12 +13,6 @@
 
 namespace lamina::world {
 
-// Wall seconds since the first call: the loop's times compare across its files.
-inline double now_s() {
-  static const Clock::time_point t0 = Clock::now();
-  return seconds_since(t0);
-}
-
 struct WorldLoop::Impl {
   Impl(World w, WorldLoopOptions o) : world(std::move(w)), options(std::move(o)) {}
 

@@ -36,9 +36,6 @@ void WorldLoop::Impl::publish(bool force) {
     v.stats = n < stats.bodies.size() ? stats.bodies[n] : BodyStepStats{};
     v.force_nodes.clear();
     for (const interact::ForceRoute& r : live[slot].routes) v.force_nodes.push_back(r.contact_node);
-    v.grasped_nodes.clear();
-    for (const interact::Grasp& g : b.tools.grasps)
-      v.grasped_nodes.insert(v.grasped_nodes.end(), g.nodes.begin(), g.nodes.end());
     ++n;
   }
   s.bodies.resize(n);

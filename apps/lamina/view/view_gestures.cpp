@@ -96,9 +96,7 @@ void ViewSession::State::start_left_gesture(const render::Input& in) {
     // The blade's path starts where the press meets the skin (or, off the organ, at the depth
     // of the organ's centre); the blade goes in along the view direction.
     gesture = Gesture::kScalpel;
-    scalpel_dir = ray.direction.normalized();
-    scalpel_reach_mm = hit.node >= 0 ? hit.distance_mm : (camera.target - ray.origin).norm();
-    scalpel_path = {ray.origin + scalpel_reach_mm * ray.direction};
+    scalpel.begin(ray, hit.node >= 0 ? hit.distance_mm : (camera.target - ray.origin).norm());
     last_press = where + (hit.node >= 0 ? ": scalpel on the organ" : ": scalpel beside the organ");
   } else if (grasp_mode && hit.node >= 0) {
     // The jaws close on the picked node and the skin around it; the drag moves them. A grasp
@@ -223,9 +221,7 @@ void ViewSession::State::handle_mouse(const render::Input& in) {
       interact::SkinHit hit;
       if (snap.x.rows() == vm->model.node_count())
         hit = interact::pick_skin(vm->model, snap.x, ray.origin, ray.direction);
-      if (hit.node >= 0) scalpel_reach_mm = hit.distance_mm;
-      const Eigen::Vector3d p = ray.origin + scalpel_reach_mm * ray.direction;
-      if ((p - scalpel_path.back()).norm() >= 0.5) scalpel_path.push_back(p);
+      scalpel.extend(ray, hit.node >= 0 ? hit.distance_mm : -1.0);
       if (!left_down) {
         gesture = Gesture::kNone;
         cut_along_path();
@@ -244,19 +240,17 @@ void ViewSession::State::handle_mouse(const render::Input& in) {
 // The release of a scalpel drag: the blade's upper end 3 mm above the traced path (so that it
 // enters through the skin), reaching the panel's depth under it, along the view direction.
 void ViewSession::State::cut_along_path() {
-  if (scalpel_path.size() < 2) {
+  if (scalpel.path.size() < 2) {
     cut_message = "the drag was too short to cut";
     return;
   }
-  std::vector<Eigen::Vector3d> top = scalpel_path;
-  for (Eigen::Vector3d& p : top) p -= 3.0 * scalpel_dir;
   try {
-    loop->cut(top, scalpel_dir, scalpel_depth_mm + 3.0);
+    loop->cut(scalpel.blade_top(), scalpel.direction, scalpel_depth_mm + TracedStroke::kAboveMm);
     cut_message = "cutting...";
   } catch (const Error& e) {
     cut_message = e.what();
   }
-  scalpel_path.clear();
+  scalpel.path.clear();
 }
 
 }  // namespace lamina::cli

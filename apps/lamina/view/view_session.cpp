@@ -352,7 +352,7 @@ void ViewSession::State::show_state() {
     f.markers.push_back(
         {c.position_mm, std::max(1.5, 0.5 * c.diameter_mm), {0.9f, 0.1f, 0.1f, 1.0f}});
   // The blade's path while it is traced.
-  for (const Eigen::Vector3d& p : scalpel_path)
+  for (const Eigen::Vector3d& p : scalpel.path)
     f.markers.push_back({p, 0.8, {0.95f, 0.95f, 0.95f, 1.0f}});
   render::set_overlays(kModelName, {std::move(f.rings), std::move(f.arrows), std::move(f.markers)});
 }

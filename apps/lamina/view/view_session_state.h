@@ -15,6 +15,7 @@
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/render/input.h"
 #include "lamina/render/viewer.h"
+#include "traced_stroke.h"
 #include "view_script.h"
 #include "view_session.h"
 
@@ -72,10 +73,8 @@ struct ViewSession::State {
   // cuts along it, the blade reaching scalpel_depth_mm along the view direction.
   bool scalpel_mode = false;
   double scalpel_depth_mm = 15.0;
-  std::vector<Eigen::Vector3d> scalpel_path;  // points on the skin (or beside it) under the drag
-  Eigen::Vector3d scalpel_dir = Eigen::Vector3d::UnitZ();  // the view direction at the press
-  double scalpel_reach_mm = 0.0;  // the last hit's distance along the ray (for rays that miss)
-  uint64_t model_version = 0;     // the loop's cut model adopted
+  TracedStroke scalpel;        // the blade's path under the drag
+  uint64_t model_version = 0;  // the loop's cut model adopted
   int64_t cuts = 0;
   std::vector<model::StructureCut> crossed;  // every structure the cuts in force crossed (marked)
   std::vector<size_t> crossed_before;        // per cut in force: crossed.size() before it

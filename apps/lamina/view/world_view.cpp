@@ -202,9 +202,7 @@ void WorldViewSession::State::start_left_gesture(const render::Input& in) {
       fmt::format("press at ({:.0f}, {:.0f})", in.mouse_px.x(), in.mouse_px.y());
   if (dissect_mode) {
     gesture = Gesture::kDissect;
-    stroke_dir = ray.direction.normalized();
-    stroke_reach_mm = b >= 0 ? hit.distance_mm : (camera.target - ray.origin).norm();
-    stroke = {ray.origin + stroke_reach_mm * ray.direction};
+    stroke.begin(ray, b >= 0 ? hit.distance_mm : (camera.target - ray.origin).norm());
     last_press = where + (b >= 0 ? ": dissection on " + snap.bodies[b].name : ": dissection");
   } else if (b >= 0) {
     const world::BodyView& body = snap.bodies[static_cast<size_t>(b)];
@@ -256,9 +254,7 @@ void WorldViewSession::State::handle_mouse(const render::Input& in) {
       const render::Ray ray =
           render::pixel_ray(camera, size.x(), size.y(), in.mouse_px.x(), in.mouse_px.y());
       const auto [b, hit] = world::pick_body(snap, ray.origin, ray.direction);
-      if (b >= 0) stroke_reach_mm = hit.distance_mm;
-      const Eigen::Vector3d p = ray.origin + stroke_reach_mm * ray.direction;
-      if ((p - stroke.back()).norm() >= 0.5) stroke.push_back(p);
+      stroke.extend(ray, b >= 0 ? hit.distance_mm : -1.0);
       if (!left_down) {
         gesture = Gesture::kNone;
         dissect_along_stroke();
@@ -298,19 +294,17 @@ void WorldViewSession::State::send_forces() {
 // The release of a dissection drag: the blade's upper end 3 mm above the traced path, reaching
 // 30 mm along the view direction, dividing the ties within 3 mm of it.
 void WorldViewSession::State::dissect_along_stroke() {
-  if (stroke.size() < 2) {
+  if (stroke.path.size() < 2) {
     status = "the dissection's drag was too short";
     return;
   }
-  std::vector<Eigen::Vector3d> top = stroke;
-  for (Eigen::Vector3d& p : top) p -= 3.0 * stroke_dir;
   try {
-    loop->dissect(std::move(top), stroke_dir, 33.0, 3.0);
+    loop->dissect(stroke.blade_top(), stroke.direction, 30.0 + TracedStroke::kAboveMm, 3.0);
     ++strokes;
   } catch (const Error& e) {
     status = e.what();
   }
-  stroke.clear();
+  stroke.path.clear();
 }
 
 void WorldViewSession::State::watch(double t) {

@@ -10,6 +10,7 @@
 #include "lamina/model/structure_colors.h"
 #include "lamina/render/viewer.h"
 #include "lamina/world/world_loop.h"
+#include "traced_stroke.h"
 #include "view_script.h"
 #include "world_view.h"
 
@@ -42,9 +43,7 @@ struct WorldViewSession::State {
   Eigen::Vector3d grab_point = Eigen::Vector3d::Zero();
   std::vector<Force> pinned;                           // Shift-released drags
   std::vector<std::vector<interact::LiveForce>> sent;  // per snapshot body: what the loop has
-  std::vector<Eigen::Vector3d> stroke;                 // a dissection's traced path
-  Eigen::Vector3d stroke_dir = Eigen::Vector3d::UnitZ();
-  double stroke_reach_mm = 0.0;
+  TracedStroke stroke;                                 // a dissection's path under the drag
 
   // What the session saw, for the panel and the report.
   int64_t frames = 0;

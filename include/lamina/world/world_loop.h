@@ -60,8 +60,7 @@ struct BodyView {
   uint32_t topology = 0;  ///< the body's topology generation: node numbers are of this one
   Eigen::MatrixX3d x;     ///< #nodes by 3, mm
   BodyStepStats stats;    ///< its part of the last step
-  std::vector<int32_t> force_nodes;    ///< where the live forces act (skin nodes)
-  std::vector<int32_t> grasped_nodes;  ///< what the scene's graspers hold now
+  std::vector<int32_t> force_nodes;  ///< where the live forces act (skin nodes)
 };
 
 /// An active tie as drawn: its node and its point on the other skin, and its pull.
@@ -119,9 +118,10 @@ class WorldLoop {
   /// Sweeps a blade through the world at once, between two steps (dissect_along()): the upper
   /// end along `path`, the lower end depth_mm along `direction`, dividing the ties within
   /// reach_mm of it.
-  /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a path of fewer than two
-  ///   finite points, a direction that is not finite and non-zero, or a depth or reach that is
-  ///   not a positive number.
+  /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a blade a scalpel could not
+  ///   be (model::blade_problem: fewer than two finite points, a path of no length, a depth that
+  ///   is not positive, a direction that is not finite and non-zero or runs along the path) or a
+  ///   reach that is not a positive number.
   void dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
                double reach_mm = 1.5);
   /// New rate (0 = as fast as possible). In real time every body's step becomes 1 / rate_hz.
