@@ -33,6 +33,13 @@ function run(cmd, argv, cwd) {
 
 const median = (v) => { const s = [...v].sort((a, b) => a - b); return s.length ? s[Math.floor(s.length / 2)] : NaN; };
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+// Waits until the page's newest frame is `seconds` of simulated time later. What the physics
+// does is waited for on the simulated clock: under the sanitizers, beside another test, the
+// server steps far behind the wall clock, and a wall-clock wait sees the organ barely move.
+async function simulate(p, seconds, timeout = 120000) {
+  const until = (await p.evaluate(() => window.lamina.stats.time)) + seconds;
+  await p.waitForFunction((t) => window.lamina.stats.time >= t, until, { timeout });
+}
 
 // The carved-out phantom with its anatomy: a portal vein, a tumour, hepatic veins.
 const work = mkdtempSync(join(tmpdir(), 'lamina_web_model_'));
@@ -40,11 +47,14 @@ await run(lamina, ['-q', 'phantom', '--carved-out', '-o', 'p.nii.gz'], work);
 await run(lamina, ['-q', 'build', 'p.nii.gz', '--label', '1', '--embed',
                    '2=portal_vein,3=tumour,4=hepatic_veins', '-o', 'm.vtu'], work);
 
-// `lamina serve m.vtu --web ...ARGS`, and the page's address once it is logged.
+// `lamina serve m.vtu --web ...ARGS`, and the page's address once it is logged. Every server
+// started is kept, so that a failure shows what each logged.
+const servers = [];
 async function serve(extra, what = 'm.vtu') {
   const child = spawn(lamina, ['serve', what, '--web', '--web-port', '0', '--port', '0', ...extra],
                       { cwd: work, stdio: ['ignore', 'ignore', 'pipe'] });
-  const s = { child, log: '' };
+  const s = { child, log: '', what: [what, ...extra].join(' ') };
+  servers.push(s);
   child.stderr.on('data', (d) => { s.log += d; });
   s.url = await new Promise((resolve, reject) => {
     const t0 = Date.now();
@@ -56,14 +66,15 @@ async function serve(extra, what = 'm.vtu') {
   });
   return s;
 }
-const served = await serve(['--duration', '170']);
+// Durations past the test's own time: each server is stopped when its part is done.
+const served = await serve(['--duration', '300']);
 const server = served.child, url = served.url;
 
 const browser = await chromium.launch({
   executablePath: args.chromium || '/usr/bin/chromium',
   args: ['--use-gl=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist', '--no-sandbox'],
 });
-let failed = false;
+let failed = false, failure = null;
 try {
   const context = await browser.newContext({ viewport: { width: 1100, height: 760 } });
   // No network but loopback: anything else the page asks for is refused and counted.
@@ -121,11 +132,11 @@ try {
   await page.mouse.move(cx, cy);
   await page.mouse.down();
   await page.mouse.move(cx + 120, cy - 40, { steps: 12 });
-  await sleep(1500);
+  await simulate(page, 1.5);
   const dragged = maxMove(await organ(), rest);
   await page.screenshot({ path: join(out, 'dragged.png') });
   await page.mouse.up();
-  await sleep(4000);
+  await simulate(page, 4.0);
   const after = maxMove(await organ(), rest);
   measured.desktop_drag_mm = +dragged.toFixed(2);
   measured.after_release_mm = +after.toFixed(2);
@@ -213,7 +224,7 @@ try {
       r.position.set(p[0] - d, p[1], p[2]);
       r.updateButtonValue('trigger', 1);
     }, [hit.right, depth_m]);
-    await sleep(1500);
+    await simulate(xrPage, 1.5);
     return xrPage.evaluate(() => {
       const calls = window.pulseCalls.filter((c) => c.hand === 'right').slice(-10);
       return calls.length ? calls.reduce((a, c) => a + c.value, 0) / calls.length : 0;
@@ -231,18 +242,18 @@ try {
   const latency = await xrPage.evaluate(() => window.lamina.stats.latencyMs.slice());
   measured.latency_ms = { median: +median(latency).toFixed(1), samples: latency.length };
   await xrPage.evaluate(() => window.iwer.controllers.right.updateButtonValue('trigger', 0));
-  await sleep(3000);
+  await simulate(xrPage, 3.0);
 
   // The left hand's grip grasps the other side and pulls it out 15 mm.
-  const grasped = await xrPage.evaluate(async ([p]) => {
+  await xrPage.evaluate(([p]) => {
     const l = window.iwer.controllers.left;
     l.position.set(p[0] + 0.001, p[1], p[2]);
     l.updateButtonValue('squeeze', 1);
-    await new Promise((r) => setTimeout(r, 500));
-    l.position.set(p[0] - 0.015, p[1], p[2]);
-    await new Promise((r) => setTimeout(r, 2000));
-    return window.lamina.organPositions()[0];
   }, [hit.left]);
+  await simulate(xrPage, 0.5);
+  await xrPage.evaluate(([p]) => window.iwer.controllers.left.position.set(p[0] - 0.015, p[1], p[2]), [hit.left]);
+  await simulate(xrPage, 2.0);
+  const grasped = await xrPage.evaluate(() => window.lamina.organPositions()[0]);
   const pulled = maxMove(grasped, xrOrganRest);
   measured.grasp_pull_mm = +pulled.toFixed(2);
   assert.ok(pulled > 5, `the grasp pulled the skin ${pulled} mm`);
@@ -289,7 +300,7 @@ try {
                     stiffness_kpa_per_mm: 1.0, strength_kpa: 30.0 }],
     contact: { rest_overlap_tolerance_mm: 6.0 },
     solver: { integrator: 'implicit_euler', dt_s: 0.001 } }));
-  const world = await serve(['--duration', '150'], 'world.json');
+  const world = await serve(['--duration', '240'], 'world.json');
   try {
     const worldPage = await context.newPage();
     worldPage.on('pageerror', (e) => pageErrors.push(e.message));
@@ -316,18 +327,12 @@ try {
     assert.ok(world.log.includes('drags '), 'no press on the view took an organ');
     measured.world_pressed = (world.log.match(/drags [a-z_]+ node [0-9]+/) || [''])[0];
     await worldPage.mouse.move(wx + 120, wy - 40, { steps: 12 });
-    // Held for 1 s and released for 3 s of simulated time: under the sanitizers the world steps
-    // at 60 Hz and behind real time, and a wall-clock wait would see it barely move.
-    const simTime = () => worldPage.evaluate(() => window.lamina.stats.time);
-    const simulate = async (seconds) => {
-      const until = (await simTime()) + seconds;
-      await worldPage.waitForFunction((t) => window.lamina.stats.time >= t, until, { timeout: 120000 });
-    };
-    await simulate(1.0);
+    // Held for 1 s and released for 3 s of simulated time.
+    await simulate(worldPage, 1.0);
     const worldDragged = maxMove(await both(), w0);
     await worldPage.screenshot({ path: join(out, 'world.png') });
     await worldPage.mouse.up();
-    await simulate(3.0);
+    await simulate(worldPage, 3.0);
     const worldAfter = maxMove(await both(), w0);
     measured.world_drag_mm = +worldDragged.toFixed(2);
     measured.world_after_release_mm = +worldAfter.toFixed(2);
@@ -341,8 +346,7 @@ try {
   assert.deepEqual(pageErrors, []);
 } catch (e) {
   failed = true;
-  console.error(e);
-  console.error('--- lamina serve log ---\n' + served.log);
+  failure = e;
 } finally {
   await browser.close();
   server.kill('SIGTERM');
@@ -351,4 +355,14 @@ try {
 measured.server_summary = (served.log.match(/web: [0-9]+ clients.*/) || [''])[0];
 console.log(JSON.stringify(measured));
 writeFileSync(join(out, 'measured.json'), JSON.stringify(measured, null, 2));
+if (failed) {
+  // The servers' logs, then what failed as the last lines (CI's summary shows the output's tail).
+  for (const s of servers) {
+    console.error(`--- lamina serve ${s.what}: the log's last lines ---`);
+    console.error(s.log.split('\n').slice(-25).join('\n'));
+  }
+  console.error('--- the failure ---');
+  console.error(failure && failure.stack);
+  console.error('FAILED: ' + (failure && failure.message));
+}
 process.exit(failed ? 1 : 0);
