@@ -9,6 +9,8 @@
 #include "bindings.h"
 #include "lamina/io/world_scene.h"
 #include "lamina/model/summarize_model.h"
+#include "lamina/world/cut_body.h"
+#include "lamina/world/dissection.h"
 #include "lamina/world/world.h"
 
 namespace py = pybind11;
@@ -20,7 +22,24 @@ struct PyWorld {
   io::WorldScene scene;
   std::unique_ptr<io::ReadyWorld> ready;
   world::WorldStepStats last;
+  world::WorldBefore before_cuts;  // the bodies cut since the last reset, as they were
+  // What a cut or a reset replaced, kept: numpy views of x and rest taken before it point into
+  // these buffers (they show the state before, never freed memory).
+  struct Retired {
+    std::shared_ptr<Model> model;
+    std::unique_ptr<sim::Simulation> sim;
+  };
+  std::vector<Retired> retired;
 };
+
+// Keeps body b's simulation (its buffers, which views may point into) and model, leaving the
+// body a copy of them to change.
+PyWorld::Retired& retire(PyWorld& w, world::Body& b) {
+  auto kept = std::make_unique<sim::Simulation>(b.sim);
+  std::swap(*kept, b.sim);  // the body steps a copy; the views keep the buffers they had
+  w.retired.push_back({b.model, std::move(kept)});
+  return w.retired.back();
+}
 
 const world::Body& body_named(const PyWorld& w, const std::string& name) {
   const world::BodyId id = world::find_body(w.ready->world, name);
@@ -130,12 +149,64 @@ void bind_world(py::module_& m) {
           },
           "The attachments' ties: total, divided by a blade, torn past their strength.")
       .def(
+          "cut",
+          [](PyWorld& w, const std::vector<Eigen::Vector3d>& path, double depth_mm,
+             const Eigen::Vector3d& direction) {
+            py::dict cut;
+            int32_t divided = 0;
+            {
+              py::gil_scoped_release release;
+              world::World& world = w.ready->world;
+              for (const world::BodyId id : w.ready->ids) {
+                world::Body& b = world::body(world, id);
+                PyWorld::Retired& r = retire(w, b);
+                model::CutReport report;
+                try {
+                  report = world::cut_body(world, id, path, direction, depth_mm, w.before_cuts);
+                } catch (...) {
+                  std::swap(*r.sim, b.sim);  // nothing changed: the views' buffers back
+                  w.retired.pop_back();
+                  throw;
+                }
+                if (report.cut_tets == 0) {
+                  std::swap(*r.sim, b.sim);
+                  w.retired.pop_back();
+                  continue;
+                }
+                py::gil_scoped_acquire hold;
+                cut[py::str(b.name)] = py::dict(py::arg("cut_tets") = report.cut_tets,
+                                                py::arg("new_nodes") = report.new_nodes,
+                                                py::arg("topology") = b.topology);
+              }
+              divided = world::dissect_along(world, path, direction, depth_mm, 1.5);
+            }
+            return py::dict(py::arg("bodies") = cut, py::arg("ties_divided") = divided);
+          },
+          py::arg("path"), py::arg("depth_mm"), py::arg("direction"),
+          "Cuts at once every body the blade passes through (a scalpel drawn at the current\n"
+          "positions: its upper end along `path` ((k, 3) mm, k >= 2), reaching depth_mm along\n"
+          "`direction`), and divides the ties within 1.5 mm of it. A body cut has more nodes\n"
+          "(x, rest and skin_faces taken before show it as it was: take them again) and a new\n"
+          "topology generation; its ties follow their nodes' copies (docs/world.md, \"Cutting a\n"
+          "body\"). Returns {bodies: {name: {cut_tets, new_nodes, topology}} (the bodies cut),\n"
+          "ties_divided}. Raises lamina.Error for a bad blade, nothing changed.")
+      .def(
+          "topology",
+          [](const PyWorld& w, const std::string& name) { return body_named(w, name).topology; },
+          py::arg("body"),
+          "Body `body`'s topology generation: it moves on with each cut (and with a reset\n"
+          "putting a cut body back), and node numbers of an older one name other nodes.")
+      .def(
           "reset",
           [](PyWorld& w) {
+            for (const world::BodyBefore& k : w.before_cuts.bodies)
+              if (world::is_valid(w.ready->world, k.id))
+                retire(w, world::body(w.ready->world, k.id));
+            world::put_back(w.ready->world, w.before_cuts);
             world::reset(w.ready->world);
             w.last = {};
           },
-          "Every body back at rest and every tie in place, time 0.");
+          "Every body back at rest and uncut, every tie in place, time 0.");
 
   m.def(
       "world_scene",

@@ -257,6 +257,19 @@ lamina_status lamina_world_dissect(lamina_world* world, const double* path_xyz, 
                                    const double direction[3], double depth_mm, double reach_mm,
                                    int32_t* divided);
 
+/* Cuts at once every body the blade passes through (a scalpel, as `lamina view`'s K): its upper
+ * end along the `points` points of `path_xyz` (mm, interleaved, >= 2), reaching depth_mm along
+ * `direction`, drawn on the bodies as they are now; the ties it passes are divided too. A body
+ * cut is renumbered: lamina_world_body_model's handle describes the cut model from now on (read
+ * its counts again), lamina_world_body_topology moves on, and its forces are released (set them
+ * again on its new nodes). `tets_divided` (may be NULL) gets how many tetrahedra were divided:
+ * 0 when the blade met no tissue. */
+lamina_status lamina_world_cut(lamina_world* world, const double* path_xyz, int32_t points,
+                               const double direction[3], double depth_mm, int64_t* tets_divided);
+/* Body `body`'s topology generation: it moves on each time a cut (or a reset putting a cut body
+ * back) renumbers its nodes. 0 for an index out of range. */
+uint32_t lamina_world_body_topology(const lamina_world* world, int32_t body);
+
 /* What the last world step measured. */
 typedef struct lamina_world_stats {
   double time_s;              /* simulated time after the step */
@@ -276,7 +289,8 @@ typedef struct lamina_world_stats {
  * body, once one has left physical bounds: no more steps until lamina_world_reset. */
 lamina_status lamina_world_step(lamina_world* world, int32_t steps, lamina_world_stats* stats);
 /* Every body back at rest, every tie in place, time 0 (the scene's tools and blades play
- * again); forces are kept. */
+ * again); a body cut since is put back uncut (renumbered again: its forces released); the other
+ * bodies' forces are kept. */
 lamina_status lamina_world_reset(lamina_world* world);
 
 #ifdef __cplusplus

@@ -34,10 +34,24 @@ const lamina::world::BodyView& need_body(const lamina_world& w, int32_t body, co
 }
 
 // Steps the world `steps` steps (0: only the commands given since are taken) and keeps the
-// snapshot the other calls read.
+// snapshot the other calls read; a body cut (or put back uncut) is described by its handle's
+// model from now on.
 void advance(lamina_world& w, int64_t steps) {
   w.loop->run_steps(steps);
   w.loop->latest(w.snapshot);
+  for (size_t b = 0; b < w.models.size() && b < w.snapshot.bodies.size(); ++b)
+    w.models[b].model = w.snapshot.bodies[b].model;
+}
+
+// A blade's upper end: `points` points, interleaved.
+std::vector<Eigen::Vector3d> blade_path(const double* path_xyz, int32_t points,
+                                        const std::string& what) {
+  if (points < 2) throw lamina::invalid_input(what + ": points", "must be >= 2");
+  need(path_xyz, (what + ": path_xyz").c_str());
+  std::vector<Eigen::Vector3d> path;
+  for (int32_t k = 0; k < points; ++k)
+    path.emplace_back(path_xyz[3 * k], path_xyz[3 * k + 1], path_xyz[3 * k + 2]);
+  return path;
 }
 
 }  // namespace
@@ -122,18 +136,33 @@ lamina_status lamina_world_dissect(lamina_world* world, const double* path_xyz, 
                                    int32_t* divided) {
   return guarded([&] {
     lamina_world& w = need(world, "lamina_world_dissect: world");
-    if (points < 2) throw lamina::invalid_input("lamina_world_dissect: points", "must be >= 2");
-    need(path_xyz, "lamina_world_dissect: path_xyz");
+    std::vector<Eigen::Vector3d> path = blade_path(path_xyz, points, "lamina_world_dissect");
     need(direction, "lamina_world_dissect: direction");
-    std::vector<Eigen::Vector3d> path;
-    for (int32_t k = 0; k < points; ++k)
-      path.emplace_back(path_xyz[3 * k], path_xyz[3 * k + 1], path_xyz[3 * k + 2]);
     const int32_t before = w.snapshot.ties_divided_by_strokes;
     w.loop->dissect(std::move(path), Eigen::Vector3d(direction[0], direction[1], direction[2]),
                     depth_mm, reach_mm);
     advance(w, 0);
     if (divided != nullptr) *divided = w.snapshot.ties_divided_by_strokes - before;
   });
+}
+
+lamina_status lamina_world_cut(lamina_world* world, const double* path_xyz, int32_t points,
+                               const double direction[3], double depth_mm, int64_t* tets_divided) {
+  return guarded([&] {
+    lamina_world& w = need(world, "lamina_world_cut: world");
+    std::vector<Eigen::Vector3d> path = blade_path(path_xyz, points, "lamina_world_cut");
+    need(direction, "lamina_world_cut: direction");
+    const int64_t before = w.snapshot.tets_cut;
+    w.loop->cut(std::move(path), Eigen::Vector3d(direction[0], direction[1], direction[2]),
+                depth_mm);
+    advance(w, 0);
+    if (tets_divided != nullptr) *tets_divided = w.snapshot.tets_cut - before;
+  });
+}
+
+uint32_t lamina_world_body_topology(const lamina_world* world, int32_t body) {
+  if (world == nullptr || body < 0 || body >= lamina_world_body_count(world)) return 0;
+  return world->snapshot.bodies[static_cast<size_t>(body)].topology;
 }
 
 lamina_status lamina_world_step(lamina_world* world, int32_t steps, lamina_world_stats* stats) {

@@ -82,8 +82,9 @@ void read_bodies(const Value& v, WorldScene& w) {
     if (!in.contains("tools")) b.scene.default_tool = false;
     if (!b.scene.scalpels.empty())
       v.in.r.fail(path + ".tools",
-                  "a scalpel in a world scene divides the attachments it passes: give it in "
-                  "\"dissections\" (cutting a body's tissue in a world is not there yet)");
+                  "a scene's scalpel does not cut a world's bodies yet: give it in "
+                  "\"dissections\" to divide the attachments it passes, or cut the tissue "
+                  "interactively (lamina view: K; lamina_world_cut)");
     w.bodies.push_back(std::move(b));
   }
 }

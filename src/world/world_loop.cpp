@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
@@ -87,7 +88,7 @@ void WorldLoop::set_forces(BodyId id, uint32_t topology, std::vector<interact::L
       throw invalid_input("world loop: force",
                           "a force and its radius must be finite (radius > 0)");
   }
-  m.new_forces.emplace_back(id.index, std::move(forces));
+  m.new_forces.push_back({id.index, h->topology, std::move(forces)});
 }
 
 void WorldLoop::clear_forces() {
@@ -96,15 +97,31 @@ void WorldLoop::clear_forces() {
   impl_->clear_all_forces = true;
 }
 
+namespace {
+
+// A stroke's blade is a scalpel's (a path, a depth, a direction that sweeps a surface).
+void check_stroke(const char* what, const std::vector<Eigen::Vector3d>& path,
+                  const Eigen::Vector3d& direction, double depth_mm, double reach_mm) {
+  if (const auto p = model::blade_problem(path, direction, depth_mm))
+    throw invalid_input(std::string(what) + ": " + p->first, p->second);
+  if (!(reach_mm > 0.0 && std::isfinite(reach_mm)))
+    throw invalid_input(std::string(what) + ": reach_mm", "must be > 0 mm");
+}
+
+}  // namespace
+
 void WorldLoop::dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction,
                         double depth_mm, double reach_mm) {
-  // The blade a scalpel's is (a path, a depth, a direction that sweeps a surface).
-  if (const auto p = model::blade_problem(path, direction, depth_mm))
-    throw invalid_input("dissection: " + p->first, p->second);
-  if (!(reach_mm > 0.0 && std::isfinite(reach_mm)))
-    throw invalid_input("dissection: reach_mm", "must be > 0 mm");
+  check_stroke("dissection", path, direction, depth_mm, reach_mm);
   std::lock_guard lock(impl_->mutex);
   impl_->strokes.push_back({std::move(path), direction, depth_mm, reach_mm});
+}
+
+void WorldLoop::cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction,
+                    double depth_mm, double reach_mm) {
+  check_stroke("cut", path, direction, depth_mm, reach_mm);
+  std::lock_guard lock(impl_->mutex);
+  impl_->strokes.push_back({std::move(path), direction, depth_mm, reach_mm, true});
 }
 
 void WorldLoop::set_rate(double rate_hz) {
@@ -139,6 +156,7 @@ void WorldLoop::run_steps(int64_t steps) {
     std::lock_guard lock(m.mutex);
     m.apply_pending();
   }
+  m.apply_cuts();
   for (int64_t k = 0; k < steps && !m.halted(); ++k) m.one_step();
   m.publish(true);
 }
@@ -153,6 +171,7 @@ void WorldLoop::thread_main() {
       m.wake.wait_for(lock, std::chrono::milliseconds(20));
       m.apply_pending();
       lock.unlock();
+      m.apply_cuts();
       m.publish(true);
       m.lock_waits.acquire(lock);
       pacer.restart();
@@ -161,6 +180,7 @@ void WorldLoop::thread_main() {
     m.apply_pending();
     pacer.set_rate(m.stepping_rate_hz);
     lock.unlock();
+    m.apply_cuts();
     m.late_us = pacer.lateness_us();
     m.one_step();
     m.publish(false);
@@ -188,6 +208,16 @@ void WorldLoop::Impl::apply_pending() {
   stepping_paused = paused;
   std::vector<int32_t> reroute;
   if (reset_requested) {
+    // The bodies cut since go back uncut (renumbered again: their live forces go).
+    std::vector<int32_t> put_back_slots;
+    for (const BodyBefore& k : before_cuts.bodies) put_back_slots.push_back(k.id.index);
+    put_back(world, before_cuts);
+    for (const int32_t slot : put_back_slots) topology_changed(slot);
+    tissue_cuts.clear();
+    cuts = 0;
+    tets_cut = 0;
+    last_cut_ms = 0.0;
+    cut_message.clear();
     world::reset(world);
     unstable = sim::Instability::kNone;
     unstable_body.clear();
@@ -208,13 +238,21 @@ void WorldLoop::Impl::apply_pending() {
     }
     clear_all_forces = false;
   }
-  for (auto& [slot, forces] : new_forces) {
-    live[static_cast<size_t>(slot)].forces = std::move(forces);
-    reroute.push_back(slot);
+  for (NewForces& f : new_forces) {
+    // Checked against a topology a cut has since renumbered: its nodes are not the body's now.
+    if (!world.bodies[static_cast<size_t>(f.slot)].alive ||
+        world.bodies[static_cast<size_t>(f.slot)].body.topology != f.topology)
+      continue;
+    live[static_cast<size_t>(f.slot)].forces = std::move(f.forces);
+    reroute.push_back(f.slot);
   }
   new_forces.clear();
-  for (const Stroke& s : strokes)
-    strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
+  for (Stroke& s : strokes) {
+    if (s.cuts_tissue)
+      tissue_cuts.push_back(std::move(s));
+    else
+      strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
+  }
   strokes.clear();
   std::sort(reroute.begin(), reroute.end());
   reroute.erase(std::unique(reroute.begin(), reroute.end()), reroute.end());
@@ -245,6 +283,55 @@ void WorldLoop::Impl::route_forces(int32_t slot) {
   }
   if (b.sim.options().mode == sim::Mode::kLocal)
     interact::keep_touched_movable(b.sim, b.tools.touched);
+}
+
+// The tissue cuts taken, on the stepping thread and outside the commands' lock (a cut takes
+// milliseconds): every body the blade passes through cut (cut_body()), then the ties it passes
+// divided. The world waits for them between two steps.
+void WorldLoop::Impl::apply_cuts() {
+  for (const Stroke& s : tissue_cuts) {
+    const double t0 = now_s();
+    int32_t bodies_cut = 0;
+    std::string refused;
+    for (const BodyId id : body_ids(world)) {
+      try {
+        // As it was kept for a reset, if the blade divides it.
+        const model::CutReport r =
+            cut_body(world, id, s.path, s.direction, s.depth_mm, before_cuts);
+        if (r.cut_tets == 0) continue;
+        ++bodies_cut;
+        tets_cut += r.cut_tets;
+        log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, id).name,
+                  r.cut_tets, r.new_nodes);
+        std::lock_guard lock(mutex);
+        topology_changed(id.index);
+      } catch (const Error& e) {  // a body without tetrahedra: said, the others cut
+        refused = body(world, id).name + ": " + e.what();
+      }
+    }
+    strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
+    cuts += bodies_cut;
+    last_cut_ms = 1e3 * (now_s() - t0);
+    cut_message = bodies_cut > 0     ? std::string()
+                  : !refused.empty() ? refused
+                                     : "the blade passed through no body's tissue";
+  }
+  tissue_cuts.clear();
+}
+
+// A body renumbered (cut, or put back uncut): callers' node numbers of it are checked against
+// its new generation, and its live forces, on the old numbers, are released.
+void WorldLoop::Impl::topology_changed(int32_t slot) {
+  Body& b = world.bodies[static_cast<size_t>(slot)].body;
+  for (Handle& h : handles)
+    if (h.id.index == slot) {
+      h.topology = b.topology;
+      h.skin_nodes = b.model->layers[0].node_count;
+    }
+  Live& l = live[static_cast<size_t>(slot)];
+  l.forces.clear();
+  l.routes.clear();
+  b.tools.held_forces.resize(0, 3);
 }
 
 void WorldLoop::Impl::one_step() {

@@ -9,6 +9,7 @@
 
 #include "lamina/core/clock.h"
 #include "lamina/core/lock_waits.h"
+#include "lamina/world/cut_body.h"
 #include "lamina/world/world_loop.h"
 
 namespace lamina::world {
@@ -23,11 +24,17 @@ struct WorldLoop::Impl {
   mutable std::mutex mutex;
   std::condition_variable wake;
   bool stop_requested = false, paused = false, reset_requested = false, clear_all_forces = false;
-  std::vector<std::pair<int32_t, std::vector<interact::LiveForce>>> new_forces;  // slot, forces
+  struct NewForces {
+    int32_t slot;
+    uint32_t topology;  // the one they were checked against: older when taken, they are dropped
+    std::vector<interact::LiveForce> forces;
+  };
+  std::vector<NewForces> new_forces;
   struct Stroke {
     std::vector<Eigen::Vector3d> path;
     Eigen::Vector3d direction;
     double depth_mm, reach_mm;
+    bool cuts_tissue = false;  // cut(): the bodies' tetrahedra too, not only the ties
   };
   std::vector<Stroke> strokes;
   double rate_hz = 1000.0;
@@ -52,6 +59,12 @@ struct WorldLoop::Impl {
   double late_us = 0.0;
   bool stepping_paused = false;  // paused as last taken under mutex
   int32_t strokes_divided = 0;
+  std::vector<Stroke> tissue_cuts;  // taken from `strokes`, cut outside the lock
+  WorldBefore before_cuts;          // the bodies cut since the last reset, as they were
+  int32_t cuts = 0;
+  int64_t tets_cut = 0;
+  double last_cut_ms = 0.0;
+  std::string cut_message;
   sim::Instability unstable = sim::Instability::kNone;
   std::string unstable_body;
   double last_publish_s = -1.0;
@@ -65,6 +78,8 @@ struct WorldLoop::Impl {
   void follow_the_clock();  // every body's dt = 1 / rate in real time
   void apply_pending();     // under mutex
   void route_forces(int32_t slot);
+  void apply_cuts();  // the stepping thread's, outside mutex: the tissue cuts taken
+  void topology_changed(int32_t slot);  // under mutex: a body renumbered
   void one_step();
   void publish(bool force);  // world_loop_publish.cpp
 };

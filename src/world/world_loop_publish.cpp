@@ -60,6 +60,10 @@ void WorldLoop::Impl::publish(bool force) {
   s.unstable = unstable;
   s.unstable_body = unstable_body;
   s.ties_divided_by_strokes = strokes_divided;
+  s.cuts = cuts;
+  s.tets_cut = tets_cut;
+  s.last_cut_ms = last_cut_ms;
+  s.cut_message = cut_message;
   s.lock_waits = lock_waits.count;
   s.longest_lock_wait_us = lock_waits.longest_us;
   ++s.generation;

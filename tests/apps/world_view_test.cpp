@@ -65,6 +65,25 @@ Eigen::Vector2d pixel_of(const Eigen::Vector3d& p) {
   return best;
 }
 
+// `key` pressed, then a left drag straight down from `span` px above `m` to `span` px below it,
+// 10 px a frame, released.
+void stroke_down(WorldViewSession& s, const std::string& key, const Eigen::Vector2d& m,
+                 double span) {
+  render::inject(InputEvent::key_down(key));
+  render::inject(InputEvent::key_up(key));
+  s.frame();
+  render::inject(InputEvent::move_to(m - Eigen::Vector2d(0, span)));
+  s.frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s.frame();
+  for (double y = -span + 10.0; y <= span; y += 10.0) {
+    render::inject(InputEvent::move_to(m + Eigen::Vector2d(0, y)));
+    s.frame();
+  }
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s.frame();
+}
+
 class WorldViewTest : public ::testing::Test {
  protected:
   void SetUp() override { render::init({.backend = render::Backend::kMock}); }
@@ -119,21 +138,8 @@ TEST_F(WorldViewTest, ADissectionDragAcrossTheMeetingDividesTheTiesItPassesAndRe
   ASSERT_TRUE(simulate_for(*s, 0.1));
   const Eigen::Vector3d meet =
       world::test_world::sphere_centre() + Eigen::Vector3d(20.25, 0.0, 0.0);
-  const Eigen::Vector2d m = pixel_of(meet);
-  render::inject(InputEvent::key_down("x"));
-  render::inject(InputEvent::key_up("x"));
-  s->frame();
-  render::inject(InputEvent::move_to(m - Eigen::Vector2d(0, 60)));
-  s->frame();
-  render::inject(InputEvent::press(MouseButton::kLeft));
-  s->frame();
+  stroke_down(*s, "x", pixel_of(meet), 60.0);
   EXPECT_THAT(s->last_press(), HasSubstr("dissection"));
-  for (int i = 1; i <= 12; ++i) {
-    render::inject(InputEvent::move_to(m - Eigen::Vector2d(0, 60 - 10.0 * i)));
-    s->frame();
-  }
-  render::inject(InputEvent::release(MouseButton::kLeft));
-  s->frame();
   ASSERT_TRUE(frames_until(
       *s, [&] { return s->snapshot().tie_count.divided > 0; }, 10.0))
       << "the stroke divided nothing";
@@ -146,6 +152,65 @@ TEST_F(WorldViewTest, ADissectionDragAcrossTheMeetingDividesTheTiesItPassesAndRe
       *s, [&] { return s->snapshot().tie_count.divided == 0; }, 10.0))
       << "a reset did not put the ties back";
   s->finish();
+}
+
+TEST_F(WorldViewTest, AScalpelDragCutsTheBodyItCrossesWhichIsDrawnAndDraggedOnItsNewNodes) {
+  auto s = tied_spheres();
+  s->start();
+  ASSERT_TRUE(simulate_for(*s, 0.1));
+  const int32_t nodes = s->snapshot().bodies[0].model->node_count();
+  // K, then a drag down across body a's middle.
+  stroke_down(*s, "k", pixel_of(world::test_world::sphere_centre()), 150.0);
+  EXPECT_THAT(s->last_press(), HasSubstr("scalpel on a"));
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().bodies[0].topology == 1; }, 20.0))
+      << "the scalpel cut nothing: " << s->snapshot().cut_message;
+  const world::BodyView& a = s->snapshot().bodies[0];
+  EXPECT_GT(a.model->node_count(), nodes) << s->snapshot().tets_cut << " tetrahedra divided";
+  EXPECT_EQ(s->snapshot().bodies[1].topology, 0u) << "the blade stayed inside body a";
+  EXPECT_GE(s->snapshot().cuts, 1);
+  s->frame();
+  bool drawn_cut = false;
+  for (const render::DrawnModel& d : render::last_frame())
+    drawn_cut |= d.name == "a" && d.nodes == a.model->node_count();
+  EXPECT_TRUE(drawn_cut) << "body a is not drawn with its cut model";
+
+  // The cut body is dragged on its new numbering, and comes back.
+  render::inject(InputEvent::key_down("k"));
+  render::inject(InputEvent::key_up("k"));
+  const Eigen::Vector2d c =
+      pixel_of(world::test_world::sphere_centre() + Eigen::Vector3d(0.0, 12.0, 0.0));
+  render::inject(InputEvent::move_to(c));
+  s->frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s->frame();
+  EXPECT_THAT(s->last_press(), HasSubstr("drag a node"));
+  for (int i = 1; i <= 5; ++i) {
+    render::inject(InputEvent::move_to(c - Eigen::Vector2d(24.0 * i, 0)));
+    s->frame();
+  }
+  ASSERT_TRUE(simulate_for(*s, 1.0));
+  EXPECT_GT(moved(s->snapshot().bodies[0]), 1.0) << "the drag did not move the cut body";
+  EXPECT_EQ(s->status(), "") << "the drag's force was refused";
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s->frame();
+  ASSERT_TRUE(simulate_for(*s, 3.0));
+  EXPECT_EQ(s->snapshot().unstable, sim::Instability::kNone);
+  EXPECT_LT(moved(s->snapshot().bodies[0]), 0.5) << "released, the cut body did not come back";
+
+  // R puts the uncut body back, drawn whole.
+  render::inject(InputEvent::key_down("r"));
+  render::inject(InputEvent::key_up("r"));
+  s->frame();
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().bodies[0].topology == 2; }, 10.0));
+  EXPECT_EQ(s->snapshot().bodies[0].model->node_count(), nodes);
+  s->frame();
+  s->frame();
+  for (const render::DrawnModel& d : render::last_frame())
+    if (d.name == "a") EXPECT_EQ(d.nodes, nodes);
+  s->finish();
+  EXPECT_EQ(s->report()["cuts"]["strokes"], 1);
 }
 
 }  // namespace

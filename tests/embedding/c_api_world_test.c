@@ -1,7 +1,8 @@
 /* The C API's worlds from C (C11, lamina::c only): the cholecystectomy example's liver and
  * gallbladder made from its scene, their names and models, the scene's grasper moving the
- * gallbladder as the world steps, a force on the liver, a dissection dividing ties, a reset
- * putting everything back, and every misuse a status with a one-line message. The example's
+ * gallbladder as the world steps, a force on the liver, a dissection dividing ties, a scalpel
+ * cutting the liver (renumbered: its model and topology generation follow), a reset putting
+ * everything back, and every misuse a status with a one-line message. The example's
  * path comes from the build (LAMINA_EXAMPLES_DIR). Exit code 0 = every check held. */
 #include <lamina/c_api.h>
 #include <math.h>
@@ -76,11 +77,45 @@ int main(void) {
   printf("a stroke divided %d ties (%lld in all)\n", divided, (long long)st.ties_divided);
   CHECK(divided > 0 && st.ties_divided == divided);
 
-  /* A reset: every tie back, time 0, both bodies at rest (the force is kept: released first). */
+  /* A scalpel: a slit from above across the liver's middle, half its height deep. The liver is
+   * renumbered (its model handle describes the cut one, its topology generation moves on, its
+   * force is released) and steps on. */
+  const lamina_model* liver = lamina_world_body_model(w, 0);
+  const int32_t uncut_nodes = lamina_model_node_count(liver);
+  double* rest = malloc(sizeof(double) * 3 * (size_t)uncut_nodes);
+  CHECK_OK(lamina_model_rest_positions(liver, rest, 3 * (int64_t)uncut_nodes));
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (int32_t i = 0; i < uncut_nodes; ++i)
+    for (int a = 0; a < 3; ++a)
+      lo[a] = fmin(lo[a], rest[3 * i + a]), hi[a] = fmax(hi[a], rest[3 * i + a]);
+  free(rest);
+  const double my = 0.5 * (lo[1] + hi[1]) + 0.37, top = hi[2] + 5.0;
+  const double slit[6] = {lo[0] + 0.3 * (hi[0] - lo[0]), my, top,
+                          lo[0] + 0.7 * (hi[0] - lo[0]), my, top};
+  const double down[3] = {0.0, 0.0, -1.0};
+  int64_t tets = -1;
+  CHECK(lamina_world_cut(w, slit, 2, down, -1.0, &tets) == LAMINA_ERROR_INVALID_INPUT);
+  CHECK(lamina_world_cut(w, slit, 1, down, 20.0, &tets) == LAMINA_ERROR_INVALID_INPUT);
+  const uint32_t gallbladder_topology = lamina_world_body_topology(w, 1);
+  CHECK_OK(lamina_world_cut(w, slit, 2, down, 5.0 + 0.5 * (hi[2] - lo[2]), &tets));
+  printf("a slit across the liver divided %lld tetrahedra: %d nodes, %d before\n", (long long)tets,
+         lamina_model_node_count(liver), uncut_nodes);
+  CHECK(tets > 0);
+  CHECK(lamina_world_body_model(w, 0) == liver && lamina_model_node_count(liver) > uncut_nodes);
+  CHECK(lamina_world_body_topology(w, 0) == 1 &&
+        lamina_world_body_topology(w, 1) == gallbladder_topology);
+  CHECK_OK(lamina_world_set_forces(w, 0, &node, push, 1));
+  CHECK_OK(lamina_world_step(w, 100, &st));
+  CHECK(st.max_penetration_mm <= 0.5);
+  CHECK(moved(w, 0) < 50.0);
+
+  /* A reset: every tie back, the liver uncut, time 0, both bodies at rest (the force is kept:
+   * released first). */
   CHECK_OK(lamina_world_set_forces(w, 0, NULL, NULL, 0));
   CHECK_OK(lamina_world_reset(w));
   CHECK_OK(lamina_world_step(w, 0, &st));
   CHECK(st.time_s == 0.0 && st.ties_divided == 0 && moved(w, 0) == 0.0);
+  CHECK(lamina_model_node_count(liver) == uncut_nodes && lamina_world_body_topology(w, 0) == 2);
   CHECK(lamina_world_step(w, -1, &st) == LAMINA_ERROR_INVALID_INPUT);
   lamina_world_free(w);
 

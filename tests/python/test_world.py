@@ -1,6 +1,7 @@
 """Worlds of several organs from Python (lamina.world_scene): the TotalSegmentator liver and
-gallbladder tied in their bed, stepped, the gallbladder pulled, a blade dividing the ties, the
-bodies' positions as views, a bad scene refused in one line."""
+gallbladder tied in their bed, stepped, the gallbladder pulled, a blade dividing the ties, a
+scalpel cutting the liver and a reset putting it back, the bodies' positions as views, a bad scene
+refused in one line."""
 import os
 
 import numpy as np
@@ -71,6 +72,30 @@ def test_a_dissection_divides_the_ties_it_passes():
     away = dict(blade, path=[[x, y - 100.0, z] for x, y, z in blade["path"]])
     w = lamina.world_scene(scene(dissections=[away]))
     assert w.step(60)["ties"]["divided"] == 0
+
+
+def test_a_scalpel_cuts_the_body_it_passes_and_a_reset_puts_it_back():
+    w = lamina.world_scene(scene())
+    view = w.x("liver")  # taken before the cut: it keeps showing the state before
+    rest = np.array(w.rest("liver"))
+    lo, hi = rest.min(0), rest.max(0)
+    y, top = 0.5 * (lo[1] + hi[1]) + 0.37, hi[2] + 5.0
+    path = [[lo[0] + 0.3 * (hi[0] - lo[0]), y, top], [lo[0] + 0.7 * (hi[0] - lo[0]), y, top]]
+    with pytest.raises(lamina.Error):
+        w.cut(path[:1], 20.0, [0, 0, -1])
+    assert w.topology("liver") == 0
+    r = w.cut(path, 5.0 + 0.5 * (hi[2] - lo[2]), [0, 0, -1])
+    assert r["bodies"]["liver"]["cut_tets"] > 0
+    assert w.topology("liver") == 1 and len(w.x("liver")) > len(rest)
+    assert len(w.rest("liver")) == len(w.x("liver"))
+    assert w.skin_faces("liver").max() < len(w.x("liver"))
+    np.testing.assert_array_equal(view, rest)
+    st = w.step(200)
+    assert not st["unstable"] and np.isfinite(w.x("liver")).all()
+    assert st["ties"]["torn"] == 0
+    w.reset()
+    assert w.topology("liver") == 2 and len(w.x("liver")) == len(rest)
+    np.testing.assert_array_equal(w.x("liver"), rest)
 
 
 def test_a_bad_world_scene_is_one_line():

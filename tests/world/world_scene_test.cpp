@@ -79,7 +79,7 @@ TEST(WorldScene, MistakesAreNamedWhereTheyAre) {
   EXPECT_TRUE(has(m, "attached to itself")) << m;
   m = refusal(R"({"bodies": [{"name": "a", "tools": [{"scalpel": {"path": [[0,0,0],[1,0,0]],
                   "depth_mm": 5, "end_s": 1}}]}]})");
-  EXPECT_TRUE(has(m, "bodies[0].tools: a scalpel in a world scene")) << m;
+  EXPECT_TRUE(has(m, "bodies[0].tools: a scene's scalpel does not cut a world's bodies yet")) << m;
   m = refusal(R"({"bodies": [{"name": "a"}], "dissections": [{"depth_mm": 5}]})");
   EXPECT_TRUE(has(m, "dissections[0]: needs \"path\"")) << m;
   m = refusal(R"({"bodies": [{"name": "a"}], "contact": {"reach_mm": 0}})");

@@ -50,6 +50,10 @@ const std::string& WorldViewSession::last_press() const {
   return state_->last_press;
 }
 
+const std::string& WorldViewSession::status() const {
+  return state_->status;
+}
+
 nlohmann::json WorldViewSession::report() const {
   return state_->report();
 }
@@ -76,6 +80,7 @@ void WorldViewSession::start() {
   // kidney behind the right lobe), which the one-organ view's from-above angle hides.
   render::camera().elevation_deg = -35.0;
   v.sent.assign(v.snap.bodies.size(), {});
+  for (const world::BodyView& b : v.snap.bodies) v.seen_topology.push_back(b.topology);
   v.max_displacement_mm.assign(v.snap.bodies.size(), 0.0);
   v.max_penetration_mm.assign(v.snap.bodies.size(), 0.0);
   v.start_time = Clock::now();
@@ -143,7 +148,10 @@ void WorldViewSession::State::act_on_script(double t) {
     script.resume(t);
   }
   for (const ScriptEvent& e : script.play(t, render::window_size())) {
-    if (!e.mode.empty()) dissect_mode = e.mode == "dissect";
+    if (!e.mode.empty()) {
+      dissect_mode = e.mode == "dissect";
+      scalpel_mode = e.mode == "scalpel";
+    }
     if (!e.screenshot.empty()) save_screenshot(e.screenshot, false);
     if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
     if (!e.wait.empty()) {
@@ -157,6 +165,7 @@ void WorldViewSession::State::act_on_script(double t) {
 void WorldViewSession::State::on_frame() {
   const double t = seconds();
   loop->latest(snap);
+  forget_renumbered();
   watch(t);
   // As the one-organ viewer: judged after 2 s (the first second holds the solvers' start).
   if (auto_rate && !paused && t >= 2.0)
@@ -186,6 +195,10 @@ void WorldViewSession::State::handle_key(const std::string& key) {
     sent.assign(sent.size(), {});
   } else if (key == "x") {
     dissect_mode = !dissect_mode;
+    scalpel_mode = false;
+  } else if (key == "k") {
+    scalpel_mode = !scalpel_mode;
+    dissect_mode = false;
   } else if (key == "s") {
     save_screenshot("", false);
   }
@@ -200,10 +213,11 @@ void WorldViewSession::State::start_left_gesture(const render::Input& in) {
   const auto [b, hit] = world::pick_body(snap, ray.origin, ray.direction);
   const std::string where =
       fmt::format("press at ({:.0f}, {:.0f})", in.mouse_px.x(), in.mouse_px.y());
-  if (dissect_mode) {
-    gesture = Gesture::kDissect;
+  if (dissect_mode || scalpel_mode) {
+    gesture = scalpel_mode ? Gesture::kScalpel : Gesture::kDissect;
     stroke.begin(ray, b >= 0 ? hit.distance_mm : (camera.target - ray.origin).norm());
-    last_press = where + (b >= 0 ? ": dissection on " + snap.bodies[b].name : ": dissection");
+    const char* what = scalpel_mode ? ": scalpel" : ": dissection";
+    last_press = where + what + (b >= 0 ? " on " + snap.bodies[b].name : std::string());
   } else if (b >= 0) {
     const world::BodyView& body = snap.bodies[static_cast<size_t>(b)];
     gesture = Gesture::kDrag;
@@ -250,19 +264,42 @@ void WorldViewSession::State::handle_mouse(const render::Input& in) {
       send_forces();
       break;
     }
-    case Gesture::kDissect: {
+    case Gesture::kDissect:
+    case Gesture::kScalpel: {
       const render::Ray ray =
           render::pixel_ray(camera, size.x(), size.y(), in.mouse_px.x(), in.mouse_px.y());
       const auto [b, hit] = world::pick_body(snap, ray.origin, ray.direction);
       stroke.extend(ray, b >= 0 ? hit.distance_mm : -1.0);
       if (!left_down) {
+        const bool cuts = gesture == Gesture::kScalpel;
         gesture = Gesture::kNone;
-        dissect_along_stroke();
+        if (cuts)
+          cut_along_stroke();
+        else
+          dissect_along_stroke();
       }
       break;
     }
     case Gesture::kNone:
       break;
+  }
+}
+
+// A body renumbered since the last frame (cut, or put back uncut by a reset): drawn with its new
+// skin; the loop let its forces go, and their nodes are of its old numbering: the drag and pins
+// on it are dropped too.
+void WorldViewSession::State::forget_renumbered() {
+  for (size_t b = 0; b < snap.bodies.size() && b < seen_topology.size(); ++b) {
+    const world::BodyView& body = snap.bodies[b];
+    if (body.topology == seen_topology[b]) continue;
+    seen_topology[b] = body.topology;
+    render::register_model(body.name, *body.model);  // its new skin; the style is kept
+    std::erase_if(pinned, [&](const Force& f) { return f.body == body.id; });
+    if (drag && drag->body == body.id) {
+      drag.reset();
+      if (gesture == Gesture::kDrag) gesture = Gesture::kNone;
+    }
+    sent[b].clear();
   }
 }
 
@@ -301,6 +338,23 @@ void WorldViewSession::State::dissect_along_stroke() {
   try {
     loop->dissect(stroke.blade_top(), stroke.direction, 30.0 + TracedStroke::kAboveMm, 3.0);
     ++strokes;
+  } catch (const Error& e) {
+    status = e.what();
+  }
+  stroke.path.clear();
+}
+
+// The release of a scalpel drag: as the one-organ viewer's (the blade's upper end 3 mm above the
+// traced path, reaching scalpel_depth_mm into the tissue), through every body it passes and the
+// ties between them. A body cut is renumbered: a drag or pinned force on it is let go.
+void WorldViewSession::State::cut_along_stroke() {
+  if (stroke.path.size() < 2) {
+    status = "the scalpel's drag was too short";
+    return;
+  }
+  try {
+    loop->cut(stroke.blade_top(), stroke.direction, scalpel_depth_mm + TracedStroke::kAboveMm);
+    ++scalpel_strokes;
   } catch (const Error& e) {
     status = e.what();
   }

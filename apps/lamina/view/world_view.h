@@ -50,6 +50,8 @@ class WorldViewSession {
   nlohmann::json report() const;
   const world::WorldSnapshot& snapshot() const;
   const std::string& last_press() const;
+  /// The panel's last message (a refused command, a saved picture), or empty.
+  const std::string& status() const;
 
   struct State;  ///< world_view_state.h
 

@@ -73,7 +73,19 @@ void WorldViewSession::State::panel() {
   if (ImGui::Button(paused ? "Resume (Space)" : "Pause (Space)")) handle_key("space");
   ImGui::SameLine();
   if (ImGui::Button("Release forces (C)")) handle_key("c");
-  ImGui::Checkbox("dissection (X): drag across the tissue between two organs", &dissect_mode);
+  if (ImGui::Checkbox("dissection (X): drag across the tissue between two organs", &dissect_mode))
+    scalpel_mode = scalpel_mode && !dissect_mode;
+  if (ImGui::Checkbox("scalpel (K): drag to cut the organs' tissue", &scalpel_mode))
+    dissect_mode = dissect_mode && !scalpel_mode;
+  if (scalpel_mode) {
+    float depth = static_cast<float>(scalpel_depth_mm);
+    if (ImGui::SliderFloat("scalpel depth, mm", &depth, 2.0f, 60.0f, "%.0f"))
+      scalpel_depth_mm = depth;
+  }
+  if (snap.cuts > 0)
+    ImGui::Text("cuts: %d (%lld tetrahedra divided; the last took %.0f ms)", snap.cuts,
+                static_cast<long long>(snap.tets_cut), snap.last_cut_ms);
+  if (!snap.cut_message.empty()) ImGui::TextWrapped("scalpel: %s", snap.cut_message.c_str());
   float gain = static_cast<float>(options.gain_n_per_mm);
   if (ImGui::SliderFloat("drag gain, N/mm", &gain, 0.001f, 0.1f, "%.3f",
                          ImGuiSliderFlags_Logarithmic))
@@ -175,6 +187,12 @@ nlohmann::json WorldViewSession::State::report() const {
         {"divided_by_strokes", snap.ties_divided_by_strokes}}},
       {"drags", drags},
       {"strokes", strokes},
+      {"cuts",
+       {{"strokes", scalpel_strokes},
+        {"bodies_cut", snap.cuts},
+        {"tets_divided", snap.tets_cut},
+        {"last_cut_ms", snap.last_cut_ms},
+        {"message", snap.cut_message}}},
       {"converged", snap.converged},
       {"unstable_events", unstable_events},
       {"first_unstable", first_unstable},

@@ -24,13 +24,15 @@ struct WorldViewSession::State {
   world::WorldSnapshot snap;
   ScriptPlayer script{{}};
   Clock::time_point start_time = Clock::now();
-  bool started = false, quit = false, paused = false, dissect_mode = false;
+  bool started = false, quit = false, paused = false, dissect_mode = false, scalpel_mode = false;
+  // A scalpel drag (K) cuts the bodies' tissue this deep along the view direction, mm.
+  double scalpel_depth_mm = 15.0;
   double rate_hz = 1000.0;
   bool auto_rate = false;
   uint64_t shown_generation = ~uint64_t{0};
 
   // Gestures.
-  enum class Gesture { kNone, kOrbit, kPan, kDrag, kDissect };
+  enum class Gesture { kNone, kOrbit, kPan, kDrag, kDissect, kScalpel };
   Gesture gesture = Gesture::kNone;
   Eigen::Vector2d last_pos = Eigen::Vector2d::Zero(), press_pos = Eigen::Vector2d::Zero();
   // A force on a body: its handle and topology generation (what the loop checks), its node.
@@ -43,11 +45,12 @@ struct WorldViewSession::State {
   Eigen::Vector3d grab_point = Eigen::Vector3d::Zero();
   std::vector<Force> pinned;                           // Shift-released drags
   std::vector<std::vector<interact::LiveForce>> sent;  // per snapshot body: what the loop has
-  TracedStroke stroke;                                 // a dissection's path under the drag
+  std::vector<uint32_t> seen_topology;  // per snapshot body: its numbering the forces are on
+  TracedStroke stroke;                  // a dissection's or a scalpel's path under the drag
 
   // What the session saw, for the panel and the report.
   int64_t frames = 0;
-  int32_t drags = 0, strokes = 0;
+  int32_t drags = 0, strokes = 0, scalpel_strokes = 0;
   std::vector<double> max_displacement_mm, max_penetration_mm;  // per body
   double min_real_time_factor = 1.0;
   bool behind_seen = false;
@@ -69,7 +72,9 @@ struct WorldViewSession::State {
   void handle_mouse(const render::Input& in);
   void start_left_gesture(const render::Input& in);
   void send_forces();
+  void forget_renumbered();
   void dissect_along_stroke();
+  void cut_along_stroke();
   void watch(double t);  // real time, instability, the largest displacements
   void panel();          // world_view_panel.cpp
   void show();           // positions and overlays to the engine

@@ -87,7 +87,15 @@ struct WorldSnapshot {
   /// Set when a body became unstable: the loop stops stepping until reset().
   sim::Instability unstable = sim::Instability::kNone;
   std::string unstable_body;
-  int32_t ties_divided_by_strokes = 0;  ///< by dissect() since the last reset
+  int32_t ties_divided_by_strokes = 0;  ///< by dissect() and cut() since the last reset
+  /// Cuts through the bodies' tissue since the last reset (cut(): one per body divided), the
+  /// tetrahedra they divided, and the last one's time on the stepping thread, ms (the world
+  /// waits for it between two steps).
+  int32_t cuts = 0;
+  int64_t tets_cut = 0;
+  double last_cut_ms = 0.0;
+  /// Why the last cut() divided no tissue, or empty.
+  std::string cut_message;
   /// How many times the stepping thread found a lock held by a caller, and its longest wait, us.
   int64_t lock_waits = 0;
   double longest_lock_wait_us = 0.0;
@@ -124,11 +132,21 @@ class WorldLoop {
   ///   reach that is not a positive number.
   void dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
                double reach_mm = 1.5);
+  /// Cuts every body the blade passes through, between two steps (cut_body(): the blade's upper
+  /// end along `path`, reaching depth_mm along `direction`, drawn on the bodies as they are
+  /// then), and divides the ties within reach_mm of it as dissect() does. A body cut moves to a
+  /// new topology generation: its live forces are released (their nodes were of the older one;
+  /// set them again on the latest snapshot's nodes). reset() puts the uncut bodies back.
+  /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a blade as dissect() does.
+  void cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
+           double reach_mm = 1.5);
   /// New rate (0 = as fast as possible). In real time every body's step becomes 1 / rate_hz.
   void set_rate(double rate_hz);
   void set_paused(bool paused);
   /// Every body back at rest, every tie in place and the clock at 0 (the scene's tools and
-  /// blades play again); live forces are kept. The way on after an instability.
+  /// blades play again); a body cut since is put back uncut (its topology generation moves on
+  /// and its live forces are released); the other live forces are kept. The way on after an
+  /// instability.
   void reset();
 
   /// Copies the latest snapshot into `out` if it is newer than out.generation.

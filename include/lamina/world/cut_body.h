@@ -1,0 +1,61 @@
+#pragma once
+/// \file
+/// A scalpel through a body of a world: the one place where a body's topology changes. The body
+/// is cut as a single organ is (interact::cut_now: the blade drawn at its current positions,
+/// carried to rest, the virtual node algorithm), its simulation and tools carried over to the
+/// copies, and then everything the world itself holds by the body's node numbers is renumbered
+/// with it: the ties of every attachment on its nodes or on its skin's triangles, its nodes'
+/// rest overlaps, and the contact's caches of its skin (grids, clearances, near lists), made
+/// again on the next step. The body's topology generation moves on, so that what a caller kept
+/// of the older one (a node number, a live force) is refused rather than applied to another
+/// node (docs/world.md, "Cutting a body").
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "lamina/model/cut_tetrahedra.h"
+#include "lamina/world/world.h"
+
+namespace lamina::world {
+
+/// Cuts body `id` along a blade drawn at its current positions: its upper end along `path`,
+/// reaching depth_mm along `direction` (an interact::Scalpel's blade). A blade that divides none
+/// of its tetrahedra changes nothing (the topology generation stays).
+/// @param[out] origin  if given: per node of the cut body, the node of the body before it came
+///                     from (the identity when nothing was cut)
+/// @return what the cut did (structures crossed where they are now)
+/// \note Throws lamina::Error (kInvalidInput), nothing changed, for a stale handle, a blade a
+///   scalpel could not be (interact::scalpel_problem) or a body without tetrahedra.
+model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
+                          const Eigen::Vector3d& direction, double depth_mm,
+                          std::vector<int32_t>* origin = nullptr);
+
+/// A body as it was before a change of its topology, and the ties of the world then: what
+/// put_back() restores (a loop's reset after cuts).
+struct BodyBefore {
+  BodyId id;
+  std::shared_ptr<Model> model;
+  sim::Simulation sim;
+  interact::ToolDriver tools;
+  std::vector<double> rest_overlap_mm;
+};
+struct WorldBefore {
+  std::vector<BodyBefore> bodies;        ///< each body once, as it was before its first change
+  std::vector<std::vector<Tie>> ties;    ///< per attachment slot, before the first change
+};
+
+/// Keeps body `id` in `before` as it is now, unless it is there already (its first change is
+/// what a reset goes back to); the ties too, the first time anything is kept.
+void keep_before(const World& world, BodyId id, WorldBefore& before);
+
+/// cut_body(), keeping the body as it was in `before` (as keep_before() does) if the blade
+/// divides it: what a loop's reset goes back to.
+model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
+                          const Eigen::Vector3d& direction, double depth_mm, WorldBefore& before);
+
+/// Puts every body kept in `before` back as it was, and the ties, through the same renumbering
+/// as a cut (each body's topology generation moves on again); `before` is emptied.
+void put_back(World& world, WorldBefore& before);
+
+}  // namespace lamina::world

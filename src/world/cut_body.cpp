@@ -1,0 +1,136 @@
+// A body of a world cut, and everything the world holds by its node numbers renumbered with it:
+// the one place where a body's topology changes (a cut, and a reset putting the uncut body back).
+#include "lamina/world/cut_body.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "lamina/interact/scalpel.h"
+#include "world_work.h"
+
+namespace lamina::world {
+namespace {
+
+// Each old node's first copy: copies are numbered in their node's order, so the first copy of
+// node v is the first new node whose origin is v.
+std::vector<int32_t> first_copies(const std::vector<int32_t>& origin, int32_t old_nodes) {
+  std::vector<int32_t> first(static_cast<size_t>(old_nodes), -1);
+  for (size_t i = origin.size(); i-- > 0;) first[static_cast<size_t>(origin[i])] = static_cast<int32_t>(i);
+  return first;
+}
+
+// What the step caches of a body's skin is not the renumbered body's: its grid, every pair's
+// clearances and near lists (keyed by the models' addresses, which a new model may reuse), its
+// nodes' areas. All are made again on the next step.
+void forget_skin(World& world, size_t slot) {
+  detail::WorldWork& w = world.work();
+  if (slot < w.grids.size()) w.grids[slot] = detail::SkinGrid{};
+  if (slot < w.node_area.size()) w.node_area[slot].clear();
+  w.clearance.clear();
+  w.near.clear();
+}
+
+// A body renumbered from `before`'s nodes to `after`'s (per new node, the old one it came
+// from): the ties on its nodes and on its skin, its rest overlaps and its contacts' memory.
+void renumber(World& world, int32_t slot, int32_t before_nodes, const std::vector<int32_t>& origin) {
+  const std::vector<int32_t> first = first_copies(origin, before_nodes);
+  Body& b = world.bodies[static_cast<size_t>(slot)].body;
+  // A tie holds the node's first copy (the copies of a skin node lie where it was; a tool by
+  // vertex takes the same one: interact::carry_tools), and the point of the skin it was tied to
+  // on the first copies of its triangle's corners, with the same weights.
+  for (AttachmentSlot& a : world.attachments) {
+    if (!a.alive) continue;
+    for (Tie& t : a.attachment.ties) {
+      if (t.node_body == slot) t.node = first[static_cast<size_t>(t.node)];
+      if (t.surface_body == slot)
+        for (int32_t& c : t.corners) c = first[static_cast<size_t>(c)];
+    }
+  }
+  std::vector<double> overlap(origin.size(), 0.0);
+  if (b.rest_overlap_mm.size() == static_cast<size_t>(before_nodes))
+    for (size_t i = 0; i < origin.size(); ++i)
+      overlap[i] = b.rest_overlap_mm[static_cast<size_t>(origin[i])];
+  b.rest_overlap_mm = std::move(overlap);
+  detail::WorldWork& w = world.work();
+  if (static_cast<size_t>(slot) < w.pushed.size()) {
+    std::vector<uint8_t>& p = w.pushed[static_cast<size_t>(slot)];
+    std::vector<uint8_t> moved(origin.size(), 0);
+    if (p.size() == static_cast<size_t>(before_nodes))
+      for (size_t i = 0; i < origin.size(); ++i) moved[i] = p[static_cast<size_t>(origin[i])];
+    p = std::move(moved);
+  }
+  forget_skin(world, static_cast<size_t>(slot));
+  ++b.topology;
+}
+
+}  // namespace
+
+model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
+                          const Eigen::Vector3d& direction, double depth_mm,
+                          std::vector<int32_t>* origin) {
+  Body& b = body(world, id);
+  const int32_t before_nodes = b.model->node_count();
+  // interact::cut_now replaces the model it is given by the cut one, made here and owned by
+  // nobody else: the body may hold it as its own (mutable) model.
+  std::shared_ptr<const Model> model = b.model;
+  std::vector<int32_t> from;
+  model::CutReport report = interact::cut_now(model, b.sim, b.tools, path, direction, depth_mm, from);
+  if (report.cut_tets > 0) {
+    b.model = std::const_pointer_cast<Model>(model);
+    renumber(world, id.index, before_nodes, from);
+  }
+  if (origin != nullptr) *origin = std::move(from);
+  return report;
+}
+
+model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
+                          const Eigen::Vector3d& direction, double depth_mm, WorldBefore& before) {
+  WorldBefore was;  // the body and the ties as they are, if `before` has neither yet
+  if (before.ties.empty() || std::none_of(before.bodies.begin(), before.bodies.end(),
+                                          [&](const BodyBefore& k) { return k.id == id; }))
+    keep_before(world, id, was);
+  model::CutReport report = cut_body(world, id, path, direction, depth_mm);
+  if (report.cut_tets > 0 && !was.bodies.empty()) {
+    if (before.ties.empty()) before.ties = std::move(was.ties);
+    if (std::none_of(before.bodies.begin(), before.bodies.end(),
+                     [&](const BodyBefore& k) { return k.id == id; }))
+      before.bodies.push_back(std::move(was.bodies.front()));
+  }
+  return report;
+}
+
+void keep_before(const World& world, BodyId id, WorldBefore& before) {
+  const Body& b = body(world, id);
+  if (before.ties.empty()) {
+    before.ties.resize(world.attachments.size());
+    for (size_t a = 0; a < world.attachments.size(); ++a)
+      if (world.attachments[a].alive) before.ties[a] = world.attachments[a].attachment.ties;
+  }
+  if (std::any_of(before.bodies.begin(), before.bodies.end(),
+                  [&](const BodyBefore& k) { return k.id == id; }))
+    return;
+  before.bodies.push_back(
+      {.id = id, .model = b.model, .sim = b.sim, .tools = b.tools, .rest_overlap_mm = b.rest_overlap_mm});
+}
+
+void put_back(World& world, WorldBefore& before) {
+  for (BodyBefore& k : before.bodies) {
+    if (!is_valid(world, k.id)) continue;  // destroyed since: nothing to put back
+    Body& b = body(world, k.id);
+    b.model = std::move(k.model);
+    b.sim = std::move(k.sim);
+    b.tools = std::move(k.tools);
+    b.rest_overlap_mm = std::move(k.rest_overlap_mm);
+    detail::WorldWork& w = world.work();
+    if (static_cast<size_t>(k.id.index) < w.pushed.size())
+      w.pushed[static_cast<size_t>(k.id.index)].assign(static_cast<size_t>(b.model->node_count()), 0);
+    forget_skin(world, static_cast<size_t>(k.id.index));
+    ++b.topology;
+  }
+  for (size_t a = 0; a < before.ties.size() && a < world.attachments.size(); ++a)
+    if (world.attachments[a].alive && !before.ties[a].empty())
+      world.attachments[a].attachment.ties = std::move(before.ties[a]);
+  before = WorldBefore{};
+}
+
+}  // namespace lamina::world

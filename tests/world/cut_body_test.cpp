@@ -1,0 +1,193 @@
+// A scalpel through a body of a world (world::cut_body, the one place where a body's topology
+// changes): the ties on its nodes and skin follow the copies to the same points, the body steps
+// on in contact with its neighbour and comes back to rest, a blade that misses changes nothing,
+// and bad calls are refused with the world unchanged. The world loop's cut: the body's old node
+// numbers refused, its live forces released, and a reset puts the uncut body back.
+#include "lamina/world/cut_body.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "lamina/core/error.h"
+#include "lamina/world/world_loop.h"
+#include "world/two_spheres.h"
+
+namespace lamina::world {
+namespace {
+
+using namespace test_world;
+
+// A slit into A from above, across y, ending inside it short of B (A spans x within 20 mm of
+// the centre, B starts 0.5 mm beyond).
+struct Slit {
+  std::vector<Eigen::Vector3d> path;
+  Eigen::Vector3d direction = -Eigen::Vector3d::UnitZ();
+  double depth_mm = 50.0;
+};
+
+Slit slit_into_a() {
+  const Eigen::Vector3d c = sphere_centre();
+  const double y = c.y() + 0.37;  // off the nodes' planes
+  return {{{c.x() - 25.0, y, c.z() + 25.0}, {c.x() + 10.0, y, c.z() + 25.0}}};
+}
+
+std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> every_tie_end(const World& w) {
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> out;
+  for (const AttachmentSlot& a : w.attachments)
+    for (const Tie& t : a.attachment.ties) out.push_back(tie_ends(w, t));
+  return out;
+}
+
+TEST(CutBody, TheTiesFollowTheCopiesAndTheCutBodyStepsOnInContactAndComesBackToRest) {
+  TwoSpheres t = two_spheres(0.5, 1.0, 0.3);
+  const AttachmentId at = attach(t, 30.0);
+  const std::vector<Tie> ties_before = attachment(t.world, at).ties;
+  const auto ends_before = every_tie_end(t.world);
+  const int32_t nodes_before = body(t.world, t.a).model->node_count();
+  const int32_t b_nodes = body(t.world, t.b).model->node_count();
+
+  const Slit s = slit_into_a();
+  std::vector<int32_t> origin;
+  const model::CutReport r = cut_body(t.world, t.a, s.path, s.direction, s.depth_mm, &origin);
+  ASSERT_GT(r.cut_tets, 0);
+  const Body& a = body(t.world, t.a);
+  EXPECT_EQ(a.topology, 1u);
+  EXPECT_EQ(body(t.world, t.b).topology, 0u);
+  EXPECT_EQ(body(t.world, t.b).model->node_count(), b_nodes);
+  ASSERT_GT(a.model->node_count(), nodes_before);
+  ASSERT_EQ(origin.size(), static_cast<size_t>(a.model->node_count()));
+  EXPECT_EQ(a.rest_overlap_mm.size(), origin.size());
+  EXPECT_EQ(&a.sim.model(), a.model.get());
+
+  // Every tie on A's side holds a copy of its old node, every point on A's skin lies on copies
+  // of its old corners: the same tissue, the same points.
+  const std::vector<Tie>& ties = attachment(t.world, at).ties;
+  ASSERT_EQ(ties.size(), ties_before.size());
+  for (size_t k = 0; k < ties.size(); ++k) {
+    if (ties[k].node_body == t.a.index) {
+      EXPECT_EQ(origin[static_cast<size_t>(ties[k].node)], ties_before[k].node);
+      EXPECT_LT(ties[k].node, a.model->layers[0].node_count) << "a tie left the skin";
+    }
+    if (ties[k].surface_body == t.a.index)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(origin[static_cast<size_t>(ties[k].corners[c])], ties_before[k].corners[c]);
+  }
+  const auto ends = every_tie_end(t.world);
+  for (size_t k = 0; k < ends.size(); ++k) {
+    EXPECT_LT((ends[k].first - ends_before[k].first).norm(), 1e-9);
+    EXPECT_LT((ends[k].second - ends_before[k].second).norm(), 1e-9);
+  }
+
+  // A, cut, pressed into B for 0.3 s (its press followed the copies), then 2 s free.
+  WorldStepStats st;
+  double b_force = 0.0, penetration = 0.0;
+  for (int k = 0; k < 2300; ++k) {
+    step(t.world, st);
+    ASSERT_EQ(st.unstable, sim::Instability::kNone) << "step " << k << ": " << st.unstable_body;
+    b_force = std::max(b_force, st.bodies[1].contact_force_mn.norm());
+    penetration = std::max(penetration, st.bodies[0].max_penetration_mm);
+  }
+  // The same press on the uncut pair: a slit away from where they meet changes little of what
+  // reaches B.
+  TwoSpheres uncut = two_spheres(0.5, 1.0, 0.3);
+  attach(uncut, 30.0);
+  double b_force_uncut = 0.0;
+  for (int k = 0; k < 300; ++k) {
+    step(uncut.world, st);
+    b_force_uncut = std::max(b_force_uncut, st.bodies[1].contact_force_mn.norm());
+  }
+  std::printf("cut: %lld tetrahedra, %d nodes added; B took %.0f mN (uncut %.0f mN), "
+              "penetration %.3f mm; 2 s after the press A %.3f mm from rest, B %.3f mm\n",
+              static_cast<long long>(r.cut_tets), r.new_nodes, b_force, b_force_uncut,
+              penetration, rest_distance(body(t.world, t.a)), rest_distance(body(t.world, t.b)));
+  EXPECT_GT(b_force, 100.0) << "the cut body's press reaches its neighbour";
+  EXPECT_NEAR(b_force, b_force_uncut, 0.25 * b_force_uncut);
+  EXPECT_LE(penetration, 0.5);
+  EXPECT_TRUE(body(t.world, t.a).sim.x.allFinite());
+  EXPECT_LT(rest_distance(body(t.world, t.a)), 0.5);
+  EXPECT_LT(rest_distance(body(t.world, t.b)), 0.1);
+  EXPECT_EQ(count_ties(t.world).torn, 0);
+}
+
+TEST(CutBody, ABladeThatMissesChangesNothingAndBadCallsAreRefusedWithNothingChanged) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  attach(t, 30.0);
+  const auto ends_before = every_tie_end(t.world);
+  const Model* model_before = body(t.world, t.a).model.get();
+  Slit far = slit_into_a();
+  for (Eigen::Vector3d& p : far.path) p.z() += 200.0;  // high above both
+  far.depth_mm = 10.0;
+  EXPECT_EQ(cut_body(t.world, t.a, far.path, far.direction, far.depth_mm).cut_tets, 0);
+
+  const Slit s = slit_into_a();
+  const BodyId stale{t.a.index, t.a.generation + 1};
+  EXPECT_THROW(cut_body(t.world, stale, s.path, s.direction, s.depth_mm), Error);
+  EXPECT_THROW(cut_body(t.world, t.a, {s.path[0]}, s.direction, s.depth_mm), Error);
+  EXPECT_THROW(cut_body(t.world, t.a, s.path, s.direction, -1.0), Error);
+  EXPECT_THROW(cut_body(t.world, t.a, s.path, Eigen::Vector3d::Zero(), s.depth_mm), Error);
+  EXPECT_EQ(body(t.world, t.a).model.get(), model_before);
+  EXPECT_EQ(body(t.world, t.a).topology, 0u);
+  const auto ends = every_tie_end(t.world);
+  for (size_t k = 0; k < ends.size(); ++k)
+    EXPECT_EQ(ends[k].first, ends_before[k].first);
+}
+
+TEST(WorldLoop, ACutRenumbersTheBodyRefusesItsOldNodesAndAResetPutsItBackUncut) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  attach(t, 30.0);
+  const int32_t nodes_before = body(t.world, t.a).model->node_count();
+  const int32_t a_node = skin_node_with_least_x(*body(t.world, t.a).model);
+  WorldLoop loop(std::move(t.world), {.real_time = false});
+  const auto h = loop.bodies();
+  ASSERT_EQ(h.size(), 2u);
+  const interact::LiveForce pull{.node = a_node, .force_mn = Eigen::Vector3d(0, 0, 50)};
+  loop.set_forces(h[0].first, h[0].second, {pull});
+  loop.set_forces(h[1].first, h[1].second, {{.node = 0, .force_mn = Eigen::Vector3d(0, 0, 50)}});
+  loop.run_steps(10);
+
+  const Slit s = slit_into_a();
+  loop.cut(s.path, s.direction, s.depth_mm);
+  loop.run_steps(10);
+  WorldSnapshot snap;
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_EQ(snap.cuts, 1);
+  EXPECT_GT(snap.tets_cut, 0);
+  EXPECT_TRUE(snap.cut_message.empty()) << snap.cut_message;
+  EXPECT_EQ(snap.bodies[0].topology, 1u);
+  EXPECT_EQ(snap.bodies[1].topology, 0u);
+  EXPECT_GT(snap.bodies[0].model->node_count(), nodes_before);
+  EXPECT_TRUE(snap.bodies[0].force_nodes.empty()) << "A's forces were on its old numbers";
+  EXPECT_EQ(snap.bodies[1].force_nodes.size(), 1u) << "B, not cut, keeps its force";
+  EXPECT_EQ(snap.unstable, sim::Instability::kNone);
+  // Nodes of the old generation are refused; of the new one taken.
+  EXPECT_THROW(loop.set_forces(h[0].first, 0, {pull}), Error);
+  loop.set_forces(h[0].first, 1, {pull});
+
+  // A blade that meets no tissue says so.
+  Slit far = s;
+  for (Eigen::Vector3d& p : far.path) p.z() += 200.0;
+  loop.cut(far.path, far.direction, 10.0);
+  loop.run_steps(1);
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_EQ(snap.cuts, 1);
+  EXPECT_FALSE(snap.cut_message.empty());
+
+  loop.reset();
+  loop.run_steps(1);
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_EQ(snap.bodies[0].model->node_count(), nodes_before) << "reset puts A back uncut";
+  EXPECT_EQ(snap.bodies[0].topology, 2u);
+  EXPECT_EQ(snap.bodies[1].topology, 0u);
+  EXPECT_EQ(snap.cuts, 0);
+  EXPECT_EQ(snap.tie_count.divided, 0);
+  EXPECT_TRUE(snap.bodies[0].force_nodes.empty());
+  EXPECT_EQ(snap.bodies[1].force_nodes.size(), 1u);
+  loop.run_steps(200);
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_EQ(snap.unstable, sim::Instability::kNone);
+  EXPECT_TRUE(snap.bodies[0].x.allFinite());
+}
+
+}  // namespace
+}  // namespace lamina::world
