@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# ThreadSanitizer over the simulation thread, its viewer handoff and the web edge
-# (docs/testing.md): builds tests/tsan/loop_handoff.cpp and tests/tsan/web_session.cpp with the
+# ThreadSanitizer over the simulation thread, its viewer handoff, the world loop's and the web
+# edge (docs/testing.md): builds tests/tsan/loop_handoff.cpp, world_handoff.cpp and
+# web_session.cpp with the
 # realtime loop's sources under -fsanitize=thread (preset "tsan"), makes a small model with the
 # release CLI, and runs each for SECONDS (default 10).
 # OMP_NUM_THREADS=1: GCC's libgomp is not instrumented; with one thread it starts no pool.
@@ -18,6 +19,10 @@ model=build/tsan/handoff_model.vtu
 [ -f "$model" ] || "$lamina" -q build phantom -o "$model" --skin-vertices 400 >/dev/null
 OMP_NUM_THREADS=1 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
   build/tsan/tests/tsan/tsan_loop_handoff "$model" "$seconds"
+# The world loop: two organs stepping in their thread, a viewer's frame loop forcing, dissecting,
+# cutting and resetting them (tests/tsan/world_handoff.cpp).
+OMP_NUM_THREADS=1 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+  build/tsan/tests/tsan/tsan_world_handoff "$model" "$seconds"
 # `lamina serve --web`'s edge: the session polled as the serve loop does, beside the loop's
 # thread and two pages' (tests/tsan/web_session.cpp).
 OMP_NUM_THREADS=1 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \

@@ -15,7 +15,8 @@ namespace {
 // node v is the first new node whose origin is v.
 std::vector<int32_t> first_copies(const std::vector<int32_t>& origin, int32_t old_nodes) {
   std::vector<int32_t> first(static_cast<size_t>(old_nodes), -1);
-  for (size_t i = origin.size(); i-- > 0;) first[static_cast<size_t>(origin[i])] = static_cast<int32_t>(i);
+  for (size_t i = origin.size(); i-- > 0;)
+    first[static_cast<size_t>(origin[i])] = static_cast<int32_t>(i);
   return first;
 }
 
@@ -32,7 +33,8 @@ void forget_skin(World& world, size_t slot) {
 
 // A body renumbered from `before`'s nodes to `after`'s (per new node, the old one it came
 // from): the ties on its nodes and on its skin, its rest overlaps and its contacts' memory.
-void renumber(World& world, int32_t slot, int32_t before_nodes, const std::vector<int32_t>& origin) {
+void renumber(World& world, int32_t slot, int32_t before_nodes,
+              const std::vector<int32_t>& origin) {
   const std::vector<int32_t> first = first_copies(origin, before_nodes);
   Body& b = world.bodies[static_cast<size_t>(slot)].body;
   // A tie holds the node's first copy (the copies of a skin node lie where it was; a tool by
@@ -74,7 +76,8 @@ model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vect
   // nobody else: the body may hold it as its own (mutable) model.
   std::shared_ptr<const Model> model = b.model;
   std::vector<int32_t> from;
-  model::CutReport report = interact::cut_now(model, b.sim, b.tools, path, direction, depth_mm, from);
+  model::CutReport report =
+      interact::cut_now(model, b.sim, b.tools, path, direction, depth_mm, from);
   if (report.cut_tets > 0) {
     b.model = std::const_pointer_cast<Model>(model);
     renumber(world, id.index, before_nodes, from);
@@ -109,8 +112,11 @@ void keep_before(const World& world, BodyId id, WorldBefore& before) {
   if (std::any_of(before.bodies.begin(), before.bodies.end(),
                   [&](const BodyBefore& k) { return k.id == id; }))
     return;
-  before.bodies.push_back(
-      {.id = id, .model = b.model, .sim = b.sim, .tools = b.tools, .rest_overlap_mm = b.rest_overlap_mm});
+  before.bodies.push_back({.id = id,
+                           .model = b.model,
+                           .sim = b.sim,
+                           .tools = b.tools,
+                           .rest_overlap_mm = b.rest_overlap_mm});
 }
 
 void put_back(World& world, WorldBefore& before) {
@@ -123,7 +129,8 @@ void put_back(World& world, WorldBefore& before) {
     b.rest_overlap_mm = std::move(k.rest_overlap_mm);
     detail::WorldWork& w = world.work();
     if (static_cast<size_t>(k.id.index) < w.pushed.size())
-      w.pushed[static_cast<size_t>(k.id.index)].assign(static_cast<size_t>(b.model->node_count()), 0);
+      w.pushed[static_cast<size_t>(k.id.index)].assign(static_cast<size_t>(b.model->node_count()),
+                                                       0);
     forget_skin(world, static_cast<size_t>(k.id.index));
     ++b.topology;
   }

@@ -88,6 +88,13 @@ void WorldLoop::set_forces(BodyId id, uint32_t topology, std::vector<interact::L
       throw invalid_input("world loop: force",
                           "a force and its radius must be finite (radius > 0)");
   }
+  // The newest forces on a body replace any not yet taken: a caller faster than the steps
+  // queues nothing (the stepping thread takes at most one list per body between two steps).
+  for (Impl::NewForces& f : m.new_forces)
+    if (f.slot == id.index) {
+      f = {id.index, h->topology, std::move(forces)};
+      return;
+    }
   m.new_forces.push_back({id.index, h->topology, std::move(forces)});
 }
 

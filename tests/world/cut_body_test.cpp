@@ -97,10 +97,11 @@ TEST(CutBody, TheTiesFollowTheCopiesAndTheCutBodyStepsOnInContactAndComesBackToR
     step(uncut.world, st);
     b_force_uncut = std::max(b_force_uncut, st.bodies[1].contact_force_mn.norm());
   }
-  std::printf("cut: %lld tetrahedra, %d nodes added; B took %.0f mN (uncut %.0f mN), "
-              "penetration %.3f mm; 2 s after the press A %.3f mm from rest, B %.3f mm\n",
-              static_cast<long long>(r.cut_tets), r.new_nodes, b_force, b_force_uncut,
-              penetration, rest_distance(body(t.world, t.a)), rest_distance(body(t.world, t.b)));
+  std::printf(
+      "cut: %lld tetrahedra, %d nodes added; B took %.0f mN (uncut %.0f mN), "
+      "penetration %.3f mm; 2 s after the press A %.3f mm from rest, B %.3f mm\n",
+      static_cast<long long>(r.cut_tets), r.new_nodes, b_force, b_force_uncut, penetration,
+      rest_distance(body(t.world, t.a)), rest_distance(body(t.world, t.b)));
   EXPECT_GT(b_force, 100.0) << "the cut body's press reaches its neighbour";
   EXPECT_NEAR(b_force, b_force_uncut, 0.25 * b_force_uncut);
   EXPECT_LE(penetration, 0.5);
@@ -129,8 +130,7 @@ TEST(CutBody, ABladeThatMissesChangesNothingAndBadCallsAreRefusedWithNothingChan
   EXPECT_EQ(body(t.world, t.a).model.get(), model_before);
   EXPECT_EQ(body(t.world, t.a).topology, 0u);
   const auto ends = every_tie_end(t.world);
-  for (size_t k = 0; k < ends.size(); ++k)
-    EXPECT_EQ(ends[k].first, ends_before[k].first);
+  for (size_t k = 0; k < ends.size(); ++k) EXPECT_EQ(ends[k].first, ends_before[k].first);
 }
 
 TEST(WorldLoop, ACutRenumbersTheBodyRefusesItsOldNodesAndAResetPutsItBackUncut) {

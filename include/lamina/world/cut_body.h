@@ -41,8 +41,8 @@ struct BodyBefore {
   std::vector<double> rest_overlap_mm;
 };
 struct WorldBefore {
-  std::vector<BodyBefore> bodies;        ///< each body once, as it was before its first change
-  std::vector<std::vector<Tie>> ties;    ///< per attachment slot, before the first change
+  std::vector<BodyBefore> bodies;      ///< each body once, as it was before its first change
+  std::vector<std::vector<Tie>> ties;  ///< per attachment slot, before the first change
 };
 
 /// Keeps body `id` in `before` as it is now, unless it is there already (its first change is
