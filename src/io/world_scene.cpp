@@ -44,8 +44,8 @@ void read_contact(const Value& v, WorldScene& w) {
       {"reach_mm", number(&C::reach_mm, positive, "must be > 0 mm")},
       {"stiffness_kpa_per_mm", number(&C::stiffness_kpa_per_mm, positive, "must be > 0 kPa/mm")},
       {"margin_mm", number(&C::margin_mm, non_negative, "must be >= 0 mm")},
-      {"self_exclusion_mm",
-       number(&C::self_exclusion_mm, non_negative, "must be >= 0 mm (0: three mean edges)")},
+      {"self_exclusion_mm", number(&C::self_exclusion_mm, non_negative,
+                                   "must be >= 0 mm (0: three mean edges, at least reach + 2)")},
       {"rest_overlap_tolerance_mm",
        number(&C::rest_overlap_tolerance_mm, non_negative, "must be >= 0 mm")},
   };

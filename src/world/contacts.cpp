@@ -68,8 +68,7 @@ void find_contacts(World& world, bool measure_rest, bool every_node) {
       const Eigen::MatrixX3d& ox = measure_rest ? ob.model->X : ob.sim.x;
       SkinGrid& own = w.grids[static_cast<size_t>(t)];
       if (self && own.mean_edge_mm <= 0.0) own.mean_edge_mm = skin_mean_edge(*ob.model);
-      const double exclusion =
-          self ? (o.self_exclusion_mm > 0.0 ? o.self_exclusion_mm : 3.0 * own.mean_edge_mm) : 0.0;
+      const double exclusion = self ? self_exclusion(o, own.mean_edge_mm) : 0.0;
       // Self-contact reaches half as deep: a thin part's far side is not its own inside.
       const double reach = self ? 0.5 * o.reach_mm : o.reach_mm;
       // The step reads the near lists; at rest and for the tests' reference, every node.

@@ -39,8 +39,10 @@ int main(int argc, char** argv) {
   material.anchor_stiffness_n_per_m = 1.0;
   world::World w;
   w.contact.self_contact = false;
-  world::create_body(w, {.name = "a", .model = a, .simulation = sim::make_simulation(*a, material)});
-  world::create_body(w, {.name = "b", .model = b, .simulation = sim::make_simulation(*b, material)});
+  world::create_body(w,
+                     {.name = "a", .model = a, .simulation = sim::make_simulation(*a, material)});
+  world::create_body(w,
+                     {.name = "b", .model = b, .simulation = sim::make_simulation(*b, material)});
   world::WorldLoop loop(std::move(w), {.rate_hz = 2000.0, .publish_interval_s = 0.0});
   loop.start();
 

@@ -98,7 +98,8 @@ struct ContactOptions {
   /// coming in and out of contact every other step).
   double margin_mm = 0.5;
   /// Self-contact ignores the triangles within this distance of the node at rest, mm (its own
-  /// neighbourhood); 0: three of the skin's mean edge lengths.
+  /// neighbourhood); 0: three of the skin's mean edge lengths, and at least reach_mm + 2 mm
+  /// (the near lists' slack).
   double self_exclusion_mm = 0.0;
   /// Two bodies (or a body and itself) that overlap by more than this at rest are refused:
   /// a scene placing one organ inside another, mm.
