@@ -84,6 +84,18 @@ void stroke_down(WorldViewSession& s, const std::string& key, const Eigen::Vecto
   s.frame();
 }
 
+// A left press at `at` and five moves of `step` from it, a frame each (held: the caller releases).
+void drag_from(WorldViewSession& s, const Eigen::Vector2d& at, const Eigen::Vector2d& step) {
+  render::inject(InputEvent::move_to(at));
+  s.frame();
+  render::inject(InputEvent::press(MouseButton::kLeft));
+  s.frame();
+  for (int i = 1; i <= 5; ++i) {
+    render::inject(InputEvent::move_to(at + i * step));
+    s.frame();
+  }
+}
+
 class WorldViewTest : public ::testing::Test {
  protected:
   void SetUp() override { render::init({.backend = render::Backend::kMock}); }
@@ -105,16 +117,8 @@ TEST_F(WorldViewTest, BothBodiesAndTheTiesAreDrawnAndADragDentsOneThatComesBackW
   EXPECT_EQ(static_cast<int64_t>(beads), ties) << "every active tie is drawn";
 
   // A drag on body a (the camera is fitted on it: the window's centre is on it).
-  const Eigen::Vector2d c = render::window_size().cast<double>() / 2.0;
-  render::inject(InputEvent::move_to(c));
-  s->frame();
-  render::inject(InputEvent::press(MouseButton::kLeft));
-  s->frame();
+  drag_from(*s, render::window_size().cast<double>() / 2.0, Eigen::Vector2d(0, -24.0));
   EXPECT_THAT(s->last_press(), HasSubstr("drag a node"));
-  for (int i = 1; i <= 5; ++i) {
-    render::inject(InputEvent::move_to(c - Eigen::Vector2d(0, 24.0 * i)));
-    s->frame();
-  }
   ASSERT_TRUE(simulate_for(*s, 1.0));
   EXPECT_GT(moved(s->snapshot().bodies[0]), 1.0) << "the drag did not move body a";
   bool arrow = false;
@@ -178,17 +182,9 @@ TEST_F(WorldViewTest, AScalpelDragCutsTheBodyItCrossesWhichIsDrawnAndDraggedOnIt
   // The cut body is dragged on its new numbering, and comes back.
   render::inject(InputEvent::key_down("k"));
   render::inject(InputEvent::key_up("k"));
-  const Eigen::Vector2d c =
-      pixel_of(world::test_world::sphere_centre() + Eigen::Vector3d(0.0, 12.0, 0.0));
-  render::inject(InputEvent::move_to(c));
-  s->frame();
-  render::inject(InputEvent::press(MouseButton::kLeft));
-  s->frame();
+  drag_from(*s, pixel_of(world::test_world::sphere_centre() + Eigen::Vector3d(0.0, 12.0, 0.0)),
+            Eigen::Vector2d(-24.0, 0));
   EXPECT_THAT(s->last_press(), HasSubstr("drag a node"));
-  for (int i = 1; i <= 5; ++i) {
-    render::inject(InputEvent::move_to(c - Eigen::Vector2d(24.0 * i, 0)));
-    s->frame();
-  }
   ASSERT_TRUE(simulate_for(*s, 1.0));
   EXPECT_GT(moved(s->snapshot().bodies[0]), 1.0) << "the drag did not move the cut body";
   EXPECT_EQ(s->status(), "") << "the drag's force was refused";

@@ -14,25 +14,18 @@
 #include <string>
 #include <thread>
 
+#include "handoff_setup.h"
 #include "lamina/core/error.h"
 #include "lamina/interact/realtime_loop.h"
-#include "lamina/io/model_file.h"
-#include "lamina/model/compute_rings.h"
 
 using namespace lamina;
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "usage: %s MODEL.vtu [SECONDS]\n", argv[0]);
-    return 2;
-  }
-  const double seconds = argc > 2 ? std::stod(argv[2]) : 5.0;
-  Model model = io::load_model(argv[1]);
-  model.rings = model::compute_rings(model, 4);
-  sim::Material material;
-  material.stiffness_n_per_m = 20.0;
-  material.damping_kg_per_s = 8.0;
-  material.anchor_stiffness_n_per_m = 1.0;
+  const std::optional<tsan::HandoffSetup> setup = tsan::handoff_setup(argc, argv);
+  if (!setup) return 2;
+  const Model& model = *setup->model;
+  const double seconds = setup->seconds;
+  const sim::Material& material = setup->material;
   interact::LoopOptions options;
   options.rate_hz = 2000.0;
   options.publish_interval_s = 0.0;  // publish every step: the most handoffs

@@ -15,28 +15,21 @@
 #include <memory>
 #include <string>
 
+#include "handoff_setup.h"
 #include "lamina/core/error.h"
-#include "lamina/io/model_file.h"
-#include "lamina/model/compute_rings.h"
 #include "lamina/world/world_loop.h"
 
 using namespace lamina;
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "usage: %s MODEL.vtu [SECONDS]\n", argv[0]);
-    return 2;
-  }
-  const double seconds = argc > 2 ? std::stod(argv[2]) : 5.0;
-  auto a = std::make_shared<Model>(io::load_model(argv[1]));
-  a->rings = model::compute_rings(*a, 4);
+  const std::optional<tsan::HandoffSetup> setup = tsan::handoff_setup(argc, argv);
+  if (!setup) return 2;
+  const double seconds = setup->seconds;
+  const sim::Material& material = setup->material;
+  const std::shared_ptr<Model> a = setup->model;
   const Eigen::Vector3d lo = a->X.colwise().minCoeff(), hi = a->X.colwise().maxCoeff();
   auto b = std::make_shared<Model>(*a);  // beside it, 1 mm apart along x
   b->X.rowwise() += Eigen::RowVector3d(hi.x() - lo.x() + 1.0, 0.0, 0.0);
-  sim::Material material;
-  material.stiffness_n_per_m = 20.0;
-  material.damping_kg_per_s = 8.0;
-  material.anchor_stiffness_n_per_m = 1.0;
   world::World w;
   w.contact.self_contact = false;
   world::create_body(w,
