@@ -3,6 +3,7 @@
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 
@@ -152,35 +153,34 @@ void bind_world(py::module_& m) {
           "cut",
           [](PyWorld& w, const std::vector<Eigen::Vector3d>& path, double depth_mm,
              const Eigen::Vector3d& direction) {
-            py::dict cut;
-            int32_t divided = 0;
+            world::World& world = w.ready->world;
+            world::WorldCut c;
             {
               py::gil_scoped_release release;
-              world::World& world = w.ready->world;
-              for (const world::BodyId id : w.ready->ids) {
-                world::Body& b = world::body(world, id);
-                PyWorld::Retired& r = retire(w, b);
-                model::CutReport report;
-                try {
-                  report = world::cut_body(world, id, path, direction, depth_mm, w.before_cuts);
-                } catch (...) {
-                  std::swap(*r.sim, b.sim);  // nothing changed: the views' buffers back
-                  w.retired.pop_back();
-                  throw;
-                }
-                if (report.cut_tets == 0) {
-                  std::swap(*r.sim, b.sim);
-                  w.retired.pop_back();
+              world::check_stroke("cut", path, direction, depth_mm, 1.5);  // before any copy
+              // Every body's buffers kept for the views taken before; given back to the bodies
+              // the blade did not divide.
+              const size_t first = w.retired.size();
+              for (const world::BodyId id : w.ready->ids) retire(w, world::body(world, id));
+              c = world::cut_through(world, path, direction, depth_mm, 1.5, w.before_cuts);
+              for (size_t k = w.ready->ids.size(); k-- > 0;) {
+                const world::BodyId id = w.ready->ids[k];
+                if (std::any_of(c.bodies.begin(), c.bodies.end(),
+                                [&](const auto& b) { return b.first == id; }))
                   continue;
-                }
-                py::gil_scoped_acquire hold;
-                cut[py::str(b.name)] = py::dict(py::arg("cut_tets") = report.cut_tets,
-                                                py::arg("new_nodes") = report.new_nodes,
-                                                py::arg("topology") = b.topology);
+                std::swap(*w.retired[first + k].sim, world::body(world, id).sim);
+                w.retired.erase(w.retired.begin() + static_cast<std::ptrdiff_t>(first + k));
               }
-              divided = world::dissect_along(world, path, direction, depth_mm, 1.5);
             }
-            return py::dict(py::arg("bodies") = cut, py::arg("ties_divided") = divided);
+            py::dict cut;
+            for (const auto& [id, r] : c.bodies) {
+              const world::Body& b = world::body(world, id);
+              cut[py::str(b.name)] =
+                  py::dict(py::arg("cut_tets") = r.cut_tets, py::arg("new_nodes") = r.new_nodes,
+                           py::arg("topology") = b.topology);
+            }
+            return py::dict(py::arg("bodies") = cut, py::arg("ties_divided") = c.ties_divided,
+                            py::arg("skipped") = c.skipped);
           },
           py::arg("path"), py::arg("depth_mm"), py::arg("direction"),
           "Cuts at once every body the blade passes through (a scalpel drawn at the current\n"
@@ -189,7 +189,8 @@ void bind_world(py::module_& m) {
           "(x, rest and skin_faces taken before show it as it was: take them again) and a new\n"
           "topology generation; its ties follow their nodes' copies (docs/world.md, \"Cutting a\n"
           "body\"). Returns {bodies: {name: {cut_tets, new_nodes, topology}} (the bodies cut),\n"
-          "ties_divided}. Raises lamina.Error for a bad blade, nothing changed.")
+          "ties_divided, skipped (the bodies it could not cut: one without tetrahedra)}.\n"
+          "Raises lamina.Error for a bad blade, nothing changed.")
       .def(
           "topology",
           [](const PyWorld& w, const std::string& name) { return body_named(w, name).topology; },

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <utility>
 
+#include "lamina/core/error.h"
 #include "lamina/interact/scalpel.h"
+#include "lamina/world/dissection.h"
 #include "world_work.h"
 
 namespace lamina::world {
@@ -100,6 +102,23 @@ model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vect
       before.bodies.push_back(std::move(was.bodies.front()));
   }
   return report;
+}
+
+WorldCut cut_through(World& world, const std::vector<Eigen::Vector3d>& path,
+                     const Eigen::Vector3d& direction, double depth_mm, double reach_mm,
+                     WorldBefore& before) {
+  check_stroke("cut", path, direction, depth_mm, reach_mm);
+  WorldCut out;
+  for (const BodyId id : body_ids(world)) {
+    try {
+      model::CutReport r = cut_body(world, id, path, direction, depth_mm, before);
+      if (r.cut_tets > 0) out.bodies.emplace_back(id, std::move(r));
+    } catch (const Error& e) {  // a body without tetrahedra: named, the others cut
+      out.skipped += (out.skipped.empty() ? "" : "; ") + body(world, id).name + ": " + e.what();
+    }
+  }
+  out.ties_divided = dissect_along(world, path, direction, depth_mm, reach_mm);
+  return out;
 }
 
 void keep_before(const World& world, BodyId id, WorldBefore& before) {

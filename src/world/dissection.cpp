@@ -2,7 +2,10 @@
 #include "lamina/world/dissection.h"
 
 #include <algorithm>
+#include <cmath>
 
+#include "lamina/core/error.h"
+#include "lamina/model/cut_tetrahedra.h"
 #include "lamina/world/world.h"
 
 namespace lamina::world {
@@ -41,6 +44,14 @@ int32_t advance_dissections(const std::vector<Dissection>& dissections, World& w
     if (to_s >= d.blade.start_s && from_s <= d.blade.end_s)
       divided += divide_ties(world, blade_sweep(d.blade, from_s, to_s), d.reach_mm);
   return divided;
+}
+
+void check_stroke(const std::string& what, const std::vector<Eigen::Vector3d>& path,
+                  const Eigen::Vector3d& direction, double depth_mm, double reach_mm) {
+  if (const auto p = model::blade_problem(path, direction, depth_mm))
+    throw invalid_input(what + ": " + p->first, p->second);
+  if (!(reach_mm > 0.0 && std::isfinite(reach_mm)))
+    throw invalid_input(what + ": reach_mm", "must be > 0 mm");
 }
 
 int32_t dissect_along(World& world, const std::vector<Eigen::Vector3d>& path,

@@ -13,7 +13,6 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pacer.h"
-#include "lamina/model/cut_tetrahedra.h"
 #include "world_loop_impl.h"
 
 namespace lamina::world {
@@ -103,19 +102,6 @@ void WorldLoop::clear_forces() {
   impl_->new_forces.clear();
   impl_->clear_all_forces = true;
 }
-
-namespace {
-
-// A stroke's blade is a scalpel's (a path, a depth, a direction that sweeps a surface).
-void check_stroke(const char* what, const std::vector<Eigen::Vector3d>& path,
-                  const Eigen::Vector3d& direction, double depth_mm, double reach_mm) {
-  if (const auto p = model::blade_problem(path, direction, depth_mm))
-    throw invalid_input(std::string(what) + ": " + p->first, p->second);
-  if (!(reach_mm > 0.0 && std::isfinite(reach_mm)))
-    throw invalid_input(std::string(what) + ": reach_mm", "must be > 0 mm");
-}
-
-}  // namespace
 
 void WorldLoop::dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction,
                         double depth_mm, double reach_mm) {
@@ -298,30 +284,21 @@ void WorldLoop::Impl::route_forces(int32_t slot) {
 void WorldLoop::Impl::apply_cuts() {
   for (const Stroke& s : tissue_cuts) {
     const double t0 = now_s();
-    int32_t bodies_cut = 0;
-    std::string refused;
-    for (const BodyId id : body_ids(world)) {
-      try {
-        // As it was kept for a reset, if the blade divides it.
-        const model::CutReport r =
-            cut_body(world, id, s.path, s.direction, s.depth_mm, before_cuts);
-        if (r.cut_tets == 0) continue;
-        ++bodies_cut;
-        tets_cut += r.cut_tets;
-        log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, id).name,
-                  r.cut_tets, r.new_nodes);
-        std::lock_guard lock(mutex);
-        topology_changed(id.index);
-      } catch (const Error& e) {  // a body without tetrahedra: said, the others cut
-        refused = body(world, id).name + ": " + e.what();
-      }
+    // Each body cut kept as it was for a reset.
+    const WorldCut c = cut_through(world, s.path, s.direction, s.depth_mm, s.reach_mm, before_cuts);
+    for (const auto& [id, r] : c.bodies) {
+      tets_cut += r.cut_tets;
+      log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, id).name,
+                r.cut_tets, r.new_nodes);
+      std::lock_guard lock(mutex);
+      topology_changed(id.index);
     }
-    strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
-    cuts += bodies_cut;
+    strokes_divided += c.ties_divided;
+    cuts += static_cast<int32_t>(c.bodies.size());
     last_cut_ms = 1e3 * (now_s() - t0);
-    cut_message = bodies_cut > 0     ? std::string()
-                  : !refused.empty() ? refused
-                                     : "the blade passed through no body's tissue";
+    cut_message = !c.bodies.empty()    ? std::string()
+                  : !c.skipped.empty() ? c.skipped
+                                       : "the blade passed through no body's tissue";
   }
   tissue_cuts.clear();
 }

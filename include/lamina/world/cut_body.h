@@ -12,6 +12,8 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "lamina/model/cut_tetrahedra.h"
@@ -53,6 +55,24 @@ void keep_before(const World& world, BodyId id, WorldBefore& before);
 /// divides it: what a loop's reset goes back to.
 model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
                           const Eigen::Vector3d& direction, double depth_mm, WorldBefore& before);
+
+/// A scalpel through the whole world at once.
+struct WorldCut {
+  std::vector<std::pair<BodyId, model::CutReport>> bodies;  ///< those divided, in slot order
+  /// The bodies the blade could not cut ("NAME: why": one without tetrahedra), or empty.
+  std::string skipped;
+  int32_t ties_divided = 0;
+};
+
+/// Cuts every body the blade passes through (cut_body(), each kept in `before` if divided), a
+/// body without tetrahedra skipped and named, then divides the ties within reach_mm of the blade
+/// (dissect_along()): what a user's scalpel stroke does to a world (the world loop's cut(),
+/// Python's World.cut).
+/// \note Throws lamina::Error (kInvalidInput), nothing changed, for a stroke check_stroke()
+///   refuses.
+WorldCut cut_through(World& world, const std::vector<Eigen::Vector3d>& path,
+                     const Eigen::Vector3d& direction, double depth_mm, double reach_mm,
+                     WorldBefore& before);
 
 /// Puts every body kept in `before` back as it was, and the ties, through the same renumbering
 /// as a cut (each body's topology generation moves on again); `before` is emptied.

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "lamina/interact/scalpel.h"
@@ -33,6 +34,13 @@ BladeSweep blade_sweep(const interact::Scalpel& blade, double from_s, double to_
 /// @return the ties divided
 int32_t advance_dissections(const std::vector<Dissection>& dissections, World& world, double from_s,
                             double to_s);
+
+/// Refuses a stroke whose blade a scalpel could not be (model::blade_problem: fewer than two
+/// finite points, a path of no length, a depth that is not positive, a direction that is not
+/// finite and non-zero or runs along the path) or whose reach is not a positive number.
+/// \note Throws lamina::Error (kInvalidInput) "WHAT: KEY: problem".
+void check_stroke(const std::string& what, const std::vector<Eigen::Vector3d>& path,
+                  const Eigen::Vector3d& direction, double depth_mm, double reach_mm);
 
 /// A stroke swept at once: the blade's upper end along every segment of `path`, its lower end
 /// `depth_mm` along `direction`; divides the ties within `reach_mm` of the surface.
