@@ -52,11 +52,11 @@ Eigen::MatrixX3d pressed(const Model& m) {
 // Arg: 0 carried by nodes (what the server chooses here), 1 by the drawn vertices.
 void BM_WebFrameEncode(benchmark::State& state) {
   const auto& m = clinical_anatomy();
-  lamina::cli::web::WebStream stream(
+  lamina::net::web::WebStream stream(
       m, {},
-      state.range(0) == 0 ? lamina::cli::web::Carry::kNodes : lamina::cli::web::Carry::kVertices);
+      state.range(0) == 0 ? lamina::net::web::Carry::kNodes : lamina::net::web::Carry::kVertices);
   const Eigen::MatrixX3d x = pressed(*m);
-  lamina::cli::web::FrameInfo info;
+  lamina::net::web::FrameInfo info;
   size_t bytes = 0;
   for (auto _ : state) {
     const std::string& f = stream.frame(x, info);
@@ -79,13 +79,13 @@ BENCHMARK(BM_WebFrameEncode)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 void BM_WebFrameDecode(benchmark::State& state) {
   const auto& m = clinical_anatomy();
-  lamina::cli::web::WebStream stream(
+  lamina::net::web::WebStream stream(
       m, {},
-      state.range(0) == 0 ? lamina::cli::web::Carry::kNodes : lamina::cli::web::Carry::kVertices);
-  const std::vector<uint16_t> rest = lamina::cli::web::decode_rest(stream.setup().back());
+      state.range(0) == 0 ? lamina::net::web::Carry::kNodes : lamina::net::web::Carry::kVertices);
+  const std::vector<uint16_t> rest = lamina::net::web::decode_rest(stream.setup().back());
   const std::string frame = stream.frame(pressed(*m), {});
   for (auto _ : state) {
-    std::vector<uint16_t> q = lamina::cli::web::decode_frame(frame, rest);
+    std::vector<uint16_t> q = lamina::net::web::decode_frame(frame, rest);
     benchmark::DoNotOptimize(q.data());
   }
   state.counters["peak_rss_MB"] = lamina::bench::peak_rss_mb();

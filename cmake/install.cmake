@@ -1,7 +1,7 @@
 # `cmake --install build/release --prefix P`: the library, the renderer, their headers, the
 # `lamina` tool and a CMake package, so that another project does
 #   find_package(lamina CONFIG REQUIRED)
-#   target_link_libraries(app PRIVATE lamina::lamina)   # and lamina::render for pictures
+#   target_link_libraries(app PRIVATE lamina::lamina)   # lamina::render for pictures, lamina::net to serve
 # with nothing else to set (docs/embedding.md; tests/consumer builds such a project).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
@@ -10,9 +10,9 @@ set(LAMINA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/lamina)
 
 # The installed tool and libraries find each other relative to where they are.
 set_target_properties(lamina_cli PROPERTIES INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
-set_target_properties(lamina_render PROPERTIES INSTALL_RPATH "$ORIGIN")
+set_target_properties(lamina_render lamina_net PROPERTIES INSTALL_RPATH "$ORIGIN")
 
-install(TARGETS lamina lamina_render lamina_capi EXPORT laminaTargets
+install(TARGETS lamina lamina_render lamina_net lamina_capi EXPORT laminaTargets
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})

@@ -12,6 +12,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
 #include "lamina/model/build_model.h"
+#include "lamina/net/serve.h"
 
 namespace lamina::cli {
 
@@ -190,52 +191,11 @@ struct ResectArgs {
 /// (docs/resection.md).
 int run_resect(const ResectArgs& args);
 
-struct ServeArgs {
+/// `lamina serve`'s options: the library's serve options (include/lamina/net/serve.h, named
+/// as the command line spells them) and what to serve.
+struct ServeArgs : net::ServeOptions {
   std::string what = io::kScenePhantom;  ///< model, input or scene, as `lamina view` takes it
   bool paper = false;                    ///< the reference paper's model and constants
-  std::string host = "127.0.0.1";        ///< address to listen on (0.0.0.0: every interface)
-  int port = 18944;                      ///< OpenIGTLink's (and 3D Slicer's) default; 0 = any
-  double send_hz = 30.0;                 ///< POLYDATA messages per second; 0 = only on request
-  /// POLYDATA messages per second of each embedded surface (display skin, structures: tens of
-  /// thousands of triangles each); 0 = only on request.
-  double embedded_hz = 10.0;
-  /// Reaction-force messages per second, at most one per step (1000: every step of the 1 kHz
-  /// loop, a haptic device's rate); 0 = one with each POLYDATA batch.
-  double reaction_hz = 1000.0;
-  bool all_layers = false;  ///< stream every layer, not only the skin
-  double rate_hz = 1000.0;  ///< simulation steps per wall second, each 1 / rate of simulated time
-  /// No --rate: the rate follows the machine (serve_rate.h) unless a client asks for one.
-  bool auto_rate = false;
-  double duration_s = 0.0;    ///< > 0: stop after this many wall seconds
-  std::string frame = "ras";  ///< coordinates on the wire: ras (3D Slicer's) or lps (the model's)
-  std::string tool_device;    ///< only poses with this device name move the tool; empty = any
-  /// Poses with this device name move a grasper (its jaws close on the first, hold and follow);
-  /// any message of this name + "Open" opens it.
-  std::string grasper_device = "LaminaGrasper";
-  double grasper_radius_mm = 4.0;  ///< skin within this distance of the jaws is grasped
-  /// Poses with this device name are a scalpel's (scalpel_stroke.h): a stroke's path cuts the
-  /// organ when this name + "Up" comes, the poses pause or the client goes; + "Undo" takes the
-  /// last cut back. Empty: no scalpel.
-  std::string scalpel_device = "LaminaScalpel";
-  double scalpel_depth_mm = 20.0;       ///< the blade's cutting length behind its tip, mm
-  double scalpel_pause_s = 0.25;        ///< a stroke whose poses stop this long cuts
-  double tip_radius_mm = 5.0;           ///< the tool tip's sphere (the viewer's default)
-  double tip_stiffness_n_per_m = 20.0;  ///< its coupling (push per mm inside), N/m = mN/mm
-  double max_force_n = 3.0;             ///< the most the reaction sent back may be, N
-  double max_message_mb = 4.0;          ///< larger incoming messages drop their client
-  double stall_timeout_s = 5.0;         ///< a client silent this long mid-message is dropped
-  int max_clients = 16;
-  int threads = 0;  ///< threads per step; 0 = OpenMP's default
-  /// The web edge (docs/web.md): the page and its WebSocket stream, beside OpenIGTLink.
-  bool web = false;
-  std::string web_host = "127.0.0.1";  ///< --listen: the web server's address
-  int web_port = 8765;                 ///< 0 = any free one (logged)
-  double web_hz = 60.0;                ///< frames per second to each page
-  std::string web_token;               ///< empty: a random one (in the logged address)
-  std::string web_root;                ///< the page's files; empty: the build's (or install's)
-  bool self_signed = false;            ///< TLS with a certificate made for the session
-  std::string cert, key;               ///< TLS with these PEM files
-  double gain_n_per_mm = 0.01;         ///< a page's mouse drag: force per mm dragged
   bool verbose = false;
 };
 /// Runs the simulation as an OpenIGTLink server (docs/openigtlink.md): tool poses in, the

@@ -65,18 +65,18 @@ TEST(Serve, ThePolyDataPackerWritesTheLibrarysBytesAndReusesItsBuffer) {
   Eigen::MatrixX3d P = Eigen::MatrixX3d::Random(5, 3) * 100.0;
   // The library keeps seconds and nanoseconds; the wire has seconds and 2^-32 s.
   const uint64_t timestamp = (uint64_t{kSeconds} << 32) | igtl_nanosec_to_frac(kNanoseconds);
-  cli::net::PolyDataPacker packer("display_skin", F, 5);
+  net::igtlink::PolyDataPacker packer("display_skin", F, 5);
   // RAS on the wire: the library is given the points already changed.
   Eigen::MatrixX3d ras = P;
   ras.leftCols(2) *= -1.0;
-  cli::net::Packed first = packer.pack(P, cli::net::Frame::kRas, timestamp);
+  net::igtlink::Packed first = packer.pack(P, net::igtlink::Frame::kRas, timestamp);
   EXPECT_EQ(first_difference(*first, library_bytes("display_skin", F, ras)), "none");
   EXPECT_EQ(packer.message_bytes(), first->size());
   const void* buffer = first->data();
 
   // Still held (a client is sending it): the next message is a new buffer, the first unchanged.
   P.array() += 1.0;
-  cli::net::Packed second = packer.pack(P, cli::net::Frame::kLps, timestamp);
+  net::igtlink::Packed second = packer.pack(P, net::igtlink::Frame::kLps, timestamp);
   EXPECT_NE(second->data(), buffer);
   EXPECT_EQ(first_difference(*first, library_bytes("display_skin", F, ras)), "none");
   EXPECT_EQ(first_difference(*second, library_bytes("display_skin", F, P)), "none");
@@ -85,7 +85,7 @@ TEST(Serve, ThePolyDataPackerWritesTheLibrarysBytesAndReusesItsBuffer) {
   first.reset();
   second.reset();
   P.array() += 1.0;
-  const cli::net::Packed third = packer.pack(P, cli::net::Frame::kLps, timestamp);
+  const net::igtlink::Packed third = packer.pack(P, net::igtlink::Frame::kLps, timestamp);
   EXPECT_EQ(third->data(), reused);
   EXPECT_EQ(first_difference(*third, library_bytes("display_skin", F, P)), "none");
 }
@@ -114,7 +114,7 @@ TEST(Serve, APoseGivesThePositionAndTheBladesAxis) {
   m[0][3] = 1, m[1][3] = 2, m[2][3] = 3;
   t->SetMatrix(m);
   std::vector<uint8_t> c = content_of(*t);
-  cli::net::Pose pose = cli::net::read_pose("TRANSFORM", c.data(), c.size());
+  net::igtlink::Pose pose = net::igtlink::read_pose("TRANSFORM", c.data(), c.size());
   EXPECT_EQ(pose.position, Eigen::Vector3d(1, 2, 3));
   EXPECT_LT((pose.z_axis - Eigen::Vector3d(0, -1, 0)).norm(), 1e-6) << pose.z_axis.transpose();
 
@@ -123,7 +123,7 @@ TEST(Serve, APoseGivesThePositionAndTheBladesAxis) {
   const float s = std::sqrt(0.5f);
   p->SetQuaternion(s, 0.0f, 0.0f, s);  // the same quarter turn about x, (x, y, z, w)
   c = content_of(*p);
-  pose = cli::net::read_pose("POSITION", c.data(), c.size());
+  pose = net::igtlink::read_pose("POSITION", c.data(), c.size());
   EXPECT_EQ(pose.position, Eigen::Vector3d(4, 5, 6));
   EXPECT_LT((pose.z_axis - Eigen::Vector3d(0, -1, 0)).norm(), 1e-6) << pose.z_axis.transpose();
 
@@ -133,7 +133,7 @@ TEST(Serve, APoseGivesThePositionAndTheBladesAxis) {
   t->SetMatrix(flat);
   c = content_of(*t);
   try {
-    cli::net::read_pose("TRANSFORM", c.data(), c.size());
+    net::igtlink::read_pose("TRANSFORM", c.data(), c.size());
     ADD_FAILURE() << "a rotation that is none was read";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("whose rotation is not one"), std::string::npos);
@@ -146,10 +146,10 @@ TEST(Serve, AStringsTextIsReadAndAMalformedOneRefused) {
   igtl::StringMessage::Pointer m = igtl::StringMessage::New();
   m->SetString("1000");
   std::vector<uint8_t> c = content_of(*m);
-  EXPECT_EQ(cli::net::read_string(c.data(), c.size()), "1000");
+  EXPECT_EQ(net::igtlink::read_string(c.data(), c.size()), "1000");
   const auto refused = [](std::vector<uint8_t> bytes, const std::string& why) {
     try {
-      cli::net::read_string(bytes.data(), bytes.size());
+      net::igtlink::read_string(bytes.data(), bytes.size());
       ADD_FAILURE() << "read: " << why;
     } catch (const Error& e) {
       EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();

@@ -97,18 +97,18 @@ struct Page {
     EXPECT_TRUE(text);
     const size_t surfaces = hello["surfaces"].size();
     for (size_t k = 0; k <= surfaces; ++k) setup.push_back(read(&text));
-    rest = cli::web::decode_rest(setup.back());
+    rest = net::web::decode_rest(setup.back());
   }
   // The next frame, decoded; frames of another model are skipped.
-  std::vector<uint16_t> frame(cli::web::FrameInfo& info) {
+  std::vector<uint16_t> frame(net::web::FrameInfo& info) {
     for (;;) {
       bool text = false;
       const std::string m = read(&text);
       if (text) continue;  // events
       uint32_t kind = 0;
       std::memcpy(&kind, m.data(), 4);
-      if (kind == static_cast<uint32_t>(cli::web::Kind::kFrame))
-        return cli::web::decode_frame(m, rest, &info);
+      if (kind == static_cast<uint32_t>(net::web::Kind::kFrame))
+        return net::web::decode_frame(m, rest, &info);
     }
   }
   void send(const json& m) {
@@ -158,7 +158,7 @@ TEST(Web, TheStreamCarriesTheOrganAndAHandPushesADentThatComesBack) {
   // The streamed points at rest lie in the quantization box; a frame without a tool is the rest.
   const size_t n = page.rest.size() / 4;
   ASSERT_EQ(n, h["points"].get<size_t>());
-  cli::web::FrameInfo info;
+  net::web::FrameInfo info;
   std::vector<uint16_t> q = page.frame(info);
   EXPECT_EQ(info.tools[0].client, -1);
   size_t far = 0;  // the point farthest along +x: on the skin
@@ -233,7 +233,7 @@ TEST(Web, AWorldSceneStreamsEveryBodyAndADragPullsTheOnePressed) {
   page.send(
       {{"type", "press"}, {"origin", {p.x(), p.y(), p.z() + 200.0}}, {"direction", {0, 0, -1}}});
   ASSERT_TRUE(w.server->log_shows("drags liver node", 10.0)) << w.server->log();
-  cli::web::FrameInfo info;
+  net::web::FrameInfo info;
   double lift = 0.0;
   const auto t0 = Clock::now();
   std::vector<uint16_t> q;
@@ -271,7 +271,7 @@ TEST(Web, MalformedOversizedAndStalledClientsAreDroppedAndTheOthersGoOn) {
   WebServer w;
   Page good(w.port, w.token);
   good.take_setup();
-  cli::web::FrameInfo info;
+  net::web::FrameInfo info;
   good.frame(info);
   const int64_t steps_before = info.steps;
   // Slowloris: half a request, then nothing.
@@ -444,7 +444,7 @@ TEST(Web, TwoPagesAndAnOpenIGTLinkClientAtOnceAndTheServerKeepsItsRateOrSaysSo) 
   pusher.take_setup();
   watcher.take_setup();
   Client slicer(w.server->port());
-  cli::web::FrameInfo first;
+  net::web::FrameInfo first;
   std::vector<uint16_t> q = pusher.frame(first);
   size_t far = 0;
   for (size_t i = 0; i < q.size() / 4; ++i)
@@ -453,7 +453,7 @@ TEST(Web, TwoPagesAndAnOpenIGTLinkClientAtOnceAndTheServerKeepsItsRateOrSaysSo) 
   constexpr double kSeconds = 3.0;
   int watched = 0, pushed = 0, polydata = 0;
   std::thread watch([&] {
-    cli::web::FrameInfo info;
+    net::web::FrameInfo info;
     const auto t0 = Clock::now();
     while (seconds_since(t0) < kSeconds) {
       watcher.frame(info);
@@ -465,7 +465,7 @@ TEST(Web, TwoPagesAndAnOpenIGTLinkClientAtOnceAndTheServerKeepsItsRateOrSaysSo) 
     while (seconds_since(t0) < kSeconds)
       if (slicer.receive("POLYDATA", "LaminaSkin", kSeconds)) ++polydata;
   });
-  cli::web::FrameInfo info;
+  net::web::FrameInfo info;
   const auto t0 = Clock::now();
   for (uint32_t pose = 1; seconds_since(t0) < kSeconds; ++pose) {
     pusher.send({{"type", "hand"},

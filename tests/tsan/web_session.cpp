@@ -47,7 +47,7 @@ void page(int port, const std::string& token, int hand, Eigen::Vector3d tip,
       b.clear();
       ws.read(b);
       if (k == hello["surfaces"].size())
-        rest = cli::web::decode_rest(beast::buffers_to_string(b.data()));
+        rest = net::web::decode_rest(beast::buffers_to_string(b.data()));
     }
     uint32_t pose = 0;
     const auto t0 = std::chrono::steady_clock::now();
@@ -55,9 +55,9 @@ void page(int port, const std::string& token, int hand, Eigen::Vector3d tip,
       b.clear();
       ws.read(b);
       if (ws.got_text()) continue;
-      cli::web::FrameInfo info;
+      net::web::FrameInfo info;
       const std::vector<uint16_t> q =
-          cli::web::decode_frame(beast::buffers_to_string(b.data()), rest, &info);
+          net::web::decode_frame(beast::buffers_to_string(b.data()), rest, &info);
       if (info.tools[0].client >= 0 || info.tools[1].client >= 0) ++held;
       double most = 0.0;
       for (size_t k = 0; k < q.size(); ++k)
@@ -96,13 +96,13 @@ int main(int argc, char** argv) {
   interact::RealtimeLoop loop(sim::make_simulation(*model, material), {}, options);
   interact::ToolTip tip;
   int tip_client = -1, grasper_client = -1;
-  cli::web::ServerOptions so;
+  net::web::ServerOptions so;
   so.port = 0;
   so.root = ".";
-  auto server = std::make_unique<cli::web::Server>(so);
+  auto server = std::make_unique<net::web::Server>(so);
   const int port = server->port();
   const std::string token = server->token();
-  cli::web::Session session(std::move(server), {.frame_hz = 120.0}, loop,
+  net::web::Session session(std::move(server), {.frame_hz = 120.0}, loop,
                             {tip, tip_client, grasper_client}, model);
   loop.start();
   // Each page's hand at the skin's farthest point along +x or -x, 3 mm inside.

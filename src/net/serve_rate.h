@@ -11,7 +11,7 @@
 
 #include "lamina/interact/realtime_loop.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
 class ServeRate {
  public:
@@ -47,4 +47,4 @@ class ServeRate {
   int client_ = -1;      // whose asked rate holds; -1: none
 };
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

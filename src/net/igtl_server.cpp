@@ -20,7 +20,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 
-namespace lamina::cli::net {
+namespace lamina::net::igtlink {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -340,4 +340,4 @@ void Server::stream(const std::vector<Packed>& batch, Stream stream) {
   }
 }
 
-}  // namespace lamina::cli::net
+}  // namespace lamina::net::igtlink

@@ -21,7 +21,7 @@
 #include "lamina/model/model.h"
 #include "lamina/model/structure_colors.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 
 /// Binary messages start with one of these (a little-endian uint32).
 enum class Kind : uint32_t {
@@ -111,4 +111,4 @@ std::vector<uint16_t> decode_rest(const std::string& message);
 std::vector<uint16_t> decode_frame(const std::string& message, const std::vector<uint16_t>& rest_q,
                                    FrameInfo* info = nullptr);
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -13,7 +13,7 @@
 #include "scalpel_stroke.h"
 #include "web_message.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -164,7 +164,7 @@ void Session::send_frame() {
   // model's frame) and is sent the new model.
   if (snap_.model && snap_.model_version != stream_version_) {
     if (snap_.cuts > cuts_seen_) {
-      json cut = json::parse(cut_event_text(snap_, net::Frame::kLps));
+      json cut = json::parse(cut_event_text(snap_, igtlink::Frame::kLps));
       cut["type"] = "cut";
       server_->broadcast(std::make_shared<const std::string>(cut.dump()), false);
     }
@@ -239,4 +239,4 @@ void Session::log_summary() const {
       pose_to_frame_ms_.size());
 }
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -16,7 +16,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 namespace {
 
 namespace asio = boost::asio;
@@ -487,4 +487,4 @@ const ServerCounters& Server::counters() const {
   return state_->counters;
 }
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

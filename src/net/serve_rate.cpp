@@ -6,7 +6,7 @@
 #include "lamina/core/log.h"
 #include "lamina/interact/rate_choice.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
 ServeRate::ServeRate(double rate_hz, bool follow_machine)
     : base_hz_(follow_machine ? interact::kRateLadder.front() : rate_hz),
@@ -80,4 +80,4 @@ std::string ServeRate::status(const interact::LoopSnapshot& snap) const {
   return j.dump();
 }
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

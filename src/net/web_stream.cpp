@@ -13,7 +13,7 @@
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/structure_colors.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 namespace {
 
 constexpr size_t kPointBytes = 8;  // x, y, z as uint16 and a zero: the codec wants 4-byte steps
@@ -293,4 +293,4 @@ std::vector<uint16_t> decode_frame(const std::string& message, const std::vector
   return q;
 }
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-namespace lamina::cli::net {
+namespace lamina::net::igtlink {
 
 inline constexpr size_t kHeaderBytes = 58;  ///< every OpenIGTLink message starts with these
 
@@ -107,4 +107,4 @@ class PolyDataPacker {
   std::shared_ptr<std::vector<uint8_t>> message_;  // header, then body; shared with the queues
 };
 
-}  // namespace lamina::cli::net
+}  // namespace lamina::net::igtlink

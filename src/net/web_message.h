@@ -12,7 +12,7 @@
 
 #include "lamina/core/error.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 
 /// The message as JSON with a string "type"; throws lamina::Error (kInvalidInput) otherwise.
 inline nlohmann::json parse_message(const std::string& text) {
@@ -56,4 +56,4 @@ inline double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

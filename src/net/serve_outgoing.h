@@ -13,7 +13,7 @@
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/model/model.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
 /// OpenIGTLink's device names hold at most this many characters.
 inline constexpr size_t kMaxDeviceName = 20;
@@ -25,16 +25,16 @@ class Outgoing {
  public:
   /// Laid out for `model` (kept while sent); an embedded surface whose name the wire cannot
   /// carry, or that another message has, is said in the log and not sent.
-  Outgoing(std::shared_ptr<const Model> model, net::Frame frame);
+  Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame);
 
   /// A GET_POLYDATA names a layer (LaminaLayerK) or an embedded surface; any other name means
   /// the skin (the protocol's example client asks as "Client").
-  net::Packed requested(const interact::LoopSnapshot& snap, const std::string& device);
-  net::Packed layer(const interact::LoopSnapshot& snap, int32_t k);
+  igtlink::Packed requested(const interact::LoopSnapshot& snap, const std::string& device);
+  igtlink::Packed layer(const interact::LoopSnapshot& snap, int32_t k);
   /// The embedded surface's points W x; its buffers are kept from one frame to the next.
-  net::Packed embedded(const interact::LoopSnapshot& snap, int32_t e);
+  igtlink::Packed embedded(const interact::LoopSnapshot& snap, int32_t e);
   int32_t embedded_count() const { return static_cast<int32_t>(embedded_.size()); }
-  net::Packed reaction(const Eigen::Vector3d& reaction_mn) const;
+  igtlink::Packed reaction(const Eigen::Vector3d& reaction_mn) const;
   /// One line per embedded surface sent: its size on the wire and (at exit) what a frame of it
   /// cost.
   void log_embedded(bool at_exit) const;
@@ -44,7 +44,7 @@ class Outgoing {
  private:
   struct Embedded {
     const EmbeddedSurface* surface;
-    net::PolyDataPacker packer;
+    igtlink::PolyDataPacker packer;
     Eigen::MatrixX3d points;  // W x, mm, LPS
     double pack_s = 0.0;      // time spent on W x and packing, s
     int64_t packs = 0;
@@ -54,9 +54,9 @@ class Outgoing {
 
   std::shared_ptr<const Model> shared_;  // a cut replaces the loop's: kept while sent
   const Model& model_;
-  net::Frame frame_;
-  std::vector<net::PolyDataPacker> layers_;
+  igtlink::Frame frame_;
+  std::vector<igtlink::PolyDataPacker> layers_;
   std::vector<Embedded> embedded_;
 };
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

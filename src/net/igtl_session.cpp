@@ -11,16 +11,16 @@
 #include "lamina/sim/simulation.h"
 #include "web_session.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
-IgtlSession::IgtlSession(const ServeArgs& args, net::Server& server, interact::RealtimeLoop& loop,
-                         ServeRate& rate, std::shared_ptr<const Model> model,
-                         Clock::time_point start)
+IgtlSession::IgtlSession(const ServeOptions& args, igtlink::Server& server,
+                         interact::RealtimeLoop& loop, ServeRate& rate,
+                         std::shared_ptr<const Model> model, Clock::time_point start)
     : a_(args),
       server_(server),
       loop_(loop),
       rate_(rate),
-      frame_(args.frame == "lps" ? net::Frame::kLps : net::Frame::kRas),
+      frame_(args.frame == "lps" ? igtlink::Frame::kLps : igtlink::Frame::kRas),
       start_(start),
       outgoing_(std::make_unique<Outgoing>(model, frame_)),
       streamed_layers_(args.all_layers ? model->layer_count() : 1),
@@ -52,7 +52,7 @@ void IgtlSession::open_grasper(const std::string& why) {
 // and with --send-hz 0 (nothing pushed: a client reads the answer to its request next) only to
 // the client whose rate it is.
 void IgtlSession::send_rate(int client, const interact::LoopSnapshot& now) {
-  const net::Packed status = net::pack_string("LaminaRealTime", rate_.status(now));
+  const igtlink::Packed status = igtlink::pack_string("LaminaRealTime", rate_.status(now));
   if (client >= 0)
     server_.send(client, status);
   else if (a_.send_hz > 0.0)
@@ -69,7 +69,7 @@ void IgtlSession::tell_rate(int client) {
 
 // The scalpel's device: its poses trace a stroke, "Up" ends it (the cut), "Undo" takes the last
 // cut back.
-bool IgtlSession::scalpel_message(const net::Message& msg) {
+bool IgtlSession::scalpel_message(const igtlink::Message& msg) {
   const std::string& type = msg.header.type;
   const std::string& device = msg.header.device;
   if (a_.scalpel_device.empty()) return false;
@@ -79,13 +79,13 @@ bool IgtlSession::scalpel_message(const net::Message& msg) {
     log::info("OpenIGTLink client {}: {} '{}' takes the last cut back", msg.peer, type, device);
     loop_.undo_cut();
   } else if (device == a_.scalpel_device && (type == "TRANSFORM" || type == "POSITION")) {
-    const net::Pose pose = net::read_pose(type, msg.content, msg.size);
+    const igtlink::Pose pose = igtlink::read_pose(type, msg.content, msg.size);
     if (stroke_.client >= 0 && stroke_.client != msg.client)
       log::info("{}", stroke_.finish(loop_, a_.scalpel_depth_mm));  // another hand's stroke
     if (stroke_.client < 0)
       log::info("OpenIGTLink client {}: {} '{}' begins a scalpel stroke", msg.peer, type, device);
-    stroke_.add(msg.client, net::change_frame(pose.position, frame_),
-                net::change_frame(pose.z_axis, frame_), seconds(Clock::now() - start_));
+    stroke_.add(msg.client, igtlink::change_frame(pose.position, frame_),
+                igtlink::change_frame(pose.z_axis, frame_), seconds(Clock::now() - start_));
   } else {
     return false;
   }
@@ -93,7 +93,7 @@ bool IgtlSession::scalpel_message(const net::Message& msg) {
 }
 
 // The grasper's device: a pose closes its jaws there (or moves what they hold), "Open" lets go.
-bool IgtlSession::grasper_message(const net::Message& msg) {
+bool IgtlSession::grasper_message(const igtlink::Message& msg) {
   const std::string& type = msg.header.type;
   if (a_.grasper_device.empty()) return false;
   if (msg.header.device == grasper_open_) {
@@ -102,9 +102,9 @@ bool IgtlSession::grasper_message(const net::Message& msg) {
   }
   if (msg.header.device != a_.grasper_device || (type != "TRANSFORM" && type != "POSITION"))
     return false;
-  const interact::Jaws jaws{
-      .center_mm = net::change_frame(net::read_position(type, msg.content, msg.size), frame_),
-      .radius_mm = a_.grasper_radius_mm};
+  const interact::Jaws jaws{.center_mm = igtlink::change_frame(
+                                igtlink::read_position(type, msg.content, msg.size), frame_),
+                            .radius_mm = a_.grasper_radius_mm};
   try {
     loop_.set_grasper(jaws);
   } catch (const Error& e) {  // nothing under the jaws: said, and nothing held
@@ -120,9 +120,9 @@ bool IgtlSession::grasper_message(const net::Message& msg) {
 }
 
 // Any other pose drives the tool tip (the --tool-device's only, when given).
-void IgtlSession::tool_pose(const net::Message& msg) {
+void IgtlSession::tool_pose(const igtlink::Message& msg) {
   const std::string& type = msg.header.type;
-  const Eigen::Vector3d p = net::read_position(type, msg.content, msg.size);
+  const Eigen::Vector3d p = igtlink::read_position(type, msg.content, msg.size);
   if (!a_.tool_device.empty() && msg.header.device != a_.tool_device) {
     if (noted_.insert({msg.client, type + msg.header.device}).second)
       log::info("OpenIGTLink client {}: {} '{}' is not the tool (--tool-device {}); skipped",
@@ -134,18 +134,18 @@ void IgtlSession::tool_pose(const net::Message& msg) {
     log::info("OpenIGTLink client {}: {} '{}' drives the tool tip", msg.peer, type,
               msg.header.device);
   tool_client_ = msg.client;
-  tip_.center_mm = net::change_frame(p, frame_);
+  tip_.center_mm = igtlink::change_frame(p, frame_);
   tip_.active = true;
   loop_.set_tool_tip(tip_);
 }
 
-void IgtlSession::handle(const net::Message& msg) {
+void IgtlSession::handle(const igtlink::Message& msg) {
   const std::string& type = msg.header.type;
   if (scalpel_message(msg) || grasper_message(msg)) return;
   if (type == "TRANSFORM" || type == "POSITION") {
     tool_pose(msg);
   } else if (type == "STRING" && msg.header.device == "LaminaRate") {
-    const std::string text = net::read_string(msg.content, msg.size);
+    const std::string text = igtlink::read_string(msg.content, msg.size);
     const std::optional<double> hz = rate_.ask(msg.client, msg.peer, text);
     if (hz) loop_.set_rate(*hz);
     // A new rate to every client while streaming (this one included), else the answer to it.
@@ -194,7 +194,7 @@ void IgtlSession::stream_reaction() {
   const interact::ReactionSample r = loop_.latest_reaction();
   max_reaction_mn_ = std::max(max_reaction_mn_, r.reaction_mn.norm());
   if (r.steps != reaction_sent_step_ && server_.client_count() > 0) {
-    server_.stream({outgoing_->reaction(r.reaction_mn)}, net::Stream::kSurfaces);
+    server_.stream({outgoing_->reaction(r.reaction_mn)}, igtlink::Stream::kSurfaces);
     reaction_sent_step_ = r.steps;
   }
 }
@@ -207,7 +207,7 @@ void IgtlSession::stream_embedded() {
   embedded_batch_.clear();
   for (int32_t e = 0; e < out.embedded_count(); ++e)
     embedded_batch_.push_back(out.embedded(snap_, e));
-  server_.stream(embedded_batch_, net::Stream::kEmbedded);
+  server_.stream(embedded_batch_, igtlink::Stream::kEmbedded);
 }
 
 // Each cut (or undo) in the log, and to every client as a STRING named LaminaCut (what it
@@ -225,7 +225,7 @@ void IgtlSession::report_cuts(const interact::LoopSnapshot& sn) {
         "STRING 'LaminaCut'",
         sn.cuts, sn.last_cut.cut_tets, sn.last_cut.pieces.size(),
         sn.last_cut.structures_cut.size());
-    server_.broadcast(net::pack_string("LaminaCut", cut_event_text(sn, frame_)));
+    server_.broadcast(igtlink::pack_string("LaminaCut", cut_event_text(sn, frame_)));
   }
   cuts_seen_ = sn.cuts;
 }
@@ -293,11 +293,11 @@ void IgtlSession::tick() {
   report_cuts(snap_);
   watch_stability();
   if (a_.send_hz > 0.0 && server_.client_count() > 0) {
-    std::vector<net::Packed> batch;
+    std::vector<igtlink::Packed> batch;
     Outgoing& out = sent_for(snap_);
     for (int32_t k = 0; k < streamed_layers_; ++k) batch.push_back(out.layer(snap_, k));
     if (a_.reaction_hz == 0.0) batch.push_back(out.reaction(snap_.reaction_mn));
-    server_.stream(batch, net::Stream::kSurfaces);
+    server_.stream(batch, igtlink::Stream::kSurfaces);
   }
   judge_second();
 }
@@ -312,7 +312,7 @@ int IgtlSession::finish(double wall_s, const web::Session* web) {
         rtf);
   outgoing_->log_embedded(true);
   if (web != nullptr) web->log_summary();
-  const net::ServerCounters& c = server_.counters();
+  const igtlink::ServerCounters& c = server_.counters();
   fmt::print(stderr,
              "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "
              "behind, last at {:g} steps/s chosen by the {}); {} clients, {} messages in ({} "
@@ -331,4 +331,4 @@ int IgtlSession::finish(double wall_s, const web::Session* web) {
   return 0;
 }
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

@@ -9,7 +9,7 @@
 #include "lamina/model/embed_surface.h"
 #include "serve_clock.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 namespace {
 
 using Clock = ServeClock;
@@ -20,7 +20,7 @@ std::string layer_device(int32_t k) {
   return k == 0 ? "LaminaSkin" : "LaminaLayer" + std::to_string(k);
 }
 
-Outgoing::Outgoing(std::shared_ptr<const Model> model, net::Frame frame)
+Outgoing::Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame)
     : shared_(std::move(model)), model_(*shared_), frame_(frame) {
   const Model& m = model_;
   for (int32_t k = 0; k < m.layer_count(); ++k) {
@@ -43,34 +43,34 @@ Outgoing::Outgoing(std::shared_ptr<const Model> model, net::Frame frame)
                 : fmt::format("a device name has 1 to {} characters", kMaxDeviceName));
       continue;
     }
-    embedded_.push_back({&e, net::PolyDataPacker(e.name, e.F, static_cast<int32_t>(e.V.rows())),
+    embedded_.push_back({&e, igtlink::PolyDataPacker(e.name, e.F, static_cast<int32_t>(e.V.rows())),
                          Eigen::MatrixX3d()});
   }
 }
 
-net::Packed Outgoing::requested(const interact::LoopSnapshot& snap, const std::string& device) {
+igtlink::Packed Outgoing::requested(const interact::LoopSnapshot& snap, const std::string& device) {
   const int32_t e = find_embedded(device);
   return e >= 0 ? embedded(snap, e) : layer(snap, requested_layer(device));
 }
 
-net::Packed Outgoing::layer(const interact::LoopSnapshot& snap, int32_t k) {
+igtlink::Packed Outgoing::layer(const interact::LoopSnapshot& snap, int32_t k) {
   const ModelLayer& l = model_.layers[static_cast<size_t>(k)];
   return layers_[static_cast<size_t>(k)].pack(snap.x.middleRows(l.first_node, l.node_count),
                                               frame_);
 }
 
-net::Packed Outgoing::embedded(const interact::LoopSnapshot& snap, int32_t e) {
+igtlink::Packed Outgoing::embedded(const interact::LoopSnapshot& snap, int32_t e) {
   Embedded& out = embedded_[static_cast<size_t>(e)];
   const auto t0 = Clock::now();
   model::embedded_positions(*out.surface, snap.x, out.points);
-  net::Packed message = out.packer.pack(out.points, frame_);
+  igtlink::Packed message = out.packer.pack(out.points, frame_);
   out.pack_s += seconds(Clock::now() - t0);
   ++out.packs;
   return message;
 }
 
-net::Packed Outgoing::reaction(const Eigen::Vector3d& reaction_mn) const {
-  return net::pack_transform(kReactionDevice, net::change_frame(reaction_mn, frame_));
+igtlink::Packed Outgoing::reaction(const Eigen::Vector3d& reaction_mn) const {
+  return igtlink::pack_transform(kReactionDevice, igtlink::change_frame(reaction_mn, frame_));
 }
 
 void Outgoing::log_embedded(bool at_exit) const {
@@ -98,4 +98,4 @@ int32_t Outgoing::find_embedded(const std::string& device) const {
   return -1;
 }
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

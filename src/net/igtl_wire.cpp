@@ -17,7 +17,7 @@
 
 #include "lamina/core/error.h"
 
-namespace lamina::cli::net {
+namespace lamina::net::igtlink {
 namespace {
 
 Error bad(const std::string& problem) {
@@ -274,4 +274,4 @@ Packed PolyDataPacker::pack(const Eigen::Ref<const Eigen::MatrixX3d>& points, Fr
   return message_;
 }
 
-}  // namespace lamina::cli::net
+}  // namespace lamina::net::igtlink

@@ -7,7 +7,7 @@
 
 #include "lamina/core/error.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
 // Poses closer than this to the last one add nothing to the path (a hand held still).
 constexpr double kMinStepMm = 0.5;
@@ -45,13 +45,13 @@ std::string ScalpelStroke::finish(interact::RealtimeLoop& loop, double depth_mm)
   return said;
 }
 
-std::string cut_event_text(const interact::LoopSnapshot& snap, net::Frame frame) {
+std::string cut_event_text(const interact::LoopSnapshot& snap, igtlink::Frame frame) {
   const model::CutReport& r = snap.last_cut;
   nlohmann::json pieces = nlohmann::json::array(), crossed = nlohmann::json::array();
   for (const model::CutPiece& p : r.pieces)
     pieces.push_back({{"volume_ml", p.volume_mm3 / 1000.0}, {"mass_g", p.mass_kg * 1000.0}});
   for (const model::StructureCut& c : r.structures_cut) {
-    const Eigen::Vector3d at = net::change_frame(c.position_mm, frame);
+    const Eigen::Vector3d at = igtlink::change_frame(c.position_mm, frame);
     crossed.push_back({{"name", c.name},
                        {"role", std::string(role_name(c.role))},
                        {"position_mm", {at.x(), at.y(), at.z()}},
@@ -66,4 +66,4 @@ std::string cut_event_text(const interact::LoopSnapshot& snap, net::Frame frame)
       .dump(-1, ' ', /*ensure_ascii=*/true);
 }
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

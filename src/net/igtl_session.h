@@ -11,15 +11,15 @@
 #include <utility>
 #include <vector>
 
-#include "commands.h"
 #include "igtl_server.h"
 #include "lamina/interact/realtime_loop.h"
+#include "lamina/net/serve.h"
 #include "scalpel_stroke.h"
 #include "serve_clock.h"
 #include "serve_outgoing.h"
 #include "serve_rate.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
 namespace web {
 class Session;
@@ -29,11 +29,11 @@ class IgtlSession {
  public:
   using Clock = ServeClock;
 
-  IgtlSession(const ServeArgs& args, net::Server& server, interact::RealtimeLoop& loop,
+  IgtlSession(const ServeOptions& args, igtlink::Server& server, interact::RealtimeLoop& loop,
               ServeRate& rate, std::shared_ptr<const Model> model, Clock::time_point start);
 
   /// A client's message; `closed`: a client has gone (what it held is let go).
-  void handle(const net::Message& msg);
+  void handle(const igtlink::Message& msg);
   void closed(int client);
 
   /// A scalpel stroke whose poses paused past --scalpel-pause is finished (it cuts); returns
@@ -60,9 +60,9 @@ class IgtlSession {
 
  private:
   Outgoing& sent_for(const interact::LoopSnapshot& snap);
-  bool scalpel_message(const net::Message& msg);
-  bool grasper_message(const net::Message& msg);
-  void tool_pose(const net::Message& msg);
+  bool scalpel_message(const igtlink::Message& msg);
+  bool grasper_message(const igtlink::Message& msg);
+  void tool_pose(const igtlink::Message& msg);
   void open_grasper(const std::string& why);
   void send_rate(int client, const interact::LoopSnapshot& now);
   void tell_rate(int client);
@@ -70,11 +70,11 @@ class IgtlSession {
   void watch_stability();
   void judge_second();
 
-  const ServeArgs& a_;
-  net::Server& server_;
+  const ServeOptions& a_;
+  igtlink::Server& server_;
   interact::RealtimeLoop& loop_;
   ServeRate& rate_;
-  const net::Frame frame_;
+  const igtlink::Frame frame_;
   const Clock::time_point start_;
   // What is sent is laid out for a model; a cut makes another (and adds the wound), which the
   // snapshots then carry: each message is packed for the model of the snapshot it shows.
@@ -89,7 +89,7 @@ class IgtlSession {
   int64_t poses_ = 0;
   std::set<std::pair<int, std::string>> noted_;  // (client, type) already logged as skipped
   interact::LoopSnapshot snap_;
-  std::vector<net::Packed> embedded_batch_;
+  std::vector<igtlink::Packed> embedded_batch_;
   int64_t reaction_sent_step_ = -1;
   double max_reaction_mn_ = 0.0;
   // Each cut (or undo) the loop has made since the last look.
@@ -106,4 +106,4 @@ class IgtlSession {
   Clock::time_point next_behind_warning_;
 };
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

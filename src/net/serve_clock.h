@@ -3,7 +3,7 @@
 // cost of packing a message are all timed on it.
 #include <chrono>
 
-namespace lamina::cli {
+namespace lamina::net {
 
 using ServeClock = std::chrono::steady_clock;
 
@@ -12,4 +12,4 @@ inline double seconds(ServeClock::duration d) {
   return std::chrono::duration<double>(d).count();
 }
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

@@ -17,7 +17,7 @@
 #include "web_server.h"
 #include "web_stream.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 
 inline constexpr int kWebClientBase = 1 << 20;
 
@@ -92,4 +92,4 @@ class Session {
   std::vector<double> pose_to_frame_ms_;  // a pose's arrival to the first frame showing it
 };
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

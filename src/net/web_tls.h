@@ -8,7 +8,7 @@
 
 #include "web_server.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 
 /// A new P-256 key and a certificate for it, signed by itself, valid from an hour ago for 30 days,
 /// naming `hosts` (IP addresses or DNS names) as its subject alternative names.
@@ -19,4 +19,4 @@ TlsIdentity self_signed_identity(const std::vector<std::string>& hosts);
 ///   holds no PEM certificate (or key), and for a key that does not match the certificate.
 TlsIdentity read_identity(const std::string& certificate_path, const std::string& key_path);
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

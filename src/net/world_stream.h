@@ -14,7 +14,7 @@
 #include "lamina/model/structure_colors.h"
 #include "lamina/world/world_loop.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 
 struct WorldStreamModel {
   std::shared_ptr<const Model> model;  ///< nodes and embedded surfaces only: what is drawn
@@ -31,4 +31,4 @@ WorldStreamModel world_stream_model(const world::WorldSnapshot& snapshot);
 /// once, then reused).
 void stack_positions(const world::WorldSnapshot& snapshot, Eigen::MatrixX3d& out);
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -10,7 +10,7 @@
 #include "web_message.h"
 #include "world_stream.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -157,4 +157,4 @@ void WorldSession::log_summary() const {
       median(frame_kb_), median(encode_ms_), c.frames_skipped, c.dropped);
 }
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 
 /// A certificate and its private key, PEM, for https and wss (web_tls.h makes or reads them).
 struct TlsIdentity {
@@ -90,4 +90,4 @@ class Server {
   std::shared_ptr<State> state_;
 };
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -16,7 +16,7 @@
 
 #include "lamina/core/error.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 namespace {
 
 template <class T, void (*Free)(T*)>
@@ -111,4 +111,4 @@ TlsIdentity read_identity(const std::string& certificate_path, const std::string
   return id;
 }
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -1,7 +1,7 @@
-// `lamina serve SCENE.json --web` of a world scene: the world steps in its own thread in real
-// time (world::WorldLoop), this thread serves the page (web::WorldSession). OpenIGTLink streams
-// one organ's surfaces and takes one tool, so a world is served to the web page only.
-#include "world_serve.h"
+// A world served (net::serve_world, include/lamina/net/serve.h): the world steps in its own
+// thread in real time (world::WorldLoop), this thread serves the page (web::WorldSession).
+// OpenIGTLink streams one organ's surfaces and takes one tool, so a world is served to the web
+// page only.
 
 #include <fmt/format.h>
 
@@ -10,13 +10,14 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/rate_choice.h"
-#include "lamina/io/world_scene.h"
+#include "lamina/world/world_loop.h"
 #include "serve_clock.h"
+#include "servers.h"
 #include "world_web_session.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
-web::SessionOptions web_session_options(const ServeArgs& a) {
+web::SessionOptions web_session_options(const ServeOptions& a) {
   web::SessionOptions so;
   so.frame_hz = a.web_hz;
   so.gain_n_per_mm = a.gain_n_per_mm;
@@ -27,17 +28,17 @@ web::SessionOptions web_session_options(const ServeArgs& a) {
   return so;
 }
 
-int run_world_serve(const ServeArgs& a, std::unique_ptr<web::Server> web_server,
-                    const std::atomic<bool>& stop) {
+int serve_world(Listening& listening, world::World world,
+                std::vector<world::Dissection> dissections, const ServeOptions& a,
+                const std::string& source, const KeepGoing& keep_going) {
   using Clock = ServeClock;
-  const io::WorldScene scene = io::load_world_scene(a.what);
-  std::unique_ptr<io::ReadyWorld> ready =
-      io::make_ready_world(scene, volume_read_options, stderr_progress(a.verbose));
+  if (!listening.servers || !listening.servers->web)
+    throw invalid_input(source, "a world is served to the web page: listen with the web on");
   double rate_hz = a.auto_rate ? 1000.0 : a.rate_hz;
   world::WorldLoop loop(
-      std::move(ready->world),
-      {.rate_hz = rate_hz, .threads = a.threads, .dissections = scene.dissections});
-  web::WorldSession session(std::move(web_server), web_session_options(a), loop);
+      std::move(world),
+      {.rate_hz = rate_hz, .threads = a.threads, .dissections = std::move(dissections)});
+  web::WorldSession session(std::move(listening.servers->web), web_session_options(a), loop);
   world::WorldSnapshot snap;
   loop.latest(snap);
   std::string names;
@@ -47,7 +48,7 @@ int run_world_serve(const ServeArgs& a, std::unique_ptr<web::Server> web_server,
   log::info(
       "lamina serve: world {}: {}, {} ties; {} in real time, on the web page only "
       "(OpenIGTLink streams one organ){}",
-      scene.source, names, snap.tie_count.total,
+      source, names, snap.tie_count.total,
       a.auto_rate ? "1000 steps/s, then the rate this machine keeps"
                   : fmt::format("{:g} steps/s", rate_hz),
       a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
@@ -57,7 +58,7 @@ int run_world_serve(const ServeArgs& a, std::unique_ptr<web::Server> web_server,
   bool behind_said = false;
   uint64_t judged = 0;  // the snapshot generation the rate was last judged on
   loop.start();
-  while (!stop) {
+  while (keep_going()) {
     if (a.duration_s > 0.0 && Clock::now() >= deadline) break;
     const double wait_s = session.poll();
     loop.latest(snap);
@@ -94,4 +95,4 @@ int run_world_serve(const ServeArgs& a, std::unique_ptr<web::Server> web_server,
   return 0;
 }
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

@@ -3,7 +3,7 @@
 
 #include "lamina/model/embed_surface.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 namespace {
 
 // A body's surface in the stream's model: its vertices carried by the body's nodes, which sit
@@ -81,4 +81,4 @@ void stack_positions(const world::WorldSnapshot& snapshot, Eigen::MatrixX3d& out
   }
 }
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

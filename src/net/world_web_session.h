@@ -17,7 +17,7 @@
 #include "web_session.h"
 #include "web_stream.h"
 
-namespace lamina::cli::web {
+namespace lamina::net::web {
 
 class WorldSession {
  public:
@@ -56,4 +56,4 @@ class WorldSession {
   std::vector<double> encode_ms_, frame_kb_;
 };
 
-}  // namespace lamina::cli::web
+}  // namespace lamina::net::web

@@ -12,7 +12,7 @@
 #include "igtl_wire.h"
 #include "lamina/interact/realtime_loop.h"
 
-namespace lamina::cli {
+namespace lamina::net {
 
 struct ScalpelStroke {
   int client = -1;                    ///< whose poses it follows; -1: no stroke under way
@@ -31,6 +31,6 @@ struct ScalpelStroke {
 /// One cut as JSON text for a STRING message, positions in `frame`: {"cuts": ..., "cut_tets":
 /// ..., "pieces": [{"volume_ml", "mass_g"}...], "structures_cut": [{"name", "position_mm",
 /// "diameter_mm", "closed"}...]}.
-std::string cut_event_text(const interact::LoopSnapshot& snap, net::Frame frame);
+std::string cut_event_text(const interact::LoopSnapshot& snap, igtlink::Frame frame);
 
-}  // namespace lamina::cli
+}  // namespace lamina::net

@@ -14,7 +14,7 @@
 
 #include "igtl_wire.h"
 
-namespace lamina::cli::net {
+namespace lamina::net::igtlink {
 
 struct ServerOptions {
   std::string host = "127.0.0.1";      ///< the address to listen on (0.0.0.0: every interface)
@@ -93,4 +93,4 @@ class Server {
   std::unique_ptr<State> state_;
 };
 
-}  // namespace lamina::cli::net
+}  // namespace lamina::net::igtlink
