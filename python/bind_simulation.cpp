@@ -432,6 +432,29 @@ void bind_simulation(py::module_& m) {
       .def("step", &step_n, py::arg("steps") = 1,
            "Takes `steps` steps with the tools and raw forces; returns the last StepStats.")
       .def(
+          "serve",
+          [](const PySimulation& p, const py::kwargs& kwargs) {
+            const net::ServeOptions o = serve_options(kwargs);
+            const std::string source = p.scene.empty() ? "a Python simulation" : p.scene;
+            // Listening first, as `lamina serve` does: a port in use fails before anything.
+            net::Listening listening(o, /*igtl=*/true);
+            if (listening.web_url().size()) py::print("the page is at", listening.web_url());
+            sim::Simulation copy = p.sim;  // served from its state now; this one is unchanged
+            return serve_until_interrupted([&](const net::KeepGoing& keep_going) {
+              return net::serve_organ(listening, std::move(copy), p.model, p.driver.routing, o,
+                                      source, keep_going);
+            });
+          },
+          "Serves a copy of the simulation in its state now, in real time, as `lamina serve`\n"
+          "does (docs/openigtlink.md, docs/web.md): 3D Slicer's OpenIGTLink on `port`, and\n"
+          "with web=True the page for a browser or headset on `web_port`, its address\n"
+          "printed. Keywords are lamina serve's options (port, web, web_port, web_host,\n"
+          "duration_s, rate_hz, auto_rate, send_hz, max_force_n, self_signed, ...:\n"
+          "docs/python.md). Runs until duration_s (0: until Ctrl-C, then\n"
+          "KeyboardInterrupt). Returns 0, or 5 when the simulation blew up (each blow-up is\n"
+          "logged and the organ reset). This simulation is not stepped; its tools are not\n"
+          "used (the clients drive the tool).")
+      .def(
           "run",
           [](PySimulation& p, double until_s, bool stop_at_rest, bool record) {
             interact::ToolRun run;

@@ -92,6 +92,26 @@ void bind_world(py::module_& m) {
   py::class_<PyWorld>(m, "World",
                       "Several organs stepped in one world: contact, attachments, dissections\n"
                       "(docs/world.md). Made by lamina.world_scene().")
+      .def(
+          "serve",
+          [](const PyWorld& w, const py::kwargs& kwargs) {
+            net::ServeOptions o = serve_options(kwargs);
+            if (!o.web)
+              throw invalid_input("serve: web",
+                                  "a world is served to the web page only: pass web=True "
+                                  "(OpenIGTLink streams one organ's surfaces)");
+            net::Listening listening(o, /*igtl=*/false);
+            py::print("the page is at", listening.web_url());
+            std::unique_ptr<io::ReadyWorld> fresh = io::make_ready_world(w.scene);
+            return serve_until_interrupted([&](const net::KeepGoing& keep_going) {
+              return net::serve_world(listening, std::move(fresh->world), w.scene.dissections, o,
+                                      w.scene.source, keep_going);
+            });
+          },
+          "Serves the scene's world to the web page, in real time, as `lamina serve\n"
+          "SCENE --web` does (docs/web.md): made again from its scene, at rest (this World\n"
+          "is unchanged). Keywords as Simulation.serve's; web=True is required. Returns 0,\n"
+          "or 5 when a body blew up (which ends the serve).")
       .def_property_readonly("bodies",
                              [](const PyWorld& w) {
                                std::vector<std::string> names;

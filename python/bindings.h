@@ -3,11 +3,13 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "lamina/core/error.h"
 #include "lamina/core/surface_role.h"
+#include "lamina/net/serve.h"
 
 namespace lamina::python {
 
@@ -24,6 +26,13 @@ void bind_model(pybind11::module_& m);       // masks, models (bind_model.cpp)
 void bind_simulation(pybind11::module_& m);  // simulations, tools, scenes (bind_simulation.cpp)
 void bind_resect(pybind11::module_& m);      // resection planning (bind_resect.cpp)
 void bind_world(pybind11::module_& m);       // worlds of several organs (bind_world.cpp)
+
+// Serving (bind_serve.cpp): `lamina serve`'s options from Python's keywords (an unknown one, or
+// a value it cannot take, is refused by name), checked.
+net::ServeOptions serve_options(const pybind11::kwargs& kwargs);
+// Runs `serve` with the GIL released, asking Python for signals between polls: Ctrl-C ends the
+// serve (its summary logged) and is raised as KeyboardInterrupt. Returns serve's exit code.
+int serve_until_interrupted(const std::function<int(const net::KeepGoing&)>& serve);
 
 // A read-only numpy view of `data` (shape, strides in bytes) kept alive by `owner`: numpy's
 // base is `owner`, so the memory lives as long as any view of it.

@@ -293,6 +293,36 @@ lamina_status lamina_world_step(lamina_world* world, int32_t steps, lamina_world
  * bodies' forces are kept. */
 lamina_status lamina_world_reset(lamina_world* world);
 
+/* ---- serving: 3D Slicer over OpenIGTLink, a browser or headset over the web ---------------- */
+
+/* What lamina_serve listens on and streams: `lamina serve`'s main options (docs/openigtlink.md,
+ * docs/web.md). lamina_serve_options_default fills in the command's defaults. */
+typedef struct lamina_serve_options {
+  const char* host;      /* OpenIGTLink's address; NULL = 127.0.0.1 (0.0.0.0: every interface) */
+  int32_t port;          /* OpenIGTLink's; 18944 (3D Slicer's); 0 = any free one (logged) */
+  int32_t web;           /* 1: the web page too (a world scene is served to it only) */
+  const char* web_host;  /* the web server's address; NULL = 127.0.0.1 */
+  int32_t web_port;      /* 8765; 0 = any free one (logged with the page's address) */
+  const char* web_token; /* needed in the page's address; NULL = a random one (logged) */
+  int32_t self_signed;   /* 1: TLS with a certificate made for the session (a headset's) */
+  double rate_hz;        /* simulation steps per wall second (each 1 / rate of time); 1000 */
+  double send_hz;        /* the skin's POLYDATA messages per second; 30 */
+  double max_force_n;    /* the most the reaction sent back may be, N; 3 */
+  double duration_s;     /* > 0: stop after this many wall seconds; 0 = until *stop */
+} lamina_serve_options;
+
+void lamina_serve_options_default(lamina_serve_options* options);
+
+/* Serves what `lamina serve` takes (a scene .json, a model .vtu, a segmentation, "phantom"; a
+ * world scene with web = 1) in real time on the calling thread until options->duration_s has
+ * passed or *stop (may be NULL) becomes non-zero: set it from another thread or a signal
+ * handler; it is read about every 0.1 s. The servers listen before the model is built (a port in
+ * use fails at once). LAMINA_ERROR_INVALID_INPUT for bad options or input, nothing served;
+ * LAMINA_ERROR_UNSTABLE when the simulation blew up during the serve (each blow-up is logged and
+ * the organ reset; a world's ends the serve). */
+lamina_status lamina_serve(const char* what, const lamina_serve_options* options,
+                           const volatile int32_t* stop);
+
 #ifdef __cplusplus
 }
 #endif

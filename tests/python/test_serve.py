@@ -1,0 +1,125 @@
+"""Serving from Python (Simulation.serve, World.serve: the library's network edge, as `lamina
+serve`): 3D Slicer's OpenIGTLink streams the deformed skin to a client, the web page is served
+from the build beside the library, and bad options are refused by name before anything listens."""
+import socket
+import struct
+import threading
+import time
+import urllib.request
+
+import pytest
+
+import lamina
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def serve_in_thread(target, **options):
+    """Runs target.serve(**options) on a thread (it releases the GIL); returns the thread and a
+    dict that gets its result or its exception."""
+    out = {}
+
+    def run():
+        try:
+            out["code"] = target.serve(**options)
+        except Exception as e:  # noqa: BLE001 - handed to the test
+            out["error"] = e
+
+    t = threading.Thread(target=run)
+    t.start()
+    return t, out
+
+
+def connect(port, until_s):
+    while time.monotonic() < until_s:
+        try:
+            return socket.create_connection(("127.0.0.1", port), timeout=5)
+        except OSError:
+            time.sleep(0.05)
+    raise AssertionError(f"nothing listens on {port}")
+
+
+def read_exactly(sock, n):
+    data = b""
+    while len(data) < n:
+        chunk = sock.recv(n - len(data))
+        assert chunk, "the server closed the connection"
+        data += chunk
+    return data
+
+
+def test_serve_streams_the_skin_over_openigtlink():
+    sim = lamina.scene_simulation("phantom")
+    port = free_port()
+    thread, out = serve_in_thread(sim, port=port, duration_s=4.0, rate_hz=500.0)
+    deadline = time.monotonic() + 60
+    with connect(port, deadline) as c:
+        # An OpenIGTLink header: version, type, device, timestamp, body size, CRC (58 bytes).
+        points = {}  # each POLYDATA device's point count (a POLYDATA body starts with it)
+        while "LaminaSkin" not in points and time.monotonic() < deadline:
+            header = read_exactly(c, 58)
+            _, kind, device, _, size, _ = struct.unpack(">H12s20sQQQ", header)
+            body = read_exactly(c, size)
+            if kind.rstrip(b"\0") == b"POLYDATA":
+                points[device.rstrip(b"\0").decode()] = struct.unpack(">I", body[:4])[0]
+    thread.join(60)
+    assert not thread.is_alive()
+    assert out.get("code") == 0, out
+    # The simulation's skin, and the display skin the model carries, each streamed.
+    assert points.get("LaminaSkin") == sim.model.skin_node_count, points
+    assert points.get("display_skin", 0) > sim.model.skin_node_count, points
+    # The simulation served was a copy: this one has not stepped.
+    assert sim.time_s == 0.0
+
+
+def test_serve_gives_the_page_from_the_library_build():
+    sim = lamina.scene_simulation("phantom")
+    port, web_port = free_port(), free_port()
+    thread, out = serve_in_thread(sim, port=port, web=True, web_port=web_port, web_token="t0k3n",
+                                  duration_s=3.0)
+    deadline = time.monotonic() + 60
+    page = None
+    while page is None and time.monotonic() < deadline:
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{web_port}/?token=t0k3n",
+                                        timeout=5) as r:
+                page = r.read().decode()
+        except OSError:
+            time.sleep(0.05)
+    thread.join(60)
+    assert out.get("code") == 0, out
+    assert page is not None and "<html" in page.lower()
+
+
+def test_serve_refuses_bad_options_by_name():
+    sim = lamina.scene_simulation("phantom")
+    with pytest.raises(lamina.Error, match="serve: colour.*not an option"):
+        sim.serve(colour="red")
+    with pytest.raises(lamina.Error, match="--send-hz"):
+        sim.serve(send_hz=-1.0)
+    with pytest.raises(lamina.Error, match="serve: port.*cannot take"):
+        sim.serve(port="eighteen")
+    # A port in use is refused before anything is served.
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        with pytest.raises(lamina.Error, match="port"):
+            sim.serve(port=busy.getsockname()[1], duration_s=1.0)
+
+
+def test_serve_ends_on_ctrl_c_with_keyboard_interrupt():
+    # No duration: the serve runs until Ctrl-C, which Python raises once the serve has stopped.
+    import os
+    import signal
+    sim = lamina.scene_simulation("phantom")
+    timer = threading.Timer(1.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    started = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        sim.serve(port=free_port())
+    timer.join()
+    assert time.monotonic() - started < 30.0
