@@ -1,5 +1,9 @@
 import os
 import pathlib
+import socket
+import threading
+import time
+import urllib.request
 
 import pytest
 
@@ -28,3 +32,39 @@ def back_nodes(model):
     """Nodes within 10 mm of the posterior-most plane: the paper's fixed region."""
     back = model.X[model.X[:, 1].argmax()]
     return lamina.nodes_near_plane(model, back, (0, 1, 0), 10.0)
+
+
+def free_port():
+    """A TCP port nothing listens on now, on 127.0.0.1."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def serve_in_thread(target, **options):
+    """Runs target.serve(**options) on a thread (serving releases the GIL); returns the thread
+    and a dict that gets its result ("code") or its exception ("error")."""
+    out = {}
+
+    def run():
+        try:
+            out["code"] = target.serve(**options)
+        except Exception as e:  # noqa: BLE001 - handed to the test
+            out["error"] = e
+
+    t = threading.Thread(target=run)
+    t.start()
+    return t, out
+
+
+def fetch_page(port, token, thread, limit_s=120.0):
+    """The web page served on `port` while `thread` serves it, or None."""
+    deadline = time.monotonic() + limit_s
+    while time.monotonic() < deadline and thread.is_alive():
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/?token={token}",
+                                        timeout=5) as r:
+                return r.read().decode()
+        except OSError:
+            time.sleep(0.05)
+    return None

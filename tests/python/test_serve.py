@@ -5,33 +5,11 @@ import socket
 import struct
 import threading
 import time
-import urllib.request
 
 import pytest
 
 import lamina
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def serve_in_thread(target, **options):
-    """Runs target.serve(**options) on a thread (it releases the GIL); returns the thread and a
-    dict that gets its result or its exception."""
-    out = {}
-
-    def run():
-        try:
-            out["code"] = target.serve(**options)
-        except Exception as e:  # noqa: BLE001 - handed to the test
-            out["error"] = e
-
-    t = threading.Thread(target=run)
-    t.start()
-    return t, out
+from conftest import fetch_page, free_port, serve_in_thread
 
 
 def connect(port, until_s):
@@ -81,15 +59,7 @@ def test_serve_gives_the_page_from_the_library_build():
     port, web_port = free_port(), free_port()
     thread, out = serve_in_thread(sim, port=port, web=True, web_port=web_port, web_token="t0k3n",
                                   duration_s=3.0)
-    deadline = time.monotonic() + 60
-    page = None
-    while page is None and time.monotonic() < deadline:
-        try:
-            with urllib.request.urlopen(f"http://127.0.0.1:{web_port}/?token=t0k3n",
-                                        timeout=5) as r:
-                page = r.read().decode()
-        except OSError:
-            time.sleep(0.05)
+    page = fetch_page(web_port, "t0k3n", thread)
     thread.join(60)
     assert out.get("code") == 0, out
     assert page is not None and "<html" in page.lower()

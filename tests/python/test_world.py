@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lamina
-from conftest import REPO
+from conftest import REPO, fetch_page, free_port, serve_in_thread
 
 LABELS = os.path.join(REPO, "tests", "data", "liver_totalseg_example_3mm_labels.nii.gz")
 
@@ -112,28 +112,12 @@ def test_a_bad_world_scene_is_one_line():
 def test_a_world_is_served_to_the_web_page_and_only_there():
     # World.serve: the scene's world made again at rest and stepped in real time for the page
     # (the library's web edge, as `lamina serve SCENE --web`); without web=True it is refused.
-    import socket
-    import threading
-    import time
-    import urllib.request
-
     w = lamina.world_scene(scene())
     with pytest.raises(lamina.Error, match="serve: web.*web page only"):
         w.serve(duration_s=1.0)
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    out = {}
-    t = threading.Thread(target=lambda: out.update(
-        code=w.serve(web=True, web_port=port, web_token="w0rld", duration_s=4.0)))
-    t.start()
-    deadline, page = time.monotonic() + 120, None
-    while page is None and time.monotonic() < deadline and t.is_alive():
-        try:
-            with urllib.request.urlopen(f"http://127.0.0.1:{port}/?token=w0rld", timeout=5) as r:
-                page = r.read().decode()
-        except OSError:
-            time.sleep(0.1)
+    port = free_port()
+    t, out = serve_in_thread(w, web=True, web_port=port, web_token="w0rld", duration_s=4.0)
+    page = fetch_page(port, "w0rld", t)
     t.join(120)
     assert out.get("code") == 0, out
     assert page is not None and "<html" in page.lower()
