@@ -51,13 +51,15 @@ lamina_status lamina_serve(const char* what, const lamina_serve_options* options
     namespace io = lamina::io;
     namespace net = lamina::net;
     const std::string input = lamina::capi::need_text(what, "lamina_serve: what");
-    const net::ServeOptions o = library_options(lamina::capi::need(options, "lamina_serve: options"));
+    const net::ServeOptions o =
+        library_options(lamina::capi::need(options, "lamina_serve: options"));
     net::check_options(o);
     const net::KeepGoing keep_going = [stop] { return stop == nullptr || *stop == 0; };
     int code = 0;
     if (io::is_world_scene_file(input)) {
       if (!o.web)
-        throw lamina::invalid_input(input, "a world scene is served to the web page only: set web = 1");
+        throw lamina::invalid_input(input,
+                                    "a world scene is served to the web page only: set web = 1");
       net::Listening listening(o, /*igtl=*/false);
       const io::WorldScene scene = io::load_world_scene(input);
       std::unique_ptr<io::ReadyWorld> ready = io::make_ready_world(scene, io::ReadVolumeOptions{});

@@ -21,6 +21,9 @@ web::SessionOptions web_session_options(const ServeOptions& a) {
   web::SessionOptions so;
   so.frame_hz = a.web_hz;
   so.gain_n_per_mm = a.gain_n_per_mm;
+  so.tip.radius_mm = a.tip_radius_mm;
+  so.tip.stiffness_n_per_m = a.tip_stiffness_n_per_m;
+  so.tip.max_force_n = a.max_force_n;
   so.hello_fields = {{"max_force_mn", 1000.0 * a.max_force_n},
                      {"tip_radius_mm", a.tip_radius_mm},
                      {"grasp_radius_mm", so.grasp_radius_mm},

@@ -50,6 +50,26 @@ inline Eigen::Vector3d vector3(const nlohmann::json& m, const char* key, double 
   return v;
 }
 
+/// A "hand" message: a controller's tip (mm, the model's or the world's frame), its trigger and
+/// grip in [0, 1] (pressed from 0.5), and the page's count of its poses.
+struct HandMessage {
+  int hand = 0;  ///< 0 or 1
+  uint32_t pose = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  bool trigger = false, grip = false;
+};
+
+/// A "hand" message's fields, checked (a malformed one drops its client).
+inline HandMessage read_hand(const nlohmann::json& m) {
+  HandMessage h;
+  h.hand = static_cast<int>(number(m, "hand", 0, 1));
+  h.pose = static_cast<uint32_t>(number(m, "pose", 0, 4294967295.0));
+  h.position = vector3(m, "position", 1e5);
+  h.trigger = number(m, "trigger", 0, 1) >= 0.5;
+  h.grip = number(m, "grip", 0, 1) >= 0.5;
+  return h;
+}
+
 inline double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());

@@ -76,12 +76,9 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
   tools_changed();
   if (type == "hand") {
     // A controller: its tip's position (mm, the model's frame), trigger and grip in [0, 1].
-    const int hand = static_cast<int>(number(m, "hand", 0, 1));
-    const uint32_t pose = static_cast<uint32_t>(number(m, "pose", 0, 4294967295.0));
-    const Eigen::Vector3d p = vector3(m, "position", 1e5);
-    const double trigger = number(m, "trigger", 0, 1), grip = number(m, "grip", 0, 1);
+    const auto [hand, pose, p, trigger, grip] = read_hand(m);
     const bool holds_tip = tip_hand_.client == id && tip_hand_.hand == hand;
-    if (trigger >= 0.5 && (tools_.tip_client < 0 || holds_tip)) {
+    if (trigger && (tools_.tip_client < 0 || holds_tip)) {
       if (!holds_tip) log::info("web client {}: hand {} drives the tool tip", peer, hand);
       tools_.tip_client = id;
       tools_.tip.center_mm = p;
@@ -89,11 +86,11 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
       loop_.set_tool_tip(tools_.tip);
       tip_hand_ = {id,          hand, pose, loop_.latest_reaction().steps, tip_hand_.reflected,
                    Clock::now()};
-    } else if (trigger < 0.5 && holds_tip) {
+    } else if (!trigger && holds_tip) {
       release_tip();
     }
     const bool holds_grasper = grasp_hand_.client == id && grasp_hand_.hand == hand;
-    if (grip >= 0.5 && (tools_.grasper_client < 0 || holds_grasper)) {
+    if (grip && (tools_.grasper_client < 0 || holds_grasper)) {
       try {
         loop_.set_grasper(interact::Jaws{.center_mm = p, .radius_mm = options_.grasp_radius_mm});
       } catch (const Error& e) {  // nothing under the jaws: said to that page, nothing held
@@ -109,9 +106,9 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
       tools_.grasper_client = id;
       grasp_hand_ = {id,          hand, pose, loop_.latest_reaction().steps, grasp_hand_.reflected,
                      Clock::now()};
-    } else if (grip < 0.5 && holds_grasper) {
+    } else if (!grip && holds_grasper) {
       release_grasper();
-    } else if (grip < 0.5) {
+    } else if (!grip) {
       grasp_missed_ = false;
     }
   } else if (type == "press") {

@@ -34,6 +34,9 @@ struct SessionOptions {
   /// A controller's jaws take the skin within this distance (lamina view's grasper: a hand in a
   /// headset is less steady than a tracked instrument, OpenIGTLink's --grasper-radius).
   double grasp_radius_mm = 10.0;
+  /// A world's tool tip (its radius, coupling and limits: the serve's); the one-organ session
+  /// shares OpenIGTLink's (SharedTools).
+  interact::ToolTip tip;
   nlohmann::json hello_fields;  ///< joins every hello (the tools' limits, the rate)
 };
 

@@ -67,17 +67,7 @@ void WorldSession::handle(int client, const std::string& text) {
   const json m = parse_message(text);
   const std::string type = m["type"].get<std::string>();
   if (type == "hand") {
-    // Checked as the one-organ session checks it (a malformed hand drops its client), then
-    // told, once, that hands act on one organ only.
-    number(m, "hand", 0, 1);
-    number(m, "pose", 0, 4294967295.0);
-    vector3(m, "position", 1e5);
-    number(m, "trigger", 0, 1);
-    number(m, "grip", 0, 1);
-    if (told_hands_.insert(client).second)
-      event(client,
-            "in a world the hands do nothing yet (the tool tip and the grasper act on one "
-            "organ): drag an organ with the mouse");
+    hand(client, m);
   } else if (type == "press") {
     const Eigen::Vector3d origin = vector3(m, "origin", 1e6);
     const Eigen::Vector3d direction = vector3(m, "direction", 1e6);
@@ -109,7 +99,56 @@ void WorldSession::handle(int client, const std::string& text) {
 
 void WorldSession::closed(int client) {
   if (drag_.client == client) release_drag();
-  told_hands_.erase(client);
+  if (tip_hand_.client == client) release_tip();
+  if (grasp_hand_.client == client) release_grasper();
+}
+
+// A controller: its tip's position (mm, the world's frame), trigger and grip in [0, 1]. Checked
+// as the one-organ session checks it (a malformed hand drops its client); one hand at a time
+// holds the tip, one the grasper.
+void WorldSession::hand(int client, const json& m) {
+  const auto [which, pose, p, trigger, grip] = read_hand(m);
+  const bool holds_tip = tip_hand_.client == client && tip_hand_.hand == which;
+  if (trigger && (tip_hand_.client < 0 || holds_tip)) {
+    if (!holds_tip)
+      log::info("web client {}: hand {} drives the tool tip", client + kWebClientBase, which);
+    tip_ = options_.tip;
+    tip_.active = true;
+    tip_.center_mm = p;
+    loop_.set_tool_tip(tip_);
+    tip_hand_ = {client, which, pose, snap_.steps, tip_hand_.reflected};
+  } else if (!trigger && holds_tip) {
+    release_tip();
+  }
+  const bool holds_grasper = grasp_hand_.client == client && grasp_hand_.hand == which;
+  if (grip && (grasp_hand_.client < 0 || holds_grasper)) {
+    try {
+      loop_.set_grasper(interact::Jaws{.center_mm = p, .radius_mm = options_.grasp_radius_mm});
+    } catch (const Error& e) {  // nothing under the jaws: said to that page, nothing held
+      if (!holds_grasper && !grasp_missed_) event(client, e.what());
+      grasp_missed_ = true;
+      return;
+    }
+    grasp_missed_ = false;
+    if (!holds_grasper)
+      log::info("web client {}: hand {} closes the grasper", client + kWebClientBase, which);
+    grasp_hand_ = {client, which, pose, snap_.steps, grasp_hand_.reflected};
+  } else if (!grip && holds_grasper) {
+    release_grasper();
+  } else if (!grip) {
+    grasp_missed_ = false;
+  }
+}
+
+void WorldSession::release_tip() {
+  tip_.active = false;
+  loop_.set_tool_tip(tip_);
+  tip_hand_ = {};
+}
+
+void WorldSession::release_grasper() {
+  loop_.set_grasper(std::nullopt);
+  grasp_hand_ = {};
 }
 
 void WorldSession::send_frame() {
@@ -122,6 +161,19 @@ void WorldSession::send_frame() {
   info.sent_at_us = static_cast<uint64_t>(
       std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
           .count());
+  // The hands: each one's newest pose the snapshot shows, and the tissue's push on them.
+  Hand* held[2] = {&tip_hand_, &grasp_hand_};
+  for (int k = 0; k < 2; ++k) {
+    Hand& h = *held[k];
+    ToolInfo& t = info.tools[k];
+    if (h.client < 0) continue;
+    t.client = h.client + kWebClientBase;
+    t.hand = h.hand;
+    if (snap_.steps > h.pose_step) h.reflected = h.pose;
+    t.pose = h.reflected;
+    t.reaction_mn = snap_.hands_reaction_mn;
+    t.contact = k == 0 ? snap_.tip_touching : !snap_.grasped_body.empty();
+  }
   info.unstable = snap_.unstable != sim::Instability::kNone;
   info.behind = !snap_.rate.keeping_up;
   const auto t0 = Clock::now();

@@ -2,9 +2,11 @@
 /// \file
 /// `lamina serve SCENE.json --web` of a world scene (docs/web.md, "A world"): the page draws
 /// every body (world_stream.h), a mouse drag on any of them pushes or pulls it through the
-/// world's loop, and the scene's graspers and blades play on its clock. Runs on the serve loop's
-/// network thread, as the one-organ session does. The headset's hands act on one organ only: in
-/// a world the page is told so, once, and its hands do nothing.
+/// world's loop, and the scene's graspers and blades play on its clock. A headset's hands act as
+/// on one organ: a trigger drives the tool tip, which pushes whichever body it touches, a grip
+/// closes the grasper on the body nearest it (world::WorldLoop::set_tool_tip, set_grasper), and
+/// each frame carries the tissue's push on them for the controllers' vibration. Runs on the
+/// serve loop's network thread, as the one-organ session does.
 
 #include <chrono>
 #include <memory>
@@ -37,6 +39,9 @@ class WorldSession {
   void send_frame();
   void event(int client, const std::string& text);
   void release_drag();
+  void hand(int client, const nlohmann::json& m);
+  void release_tip();
+  void release_grasper();
 
   std::unique_ptr<Server> server_;
   SessionOptions options_;
@@ -50,7 +55,15 @@ class WorldSession {
     uint32_t topology = 0;
     int32_t node = -1;
   } drag_;
-  std::set<int> told_hands_;  // clients told that hands do nothing in a world
+  struct Hand {
+    int client = -1, hand = -1;
+    uint32_t pose = 0;       // the newest pose applied
+    int64_t pose_step = 0;   // the snapshot's step count when it was applied
+    uint32_t reflected = 0;  // the newest pose a frame has shown
+  };
+  Hand tip_hand_, grasp_hand_;
+  interact::ToolTip tip_;
+  bool grasp_missed_ = false;  // the last grasp found nothing (said once per grip)
   uint32_t frames_ = 0;
   std::chrono::steady_clock::time_point next_frame_;
   std::vector<double> encode_ms_, frame_kb_;

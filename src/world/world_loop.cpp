@@ -201,7 +201,14 @@ void WorldLoop::Impl::apply_pending() {
   stepping_paused = paused;
   std::vector<int32_t> reroute;
   if (reset_requested) {
-    // The bodies cut since go back uncut (renumbered again: their live forces go).
+    // The grasper opens and the caller's jaws count as open (a hand still gripping closes them
+    // again); then the bodies cut since go back uncut (renumbered again: their live forces go).
+    open_grasper();
+    jaws.reset();
+    close_at.reset();
+    new_close.reset();
+    new_jaws.reset();
+    jaws_closed = false;
     std::vector<int32_t> put_back_slots;
     for (const BodyBefore& k : before_cuts.bodies) put_back_slots.push_back(k.id.index);
     put_back(world, before_cuts);
@@ -217,7 +224,10 @@ void WorldLoop::Impl::apply_pending() {
     strokes_divided = 0;
     window.restart_sim(world.time_s);
     reset_requested = false;
-    for (size_t k = 0; k < live.size(); ++k) reroute.push_back(static_cast<int32_t>(k));
+    for (size_t k = 0; k < live.size(); ++k) {
+      reroute.push_back(static_cast<int32_t>(k));
+      forget_tip(static_cast<int32_t>(k));  // the tip's proxies placed afresh on the rest shape
+    }
   }
   if (rate_hz != stepping_rate_hz) {
     stepping_rate_hz = rate_hz;
@@ -240,6 +250,7 @@ void WorldLoop::Impl::apply_pending() {
     reroute.push_back(f.slot);
   }
   new_forces.clear();
+  take_hands();
   for (Stroke& s : strokes) {
     if (s.cuts_tissue)
       tissue_cuts.push_back(std::move(s));
@@ -260,6 +271,8 @@ void WorldLoop::Impl::route_forces(int32_t slot) {
   Body& b = bs.body;
   Live& l = live[static_cast<size_t>(slot)];
   l.routes.clear();
+  // Made afresh below: the tip's load on it is added again before the next step.
+  if (static_cast<size_t>(slot) < tip_on.size()) tip_on[static_cast<size_t>(slot)].route = {};
   if (l.forces.empty()) {
     b.tools.held_forces.resize(0, 3);
     return;
@@ -285,7 +298,9 @@ void WorldLoop::Impl::apply_cuts() {
   for (const Stroke& s : tissue_cuts) {
     const double t0 = now_s();
     // Each body cut kept as it was for a reset.
+    lend_grasp();
     const WorldCut c = cut_through(world, s.path, s.direction, s.depth_mm, s.reach_mm, before_cuts);
+    take_grasp_back();
     for (const auto& [id, r] : c.bodies) {
       tets_cut += r.cut_tets;
       log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, id).name,
@@ -316,6 +331,7 @@ void WorldLoop::Impl::topology_changed(int32_t slot) {
   l.forces.clear();
   l.routes.clear();
   b.tools.held_forces.resize(0, 3);
+  forget_tip(slot);
 }
 
 void WorldLoop::Impl::one_step() {
@@ -325,6 +341,7 @@ void WorldLoop::Impl::one_step() {
   for (const BodySlot& bs : world.bodies)
     if (bs.alive) dt = bs.body.sim.options().dt_s;
   advance_dissections(options.dissections, world, from, from + dt);
+  move_hands();
   step(world, stats);
   if (stats.unstable != sim::Instability::kNone) {
     unstable = stats.unstable;

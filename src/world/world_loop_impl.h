@@ -4,11 +4,13 @@
 // `snapshot_mutex`. world_loop.cpp and world_loop_publish.cpp share it.
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <utility>
 #include <vector>
 
 #include "lamina/core/clock.h"
 #include "lamina/core/lock_waits.h"
+#include "lamina/interact/haptic_proxy.h"
 #include "lamina/world/cut_body.h"
 #include "lamina/world/world_loop.h"
 
@@ -38,6 +40,10 @@ struct WorldLoop::Impl {
   };
   std::vector<Stroke> strokes;
   double rate_hz = 1000.0;
+  std::optional<interact::ToolTip> new_tip;
+  std::optional<interact::Jaws> new_close;                // where the caller closed the jaws
+  std::optional<std::optional<interact::Jaws>> new_jaws;  // their latest place, or open
+  bool jaws_closed = false;  // as the caller last set them (set_grasper's own bookkeeping)
   // The live bodies, their topology generations and skins' sizes: what a caller's handle and
   // nodes are checked against, on the caller's thread.
   struct Handle {
@@ -54,6 +60,18 @@ struct WorldLoop::Impl {
     std::vector<interact::ForceRoute> routes;
   };
   std::vector<Live> live;  // per body slot
+  // The hands (world_loop_hands.cpp): the tool tip with a haptic proxy and its last load per
+  // body slot, and the grasper: where it closes (not yet done), where it is, what it holds.
+  interact::ToolTip tip;
+  struct TipOnBody {
+    interact::HapticProxy proxy;
+    interact::ForceRoute route;  // its load on the body's nodes, added to held_forces
+  };
+  std::vector<TipOnBody> tip_on;  // per body slot
+  std::optional<interact::Jaws> close_at, jaws;
+  int32_t grasp_slot = -1;
+  interact::Grasp grasp;
+  Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
   WorldStepStats stats;
   interact::RateWindow window;
   double late_us = 0.0;
@@ -80,6 +98,15 @@ struct WorldLoop::Impl {
   void route_forces(int32_t slot);
   void apply_cuts();  // the stepping thread's, outside mutex: the tissue cuts taken
   void topology_changed(int32_t slot);  // under mutex: a body renumbered
+  // The hands (world_loop_hands.cpp).
+  void take_hands();              // under mutex: the tip and jaws the callers set
+  void move_hands();              // before each step: the tip's loads, the jaws
+  void open_grasper();            // the held body let go
+  void forget_tip(int32_t slot);  // a body renumbered: the tip's load and proxy on it start over
+  // A cut carries what the jaws hold to the copies as it carries a scene's grasper: the grasp is
+  // lent to the held body's tools across cut_through() and taken back after.
+  void lend_grasp();
+  void take_grasp_back();
   void one_step();
   void publish(bool force);  // world_loop_publish.cpp
 };

@@ -64,6 +64,13 @@ void WorldLoop::Impl::publish(bool force) {
   s.tets_cut = tets_cut;
   s.last_cut_ms = last_cut_ms;
   s.cut_message = cut_message;
+  s.hands_reaction_mn = hands_reaction_mn;
+  s.tip_touching = false;
+  for (const TipOnBody& t : tip_on) s.tip_touching = s.tip_touching || !t.route.nodes.empty();
+  s.grasped_body = grasp_slot >= 0 && !grasp.nodes.empty()
+                       ? world.bodies[static_cast<size_t>(grasp_slot)].body.name
+                       : std::string();
+  s.grasped_nodes = s.grasped_body.empty() ? 0 : static_cast<int32_t>(grasp.nodes.size());
   s.lock_waits = lock_waits.count;
   s.longest_lock_wait_us = lock_waits.longest_us;
   ++s.generation;

@@ -4,7 +4,8 @@
 // latest snapshot, puts live forces on either body by the snapshot's handle and topology (a
 // refusal after a cut is expected and counted), sweeps dissections, cuts the first body with a
 // scalpel (the loop renumbers it on its thread: its model and snapshot change size), pauses,
-// changes the rate and resets (the uncut body back). Any data race is a TSan report and a
+// changes the rate and resets (the uncut body back), and drives the hands (a tool tip pressed and
+// lifted, a grasper closed and opened on the first body). Any data race is a TSan report and a
 // non-zero exit; the program also checks that snapshots advanced, every body's positions stayed
 // finite and matched its model, and that the cuts happened.
 //   tsan_world_handoff MODEL.vtu [SECONDS]
@@ -13,6 +14,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "handoff_setup.h"
@@ -41,10 +43,10 @@ int main(int argc, char** argv) {
 
   world::WorldSnapshot snap;
   uint64_t frames = 0, fresh = 0, last_generation = 0, refused = 0;
-  int cuts_asked = 0, rate_changes = 0, most_cuts = 0;
-  bool reset_done = false;
+  int cuts_asked = 0, rate_changes = 0, most_cuts = 0, grasps = 0;
+  bool reset_done = false, tip_on = false, grasping = false;
   double next_dissection = 0.3, next_cut = 0.5, next_pause = 1.0, next_resume = 1.1,
-         next_rate = 0.8, next_release = 0.25;
+         next_rate = 0.8, next_release = 0.25, next_tip = 0.2, next_grasp = 0.35;
   const auto t0 = std::chrono::steady_clock::now();
   for (;; ++frames) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -99,15 +101,36 @@ int main(int argc, char** argv) {
       reset_done = true;
     }
     if (every(0.5, next_release)) loop.clear_forces();
+    // A headset's hands: the tip pressed on the first body's top and lifted in turn, the
+    // grasper closed on its skin and opened (a close on skin that has moved away is refused).
+    const world::BodyView& first = snap.bodies[0];
+    Eigen::Index top = 0;
+    first.x.topRows(first.model->layers[0].node_count).col(2).maxCoeff(&top);
+    const Eigen::Vector3d on_top = first.x.row(top).transpose();
+    if (every(0.3, next_tip)) {
+      tip_on = !tip_on;
+      loop.set_tool_tip({.active = tip_on, .center_mm = on_top + Eigen::Vector3d(0, 0, 3.0)});
+    }
+    if (every(0.4, next_grasp)) {
+      grasping = !grasping;
+      try {
+        loop.set_grasper(grasping ? std::optional(interact::Jaws{.center_mm = on_top})
+                                  : std::nullopt);
+        if (grasping) ++grasps;
+      } catch (const Error&) {
+        grasping = false;
+      }
+    }
   }
   loop.stop();
   loop.latest(snap);
   std::printf(
       "tsan_world_handoff: %llu viewer frames, %llu fresh snapshots, %lld steps, %d cuts asked, "
-      "bodies cut before the reset %d and since %d, %llu forces refused as renumbered\n",
+      "bodies cut before the reset %d and since %d, %llu forces refused as renumbered, %d "
+      "grasps\n",
       static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fresh),
       static_cast<long long>(snap.steps), cuts_asked, most_cuts, snap.cuts,
-      static_cast<unsigned long long>(refused));
+      static_cast<unsigned long long>(refused), grasps);
   if (fresh < 10 || snap.steps < 10 || most_cuts == 0) {
     std::fprintf(stderr, "too little happened to check anything\n");
     return 1;

@@ -18,20 +18,6 @@ namespace {
 
 using namespace test_world;
 
-// A slit into A from above, across y, ending inside it short of B (A spans x within 20 mm of
-// the centre, B starts 0.5 mm beyond).
-struct Slit {
-  std::vector<Eigen::Vector3d> path;
-  Eigen::Vector3d direction = -Eigen::Vector3d::UnitZ();
-  double depth_mm = 50.0;
-};
-
-Slit slit_into_a() {
-  const Eigen::Vector3d c = sphere_centre();
-  const double y = c.y() + 0.37;  // off the nodes' planes
-  return {{{c.x() - 25.0, y, c.z() + 25.0}, {c.x() + 10.0, y, c.z() + 25.0}}};
-}
-
 std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> every_tie_end(const World& w) {
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> out;
   for (const AttachmentSlot& a : w.attachments)

@@ -48,6 +48,20 @@ inline int32_t skin_node_with_least_x(const Model& m) {
   return best;
 }
 
+// A slit into A from above, across y, ending inside it short of B (A spans x within 20 mm of
+// the centre, B starts 0.5 mm beyond).
+struct Slit {
+  std::vector<Eigen::Vector3d> path;
+  Eigen::Vector3d direction = -Eigen::Vector3d::UnitZ();
+  double depth_mm = 50.0;
+};
+
+inline Slit slit_into_a() {
+  const Eigen::Vector3d c = sphere_centre();
+  const double y = c.y() + 0.37;  // off the nodes' planes
+  return {{{c.x() - 25.0, y, c.z() + 25.0}, {c.x() + 10.0, y, c.z() + 25.0}}};
+}
+
 inline double rest_distance(const Body& b) {
   return (b.sim.x - b.model->X).rowwise().norm().maxCoeff();
 }

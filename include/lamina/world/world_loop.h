@@ -29,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include "lamina/interact/grasp.h"
 #include "lamina/interact/rate_window.h"
 #include "lamina/interact/tools.h"
 #include "lamina/world/dissection.h"
@@ -96,6 +97,14 @@ struct WorldSnapshot {
   double last_cut_ms = 0.0;
   /// Why the last cut() divided no tissue, or empty.
   std::string cut_message;
+  /// The hands (set_tool_tip(), set_grasper()): the tissue's push back on them, mN (the tip's
+  /// haptic proxies' forces and the grasper's pull: what a haptic device or a controller's
+  /// vibration renders), whether the tip touches a body, and what the grasper holds: the body
+  /// (empty when open) and how many of its skin nodes.
+  Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
+  bool tip_touching = false;
+  std::string grasped_body;
+  int32_t grasped_nodes = 0;
   /// How many times the stepping thread found a lock held by a caller, and its longest wait, us.
   int64_t lock_waits = 0;
   double longest_lock_wait_us = 0.0;
@@ -140,6 +149,20 @@ class WorldLoop {
   /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a blade as dissect() does.
   void cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
            double reach_mm = 1.5);
+  /// The tool tip (a haptic device's or a headset controller's sphere; `tip.active` false lifts
+  /// it): every step it pushes each body it touches through that body's own haptic proxy and
+  /// coupling (interact::load_of_tip, as the one-organ loop's tip), the force on it the sum.
+  /// \note Throws lamina::Error (kInvalidInput), nothing changing, for a tip
+  ///   interact::tip_problem() refuses.
+  void set_tool_tip(const interact::ToolTip& tip);
+  /// The grasper: jaws given while it is open close on the body whose skin is nearest their
+  /// centre (every free skin node of it within jaws.radius_mm held, interact::close_jaws), on
+  /// the next step's shape; given again while closed they move what they hold; nullopt opens
+  /// them. A cut of the held body, or a reset, opens them.
+  /// \note Throws lamina::Error (kInvalidInput), nothing changing, for jaws that are not finite
+  ///   or a radius that is not positive, and, when closing, for no body's skin under the jaws
+  ///   (on the latest snapshot).
+  void set_grasper(const std::optional<interact::Jaws>& jaws);
   /// New rate (0 = as fast as possible). In real time every body's step becomes 1 / rate_hz.
   void set_rate(double rate_hz);
   void set_paused(bool paused);

@@ -1,0 +1,161 @@
+// The world loop's hands (world_loop.h): the tool tip a haptic device or a headset controller
+// drives, pushing every body it touches through that body's own haptic proxy, and the grasper,
+// whose jaws close on the body nearest them and hold its skin until opened. The callers' side
+// checks and queues; the stepping thread's moves them before each step.
+#include <limits>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "lamina/interact/grasp.h"
+#include "world_loop_impl.h"
+
+namespace lamina::world {
+
+void WorldLoop::set_tool_tip(const interact::ToolTip& tip) {
+  if (const auto p = interact::tip_problem(tip))
+    throw invalid_input("tool tip: " + p->key, p->problem);
+  std::lock_guard lock(impl_->mutex);
+  impl_->new_tip = tip;
+}
+
+void WorldLoop::set_grasper(const std::optional<interact::Jaws>& jaws) {
+  if (jaws) {
+    if (!(jaws->radius_mm > 0.0 && std::isfinite(jaws->radius_mm)))
+      throw invalid_input("grasper: radius_mm", "must be > 0 mm");
+    if (!jaws->center_mm.allFinite())
+      throw invalid_input("grasper", "the jaws' position is not finite");
+  }
+  Impl& m = *impl_;
+  std::lock_guard lock(m.mutex);
+  if (jaws && !m.jaws_closed) {
+    // Closing: some body's skin must be under the jaws now (they close on the next step's
+    // shape; if it has moved away by then, one line is logged and they stay open).
+    bool any = false;
+    {
+      std::lock_guard snap(m.snapshot_mutex);
+      for (const BodyView& b : m.published.bodies)
+        any = any || interact::anything_under_jaws(*b.model, b.x, *jaws);
+    }
+    if (!any)
+      throw invalid_input("grasper", fmt::format("nothing under the jaws: no body's skin within "
+                                                 "{} mm of [{:.1f}, {:.1f}, {:.1f}]",
+                                                 jaws->radius_mm, jaws->center_mm.x(),
+                                                 jaws->center_mm.y(), jaws->center_mm.z()));
+    m.new_close = *jaws;
+  }
+  m.jaws_closed = jaws.has_value();
+  m.new_jaws = jaws;
+}
+
+void WorldLoop::Impl::take_hands() {
+  if (new_tip) {
+    tip = *new_tip;
+    new_tip.reset();
+  }
+  if (new_close) {  // closed anew: whatever the jaws held before (an open not seen) goes
+    open_grasper();
+    close_at = *new_close;
+    new_close.reset();
+  }
+  if (new_jaws) {
+    jaws = *new_jaws;
+    new_jaws.reset();
+  }
+}
+
+// The tip's load on `b` moved from the last step's nodes to this step's: added to the forces
+// its tools hold (where the live forces are routed), rows of the last route taken off first.
+static void replace_tip_load(Body& b, interact::ForceRoute& last, interact::ForceRoute next) {
+  Eigen::MatrixX3d& held = b.tools.held_forces;
+  if (held.rows() == b.sim.x.rows())
+    for (size_t k = 0; k < last.nodes.size(); ++k)
+      held.row(last.nodes[k]) -= last.forces.row(static_cast<Eigen::Index>(k));
+  last = std::move(next);
+  if (last.nodes.empty()) return;
+  if (held.rows() != b.sim.x.rows()) held.setZero(b.sim.x.rows(), 3);
+  for (size_t k = 0; k < last.nodes.size(); ++k)
+    held.row(last.nodes[k]) += last.forces.row(static_cast<Eigen::Index>(k));
+}
+
+void WorldLoop::Impl::move_hands() {
+  tip_on.resize(world.bodies.size());
+  hands_reaction_mn.setZero();
+  for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
+    BodySlot& bs = world.bodies[slot];
+    TipOnBody& t = tip_on[slot];
+    if (!bs.alive) continue;
+    Body& b = bs.body;
+    if (!tip.active) {
+      if (!t.route.nodes.empty()) replace_tip_load(b, t.route, {});
+      t.proxy = {};  // placed afresh when the tip comes on again
+      continue;
+    }
+    replace_tip_load(b, t.route,
+                     interact::load_of_tip(*b.model, b.sim.x, tip, b.tools.routing, t.proxy));
+    hands_reaction_mn += t.proxy.device_force_mn;
+  }
+  if (!jaws) {
+    open_grasper();
+    close_at.reset();
+    return;
+  }
+  if (grasp_slot < 0) {
+    // The body whose skin is nearest the jaws' centre closes on them.
+    const interact::Jaws& at = close_at ? *close_at : *jaws;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
+      const BodySlot& bs = world.bodies[slot];
+      if (!bs.alive) continue;
+      const Eigen::MatrixX3d& x = bs.body.sim.x;
+      const int32_t skin = bs.body.model->layers[0].node_count;
+      const double d =
+          (x.topRows(skin).rowwise() - at.center_mm.transpose()).rowwise().squaredNorm().minCoeff();
+      if (d < nearest) {
+        nearest = d;
+        grasp_slot = static_cast<int32_t>(slot);
+      }
+    }
+    try {
+      interact::close_jaws(world.bodies[static_cast<size_t>(grasp_slot)].body.sim, at, grasp,
+                           "grasper");
+    } catch (const Error& e) {  // the skin moved away since set_grasper() checked: stay open
+      log::warn("{}", e.what());
+      grasp_slot = -1;
+      jaws.reset();
+      close_at.reset();
+      return;
+    }
+    close_at.reset();
+  }
+  sim::Simulation& held = world.bodies[static_cast<size_t>(grasp_slot)].body.sim;
+  interact::move_jaws(held, jaws->center_mm, grasp);
+  hands_reaction_mn += interact::grasp_reaction(held, grasp);
+}
+
+void WorldLoop::Impl::open_grasper() {
+  if (grasp_slot >= 0) {
+    BodySlot& bs = world.bodies[static_cast<size_t>(grasp_slot)];
+    if (bs.alive && !grasp.nodes.empty()) interact::open_jaws(bs.body.sim, grasp);
+  }
+  grasp = {};
+  grasp_slot = -1;
+}
+
+void WorldLoop::Impl::forget_tip(int32_t slot) {
+  if (static_cast<size_t>(slot) < tip_on.size()) tip_on[static_cast<size_t>(slot)] = {};
+}
+
+void WorldLoop::Impl::lend_grasp() {
+  if (grasp_slot >= 0 && !grasp.nodes.empty())
+    world.bodies[static_cast<size_t>(grasp_slot)].body.tools.grasps.push_back(std::move(grasp));
+}
+
+void WorldLoop::Impl::take_grasp_back() {
+  if (grasp_slot < 0) return;
+  std::vector<interact::Grasp>& g = world.bodies[static_cast<size_t>(grasp_slot)].body.tools.grasps;
+  if (g.empty()) return;
+  grasp = std::move(g.back());
+  g.pop_back();
+}
+
+}  // namespace lamina::world
