@@ -136,6 +136,35 @@ TEST_F(WorldViewTest, BothBodiesAndTheTiesAreDrawnAndADragDentsOneThatComesBackW
   EXPECT_EQ(r["unstable_events"], 0);
 }
 
+TEST_F(WorldViewTest, TheGrasperHoldsTheBodyPressedRetractsItWithTheDragAndLetsGo) {
+  // G, then a press on body a and a drag: its jaws close on the skin there (the world loop's
+  // grasper), the held skin follows them, release opens them and the body comes back.
+  auto s = tied_spheres();
+  s->start();
+  ASSERT_TRUE(simulate_for(*s, 0.1));
+  render::inject(InputEvent::key_down("g"));
+  render::inject(InputEvent::key_up("g"));
+  s->frame();
+  drag_from(*s, render::window_size().cast<double>() / 2.0, Eigen::Vector2d(0, -24.0));
+  EXPECT_THAT(s->last_press(), HasSubstr("grasp a node"));
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().grasped_body == "a"; }, 20.0))
+      << "the jaws never closed: " << s->last_press();
+  ASSERT_TRUE(simulate_for(*s, 1.0));
+  EXPECT_GT(s->snapshot().grasped_nodes, 0);
+  EXPECT_GT(moved(s->snapshot().bodies[0]), 2.0) << "the held skin did not follow the jaws";
+  EXPECT_GT(s->snapshot().hands_reaction_mn.norm(), 10.0) << "the grasper feels no pull";
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s->frame();
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().grasped_body.empty(); }, 20.0));
+  ASSERT_TRUE(simulate_for(*s, 4.0));
+  EXPECT_EQ(s->snapshot().unstable, sim::Instability::kNone);
+  EXPECT_LT(moved(s->snapshot().bodies[0]), 0.3) << "let go, body a did not come back";
+  s->finish();
+  EXPECT_EQ(s->report()["grasps"], 1);
+}
+
 TEST_F(WorldViewTest, ADissectionDragAcrossTheMeetingDividesTheTiesItPassesAndResetPutsThemBack) {
   auto s = tied_spheres();
   s->start();

@@ -151,6 +151,7 @@ void WorldViewSession::State::act_on_script(double t) {
     if (!e.mode.empty()) {
       dissect_mode = e.mode == "dissect";
       scalpel_mode = e.mode == "scalpel";
+      grasp_mode = e.mode == "grasp";
     }
     if (!e.screenshot.empty()) save_screenshot(e.screenshot, false);
     if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
@@ -183,8 +184,9 @@ void WorldViewSession::State::on_frame() {
 
 void WorldViewSession::State::handle_key(const std::string& key) {
   if (key == "r") {
-    loop->reset();
+    loop->reset();  // opens the grasper too
     unstable_seen = false;
+    grasp_held = false;
   } else if (key == "space") {
     paused = !paused;
     loop->set_paused(paused);
@@ -193,12 +195,17 @@ void WorldViewSession::State::handle_key(const std::string& key) {
     drag.reset();
     loop->clear_forces();
     sent.assign(sent.size(), {});
+    if (grasp_held) loop->set_grasper(std::nullopt);
+    grasp_held = false;
   } else if (key == "x") {
     dissect_mode = !dissect_mode;
-    scalpel_mode = false;
+    scalpel_mode = grasp_mode = false;
   } else if (key == "k") {
     scalpel_mode = !scalpel_mode;
-    dissect_mode = false;
+    dissect_mode = grasp_mode = false;
+  } else if (key == "g") {
+    grasp_mode = !grasp_mode;
+    dissect_mode = scalpel_mode = false;
   } else if (key == "s") {
     save_screenshot("", false);
   }
@@ -218,6 +225,8 @@ void WorldViewSession::State::start_left_gesture(const render::Input& in) {
     stroke.begin(ray, b >= 0 ? hit.distance_mm : (camera.target - ray.origin).norm());
     const char* what = scalpel_mode ? ": scalpel" : ": dissection";
     last_press = where + what + (b >= 0 ? " on " + snap.bodies[b].name : std::string());
+  } else if (b >= 0 && grasp_mode) {
+    start_grasp(snap.bodies[static_cast<size_t>(b)], hit.node, where);
   } else if (b >= 0) {
     const world::BodyView& body = snap.bodies[static_cast<size_t>(b)];
     gesture = Gesture::kDrag;
@@ -230,6 +239,25 @@ void WorldViewSession::State::start_left_gesture(const render::Input& in) {
     last_press = where + ": missed every body: orbit";
   }
   log::debug("lamina view: {}", last_press);
+}
+
+// The jaws close on the picked node and the skin around it; the drag moves them. A grasp still
+// holding (Shift-released) opens first: jaws given while closed would carry it to the new point.
+void WorldViewSession::State::start_grasp(const world::BodyView& body, int32_t node,
+                                          const std::string& where) {
+  if (grasp_held) loop->set_grasper(std::nullopt);
+  grasp_held = false;
+  grab_point = body.x.row(node).transpose();
+  try {
+    loop->set_grasper(
+        interact::Jaws{.center_mm = grab_point, .radius_mm = options.grasp_radius_mm});
+  } catch (const Error& e) {
+    last_press = where + ": " + e.what();
+    return;
+  }
+  gesture = Gesture::kGrasp;
+  ++grasps;
+  last_press = fmt::format("{}: grasp {} node {}", where, body.name, node);
 }
 
 void WorldViewSession::State::handle_mouse(const render::Input& in) {
@@ -262,6 +290,26 @@ void WorldViewSession::State::handle_mouse(const render::Input& in) {
         gesture = Gesture::kNone;
       }
       send_forces();
+      break;
+    }
+    case Gesture::kGrasp: {
+      // Retraction: the jaws follow the mouse in the plane facing the eye at the grasp point.
+      const Eigen::Vector2d d = in.mouse_px - press_pos;
+      try {
+        loop->set_grasper(interact::Jaws{
+            .center_mm =
+                grab_point + render::drag_in_view_plane(camera, size.y(), grab_point, d.x(), d.y()),
+            .radius_mm = options.grasp_radius_mm});
+      } catch (const Error& e) {  // a reset opened the jaws, and no skin is under them now
+        last_press = std::string("grasp: ") + e.what();
+        gesture = Gesture::kNone;
+        break;
+      }
+      if (!left_down) {
+        gesture = Gesture::kNone;
+        grasp_held = in.shift;  // Shift+release keeps holding, as it pins a drag
+        if (!grasp_held) loop->set_grasper(std::nullopt);
+      }
       break;
     }
     case Gesture::kDissect:

@@ -73,10 +73,19 @@ void WorldViewSession::State::panel() {
   if (ImGui::Button(paused ? "Resume (Space)" : "Pause (Space)")) handle_key("space");
   ImGui::SameLine();
   if (ImGui::Button("Release forces (C)")) handle_key("c");
-  if (ImGui::Checkbox("dissection (X): drag across the tissue between two organs", &dissect_mode))
-    scalpel_mode = scalpel_mode && !dissect_mode;
-  if (ImGui::Checkbox("scalpel (K): drag to cut the organs' tissue", &scalpel_mode))
-    dissect_mode = dissect_mode && !scalpel_mode;
+  // One mode at a time: the one ticked clears the others.
+  if (ImGui::Checkbox("dissection (X): drag across the tissue between two organs", &dissect_mode) &&
+      dissect_mode)
+    scalpel_mode = grasp_mode = false;
+  if (ImGui::Checkbox("scalpel (K): drag to cut the organs' tissue", &scalpel_mode) && scalpel_mode)
+    dissect_mode = grasp_mode = false;
+  if (ImGui::Checkbox("grasper (G): press on an organ and drag to retract it", &grasp_mode) &&
+      grasp_mode)
+    dissect_mode = scalpel_mode = false;
+  if (!snap.grasped_body.empty())
+    ImGui::Text("grasper: holds %d skin nodes of %s, pulls %.0f mN%s", snap.grasped_nodes,
+                snap.grasped_body.c_str(), snap.hands_reaction_mn.norm(),
+                grasp_held ? " (Shift-released: C opens it)" : "");
   if (scalpel_mode) {
     float depth = static_cast<float>(scalpel_depth_mm);
     if (ImGui::SliderFloat("scalpel depth, mm", &depth, 2.0f, 60.0f, "%.0f"))
@@ -186,6 +195,7 @@ nlohmann::json WorldViewSession::State::report() const {
         {"torn", snap.tie_count.torn},
         {"divided_by_strokes", snap.ties_divided_by_strokes}}},
       {"drags", drags},
+      {"grasps", grasps},
       {"strokes", strokes},
       {"cuts",
        {{"strokes", scalpel_strokes},

@@ -24,7 +24,8 @@ struct WorldViewSession::State {
   world::WorldSnapshot snap;
   ScriptPlayer script{{}};
   Clock::time_point start_time = Clock::now();
-  bool started = false, quit = false, paused = false, dissect_mode = false, scalpel_mode = false;
+  bool started = false, quit = false, paused = false, dissect_mode = false, scalpel_mode = false,
+       grasp_mode = false;
   // A scalpel drag (K) cuts the bodies' tissue this deep along the view direction, mm.
   double scalpel_depth_mm = 15.0;
   double rate_hz = 1000.0;
@@ -32,7 +33,7 @@ struct WorldViewSession::State {
   uint64_t shown_generation = ~uint64_t{0};
 
   // Gestures.
-  enum class Gesture { kNone, kOrbit, kPan, kDrag, kDissect, kScalpel };
+  enum class Gesture { kNone, kOrbit, kPan, kDrag, kDissect, kScalpel, kGrasp };
   Gesture gesture = Gesture::kNone;
   Eigen::Vector2d last_pos = Eigen::Vector2d::Zero(), press_pos = Eigen::Vector2d::Zero();
   // A force on a body: its handle and topology generation (what the loop checks), its node.
@@ -43,6 +44,10 @@ struct WorldViewSession::State {
   };
   std::optional<Force> drag;  // the drag in progress
   Eigen::Vector3d grab_point = Eigen::Vector3d::Zero();
+  // G: a press on a body closes the grasper's jaws there (world::WorldLoop::set_grasper), the
+  // drag carries them in the plane facing the eye, release opens them (Shift keeps them shut).
+  bool grasp_held = false;
+  int32_t grasps = 0;
   std::vector<Force> pinned;                           // Shift-released drags
   std::vector<std::vector<interact::LiveForce>> sent;  // per snapshot body: what the loop has
   std::vector<uint32_t> seen_topology;  // per snapshot body: its numbering the forces are on
@@ -75,6 +80,7 @@ struct WorldViewSession::State {
   void forget_renumbered();
   void dissect_along_stroke();
   void cut_along_stroke();
+  void start_grasp(const world::BodyView& body, int32_t node, const std::string& where);
   void watch(double t);  // real time, instability, the largest displacements
   void panel();          // world_view_panel.cpp
   void show();           // positions and overlays to the engine
