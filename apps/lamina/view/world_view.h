@@ -22,10 +22,12 @@ struct WorldViewOptions {
   double rate_hz = 1000.0;  ///< steps per wall second; 0 = as fast as possible
   /// Start at rate_hz and step at the highest rate the machine keeps (interact::next_rate()).
   bool auto_rate = false;
-  double gain_n_per_mm = 0.01;   ///< drag force per mm of drag
-  double grasp_radius_mm = 4.0;  ///< G: the grasper's jaws take the skin within this distance
-  std::string script;            ///< scripted input (docs/viewer.md); empty: none
-  std::string report;            ///< JSON report written when the session ends; empty: none
+  double gain_n_per_mm = 0.01;  ///< drag force per mm of drag
+  /// G: the grasper's jaws take the skin within this distance, or a mean skin edge and a half of
+  /// the body pressed if longer.
+  double grasp_radius_mm = 4.0;
+  std::string script;  ///< scripted input (docs/viewer.md); empty: none
+  std::string report;  ///< JSON report written when the session ends; empty: none
 };
 
 class WorldViewSession {

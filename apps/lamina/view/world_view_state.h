@@ -48,6 +48,7 @@ struct WorldViewSession::State {
   // drag carries them in the plane facing the eye, release opens them (Shift keeps them shut).
   bool grasp_held = false;
   int32_t grasps = 0;
+  double grasp_radius_mm = 4.0;                        // the jaws' reach on the body pressed
   std::vector<Force> pinned;                           // Shift-released drags
   std::vector<std::vector<interact::LiveForce>> sent;  // per snapshot body: what the loop has
   std::vector<uint32_t> seen_topology;  // per snapshot body: its numbering the forces are on
