@@ -168,7 +168,290 @@ py::dict run_dict(const PySimulation& p, const interact::ToolRun& run, const Pea
 
 }  // namespace
 
-void bind_simulation(py::module_& m) {
+// The boundary: fixed, held, released and supported nodes.
+static void bind_simulation_tools(py::class_<PySimulation>& simulation) {
+  simulation
+      .def(
+          "fix_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n) {
+            sim::fix_nodes(p.sim, nodes_of(n));
+          },
+          py::arg("nodes"), "Holds these nodes at their rest positions from now on.")
+      .def(
+          "hold_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n, const Eigen::MatrixX3d& x) {
+            sim::hold_nodes(p.sim, nodes_of(n), x);
+          },
+          py::arg("nodes"), py::arg("positions_mm"),
+          "Holds these nodes at (len(nodes), 3) positions, mm.")
+      .def(
+          "release_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n) {
+            sim::release_nodes(p.sim, nodes_of(n));
+          },
+          py::arg("nodes"), "Lets held or fixed nodes move again.")
+      .def(
+          "support_nodes",
+          [](PySimulation& p, const std::vector<int64_t>& n, const std::vector<double>& k) {
+            sim::support_nodes(p.sim, nodes_of(n), k);
+          },
+          py::arg("nodes"), py::arg("stiffness_n_per_m"),
+          "Ties each node to its rest position by a spring, N/m.");
+}
+
+// The tools: forces and graspers on the skin, lifted, and the step they act in.
+static void bind_simulation_tool_list(py::class_<PySimulation>& simulation) {
+  simulation
+      .def(
+          "add_tool",
+          [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
+             std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
+             std::optional<double> start_s, double end_s, double radius_mm) {
+            if (point_mm.has_value() == vertex.has_value())
+              throw invalid_input("add_tool", "give exactly one of point_mm and vertex");
+            if (!force_mn.allFinite()) throw invalid_input("add_tool: force_mn", "is not finite");
+            if (!(radius_mm >= 0.0 && std::isfinite(radius_mm)))
+              throw invalid_input("add_tool: radius_mm",
+                                  fmt::format("must be >= 0 mm, got {}", radius_mm));
+            interact::Tool t;
+            t.by_point = point_mm.has_value();
+            if (point_mm) t.point_mm = *point_mm;
+            if (vertex) t.vertex = *vertex;
+            t.force_mn = force_mn;
+            t.start_s = start_s.value_or(p.sim.time_s);
+            t.end_s = end_s;
+            t.radius_mm = radius_mm;
+            p.driver.tools.push_back(t);
+            return p.driver.tools.size() - 1;
+          },
+          py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
+          py::arg("force_mn"), py::arg("start_s") = py::none(),
+          py::arg("end_s") = std::numeric_limits<double>::infinity(),
+          py::arg("radius_mm") = interact::kDefaultPatchRadiusMm,
+          "A tool: touches the skin nearest point_mm (or skin node `vertex`) and pushes with\n"
+          "force_mn (mN, 3 values) from start_s (default: now) until end_s. Without routing\n"
+          "(the physical tissue's default) the force is spread over the skin within radius_mm\n"
+          "of the contact, and the tissue's load is exactly the force; with routing='paper' it\n"
+          "is routed over the contact's rings and the layers behind it. Returns its index.")
+      .def(
+          "add_grasp",
+          [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
+             std::optional<int32_t> vertex, const Eigen::Vector3d& pull_mm, double pull_s,
+             std::optional<double> start_s, double end_s, double radius_mm) {
+            if (point_mm.has_value() == vertex.has_value())
+              throw invalid_input("add_grasp", "give exactly one of point_mm and vertex");
+            if (!pull_mm.allFinite()) throw invalid_input("add_grasp: pull_mm", "is not finite");
+            if (!(pull_s > 0.0 && std::isfinite(pull_s)))
+              throw invalid_input("add_grasp: pull_s",
+                                  fmt::format("must be > 0 s, got {}", pull_s));
+            if (!(radius_mm > 0.0 && std::isfinite(radius_mm)))
+              throw invalid_input("add_grasp: radius_mm",
+                                  fmt::format("must be > 0 mm, got {}", radius_mm));
+            interact::Tool t;
+            t.by_point = point_mm.has_value();
+            if (point_mm) t.point_mm = *point_mm;
+            if (vertex) t.vertex = *vertex;
+            t.start_s = start_s.value_or(p.sim.time_s);
+            t.end_s = end_s;
+            t.radius_mm = radius_mm;
+            t.grasp = true;
+            t.pull_mm = pull_mm;
+            t.pull_s = pull_s;
+            p.driver.tools.push_back(t);
+            return p.driver.tools.size() - 1;
+          },
+          py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
+          py::arg("pull_mm") = Eigen::Vector3d::Zero(), py::arg("pull_s") = 1.0,
+          py::arg("start_s") = py::none(),
+          py::arg("end_s") = std::numeric_limits<double>::infinity(), py::arg("radius_mm") = 4.0,
+          "A grasper: from start_s (default: now) its jaws hold every free skin node within\n"
+          "radius_mm of point_mm (or of skin node `vertex`), move by pull_mm (mm) over pull_s\n"
+          "and hold there, and let go at end_s. With nothing under the jaws the step that closes\n"
+          "them raises lamina.Error. reaction_force_mn() includes its pull. Returns its index.")
+      .def(
+          "clear_tools",
+          [](PySimulation& p) {
+            for (interact::Grasp& g : p.driver.grasps) interact::open_jaws(p.sim, g);
+            p.driver.tools.clear();
+            p.driver.routes.clear();
+            p.driver.active.clear();
+            p.driver.grasps.clear();
+          },
+          "Lifts every tool off (graspers let go).")
+      .def_property_readonly("tool_count",
+                             [](const PySimulation& p) { return p.driver.tools.size(); })
+      .def("step", &step_n, py::arg("steps") = 1,
+           "Takes `steps` steps with the tools and raw forces; returns the last StepStats.");
+}
+
+// Serving, and running to rest.
+static void bind_simulation_runs(py::class_<PySimulation>& simulation) {
+  simulation
+      .def(
+          "serve",
+          [](const PySimulation& p, const py::kwargs& kwargs) {
+            const net::ServeOptions o = serve_options(kwargs);
+            const std::string source = p.scene.empty() ? "a Python simulation" : p.scene;
+            // Listening first, as `lamina serve` does: a port in use fails before anything.
+            net::Listening listening(o, /*igtl=*/true);
+            if (listening.web_url().size()) py::print("the page is at", listening.web_url());
+            sim::Simulation copy = p.sim;  // served from its state now; this one is unchanged
+            return serve_until_interrupted([&](const net::KeepGoing& keep_going) {
+              return net::serve_organ(listening, std::move(copy), p.model, p.driver.routing, o,
+                                      source, keep_going);
+            });
+          },
+          "Serves a copy of the simulation in its state now, in real time, as `lamina serve`\n"
+          "does (docs/openigtlink.md, docs/web.md): 3D Slicer's OpenIGTLink on `port`, and\n"
+          "with web=True the page for a browser or headset on `web_port`, its address\n"
+          "printed. Keywords are lamina serve's options (port, web, web_port, web_host,\n"
+          "duration_s, rate_hz, auto_rate, send_hz, max_force_n, self_signed, ...:\n"
+          "docs/python.md). Runs until duration_s (0: until Ctrl-C, then\n"
+          "KeyboardInterrupt). Returns 0, or 5 when the simulation blew up (each blow-up is\n"
+          "logged and the organ reset). This simulation is not stepped; its tools are not\n"
+          "used (the clients drive the tool).")
+      .def(
+          "run",
+          [](PySimulation& p, double until_s, bool stop_at_rest, bool record) {
+            interact::ToolRun run;
+            Peaks peaks;
+            // record: one row per step, gathered here and handed to numpy as arrays.
+            std::vector<double> t, disp, vol, energy;
+            std::vector<Eigen::Vector3d> reaction;
+            {
+              py::gil_scoped_release release;
+              run = interact::run_tools(
+                  p.sim, p.driver, until_s, stop_at_rest,
+                  [&](const sim::Simulation& s, const interact::ToolDriver& d,
+                      const sim::StepStats& st) {
+                    peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
+                    peaks.abs_volume_change_pct =
+                        std::max(peaks.abs_volume_change_pct, std::abs(st.volume_change_pct));
+                    const Eigen::Vector3d r = interact::tools_reaction(s, d);
+                    peaks.reaction_mn = std::max(peaks.reaction_mn, r.norm());
+                    if (!record) return;
+                    t.push_back(s.time_s);
+                    disp.push_back(st.max_displacement_mm);
+                    vol.push_back(st.volume_change_pct);
+                    energy.push_back(st.kinetic_energy_j);
+                    reaction.push_back(r);
+                  });
+            }
+            p.last = run.last;
+            throw_if_unstable(p, "run");
+            py::dict d = run_dict(p, run, peaks);
+            if (record) {
+              py::dict metrics;
+              metrics["time_s"] = py::array_t<double>(t.size(), t.data());
+              metrics["max_displacement_mm"] = py::array_t<double>(disp.size(), disp.data());
+              metrics["volume_change_pct"] = py::array_t<double>(vol.size(), vol.data());
+              metrics["kinetic_energy_j"] = py::array_t<double>(energy.size(), energy.data());
+              py::array_t<double> r({static_cast<py::ssize_t>(reaction.size()), py::ssize_t{3}});
+              auto rw = r.mutable_unchecked<2>();
+              for (size_t k = 0; k < reaction.size(); ++k)
+                for (int c = 0; c < 3; ++c) rw(k, c) = reaction[k][c];
+              metrics["reaction_mn"] = r;
+              d["metrics"] = metrics;
+            }
+            return d;
+          },
+          py::arg("until_s") = std::numeric_limits<double>::infinity(),
+          py::arg("stop_at_rest") = true, py::arg("record") = false,
+          "Steps until every tool has ended and the model has rested for 0.1 s (stop_at_rest),\n"
+          "or until simulated time until_s or the solver's max_steps. Returns a dict: steps,\n"
+          "converged, time_s, max_displacement_mm and volume_change_pct (the last step's),\n"
+          "recoveries, and over the run peak_displacement_mm, peak_abs_volume_change_pct and\n"
+          "max_reaction_mn. record=True adds 'metrics': per-step numpy arrays time_s,\n"
+          "max_displacement_mm, volume_change_pct, kinetic_energy_j (steps,) and reaction_mn\n"
+          "(steps, 3), as lamina run's metrics.csv.");
+}
+
+// The reaction on the tools, a cut, a reset.
+static void bind_simulation_changes(py::class_<PySimulation>& simulation) {
+  simulation
+      .def(
+          "reaction_force_mn",
+          [](const PySimulation& p) {
+            return Eigen::Vector3d(interact::tools_reaction(p.sim, p.driver));
+          },
+          "the tissue's push back on the tools in the last step, mN (3 values)")
+      .def(
+          "cut",
+          [](PySimulation& p, const std::vector<Eigen::Vector3d>& path, double depth_mm,
+             const Eigen::Vector3d& direction) {
+            std::shared_ptr<const Model> model = p.model;
+            sim::Simulation work = p.sim;
+            interact::ToolDriver driver = p.driver;
+            std::vector<int32_t> origin;
+            model::CutReport r;
+            {
+              py::gil_scoped_release release;
+              r = interact::cut_now(model, work, driver, path, direction, depth_mm, origin);
+            }
+            if (r.cut_tets > 0) {
+              p.retired.push_back({p.model, std::make_unique<sim::Simulation>(std::move(p.sim)),
+                                   std::move(p.driver)});
+              p.sim = std::move(work);
+              p.driver = std::move(driver);
+              p.model = std::const_pointer_cast<Model>(model);
+              // A buffer for the wound, which the cut adds (the others' buffers move with their
+              // matrices: views taken before stay valid).
+              p.embedded_x.resize(p.model->embedded.size());
+            }
+            py::dict d;
+            d["cut_tets"] = r.cut_tets;
+            d["partly_cut_tets"] = r.partly_cut_tets;
+            d["new_nodes"] = r.new_nodes;
+            py::list pieces;
+            for (const model::CutPiece& q : r.pieces) {
+              py::dict pd;
+              pd["volume_ml"] = q.volume_mm3 / 1000.0;
+              pd["mass_g"] = q.mass_kg * 1000.0;
+              pd["tets"] = q.tets;
+              pd["nodes"] = q.nodes;
+              pieces.append(pd);
+            }
+            d["pieces"] = pieces;
+            py::list crossed;
+            for (const model::StructureCut& c : r.structures_cut) {
+              py::dict cd;
+              cd["name"] = c.name;
+              cd["role"] = std::string(role_name(c.role));
+              cd["label"] = c.label;
+              cd["position_mm"] = Eigen::Vector3d(c.position_mm);
+              cd["diameter_mm"] = c.diameter_mm;
+              cd["area_mm2"] = c.area_mm2;
+              cd["closed"] = c.closed;
+              crossed.append(cd);
+            }
+            d["structures_cut"] = crossed;
+            d["origin"] =
+                py::array_t<int32_t>(static_cast<py::ssize_t>(origin.size()), origin.data());
+            return d;
+          },
+          py::arg("path"), py::arg("depth_mm"), py::arg("direction"),
+          "Cuts the model at once with a scalpel drawn at the current positions: its blade's\n"
+          "upper end along `path` ((k, 3) mm, k >= 2), reaching depth_mm along `direction` (into\n"
+          "the tissue). The tetrahedra the blade divides become two copies each (the virtual\n"
+          "node algorithm): the model, x, v and f_ext then have more nodes (arrays taken before\n"
+          "show the state before the cut; take them again), the tools act on the copies.\n"
+          "Returns a dict: cut_tets, partly_cut_tets, new_nodes, pieces (volume_ml, mass_g, tets,\n"
+          "nodes; largest first), structures_cut (name, label, position_mm, diameter_mm,\n"
+          "area_mm2, closed: each embedded vessel or tumour cut across) and origin (the node\n"
+          "before the cut each node came from). Raises lamina.Error for a bad path, depth or\n"
+          "direction, or a model without tetrahedra; nothing changes then.")
+      .def(
+          "reset",
+          [](PySimulation& p) {
+            sim::reset(p.sim);
+            p.last = {};
+          },
+          "Every node back at rest, time 0; parameters, fixed nodes and tools kept.")
+      .def_property_readonly("scene", [](const PySimulation& p) { return p.scene; });
+}
+
+// What one step measured.
+static void bind_step_stats(py::module_& m) {
   py::class_<sim::StepStats>(m, "StepStats", "What one step measured (mm, mm/s, J, us)")
       .def_readonly("max_move_mm", &sim::StepStats::max_move_mm)
       .def_readonly("max_speed_mm_per_s", &sim::StepStats::max_speed_mm_per_s)
@@ -197,13 +480,54 @@ void bind_simulation(py::module_& m) {
                " volume_change_pct=" + std::to_string(s.volume_change_pct) +
                (s.converged ? " at rest>" : ">");
       });
+}
 
-  py::class_<PySimulation>(
+// The module's functions that make and run simulations from scenes.
+static void bind_scene_functions(py::module_& m) {
+  m.def(
+      "scene_simulation",
+      [](const py::object& what, bool paper) {
+        // A dict is a scene file's content (docs/scenes.md), paths in it as the caller's.
+        io::Scene scene =
+            py::isinstance<py::dict>(what)
+                ? io::parse_scene(
+                      py::module_::import("json").attr("dumps")(what).cast<std::string>(),
+                      "scene dict")
+                : io::scene_for(what.cast<std::string>(), paper);
+        io::ReadyScene ready = [&] {
+          py::gil_scoped_release release;
+          return io::make_ready_scene(scene);
+        }();
+        auto p = std::make_unique<PySimulation>(PySimulation{
+            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source, {}, {}});
+        p->driver = io::make_tool_driver(ready.scene);
+        wire(*p);
+        return p;
+      },
+      py::arg("scene") = "phantom", py::kw_only(), py::arg("paper") = false,
+      "A simulation set up as `lamina run SCENE` sets it up: SCENE is a scene .json, a .vtu\n"
+      "model, a mask or 'phantom' (the default scene: the physical liver, held at its back,\n"
+      "one 0.4 N poke for 1 s), or a dict with a scene file's keys (docs/scenes.md). The\n"
+      "scene's tools are loaded; run() plays them.");
+
+  m.def(
+      "nodes_near_plane",
+      [](const Model& model, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+         double distance_mm) { return sim::nodes_near_plane(model, point, normal, distance_mm); },
+      py::arg("model"), py::arg("point_mm"), py::arg("normal"), py::arg("distance_mm"),
+      "Nodes within distance_mm of the plane through point_mm with this normal.");
+}
+
+void bind_simulation(py::module_& m) {
+  bind_step_stats(m);
+
+  py::class_<PySimulation> simulation(
       m, "Simulation",
       "Dynamics of a model: m x'' + gamma x' + f_internal(x) = f_ext.\n"
       "x, v, f_ext are (nodes, 3) float64 numpy views of the simulation's own\n"
       "memory (no copy): write them between steps. f_ext holds raw forces, mN;\n"
-      "tools add their routed forces to them during each step.")
+      "tools add their routed forces to them during each step.");
+  simulation
       .def(py::init([](std::shared_ptr<Model> model, double stiffness_n_per_m,
                        double damping_kg_per_s, double mass_damping_per_s, double node_mass_kg,
                        double anchor_stiffness_n_per_m, double volume_stiffness_kpa,
@@ -324,302 +648,12 @@ void bind_simulation(py::module_& m) {
               if (p.sim.fixed()[i]) out.push_back(static_cast<int32_t>(i));
             return out;
           },
-          "indices of the nodes held where they are")
-      .def(
-          "fix_nodes",
-          [](PySimulation& p, const std::vector<int64_t>& n) {
-            sim::fix_nodes(p.sim, nodes_of(n));
-          },
-          py::arg("nodes"), "Holds these nodes at their rest positions from now on.")
-      .def(
-          "hold_nodes",
-          [](PySimulation& p, const std::vector<int64_t>& n, const Eigen::MatrixX3d& x) {
-            sim::hold_nodes(p.sim, nodes_of(n), x);
-          },
-          py::arg("nodes"), py::arg("positions_mm"),
-          "Holds these nodes at (len(nodes), 3) positions, mm.")
-      .def(
-          "release_nodes",
-          [](PySimulation& p, const std::vector<int64_t>& n) {
-            sim::release_nodes(p.sim, nodes_of(n));
-          },
-          py::arg("nodes"), "Lets held or fixed nodes move again.")
-      .def(
-          "support_nodes",
-          [](PySimulation& p, const std::vector<int64_t>& n, const std::vector<double>& k) {
-            sim::support_nodes(p.sim, nodes_of(n), k);
-          },
-          py::arg("nodes"), py::arg("stiffness_n_per_m"),
-          "Ties each node to its rest position by a spring, N/m.")
-      .def(
-          "add_tool",
-          [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
-             std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
-             std::optional<double> start_s, double end_s, double radius_mm) {
-            if (point_mm.has_value() == vertex.has_value())
-              throw invalid_input("add_tool", "give exactly one of point_mm and vertex");
-            if (!force_mn.allFinite()) throw invalid_input("add_tool: force_mn", "is not finite");
-            if (!(radius_mm >= 0.0 && std::isfinite(radius_mm)))
-              throw invalid_input("add_tool: radius_mm",
-                                  fmt::format("must be >= 0 mm, got {}", radius_mm));
-            interact::Tool t;
-            t.by_point = point_mm.has_value();
-            if (point_mm) t.point_mm = *point_mm;
-            if (vertex) t.vertex = *vertex;
-            t.force_mn = force_mn;
-            t.start_s = start_s.value_or(p.sim.time_s);
-            t.end_s = end_s;
-            t.radius_mm = radius_mm;
-            p.driver.tools.push_back(t);
-            return p.driver.tools.size() - 1;
-          },
-          py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
-          py::arg("force_mn"), py::arg("start_s") = py::none(),
-          py::arg("end_s") = std::numeric_limits<double>::infinity(),
-          py::arg("radius_mm") = interact::kDefaultPatchRadiusMm,
-          "A tool: touches the skin nearest point_mm (or skin node `vertex`) and pushes with\n"
-          "force_mn (mN, 3 values) from start_s (default: now) until end_s. Without routing\n"
-          "(the physical tissue's default) the force is spread over the skin within radius_mm\n"
-          "of the contact, and the tissue's load is exactly the force; with routing='paper' it\n"
-          "is routed over the contact's rings and the layers behind it. Returns its index.")
-      .def(
-          "add_grasp",
-          [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
-             std::optional<int32_t> vertex, const Eigen::Vector3d& pull_mm, double pull_s,
-             std::optional<double> start_s, double end_s, double radius_mm) {
-            if (point_mm.has_value() == vertex.has_value())
-              throw invalid_input("add_grasp", "give exactly one of point_mm and vertex");
-            if (!pull_mm.allFinite()) throw invalid_input("add_grasp: pull_mm", "is not finite");
-            if (!(pull_s > 0.0 && std::isfinite(pull_s)))
-              throw invalid_input("add_grasp: pull_s",
-                                  fmt::format("must be > 0 s, got {}", pull_s));
-            if (!(radius_mm > 0.0 && std::isfinite(radius_mm)))
-              throw invalid_input("add_grasp: radius_mm",
-                                  fmt::format("must be > 0 mm, got {}", radius_mm));
-            interact::Tool t;
-            t.by_point = point_mm.has_value();
-            if (point_mm) t.point_mm = *point_mm;
-            if (vertex) t.vertex = *vertex;
-            t.start_s = start_s.value_or(p.sim.time_s);
-            t.end_s = end_s;
-            t.radius_mm = radius_mm;
-            t.grasp = true;
-            t.pull_mm = pull_mm;
-            t.pull_s = pull_s;
-            p.driver.tools.push_back(t);
-            return p.driver.tools.size() - 1;
-          },
-          py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
-          py::arg("pull_mm") = Eigen::Vector3d::Zero(), py::arg("pull_s") = 1.0,
-          py::arg("start_s") = py::none(),
-          py::arg("end_s") = std::numeric_limits<double>::infinity(), py::arg("radius_mm") = 4.0,
-          "A grasper: from start_s (default: now) its jaws hold every free skin node within\n"
-          "radius_mm of point_mm (or of skin node `vertex`), move by pull_mm (mm) over pull_s\n"
-          "and hold there, and let go at end_s. With nothing under the jaws the step that closes\n"
-          "them raises lamina.Error. reaction_force_mn() includes its pull. Returns its index.")
-      .def(
-          "clear_tools",
-          [](PySimulation& p) {
-            for (interact::Grasp& g : p.driver.grasps) interact::open_jaws(p.sim, g);
-            p.driver.tools.clear();
-            p.driver.routes.clear();
-            p.driver.active.clear();
-            p.driver.grasps.clear();
-          },
-          "Lifts every tool off (graspers let go).")
-      .def_property_readonly("tool_count",
-                             [](const PySimulation& p) { return p.driver.tools.size(); })
-      .def("step", &step_n, py::arg("steps") = 1,
-           "Takes `steps` steps with the tools and raw forces; returns the last StepStats.")
-      .def(
-          "serve",
-          [](const PySimulation& p, const py::kwargs& kwargs) {
-            const net::ServeOptions o = serve_options(kwargs);
-            const std::string source = p.scene.empty() ? "a Python simulation" : p.scene;
-            // Listening first, as `lamina serve` does: a port in use fails before anything.
-            net::Listening listening(o, /*igtl=*/true);
-            if (listening.web_url().size()) py::print("the page is at", listening.web_url());
-            sim::Simulation copy = p.sim;  // served from its state now; this one is unchanged
-            return serve_until_interrupted([&](const net::KeepGoing& keep_going) {
-              return net::serve_organ(listening, std::move(copy), p.model, p.driver.routing, o,
-                                      source, keep_going);
-            });
-          },
-          "Serves a copy of the simulation in its state now, in real time, as `lamina serve`\n"
-          "does (docs/openigtlink.md, docs/web.md): 3D Slicer's OpenIGTLink on `port`, and\n"
-          "with web=True the page for a browser or headset on `web_port`, its address\n"
-          "printed. Keywords are lamina serve's options (port, web, web_port, web_host,\n"
-          "duration_s, rate_hz, auto_rate, send_hz, max_force_n, self_signed, ...:\n"
-          "docs/python.md). Runs until duration_s (0: until Ctrl-C, then\n"
-          "KeyboardInterrupt). Returns 0, or 5 when the simulation blew up (each blow-up is\n"
-          "logged and the organ reset). This simulation is not stepped; its tools are not\n"
-          "used (the clients drive the tool).")
-      .def(
-          "run",
-          [](PySimulation& p, double until_s, bool stop_at_rest, bool record) {
-            interact::ToolRun run;
-            Peaks peaks;
-            // record: one row per step, gathered here and handed to numpy as arrays.
-            std::vector<double> t, disp, vol, energy;
-            std::vector<Eigen::Vector3d> reaction;
-            {
-              py::gil_scoped_release release;
-              run = interact::run_tools(
-                  p.sim, p.driver, until_s, stop_at_rest,
-                  [&](const sim::Simulation& s, const interact::ToolDriver& d,
-                      const sim::StepStats& st) {
-                    peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
-                    peaks.abs_volume_change_pct =
-                        std::max(peaks.abs_volume_change_pct, std::abs(st.volume_change_pct));
-                    const Eigen::Vector3d r = interact::tools_reaction(s, d);
-                    peaks.reaction_mn = std::max(peaks.reaction_mn, r.norm());
-                    if (!record) return;
-                    t.push_back(s.time_s);
-                    disp.push_back(st.max_displacement_mm);
-                    vol.push_back(st.volume_change_pct);
-                    energy.push_back(st.kinetic_energy_j);
-                    reaction.push_back(r);
-                  });
-            }
-            p.last = run.last;
-            throw_if_unstable(p, "run");
-            py::dict d = run_dict(p, run, peaks);
-            if (record) {
-              py::dict metrics;
-              metrics["time_s"] = py::array_t<double>(t.size(), t.data());
-              metrics["max_displacement_mm"] = py::array_t<double>(disp.size(), disp.data());
-              metrics["volume_change_pct"] = py::array_t<double>(vol.size(), vol.data());
-              metrics["kinetic_energy_j"] = py::array_t<double>(energy.size(), energy.data());
-              py::array_t<double> r({static_cast<py::ssize_t>(reaction.size()), py::ssize_t{3}});
-              auto rw = r.mutable_unchecked<2>();
-              for (size_t k = 0; k < reaction.size(); ++k)
-                for (int c = 0; c < 3; ++c) rw(k, c) = reaction[k][c];
-              metrics["reaction_mn"] = r;
-              d["metrics"] = metrics;
-            }
-            return d;
-          },
-          py::arg("until_s") = std::numeric_limits<double>::infinity(),
-          py::arg("stop_at_rest") = true, py::arg("record") = false,
-          "Steps until every tool has ended and the model has rested for 0.1 s (stop_at_rest),\n"
-          "or until simulated time until_s or the solver's max_steps. Returns a dict: steps,\n"
-          "converged, time_s, max_displacement_mm and volume_change_pct (the last step's),\n"
-          "recoveries, and over the run peak_displacement_mm, peak_abs_volume_change_pct and\n"
-          "max_reaction_mn. record=True adds 'metrics': per-step numpy arrays time_s,\n"
-          "max_displacement_mm, volume_change_pct, kinetic_energy_j (steps,) and reaction_mn\n"
-          "(steps, 3), as lamina run's metrics.csv.")
-      .def(
-          "reaction_force_mn",
-          [](const PySimulation& p) {
-            return Eigen::Vector3d(interact::tools_reaction(p.sim, p.driver));
-          },
-          "the tissue's push back on the tools in the last step, mN (3 values)")
-      .def(
-          "cut",
-          [](PySimulation& p, const std::vector<Eigen::Vector3d>& path, double depth_mm,
-             const Eigen::Vector3d& direction) {
-            std::shared_ptr<const Model> model = p.model;
-            sim::Simulation work = p.sim;
-            interact::ToolDriver driver = p.driver;
-            std::vector<int32_t> origin;
-            model::CutReport r;
-            {
-              py::gil_scoped_release release;
-              r = interact::cut_now(model, work, driver, path, direction, depth_mm, origin);
-            }
-            if (r.cut_tets > 0) {
-              p.retired.push_back({p.model, std::make_unique<sim::Simulation>(std::move(p.sim)),
-                                   std::move(p.driver)});
-              p.sim = std::move(work);
-              p.driver = std::move(driver);
-              p.model = std::const_pointer_cast<Model>(model);
-              // A buffer for the wound, which the cut adds (the others' buffers move with their
-              // matrices: views taken before stay valid).
-              p.embedded_x.resize(p.model->embedded.size());
-            }
-            py::dict d;
-            d["cut_tets"] = r.cut_tets;
-            d["partly_cut_tets"] = r.partly_cut_tets;
-            d["new_nodes"] = r.new_nodes;
-            py::list pieces;
-            for (const model::CutPiece& q : r.pieces) {
-              py::dict pd;
-              pd["volume_ml"] = q.volume_mm3 / 1000.0;
-              pd["mass_g"] = q.mass_kg * 1000.0;
-              pd["tets"] = q.tets;
-              pd["nodes"] = q.nodes;
-              pieces.append(pd);
-            }
-            d["pieces"] = pieces;
-            py::list crossed;
-            for (const model::StructureCut& c : r.structures_cut) {
-              py::dict cd;
-              cd["name"] = c.name;
-              cd["role"] = std::string(role_name(c.role));
-              cd["label"] = c.label;
-              cd["position_mm"] = Eigen::Vector3d(c.position_mm);
-              cd["diameter_mm"] = c.diameter_mm;
-              cd["area_mm2"] = c.area_mm2;
-              cd["closed"] = c.closed;
-              crossed.append(cd);
-            }
-            d["structures_cut"] = crossed;
-            d["origin"] =
-                py::array_t<int32_t>(static_cast<py::ssize_t>(origin.size()), origin.data());
-            return d;
-          },
-          py::arg("path"), py::arg("depth_mm"), py::arg("direction"),
-          "Cuts the model at once with a scalpel drawn at the current positions: its blade's\n"
-          "upper end along `path` ((k, 3) mm, k >= 2), reaching depth_mm along `direction` (into\n"
-          "the tissue). The tetrahedra the blade divides become two copies each (the virtual\n"
-          "node algorithm): the model, x, v and f_ext then have more nodes (arrays taken before\n"
-          "show the state before the cut; take them again), the tools act on the copies.\n"
-          "Returns a dict: cut_tets, partly_cut_tets, new_nodes, pieces (volume_ml, mass_g, tets,\n"
-          "nodes; largest first), structures_cut (name, label, position_mm, diameter_mm,\n"
-          "area_mm2, closed: each embedded vessel or tumour cut across) and origin (the node\n"
-          "before the cut each node came from). Raises lamina.Error for a bad path, depth or\n"
-          "direction, or a model without tetrahedra; nothing changes then.")
-      .def(
-          "reset",
-          [](PySimulation& p) {
-            sim::reset(p.sim);
-            p.last = {};
-          },
-          "Every node back at rest, time 0; parameters, fixed nodes and tools kept.")
-      .def_property_readonly("scene", [](const PySimulation& p) { return p.scene; });
-
-  m.def(
-      "scene_simulation",
-      [](const py::object& what, bool paper) {
-        // A dict is a scene file's content (docs/scenes.md), paths in it as the caller's.
-        io::Scene scene =
-            py::isinstance<py::dict>(what)
-                ? io::parse_scene(
-                      py::module_::import("json").attr("dumps")(what).cast<std::string>(),
-                      "scene dict")
-                : io::scene_for(what.cast<std::string>(), paper);
-        io::ReadyScene ready = [&] {
-          py::gil_scoped_release release;
-          return io::make_ready_scene(scene);
-        }();
-        auto p = std::make_unique<PySimulation>(PySimulation{
-            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source, {}, {}});
-        p->driver = io::make_tool_driver(ready.scene);
-        wire(*p);
-        return p;
-      },
-      py::arg("scene") = "phantom", py::kw_only(), py::arg("paper") = false,
-      "A simulation set up as `lamina run SCENE` sets it up: SCENE is a scene .json, a .vtu\n"
-      "model, a mask or 'phantom' (the default scene: the physical liver, held at its back,\n"
-      "one 0.4 N poke for 1 s), or a dict with a scene file's keys (docs/scenes.md). The\n"
-      "scene's tools are loaded; run() plays them.");
-
-  m.def(
-      "nodes_near_plane",
-      [](const Model& model, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
-         double distance_mm) { return sim::nodes_near_plane(model, point, normal, distance_mm); },
-      py::arg("model"), py::arg("point_mm"), py::arg("normal"), py::arg("distance_mm"),
-      "Nodes within distance_mm of the plane through point_mm with this normal.");
+          "indices of the nodes held where they are");
+  bind_simulation_tools(simulation);
+  bind_simulation_tool_list(simulation);
+  bind_simulation_runs(simulation);
+  bind_simulation_changes(simulation);
+  bind_scene_functions(m);
 }
 
 }  // namespace lamina::python

@@ -86,12 +86,52 @@ py::dict stats_dict(const PyWorld& w) {
   return out;
 }
 
-}  // namespace
-
-void bind_world(py::module_& m) {
-  py::class_<PyWorld>(m, "World",
-                      "Several organs stepped in one world: contact, attachments, dissections\n"
-                      "(docs/world.md). Made by lamina.world_scene().")
+// World.cut (a scalpel through every body it passes, the views taken before kept valid) and
+// World.serve (the scene's world on the web page).
+static void bind_world_cut_and_serve(py::class_<PyWorld>& world) {
+  world
+      .def(
+          "cut",
+          [](PyWorld& w, const std::vector<Eigen::Vector3d>& path, double depth_mm,
+             const Eigen::Vector3d& direction) {
+            world::World& world = w.ready->world;
+            world::WorldCut c;
+            {
+              py::gil_scoped_release release;
+              world::check_stroke("cut", path, direction, depth_mm, 1.5);  // before any copy
+              // Every body's buffers kept for the views taken before; given back to the bodies
+              // the blade did not divide.
+              const size_t first = w.retired.size();
+              for (const world::BodyId id : w.ready->ids) retire(w, world::body(world, id));
+              c = world::cut_through(world, path, direction, depth_mm, 1.5, w.before_cuts);
+              for (size_t k = w.ready->ids.size(); k-- > 0;) {
+                const world::BodyId id = w.ready->ids[k];
+                if (std::any_of(c.bodies.begin(), c.bodies.end(),
+                                [&](const auto& b) { return b.first == id; }))
+                  continue;
+                std::swap(*w.retired[first + k].sim, world::body(world, id).sim);
+                w.retired.erase(w.retired.begin() + static_cast<std::ptrdiff_t>(first + k));
+              }
+            }
+            py::dict cut;
+            for (const auto& [id, r] : c.bodies) {
+              const world::Body& b = world::body(world, id);
+              cut[py::str(b.name)] =
+                  py::dict(py::arg("cut_tets") = r.cut_tets, py::arg("new_nodes") = r.new_nodes,
+                           py::arg("topology") = b.topology);
+            }
+            return py::dict(py::arg("bodies") = cut, py::arg("ties_divided") = c.ties_divided,
+                            py::arg("skipped") = c.skipped);
+          },
+          py::arg("path"), py::arg("depth_mm"), py::arg("direction"),
+          "Cuts at once every body the blade passes through (a scalpel drawn at the current\n"
+          "positions: its upper end along `path` ((k, 3) mm, k >= 2), reaching depth_mm along\n"
+          "`direction`), and divides the ties within 1.5 mm of it. A body cut has more nodes\n"
+          "(x, rest and skin_faces taken before show it as it was: take them again) and a new\n"
+          "topology generation; its ties follow their nodes' copies (docs/world.md, \"Cutting a\n"
+          "body\"). Returns {bodies: {name: {cut_tets, new_nodes, topology}} (the bodies cut),\n"
+          "ties_divided, skipped (the bodies it could not cut: one without tetrahedra)}.\n"
+          "Raises lamina.Error for a bad blade, nothing changed.")
       .def(
           "serve",
           [](const PyWorld& w, const py::kwargs& kwargs) {
@@ -111,7 +151,17 @@ void bind_world(py::module_& m) {
           "Serves the scene's world to the web page, in real time, as `lamina serve\n"
           "SCENE --web` does (docs/web.md): made again from its scene, at rest (this World\n"
           "is unchanged). Keywords as Simulation.serve's; web=True is required. Returns 0,\n"
-          "or 5 when a body blew up (which ends the serve).")
+          "or 5 when a body blew up (which ends the serve).");
+}
+
+}  // namespace
+
+void bind_world(py::module_& m) {
+  py::class_<PyWorld> world(m, "World",
+                            "Several organs stepped in one world: contact, attachments,\n"
+                            "dissections (docs/world.md). Made by lamina.world_scene().");
+  bind_world_cut_and_serve(world);
+  world
       .def_property_readonly("bodies",
                              [](const PyWorld& w) {
                                std::vector<std::string> names;
@@ -169,48 +219,6 @@ void bind_world(py::module_& m) {
                             py::arg("torn") = t.torn);
           },
           "The attachments' ties: total, divided by a blade, torn past their strength.")
-      .def(
-          "cut",
-          [](PyWorld& w, const std::vector<Eigen::Vector3d>& path, double depth_mm,
-             const Eigen::Vector3d& direction) {
-            world::World& world = w.ready->world;
-            world::WorldCut c;
-            {
-              py::gil_scoped_release release;
-              world::check_stroke("cut", path, direction, depth_mm, 1.5);  // before any copy
-              // Every body's buffers kept for the views taken before; given back to the bodies
-              // the blade did not divide.
-              const size_t first = w.retired.size();
-              for (const world::BodyId id : w.ready->ids) retire(w, world::body(world, id));
-              c = world::cut_through(world, path, direction, depth_mm, 1.5, w.before_cuts);
-              for (size_t k = w.ready->ids.size(); k-- > 0;) {
-                const world::BodyId id = w.ready->ids[k];
-                if (std::any_of(c.bodies.begin(), c.bodies.end(),
-                                [&](const auto& b) { return b.first == id; }))
-                  continue;
-                std::swap(*w.retired[first + k].sim, world::body(world, id).sim);
-                w.retired.erase(w.retired.begin() + static_cast<std::ptrdiff_t>(first + k));
-              }
-            }
-            py::dict cut;
-            for (const auto& [id, r] : c.bodies) {
-              const world::Body& b = world::body(world, id);
-              cut[py::str(b.name)] =
-                  py::dict(py::arg("cut_tets") = r.cut_tets, py::arg("new_nodes") = r.new_nodes,
-                           py::arg("topology") = b.topology);
-            }
-            return py::dict(py::arg("bodies") = cut, py::arg("ties_divided") = c.ties_divided,
-                            py::arg("skipped") = c.skipped);
-          },
-          py::arg("path"), py::arg("depth_mm"), py::arg("direction"),
-          "Cuts at once every body the blade passes through (a scalpel drawn at the current\n"
-          "positions: its upper end along `path` ((k, 3) mm, k >= 2), reaching depth_mm along\n"
-          "`direction`), and divides the ties within 1.5 mm of it. A body cut has more nodes\n"
-          "(x, rest and skin_faces taken before show it as it was: take them again) and a new\n"
-          "topology generation; its ties follow their nodes' copies (docs/world.md, \"Cutting a\n"
-          "body\"). Returns {bodies: {name: {cut_tets, new_nodes, topology}} (the bodies cut),\n"
-          "ties_divided, skipped (the bodies it could not cut: one without tetrahedra)}.\n"
-          "Raises lamina.Error for a bad blade, nothing changed.")
       .def(
           "topology",
           [](const PyWorld& w, const std::string& name) { return body_named(w, name).topology; },
