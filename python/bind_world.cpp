@@ -135,23 +135,20 @@ static void bind_world_cut_and_serve(py::class_<PyWorld>& world) {
       .def(
           "serve",
           [](const PyWorld& w, const py::kwargs& kwargs) {
-            net::ServeOptions o = serve_options(kwargs);
-            if (!o.web)
-              throw invalid_input("serve: web",
-                                  "a world is served to the web page only: pass web=True "
-                                  "(OpenIGTLink streams one organ's surfaces)");
-            net::Listening listening(o, /*igtl=*/false);
-            py::print("the page is at", listening.web_url());
+            const net::ServeOptions o = serve_options(kwargs);
+            net::Listening listening(o, /*igtl=*/true);
+            if (!listening.web_url().empty()) py::print("the page is at", listening.web_url());
             std::unique_ptr<io::ReadyWorld> fresh = io::make_ready_world(w.scene);
             return serve_until_interrupted([&](const net::KeepGoing& keep_going) {
               return net::serve_world(listening, std::move(fresh->world), w.scene.dissections, o,
                                       w.scene.source, keep_going);
             });
           },
-          "Serves the scene's world to the web page, in real time, as `lamina serve\n"
-          "SCENE --web` does (docs/web.md): made again from its scene, at rest (this World\n"
-          "is unchanged). Keywords as Simulation.serve's; web=True is required. Returns 0,\n"
-          "or 5 when a body blew up (which ends the serve).");
+          "Serves the scene's world in real time, as `lamina serve SCENE` does: each body's\n"
+          "skin over OpenIGTLink, the hands (tool, grasper, scalpel) on any body, and with\n"
+          "web=True the page (docs/openigtlink.md, docs/web.md). Made again from its scene,\n"
+          "at rest (this World is unchanged). Keywords as Simulation.serve's. Returns 0, or 5\n"
+          "when a body blew up (which ends the serve).");
 }
 
 }  // namespace

@@ -57,10 +57,7 @@ lamina_status lamina_serve(const char* what, const lamina_serve_options* options
     const net::KeepGoing keep_going = [stop] { return stop == nullptr || *stop == 0; };
     int code = 0;
     if (io::is_world_scene_file(input)) {
-      if (!o.web)
-        throw lamina::invalid_input(input,
-                                    "a world scene is served to the web page only: set web = 1");
-      net::Listening listening(o, /*igtl=*/false);
+      net::Listening listening(o, /*igtl=*/true);
       const io::WorldScene scene = io::load_world_scene(input);
       std::unique_ptr<io::ReadyWorld> ready = io::make_ready_world(scene, io::ReadVolumeOptions{});
       code = net::serve_world(listening, std::move(ready->world), scene.dissections, o,

@@ -24,13 +24,9 @@ IgtlSession::IgtlSession(const ServeOptions& args, igtlink::Server& server,
       start_(start),
       outgoing_(std::make_unique<Outgoing>(model, frame_)),
       streamed_layers_(args.all_layers ? model->layer_count() : 1),
-      grasper_open_(args.grasper_device + "Open"),
+      hands_(args, loop, frame_, start),
       next_unstable_log_(start),
-      next_behind_warning_(start) {
-  tip_.radius_mm = args.tip_radius_mm;
-  tip_.stiffness_n_per_m = args.tip_stiffness_n_per_m;
-  tip_.max_force_n = args.max_force_n;
-}
+      next_behind_warning_(start) {}
 
 Outgoing& IgtlSession::sent_for(const interact::LoopSnapshot& snap) {
   if (snap.model && snap.model_version != outgoing_version_) {
@@ -38,13 +34,6 @@ Outgoing& IgtlSession::sent_for(const interact::LoopSnapshot& snap) {
     outgoing_version_ = snap.model_version;
   }
   return *outgoing_;
-}
-
-void IgtlSession::open_grasper(const std::string& why) {
-  if (grasper_client_ < 0) return;
-  grasper_client_ = -1;
-  loop_.set_grasper(std::nullopt);
-  log::info("the grasper opens: {}", why);
 }
 
 // LaminaRealTime: the rate stepped at, who chose it and whether the machine keeps it. To one
@@ -69,81 +58,21 @@ void IgtlSession::tell_rate(int client) {
 
 // The scalpel's device: its poses trace a stroke, "Up" ends it (the cut), "Undo" takes the last
 // cut back.
-bool IgtlSession::scalpel_message(const igtlink::Message& msg) {
-  const std::string& type = msg.header.type;
-  const std::string& device = msg.header.device;
-  if (a_.scalpel_device.empty()) return false;
-  if (device == a_.scalpel_device + "Up") {
-    if (stroke_.client >= 0) log::info("{}", stroke_.finish(loop_, a_.scalpel_depth_mm));
-  } else if (device == a_.scalpel_device + "Undo") {
-    log::info("OpenIGTLink client {}: {} '{}' takes the last cut back", msg.peer, type, device);
-    loop_.undo_cut();
-  } else if (device == a_.scalpel_device && (type == "TRANSFORM" || type == "POSITION")) {
-    const igtlink::Pose pose = igtlink::read_pose(type, msg.content, msg.size);
-    if (stroke_.client >= 0 && stroke_.client != msg.client)
-      log::info("{}", stroke_.finish(loop_, a_.scalpel_depth_mm));  // another hand's stroke
-    if (stroke_.client < 0)
-      log::info("OpenIGTLink client {}: {} '{}' begins a scalpel stroke", msg.peer, type, device);
-    stroke_.add(msg.client, igtlink::change_frame(pose.position, frame_),
-                igtlink::change_frame(pose.z_axis, frame_), seconds(Clock::now() - start_));
-  } else {
-    return false;
-  }
+// The scalpel's "Undo" takes the last cut back (one organ's loop keeps its cuts to undo); its
+// poses and strokes are the hands'.
+bool IgtlSession::undo_message(const igtlink::Message& msg) {
+  if (a_.scalpel_device.empty() || msg.header.device != a_.scalpel_device + "Undo") return false;
+  log::info("OpenIGTLink client {}: {} '{}' takes the last cut back", msg.peer, msg.header.type,
+            msg.header.device);
+  loop_.undo_cut();
   return true;
-}
-
-// The grasper's device: a pose closes its jaws there (or moves what they hold), "Open" lets go.
-bool IgtlSession::grasper_message(const igtlink::Message& msg) {
-  const std::string& type = msg.header.type;
-  if (a_.grasper_device.empty()) return false;
-  if (msg.header.device == grasper_open_) {
-    open_grasper(fmt::format("client {} sent {} '{}'", msg.peer, type, grasper_open_));
-    return true;
-  }
-  if (msg.header.device != a_.grasper_device || (type != "TRANSFORM" && type != "POSITION"))
-    return false;
-  const interact::Jaws jaws{.center_mm = igtlink::change_frame(
-                                igtlink::read_position(type, msg.content, msg.size), frame_),
-                            .radius_mm = a_.grasper_radius_mm};
-  try {
-    loop_.set_grasper(jaws);
-  } catch (const Error& e) {  // nothing under the jaws: said, and nothing held
-    if (noted_.insert({msg.client, "grasp-miss"}).second)
-      log::warn("OpenIGTLink client {}: {} (further misses are not logged)", msg.peer, e.what());
-    return true;
-  }
-  if (grasper_client_ != msg.client)
-    log::info("OpenIGTLink client {}: {} '{}' closes the grasper's jaws", msg.peer, type,
-              msg.header.device);
-  grasper_client_ = msg.client;
-  return true;
-}
-
-// Any other pose drives the tool tip (the --tool-device's only, when given).
-void IgtlSession::tool_pose(const igtlink::Message& msg) {
-  const std::string& type = msg.header.type;
-  const Eigen::Vector3d p = igtlink::read_position(type, msg.content, msg.size);
-  if (!a_.tool_device.empty() && msg.header.device != a_.tool_device) {
-    if (noted_.insert({msg.client, type + msg.header.device}).second)
-      log::info("OpenIGTLink client {}: {} '{}' is not the tool (--tool-device {}); skipped",
-                msg.peer, type, msg.header.device, a_.tool_device);
-    return;
-  }
-  ++poses_;
-  if (tool_client_ != msg.client)
-    log::info("OpenIGTLink client {}: {} '{}' drives the tool tip", msg.peer, type,
-              msg.header.device);
-  tool_client_ = msg.client;
-  tip_.center_mm = igtlink::change_frame(p, frame_);
-  tip_.active = true;
-  loop_.set_tool_tip(tip_);
 }
 
 void IgtlSession::handle(const igtlink::Message& msg) {
   const std::string& type = msg.header.type;
-  if (scalpel_message(msg) || grasper_message(msg)) return;
+  if (undo_message(msg) || hands_.scalpel_message(msg) || hands_.grasper_message(msg)) return;
   if (type == "TRANSFORM" || type == "POSITION") {
-    tool_pose(msg);
+    hands_.tool_pose(msg);
   } else if (type == "STRING" && msg.header.device == "LaminaRate") {
     const std::string text = igtlink::read_string(msg.content, msg.size);
     const std::optional<double> hz = rate_.ask(msg.client, msg.peer, text);
@@ -158,7 +87,7 @@ void IgtlSession::handle(const igtlink::Message& msg) {
     interact::LoopSnapshot snap;
     loop_.latest(snap);
     server_.send(msg.client, outgoing_->reaction(snap.reaction_mn));
-  } else if (noted_.insert({msg.client, type}).second) {
+  } else if (hands_.noted.insert({msg.client, type}).second) {
     // The protocol: a receiver skips the types it does not use.
     log::info(
         "OpenIGTLink client {}: skipped {} '{}' (a type lamina serve does not use; "
@@ -168,25 +97,15 @@ void IgtlSession::handle(const igtlink::Message& msg) {
 }
 
 void IgtlSession::closed(int client) {
-  std::erase_if(noted_, [&](const auto& n) { return n.first == client; });
   if (const auto hz = rate_.gone(client)) {
     loop_.set_rate(*hz);
     tell_rate(-1);
   }
-  if (client == grasper_client_) open_grasper("its client has gone");
-  if (client == stroke_.client) log::info("{}", stroke_.finish(loop_, a_.scalpel_depth_mm));
-  if (client != tool_client_) return;
-  tool_client_ = -1;
-  tip_.active = false;
-  loop_.set_tool_tip(tip_);
-  log::info("the tool tip is released: its client has gone");
+  hands_.closed(client);
 }
 
 double IgtlSession::finish_paused_stroke(double now_s) {
-  if (stroke_.client >= 0 && now_s - stroke_.last_pose_s >= a_.scalpel_pause_s)
-    log::info("{} (its poses paused)", stroke_.finish(loop_, a_.scalpel_depth_mm));
-  return stroke_.client >= 0 ? stroke_.last_pose_s + a_.scalpel_pause_s - now_s
-                             : std::numeric_limits<double>::infinity();
+  return hands_.finish_paused_stroke(now_s);
 }
 
 // From the loop's per-step sample: no positions are copied for it.
@@ -320,7 +239,7 @@ int IgtlSession::finish(double wall_s, const web::Session* web) {
              "skipped), {} connections dropped; max reaction {:.3g} mN; steps waited for the "
              "server {} times, at most {:.3f} ms\n",
              snap_.steps, snap_.time_s, wall_s, rtf, behind_s_, rate_.rate_hz(), rate_.chosen_by(),
-             c.clients, c.messages_in, poses_, c.messages_out,
+             c.clients, c.messages_in, hands_.poses, c.messages_out,
              static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped, c.dropped,
              max_reaction_mn_, snap_.lock_waits, 1e-3 * snap_.longest_lock_wait_us);
   if (unstable_events_ > 0) {

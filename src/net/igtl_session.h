@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "igtl_hands.h"
 #include "igtl_server.h"
 #include "lamina/interact/realtime_loop.h"
 #include "lamina/net/serve.h"
@@ -49,9 +50,9 @@ class IgtlSession {
 
   bool has_embedded() const { return outgoing_->embedded_count() > 0; }
   /// The tool tip and whose hands hold the tip and the grasper: the web session shares them.
-  interact::ToolTip& tip() { return tip_; }
-  int& tool_client() { return tool_client_; }
-  int& grasper_client() { return grasper_client_; }
+  interact::ToolTip& tip() { return hands_.tip; }
+  int& tool_client() { return hands_.tool_client; }
+  int& grasper_client() { return hands_.grasper_client; }
 
   /// The session's last words (the web session's among them, if any): the summary line, and
   /// the exit code (ErrorKind::kUnstable if the simulation blew up at any time).
@@ -60,10 +61,7 @@ class IgtlSession {
 
  private:
   Outgoing& sent_for(const interact::LoopSnapshot& snap);
-  bool scalpel_message(const igtlink::Message& msg);
-  bool grasper_message(const igtlink::Message& msg);
-  void tool_pose(const igtlink::Message& msg);
-  void open_grasper(const std::string& why);
+  bool undo_message(const igtlink::Message& msg);
   void send_rate(int client, const interact::LoopSnapshot& now);
   void tell_rate(int client);
   void report_cuts(const interact::LoopSnapshot& snap);
@@ -81,13 +79,7 @@ class IgtlSession {
   std::unique_ptr<Outgoing> outgoing_;
   uint64_t outgoing_version_ = 0;
   const int32_t streamed_layers_;
-  ScalpelStroke stroke_;
-  interact::ToolTip tip_;
-  int tool_client_ = -1;     // whose pose the tip follows
-  int grasper_client_ = -1;  // whose pose the grasper follows (its jaws closed)
-  const std::string grasper_open_;
-  int64_t poses_ = 0;
-  std::set<std::pair<int, std::string>> noted_;  // (client, type) already logged as skipped
+  IgtlHands<interact::RealtimeLoop> hands_;  // the tool, the grasper, the scalpel's strokes
   interact::LoopSnapshot snap_;
   std::vector<igtlink::Packed> embedded_batch_;
   int64_t reaction_sent_step_ = -1;

@@ -21,6 +21,12 @@ void ScalpelStroke::add(int from, const Eigen::Vector3d& tip, const Eigen::Vecto
 }
 
 std::string ScalpelStroke::finish(interact::RealtimeLoop& loop, double depth_mm) {
+  return finish([&loop](std::vector<Eigen::Vector3d> top, const Eigen::Vector3d& axis,
+                        double depth) { loop.cut(std::move(top), axis, depth); },
+                depth_mm);
+}
+
+std::string ScalpelStroke::finish(const Cut& cut, double depth_mm) {
   std::string said;
   if (tips.size() < 2) {
     said = "the scalpel's stroke was too short to cut (it moved less than 0.5 mm)";
@@ -32,7 +38,7 @@ std::string ScalpelStroke::finish(interact::RealtimeLoop& loop, double depth_mm)
     std::vector<Eigen::Vector3d> top = tips;
     for (Eigen::Vector3d& p : top) p -= depth_mm * axis;
     try {
-      loop.cut(top, axis, depth_mm);
+      cut(top, axis, depth_mm);
       said = fmt::format("the scalpel's stroke of {} poses cuts {:.1f} mm deep", tips.size(),
                          depth_mm);
     } catch (const Error& e) {

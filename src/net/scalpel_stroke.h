@@ -6,6 +6,7 @@
 // STRING with what it divided and the vessels it crossed (docs/openigtlink.md).
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,10 @@ struct ScalpelStroke {
   /// Ends the stroke: cuts along it (the blade `depth_mm` long, ending at the tip) and clears
   /// it. Returns what the log should say.
   std::string finish(interact::RealtimeLoop& loop, double depth_mm);
+  /// The same through `cut` (the blade's upper end along its path, its direction, its depth):
+  /// a world's loop, whose cut() takes the same blade.
+  using Cut = std::function<void(std::vector<Eigen::Vector3d>, const Eigen::Vector3d&, double)>;
+  std::string finish(const Cut& cut, double depth_mm);
 };
 
 /// One cut as JSON text for a STRING message, positions in `frame`: {"cuts": ..., "cut_tets":

@@ -1,7 +1,7 @@
 // A world served (net::serve_world, include/lamina/net/serve.h): the world steps in its own
-// thread in real time (world::WorldLoop), this thread serves the page (web::WorldSession).
-// OpenIGTLink streams one organ's surfaces and takes one tool, so a world is served to the web
-// page only.
+// thread in real time (world::WorldLoop), this thread serves its clients.
+// OpenIGTLink streams each body's skin and takes the hands (world_igtl_session.h), the web page
+// draws every body (world_web_session.h); either or both.
 
 #include <fmt/format.h>
 
@@ -13,6 +13,7 @@
 #include "lamina/world/world_loop.h"
 #include "serve_clock.h"
 #include "servers.h"
+#include "world_igtl_session.h"
 #include "world_web_session.h"
 
 namespace lamina::net {
@@ -31,31 +32,91 @@ web::SessionOptions web_session_options(const ServeOptions& a) {
   return so;
 }
 
-int serve_world(Listening& listening, world::World world,
-                std::vector<world::Dissection> dissections, const ServeOptions& a,
-                const std::string& source, const KeepGoing& keep_going) {
-  using Clock = ServeClock;
-  if (!listening.servers || !listening.servers->web)
-    throw invalid_input(source, "a world is served to the web page: listen with the web on");
-  double rate_hz = a.auto_rate ? 1000.0 : a.rate_hz;
-  world::WorldLoop loop(
-      std::move(world),
-      {.rate_hz = rate_hz, .threads = a.threads, .dissections = std::move(dissections)});
-  web::WorldSession session(std::move(listening.servers->web), web_session_options(a), loop);
-  world::WorldSnapshot snap;
-  loop.latest(snap);
+namespace {
+
+// The network's duties of one turn: the web page's (its frames), OpenIGTLink's (its clients'
+// messages, the reaction each step, the skins at send_hz, a paused stroke). Waits on the
+// OpenIGTLink server's sockets when there is one, else sleeps: at most until the next duty.
+struct WorldEdges {
+  const ServeOptions& a;
+  ServeClock::time_point start, next_tick, next_reaction;
+  std::unique_ptr<web::WorldSession> web = nullptr;
+  igtlink::Server* igtl_server = nullptr;
+  std::unique_ptr<WorldIgtlSession> igtl = nullptr;
+
+  void turn() {
+    using Clock = ServeClock;
+    double wait_s = 0.1;
+    if (web) wait_s = std::min(wait_s, web->poll());
+    if (!igtl) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
+      return;
+    }
+    const auto now = Clock::now();
+    wait_s = std::min(wait_s, seconds(next_tick - now));
+    if (a.reaction_hz > 0.0) wait_s = std::min(wait_s, seconds(next_reaction - now));
+    wait_s = std::min(wait_s, igtl->finish_paused_stroke(seconds(now - start)));
+    igtl_server->poll(
+        std::max(wait_s, 0.0), [&](const igtlink::Message& msg) { igtl->handle(msg); },
+        [&](int client) { igtl->closed(client); });
+    const auto every = [](double hz) {
+      return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
+    };
+    const auto advance = [](Clock::time_point& next, Clock::duration period) {
+      next += period;
+      if (next < Clock::now()) next = Clock::now() + period;  // no burst after a stall
+    };
+    if (a.reaction_hz > 0.0 && Clock::now() >= next_reaction) {
+      advance(next_reaction, every(a.reaction_hz));
+      igtl->stream_reaction();
+    }
+    if (Clock::now() >= next_tick) {
+      advance(next_tick, every(a.send_hz > 0.0 ? a.send_hz : 30.0));
+      igtl->tick();
+    }
+  }
+};
+
+// The world's name and its bodies', for the first log line.
+std::string world_line(const world::WorldSnapshot& snap) {
   std::string names;
   for (const world::BodyView& b : snap.bodies)
     names +=
         fmt::format("{}{} ({} nodes)", names.empty() ? "" : ", ", b.name, b.model->node_count());
-  log::info(
-      "lamina serve: world {}: {}, {} ties; {} in real time, on the web page only "
-      "(OpenIGTLink streams one organ){}",
-      source, names, snap.tie_count.total,
-      a.auto_rate ? "1000 steps/s, then the rate this machine keeps"
-                  : fmt::format("{:g} steps/s", rate_hz),
-      a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
+  return fmt::format("{}, {} ties", names, snap.tie_count.total);
+}
+
+}  // namespace
+
+int serve_world(Listening& listening, world::World world,
+                std::vector<world::Dissection> dissections, const ServeOptions& a,
+                const std::string& source, const KeepGoing& keep_going) {
+  using Clock = ServeClock;
+  if (!listening.servers || (!listening.servers->web && !listening.servers->igtl))
+    throw invalid_input(source,
+                        "nothing listens to serve the world on (a Listening served already)");
+  double rate_hz = a.auto_rate ? 1000.0 : a.rate_hz;
+  world::WorldLoop loop(
+      std::move(world),
+      {.rate_hz = rate_hz, .threads = a.threads, .dissections = std::move(dissections)});
   const auto start = Clock::now();
+  WorldEdges edges{.a = a, .start = start, .next_tick = start, .next_reaction = start};
+  if (listening.servers->web)
+    edges.web = std::make_unique<web::WorldSession>(std::move(listening.servers->web),
+                                                    web_session_options(a), loop);
+  if (listening.servers->igtl) {
+    edges.igtl_server = listening.servers->igtl.get();
+    edges.igtl = std::make_unique<WorldIgtlSession>(a, *edges.igtl_server, loop, start);
+  }
+  world::WorldSnapshot snap;
+  loop.latest(snap);
+  log::info("lamina serve: world {}: {}; {} in real time{}{}{}", source, world_line(snap),
+            a.auto_rate ? "1000 steps/s, then the rate this machine keeps"
+                        : fmt::format("{:g} steps/s", rate_hz),
+            edges.igtl ? fmt::format("; OpenIGTLink on {}:{}", a.host, edges.igtl_server->port())
+                       : std::string(),
+            edges.web ? "; the web page" : "",
+            a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(a.duration_s));
   bool behind_said = false;
@@ -63,7 +124,7 @@ int serve_world(Listening& listening, world::World world,
   loop.start();
   while (keep_going()) {
     if (a.duration_s > 0.0 && Clock::now() >= deadline) break;
-    const double wait_s = session.poll();
+    edges.turn();
     loop.latest(snap);
     if (snap.unstable != sim::Instability::kNone) break;
     if (a.auto_rate && snap.generation != judged && seconds(Clock::now() - start) >= 2.0) {
@@ -80,11 +141,12 @@ int serve_world(Listening& listening, world::World world,
           "{:.2f} ms)",
           snap.rate.real_time_factor, rate_hz, snap.rate.mean_step_us / 1000.0);
     }
-    std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
   }
   loop.stop();
   loop.latest(snap);
-  session.log_summary();
+  if (edges.web) edges.web->log_summary();
+  if (edges.igtl) edges.igtl->log_summary(seconds(Clock::now() - start));
+  listening.servers->igtl.reset();  // a Listening serves once
   log::info(
       "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s; {} of {} ties divided, {} "
       "torn",

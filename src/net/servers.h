@@ -12,7 +12,7 @@
 namespace lamina::net {
 
 struct Listening::Servers {
-  std::unique_ptr<igtlink::Server> igtl;  ///< null for a world (served to the web page only)
+  std::unique_ptr<igtlink::Server> igtl;  ///< null when listened without it
   std::unique_ptr<web::Server> web;       ///< null without options.web
 };
 

@@ -1,6 +1,7 @@
 import os
 import pathlib
 import socket
+import struct
 import threading
 import time
 import urllib.request
@@ -68,3 +69,35 @@ def fetch_page(port, token, thread, limit_s=120.0):
         except OSError:
             time.sleep(0.05)
     return None
+
+
+def _read_exactly(sock, n):
+    data = b""
+    while len(data) < n:
+        chunk = sock.recv(n - len(data))
+        assert chunk, "the server closed the connection"
+        data += chunk
+    return data
+
+
+def polydata_points(port, devices, limit_s=60.0):
+    """Connects to the OpenIGTLink server on `port` (retrying until it listens) and reads
+    messages until a POLYDATA of each of `devices` has come: {device: its point count} (a
+    POLYDATA body starts with it) for every POLYDATA seen."""
+    deadline = time.monotonic() + limit_s
+    while True:
+        try:
+            c = socket.create_connection(("127.0.0.1", port), timeout=5)
+            break
+        except OSError:
+            assert time.monotonic() < deadline, f"nothing listens on {port}"
+            time.sleep(0.05)
+    points = {}
+    with c:
+        while not set(devices) <= set(points) and time.monotonic() < deadline:
+            # An OpenIGTLink header: version, type, device, timestamp, body size, CRC.
+            _, kind, device, _, size, _ = struct.unpack(">H12s20sQQQ", _read_exactly(c, 58))
+            body = _read_exactly(c, size)
+            if kind.rstrip(b"\0") == b"POLYDATA":
+                points[device.rstrip(b"\0").decode()] = struct.unpack(">I", body[:4])[0]
+    return points

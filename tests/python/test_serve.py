@@ -2,48 +2,20 @@
 serve`): 3D Slicer's OpenIGTLink streams the deformed skin to a client, the web page is served
 from the build beside the library, and bad options are refused by name before anything listens."""
 import socket
-import struct
 import threading
 import time
 
 import pytest
 
 import lamina
-from conftest import fetch_page, free_port, serve_in_thread
-
-
-def connect(port, until_s):
-    while time.monotonic() < until_s:
-        try:
-            return socket.create_connection(("127.0.0.1", port), timeout=5)
-        except OSError:
-            time.sleep(0.05)
-    raise AssertionError(f"nothing listens on {port}")
-
-
-def read_exactly(sock, n):
-    data = b""
-    while len(data) < n:
-        chunk = sock.recv(n - len(data))
-        assert chunk, "the server closed the connection"
-        data += chunk
-    return data
+from conftest import fetch_page, free_port, polydata_points, serve_in_thread
 
 
 def test_serve_streams_the_skin_over_openigtlink():
     sim = lamina.scene_simulation("phantom")
     port = free_port()
     thread, out = serve_in_thread(sim, port=port, duration_s=4.0, rate_hz=500.0)
-    deadline = time.monotonic() + 60
-    with connect(port, deadline) as c:
-        # An OpenIGTLink header: version, type, device, timestamp, body size, CRC (58 bytes).
-        points = {}  # each POLYDATA device's point count (a POLYDATA body starts with it)
-        while "LaminaSkin" not in points and time.monotonic() < deadline:
-            header = read_exactly(c, 58)
-            _, kind, device, _, size, _ = struct.unpack(">H12s20sQQQ", header)
-            body = read_exactly(c, size)
-            if kind.rstrip(b"\0") == b"POLYDATA":
-                points[device.rstrip(b"\0").decode()] = struct.unpack(">I", body[:4])[0]
+    points = polydata_points(port, {"LaminaSkin", "display_skin"})
     thread.join(60)
     assert not thread.is_alive()
     assert out.get("code") == 0, out

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lamina
-from conftest import REPO, fetch_page, free_port, serve_in_thread
+from conftest import REPO, fetch_page, free_port, polydata_points, serve_in_thread
 
 LABELS = os.path.join(REPO, "tests", "data", "liver_totalseg_example_3mm_labels.nii.gz")
 
@@ -109,16 +109,18 @@ def test_a_bad_world_scene_is_one_line():
         w.x("spleen")
 
 
-def test_a_world_is_served_to_the_web_page_and_only_there():
-    # World.serve: the scene's world made again at rest and stepped in real time for the page
-    # (the library's web edge, as `lamina serve SCENE --web`); without web=True it is refused.
+def test_a_world_is_served_over_openigtlink_and_to_the_web_page():
+    # World.serve: the scene's world made again at rest and stepped in real time, each body's
+    # skin a POLYDATA named after it, and the page (the library's network edge, as `lamina serve
+    # SCENE --web`).
     w = lamina.world_scene(scene())
-    with pytest.raises(lamina.Error, match="serve: web.*web page only"):
-        w.serve(duration_s=1.0)
-    port = free_port()
-    t, out = serve_in_thread(w, web=True, web_port=port, web_token="w0rld", duration_s=4.0)
-    page = fetch_page(port, "w0rld", t)
+    port, web_port = free_port(), free_port()
+    t, out = serve_in_thread(w, port=port, web=True, web_port=web_port, web_token="w0rld",
+                             duration_s=4.0)
+    points = polydata_points(port, {"liver", "gallbladder"})
+    page = fetch_page(web_port, "w0rld", t)
     t.join(120)
     assert out.get("code") == 0, out
+    assert points["liver"] > points["gallbladder"] > 100, points
     assert page is not None and "<html" in page.lower()
     assert w.time_s == 0.0  # this World was not stepped

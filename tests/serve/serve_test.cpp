@@ -273,6 +273,56 @@ TEST(Serve, AGrasperDeviceHoldsPullsAndLetsGo) {
   EXPECT_EQ(s.dropped, 0) << server.log();
 }
 
+// A world over OpenIGTLink (the cholecystectomy's liver and gallbladder): each body's skin comes
+// as a POLYDATA named after it; a tool's pose 3 mm into the liver's top pushes it in and the
+// reaction comes back up; the grasper's device closes on the liver's top and lifts it, and opened
+// lets it go.
+TEST(Serve, AWorldSendsEachBodysSkinAndTheHandsActOnTheBodyTheyMeet) {
+  TempDir dir;
+  Server server(dir.path, with({source_path("examples/cholecystectomy.json").string()}));
+  Client hand(server.port());
+  const auto liver = hand.receive("POLYDATA", "liver", 60.0);
+  ASSERT_TRUE(liver) << server.log();
+  const auto gallbladder = hand.receive("POLYDATA", "gallbladder", 5.0);
+  ASSERT_TRUE(gallbladder) << server.log();
+  const Eigen::MatrixX3d lx = polydata_points(*liver), gx = polydata_points(*gallbladder);
+  EXPECT_GT(lx.rows(), 1000);
+  EXPECT_GT(gx.rows(), 100);
+  // RAS: superior is +z. The liver's highest skin point, pressed 3 mm from above.
+  Eigen::Index top = 0;
+  lx.col(2).maxCoeff(&top);
+  const Eigen::Vector3d p = lx.row(top).transpose();
+  const Eigen::Vector3d tip = p + Eigen::Vector3d(0, 0, 5.0 - 3.0);  // its 5 mm sphere 3 mm in
+  Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
+  const auto t0 = Clock::now();
+  while (seconds_since(t0) < 10.0 && !(reaction.z() > 5.0)) {
+    hand.send_bytes(transform_bytes("Needle", tip));
+    const auto r = latest(hand, "TRANSFORM", "LaminaReaction", 0.2);
+    if (r) reaction = transform_translation(*r);
+  }
+  EXPECT_GT(reaction.z(), 5.0) << "the liver does not push the tool back up: " << server.log();
+  const auto pressed = latest(hand, "POLYDATA", "liver", 0.3);
+  ASSERT_TRUE(pressed);
+  EXPECT_LT(polydata_points(*pressed)(top, 2), p.z() - 0.3) << "the tip did not dent the liver";
+  // The tool away, the grasper on the liver's top, lifted 8 mm.
+  hand.send_bytes(transform_bytes("Needle", p + Eigen::Vector3d(0, 0, 100.0)));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  for (int k = 0; k <= 8; ++k) {
+    hand.send_bytes(transform_bytes("LaminaGrasper", p + Eigen::Vector3d(0, 0, k)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const auto lifted = latest(hand, "POLYDATA", "liver", 0.3);
+  ASSERT_TRUE(lifted);
+  EXPECT_GT(polydata_points(*lifted)(top, 2), p.z() + 4.0) << server.log();
+  EXPECT_TRUE(server.log_shows("closes the grasper's jaws")) << server.log();
+  hand.send_bytes(transform_bytes("LaminaGrasperOpen", p));
+  EXPECT_TRUE(server.log_shows("the grasper opens")) << server.log();
+  server.process().terminate();
+  EXPECT_EQ(server.process().wait(20.0), 0) << server.log();
+  EXPECT_TRUE(server.log_shows("OpenIGTLink: 1 clients")) << server.log();
+}
+
 // A case built to fail: a physical liver whose implicit solver may take one conjugate-gradient
 // iteration a step against a 1e-12 tolerance. Untouched it is at rest (nothing to solve); pushed
 // by a stiff tip (up to 4 N), every solve stops far short, and after

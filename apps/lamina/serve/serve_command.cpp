@@ -31,11 +31,7 @@ void install_stop_signals() {
 int serve_world_scene(const ServeArgs& a) {
   if (a.paper)
     throw invalid_input("--paper", "cannot be given with a world scene (" + a.what + ")");
-  if (!a.web)
-    throw invalid_input(a.what,
-                        "a world scene is served to the web page only: add --web "
-                        "(OpenIGTLink streams one organ's surfaces)");
-  net::Listening listening(a, /*igtl=*/false);  // a port in use fails at once
+  net::Listening listening(a, /*igtl=*/true);  // a port in use fails at once
   install_stop_signals();
   const io::WorldScene scene = io::load_world_scene(a.what);
   std::unique_ptr<io::ReadyWorld> ready =

@@ -2,7 +2,8 @@
 // The network edge (docs/openigtlink.md, docs/web.md): a simulation stepping in real time on its
 // own thread, served to 3D Slicer over OpenIGTLink (tool poses in; the deformed surfaces and the
 // tissue's reaction out) and, with `web`, to a browser or a headset over HTTP(S) and a WebSocket.
-// A world of several organs is served to the web page. `lamina serve`, the Python module
+// A world of several organs is served the same way, each body's skin its own POLYDATA and the
+// hands acting on any body. `lamina serve`, the Python module
 // (lamina.serve) and the C API (lamina_sim_serve, lamina_world_serve) all serve through it.
 //
 // Usage:
@@ -79,8 +80,8 @@ void check_options(const ServeOptions& options);
 /// and clients that connect meanwhile wait in the listen queue until the serve begins.
 class Listening {
  public:
-  /// Listens on OpenIGTLink's port (unless `igtl` is false: a world is served to the web page
-  /// only) and, with options.web, on the web server's (its TLS identity made or read).
+  /// Listens on OpenIGTLink's port (unless `igtl` is false: then the web page alone) and, with
+  /// options.web, on the web server's (its TLS identity made or read).
   /// \note Throws lamina::Error (kInvalidInput) naming the option when an address cannot be
   ///   used, the page's files are missing or the certificate cannot be read.
   Listening(const ServeOptions& options, bool igtl);
@@ -108,8 +109,11 @@ int serve_organ(Listening& listening, sim::Simulation simulation,
                 const ServeOptions& options, const std::string& source,
                 const KeepGoing& keep_going);
 
-/// Serves a world to the web page (Listening without OpenIGTLink): it steps in real time
-/// (world::WorldLoop) with the scene's `dissections` on its clock. As serve_organ otherwise.
+/// Serves a world: it steps in real time (world::WorldLoop) with the scene's `dissections` on
+/// its clock; over OpenIGTLink each body's skin goes out as a POLYDATA named after the body, a
+/// tool's pose drives the world's tool tip, the grasper's device its grasper and the scalpel's
+/// strokes cut every body they pass (docs/openigtlink.md, "A world"); the web page draws every
+/// body. As serve_organ otherwise.
 /// @return 0, or ErrorKind::kUnstable's code when a body became unstable (which ends the serve)
 int serve_world(Listening& listening, world::World world,
                 std::vector<world::Dissection> dissections, const ServeOptions& options,

@@ -1,0 +1,117 @@
+// A world over OpenIGTLink (world_igtl_session.h).
+#include "world_igtl_session.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "lamina/core/error.h"
+#include "lamina/core/log.h"
+#include "serve_outgoing.h"
+
+namespace lamina::net {
+
+WorldIgtlSession::WorldIgtlSession(const ServeOptions& options, igtlink::Server& server,
+                                   world::WorldLoop& loop, Clock::time_point start)
+    : a_(options),
+      server_(server),
+      loop_(loop),
+      frame_(options.frame == "lps" ? igtlink::Frame::kLps : igtlink::Frame::kRas),
+      hands_(options, loop, frame_, start) {
+  loop_.latest(snap_);
+  // Each body's skin goes out under the body's name, which the wire carries when it has 1 to 20
+  // characters and no other message has it; else as LaminaBodyK (said once).
+  std::set<std::string> taken = {Outgoing::kReactionDevice, "LaminaCut"};
+  for (size_t b = 0; b < snap_.bodies.size(); ++b) {
+    const std::string& name = snap_.bodies[b].name;
+    std::string device = name;
+    if (name.empty() || name.size() > kMaxDeviceName || taken.count(name)) {
+      device = fmt::format("LaminaBody{}", b);
+      log::info(
+          "OpenIGTLink: body '{}' is sent as '{}' (a device name has 1 to {} characters, "
+          "unique)",
+          name, device, kMaxDeviceName);
+    }
+    taken.insert(device);
+    bodies_.push_back({.device = device, .topology = ~0u, .packer = nullptr});
+    log::info("OpenIGTLink: POLYDATA '{}': the skin of {}, {} points, {} triangles", device, name,
+              snap_.bodies[b].model->layers[0].node_count,
+              snap_.bodies[b].model->layers[0].F.rows());
+  }
+}
+
+igtlink::Packed WorldIgtlSession::skin(size_t b) {
+  const world::BodyView& v = snap_.bodies[b];
+  BodyOut& out = bodies_[b];
+  const int32_t n = v.model->layers[0].node_count;
+  if (!out.packer || out.topology != v.topology) {  // laid out again for the cut body's skin
+    out.packer = std::make_unique<igtlink::PolyDataPacker>(out.device, v.model->layers[0].F, n);
+    out.topology = v.topology;
+  }
+  return out.packer->pack(v.x.topRows(n), frame_);
+}
+
+std::vector<igtlink::Packed> WorldIgtlSession::skins() {
+  std::vector<igtlink::Packed> batch;
+  for (size_t b = 0; b < snap_.bodies.size() && b < bodies_.size(); ++b) batch.push_back(skin(b));
+  return batch;
+}
+
+void WorldIgtlSession::handle(const igtlink::Message& msg) {
+  const std::string& type = msg.header.type;
+  if (hands_.scalpel_message(msg) || hands_.grasper_message(msg)) return;
+  if (type == "TRANSFORM" || type == "POSITION") {
+    hands_.tool_pose(msg);
+  } else if (type == "GET_POLYDATA") {
+    loop_.latest(snap_);
+    for (const igtlink::Packed& p : skins()) server_.send(msg.client, p);
+  } else if (type == "GET_TRANS") {
+    loop_.latest(snap_);
+    server_.send(msg.client,
+                 igtlink::pack_transform(Outgoing::kReactionDevice,
+                                         igtlink::change_frame(snap_.hands_reaction_mn, frame_)));
+  } else if (hands_.noted.insert({msg.client, type}).second) {
+    log::info(
+        "OpenIGTLink client {}: skipped {} '{}' (a type lamina serve does not use; further "
+        "ones are skipped silently)",
+        msg.peer, type, msg.header.device);
+  }
+}
+
+void WorldIgtlSession::closed(int client) {
+  hands_.closed(client);
+}
+
+double WorldIgtlSession::finish_paused_stroke(double now_s) {
+  return hands_.finish_paused_stroke(now_s);
+}
+
+void WorldIgtlSession::stream_reaction() {
+  loop_.latest(snap_);
+  max_reaction_mn_ = std::max(max_reaction_mn_, snap_.hands_reaction_mn.norm());
+  if (snap_.steps != reaction_sent_step_ && server_.client_count() > 0) {
+    server_.stream(
+        {igtlink::pack_transform(Outgoing::kReactionDevice,
+                                 igtlink::change_frame(snap_.hands_reaction_mn, frame_))},
+        igtlink::Stream::kSurfaces);
+    reaction_sent_step_ = snap_.steps;
+  }
+}
+
+void WorldIgtlSession::tick() {
+  loop_.latest(snap_);
+  if (a_.send_hz > 0.0 && server_.client_count() > 0)
+    server_.stream(skins(), igtlink::Stream::kSurfaces);
+}
+
+void WorldIgtlSession::log_summary(double wall_s) const {
+  const igtlink::ServerCounters& c = server_.counters();
+  log::info(
+      "OpenIGTLink: {} clients, {} messages in ({} poses), {} out ({:.1f} MB, {} frames skipped), "
+      "{} connections dropped; max reaction {:.3g} mN over {:.1f} s",
+      c.clients, c.messages_in, hands_.poses, c.messages_out,
+      static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped, c.dropped, max_reaction_mn_,
+      wall_s);
+}
+
+}  // namespace lamina::net

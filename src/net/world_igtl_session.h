@@ -1,0 +1,63 @@
+#pragma once
+// The OpenIGTLink side of a world's serve (docs/openigtlink.md, "A world"): each body's skin
+// streamed as a POLYDATA named after the body, a tool's pose driving the world's tool tip (it
+// pushes whichever body it touches), the grasper's device its grasper (it closes on the body
+// nearest its jaws), the scalpel's strokes cutting every body they pass, and the tissue's push on
+// the hands sent back as LaminaReaction. The server's thread calls it between polls; the world
+// steps on its own thread (world::WorldLoop).
+#include <chrono>
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "igtl_hands.h"
+#include "igtl_server.h"
+#include "lamina/net/serve.h"
+#include "lamina/world/world_loop.h"
+#include "serve_clock.h"
+
+namespace lamina::net {
+
+class WorldIgtlSession {
+ public:
+  using Clock = ServeClock;
+
+  WorldIgtlSession(const ServeOptions& options, igtlink::Server& server, world::WorldLoop& loop,
+                   Clock::time_point start);
+
+  /// A client's message; `closed`: a client has gone (what it held is let go).
+  void handle(const igtlink::Message& msg);
+  void closed(int client);
+  /// A scalpel stroke whose poses paused past scalpel_pause_s cuts; how long the server may
+  /// wait before the one under way would (s; large: none).
+  double finish_paused_stroke(double now_s);
+  /// The push on the hands after the world's latest step, to every client (once per step).
+  void stream_reaction();
+  /// Each tick: every body's skin to every client (laid out again for a body a cut renumbered).
+  void tick();
+  /// The session's summary line.
+  void log_summary(double wall_s) const;
+
+ private:
+  struct BodyOut {
+    std::string device;
+    uint32_t topology = ~0u;  // the body's topology its packer is laid out for
+    std::unique_ptr<igtlink::PolyDataPacker> packer;
+  };
+  igtlink::Packed skin(size_t b);
+  std::vector<igtlink::Packed> skins();
+
+  const ServeOptions& a_;
+  igtlink::Server& server_;
+  world::WorldLoop& loop_;
+  const igtlink::Frame frame_;
+  IgtlHands<world::WorldLoop> hands_;
+  world::WorldSnapshot snap_;
+  std::vector<BodyOut> bodies_;  // per snapshot body
+  int64_t reaction_sent_step_ = -1;
+  double max_reaction_mn_ = 0.0;
+};
+
+}  // namespace lamina::net
