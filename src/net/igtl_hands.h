@@ -42,8 +42,7 @@ class IgtlHands {
       if (stroke.client >= 0 && stroke.client != msg.client)
         log::info("{}", finish_stroke());  // another hand's stroke
       if (stroke.client < 0)
-        log::info("OpenIGTLink client {}: {} '{}' begins a scalpel stroke", msg.peer, type,
-                  device);
+        log::info("OpenIGTLink client {}: {} '{}' begins a scalpel stroke", msg.peer, type, device);
       stroke.add(msg.client, igtlink::change_frame(pose.position, frame_),
                  igtlink::change_frame(pose.z_axis, frame_), seconds(ServeClock::now() - start_));
     } else {
@@ -70,8 +69,7 @@ class IgtlHands {
       loop_.set_grasper(jaws);
     } catch (const Error& e) {  // nothing under the jaws: said, and nothing held
       if (noted.insert({msg.client, "grasp-miss"}).second)
-        log::warn("OpenIGTLink client {}: {} (further misses are not logged)", msg.peer,
-                  e.what());
+        log::warn("OpenIGTLink client {}: {} (further misses are not logged)", msg.peer, e.what());
       return true;
     }
     if (grasper_client != msg.client)
@@ -130,11 +128,9 @@ class IgtlHands {
   }
 
   std::string finish_stroke() {
-    return stroke.finish(
-        [this](std::vector<Eigen::Vector3d> top, const Eigen::Vector3d& axis, double depth) {
-          loop_.cut(std::move(top), axis, depth);
-        },
-        a_.scalpel_depth_mm);
+    return stroke.finish([this](std::vector<Eigen::Vector3d> top, const Eigen::Vector3d& axis,
+                                double depth) { loop_.cut(std::move(top), axis, depth); },
+                         a_.scalpel_depth_mm);
   }
 
   interact::ToolTip tip;
