@@ -99,6 +99,16 @@ class IgtlHands {
     loop_.set_tool_tip(tip);
   }
 
+  /// A message of a type the server does not use: skipped, as the protocol has a receiver do,
+  /// and logged once per client and type.
+  void skip(const igtlink::Message& msg) {
+    if (noted.insert({msg.client, msg.header.type}).second)
+      log::info(
+          "OpenIGTLink client {}: skipped {} '{}' (a type lamina serve does not use; further "
+          "ones are skipped silently)",
+          msg.peer, msg.header.type, msg.header.device);
+  }
+
   void open_grasper(const std::string& why) {
     if (grasper_client < 0) return;
     grasper_client = -1;

@@ -87,12 +87,8 @@ void IgtlSession::handle(const igtlink::Message& msg) {
     interact::LoopSnapshot snap;
     loop_.latest(snap);
     server_.send(msg.client, outgoing_->reaction(snap.reaction_mn));
-  } else if (hands_.noted.insert({msg.client, type}).second) {
-    // The protocol: a receiver skips the types it does not use.
-    log::info(
-        "OpenIGTLink client {}: skipped {} '{}' (a type lamina serve does not use; "
-        "further ones are skipped silently)",
-        msg.peer, type, msg.header.device);
+  } else {
+    hands_.skip(msg);
   }
 }
 

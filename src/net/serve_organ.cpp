@@ -23,16 +23,6 @@ namespace {
 
 using Clock = ServeClock;
 
-Clock::duration every(double hz) {
-  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
-}
-
-// The next time of a periodic duty, without a burst after a stall.
-void advance(Clock::time_point& next, Clock::duration period) {
-  next += period;
-  if (next < Clock::now()) next = Clock::now() + period;
-}
-
 // This thread's duties until the end: the clients' messages, the reaction every step, the
 // embedded surfaces and the layers at their rates, a paused scalpel stroke finished.
 void answer_clients(const ServeOptions& a, igtlink::Server& server, IgtlSession& session,

@@ -69,8 +69,13 @@ igtlink::Packed Outgoing::embedded(const interact::LoopSnapshot& snap, int32_t e
   return message;
 }
 
+igtlink::Packed reaction_message(const Eigen::Vector3d& reaction_mn, igtlink::Frame frame) {
+  return igtlink::pack_transform(Outgoing::kReactionDevice,
+                                 igtlink::change_frame(reaction_mn, frame));
+}
+
 igtlink::Packed Outgoing::reaction(const Eigen::Vector3d& reaction_mn) const {
-  return igtlink::pack_transform(kReactionDevice, igtlink::change_frame(reaction_mn, frame_));
+  return reaction_message(reaction_mn, frame_);
 }
 
 void Outgoing::log_embedded(bool at_exit) const {

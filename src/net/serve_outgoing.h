@@ -21,6 +21,10 @@ inline constexpr size_t kMaxDeviceName = 20;
 /// The device name of layer k's POLYDATA: LaminaSkin for the skin, LaminaLayer1... inside.
 std::string layer_device(int32_t k);
 
+/// The tissue's push on the tools (mN, the model's LPS) as the TRANSFORM LaminaReaction, its
+/// translation written in `frame`.
+igtlink::Packed reaction_message(const Eigen::Vector3d& reaction_mn, igtlink::Frame frame);
+
 class Outgoing {
  public:
   /// Laid out for `model` (kept while sent); an embedded surface whose name the wire cannot

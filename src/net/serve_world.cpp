@@ -59,13 +59,6 @@ struct WorldEdges {
     igtl_server->poll(
         std::max(wait_s, 0.0), [&](const igtlink::Message& msg) { igtl->handle(msg); },
         [&](int client) { igtl->closed(client); });
-    const auto every = [](double hz) {
-      return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
-    };
-    const auto advance = [](Clock::time_point& next, Clock::duration period) {
-      next += period;
-      if (next < Clock::now()) next = Clock::now() + period;  // no burst after a stall
-    };
     if (a.reaction_hz > 0.0 && Clock::now() >= next_reaction) {
       advance(next_reaction, every(a.reaction_hz));
       igtl->stream_reaction();

@@ -11,6 +11,7 @@
 #include "lamina/core/log.h"
 #include "lamina/interact/pick.h"
 #include "scalpel_stroke.h"
+#include "serve_clock.h"
 #include "web_message.h"
 
 namespace lamina::net::web {
@@ -213,11 +214,7 @@ void Session::send_frame() {
 double Session::poll() {
   server_->poll();
   if (server_->client_count() == 0) return 0.01;  // accept within 10 ms
-  const auto now = Clock::now();
-  if (now >= next_frame_) {
-    next_frame_ += std::chrono::duration_cast<Clock::duration>(
-        std::chrono::duration<double>(1.0 / options_.frame_hz));
-    if (next_frame_ < now) next_frame_ = now;  // no burst after a stall
+  if (frame_due(next_frame_, every(options_.frame_hz))) {
     send_frame();
     server_->poll();
   }

@@ -67,14 +67,9 @@ void WorldIgtlSession::handle(const igtlink::Message& msg) {
     for (const igtlink::Packed& p : skins()) server_.send(msg.client, p);
   } else if (type == "GET_TRANS") {
     loop_.latest(snap_);
-    server_.send(msg.client,
-                 igtlink::pack_transform(Outgoing::kReactionDevice,
-                                         igtlink::change_frame(snap_.hands_reaction_mn, frame_)));
-  } else if (hands_.noted.insert({msg.client, type}).second) {
-    log::info(
-        "OpenIGTLink client {}: skipped {} '{}' (a type lamina serve does not use; further "
-        "ones are skipped silently)",
-        msg.peer, type, msg.header.device);
+    server_.send(msg.client, reaction_message(snap_.hands_reaction_mn, frame_));
+  } else {
+    hands_.skip(msg);
   }
 }
 
@@ -90,10 +85,7 @@ void WorldIgtlSession::stream_reaction() {
   loop_.latest(snap_);
   max_reaction_mn_ = std::max(max_reaction_mn_, snap_.hands_reaction_mn.norm());
   if (snap_.steps != reaction_sent_step_ && server_.client_count() > 0) {
-    server_.stream(
-        {igtlink::pack_transform(Outgoing::kReactionDevice,
-                                 igtlink::change_frame(snap_.hands_reaction_mn, frame_))},
-        igtlink::Stream::kSurfaces);
+    server_.stream({reaction_message(snap_.hands_reaction_mn, frame_)}, igtlink::Stream::kSurfaces);
     reaction_sent_step_ = snap_.steps;
   }
 }

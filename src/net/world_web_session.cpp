@@ -7,6 +7,7 @@
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/world/pick_body.h"
+#include "serve_clock.h"
 #include "web_message.h"
 #include "world_stream.h"
 
@@ -189,11 +190,7 @@ void WorldSession::send_frame() {
 double WorldSession::poll() {
   server_->poll();
   if (server_->client_count() == 0) return 0.01;
-  const auto now = Clock::now();
-  if (now >= next_frame_) {
-    next_frame_ += std::chrono::duration_cast<Clock::duration>(
-        std::chrono::duration<double>(1.0 / options_.frame_hz));
-    if (next_frame_ < now) next_frame_ = now;
+  if (frame_due(next_frame_, every(options_.frame_hz))) {
     send_frame();
     server_->poll();
   }
