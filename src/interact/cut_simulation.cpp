@@ -44,7 +44,7 @@ void carry_tools(const Model& before, const Model& cut, const std::vector<int32_
   // tool by vertex touches the node's first copy (it is on the skin, as the node was).
   for (Tool& t : driver.tools)
     if (!t.by_point) t.vertex = c.of[c.first[t.vertex]];
-  for (ForceRoute& r : driver.routes) {
+  const auto carry_route = [&](ForceRoute& r) {
     if (r.contact_node >= 0) r.contact_node = c.of[c.first[r.contact_node]];
     for (Crossing& x : r.crossings) x.node = c.of[c.first[x.node]];
     std::vector<int32_t> nodes;
@@ -60,11 +60,10 @@ void carry_tools(const Model& before, const Model& cut, const std::vector<int32_
     // Copies are numbered after their node, so the list stays ascending.
     r.nodes = std::move(nodes);
     r.forces = std::move(forces);
-  }
-  driver.touched = every_copy(c, driver.touched);
-  driver.loads.nodes = every_copy(c, driver.loads.nodes);
-  for (Grasp& g : driver.grasps) {
-    if (g.nodes.empty()) continue;
+  };
+  // A grasp holds every copy of a node it held, at that node's offset from the jaws.
+  const auto carry_grasp = [&](Grasp& g) {
+    if (g.nodes.empty()) return;
     Eigen::MatrixX3d offsets(0, 3), targets(0, 3);
     std::vector<int32_t> nodes;
     std::vector<Eigen::Index> from;
@@ -81,7 +80,14 @@ void carry_tools(const Model& before, const Model& cut, const std::vector<int32_
     g.nodes = std::move(nodes);
     g.offsets = std::move(offsets);
     g.targets = std::move(targets);
-  }
+  };
+  for (ForceRoute& r : driver.routes) carry_route(r);
+  for (ForceRoute& r : driver.live_routes) carry_route(r);
+  carry_route(driver.tip);
+  driver.touched = every_copy(c, driver.touched);
+  driver.loads.nodes = every_copy(c, driver.loads.nodes);
+  for (Grasp& g : driver.grasps) carry_grasp(g);
+  carry_grasp(driver.hand);
   if (driver.held_forces.rows() == before.node_count()) {
     Eigen::MatrixX3d held(cut.node_count(), 3);
     for (int32_t i = 0; i < cut.node_count(); ++i)

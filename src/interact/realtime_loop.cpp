@@ -23,11 +23,11 @@ namespace lamina::interact {
 RealtimeLoop::RealtimeLoop(sim::Simulation sim, const RoutingOptions& routing,
                            const LoopOptions& options)
     : sim_(std::move(sim)),
-      routing_(routing),
+      tools_{.routing = routing},
       options_(options),
       rings_locality_(sim_.model().rings.locality),
       rate_hz_(options.rate_hz) {
-  check_routing(routing_, sim_.model().rings.locality);  // here, not in the stepping thread
+  check_routing(tools_.routing, sim_.model().rings.locality);  // here, not in the stepping thread
   stepping_rate_hz_ = rate_hz_;
   follow_the_clock(rate_hz_);
   model_ = std::shared_ptr<const Model>(std::shared_ptr<const Model>(), &sim_.model());
@@ -169,7 +169,8 @@ void RealtimeLoop::run_steps(int64_t steps) {
 void RealtimeLoop::apply_pending() {
   bool reroute = false;
   if (reset_requested_) {
-    if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);  // rest is the organ's own, unheld
+    if (!tools_.hand.nodes.empty())
+      open_jaws(sim_, tools_.hand);  // rest is the organ's own, unheld
     jaws_.reset();
     close_at_.reset();
     new_close_.reset();
@@ -185,7 +186,7 @@ void RealtimeLoop::apply_pending() {
   if (new_params_) {
     ++params_version_;
     sim::set_parameters(sim_, new_params_->material, new_params_->solver);
-    routing_ = new_params_->routing;
+    tools_.routing = new_params_->routing;
     new_params_.reset();
     reroute = true;
   }
@@ -205,7 +206,7 @@ void RealtimeLoop::apply_pending() {
     tip_contact_ = -1;
   }
   if (new_close_) {  // closed anew: whatever the jaws held before (an open not seen) goes
-    if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);
+    if (!tools_.hand.nodes.empty()) open_jaws(sim_, tools_.hand);
     close_at_ = *new_close_;
     new_close_.reset();
   }
@@ -226,37 +227,36 @@ void RealtimeLoop::apply_pending() {
 // when it touches down), not every step: the contact and crossings of a held drag stay put.
 void RealtimeLoop::route_forces() {
   const Model& m = sim_.model();
-  routes_.clear();
+  tools_.live_routes.clear();
   for (const LiveForce& f : forces_) {
     if (f.node < 0 || f.node >= m.layers[0].node_count || !f.force_mn.allFinite()) continue;
-    routes_.push_back(load_at_node(m, sim_.x, f.node, f.force_mn, f.radius_mm, routing_));
-    touched_.insert(touched_.end(), routes_.back().nodes.begin(), routes_.back().nodes.end());
+    tools_.live_routes.push_back(
+        load_at_node(m, sim_.x, f.node, f.force_mn, f.radius_mm, tools_.routing));
+    tools_.touched.insert(tools_.touched.end(), tools_.live_routes.back().nodes.begin(),
+                          tools_.live_routes.back().nodes.end());
   }
-  keep_touched_movable(sim_, touched_);
+  keep_touched_movable(sim_, tools_.touched);
 }
 
 void RealtimeLoop::one_step() {
   const Model& m = sim_.model();
   const double t0 = now_s();
-  clear_loads(sim_, loads_);
-  for (const ForceRoute& r : routes_) add_load(sim_, r, loads_);
-
   // The tool tip: its proxy and coupling (or the paper's penalty), afresh every step.
-  tip_route_ = load_of_tip(m, sim_.x, tip_, routing_, proxy_);
-  add_load(sim_, tip_route_, loads_);
+  tools_.tip = load_of_tip(m, sim_.x, tip_, tools_.routing, proxy_);
   if (proxy_.started_inside && !warned_inside_)
     log::warn(
         "tool tip: the device is inside the organ, {:.1f} mm under the skin; the tip touches "
         "nothing until it is brought out (a tool starts outside the organ)",
         proxy_.start_depth_mm);
   warned_inside_ = proxy_.started_inside;
-  if (tip_route_.contact_node >= 0 && tip_route_.contact_node != tip_contact_ &&
+  if (tools_.tip.contact_node >= 0 && tools_.tip.contact_node != tip_contact_ &&
       sim_.options().mode == sim::Mode::kLocal) {
-    touched_.insert(touched_.end(), tip_route_.nodes.begin(), tip_route_.nodes.end());
-    keep_touched_movable(sim_, touched_);
+    tools_.touched.insert(tools_.touched.end(), tools_.tip.nodes.begin(), tools_.tip.nodes.end());
+    keep_touched_movable(sim_, tools_.touched);
   }
-  tip_contact_ = tip_route_.contact_node;
+  tip_contact_ = tools_.tip.contact_node;
   move_grasper();
+  apply_tools(sim_, tools_);  // the live forces' routes and the tip's load into f_ext
 
   last_stats_ = sim::step(sim_);
   const double t1 = now_s();
@@ -266,14 +266,14 @@ void RealtimeLoop::one_step() {
     // law, and continuous: the penalty's); the paper's copies are not a tool's load, so there
     // the tissue's push on the loaded nodes is what comes back.
     Eigen::Vector3d reaction = Eigen::Vector3d::Zero();
-    if (!halted() && routing_.routing == Routing::kNone) {
-      for (const ForceRoute& r : routes_) reaction -= total_force(r);
+    if (!halted() && tools_.routing.routing == Routing::kNone) {
+      for (const ForceRoute& r : tools_.live_routes) reaction -= total_force(r);
       reaction += proxy_.device_force_mn;  // the coupling's: bounded, continuous
     } else if (!halted()) {
-      reaction = reaction_force(sim_, loads_);
+      reaction = reaction_force(sim_, tools_.loads);
     }
     // The grasper feels the tissue's pull on what it holds, in either model.
-    if (!halted() && !grasp_.nodes.empty()) reaction += grasp_reaction(sim_, grasp_);
+    if (!halted() && !tools_.hand.nodes.empty()) reaction += grasp_reaction(sim_, tools_.hand);
     std::unique_lock lock(reaction_mutex_, std::defer_lock);
     acquire(lock);
     reaction_ = {reaction, sim_.steps, sim_.time_s};
@@ -286,16 +286,16 @@ void RealtimeLoop::one_step() {
 // open, moved with what they hold, or opened.
 void RealtimeLoop::move_grasper() {
   if (!jaws_) {
-    if (!grasp_.nodes.empty()) open_jaws(sim_, grasp_);
+    if (!tools_.hand.nodes.empty()) open_jaws(sim_, tools_.hand);
     close_at_.reset();
     return;
   }
-  if (!grasp_.nodes.empty()) {
-    move_jaws(sim_, jaws_->center_mm, grasp_);
+  if (!tools_.hand.nodes.empty()) {
+    move_jaws(sim_, jaws_->center_mm, tools_.hand);
     return;
   }
   try {
-    close_jaws(sim_, close_at_ ? *close_at_ : *jaws_, grasp_, "grasper");
+    close_jaws(sim_, close_at_ ? *close_at_ : *jaws_, tools_.hand, "grasper");
   } catch (const Error& e) {  // the skin moved away since set_grasper() checked: stay open
     log::warn("{}", e.what());
     jaws_.reset();
@@ -303,10 +303,10 @@ void RealtimeLoop::move_grasper() {
     return;
   }
   close_at_.reset();
-  move_jaws(sim_, jaws_->center_mm, grasp_);       // where the caller has moved them since
+  move_jaws(sim_, jaws_->center_mm, tools_.hand);  // where the caller has moved them since
   if (sim_.options().mode == sim::Mode::kLocal) {  // the tissue around the jaws moves
-    touched_.insert(touched_.end(), grasp_.nodes.begin(), grasp_.nodes.end());
-    keep_touched_movable(sim_, touched_);
+    tools_.touched.insert(tools_.touched.end(), tools_.hand.nodes.begin(), tools_.hand.nodes.end());
+    keep_touched_movable(sim_, tools_.touched);
   }
 }
 

@@ -51,12 +51,9 @@ void RealtimeLoop::apply_undo() {
     sim_ = std::move(b.sim);
     sim_.time_s = time_s, sim_.steps = steps;
     forces_ = std::move(b.forces);
-    routes_ = std::move(b.routes);
-    touched_ = std::move(b.touched);
-    loads_ = std::move(b.loads);
-    grasp_ = std::move(b.grasp);
+    tools_ = std::move(b.tools);
     undo_.pop_back();
-    tip_route_ = {};
+    tools_.tip = {};
     proxy_ = {};
     tip_contact_ = -1;
     ++model_version_;
@@ -146,18 +143,20 @@ void RealtimeLoop::take_cut(bool wait) {
     }
     cut_error_.clear();
     if (j.report.cut_tets > 0) {
-      ToolDriver d;
-      d.routing = routing_;
-      for (const LiveForce& f : forces_) {
-        Tool t;
-        t.vertex = f.node;
-        d.tools.push_back(t);
-      }
-      d.routes = routes_;
-      d.touched = touched_;
-      d.loads = loads_;
-      d.grasps = {grasp_};
-      carry_tools(*model_, *j.cut, j.origin, d);
+      // Everything that names the nodes carried to the copies (a live force by its node, as a
+      // tool by vertex is: the node's first copy, on the skin as it was).
+      // A force on no node of the organ (route_forces() skips it) stays as it is.
+      const std::vector<LiveForce> forces_before = forces_;
+      ToolDriver carried = tools_;
+      const auto on_organ = [&](const LiveForce& f) {
+        return f.node >= 0 && f.node < model_->node_count();
+      };
+      for (const LiveForce& f : forces_)
+        if (on_organ(f)) carried.tools.push_back(Tool{.vertex = f.node});
+      carry_tools(*model_, *j.cut, j.origin, carried);
+      for (size_t k = 0, t = 0; k < forces_.size(); ++k)
+        if (on_organ(forces_before[k])) forces_[k].node = carried.tools[t++].vertex;
+      carried.tools.clear();
       sim::Simulation next = std::move(*j.sim);
       if (params_version_ != cut_params_version_)  // changed while the cut was made
         sim::set_parameters(next, sim_.material(), sim_.options());
@@ -166,15 +165,11 @@ void RealtimeLoop::take_cut(bool wait) {
       // What an undo goes back to: the simulation itself, moved (a copy took 5-6 ms at paper
       // size, a step's time five times over).
       if (undo_.size() == static_cast<size_t>(kUndoDepth)) undo_.erase(undo_.begin());
-      undo_.push_back({model_, std::move(sim_), forces_, routes_, touched_, loads_, grasp_});
+      undo_.push_back({model_, std::move(sim_), forces_before, std::move(tools_)});
       sim_ = std::move(next);
       model_ = std::move(j.cut);
-      for (size_t k = 0; k < forces_.size(); ++k) forces_[k].node = d.tools[k].vertex;
-      routes_ = std::move(d.routes);
-      touched_ = std::move(d.touched);
-      loads_ = std::move(d.loads);
-      grasp_ = std::move(d.grasps[0]);
-      tip_route_ = {};
+      tools_ = std::move(carried);
+      tools_.tip = {};
       proxy_ = {};
       tip_contact_ = -1;
       ++model_version_;

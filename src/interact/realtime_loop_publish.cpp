@@ -39,10 +39,10 @@ void RealtimeLoop::publish(bool force) {
   s.worst_jitter_us = window_.worst_jitter_us;
   s.reaction_mn = reaction;
   s.contact_nodes.clear();
-  for (const ForceRoute& r : routes_) s.contact_nodes.push_back(r.contact_node);
+  for (const ForceRoute& r : tools_.live_routes) s.contact_nodes.push_back(r.contact_node);
   if (tip_contact_ >= 0) s.contact_nodes.push_back(tip_contact_);
   s.tool_tip_touching = tip_contact_ >= 0;
-  s.grasped_nodes = grasp_.nodes;
+  s.grasped_nodes = tools_.hand.nodes;
   s.lock_waits = lock_waits_.count;
   s.longest_cut_pause_us = longest_cut_pause_us_;
   s.longest_lock_wait_us = lock_waits_.longest_us;

@@ -226,6 +226,8 @@ bool apply_tools(sim::Simulation& s, ToolDriver& d) {
   }
   for (size_t t = 0; t < n; ++t)
     if (d.active[t] && !d.tools[t].grasp) add_load(s, d.routes[t], d.loads);
+  for (const ForceRoute& r : d.live_routes) add_load(s, r, d.loads);
+  add_load(s, d.tip, d.loads);
   if (changed && s.options().mode == sim::Mode::kLocal) keep_touched_movable(s, d.touched);
   return any;
 }

@@ -342,8 +342,13 @@ int32_t divide_ties(World& world, const BladeSweep& sweep, double reach_mm) {
 void reset(World& world) {
   for (BodySlot& s : world.bodies)
     if (s.alive) {
-      sim::reset(s.body.sim);
       interact::ToolDriver& d = s.body.tools;
+      // Whatever a grasper holds is let go first: a held node stays fixed in the simulation
+      // until opened, and the driver that knows it is about to be cleared.
+      for (interact::Grasp& g : d.grasps)
+        if (!g.nodes.empty()) interact::open_jaws(s.body.sim, g);
+      if (!d.hand.nodes.empty()) interact::open_jaws(s.body.sim, d.hand);
+      sim::reset(s.body.sim);
       d = interact::ToolDriver{.tools = std::move(d.tools), .routing = d.routing};
     }
   for (AttachmentSlot& s : world.attachments)

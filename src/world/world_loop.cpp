@@ -264,28 +264,20 @@ void WorldLoop::Impl::apply_pending() {
 }
 
 // A body's live forces routed on its shape of the moment (as the one-organ loop routes them:
-// when they change, not every step) into the forces its tools hold on its nodes.
+// when they change, not every step) into its tools' live routes.
 void WorldLoop::Impl::route_forces(int32_t slot) {
   BodySlot& bs = world.bodies[static_cast<size_t>(slot)];
   if (!bs.alive) return;
   Body& b = bs.body;
   Live& l = live[static_cast<size_t>(slot)];
-  l.routes.clear();
-  // Made afresh below: the tip's load on it is added again before the next step.
-  if (static_cast<size_t>(slot) < tip_on.size()) tip_on[static_cast<size_t>(slot)].route = {};
-  if (l.forces.empty()) {
-    b.tools.held_forces.resize(0, 3);
-    return;
-  }
-  b.tools.held_forces.setZero(b.sim.x.rows(), 3);
+  std::vector<interact::ForceRoute>& routes = b.tools.live_routes;
+  routes.clear();
   for (const interact::LiveForce& f : l.forces) {
-    l.routes.push_back(interact::load_at_node(*b.model, b.sim.x, f.node, f.force_mn, f.radius_mm,
-                                              b.tools.routing));
-    const interact::ForceRoute& r = l.routes.back();
-    for (size_t k = 0; k < r.nodes.size(); ++k)
-      b.tools.held_forces.row(r.nodes[k]) += r.forces.row(static_cast<Eigen::Index>(k));
+    routes.push_back(interact::load_at_node(*b.model, b.sim.x, f.node, f.force_mn, f.radius_mm,
+                                            b.tools.routing));
     if (b.sim.options().mode == sim::Mode::kLocal)
-      b.tools.touched.insert(b.tools.touched.end(), r.nodes.begin(), r.nodes.end());
+      b.tools.touched.insert(b.tools.touched.end(), routes.back().nodes.begin(),
+                             routes.back().nodes.end());
   }
   if (b.sim.options().mode == sim::Mode::kLocal)
     interact::keep_touched_movable(b.sim, b.tools.touched);
@@ -298,9 +290,8 @@ void WorldLoop::Impl::apply_cuts() {
   for (const Stroke& s : tissue_cuts) {
     const double t0 = now_s();
     // Each body cut kept as it was for a reset.
-    lend_grasp();
+    // What the grasper holds is in the held body's tools: the cut carries it to the copies.
     const WorldCut c = cut_through(world, s.path, s.direction, s.depth_mm, s.reach_mm, before_cuts);
-    take_grasp_back();
     for (const auto& [id, r] : c.bodies) {
       tets_cut += r.cut_tets;
       log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, id).name,
@@ -327,10 +318,8 @@ void WorldLoop::Impl::topology_changed(int32_t slot) {
       h.topology = b.topology;
       h.skin_nodes = b.model->layers[0].node_count;
     }
-  Live& l = live[static_cast<size_t>(slot)];
-  l.forces.clear();
-  l.routes.clear();
-  b.tools.held_forces.resize(0, 3);
+  live[static_cast<size_t>(slot)].forces.clear();
+  b.tools.live_routes.clear();
   forget_tip(slot);
 }
 

@@ -63,36 +63,21 @@ void WorldLoop::Impl::take_hands() {
   }
 }
 
-// The tip's load on `b` moved from the last step's nodes to this step's: added to the forces
-// its tools hold (where the live forces are routed), rows of the last route taken off first.
-static void replace_tip_load(Body& b, interact::ForceRoute& last, interact::ForceRoute next) {
-  Eigen::MatrixX3d& held = b.tools.held_forces;
-  if (held.rows() == b.sim.x.rows())
-    for (size_t k = 0; k < last.nodes.size(); ++k)
-      held.row(last.nodes[k]) -= last.forces.row(static_cast<Eigen::Index>(k));
-  last = std::move(next);
-  if (last.nodes.empty()) return;
-  if (held.rows() != b.sim.x.rows()) held.setZero(b.sim.x.rows(), 3);
-  for (size_t k = 0; k < last.nodes.size(); ++k)
-    held.row(last.nodes[k]) += last.forces.row(static_cast<Eigen::Index>(k));
-}
-
 void WorldLoop::Impl::move_hands() {
-  tip_on.resize(world.bodies.size());
+  tip_proxies.resize(world.bodies.size());
   hands_reaction_mn.setZero();
   for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
     BodySlot& bs = world.bodies[slot];
-    TipOnBody& t = tip_on[slot];
     if (!bs.alive) continue;
     Body& b = bs.body;
+    interact::HapticProxy& proxy = tip_proxies[slot];
     if (!tip.active) {
-      if (!t.route.nodes.empty()) replace_tip_load(b, t.route, {});
-      t.proxy = {};  // placed afresh when the tip comes on again
+      if (!b.tools.tip.nodes.empty()) b.tools.tip = {};
+      proxy = {};  // placed afresh when the tip comes on again
       continue;
     }
-    replace_tip_load(b, t.route,
-                     interact::load_of_tip(*b.model, b.sim.x, tip, b.tools.routing, t.proxy));
-    hands_reaction_mn += t.proxy.device_force_mn;
+    b.tools.tip = interact::load_of_tip(*b.model, b.sim.x, tip, b.tools.routing, proxy);
+    hands_reaction_mn += proxy.device_force_mn;
   }
   if (!jaws) {
     open_grasper();
@@ -116,7 +101,8 @@ void WorldLoop::Impl::move_hands() {
       }
     }
     try {
-      interact::close_jaws(world.bodies[static_cast<size_t>(grasp_slot)].body.sim, at, grasp,
+      interact::close_jaws(world.bodies[static_cast<size_t>(grasp_slot)].body.sim, at,
+                           world.bodies[static_cast<size_t>(grasp_slot)].body.tools.hand,
                            "grasper");
     } catch (const Error& e) {  // the skin moved away since set_grasper() checked: stay open
       log::warn("{}", e.what());
@@ -127,35 +113,32 @@ void WorldLoop::Impl::move_hands() {
     }
     close_at.reset();
   }
-  sim::Simulation& held = world.bodies[static_cast<size_t>(grasp_slot)].body.sim;
-  interact::move_jaws(held, jaws->center_mm, grasp);
-  hands_reaction_mn += interact::grasp_reaction(held, grasp);
+  Body& b = world.bodies[static_cast<size_t>(grasp_slot)].body;
+  interact::move_jaws(b.sim, jaws->center_mm, b.tools.hand);
+  hands_reaction_mn += interact::grasp_reaction(b.sim, b.tools.hand);
 }
 
 void WorldLoop::Impl::open_grasper() {
   if (grasp_slot >= 0) {
     BodySlot& bs = world.bodies[static_cast<size_t>(grasp_slot)];
-    if (bs.alive && !grasp.nodes.empty()) interact::open_jaws(bs.body.sim, grasp);
+    if (bs.alive && !bs.body.tools.hand.nodes.empty())
+      interact::open_jaws(bs.body.sim, bs.body.tools.hand);
+    if (bs.alive) bs.body.tools.hand = {};
   }
-  grasp = {};
   grasp_slot = -1;
 }
 
+// A body renumbered: the tip's load on it and its proxy start over on the new shape.
 void WorldLoop::Impl::forget_tip(int32_t slot) {
-  if (static_cast<size_t>(slot) < tip_on.size()) tip_on[static_cast<size_t>(slot)] = {};
+  if (static_cast<size_t>(slot) < tip_proxies.size()) tip_proxies[static_cast<size_t>(slot)] = {};
+  BodySlot& bs = world.bodies[static_cast<size_t>(slot)];
+  if (bs.alive) bs.body.tools.tip = {};
 }
 
-void WorldLoop::Impl::lend_grasp() {
-  if (grasp_slot >= 0 && !grasp.nodes.empty())
-    world.bodies[static_cast<size_t>(grasp_slot)].body.tools.grasps.push_back(std::move(grasp));
-}
-
-void WorldLoop::Impl::take_grasp_back() {
-  if (grasp_slot < 0) return;
-  std::vector<interact::Grasp>& g = world.bodies[static_cast<size_t>(grasp_slot)].body.tools.grasps;
-  if (g.empty()) return;
-  grasp = std::move(g.back());
-  g.pop_back();
+const interact::Grasp* WorldLoop::Impl::held() const {
+  if (grasp_slot < 0) return nullptr;
+  const BodySlot& bs = world.bodies[static_cast<size_t>(grasp_slot)];
+  return bs.alive && !bs.body.tools.hand.nodes.empty() ? &bs.body.tools.hand : nullptr;
 }
 
 }  // namespace lamina::world

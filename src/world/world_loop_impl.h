@@ -55,22 +55,17 @@ struct WorldLoop::Impl {
 
   // The stepping thread's.
   double stepping_rate_hz = 1000.0;
-  struct Live {  // a body's live forces, and their routes on the shape they were set on
+  struct Live {  // a body's live forces (routed into its tools' live_routes)
     std::vector<interact::LiveForce> forces;
-    std::vector<interact::ForceRoute> routes;
   };
   std::vector<Live> live;  // per body slot
-  // The hands (world_loop_hands.cpp): the tool tip with a haptic proxy and its last load per
-  // body slot, and the grasper: where it closes (not yet done), where it is, what it holds.
+  // The hands (world_loop_hands.cpp): the tool tip with a haptic proxy per body slot (its load
+  // on the body is the body's tools' `tip`), and the grasper: where it closes (not yet done),
+  // where it is, and the body whose tools' `hand` holds what it holds.
   interact::ToolTip tip;
-  struct TipOnBody {
-    interact::HapticProxy proxy;
-    interact::ForceRoute route;  // its load on the body's nodes, added to held_forces
-  };
-  std::vector<TipOnBody> tip_on;  // per body slot
+  std::vector<interact::HapticProxy> tip_proxies;  // per body slot
   std::optional<interact::Jaws> close_at, jaws;
   int32_t grasp_slot = -1;
-  interact::Grasp grasp;
   Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
   WorldStepStats stats;
   interact::RateWindow window;
@@ -103,10 +98,7 @@ struct WorldLoop::Impl {
   void move_hands();              // before each step: the tip's loads, the jaws
   void open_grasper();            // the held body let go
   void forget_tip(int32_t slot);  // a body renumbered: the tip's load and proxy on it start over
-  // A cut carries what the jaws hold to the copies as it carries a scene's grasper: the grasp is
-  // lent to the held body's tools across cut_through() and taken back after.
-  void lend_grasp();
-  void take_grasp_back();
+  const interact::Grasp* held() const;  // what the grasper holds, or null when open
   void one_step();
   void publish(bool force);  // world_loop_publish.cpp
 };

@@ -35,7 +35,8 @@ void WorldLoop::Impl::publish(bool force) {
     v.x = b.sim.x;
     v.stats = n < stats.bodies.size() ? stats.bodies[n] : BodyStepStats{};
     v.force_nodes.clear();
-    for (const interact::ForceRoute& r : live[slot].routes) v.force_nodes.push_back(r.contact_node);
+    for (const interact::ForceRoute& r : bs.body.tools.live_routes)
+      v.force_nodes.push_back(r.contact_node);
     ++n;
   }
   s.bodies.resize(n);
@@ -66,11 +67,11 @@ void WorldLoop::Impl::publish(bool force) {
   s.cut_message = cut_message;
   s.hands_reaction_mn = hands_reaction_mn;
   s.tip_touching = false;
-  for (const TipOnBody& t : tip_on) s.tip_touching = s.tip_touching || !t.route.nodes.empty();
-  s.grasped_body = grasp_slot >= 0 && !grasp.nodes.empty()
-                       ? world.bodies[static_cast<size_t>(grasp_slot)].body.name
-                       : std::string();
-  s.grasped_nodes = s.grasped_body.empty() ? 0 : static_cast<int32_t>(grasp.nodes.size());
+  for (const BodySlot& bs : world.bodies)
+    s.tip_touching = s.tip_touching || (bs.alive && !bs.body.tools.tip.nodes.empty());
+  const interact::Grasp* g = held();
+  s.grasped_body = g ? world.bodies[static_cast<size_t>(grasp_slot)].body.name : std::string();
+  s.grasped_nodes = g ? static_cast<int32_t>(g->nodes.size()) : 0;
   s.lock_waits = lock_waits.count;
   s.longest_lock_wait_us = lock_waits.longest_us;
   ++s.generation;

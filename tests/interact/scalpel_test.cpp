@@ -222,6 +222,77 @@ TEST(Scalpel, ALoadOnTheCutNodesIsKeptWhole) {
   EXPECT_GT(model->node_count(), test::tet_phantom().node_count());
 }
 
+// A loop's live hands are in its tool driver (the one-organ loop's and every world body's):
+// a cut carries the users' forces and the tip's load whole to the copies, and the grasper's hold
+// to every copy of each node it held, as it carries a scene's tools.
+TEST(Scalpel, TheLiveHandsAreCarriedThroughACutWithTheTools) {
+  const Across s = across();
+  auto model = std::make_shared<const Model>(test::tet_phantom());
+  sim::Simulation sim = held();
+  interact::ToolDriver tools;
+  tools.routing.routing = interact::Routing::kNone;
+  tools.routing.touch = interact::Touch::kSkin;
+  // Free skin nodes nearest the blade's plane, on either side of it: what the cut divides.
+  std::vector<int32_t> near_cut;
+  for (int32_t i = 0; i < model->layers[0].node_count; ++i)
+    if (!sim.fixed()[static_cast<size_t>(i)]) near_cut.push_back(i);
+  std::sort(near_cut.begin(), near_cut.end(), [&](int32_t a, int32_t b) {
+    return std::abs(model->X(a, 0) - s.x0) < std::abs(model->X(b, 0) - s.x0);
+  });
+  ASSERT_GE(near_cut.size(), 3U);
+  const Eigen::Vector3d push(0, 0, 40), tip(0, 10, -20);
+  tools.live_routes = {
+      interact::load_at_node(*model, sim.x, near_cut[0], push, 6.0, tools.routing)};
+  tools.tip = interact::load_at_node(*model, sim.x, near_cut[1], tip, 4.0, tools.routing);
+  interact::close_jaws(sim, {.center_mm = sim.x.row(near_cut[2]).transpose(), .radius_mm = 5.0},
+                       tools.hand, "grasper");
+  const std::set<int32_t> held_before(tools.hand.nodes.begin(), tools.hand.nodes.end());
+  ASSERT_FALSE(held_before.empty());
+  interact::apply_tools(sim, tools);
+  ASSERT_LT((sim.f_ext.colwise().sum().transpose() - push - tip).norm(), 1e-9 * 50);
+  const auto per_node = [](const interact::ForceRoute& r) {
+    std::map<int32_t, Eigen::Vector3d> m;
+    for (size_t k = 0; k < r.nodes.size(); ++k)
+      m[r.nodes[k]] = r.forces.row(static_cast<Eigen::Index>(k)).transpose();
+    return m;
+  };
+  const std::map<int32_t, Eigen::Vector3d> live_before = per_node(tools.live_routes[0]),
+                                           tip_before = per_node(tools.tip);
+
+  std::vector<int32_t> origin;
+  const model::CutReport r = interact::cut_now(
+      model, sim, tools, s.scalpel.path, s.scalpel.depth_direction, s.scalpel.depth_mm, origin);
+  ASSERT_GT(r.cut_tets, 0);
+  ASSERT_GT(model->node_count(), test::tet_phantom().node_count());
+
+  // The loads whole on the cut model's nodes.
+  interact::apply_tools(sim, tools);
+  EXPECT_LT((sim.f_ext.colwise().sum().transpose() - push - tip).norm(), 1e-6 * 50);
+  // Each load on the copies of the nodes it was on, divided among them (a node's copies carry
+  // its share; the cut renumbers the nodes, so a load left on the old numbers lands elsewhere).
+  for (const auto& [route, was] :
+       {std::pair{&tools.live_routes[0], live_before}, std::pair{&tools.tip, tip_before}}) {
+    std::map<int32_t, Eigen::Vector3d> per_origin;
+    for (size_t k = 0; k < route->nodes.size(); ++k) {
+      const int32_t o = origin[static_cast<size_t>(route->nodes[k])];
+      ASSERT_TRUE(was.count(o)) << "node " << route->nodes[k] << " came from " << o;
+      per_origin.try_emplace(o, Eigen::Vector3d::Zero()).first->second +=
+          route->forces.row(static_cast<Eigen::Index>(k)).transpose();
+    }
+    ASSERT_EQ(per_origin.size(), was.size());
+    for (const auto& [o, f] : per_origin) EXPECT_LT((f - was.at(o)).norm(), 1e-9 * 50) << o;
+  }
+  // Every copy of a held node held, nothing else.
+  std::set<int32_t> held_after(tools.hand.nodes.begin(), tools.hand.nodes.end());
+  for (int32_t i = 0; i < model->node_count(); ++i)
+    EXPECT_EQ(held_after.count(i), held_before.count(origin[static_cast<size_t>(i)])) << i;
+  EXPECT_GT(held_after.size(), held_before.size()) << "the grasp was not on the cut";
+  ASSERT_EQ(tools.hand.offsets.rows(), static_cast<Eigen::Index>(tools.hand.nodes.size()));
+  interact::move_jaws(sim, sim.x.row(near_cut[2]).transpose() + Eigen::Vector3d(0, 0, 2),
+                      tools.hand);
+  for (int k = 0; k < 50; ++k) ASSERT_EQ(sim::step(sim).unstable, sim::Instability::kNone) << k;
+}
+
 // On an organ cut in two - its back held, its front free - a tool's load on the tissue is what
 // the tissue pushes back with at rest (force conserved across the cut model), and the freed
 // front piece, pushed and let go, comes to rest without its energy ever growing.

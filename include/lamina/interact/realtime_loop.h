@@ -191,7 +191,11 @@ class RealtimeLoop {
   void acquire(std::unique_lock<std::mutex>& lock);
 
   sim::Simulation sim_;
-  RoutingOptions routing_;
+  // Everything that names the organ's nodes besides the simulation: the live forces' routes,
+  // the tip's load, the grasper's hold, the loads and the nodes kept movable; the routing. One
+  // driver, stepped by apply_tools() and carried through a cut by carry_tools(), as a world's
+  // body's tools are.
+  ToolDriver tools_;
   LoopOptions options_;
   // The model's rings' locality, for the callers' checks (sim_ is the stepping thread's: a cut
   // replaces it; a cut model's rings have the same locality).
@@ -233,10 +237,7 @@ class RealtimeLoop {
     std::shared_ptr<const Model> model;
     sim::Simulation sim;
     std::vector<LiveForce> forces;
-    std::vector<ForceRoute> routes;
-    std::vector<int32_t> touched;
-    Loads loads;
-    Grasp grasp;
+    ToolDriver tools;
   };
   std::vector<BeforeCut> undo_;  // the oldest first, at most kUndoDepth
   // A cut being made on another thread while the loop steps on (the model divided and a
@@ -262,15 +263,10 @@ class RealtimeLoop {
   model::CutReport last_cut_;
   std::string cut_error_;
   ToolTip tip_;
-  std::vector<ForceRoute> routes_;
-  std::vector<int32_t> touched_;
-  Loads loads_;
   int32_t tip_contact_ = -1;
-  ForceRoute tip_route_;          // the tip's load in the last step
   HapticProxy proxy_;             // the tip's god-object and the force on the device
   std::optional<Jaws> jaws_;      // the grasper, when closed: where the caller last put it
   std::optional<Jaws> close_at_;  // where they close (the caller's first position), not yet done
-  Grasp grasp_;                   // what it holds
   bool warned_inside_ = false;    // the device-inside-the-organ warning was logged for this entry
   double last_publish_s_ = -1.0;
   sim::StepStats last_stats_;

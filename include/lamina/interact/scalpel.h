@@ -62,9 +62,9 @@ model::CutReport cut_simulation(std::shared_ptr<const Model>& model, sim::Simula
                                 std::vector<int32_t>& origin,
                                 const model::CutOptions& options = {});
 
-/// The tools' part of cut_simulation(): their vertices, routes, touched and loaded nodes, grasps
-/// and held forces moved from `before`'s nodes to their copies in `cut` (a load divided among a
-/// node's copies as its mass is).
+/// The tools' part of cut_simulation(): their vertices, routes, touched and loaded nodes, grasps,
+/// held forces and a loop's live hands (live routes, tip, hand) moved from `before`'s nodes to
+/// their copies in `cut` (a load divided among a node's copies as its mass is).
 void carry_tools(const Model& before, const Model& cut, const std::vector<int32_t>& origin,
                  ToolDriver& driver);
 

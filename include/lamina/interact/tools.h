@@ -210,6 +210,14 @@ struct ToolDriver {
   /// apply_tools() starts f_ext from them each step instead of from zero (the Python module's
   /// raw forces, which the tools add to).
   Eigen::MatrixX3d held_forces{};
+  /// A loop's live hands, besides the scripted tools, so that one driver holds everything that
+  /// names the body's nodes (a cut carries all of it: carry_tools()). `live_routes`: the users'
+  /// live forces, routed on the shape of the moment they were set and added every step; `tip`:
+  /// the tool tip's load this step (its haptic proxy's); `hand`: what a live grasper holds (the
+  /// loop moves its jaws; apply_tools() leaves it alone).
+  std::vector<ForceRoute> live_routes{};
+  ForceRoute tip{};
+  Grasp hand{};
 };
 
 /// Updates sim.f_ext (and, in local mode, the movable nodes) for time sim.time_s.
