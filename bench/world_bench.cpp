@@ -187,6 +187,64 @@ void BM_WorldLoopThread(benchmark::State& state) {
 }
 BENCHMARK(BM_WorldLoopThread)->Iterations(4)->UseManualTime()->Unit(benchmark::kMillisecond);
 
+// A stroke through the liver of the running world (the loop in its thread as fast as it goes,
+// the cut made on another thread with background_cuts, else on the stepping thread), each
+// iteration after a reset: the stepping thread's pause to take the cut in (last_cut_ms) and the
+// time from the stroke to the cut taken (last_cut_made_ms), and the world's steps in between,
+// medians over the iterations.
+void BM_WorldLoopCut(benchmark::State& state) {
+  const bool background = state.range(0) != 0;
+  std::vector<world::BodyId> ids;
+  world::WorldLoop loop(make_world(3, 1284, ids),
+                        {.rate_hz = 0.0, .real_time = false, .background_cuts = background});
+  const Eigen::MatrixX3d& X = organs()[0].model->X;
+  const Eigen::Vector3d lo = X.colwise().minCoeff(), hi = X.colwise().maxCoeff();
+  const Eigen::Vector3d c = 0.5 * (lo + hi);
+  // Across the liver's middle, from above it, 40 mm deep.
+  const std::vector<Eigen::Vector3d> path = {{lo.x() + 0.3 * (hi.x() - lo.x()), c.y(), hi.z() + 5},
+                                             {lo.x() + 0.7 * (hi.x() - lo.x()), c.y(), hi.z() + 5}};
+  const double depth = 5.0 + 0.5 * (hi.z() - lo.z());
+  world::WorldSnapshot snap;
+  loop.start();
+  std::vector<double> pause, made, meanwhile;
+  for (auto _ : state) {
+    state.PauseTiming();
+    loop.reset();
+    for (int k = 0; k < 100 && (!loop.latest(snap) || snap.cuts != 0 || snap.steps < 20); ++k)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    state.ResumeTiming();
+    loop.cut(path, Eigen::Vector3d(0, 0, -1), depth);
+    for (int k = 0; k < 2000 && snap.cuts == 0; ++k) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      loop.latest(snap);
+    }
+    if (snap.cuts == 0) {
+      state.SkipWithError(("the stroke cut nothing: " + snap.cut_message).c_str());
+      break;
+    }
+    pause.push_back(snap.last_cut_ms);
+    made.push_back(snap.last_cut_made_ms);
+    meanwhile.push_back(static_cast<double>(snap.last_cut_steps_meanwhile));
+  }
+  loop.stop();
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["pause_ms"] = median(pause);
+  state.counters["made_ms"] = median(made);
+  state.counters["tets_cut"] = static_cast<double>(snap.tets_cut);
+  state.counters["steps_meanwhile"] = median(meanwhile);
+  state.counters["peak_rss_mb"] = bench::peak_rss_mb();
+}
+BENCHMARK(BM_WorldLoopCut)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("background")
+    ->Iterations(10)
+    ->Unit(benchmark::kMillisecond);
+
 void BM_LiverAloneStep(benchmark::State& state) {
   const Organ& liver = organs(static_cast<int32_t>(state.range(0)))[0];
   world::BodyDef def = body_of(liver, true);

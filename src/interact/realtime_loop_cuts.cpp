@@ -94,13 +94,7 @@ void RealtimeLoop::apply_cut() {
         j.own_sim = sim::made_for_cut(*from, *before, *j.own, same, /*prepare=*/false);
         base = j.own.get();
       }
-      auto cut = std::make_shared<Model>();
-      j.report =
-          cut_model_now(*base, from->state.x, c.path, c.direction, c.depth_mm, *cut, j.origin);
-      if (j.report.cut_tets > 0) {
-        j.sim = sim::made_for_cut(*from, *base, *cut, j.origin, /*prepare=*/true);
-        j.cut = std::move(cut);
-      }
+      j.cut = prepare_cut(*base, *from, c.path, c.direction, c.depth_mm);
     } catch (const Error& e) {
       j.error = e.what();
     }
@@ -142,48 +136,39 @@ void RealtimeLoop::take_cut(bool wait) {
       model_ = std::move(j.own);
     }
     cut_error_.clear();
-    if (j.report.cut_tets > 0) {
+    if (j.cut.cut) {
       // Everything that names the nodes carried to the copies (a live force by its node, as a
-      // tool by vertex is: the node's first copy, on the skin as it was).
-      // A force on no node of the organ (route_forces() skips it) stays as it is.
+      // tool by vertex is: the node's first copy, on the skin as it was); what an undo goes back
+      // to kept: the simulation itself, moved (a copy took 5-6 ms at paper size, a step's time
+      // five times over). A force on no node of the organ (route_forces() skips it) stays.
       const std::vector<LiveForce> forces_before = forces_;
-      ToolDriver carried = tools_;
+      ToolDriver tools_before = tools_;
+      std::shared_ptr<const Model> model_before = model_;
       const auto on_organ = [&](const LiveForce& f) {
         return f.node >= 0 && f.node < model_->node_count();
       };
       for (const LiveForce& f : forces_)
-        if (on_organ(f)) carried.tools.push_back(Tool{.vertex = f.node});
-      carry_tools(*model_, *j.cut, j.origin, carried);
+        if (on_organ(f)) tools_.tools.push_back(Tool{.vertex = f.node});
+      std::optional<sim::Simulation> sim_before =
+          interact::take_cut(model_, sim_, tools_, j.cut, params_version_ != cut_params_version_);
       for (size_t k = 0, t = 0; k < forces_.size(); ++k)
-        if (on_organ(forces_before[k])) forces_[k].node = carried.tools[t++].vertex;
-      carried.tools.clear();
-      sim::Simulation next = std::move(*j.sim);
-      if (params_version_ != cut_params_version_)  // changed while the cut was made
-        sim::set_parameters(next, sim_.material(), sim_.options());
-      sim::restore_state(next,
-                         sim::carried_state(sim::capture_state(sim_), *model_, *j.cut, j.origin));
-      // What an undo goes back to: the simulation itself, moved (a copy took 5-6 ms at paper
-      // size, a step's time five times over).
+        if (on_organ(forces_before[k])) forces_[k].node = tools_.tools[t++].vertex;
+      tools_.tools.clear();
       if (undo_.size() == static_cast<size_t>(kUndoDepth)) undo_.erase(undo_.begin());
-      undo_.push_back({model_, std::move(sim_), forces_before, std::move(tools_)});
-      sim_ = std::move(next);
-      model_ = std::move(j.cut);
-      tools_ = std::move(carried);
+      undo_.push_back({std::move(model_before), std::move(*sim_before), forces_before,
+                       std::move(tools_before)});
       tools_.tip = {};
       proxy_ = {};
       tip_contact_ = -1;
       ++model_version_;
       ++cuts_;
-      // Where the structures crossed are now (the job reports them at rest).
-      for (model::StructureCut& x : j.report.structures_cut) {
-        x.position_mm =
-            model::from_rest(*model_, sim_.x, x.position_mm.transpose()).row(0).transpose();
+      for (const model::StructureCut& x : j.cut.report.structures_cut)
         log::warn("cut: {} cut across at ({:.1f}, {:.1f}, {:.1f}) mm, {:.1f} mm wide", x.name,
                   x.position_mm.x(), x.position_mm.y(), x.position_mm.z(), x.diameter_mm);
-      }
     }
-    last_cut_ = j.report;
+    last_cut_ = j.cut.report;
   } catch (const Error& e) {
+    tools_.tools.clear();  // the forces' stand-ins, if the cut failed while they were in
     cut_error_ = e.what();
     log::warn("{}", cut_error_);
   }

@@ -67,23 +67,66 @@ void renumber(World& world, int32_t slot, int32_t before_nodes,
   ++b.topology;
 }
 
+bool kept(const WorldBefore& before, BodyId id) {
+  return std::any_of(before.bodies.begin(), before.bodies.end(),
+                     [&](const BodyBefore& k) { return k.id == id; });
+}
+
+// The ties as they are, the first time anything is kept.
+void keep_ties(const World& world, WorldBefore& before) {
+  if (!before.ties.empty()) return;
+  before.ties.resize(world.attachments.size());
+  for (size_t a = 0; a < world.attachments.size(); ++a)
+    if (world.attachments[a].alive) before.ties[a] = world.attachments[a].attachment.ties;
+}
+
 }  // namespace
 
 model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
                           const Eigen::Vector3d& direction, double depth_mm,
                           std::vector<int32_t>* origin) {
   Body& b = body(world, id);
+  interact::PreparedCut prepared =
+      interact::prepare_cut(*b.model, sim::carry_source(b.sim), path, direction, depth_mm);
+  return take_cut(world, id, prepared, origin);
+}
+
+model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepared,
+                          std::vector<int32_t>* origin, WorldBefore* before) {
+  Body& b = body(world, id);
   const int32_t before_nodes = b.model->node_count();
-  // interact::cut_now replaces the model it is given by the cut one, made here and owned by
-  // nobody else: the body may hold it as its own (mutable) model.
-  std::shared_ptr<const Model> model = b.model;
-  std::vector<int32_t> from;
-  model::CutReport report =
-      interact::cut_now(model, b.sim, b.tools, path, direction, depth_mm, from);
-  if (report.cut_tets > 0) {
-    b.model = std::const_pointer_cast<Model>(model);
-    renumber(world, id.index, before_nodes, from);
+  if (!prepared.cut) {
+    if (origin != nullptr) {
+      origin->resize(static_cast<size_t>(before_nodes));
+      for (size_t i = 0; i < origin->size(); ++i) (*origin)[i] = static_cast<int32_t>(i);
+    }
+    return std::move(prepared.report);
   }
+  if (prepared.sim->model().node_count() != static_cast<int32_t>(prepared.origin.size()) ||
+      std::any_of(prepared.origin.begin(), prepared.origin.end(),
+                  [&](int32_t o) { return o < 0 || o >= before_nodes; }))
+    throw invalid_input("cut of body '" + b.name + "'",
+                        "the prepared cut is of another model than the body's");
+  std::vector<int32_t> from = prepared.origin;
+  // The cut model is made by prepare_cut and owned by nobody else: the body may hold it as its
+  // own (mutable) model. A rate changed since it was prepared changed the body's dt.
+  std::shared_ptr<const Model> model = b.model;
+  const bool changed = prepared.sim->options().dt_s != b.sim.options().dt_s;
+  // Kept for a reset as keep_before() keeps it, but the simulation replaced is moved there, not
+  // copied (a copy of the paper-size liver's took about 2 ms of the stepping thread's pause).
+  const bool keep = before != nullptr && !kept(*before, id);
+  if (keep) keep_ties(world, *before);
+  interact::ToolDriver tools_before = keep ? b.tools : interact::ToolDriver{};
+  std::optional<sim::Simulation> was = interact::take_cut(model, b.sim, b.tools, prepared, changed);
+  if (keep)
+    before->bodies.push_back({.id = id,
+                              .model = std::const_pointer_cast<Model>(b.model),
+                              .sim = std::move(*was),
+                              .tools = std::move(tools_before),
+                              .rest_overlap_mm = b.rest_overlap_mm});
+  model::CutReport report = std::move(prepared.report);
+  b.model = std::const_pointer_cast<Model>(model);
+  renumber(world, id.index, before_nodes, from);
   if (origin != nullptr) *origin = std::move(from);
   return report;
 }
@@ -123,14 +166,8 @@ WorldCut cut_through(World& world, const std::vector<Eigen::Vector3d>& path,
 
 void keep_before(const World& world, BodyId id, WorldBefore& before) {
   const Body& b = body(world, id);
-  if (before.ties.empty()) {
-    before.ties.resize(world.attachments.size());
-    for (size_t a = 0; a < world.attachments.size(); ++a)
-      if (world.attachments[a].alive) before.ties[a] = world.attachments[a].attachment.ties;
-  }
-  if (std::any_of(before.bodies.begin(), before.bodies.end(),
-                  [&](const BodyBefore& k) { return k.id == id; }))
-    return;
+  keep_ties(world, before);
+  if (kept(before, id)) return;
   before.bodies.push_back({.id = id,
                            .model = b.model,
                            .sim = b.sim,

@@ -157,6 +157,7 @@ void WorldLoop::run_steps(int64_t steps) {
 void WorldLoop::thread_main() {
   Impl& m = *impl_;
   if (m.options.threads > 0) omp_set_num_threads(m.options.threads);
+  m.threaded = true;
   interact::Pacer pacer;
   std::unique_lock lock(m.mutex);
   while (!m.stop_requested) {
@@ -181,6 +182,7 @@ void WorldLoop::thread_main() {
     const interact::Pacer::Clock::time_point tick = pacer.advance();
     if (pacer.paced()) m.wake.wait_until(lock, tick, [&m] { return m.stop_requested; });
   }
+  m.threaded = false;  // run_steps() after stop() cuts on the caller's thread
 }
 
 // ---- the stepping thread's side (Impl) ----------------------------------------------------
@@ -214,9 +216,12 @@ void WorldLoop::Impl::apply_pending() {
     put_back(world, before_cuts);
     for (const int32_t slot : put_back_slots) topology_changed(slot);
     tissue_cuts.clear();
+    ++resets;  // a cut being made of the bodies as they were is dropped when done
     cuts = 0;
     tets_cut = 0;
     last_cut_ms = 0.0;
+    last_cut_made_ms = 0.0;
+    last_cut_steps_meanwhile = 0;
     cut_message.clear();
     world::reset(world);
     unstable = sim::Instability::kNone;
@@ -281,32 +286,6 @@ void WorldLoop::Impl::route_forces(int32_t slot) {
   }
   if (b.sim.options().mode == sim::Mode::kLocal)
     interact::keep_touched_movable(b.sim, b.tools.touched);
-}
-
-// The tissue cuts taken, on the stepping thread and outside the commands' lock (a cut takes
-// milliseconds): every body the blade passes through cut (cut_body()), then the ties it passes
-// divided. The world waits for them between two steps.
-void WorldLoop::Impl::apply_cuts() {
-  for (const Stroke& s : tissue_cuts) {
-    const double t0 = now_s();
-    // Each body cut kept as it was for a reset.
-    // What the grasper holds is in the held body's tools: the cut carries it to the copies.
-    const WorldCut c = cut_through(world, s.path, s.direction, s.depth_mm, s.reach_mm, before_cuts);
-    for (const auto& [id, r] : c.bodies) {
-      tets_cut += r.cut_tets;
-      log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, id).name,
-                r.cut_tets, r.new_nodes);
-      std::lock_guard lock(mutex);
-      topology_changed(id.index);
-    }
-    strokes_divided += c.ties_divided;
-    cuts += static_cast<int32_t>(c.bodies.size());
-    last_cut_ms = 1e3 * (now_s() - t0);
-    cut_message = !c.bodies.empty()    ? std::string()
-                  : !c.skipped.empty() ? c.skipped
-                                       : "the blade passed through no body's tissue";
-  }
-  tissue_cuts.clear();
 }
 
 // A body renumbered (cut, or put back uncut): callers' node numbers of it are checked against

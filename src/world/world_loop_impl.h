@@ -3,6 +3,7 @@
 // `mutex`, the stepping thread's own state, and the published snapshot guarded by
 // `snapshot_mutex`. world_loop.cpp and world_loop_publish.cpp share it.
 #include <condition_variable>
+#include <future>
 #include <mutex>
 #include <optional>
 #include <utility>
@@ -73,7 +74,30 @@ struct WorldLoop::Impl {
   bool stepping_paused = false;  // paused as last taken under mutex
   int32_t strokes_divided = 0;
   std::vector<Stroke> tissue_cuts;  // taken from `strokes`, cut outside the lock
-  WorldBefore before_cuts;          // the bodies cut since the last reset, as they were
+  // A cut being made on another thread while the world steps on (world_loop_cuts.cpp): each
+  // body the blade divides, prepared from copies of it (interact::prepare_cut), then taken in
+  // between two steps (world::take_cut). One at a time; the next stroke waits for it.
+  struct CutJob {
+    Stroke stroke;
+    uint64_t resets = 0;  // the loop's resets when it began: a reset since drops it
+    double began_s = 0.0;
+    int64_t steps = 0;  // the world's when it began
+    struct OnBody {
+      BodyId id;
+      uint32_t topology = 0;  // the body's when it began: a change since drops its part
+      interact::PreparedCut cut;
+    };
+    std::vector<OnBody> bodies{};  // those it divides
+    std::string skipped{};         // "NAME: why" of those it could not cut
+  };
+  std::future<CutJob> cut_job;
+  uint64_t resets = 0;
+  int stepping_threads = 0;   // the stepping thread's own, set back once the job is taken
+  bool threaded = false;      // stepping on the loop's thread (not run_steps())
+  double cut_begin_ms = 0.0;  // the stepping thread's time copying the bodies for the job
+  double last_cut_made_ms = 0.0;
+  int64_t last_cut_steps_meanwhile = 0;
+  WorldBefore before_cuts;  // the bodies cut since the last reset, as they were
   int32_t cuts = 0;
   int64_t tets_cut = 0;
   double last_cut_ms = 0.0;
@@ -91,7 +115,11 @@ struct WorldLoop::Impl {
   void follow_the_clock();  // every body's dt = 1 / rate in real time
   void apply_pending();     // under mutex
   void route_forces(int32_t slot);
-  void apply_cuts();  // the stepping thread's, outside mutex: the tissue cuts taken
+  // The stepping thread's, outside mutex (world_loop_cuts.cpp): a cut job taken in when done,
+  // the next stroke's begun; without the loop's thread, each is waited for.
+  void apply_cuts();
+  void begin_cut(Stroke stroke);
+  void take_cut(bool wait);
   void topology_changed(int32_t slot);  // under mutex: a body renumbered
   // The hands (world_loop_hands.cpp).
   void take_hands();              // under mutex: the tip and jaws the callers set

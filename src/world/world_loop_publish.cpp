@@ -64,6 +64,8 @@ void WorldLoop::Impl::publish(bool force) {
   s.cuts = cuts;
   s.tets_cut = tets_cut;
   s.last_cut_ms = last_cut_ms;
+  s.last_cut_made_ms = last_cut_made_ms;
+  s.last_cut_steps_meanwhile = last_cut_steps_meanwhile;
   s.cut_message = cut_message;
   s.hands_reaction_mn = hands_reaction_mn;
   s.tip_touching = false;

@@ -7,7 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include "lamina/core/error.h"
 #include "lamina/world/world_loop.h"
@@ -172,6 +174,57 @@ TEST(WorldLoop, ACutRenumbersTheBodyRefusesItsOldNodesAndAResetPutsItBackUncut) 
   loop.run_steps(200);
   ASSERT_TRUE(loop.latest(snap));
   EXPECT_EQ(snap.unstable, sim::Instability::kNone);
+  EXPECT_TRUE(snap.bodies[0].x.allFinite());
+}
+
+// A running loop's cut is made on another thread while the world steps on, and taken in between
+// two steps: the stepping thread's pause is a small part of the cut's making, the world steps
+// on meanwhile, the body is cut as run_steps() cuts it, and a pull held on the other body is
+// kept.
+TEST(WorldLoop, ARunningLoopCutsOnAnotherThreadWhileTheWorldStepsOn) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  TwoSpheres u = two_spheres(0.5, 0.0, 0.0);
+  const Slit s = slit_into_a();
+  // The reference: the same cut made between two steps of a loop without its thread.
+  WorldLoop waited(std::move(u.world), {.real_time = false});
+  waited.cut(s.path, s.direction, s.depth_mm);
+  waited.run_steps(1);
+  WorldSnapshot ref;
+  ASSERT_TRUE(waited.latest(ref));
+  ASSERT_EQ(ref.cuts, 1);
+
+  WorldLoop loop(std::move(t.world), {.rate_hz = 1000.0});
+  const auto h = loop.bodies();
+  loop.set_forces(h[1].first, h[1].second, {{.node = 0, .force_mn = Eigen::Vector3d(0, 0, 50)}});
+  loop.start();
+  WorldSnapshot snap;
+  for (int k = 0; k < 200 && snap.steps < 20; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    loop.latest(snap);
+  }
+  const int64_t steps_at_stroke = snap.steps;
+  loop.cut(s.path, s.direction, s.depth_mm);
+  for (int k = 0; k < 2000 && snap.cuts == 0; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    loop.latest(snap);
+  }
+  loop.stop();
+  ASSERT_EQ(snap.cuts, 1) << snap.cut_message;
+  std::printf(
+      "cut on another thread: the stepping thread's pause %.2f ms of %.2f ms, %lld steps "
+      "meanwhile\n",
+      snap.last_cut_ms, snap.last_cut_made_ms,
+      static_cast<long long>(snap.last_cut_steps_meanwhile));
+  EXPECT_EQ(snap.unstable, sim::Instability::kNone);
+  EXPECT_EQ(snap.bodies[0].topology, 1u);
+  EXPECT_EQ(snap.bodies[0].model->node_count(), ref.bodies[0].model->node_count());
+  EXPECT_EQ(snap.tets_cut, ref.tets_cut);
+  EXPECT_EQ(snap.bodies[1].force_nodes.size(), 1u) << "B's pull was dropped";
+  EXPECT_GT(snap.last_cut_made_ms, 0.0);
+  EXPECT_LT(snap.last_cut_ms, 0.5 * snap.last_cut_made_ms)
+      << "the stepping thread waited for the whole cut";
+  EXPECT_GT(snap.last_cut_steps_meanwhile, 0) << "the world did not step while the cut was made";
+  EXPECT_GT(snap.steps, steps_at_stroke);
   EXPECT_TRUE(snap.bodies[0].x.allFinite());
 }
 

@@ -24,6 +24,7 @@
 #include "lamina/core/lock_waits.h"
 #include "lamina/interact/grasp.h"
 #include "lamina/interact/haptic_proxy.h"
+#include "lamina/interact/prepared_cut.h"
 #include "lamina/interact/rate_window.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/cut_tetrahedra.h"
@@ -246,10 +247,7 @@ class RealtimeLoop {
   struct CutJob {
     std::shared_ptr<const Model> own;        // a copy of the caller's model, the first time
     std::optional<sim::Simulation> own_sim;  // a simulation of it (what an undo goes back to)
-    std::shared_ptr<const Model> cut;        // null: nothing divided
-    std::vector<int32_t> origin;
-    model::CutReport report;
-    std::optional<sim::Simulation> sim;  // of *cut, its solver prepared
+    PreparedCut cut;                         // the cut model and its simulation (prepared_cut.h)
     std::string error;
   };
   std::future<CutJob> cut_job_;

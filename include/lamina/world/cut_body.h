@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "lamina/interact/prepared_cut.h"
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/world/world.h"
 
@@ -32,6 +33,22 @@ namespace lamina::world {
 model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
                           const Eigen::Vector3d& direction, double depth_mm,
                           std::vector<int32_t>* origin = nullptr);
+
+struct WorldBefore;
+
+/// cut_body() in two halves (interact/prepared_cut.h), for a loop that steps on while the cut is
+/// made: interact::prepare_cut() on copies of the body's model and state (any thread), then this,
+/// between two steps: the prepared cut taken into body `id` (its simulation and tools carried,
+/// as interact::take_cut() does) and everything the world holds by its nodes renumbered, as
+/// cut_body() does. `prepared` must have been made from the body's model as it is now (a loop
+/// checks its topology generation); it is emptied.
+/// @param[out] origin  as cut_body()'s
+/// @param[in,out] before  when given, the body as it was kept there as keep_before() keeps it
+///   (unless kept already), its simulation moved there rather than copied
+/// \note Throws lamina::Error (kInvalidInput) for a stale handle, or a prepared cut of another
+///   model (its origin does not match the body's nodes).
+model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepared,
+                          std::vector<int32_t>* origin = nullptr, WorldBefore* before = nullptr);
 
 /// A body as it was before a change of its topology, and the ties of the world then: what
 /// put_back() restores (a loop's reset after cuts).

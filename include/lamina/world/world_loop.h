@@ -51,6 +51,11 @@ struct WorldLoopOptions {
   double publish_interval_s = 1.0 / 240.0;
   /// A scene's blades, on the world's clock (a reset plays them again from the start).
   std::vector<Dissection> dissections;
+  /// cut() divides the bodies on another thread while the world steps on, and takes the cut
+  /// in between two steps (as the one-organ loop does: LoopOptions::background_cuts); false,
+  /// or run_steps(), makes it between two steps on the stepping thread, which waits for it
+  /// (65 ms at paper size).
+  bool background_cuts = true;
 };
 
 /// One body as the loop last published it.
@@ -90,11 +95,14 @@ struct WorldSnapshot {
   std::string unstable_body;
   int32_t ties_divided_by_strokes = 0;  ///< by dissect() and cut() since the last reset
   /// Cuts through the bodies' tissue since the last reset (cut(): one per body divided), the
-  /// tetrahedra they divided, and the last one's time on the stepping thread, ms (the world
-  /// waits for it between two steps).
+  /// tetrahedra they divided; the last one's time on the stepping thread, ms (copying the bodies
+  /// for it and taking it in between two steps; with background_cuts off, making it too), from
+  /// the stroke taken to the cut taken in, ms, and the world's steps in between.
   int32_t cuts = 0;
   int64_t tets_cut = 0;
   double last_cut_ms = 0.0;
+  double last_cut_made_ms = 0.0;
+  int64_t last_cut_steps_meanwhile = 0;
   /// Why the last cut() divided no tissue, or empty.
   std::string cut_message;
   /// The hands (set_tool_tip(), set_grasper()): the tissue's push back on them, mN (the tip's
@@ -141,11 +149,13 @@ class WorldLoop {
   ///   reach that is not a positive number.
   void dissect(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
                double reach_mm = 1.5);
-  /// Cuts every body the blade passes through, between two steps (cut_body(): the blade's upper
-  /// end along `path`, reaching depth_mm along `direction`, drawn on the bodies as they are
-  /// then), and divides the ties within reach_mm of it as dissect() does. A body cut moves to a
-  /// new topology generation: its live forces are released (their nodes were of the older one;
-  /// set them again on the latest snapshot's nodes). reset() puts the uncut bodies back.
+  /// Cuts every body the blade passes through (cut_body(): the blade's upper end along `path`,
+  /// reaching depth_mm along `direction`, drawn on the bodies as they are when the loop takes
+  /// the stroke; made on another thread while the world steps on and taken in between two
+  /// steps: WorldLoopOptions::background_cuts), and divides the ties within reach_mm of it as
+  /// dissect() does. Strokes are cut one after another; a reset drops a cut being made. A body cut
+  /// moves to a new topology generation: its live forces are released (their nodes were of the
+  /// older one; set them again on the latest snapshot's nodes). reset() puts the uncut bodies back.
   /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a blade as dissect() does.
   void cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
            double reach_mm = 1.5);
