@@ -3,11 +3,12 @@
 // while this thread does what the world viewer's frame loop does, as fast as it can: copies the
 // latest snapshot, puts live forces on either body by the snapshot's handle and topology (a
 // refusal after a cut is expected and counted), sweeps dissections, cuts the first body with a
-// scalpel (the loop renumbers it on its thread: its model and snapshot change size), pauses,
-// changes the rate and resets (the uncut body back), and drives the hands (a tool tip pressed and
-// lifted, a grasper closed and opened on the first body). Any data race is a TSan report and a
-// non-zero exit; the program also checks that snapshots advanced, every body's positions stayed
-// finite and matched its model, and that the cuts happened.
+// scalpel every second across fresh tissue (made on a third thread, taken in and renumbered on
+// the loop's: its model and snapshot change size), pauses, changes the rate and resets with a
+// cut being made (the uncut body back, the cut dropped; cuts go on after), and drives the hands (a
+// tool tip pressed and lifted, a grasper closed and opened on the first body). Any data race is a
+// TSan report and a non-zero exit; the program also checks that snapshots advanced, every body's
+// positions stayed finite and matched its model, and that the cuts happened.
 //   tsan_world_handoff MODEL.vtu [SECONDS]
 #include <Eigen/Core>
 #include <algorithm>
@@ -89,14 +90,21 @@ int main(int argc, char** argv) {
       return true;
     };
     if (every(0.7, next_dissection)) loop.dissect(path, -Eigen::Vector3d::UnitZ(), 10.0, 2.0);
-    if (every(1.0, next_cut) && cuts_asked < 4) {
-      loop.cut(path, -Eigen::Vector3d::UnitZ(), 0.5 * (hi.z() - lo.z()) + 5.0);
+    // A cut every second, each across fresh tissue (a stroke along an earlier one's path
+    // divides nothing more), and one asked just before the reset: the reset meets a cut being
+    // made on the loop's other thread, which it drops.
+    const bool resetting = !reset_done && t > 0.6 * seconds;
+    if (every(1.0, next_cut) || resetting) {
+      const double xc = lo.x() + (0.2 + 0.1 * (cuts_asked % 7)) * (hi.x() - lo.x());
+      loop.cut({Eigen::Vector3d(xc, lo.y() - 5, hi.z() + 5),
+                Eigen::Vector3d(xc, hi.y() + 5, hi.z() + 5)},
+               -Eigen::Vector3d::UnitZ(), 0.5 * (hi.z() - lo.z()) + 5.0);
       ++cuts_asked;
     }
     if (every(1.5, next_pause)) loop.set_paused(true);
     if (every(1.5, next_resume)) loop.set_paused(false);
     if (every(2.3, next_rate)) loop.set_rate(++rate_changes % 2 ? 1000.0 : 2000.0);
-    if (!reset_done && t > 0.6 * seconds) {
+    if (resetting) {
       loop.reset();
       reset_done = true;
     }
@@ -131,7 +139,7 @@ int main(int argc, char** argv) {
       static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fresh),
       static_cast<long long>(snap.steps), cuts_asked, most_cuts, snap.cuts,
       static_cast<unsigned long long>(refused), grasps);
-  if (fresh < 10 || snap.steps < 10 || most_cuts == 0) {
+  if (fresh < 10 || snap.steps < 10 || most_cuts == 0 || snap.cuts == 0) {
     std::fprintf(stderr, "too little happened to check anything\n");
     return 1;
   }
