@@ -133,18 +133,9 @@ model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepar
 
 model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
                           const Eigen::Vector3d& direction, double depth_mm, WorldBefore& before) {
-  WorldBefore was;  // the body and the ties as they are, if `before` has neither yet
-  if (before.ties.empty() || std::none_of(before.bodies.begin(), before.bodies.end(),
-                                          [&](const BodyBefore& k) { return k.id == id; }))
-    keep_before(world, id, was);
-  model::CutReport report = cut_body(world, id, path, direction, depth_mm);
-  if (report.cut_tets > 0 && !was.bodies.empty()) {
-    if (before.ties.empty()) before.ties = std::move(was.ties);
-    if (std::none_of(before.bodies.begin(), before.bodies.end(),
-                     [&](const BodyBefore& k) { return k.id == id; }))
-      before.bodies.push_back(std::move(was.bodies.front()));
-  }
-  return report;
+  interact::PreparedCut prepared = interact::prepare_cut(
+      *body(world, id).model, sim::carry_source(body(world, id).sim), path, direction, depth_mm);
+  return take_cut(world, id, prepared, nullptr, &before);
 }
 
 WorldCut cut_through(World& world, const std::vector<Eigen::Vector3d>& path,
