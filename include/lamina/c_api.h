@@ -266,8 +266,13 @@ lamina_status lamina_world_dissect(lamina_world* world, const double* path_xyz, 
  * 0 when the blade met no tissue. */
 lamina_status lamina_world_cut(lamina_world* world, const double* path_xyz, int32_t points,
                                const double direction[3], double depth_mm, int64_t* tets_divided);
-/* Body `body`'s topology generation: it moves on each time a cut (or a reset putting a cut body
- * back) renumbers its nodes. 0 for an index out of range. */
+/* Takes the last lamina_world_cut back: every body it divided as it was just before it
+ * (renumbered again: read its model's counts again; its forces released), the ties it divided in
+ * place again, the clock running on. The last 8 cuts can be undone, one call each;
+ * LAMINA_ERROR_INVALID_INPUT when there is none. */
+lamina_status lamina_world_undo_cut(lamina_world* world);
+/* Body `body`'s topology generation: it moves on each time a cut (or an undo, or a reset putting
+ * a cut body back) renumbers its nodes. 0 for an index out of range. */
 uint32_t lamina_world_body_topology(const lamina_world* world, int32_t body);
 
 /* What the last world step measured. */

@@ -160,6 +160,16 @@ lamina_status lamina_world_cut(lamina_world* world, const double* path_xyz, int3
   });
 }
 
+lamina_status lamina_world_undo_cut(lamina_world* world) {
+  return guarded([&] {
+    lamina_world& w = need(world, "lamina_world_undo_cut: world");
+    if (w.snapshot.undoable == 0)
+      throw lamina::invalid_input("lamina_world_undo_cut", "there is no cut to undo");
+    w.loop->undo_cut();
+    advance(w, 0);
+  });
+}
+
 uint32_t lamina_world_body_topology(const lamina_world* world, int32_t body) {
   if (world == nullptr || body < 0 || body >= lamina_world_body_count(world)) return 0;
   return world->snapshot.bodies[static_cast<size_t>(body)].topology;

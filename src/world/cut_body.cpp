@@ -187,4 +187,11 @@ void put_back(World& world, WorldBefore& before) {
   before = WorldBefore{};
 }
 
+void fold_before(WorldBefore& earlier, WorldBefore& later) {
+  for (BodyBefore& k : later.bodies)
+    if (!kept(earlier, k.id)) earlier.bodies.push_back(std::move(k));
+  if (earlier.ties.empty()) earlier.ties = std::move(later.ties);
+  later = WorldBefore{};
+}
+
 }  // namespace lamina::world

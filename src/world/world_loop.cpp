@@ -29,8 +29,9 @@ WorldLoop::WorldLoop(World world, WorldLoopOptions options)
   m.live.resize(m.world.bodies.size());
   for (const BodyId id : body_ids(m.world)) {
     const Body& b = body(m.world, id);
-    m.handles.push_back({id, b.topology, b.model->layers[0].node_count});
+    m.handles.push_back({id, b.topology, b.model->layers[0].node_count, b.model->rings.locality});
   }
+  m.params_version.assign(m.world.bodies.size(), 0);
   m.follow_the_clock();
   // Made here, not in the stepping thread's first step: each body's multigrid or factor at the
   // step the clock gives.
@@ -65,13 +66,7 @@ void WorldLoop::stop() {
 void WorldLoop::set_forces(BodyId id, uint32_t topology, std::vector<interact::LiveForce> forces) {
   Impl& m = *impl_;
   std::lock_guard lock(m.mutex);
-  const auto h = std::find_if(m.handles.begin(), m.handles.end(),
-                              [&](const Impl::Handle& e) { return e.id == id; });
-  if (h == m.handles.end())
-    throw invalid_input("world loop: body handle",
-                        fmt::format("handle {} (generation {}) is stale: it names no body of this "
-                                    "world (take the handles from the latest snapshot)",
-                                    id.index, id.generation));
+  const Impl::Handle* h = &m.handle_of(id);
   if (topology != h->topology)
     throw invalid_input("world loop: body handle",
                         fmt::format("its nodes are of topology generation {}, the body's is {} "
@@ -95,6 +90,49 @@ void WorldLoop::set_forces(BodyId id, uint32_t topology, std::vector<interact::L
       return;
     }
   m.new_forces.push_back({id.index, h->topology, std::move(forces)});
+}
+
+// The handle of `id` among the live bodies, or a one-line refusal naming it stale.
+const WorldLoop::Impl::Handle& WorldLoop::Impl::handle_of(BodyId id) const {
+  const auto h =
+      std::find_if(handles.begin(), handles.end(), [&](const Handle& e) { return e.id == id; });
+  if (h == handles.end())
+    throw invalid_input("world loop: body handle",
+                        fmt::format("handle {} (generation {}) is stale: it names no body of this "
+                                    "world (take the handles from the latest snapshot)",
+                                    id.index, id.generation));
+  return *h;
+}
+
+void WorldLoop::set_parameters(BodyId id, const sim::Material& material,
+                               const sim::SolverOptions& solver,
+                               const interact::RoutingOptions& routing) {
+  Impl& m = *impl_;
+  sim::check_parameters(material, solver);  // throws, naming the bad parameter
+  double dt = 0.0;
+  {
+    std::lock_guard lock(m.snapshot_mutex);
+    dt = m.published.dt_s;
+  }
+  if (solver.dt_s != dt)
+    throw invalid_input("world loop: dt_s",
+                        fmt::format("{:g} s, but every body of a world steps at its dt, {:g} s now "
+                                    "(in real time 1 / rate: change the rate instead)",
+                                    solver.dt_s, dt));
+  std::lock_guard lock(m.mutex);
+  const Impl::Handle& h = m.handle_of(id);
+  interact::check_routing(routing, h.rings_locality);
+  for (Impl::NewParams& p : m.new_params)
+    if (p.slot == id.index) {
+      p = {id.index, material, solver, routing};
+      return;
+    }
+  m.new_params.push_back({id.index, material, solver, routing});
+}
+
+void WorldLoop::undo_cut() {
+  std::lock_guard lock(impl_->mutex);
+  ++impl_->new_undos;
 }
 
 void WorldLoop::clear_forces() {
@@ -211,6 +249,9 @@ void WorldLoop::Impl::apply_pending() {
     new_close.reset();
     new_jaws.reset();
     jaws_closed = false;
+    for (Undo& u : undo) fold_before(before_cuts, u.before);  // the earliest kept wins
+    undo.clear();
+    undos = new_undos = 0;
     std::vector<int32_t> put_back_slots;
     for (const BodyBefore& k : before_cuts.bodies) put_back_slots.push_back(k.id.index);
     put_back(world, before_cuts);
@@ -255,6 +296,10 @@ void WorldLoop::Impl::apply_pending() {
     reroute.push_back(f.slot);
   }
   new_forces.clear();
+  undos += new_undos;
+  new_undos = 0;
+  for (const NewParams& p : new_params) reroute.push_back(p.slot);
+  apply_parameters();
   take_hands();
   for (Stroke& s : strokes) {
     if (s.cuts_tissue)
@@ -266,6 +311,20 @@ void WorldLoop::Impl::apply_pending() {
   std::sort(reroute.begin(), reroute.end());
   reroute.erase(std::unique(reroute.begin(), reroute.end()), reroute.end());
   for (const int32_t slot : reroute) route_forces(slot);
+}
+
+// New parameters for the bodies (set_parameters(), checked there), each body's newest; dt stays
+// the world's (follow_the_clock() may have changed it since the check).
+void WorldLoop::Impl::apply_parameters() {
+  for (NewParams& p : new_params) {
+    BodySlot& bs = world.bodies[static_cast<size_t>(p.slot)];
+    if (!bs.alive) continue;
+    p.solver.dt_s = bs.body.sim.options().dt_s;
+    sim::set_parameters(bs.body.sim, p.material, p.solver);
+    bs.body.tools.routing = p.routing;
+    ++params_version[static_cast<size_t>(p.slot)];
+  }
+  new_params.clear();
 }
 
 // A body's live forces routed on its shape of the moment (as the one-organ loop routes them:
@@ -296,6 +355,7 @@ void WorldLoop::Impl::topology_changed(int32_t slot) {
     if (h.id.index == slot) {
       h.topology = b.topology;
       h.skin_nodes = b.model->layers[0].node_count;
+      h.rings_locality = b.model->rings.locality;
     }
   live[static_cast<size_t>(slot)].forces.clear();
   b.tools.live_routes.clear();

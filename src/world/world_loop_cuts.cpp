@@ -18,6 +18,7 @@ namespace lamina::world {
 void WorldLoop::Impl::apply_cuts() {
   const bool background = threaded && options.background_cuts;
   take_cut(/*wait=*/!background);  // one begun in the thread before a stop() is waited for
+  apply_undos();                   // after the cut being made, which it may be asked to take back
   while (!tissue_cuts.empty() && !cut_job.valid()) {
     Stroke s = std::move(tissue_cuts.front());
     tissue_cuts.erase(tissue_cuts.begin());
@@ -82,19 +83,22 @@ void WorldLoop::Impl::take_cut(bool wait) {
     return;
   }
   int32_t divided = 0;
+  Undo entry;  // each body it divides as it was, and the ties then
   for (CutJob::OnBody& o : j.bodies) {
     if (!is_valid(world, o.id) || body(world, o.id).topology != o.topology) {
       log::warn("world: cut: body {} changed while the cut was made; it is not cut", o.id.index);
       continue;
     }
     model::CutReport r;
-    try {  // kept as it was for a reset
-      r = world::take_cut(world, o.id, o.cut, nullptr, &before_cuts);
+    try {  // kept as it was for an undo (and a reset)
+      r = world::take_cut(world, o.id, o.cut, nullptr, &entry.before);
     } catch (const Error& e) {  // nothing of the body changed
       log::warn("world: cut: {}", e.what());
       continue;
     }
     tets_cut += r.cut_tets;
+    entry.tets += r.cut_tets;
+    entry.params.emplace_back(o.id.index, params_version[static_cast<size_t>(o.id.index)]);
     ++divided;
     log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, o.id).name,
               r.cut_tets, r.new_nodes);
@@ -104,12 +108,76 @@ void WorldLoop::Impl::take_cut(bool wait) {
   const Stroke& s = j.stroke;
   strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
   cuts += divided;
+  if (divided > 0) {
+    entry.bodies = divided;
+    undo.push_back(std::move(entry));
+    if (undo.size() > static_cast<size_t>(kUndoDepth)) {  // the oldest kept for a reset only
+      fold_before(before_cuts, undo.front().before);
+      undo.erase(undo.begin());
+    }
+  }
   last_cut_ms = cut_begin_ms + 1e3 * (now_s() - t0);  // the copies, and taking it in
   last_cut_made_ms = 1e3 * (now_s() - j.began_s);
   last_cut_steps_meanwhile = world.steps - j.steps;
   cut_message = divided > 0          ? std::string()
                 : !j.skipped.empty() ? j.skipped
                                      : "the blade passed through no body's tissue";
+  publish(true);
+}
+
+}  // namespace lamina::world
+
+namespace lamina::world {
+
+// Undos asked, each the newest cut taken back (world_loop.h, undo_cut()): the bodies it divided
+// put back as they were just before it, on the clock of now and with the parameters set since.
+void WorldLoop::Impl::apply_undos() {
+  if (undos == 0 || cut_job.valid()) return;
+  for (; undos > 0; --undos) {
+    if (undo.empty()) {
+      cut_message = "undo: there is no cut to undo";
+      log::warn("world: {}", cut_message);
+      undos = 0;
+      break;
+    }
+    Undo u = std::move(undo.back());
+    undo.pop_back();
+    struct Now {
+      int32_t slot;
+      double time_s;
+      int64_t steps;
+      sim::Material material;
+      sim::SolverOptions solver;
+      interact::RoutingOptions routing;
+      bool params_changed;
+    };
+    std::vector<Now> now;
+    for (const auto& [slot, version] : u.params) {
+      if (slot == grasp_slot) open_grasper();  // its nodes are renumbered under the jaws
+      const Body& b = world.bodies[static_cast<size_t>(slot)].body;
+      now.push_back({slot, b.sim.time_s, b.sim.steps, b.sim.material(), b.sim.options(),
+                     b.tools.routing, params_version[static_cast<size_t>(slot)] != version});
+    }
+    put_back(world, u.before);
+    for (const Now& n : now) {
+      Body& b = world.bodies[static_cast<size_t>(n.slot)].body;
+      if (!b.tools.hand.nodes.empty()) {  // a grasp of then, which the jaws no longer hold
+        interact::open_jaws(b.sim, b.tools.hand);
+        b.tools.hand = {};
+      }
+      b.sim.time_s = n.time_s;
+      b.sim.steps = n.steps;
+      if (n.params_changed) sim::set_parameters(b.sim, n.material, n.solver);
+      b.tools.routing = n.routing;
+      std::lock_guard lock(mutex);
+      topology_changed(n.slot);
+    }
+    follow_the_clock();  // the rate may have changed since
+    cuts -= u.bodies;
+    tets_cut -= u.tets;
+    cut_message.clear();
+    log::info("world: undo: the last cut taken back ({} cut(s) in force)", cuts);
+  }
   publish(true);
 }
 

@@ -51,8 +51,18 @@ struct WorldLoop::Impl {
     BodyId id;
     uint32_t topology = 0;
     int32_t skin_nodes = 0;
+    int32_t rings_locality = 0;  // what its routing's locality may reach
   };
   std::vector<Handle> handles;
+  const Handle& handle_of(BodyId id) const;  // under mutex; throws for a stale one
+  struct NewParams {
+    int32_t slot;
+    sim::Material material;
+    sim::SolverOptions solver;
+    interact::RoutingOptions routing;
+  };
+  std::vector<NewParams> new_params;  // the newest per body
+  int new_undos = 0;
 
   // The stepping thread's.
   double stepping_rate_hz = 1000.0;
@@ -97,7 +107,19 @@ struct WorldLoop::Impl {
   double cut_begin_ms = 0.0;  // the stepping thread's time copying the bodies for the job
   double last_cut_made_ms = 0.0;
   int64_t last_cut_steps_meanwhile = 0;
-  WorldBefore before_cuts;  // the bodies cut since the last reset, as they were
+  WorldBefore before_cuts;  // the bodies cut since the last reset, as they were (but `undo`'s)
+  // The last cuts (oldest first, at most kUndoDepth), each the bodies it divided as they were
+  // just before it: an undo puts the newest back; the oldest, pushed out, is folded into
+  // before_cuts; a reset folds them all in and puts the earliest back.
+  struct Undo {
+    WorldBefore before;
+    int32_t bodies = 0;
+    int64_t tets = 0;
+    std::vector<std::pair<int32_t, uint64_t>> params;  // each body's params_version then
+  };
+  std::vector<Undo> undo;
+  int undos = 0;                         // taken from new_undos, done when no cut is being made
+  std::vector<uint64_t> params_version;  // per body slot: counts set_parameters() taken
   int32_t cuts = 0;
   int64_t tets_cut = 0;
   double last_cut_ms = 0.0;
@@ -120,6 +142,8 @@ struct WorldLoop::Impl {
   void apply_cuts();
   void begin_cut(Stroke stroke);
   void take_cut(bool wait);
+  void apply_undos();
+  void apply_parameters();              // under mutex: new_params
   void topology_changed(int32_t slot);  // under mutex: a body renumbered
   // The hands (world_loop_hands.cpp).
   void take_hands();              // under mutex: the tip and jaws the callers set

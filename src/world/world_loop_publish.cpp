@@ -34,6 +34,9 @@ void WorldLoop::Impl::publish(bool force) {
     v.topology = b.topology;
     v.x = b.sim.x;
     v.stats = n < stats.bodies.size() ? stats.bodies[n] : BodyStepStats{};
+    v.material = b.sim.material();
+    v.solver = b.sim.options();
+    v.routing = b.tools.routing;
     v.force_nodes.clear();
     for (const interact::ForceRoute& r : bs.body.tools.live_routes)
       v.force_nodes.push_back(r.contact_node);
@@ -67,6 +70,7 @@ void WorldLoop::Impl::publish(bool force) {
   s.last_cut_made_ms = last_cut_made_ms;
   s.last_cut_steps_meanwhile = last_cut_steps_meanwhile;
   s.cut_message = cut_message;
+  s.undoable = static_cast<int32_t>(undo.size());
   s.hands_reaction_mn = hands_reaction_mn;
   s.tip_touching = false;
   for (const BodySlot& bs : world.bodies)

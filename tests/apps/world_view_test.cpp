@@ -238,5 +238,39 @@ TEST_F(WorldViewTest, AScalpelDragCutsTheBodyItCrossesWhichIsDrawnAndDraggedOnIt
   EXPECT_EQ(s->report()["cuts"]["strokes"], 1);
 }
 
+TEST_F(WorldViewTest, UUndoesTheLastCutAndTheBodyIsDrawnWholeAgain) {
+  auto s = tied_spheres();
+  s->start();
+  ASSERT_TRUE(simulate_for(*s, 0.1));
+  const int32_t nodes = s->snapshot().bodies[0].model->node_count();
+  stroke_down(*s, "k", pixel_of(world::test_world::sphere_centre()), 150.0);
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().bodies[0].topology == 1; }, 20.0))
+      << "the scalpel cut nothing: " << s->snapshot().cut_message;
+  EXPECT_EQ(s->snapshot().undoable, 1);
+  render::inject(InputEvent::key_down("u"));
+  render::inject(InputEvent::key_up("u"));
+  s->frame();
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().bodies[0].topology == 2; }, 10.0))
+      << "U did not take the cut back: " << s->snapshot().cut_message;
+  EXPECT_EQ(s->snapshot().bodies[0].model->node_count(), nodes);
+  EXPECT_EQ(s->snapshot().cuts, 0);
+  EXPECT_EQ(s->snapshot().undoable, 0);
+  s->frame();
+  s->frame();
+  for (const render::DrawnModel& d : render::last_frame())
+    if (d.name == "a") EXPECT_EQ(d.nodes, nodes) << "drawn whole again";
+  // Nothing more to undo: said, nothing changed.
+  render::inject(InputEvent::key_down("u"));
+  render::inject(InputEvent::key_up("u"));
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return !s->snapshot().cut_message.empty(); }, 10.0));
+  EXPECT_THAT(s->snapshot().cut_message, HasSubstr("no cut to undo"));
+  EXPECT_EQ(s->snapshot().bodies[0].topology, 2u);
+  s->finish();
+  EXPECT_EQ(s->report()["cuts"]["bodies_cut"], 0);
+}
+
 }  // namespace
 }  // namespace lamina::cli

@@ -109,13 +109,23 @@ int main(void) {
   CHECK(st.max_penetration_mm <= 0.5);
   CHECK(moved(w, 0) < 50.0);
 
+  /* The cut undone: the liver uncut again (renumbered: its forces released), then nothing more
+   * to undo; cut again for the reset below. */
+  CHECK_OK(lamina_world_undo_cut(w));
+  CHECK(lamina_model_node_count(liver) == uncut_nodes && lamina_world_body_topology(w, 0) == 2);
+  CHECK(lamina_world_undo_cut(w) == LAMINA_ERROR_INVALID_INPUT);
+  CHECK(strstr(lamina_last_error(), "no cut to undo") != NULL);
+  CHECK_OK(lamina_world_cut(w, slit, 2, down, 5.0 + 0.5 * (hi[2] - lo[2]), &tets));
+  CHECK(tets > 0 && lamina_world_body_topology(w, 0) == 3);
+  CHECK_OK(lamina_world_step(w, 10, &st));
+
   /* A reset: every tie back, the liver uncut, time 0, both bodies at rest (the force is kept:
    * released first). */
   CHECK_OK(lamina_world_set_forces(w, 0, NULL, NULL, 0));
   CHECK_OK(lamina_world_reset(w));
   CHECK_OK(lamina_world_step(w, 0, &st));
   CHECK(st.time_s == 0.0 && st.ties_divided == 0 && moved(w, 0) == 0.0);
-  CHECK(lamina_model_node_count(liver) == uncut_nodes && lamina_world_body_topology(w, 0) == 2);
+  CHECK(lamina_model_node_count(liver) == uncut_nodes && lamina_world_body_topology(w, 0) == 4);
   CHECK(lamina_world_step(w, -1, &st) == LAMINA_ERROR_INVALID_INPUT);
   lamina_world_free(w);
 

@@ -206,6 +206,8 @@ void WorldViewSession::State::handle_key(const std::string& key) {
   } else if (key == "g") {
     grasp_mode = !grasp_mode;
     dissect_mode = scalpel_mode = false;
+  } else if (key == "u") {
+    loop->undo_cut();  // the snapshot's cut_message says when there is none
   } else if (key == "s") {
     save_screenshot("", false);
   }

@@ -8,6 +8,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/interact/rate_choice.h"
+#include "parameter_widgets.h"
 #include "world_view_state.h"
 
 namespace lamina::cli {
@@ -94,6 +95,11 @@ void WorldViewSession::State::panel() {
   if (snap.cuts > 0)
     ImGui::Text("cuts: %d (%lld tetrahedra divided; the last took %.0f ms)", snap.cuts,
                 static_cast<long long>(snap.tets_cut), snap.last_cut_ms);
+  if (snap.undoable > 0) {
+    if (ImGui::Button("Undo cut (U)")) handle_key("u");
+    ImGui::SameLine();
+    ImGui::Text("%d can be undone", snap.undoable);
+  }
   if (!snap.cut_message.empty()) ImGui::TextWrapped("scalpel: %s", snap.cut_message.c_str());
   float gain = static_cast<float>(options.gain_n_per_mm);
   if (ImGui::SliderFloat("drag gain, N/mm", &gain, 0.001f, 0.1f, "%.3f",
@@ -114,9 +120,43 @@ void WorldViewSession::State::panel() {
       }
     ImGui::EndCombo();
   }
-  ImGui::TextDisabled("drag a body: push or pull (Shift: pin); R reset, Space pause, S picture");
+  if (ImGui::CollapsingHeader("Body parameters")) body_parameters();
+  ImGui::TextDisabled(
+      "drag a body: push or pull (Shift: pin); R reset, Space pause, U undo a cut, S picture");
   if (!status.empty()) ImGui::TextWrapped("%s", status.c_str());
   ImGui::End();
+}
+
+// One body's material and solver as the loop last published them, changed live
+// (world::WorldLoop::set_parameters); the world's dt is every body's.
+void WorldViewSession::State::body_parameters() {
+  if (snap.bodies.empty()) return;
+  param_body = std::clamp(param_body, 0, static_cast<int>(snap.bodies.size()) - 1);
+  if (ImGui::BeginCombo("body", snap.bodies[static_cast<size_t>(param_body)].name.c_str())) {
+    for (size_t k = 0; k < snap.bodies.size(); ++k)
+      if (ImGui::Selectable(snap.bodies[k].name.c_str(), static_cast<int>(k) == param_body))
+        param_body = static_cast<int>(k);
+    ImGui::EndCombo();
+  }
+  const world::BodyView& b = snap.bodies[static_cast<size_t>(param_body)];
+  sim::Material material = b.material;
+  sim::SolverOptions solver = b.solver;
+  ImGui::PushID(param_body);  // each body's fields their own
+  bool changed = material_widgets(material, last_volume_kpa);
+  changed |= solver_widgets(solver, b.solver.dt_s, "dt s (the world's)");
+  ImGui::PopID();
+  if (b.solver.integrator == sim::Integrator::kImplicitEuler)
+    ImGui::Text("CG: %d iterations in the last step", b.stats.sim.cg_iterations);
+  if (changed) {
+    try {
+      loop->set_parameters(b.id, material, solver, b.routing);
+      param_error.clear();
+    } catch (const Error& e) {
+      param_error = e.what();
+    }
+  }
+  if (!param_error.empty())
+    ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.3f, 1), "%s", param_error.c_str());
 }
 
 void WorldViewSession::State::show() {

@@ -31,6 +31,11 @@ struct WorldViewSession::State {
   double rate_hz = 1000.0;
   bool auto_rate = false;
   uint64_t shown_generation = ~uint64_t{0};
+  // The panel's "Body parameters": the body chosen (a snapshot index), the volume term's last
+  // value and why the loop refused the last change, if it did.
+  int param_body = 0;
+  double last_volume_kpa = 1.0;
+  std::string param_error;
 
   // Gestures.
   enum class Gesture { kNone, kOrbit, kPan, kDrag, kDissect, kScalpel, kGrasp };
@@ -82,9 +87,10 @@ struct WorldViewSession::State {
   void dissect_along_stroke();
   void cut_along_stroke();
   void start_grasp(const world::BodyView& body, int32_t node, const std::string& where);
-  void watch(double t);  // real time, instability, the largest displacements
-  void panel();          // world_view_panel.cpp
-  void show();           // positions and overlays to the engine
+  void watch(double t);    // real time, instability, the largest displacements
+  void panel();            // world_view_panel.cpp
+  void body_parameters();  // the panel's: one body's material and solver, live
+  void show();             // positions and overlays to the engine
   void save_screenshot(const std::string& path, bool with_ui);
   nlohmann::json report() const;
 };

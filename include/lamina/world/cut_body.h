@@ -95,4 +95,9 @@ WorldCut cut_through(World& world, const std::vector<Eigen::Vector3d>& path,
 /// as a cut (each body's topology generation moves on again); `before` is emptied.
 void put_back(World& world, WorldBefore& before);
 
+/// Folds `later` (kept after `earlier`: a later cut's undo) into `earlier`: the bodies and the
+/// ties `earlier` does not hold yet are moved there, the others dropped (the earliest state is
+/// what a reset goes back to); `later` is emptied.
+void fold_before(WorldBefore& earlier, WorldBefore& later);
+
 }  // namespace lamina::world

@@ -67,6 +67,10 @@ struct BodyView {
   Eigen::MatrixX3d x;     ///< #nodes by 3, mm
   BodyStepStats stats;    ///< its part of the last step
   std::vector<int32_t> force_nodes;  ///< where the live forces act (skin nodes)
+  /// Its parameters as they step now (set_parameters(); dt is the world's).
+  sim::Material material;
+  sim::SolverOptions solver;
+  interact::RoutingOptions routing;
 };
 
 /// An active tie as drawn: its node and its point on the other skin, and its pull.
@@ -103,8 +107,10 @@ struct WorldSnapshot {
   double last_cut_ms = 0.0;
   double last_cut_made_ms = 0.0;
   int64_t last_cut_steps_meanwhile = 0;
-  /// Why the last cut() divided no tissue, or empty.
+  /// Why the last cut() divided no tissue, or an undo_cut() with no cut to take back; or empty.
   std::string cut_message;
+  /// How many of the last cuts undo_cut() can take back.
+  int32_t undoable = 0;
   /// The hands (set_tool_tip(), set_grasper()): the tissue's push back on them, mN (the tip's
   /// haptic proxies' forces and the grasper's pull: what a haptic device or a controller's
   /// vibration renders), whether the tip touches a body, and what the grasper holds: the body
@@ -159,6 +165,21 @@ class WorldLoop {
   /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a blade as dissect() does.
   void cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
            double reach_mm = 1.5);
+  /// Takes the last cut() back, between two steps: every body it divided as it was just before
+  /// it (its model, shape and motion, the ties then), the clock running on and the parameters
+  /// set since kept. Each such body moves to a new topology generation (its live forces are
+  /// released, the grasper opens if it held it). The last kUndoDepth cuts can be undone, one call
+  /// each; a cut being made is waited for first; with none, the snapshot's cut_message says so.
+  void undo_cut();
+  static constexpr int kUndoDepth = 8;
+  /// New parameters for `body`, checked now and taken between two steps: its material
+  /// (sim::set_parameters: new E or nu identify its springs again), its solver and the routing
+  /// of its live forces. Every body steps at the world's dt (1 / rate in real time: change the
+  /// rate instead), so solver.dt_s must be the latest snapshot's dt_s.
+  /// \note Throws lamina::Error (kInvalidInput), nothing changing, for a stale handle, parameters
+  ///   sim::check_parameters() or interact::check_routing() refuses, or another dt.
+  void set_parameters(BodyId body, const sim::Material& material, const sim::SolverOptions& solver,
+                      const interact::RoutingOptions& routing);
   /// The tool tip (a haptic device's or a headset controller's sphere; `tip.active` false lifts
   /// it): every step it pushes each body it touches through that body's own haptic proxy and
   /// coupling (interact::load_of_tip, as the one-organ loop's tip), the force on it the sum.
