@@ -30,12 +30,16 @@ class IgtlHands {
   }
 
   /// The scalpel's device: its poses trace a stroke, which cuts at "Up", a pause or the
-  /// client's going. False: not the scalpel's.
+  /// client's going; "Undo" takes the last cut back (both loops keep their last cuts to undo).
+  /// False: not the scalpel's.
   bool scalpel_message(const igtlink::Message& msg) {
     const std::string& type = msg.header.type;
     const std::string& device = msg.header.device;
     if (a_.scalpel_device.empty()) return false;
-    if (device == a_.scalpel_device + "Up") {
+    if (device == a_.scalpel_device + "Undo") {
+      log::info("OpenIGTLink client {}: {} '{}' takes the last cut back", msg.peer, type, device);
+      loop_.undo_cut();
+    } else if (device == a_.scalpel_device + "Up") {
       if (stroke.client >= 0) log::info("{}", finish_stroke());
     } else if (device == a_.scalpel_device && (type == "TRANSFORM" || type == "POSITION")) {
       const igtlink::Pose pose = igtlink::read_pose(type, msg.content, msg.size);

@@ -56,21 +56,9 @@ void IgtlSession::tell_rate(int client) {
   send_rate(client, now);
 }
 
-// The scalpel's device: its poses trace a stroke, "Up" ends it (the cut), "Undo" takes the last
-// cut back.
-// The scalpel's "Undo" takes the last cut back (one organ's loop keeps its cuts to undo); its
-// poses and strokes are the hands'.
-bool IgtlSession::undo_message(const igtlink::Message& msg) {
-  if (a_.scalpel_device.empty() || msg.header.device != a_.scalpel_device + "Undo") return false;
-  log::info("OpenIGTLink client {}: {} '{}' takes the last cut back", msg.peer, msg.header.type,
-            msg.header.device);
-  loop_.undo_cut();
-  return true;
-}
-
 void IgtlSession::handle(const igtlink::Message& msg) {
   const std::string& type = msg.header.type;
-  if (undo_message(msg) || hands_.scalpel_message(msg) || hands_.grasper_message(msg)) return;
+  if (hands_.scalpel_message(msg) || hands_.grasper_message(msg)) return;
   if (type == "TRANSFORM" || type == "POSITION") {
     hands_.tool_pose(msg);
   } else if (type == "STRING" && msg.header.device == "LaminaRate") {

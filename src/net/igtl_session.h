@@ -61,7 +61,6 @@ class IgtlSession {
 
  private:
   Outgoing& sent_for(const interact::LoopSnapshot& snap);
-  bool undo_message(const igtlink::Message& msg);
   void send_rate(int client, const interact::LoopSnapshot& now);
   void tell_rate(int client);
   void report_cuts(const interact::LoopSnapshot& snap);

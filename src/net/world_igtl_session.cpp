@@ -66,8 +66,7 @@ void WorldIgtlSession::handle(const igtlink::Message& msg) {
     loop_.latest(snap_);
     for (const igtlink::Packed& p : skins()) server_.send(msg.client, p);
   } else if (type == "GET_TRANS") {
-    loop_.latest(snap_);
-    server_.send(msg.client, reaction_message(snap_.hands_reaction_mn, frame_));
+    server_.send(msg.client, reaction_message(loop_.latest_reaction().reaction_mn, frame_));
   } else {
     hands_.skip(msg);
   }
@@ -81,12 +80,14 @@ double WorldIgtlSession::finish_paused_stroke(double now_s) {
   return hands_.finish_paused_stroke(now_s);
 }
 
+// From the loop's per-step sample (as the one-organ session's): every step's reaction, where the
+// snapshots come at most every publish interval, and no positions copied for it.
 void WorldIgtlSession::stream_reaction() {
-  loop_.latest(snap_);
-  max_reaction_mn_ = std::max(max_reaction_mn_, snap_.hands_reaction_mn.norm());
-  if (snap_.steps != reaction_sent_step_ && server_.client_count() > 0) {
-    server_.stream({reaction_message(snap_.hands_reaction_mn, frame_)}, igtlink::Stream::kSurfaces);
-    reaction_sent_step_ = snap_.steps;
+  const interact::ReactionSample r = loop_.latest_reaction();
+  max_reaction_mn_ = std::max(max_reaction_mn_, r.reaction_mn.norm());
+  if (r.steps != reaction_sent_step_ && server_.client_count() > 0) {
+    server_.stream({reaction_message(r.reaction_mn, frame_)}, igtlink::Stream::kSurfaces);
+    reaction_sent_step_ = r.steps;
   }
 }
 

@@ -377,6 +377,10 @@ void WorldLoop::Impl::one_step() {
     log::error("world: body '{}' unstable at t = {:.3f} s ({}); stepping stops until a reset",
                unstable_body, world.time_s, sim::describe(unstable));
   }
+  {
+    std::lock_guard lock(reaction_mutex);
+    reaction = {hands_reaction_mn, world.steps, world.time_s};
+  }
   const double t1 = now_s();
   window.add(1e6 * (t1 - t0), late_us, t1, world.time_s, stepping_rate_hz, options.real_time);
 }

@@ -129,9 +129,11 @@ struct WorldLoop::Impl {
   double last_publish_s = -1.0;
   LockWaits lock_waits;
 
-  // The published snapshot.
+  // The published snapshot; the hands' reaction, every step.
   mutable std::mutex snapshot_mutex;
   WorldSnapshot published;
+  mutable std::mutex reaction_mutex;
+  interact::ReactionSample reaction;
 
   bool halted() const { return unstable != sim::Instability::kNone; }
   void follow_the_clock();  // every body's dt = 1 / rate in real time

@@ -13,6 +13,11 @@ bool WorldLoop::latest(WorldSnapshot& out) const {
   return true;
 }
 
+interact::ReactionSample WorldLoop::latest_reaction() const {
+  std::lock_guard lock(impl_->reaction_mutex);
+  return impl_->reaction;
+}
+
 void WorldLoop::Impl::publish(bool force) {
   const double t = now_s();
   if (!force && t - last_publish_s < options.publish_interval_s) return;

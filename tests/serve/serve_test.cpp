@@ -276,10 +276,11 @@ TEST(Serve, AGrasperDeviceHoldsPullsAndLetsGo) {
 // A world over OpenIGTLink (the cholecystectomy's liver and gallbladder): each body's skin comes
 // as a POLYDATA named after it; a tool's pose 3 mm into the liver's top pushes it in and the
 // reaction comes back up; the grasper's device closes on the liver's top and lifts it, and opened
-// lets it go.
+// lets it go; a scalpel stroke cuts the liver and LaminaScalpelUndo takes the cut back.
 TEST(Serve, AWorldSendsEachBodysSkinAndTheHandsActOnTheBodyTheyMeet) {
   TempDir dir;
-  Server server(dir.path, with({source_path("examples/cholecystectomy.json").string()}));
+  Server server(dir.path, with({source_path("examples/cholecystectomy.json").string(),
+                                "--scalpel-depth", "200"}));
   Client hand(server.port());
   const auto liver = hand.receive("POLYDATA", "liver", 60.0);
   ASSERT_TRUE(liver) << server.log();
@@ -318,6 +319,32 @@ TEST(Serve, AWorldSendsEachBodysSkinAndTheHandsActOnTheBodyTheyMeet) {
   EXPECT_TRUE(server.log_shows("closes the grasper's jaws")) << server.log();
   hand.send_bytes(transform_bytes("LaminaGrasperOpen", p));
   EXPECT_TRUE(server.log_shows("the grasper opens")) << server.log();
+
+  // A scalpel stroke across the liver's middle (the blade along the pose's z axis, as the
+  // one-organ test's) cuts it: its skin streams with the copies' nodes; LaminaScalpelUndo takes
+  // the cut back and the skin streams whole again.
+  const Eigen::Vector3d lo = lx.colwise().minCoeff(), hi = lx.colwise().maxCoeff();
+  const double x0 = 0.5 * (lo.x() + hi.x()) + 0.31;
+  const Eigen::Vector3d from(x0, lo.y() - 5, hi.z() + 5), to(x0, hi.y() + 5, hi.z() + 5);
+  for (int k = 0; k <= 40; ++k) {
+    hand.send_bytes(transform_bytes("LaminaScalpel", from + (to - from) * (k / 40.0)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  hand.send_bytes(transform_bytes("LaminaScalpelUp", to));
+  Eigen::Index cut_points = lx.rows();
+  const auto t1 = Clock::now();
+  while (cut_points == lx.rows() && seconds_since(t1) < 20.0)
+    if (const auto l = latest(hand, "POLYDATA", "liver", 0.3))
+      cut_points = polydata_points(*l).rows();
+  EXPECT_GT(cut_points, lx.rows()) << "the stroke did not cut the liver: " << server.log();
+  hand.send_bytes(transform_bytes("LaminaScalpelUndo", to));
+  Eigen::Index undone_points = cut_points;
+  const auto t2 = Clock::now();
+  while (undone_points != lx.rows() && seconds_since(t2) < 20.0)
+    if (const auto l = latest(hand, "POLYDATA", "liver", 0.3))
+      undone_points = polydata_points(*l).rows();
+  EXPECT_EQ(undone_points, lx.rows()) << "the undo did not put the liver back: " << server.log();
+  EXPECT_TRUE(server.log_shows("takes the last cut back")) << server.log();
   server.process().terminate();
   EXPECT_EQ(server.process().wait(20.0), 0) << server.log();
   EXPECT_TRUE(server.log_shows("OpenIGTLink: 1 clients")) << server.log();

@@ -5,7 +5,10 @@
 // copies; bad hands are refused with nothing changed.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <set>
+#include <thread>
 
 #include "lamina/core/error.h"
 #include "lamina/world/world_loop.h"
@@ -58,6 +61,40 @@ TEST(WorldLoopHands, TheTipDentsTheBodyItTouchesFeelsItsPushAndLiftedTheBodyCome
   EXPECT_FALSE(snap.tip_touching);
   EXPECT_EQ(snap.hands_reaction_mn.norm(), 0.0);
   EXPECT_LT(moved_from_rest(snap.bodies[0]), 0.05) << "A did not come back once the tip lifted";
+}
+
+// A haptic device reads the tip's reaction every step (latest_reaction()), not at the snapshots'
+// pace: with snapshots held back, the samples still follow each step, and they are what the
+// next snapshot says.
+TEST(WorldLoopHands, TheReactionIsSampledEveryStepWhileSnapshotsWait) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  WorldLoop loop(std::move(t.world),
+                 {.rate_hz = 0.0, .real_time = false, .threads = 1, .publish_interval_s = 3600.0});
+  // The 5 mm tip 1.6 mm into A's skin.
+  const Eigen::Vector3d top = sphere_centre() + Eigen::Vector3d(-8.0, 0.0, 22.0);
+  loop.set_tool_tip({.active = true, .center_mm = top});
+  WorldSnapshot snap;
+  ASSERT_TRUE(loop.latest(snap));
+  const uint64_t generation = snap.generation;
+  loop.start();
+  std::set<int64_t> sampled;
+  interact::ReactionSample last;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (sampled.size() < 30 && std::chrono::steady_clock::now() < until) {
+    last = loop.latest_reaction();
+    sampled.insert(last.steps);
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  EXPECT_FALSE(loop.latest(snap)) << "a snapshot came within the hour's interval";
+  loop.stop();
+  EXPECT_GE(sampled.size(), 30u) << "the samples did not follow the steps";
+  EXPECT_GT(last.reaction_mn.z(), 0.0) << "the tissue pushes the tip back up";
+  loop.run_steps(0);  // publishes
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_GT(snap.generation, generation);
+  EXPECT_EQ(loop.latest_reaction().steps, snap.steps);
+  EXPECT_EQ(loop.latest_reaction().reaction_mn, snap.hands_reaction_mn);
+  EXPECT_EQ(loop.latest_reaction().time_s, snap.time_s);
 }
 
 TEST(WorldLoopHands, TheGrasperHoldsTheNearestBodyCarriesItWithTheJawsAndOpenedLetsItGo) {

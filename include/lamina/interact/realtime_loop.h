@@ -26,6 +26,7 @@
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/prepared_cut.h"
 #include "lamina/interact/rate_window.h"
+#include "lamina/interact/reaction_sample.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/sim/simulation.h"
@@ -102,14 +103,6 @@ struct LoopSnapshot {
   int32_t undoable = 0;
   model::CutReport last_cut;
   std::string cut_error;
-};
-
-/// The tissue's push back on the tools after one step: updated every step, a haptic device's
-/// rate, without copying the state (RealtimeLoop::latest_reaction()).
-struct ReactionSample {
-  Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();  ///< mN
-  int64_t steps = 0;                                      ///< the step it follows
-  double time_s = 0.0;                                    ///< simulated time after that step
 };
 
 class RealtimeLoop {

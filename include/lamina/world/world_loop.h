@@ -31,6 +31,7 @@
 
 #include "lamina/interact/grasp.h"
 #include "lamina/interact/rate_window.h"
+#include "lamina/interact/reaction_sample.h"
 #include "lamina/interact/tools.h"
 #include "lamina/world/dissection.h"
 #include "lamina/world/world.h"
@@ -210,6 +211,11 @@ class WorldLoop {
   /// Runs `steps` steps on the calling thread (the loop must not be running): the same physics
   /// without a thread, for tests and fixed-step tools.
   void run_steps(int64_t steps);
+
+  /// The hands' reaction after the last step (the snapshot's hands_reaction_mn): every step, where
+  /// snapshots come at most every publish_interval_s, and cheap (no positions are copied): what a
+  /// 1 kHz haptic loop reads.
+  interact::ReactionSample latest_reaction() const;
 
   /// The live bodies' handles and their topology generations as of the latest snapshot.
   std::vector<std::pair<BodyId, uint32_t>> bodies() const;
