@@ -31,7 +31,7 @@ WorldSnapshot latest(const WorldLoop& loop) {
 }
 
 TEST(WorldLoopUndo, TakesTheLastCutsBackOneAtATimeWithTheirTiesAndTheClockRunsOn) {
-  TwoSpheres t = two_spheres(0.5, 0.3, 0.2);
+  TwoSpheres t = two_spheres(0.5, 0.3, 0.03);  // A pressed into B for the first 30 ms
   attach(t, 30.0);
   const int32_t a_nodes = body(t.world, t.a).model->node_count();
   const int32_t b_nodes = body(t.world, t.b).model->node_count();
@@ -97,7 +97,7 @@ TEST(WorldLoopUndo, TakesTheLastCutsBackOneAtATimeWithTheirTiesAndTheClockRunsOn
   EXPECT_EQ(none.bodies[0].topology, uncut.bodies[0].topology) << "nothing changed";
 
   // The bodies step on from there, stable, the press over and the motion dying down.
-  loop.run_steps(300);
+  loop.run_steps(200);
   const WorldSnapshot later = latest(loop);
   EXPECT_EQ(later.unstable, sim::Instability::kNone);
   for (size_t k = 0; k < 2; ++k) {
@@ -105,7 +105,7 @@ TEST(WorldLoopUndo, TakesTheLastCutsBackOneAtATimeWithTheirTiesAndTheClockRunsOn
     const auto moved = [&](const WorldSnapshot& s) {
       return (s.bodies[k].x - s.bodies[k].model->X).rowwise().norm().maxCoeff();
     };
-    EXPECT_LT(moved(later), moved(none) + 0.05) << later.bodies[k].name;
+    EXPECT_LT(moved(later), moved(none)) << later.bodies[k].name;
   }
 }
 
@@ -158,7 +158,7 @@ TEST(WorldLoopParameters, OneBodysMaterialChangesItAloneAndAnUndoKeepsIt) {
     const int32_t node = skin_node_with_least_x(*s0.bodies[0].model);
     loop.set_forces(s0.bodies[0].id, s0.bodies[0].topology,
                     {{.node = node, .force_mn = Eigen::Vector3d(0, 0, 200.0)}});
-    loop.run_steps(100);
+    loop.run_steps(50);
     const WorldSnapshot s = latest(loop);
     EXPECT_EQ(s.unstable, sim::Instability::kNone);
     return s;
@@ -167,7 +167,7 @@ TEST(WorldLoopParameters, OneBodysMaterialChangesItAloneAndAnUndoKeepsIt) {
   const auto moved = [](const BodyView& b) {
     return (b.x - b.model->X).rowwise().norm().maxCoeff();
   };
-  std::printf("a 200 mN pull for 0.1 s moves A %.3f mm, %.3f mm with 4x its Young's modulus\n",
+  std::printf("a 200 mN pull for 0.05 s moves A %.3f mm, %.3f mm with 4x its Young's modulus\n",
               moved(soft.bodies[0]), moved(set.bodies[0]));
   EXPECT_LT(moved(set.bodies[0]), 0.8 * moved(soft.bodies[0]));
   EXPECT_LT((set.bodies[0].x - made.bodies[0].x).cwiseAbs().maxCoeff(), 1e-9)
