@@ -4,7 +4,8 @@
 // latest snapshot, puts live forces on either body by the snapshot's handle and topology (a
 // refusal after a cut is expected and counted), sweeps dissections, cuts the first body with a
 // scalpel every second across fresh tissue (made on a third thread, taken in and renumbered on
-// the loop's: its model and snapshot change size), pauses, changes the rate and resets with a
+// the loop's: its model and snapshot change size), takes the last cut back now and then, changes
+// a body's damping, pauses, changes the rate and resets with a
 // cut being made (the uncut body back, the cut dropped; cuts go on after), and drives the hands (a
 // tool tip pressed and lifted, a grasper closed and opened on the first body). Any data race is a
 // TSan report and a non-zero exit; the program also checks that snapshots advanced, every body's
@@ -44,10 +45,12 @@ int main(int argc, char** argv) {
 
   world::WorldSnapshot snap;
   uint64_t frames = 0, fresh = 0, last_generation = 0, refused = 0;
-  int cuts_asked = 0, rate_changes = 0, most_cuts = 0, grasps = 0;
+  int cuts_asked = 0, rate_changes = 0, most_cuts = 0, grasps = 0, undos_asked = 0, params_set = 0,
+      params_refused = 0;
   bool reset_done = false, tip_on = false, grasping = false;
   double next_dissection = 0.3, next_cut = 0.5, next_pause = 1.0, next_resume = 1.1,
-         next_rate = 0.8, next_release = 0.25, next_tip = 0.2, next_grasp = 0.35;
+         next_rate = 0.8, next_release = 0.25, next_tip = 0.2, next_grasp = 0.35, next_undo = 1.8,
+         next_params = 0.6;
   const auto t0 = std::chrono::steady_clock::now();
   for (;; ++frames) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -109,6 +112,23 @@ int main(int argc, char** argv) {
       reset_done = true;
     }
     if (every(0.5, next_release)) loop.clear_forces();
+    // The last cut taken back every 2.5 s (on the loop's thread, after a cut being made), and a
+    // body's damping changed every 1.7 s (refused when a rate change moved dt since the snapshot).
+    if (every(2.5, next_undo)) {
+      loop.undo_cut();
+      ++undos_asked;
+    }
+    if (every(1.7, next_params)) {
+      const world::BodyView& b = snap.bodies[params_set % 2];
+      sim::Material m = b.material;
+      m.damping_kg_per_s = params_set % 4 < 2 ? 2.0 * m.damping_kg_per_s + 0.1 : 0.0;
+      try {
+        loop.set_parameters(b.id, m, b.solver, b.routing);
+        ++params_set;
+      } catch (const Error&) {
+        ++params_refused;
+      }
+    }
     // A headset's hands: the tip pressed on the first body's top and lifted in turn, the
     // grasper closed on its skin and opened (a close on skin that has moved away is refused).
     const world::BodyView& first = snap.bodies[0];
@@ -134,11 +154,11 @@ int main(int argc, char** argv) {
   loop.latest(snap);
   std::printf(
       "tsan_world_handoff: %llu viewer frames, %llu fresh snapshots, %lld steps, %d cuts asked, "
-      "bodies cut before the reset %d and since %d, %llu forces refused as renumbered, %d "
-      "grasps\n",
+      "bodies cut before the reset %d and since %d (%d undos asked, %d undoable at the end), "
+      "%llu forces refused as renumbered, %d grasps, parameters set %d times (%d refused)\n",
       static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fresh),
-      static_cast<long long>(snap.steps), cuts_asked, most_cuts, snap.cuts,
-      static_cast<unsigned long long>(refused), grasps);
+      static_cast<long long>(snap.steps), cuts_asked, most_cuts, snap.cuts, undos_asked,
+      snap.undoable, static_cast<unsigned long long>(refused), grasps, params_set, params_refused);
   if (fresh < 10 || snap.steps < 10 || most_cuts == 0 || snap.cuts == 0) {
     std::fprintf(stderr, "too little happened to check anything\n");
     return 1;
