@@ -2,6 +2,8 @@
 // drives, pushing every body it touches through that body's own haptic proxy, and the grasper,
 // whose jaws close on the body nearest them and hold its skin until opened. The callers' side
 // checks and queues; the stepping thread's moves them before each step.
+#include <fmt/format.h>
+
 #include <limits>
 
 #include "lamina/core/error.h"
@@ -27,6 +29,10 @@ void WorldLoop::set_grasper(const std::optional<interact::Jaws>& jaws) {
   }
   Impl& m = *impl_;
   std::lock_guard lock(m.mutex);
+  if (m.close_failed) {  // the loop could not close them (logged): these jaws close anew
+    m.jaws_closed = false;
+    m.close_failed = false;
+  }
   if (jaws && !m.jaws_closed) {
     // Closing: some body's skin must be under the jaws now (they close on the next step's
     // shape; if it has moved away by then, one line is logged and they stay open).
@@ -85,30 +91,41 @@ void WorldLoop::Impl::move_hands() {
     return;
   }
   if (grasp_slot < 0) {
-    // The body whose skin is nearest the jaws' centre closes on them.
+    // The body whose free skin is nearest the jaws' centre closes on them (a fixed node cannot
+    // be held: jaws on a body's fixed part close on the next body they reach, or not at all).
     const interact::Jaws& at = close_at ? *close_at : *jaws;
     double nearest = std::numeric_limits<double>::infinity();
     for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
       const BodySlot& bs = world.bodies[slot];
       if (!bs.alive) continue;
       const Eigen::MatrixX3d& x = bs.body.sim.x;
-      const int32_t skin = bs.body.model->layers[0].node_count;
-      const double d =
-          (x.topRows(skin).rowwise() - at.center_mm.transpose()).rowwise().squaredNorm().minCoeff();
-      if (d < nearest) {
-        nearest = d;
-        grasp_slot = static_cast<int32_t>(slot);
+      const auto& fixed = bs.body.sim.fixed();
+      for (int32_t i = 0; i < bs.body.model->layers[0].node_count; ++i) {
+        const double d = (x.row(i).transpose() - at.center_mm).squaredNorm();
+        if (!fixed[i] && d < nearest) {
+          nearest = d;
+          grasp_slot = static_cast<int32_t>(slot);
+        }
       }
     }
     try {
+      if (grasp_slot < 0 || nearest > at.radius_mm * at.radius_mm)
+        throw invalid_input(
+            "grasper",
+            fmt::format("nothing under the jaws: no free skin node within {} mm of "
+                        "[{:.1f}, {:.1f}, {:.1f}] (the skin there is fixed, or it "
+                        "moved away); they stay open",
+                        at.radius_mm, at.center_mm.x(), at.center_mm.y(), at.center_mm.z()));
       interact::close_jaws(world.bodies[static_cast<size_t>(grasp_slot)].body.sim, at,
                            world.bodies[static_cast<size_t>(grasp_slot)].body.tools.hand,
                            "grasper");
-    } catch (const Error& e) {  // the skin moved away since set_grasper() checked: stay open
-      log::warn("{}", e.what());
+    } catch (const Error& e) {
+      log::warn("world: {}", e.what());
       grasp_slot = -1;
       jaws.reset();
       close_at.reset();
+      std::lock_guard lock(mutex);
+      close_failed = true;  // the caller's next jaws close anew
       return;
     }
     close_at.reset();

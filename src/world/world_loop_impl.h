@@ -44,7 +44,8 @@ struct WorldLoop::Impl {
   std::optional<interact::ToolTip> new_tip;
   std::optional<interact::Jaws> new_close;                // where the caller closed the jaws
   std::optional<std::optional<interact::Jaws>> new_jaws;  // their latest place, or open
-  bool jaws_closed = false;  // as the caller last set them (set_grasper's own bookkeeping)
+  bool jaws_closed = false;   // as the caller last set them (set_grasper's own bookkeeping)
+  bool close_failed = false;  // the stepping thread could not close them: the next jaws close
   // The live bodies, their topology generations and skins' sizes: what a caller's handle and
   // nodes are checked against, on the caller's thread.
   struct Handle {

@@ -132,6 +132,30 @@ TEST(WorldLoopHands, TheGrasperHoldsTheNearestBodyCarriesItWithTheJawsAndOpenedL
   EXPECT_THROW(loop.set_tool_tip(interact::ToolTip{.active = true, .radius_mm = 0.0}), Error);
 }
 
+// Jaws on skin that is all fixed (B's far cap) cannot hold it: they stay open, and the next jaws
+// given close anew where they are (they are not taken as moving a grasp that never happened).
+TEST(WorldLoopHands, JawsOnFixedSkinStayOpenAndTheNextJawsCloseAnew) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  const Model& mb = *body(t.world, t.b).model;
+  Eigen::Index far = 0;
+  mb.X.topRows(mb.layers[0].node_count).col(0).maxCoeff(&far);
+  const Eigen::Vector3d on_fixed = mb.X.row(far).transpose();
+  ASSERT_TRUE(body(t.world, t.b).sim.fixed()[static_cast<size_t>(far)]);
+  const Eigen::Vector3d on_a =
+      body(t.world, t.a).model->X.row(highest_skin_node(*body(t.world, t.a).model)).transpose();
+  WorldLoop loop(std::move(t.world), {.real_time = false});
+  loop.set_grasper(interact::Jaws{.center_mm = on_fixed, .radius_mm = 2.0});
+  loop.run_steps(2);
+  WorldSnapshot snap;
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_TRUE(snap.grasped_body.empty()) << "fixed skin was held";
+  loop.set_grasper(interact::Jaws{.center_mm = on_a, .radius_mm = 4.0});
+  loop.run_steps(2);
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_EQ(snap.grasped_body, "a") << "the next jaws did not close";
+  EXPECT_GT(snap.grasped_nodes, 0);
+}
+
 TEST(WorldLoopHands, ACutOfTheHeldBodyCarriesTheGraspToTheCopiesAndAResetOpensIt) {
   TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
   const Eigen::Vector3d at =
