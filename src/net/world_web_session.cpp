@@ -117,7 +117,8 @@ void WorldSession::hand(int client, const json& m) {
     tip_.active = true;
     tip_.center_mm = p;
     loop_.set_tool_tip(tip_);
-    tip_hand_ = {client, which, pose, snap_.steps, tip_hand_.reflected};
+    tip_hand_ = {client,      which, pose, loop_.latest_reaction().steps, tip_hand_.reflected,
+                 Clock::now()};
   } else if (!trigger && holds_tip) {
     release_tip();
   }
@@ -133,7 +134,8 @@ void WorldSession::hand(int client, const json& m) {
     grasp_missed_ = false;
     if (!holds_grasper)
       log::info("web client {}: hand {} closes the grasper", client + kWebClientBase, which);
-    grasp_hand_ = {client, which, pose, snap_.steps, grasp_hand_.reflected};
+    grasp_hand_ = {client,      which, pose, loop_.latest_reaction().steps, grasp_hand_.reflected,
+                   Clock::now()};
   } else if (!grip && holds_grasper) {
     release_grasper();
   } else if (!grip) {
@@ -170,7 +172,13 @@ void WorldSession::send_frame() {
     if (h.client < 0) continue;
     t.client = h.client + kWebClientBase;
     t.hand = h.hand;
-    if (snap_.steps > h.pose_step) h.reflected = h.pose;
+    // The newest pose applied before the snapshot's step (a pose applied after it is not in it).
+    if (snap_.steps > h.pose_step && h.reflected != h.pose) {
+      h.reflected = h.pose;
+      if (pose_to_frame_ms_.size() < 100000)
+        pose_to_frame_ms_.push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - h.pose_at).count());
+    }
     t.pose = h.reflected;
     t.reaction_mn = snap_.hands_reaction_mn;
     t.contact = k == 0 ? snap_.tip_touching : !snap_.grasped_body.empty();
@@ -201,9 +209,11 @@ void WorldSession::log_summary() const {
   const ServerCounters& c = server_->counters();
   log::info(
       "web: {} clients, {} messages in, {} frames out ({:.1f} MB, median {:.1f} kB a frame, "
-      "encoded in {:.2f} ms median), {} frames skipped for busy clients, {} connections dropped",
+      "encoded in {:.2f} ms median), {} frames skipped for busy clients, {} connections dropped; "
+      "a pose to the first frame showing it: {:.1f} ms median ({} poses)",
       c.clients, c.messages_in, c.frames_out, static_cast<double>(c.bytes_out) / (1 << 20),
-      median(frame_kb_), median(encode_ms_), c.frames_skipped, c.dropped);
+      median(frame_kb_), median(encode_ms_), c.frames_skipped, c.dropped, median(pose_to_frame_ms_),
+      pose_to_frame_ms_.size());
 }
 
 }  // namespace lamina::net::web

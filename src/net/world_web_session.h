@@ -57,9 +57,10 @@ class WorldSession {
   } drag_;
   struct Hand {
     int client = -1, hand = -1;
-    uint32_t pose = 0;       // the newest pose applied
-    int64_t pose_step = 0;   // the snapshot's step count when it was applied
-    uint32_t reflected = 0;  // the newest pose a frame has shown
+    uint32_t pose = 0;                              // the newest pose applied
+    int64_t pose_step = 0;                          // the loop's step count when it was applied
+    uint32_t reflected = 0;                         // the newest pose a frame has shown
+    std::chrono::steady_clock::time_point pose_at;  // when the newest pose came in
   };
   Hand tip_hand_, grasp_hand_;
   interact::ToolTip tip_;
@@ -67,6 +68,7 @@ class WorldSession {
   uint32_t frames_ = 0;
   std::chrono::steady_clock::time_point next_frame_;
   std::vector<double> encode_ms_, frame_kb_;
+  std::vector<double> pose_to_frame_ms_;  // a pose's arrival to the first frame showing it
 };
 
 }  // namespace lamina::net::web

@@ -300,6 +300,14 @@ TEST(Web, AWorldSceneStreamsEveryBodyAndADragPullsTheOnePressed) {
   EXPECT_LT(std::abs(page.point(q, top).z() - p.z()), 0.5) << "let go, the liver stayed lifted";
   EXPECT_EQ(w.server->process().wait(0.0), std::nullopt)
       << "the server stopped: " << w.server->log();
+  // Its summary says how long a hand's pose took to show in a frame, as the one-organ server's.
+  w.server->process().terminate();
+  EXPECT_EQ(w.server->process().wait(20.0), 0) << w.server->log();
+  const std::string log = w.server->log();
+  const size_t at = log.find("a pose to the first frame showing it: ");
+  ASSERT_NE(at, std::string::npos) << log;
+  const std::string line = log.substr(at, log.find('\n', at) - at);
+  EXPECT_EQ(line.find(" (0 poses)"), std::string::npos) << "no pose was timed: " << line;
 }
 
 TEST(Web, MalformedOversizedAndStalledClientsAreDroppedAndTheOthersGoOn) {
