@@ -14,6 +14,17 @@
 #include "world_loop_impl.h"
 
 namespace lamina::world {
+namespace {
+
+// Per attachment, per tie: whether it is divided.
+std::vector<std::vector<uint8_t>> divided_flags(const World& world) {
+  std::vector<std::vector<uint8_t>> out(world.attachments.size());
+  for (size_t a = 0; a < world.attachments.size(); ++a)
+    for (const Tie& t : world.attachments[a].attachment.ties) out[a].push_back(t.divided ? 1 : 0);
+  return out;
+}
+
+}  // namespace
 
 void WorldLoop::Impl::apply_cuts() {
   const bool background = threaded && options.background_cuts;
@@ -106,7 +117,15 @@ void WorldLoop::Impl::take_cut(bool wait) {
     topology_changed(o.id.index);
   }
   const Stroke& s = j.stroke;
+  std::vector<std::vector<uint8_t>> was_divided = divided_flags(world);
   strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
+  if (divided > 0) {  // the ties this stroke divided, for its undo
+    const std::vector<std::vector<uint8_t>> now = divided_flags(world);
+    for (size_t a = 0; a < now.size(); ++a)
+      for (size_t k = 0; k < now[a].size(); ++k)
+        was_divided[a][k] = now[a][k] && !was_divided[a][k];
+    entry.stroke_divided = std::move(was_divided);
+  }
   cuts += divided;
   if (divided > 0) {
     entry.bodies = divided;
@@ -158,7 +177,23 @@ void WorldLoop::Impl::apply_undos() {
       now.push_back({slot, b.sim.time_s, b.sim.steps, b.sim.material(), b.sim.options(),
                      b.tools.routing, params_version[static_cast<size_t>(slot)] != version});
     }
+    // The ties go back to the bodies' numbering of then (a cut renumbers them in place: the
+    // lists stay aligned), each as it is now (divided, torn or pulling since, by the scene's
+    // blades or the tissue), but those this stroke divided, joined again.
+    std::vector<std::vector<Tie>> ties_now;
+    for (const AttachmentSlot& a : world.attachments) ties_now.push_back(a.attachment.ties);
     put_back(world, u.before);
+    for (size_t a = 0; a < world.attachments.size(); ++a) {
+      std::vector<Tie>& ties = world.attachments[a].attachment.ties;
+      if (ties.size() != ties_now[a].size()) continue;  // not renumbered from these: left as kept
+      for (size_t k = 0; k < ties.size(); ++k) {
+        const bool by_stroke =
+            a < u.stroke_divided.size() && k < u.stroke_divided[a].size() && u.stroke_divided[a][k];
+        ties[k].divided = ties_now[a][k].divided && !by_stroke;
+        ties[k].torn = ties_now[a][k].torn;
+        ties[k].force_mn = ties_now[a][k].force_mn;
+      }
+    }
     for (const Now& n : now) {
       Body& b = world.bodies[static_cast<size_t>(n.slot)].body;
       if (!b.tools.hand.nodes.empty()) {  // a grasp of then, which the jaws no longer hold

@@ -117,6 +117,9 @@ struct WorldLoop::Impl {
     int32_t bodies = 0;
     int64_t tets = 0;
     std::vector<std::pair<int32_t, uint64_t>> params;  // each body's params_version then
+    // Per attachment, per tie: 1 if the stroke's blade divided it (an undo joins it again; ties
+    // divided or torn since by anything else stay so).
+    std::vector<std::vector<uint8_t>> stroke_divided;
   };
   std::vector<Undo> undo;
   int undos = 0;                         // taken from new_undos, done when no cut is being made

@@ -109,6 +109,40 @@ TEST(WorldLoopUndo, TakesTheLastCutsBackOneAtATimeWithTheirTiesAndTheClockRunsOn
   }
 }
 
+// An undo joins again the ties its stroke divided, and only those: ties divided before the cut,
+// or after it by another blade (a scene's dissection playing on), stay divided.
+TEST(WorldLoopUndo, OnlyTheTiesItsStrokeDividedAreJoinedAgain) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  attach(t, 30.0);
+  WorldLoop loop(std::move(t.world), {.real_time = false});
+  const Eigen::Vector3d c = sphere_centre();
+  const double x = c.x() + 20.25;                     // the plane between them, where the ties are
+  const auto dissect_y = [&](double y0, double y1) {  // the ties between y0 and y1 (1.5 mm reach)
+    loop.dissect({{x, y0, c.z() - 30.0}, {x, y1, c.z() - 30.0}}, Eigen::Vector3d::UnitZ(), 60.0);
+    loop.run_steps(1);
+    return latest(loop).tie_count.divided;
+  };
+  const int64_t before = dissect_y(c.y() + 3.4, c.y() + 30.0);  // the ties 1.9 mm and more up
+  const Slit s = slit_through_both();  // at y = -2.63 from the centre, reaching ties within 1.5 mm
+  loop.cut(s.path, s.direction, s.depth_mm);
+  loop.run_steps(1);
+  ASSERT_EQ(latest(loop).cuts, 2);
+  const int64_t by_stroke = latest(loop).tie_count.divided - before;
+  // Then those from 1 mm below: clear of the stroke's, which end 1.13 mm below.
+  const int64_t after = dissect_y(c.y() + 0.5, c.y() + 30.0) - before - by_stroke;
+  std::printf("ties divided: %lld before the cut, %lld by its stroke, %lld after it\n",
+              static_cast<long long>(before), static_cast<long long>(by_stroke),
+              static_cast<long long>(after));
+  ASSERT_GT(before, 0);
+  ASSERT_GT(by_stroke, 0);
+  ASSERT_GT(after, 0);
+  loop.undo_cut();
+  loop.run_steps(1);
+  const WorldSnapshot undone = latest(loop);
+  EXPECT_EQ(undone.cuts, 0);
+  EXPECT_EQ(undone.tie_count.divided, before + after);
+}
+
 TEST(WorldLoopUndo, CutsBeyondTheUndoDepthAreKeptForAResetWhichPutsTheBodiesBackUncut) {
   TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
   attach(t, 30.0);
