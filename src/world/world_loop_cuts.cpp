@@ -190,6 +190,7 @@ void WorldLoop::Impl::apply_undos() {
         const bool by_stroke =
             a < u.stroke_divided.size() && k < u.stroke_divided[a].size() && u.stroke_divided[a][k];
         ties[k].divided = ties_now[a][k].divided && !by_stroke;
+        if (by_stroke && ties_now[a][k].divided) --strokes_divided;  // joined again
         ties[k].torn = ties_now[a][k].torn;
         ties[k].force_mn = ties_now[a][k].force_mn;
       }

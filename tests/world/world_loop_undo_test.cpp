@@ -141,6 +141,7 @@ TEST(WorldLoopUndo, OnlyTheTiesItsStrokeDividedAreJoinedAgain) {
   const WorldSnapshot undone = latest(loop);
   EXPECT_EQ(undone.cuts, 0);
   EXPECT_EQ(undone.tie_count.divided, before + after);
+  EXPECT_EQ(undone.ties_divided_by_strokes, before + after) << "the stroke's no longer counted";
 }
 
 TEST(WorldLoopUndo, CutsBeyondTheUndoDepthAreKeptForAResetWhichPutsTheBodiesBackUncut) {
