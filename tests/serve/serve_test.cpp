@@ -619,11 +619,14 @@ TEST(Serve, WithSendHzZeroTheRateIsToldOnlyToTheClientWhoseRateItIs) {
   TempDir dir;
   std::ofstream(dir.path / "big.json")
       << R"({"model": {"input": "phantom", "build": {"skin_vertices": 5000}}})";
-  Server server(dir.path, with({(dir.path / "big.json").string(), "--send-hz", "0", "--embedded-hz",
-                                "0", "--reaction-hz", "0"}));
+  // The server listens before it builds the model: the wait for its first rate choice holds the
+  // build too (over 15 s under the sanitizers on a slowed machine, 2026-12-02), and the session
+  // outlasts it (stopped below).
+  Server server(dir.path, {(dir.path / "big.json").string(), "--send-hz", "0", "--embedded-hz", "0",
+                           "--reaction-hz", "0", "--duration", "300"});
   Client quiet(server.port()), haptic(server.port());
   const auto t0 = Clock::now();
-  while (server.log().find("stepping at") == std::string::npos && seconds_since(t0) < 15.0)
+  while (server.log().find("stepping at") == std::string::npos && seconds_since(t0) < 120.0)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   ASSERT_NE(server.log().find("stepping at"), std::string::npos) << server.log();
   EXPECT_FALSE(quiet.receive(0.5)) << "a rate change pushed with --send-hz 0";

@@ -6,7 +6,7 @@
 // to DIR (desktop.png, headset.png).
 import assert from 'node:assert/strict';
 import { spawn } from 'node:child_process';
-import { mkdirSync, mkdtempSync, writeFileSync } from 'node:fs';
+import { mkdirSync, mkdtempSync, writeFileSync, writeSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -66,8 +66,19 @@ async function serve(extra, what = 'm.vtu') {
   });
   return s;
 }
-// Durations past the test's own time: each server is stopped when its part is done.
-const served = await serve(['--duration', '300']);
+// A server stopped (SIGTERM) and waited for; at once if it has ended already (an 'exit' listener
+// added after the exit never fires: the await left unsettled, node ends with code 13 and says
+// nothing of the failure).
+async function stop(child) {
+  if (child.exitCode !== null || child.signalCode !== null) return;
+  const exited = new Promise((r) => child.on('exit', r));
+  child.kill('SIGTERM');
+  await exited;
+}
+// Durations far past the test's own time (ctest stops it at 600 s): each server is stopped when
+// its part is done. Under the sanitizers the whole test took 438 s once, and a server whose
+// --duration of 300 s ran out left the page waiting on a stopped server.
+const served = await serve(['--duration', '3600']);
 const server = served.child, url = served.url;
 
 const browser = await chromium.launch({
@@ -271,7 +282,7 @@ try {
   await xrPage.close();
 
   // Over TLS (--self-signed, as for a headset off this machine): https and wss.
-  const tls = await serve(['--self-signed', '--duration', '60']);
+  const tls = await serve(['--self-signed', '--duration', '3600']);
   try {
     const tlsUrl = tls.url;
     // The browser is told to accept the session's certificate, as a user does after comparing
@@ -283,8 +294,7 @@ try {
     assert.deepEqual(await tlsPage.evaluate(() => window.lamina.stats.errors), []);
     measured.tls = 'https and wss: streamed';
   } finally {
-    tls.child.kill('SIGTERM');
-    await new Promise((r) => tls.child.on('exit', r));
+    await stop(tls.child);
   }
 
   // A world scene (issue 62): the cholecystectomy's liver and gallbladder, tied in its bed, on one
@@ -300,7 +310,7 @@ try {
                     stiffness_kpa_per_mm: 1.0, strength_kpa: 30.0 }],
     contact: { rest_overlap_tolerance_mm: 6.0 },
     solver: { integrator: 'implicit_euler', dt_s: 0.001 } }));
-  const world = await serve(['--duration', '240'], 'world.json');
+  const world = await serve(['--duration', '3600'], 'world.json');
   try {
     const worldPage = await context.newPage();
     worldPage.on('pageerror', (e) => pageErrors.push(e.message));
@@ -340,8 +350,7 @@ try {
     assert.ok(worldAfter < 0.5 * worldDragged, `released, the organs stay ${worldAfter} mm away`);
     assert.deepEqual(await worldPage.evaluate(() => window.lamina.stats.errors), []);
   } finally {
-    world.child.kill('SIGTERM');
-    await new Promise((r) => world.child.on('exit', r));
+    await stop(world.child);
   }
   assert.deepEqual(pageErrors, []);
 } catch (e) {
@@ -349,20 +358,21 @@ try {
   failure = e;
 } finally {
   await browser.close();
-  server.kill('SIGTERM');
-  await new Promise((r) => server.on('exit', r));
+  await stop(server);
 }
 measured.server_summary = (served.log.match(/web: [0-9]+ clients.*/) || [''])[0];
-console.log(JSON.stringify(measured));
+// Written at once (writeSync): console's writes to a pipe (ctest's) are asynchronous, and
+// process.exit() right after them can lose what they hold.
+writeSync(1, JSON.stringify(measured) + '\n');
 writeFileSync(join(out, 'measured.json'), JSON.stringify(measured, null, 2));
 if (failed) {
   // The servers' logs, then what failed as the last lines (CI's summary shows the output's tail).
   for (const s of servers) {
-    console.error(`--- lamina serve ${s.what}: the log's last lines ---`);
-    console.error(s.log.split('\n').slice(-25).join('\n'));
+    writeSync(2, `--- lamina serve ${s.what}: the log's last lines ---\n`);
+    writeSync(2, s.log.split('\n').slice(-25).join('\n') + '\n');
   }
-  console.error('--- the failure ---');
-  console.error(failure && failure.stack);
-  console.error('FAILED: ' + (failure && failure.message));
+  writeSync(2, '--- the failure ---\n');
+  writeSync(2, `${failure && failure.stack}\n`);
+  writeSync(2, 'FAILED: ' + (failure && failure.message) + '\n');
 }
 process.exit(failed ? 1 : 0);
