@@ -117,18 +117,17 @@ void WorldLoop::Impl::take_cut(bool wait) {
     topology_changed(o.id.index);
   }
   const Stroke& s = j.stroke;
-  std::vector<std::vector<uint8_t>> was_divided = divided_flags(world);
+  // The ties this stroke divides, for its undo (a stroke that cut no tissue has none).
+  std::vector<std::vector<uint8_t>> was_divided;
+  if (divided > 0) was_divided = divided_flags(world);
   strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
-  if (divided > 0) {  // the ties this stroke divided, for its undo
+  cuts += divided;
+  if (divided > 0) {
     const std::vector<std::vector<uint8_t>> now = divided_flags(world);
     for (size_t a = 0; a < now.size(); ++a)
       for (size_t k = 0; k < now[a].size(); ++k)
         was_divided[a][k] = now[a][k] && !was_divided[a][k];
     entry.stroke_divided = std::move(was_divided);
-  }
-  cuts += divided;
-  if (divided > 0) {
-    entry.bodies = divided;
     undo.push_back(std::move(entry));
     if (undo.size() > static_cast<size_t>(kUndoDepth)) {  // the oldest kept for a reset only
       fold_before(before_cuts, undo.front().before);
@@ -143,10 +142,6 @@ void WorldLoop::Impl::take_cut(bool wait) {
                                      : "the blade passed through no body's tissue";
   publish(true);
 }
-
-}  // namespace lamina::world
-
-namespace lamina::world {
 
 // Undos asked, each the newest cut taken back (world_loop.h, undo_cut()): the bodies it divided
 // put back as they were just before it, on the clock of now and with the parameters set since.
@@ -208,8 +203,8 @@ void WorldLoop::Impl::apply_undos() {
       std::lock_guard lock(mutex);
       topology_changed(n.slot);
     }
-    follow_the_clock();  // the rate may have changed since
-    cuts -= u.bodies;
+    follow_the_clock();                             // the rate may have changed since
+    cuts -= static_cast<int32_t>(u.params.size());  // one per body it divided
     tets_cut -= u.tets;
     cut_message.clear();
     log::info("world: undo: the last cut taken back ({} cut(s) in force)", cuts);

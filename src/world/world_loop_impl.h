@@ -114,9 +114,9 @@ struct WorldLoop::Impl {
   // before_cuts; a reset folds them all in and puts the earliest back.
   struct Undo {
     WorldBefore before;
-    int32_t bodies = 0;
     int64_t tets = 0;
-    std::vector<std::pair<int32_t, uint64_t>> params;  // each body's params_version then
+    // Each body it divided (its slot) and that body's params_version then.
+    std::vector<std::pair<int32_t, uint64_t>> params;
     // Per attachment, per tie: 1 if the stroke's blade divided it (an undo joins it again; ties
     // divided or torn since by anything else stay so).
     std::vector<std::vector<uint8_t>> stroke_divided;
