@@ -207,21 +207,8 @@ static void bind_simulation_tool_list(py::class_<PySimulation>& simulation) {
           [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
              std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
              std::optional<double> start_s, double end_s, double radius_mm) {
-            if (point_mm.has_value() == vertex.has_value())
-              throw invalid_input("add_tool", "give exactly one of point_mm and vertex");
-            if (!force_mn.allFinite()) throw invalid_input("add_tool: force_mn", "is not finite");
-            if (!(radius_mm >= 0.0 && std::isfinite(radius_mm)))
-              throw invalid_input("add_tool: radius_mm",
-                                  fmt::format("must be >= 0 mm, got {}", radius_mm));
-            interact::Tool t;
-            t.by_point = point_mm.has_value();
-            if (point_mm) t.point_mm = *point_mm;
-            if (vertex) t.vertex = *vertex;
-            t.force_mn = force_mn;
-            t.start_s = start_s.value_or(p.sim.time_s);
-            t.end_s = end_s;
-            t.radius_mm = radius_mm;
-            p.driver.tools.push_back(t);
+            p.driver.tools.push_back(tool_from("add_tool", point_mm, vertex, force_mn, start_s,
+                                               end_s, radius_mm, p.sim.time_s));
             return p.driver.tools.size() - 1;
           },
           py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
@@ -238,26 +225,8 @@ static void bind_simulation_tool_list(py::class_<PySimulation>& simulation) {
           [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
              std::optional<int32_t> vertex, const Eigen::Vector3d& pull_mm, double pull_s,
              std::optional<double> start_s, double end_s, double radius_mm) {
-            if (point_mm.has_value() == vertex.has_value())
-              throw invalid_input("add_grasp", "give exactly one of point_mm and vertex");
-            if (!pull_mm.allFinite()) throw invalid_input("add_grasp: pull_mm", "is not finite");
-            if (!(pull_s > 0.0 && std::isfinite(pull_s)))
-              throw invalid_input("add_grasp: pull_s",
-                                  fmt::format("must be > 0 s, got {}", pull_s));
-            if (!(radius_mm > 0.0 && std::isfinite(radius_mm)))
-              throw invalid_input("add_grasp: radius_mm",
-                                  fmt::format("must be > 0 mm, got {}", radius_mm));
-            interact::Tool t;
-            t.by_point = point_mm.has_value();
-            if (point_mm) t.point_mm = *point_mm;
-            if (vertex) t.vertex = *vertex;
-            t.start_s = start_s.value_or(p.sim.time_s);
-            t.end_s = end_s;
-            t.radius_mm = radius_mm;
-            t.grasp = true;
-            t.pull_mm = pull_mm;
-            t.pull_s = pull_s;
-            p.driver.tools.push_back(t);
+            p.driver.tools.push_back(grasp_from("add_grasp", point_mm, vertex, pull_mm, pull_s,
+                                                start_s, end_s, radius_mm, p.sim.time_s));
             return p.driver.tools.size() - 1;
           },
           py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),

@@ -13,28 +13,12 @@
 #include "lamina/world/cut_body.h"
 #include "lamina/world/dissection.h"
 #include "lamina/world/world.h"
+#include "py_world.h"
 
 namespace py = pybind11;
 
 namespace lamina::python {
-namespace {
 
-struct PyWorld {
-  io::WorldScene scene;
-  std::unique_ptr<io::ReadyWorld> ready;
-  world::WorldStepStats last;
-  world::WorldBefore before_cuts;  // the bodies cut since the last reset, as they were
-  // What a cut or a reset replaced, kept: numpy views of x and rest taken before it point into
-  // these buffers (they show the state before, never freed memory).
-  struct Retired {
-    std::shared_ptr<Model> model;
-    std::unique_ptr<sim::Simulation> sim;
-  };
-  std::vector<Retired> retired;
-};
-
-// Keeps body b's simulation (its buffers, which views may point into) and model, leaving the
-// body a copy of them to change.
 PyWorld::Retired& retire(PyWorld& w, world::Body& b) {
   auto kept = std::make_unique<sim::Simulation>(b.sim);
   std::swap(*kept, b.sim);  // the body steps a copy; the views keep the buffers they had
@@ -42,7 +26,7 @@ PyWorld::Retired& retire(PyWorld& w, world::Body& b) {
   return w.retired.back();
 }
 
-const world::Body& body_named(const PyWorld& w, const std::string& name) {
+world::Body& body_named(PyWorld& w, const std::string& name) {
   const world::BodyId id = world::find_body(w.ready->world, name);
   if (id.index < 0) {
     std::string known;
@@ -52,6 +36,12 @@ const world::Body& body_named(const PyWorld& w, const std::string& name) {
   }
   return world::body(w.ready->world, id);
 }
+
+const world::Body& body_named(const PyWorld& w, const std::string& name) {
+  return body_named(const_cast<PyWorld&>(w), name);
+}
+
+namespace {
 
 py::dict stats_dict(const PyWorld& w) {
   const world::WorldStepStats& st = w.last;
@@ -103,7 +93,14 @@ static void bind_world_cut_and_serve(py::class_<PyWorld>& world) {
               // the blade did not divide.
               const size_t first = w.retired.size();
               for (const world::BodyId id : w.ready->ids) retire(w, world::body(world, id));
-              c = world::cut_through(world, path, direction, depth_mm, 1.5, w.before_cuts);
+              const auto was_divided = world::divided_flags(world);
+              world::CutUndo undo;  // what undo_cut() takes back
+              c = world::cut_through(world, path, direction, depth_mm, 1.5, undo.before);
+              if (!c.bodies.empty()) {
+                for (const auto& [id, r] : c.bodies) undo.tets += r.cut_tets;
+                undo.stroke_divided = world::divided_since(world, was_divided);
+                world::push_cut(w.cuts, std::move(undo));
+              }
               for (size_t k = w.ready->ids.size(); k-- > 0;) {
                 const world::BodyId id = w.ready->ids[k];
                 if (std::any_of(c.bodies.begin(), c.bodies.end(),
@@ -225,14 +222,24 @@ void bind_world(py::module_& m) {
       .def(
           "reset",
           [](PyWorld& w) {
-            for (const world::BodyBefore& k : w.before_cuts.bodies)
-              if (world::is_valid(w.ready->world, k.id))
-                retire(w, world::body(w.ready->world, k.id));
-            world::put_back(w.ready->world, w.before_cuts);
+            // The bodies cut since, their buffers kept for the views taken before.
+            std::vector<int32_t> slots;
+            const auto keep = [&](const world::WorldBefore& before) {
+              for (const world::BodyBefore& k : before.bodies)
+                if (world::is_valid(w.ready->world, k.id) &&
+                    std::find(slots.begin(), slots.end(), k.id.index) == slots.end()) {
+                  slots.push_back(k.id.index);
+                  retire(w, world::body(w.ready->world, k.id));
+                }
+            };
+            keep(w.cuts.oldest);
+            for (const world::CutUndo& u : w.cuts.undo) keep(u.before);
+            world::put_back_all(w.ready->world, w.cuts);
             world::reset(w.ready->world);
             w.last = {};
           },
           "Every body back at rest and uncut, every tie in place, time 0.");
+  bind_world_edit(world);
 
   m.def(
       "world_scene",

@@ -3,12 +3,15 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <Eigen/Core>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "lamina/core/error.h"
 #include "lamina/core/surface_role.h"
+#include "lamina/interact/tools.h"
 #include "lamina/net/serve.h"
 
 namespace lamina::python {
@@ -26,6 +29,18 @@ void bind_model(pybind11::module_& m);       // masks, models (bind_model.cpp)
 void bind_simulation(pybind11::module_& m);  // simulations, tools, scenes (bind_simulation.cpp)
 void bind_resect(pybind11::module_& m);      // resection planning (bind_resect.cpp)
 void bind_world(pybind11::module_& m);       // worlds of several organs (bind_world.cpp)
+
+// A tool pushing with force_mn (at point_mm or skin node `vertex`: exactly one), or a grasper
+// pulling by pull_mm over pull_s, from start_s (default now_s) to end_s, checked; `what` names
+// the call in errors (tool_args.cpp: Simulation's and World's add_tool and add_grasp).
+interact::Tool tool_from(const std::string& what, std::optional<Eigen::Vector3d> point_mm,
+                         std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
+                         std::optional<double> start_s, double end_s, double radius_mm,
+                         double now_s);
+interact::Tool grasp_from(const std::string& what, std::optional<Eigen::Vector3d> point_mm,
+                          std::optional<int32_t> vertex, const Eigen::Vector3d& pull_mm,
+                          double pull_s, std::optional<double> start_s, double end_s,
+                          double radius_mm, double now_s);
 
 // Serving (bind_serve.cpp): `lamina serve`'s options from Python's keywords (an unknown one, or
 // a value it cannot take, is refused by name), checked.

@@ -44,14 +44,21 @@ void RealtimeLoop::apply_undo() {
       undos_ = 0;
       return;
     }
+    // The organ as it was just before the cut, on the clock of now and with the parameters of
+    // now (a material, solver or dt set since the cut is kept, as the world's undo keeps it).
     BeforeCut& b = undo_.back();
     const double time_s = sim_.time_s;
     const int64_t steps = sim_.steps;
+    const sim::Material material = sim_.material();
+    const sim::SolverOptions solver = sim_.options();
+    const RoutingOptions routing = tools_.routing;
     model_ = std::move(b.model);
     sim_ = std::move(b.sim);
     sim_.time_s = time_s, sim_.steps = steps;
+    if (b.params_version != params_version_) sim::set_parameters(sim_, material, solver);
     forces_ = std::move(b.forces);
     tools_ = std::move(b.tools);
+    tools_.routing = routing;
     undo_.pop_back();
     tools_.tip = {};
     proxy_ = {};
@@ -156,7 +163,7 @@ void RealtimeLoop::take_cut(bool wait) {
       tools_.tools.clear();
       if (undo_.size() == static_cast<size_t>(kUndoDepth)) undo_.erase(undo_.begin());
       undo_.push_back({std::move(model_before), std::move(*sim_before), forces_before,
-                       std::move(tools_before)});
+                       std::move(tools_before), params_version_});
       tools_.tip = {};
       proxy_ = {};
       tip_contact_ = -1;

@@ -32,6 +32,9 @@ void RealtimeLoop::publish(bool force) {
   s.achieved_rate_hz = window_.achieved_rate_hz;
   s.measured_rate_hz = window_.measured_rate_hz;
   s.dt_s = sim_.options().dt_s;
+  s.material = sim_.material();
+  s.solver = sim_.options();
+  s.routing = tools_.routing;
   s.multigrid = sim::uses_multigrid(sim_);
   s.real_time_factor = window_.real_time_factor;
   s.keeping_up = window_.keeping_up;

@@ -31,7 +31,6 @@ WorldLoop::WorldLoop(World world, WorldLoopOptions options)
     const Body& b = body(m.world, id);
     m.handles.push_back({id, b.topology, b.model->layers[0].node_count, b.model->rings.locality});
   }
-  m.params_version.assign(m.world.bodies.size(), 0);
   m.follow_the_clock();
   // Made here, not in the stepping thread's first step: each body's multigrid or factor at the
   // step the clock gives.
@@ -249,12 +248,9 @@ void WorldLoop::Impl::apply_pending() {
     new_close.reset();
     new_jaws.reset();
     jaws_closed = false;
-    for (Undo& u : undo) fold_before(before_cuts, u.before);  // the earliest kept wins
-    undo.clear();
     undos = new_undos = 0;
     std::vector<int32_t> put_back_slots;
-    for (const BodyBefore& k : before_cuts.bodies) put_back_slots.push_back(k.id.index);
-    put_back(world, before_cuts);
+    put_back_all(world, history, &put_back_slots);
     for (const int32_t slot : put_back_slots) topology_changed(slot);
     tissue_cuts.clear();
     ++resets;  // a cut being made of the bodies as they were is dropped when done
@@ -322,7 +318,6 @@ void WorldLoop::Impl::apply_parameters() {
     p.solver.dt_s = bs.body.sim.options().dt_s;
     sim::set_parameters(bs.body.sim, p.material, p.solver);
     bs.body.tools.routing = p.routing;
-    ++params_version[static_cast<size_t>(p.slot)];
   }
   new_params.clear();
 }

@@ -14,17 +14,6 @@
 #include "world_loop_impl.h"
 
 namespace lamina::world {
-namespace {
-
-// Per attachment, per tie: whether it is divided.
-std::vector<std::vector<uint8_t>> divided_flags(const World& world) {
-  std::vector<std::vector<uint8_t>> out(world.attachments.size());
-  for (size_t a = 0; a < world.attachments.size(); ++a)
-    for (const Tie& t : world.attachments[a].attachment.ties) out[a].push_back(t.divided ? 1 : 0);
-  return out;
-}
-
-}  // namespace
 
 void WorldLoop::Impl::apply_cuts() {
   const bool background = threaded && options.background_cuts;
@@ -94,7 +83,7 @@ void WorldLoop::Impl::take_cut(bool wait) {
     return;
   }
   int32_t divided = 0;
-  Undo entry;  // each body it divides as it was, and the ties then
+  CutUndo entry;  // each body it divides as it was, and the ties then
   for (CutJob::OnBody& o : j.bodies) {
     if (!is_valid(world, o.id) || body(world, o.id).topology != o.topology) {
       log::warn("world: cut: body {} changed while the cut was made; it is not cut", o.id.index);
@@ -109,7 +98,6 @@ void WorldLoop::Impl::take_cut(bool wait) {
     }
     tets_cut += r.cut_tets;
     entry.tets += r.cut_tets;
-    entry.params.emplace_back(o.id.index, params_version[static_cast<size_t>(o.id.index)]);
     ++divided;
     log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, o.id).name,
               r.cut_tets, r.new_nodes);
@@ -123,16 +111,8 @@ void WorldLoop::Impl::take_cut(bool wait) {
   strokes_divided += dissect_along(world, s.path, s.direction, s.depth_mm, s.reach_mm);
   cuts += divided;
   if (divided > 0) {
-    const std::vector<std::vector<uint8_t>> now = divided_flags(world);
-    for (size_t a = 0; a < now.size(); ++a)
-      for (size_t k = 0; k < now[a].size(); ++k)
-        was_divided[a][k] = now[a][k] && !was_divided[a][k];
-    entry.stroke_divided = std::move(was_divided);
-    undo.push_back(std::move(entry));
-    if (undo.size() > static_cast<size_t>(kUndoDepth)) {  // the oldest kept for a reset only
-      fold_before(before_cuts, undo.front().before);
-      undo.erase(undo.begin());
-    }
+    entry.stroke_divided = divided_since(world, was_divided);
+    push_cut(history, std::move(entry));
   }
   last_cut_ms = cut_begin_ms + 1e3 * (now_s() - t0);  // the copies, and taking it in
   last_cut_made_ms = 1e3 * (now_s() - j.began_s);
@@ -148,64 +128,28 @@ void WorldLoop::Impl::take_cut(bool wait) {
 void WorldLoop::Impl::apply_undos() {
   if (undos == 0 || cut_job.valid()) return;
   for (; undos > 0; --undos) {
-    if (undo.empty()) {
+    if (history.undo.empty()) {
       cut_message = "undo: there is no cut to undo";
       log::warn("world: {}", cut_message);
       undos = 0;
       break;
     }
-    Undo u = std::move(undo.back());
-    undo.pop_back();
-    struct Now {
-      int32_t slot;
-      double time_s;
-      int64_t steps;
-      sim::Material material;
-      sim::SolverOptions solver;
-      interact::RoutingOptions routing;
-      bool params_changed;
-    };
-    std::vector<Now> now;
-    for (const auto& [slot, version] : u.params) {
-      if (slot == grasp_slot) open_grasper();  // its nodes are renumbered under the jaws
-      const Body& b = world.bodies[static_cast<size_t>(slot)].body;
-      now.push_back({slot, b.sim.time_s, b.sim.steps, b.sim.material(), b.sim.options(),
-                     b.tools.routing, params_version[static_cast<size_t>(slot)] != version});
+    CutUndo u = std::move(history.undo.back());
+    history.undo.pop_back();
+    std::vector<int32_t> slots;
+    for (const BodyBefore& k : u.before.bodies) {
+      slots.push_back(k.id.index);
+      if (k.id.index == grasp_slot) open_grasper();  // its nodes are renumbered under the jaws
     }
-    // The ties go back to the bodies' numbering of then (a cut renumbers them in place: the
-    // lists stay aligned), each as it is now (divided, torn or pulling since, by the scene's
-    // blades or the tissue), but those this stroke divided, joined again.
-    std::vector<std::vector<Tie>> ties_now;
-    for (const AttachmentSlot& a : world.attachments) ties_now.push_back(a.attachment.ties);
-    put_back(world, u.before);
-    for (size_t a = 0; a < world.attachments.size(); ++a) {
-      std::vector<Tie>& ties = world.attachments[a].attachment.ties;
-      if (ties.size() != ties_now[a].size()) continue;  // not renumbered from these: left as kept
-      for (size_t k = 0; k < ties.size(); ++k) {
-        const bool by_stroke =
-            a < u.stroke_divided.size() && k < u.stroke_divided[a].size() && u.stroke_divided[a][k];
-        ties[k].divided = ties_now[a][k].divided && !by_stroke;
-        if (by_stroke && ties_now[a][k].divided) --strokes_divided;  // joined again
-        ties[k].torn = ties_now[a][k].torn;
-        ties[k].force_mn = ties_now[a][k].force_mn;
-      }
-    }
-    for (const Now& n : now) {
-      Body& b = world.bodies[static_cast<size_t>(n.slot)].body;
-      if (!b.tools.hand.nodes.empty()) {  // a grasp of then, which the jaws no longer hold
-        interact::open_jaws(b.sim, b.tools.hand);
-        b.tools.hand = {};
-      }
-      b.sim.time_s = n.time_s;
-      b.sim.steps = n.steps;
-      if (n.params_changed) sim::set_parameters(b.sim, n.material, n.solver);
-      b.tools.routing = n.routing;
+    const int64_t tets = u.tets;
+    strokes_divided -= world::undo_cut(world, u);
+    for (const int32_t slot : slots) {
       std::lock_guard lock(mutex);
-      topology_changed(n.slot);
+      topology_changed(slot);
     }
-    follow_the_clock();                             // the rate may have changed since
-    cuts -= static_cast<int32_t>(u.params.size());  // one per body it divided
-    tets_cut -= u.tets;
+    follow_the_clock();                          // the rate may have changed since
+    cuts -= static_cast<int32_t>(slots.size());  // one per body it divided
+    tets_cut -= tets;
     cut_message.clear();
     log::info("world: undo: the last cut taken back ({} cut(s) in force)", cuts);
   }

@@ -13,6 +13,7 @@
 #include "lamina/core/lock_waits.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/world/cut_body.h"
+#include "lamina/world/cut_history.h"
 #include "lamina/world/world_loop.h"
 
 namespace lamina::world {
@@ -108,22 +109,9 @@ struct WorldLoop::Impl {
   double cut_begin_ms = 0.0;  // the stepping thread's time copying the bodies for the job
   double last_cut_made_ms = 0.0;
   int64_t last_cut_steps_meanwhile = 0;
-  WorldBefore before_cuts;  // the bodies cut since the last reset, as they were (but `undo`'s)
-  // The last cuts (oldest first, at most kUndoDepth), each the bodies it divided as they were
-  // just before it: an undo puts the newest back; the oldest, pushed out, is folded into
-  // before_cuts; a reset folds them all in and puts the earliest back.
-  struct Undo {
-    WorldBefore before;
-    int64_t tets = 0;
-    // Each body it divided (its slot) and that body's params_version then.
-    std::vector<std::pair<int32_t, uint64_t>> params;
-    // Per attachment, per tie: 1 if the stroke's blade divided it (an undo joins it again; ties
-    // divided or torn since by anything else stay so).
-    std::vector<std::vector<uint8_t>> stroke_divided;
-  };
-  std::vector<Undo> undo;
-  int undos = 0;                         // taken from new_undos, done when no cut is being made
-  std::vector<uint64_t> params_version;  // per body slot: counts set_parameters() taken
+  // The cuts since the last reset (cut_history.h): an undo takes the newest back, a reset all.
+  CutHistory history;
+  int undos = 0;  // taken from new_undos, done when no cut is being made
   int32_t cuts = 0;
   int64_t tets_cut = 0;
   double last_cut_ms = 0.0;

@@ -75,7 +75,7 @@ void WorldLoop::Impl::publish(bool force) {
   s.last_cut_made_ms = last_cut_made_ms;
   s.last_cut_steps_meanwhile = last_cut_steps_meanwhile;
   s.cut_message = cut_message;
-  s.undoable = static_cast<int32_t>(undo.size());
+  s.undoable = static_cast<int32_t>(history.undo.size());
   s.hands_reaction_mn = hands_reaction_mn;
   s.tip_touching = false;
   for (const BodySlot& bs : world.bodies)

@@ -360,6 +360,15 @@ TEST(Scalpel, OnACutOrganTheLoadIsTheReactionAndAFreedPieceComesToRest) {
   EXPECT_EQ(sim::inverted_tets(m, sim.x), 0);
 }
 
+// The skin node farthest to the front (least y) 15 mm left of the cut: a force there pushes
+// the piece the cut leaves whole.
+int32_t front_node_left_of(const Model& m, const Across& a) {
+  int32_t node = -1;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (m.X(i, 0) < a.x0 - 15 && (node < 0 || m.X(i, 1) < m.X(node, 1))) node = i;
+  return node;
+}
+
 // The realtime loop (the viewer's, the server's, the C API's) cuts between two steps: the model
 // it publishes is the cut one, a live force keeps acting on the copies of its node, and the
 // pieces come apart.
@@ -370,9 +379,7 @@ TEST(Scalpel, TheRealtimeLoopCutsBetweenTwoStepsItsForcesCarryOverAndItUndoes) {
   interact::RealtimeLoop loop(
       std::move(s), {.routing = interact::Routing::kNone, .touch = interact::Touch::kSkin},
       {.real_time = false});
-  int32_t node = -1;
-  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
-    if (m.X(i, 0) < a.x0 - 15 && (node < 0 || m.X(i, 1) < m.X(node, 1))) node = i;
+  const int32_t node = front_node_left_of(m, a);
   loop.set_forces({{.node = node, .force_mn = Eigen::Vector3d(0, 30, 0)}});
   loop.run_steps(20);
   interact::LoopSnapshot before;
@@ -429,6 +436,45 @@ TEST(Scalpel, TheRealtimeLoopCutsBetweenTwoStepsItsForcesCarryOverAndItUndoes) {
   EXPECT_EQ(none.model_version, 2u);
   EXPECT_EQ(none.cut_error, "undo: there is no cut to undo");
   EXPECT_EQ(none.x.rows(), m.node_count());
+}
+
+// An undo takes the organ back as it was before the cut, but not its parameters: a material or
+// solver set since the cut is kept (the panel shows what steps), as the world's undo keeps it.
+TEST(Scalpel, TheRealtimeLoopsUndoKeepsTheParametersSetSinceTheCut) {
+  const Model& m = test::tet_phantom();
+  const Across a = across();
+  const interact::RoutingOptions routing{.routing = interact::Routing::kNone,
+                                         .touch = interact::Touch::kSkin};
+  interact::RealtimeLoop loop(held(), routing, {.real_time = false});
+  const int32_t node = front_node_left_of(m, a);
+  loop.set_forces({{.node = node, .force_mn = Eigen::Vector3d(0, 100, 0)}});
+  loop.run_steps(200);
+  interact::LoopSnapshot soft;
+  ASSERT_TRUE(loop.latest(soft));
+  const double soft_dent = soft.x(node, 1) - m.X(node, 1);
+  ASSERT_GT(soft_dent, 0.5);
+  EXPECT_EQ(soft.material.young_modulus_kpa, test::kTetLiver.young_modulus_kpa);
+
+  loop.cut(a.scalpel.path, a.scalpel.depth_direction, a.scalpel.depth_mm);
+  loop.run_steps(5);
+  sim::Material stiff = soft.material;
+  stiff.young_modulus_kpa *= 4.0;
+  sim::SolverOptions solver = soft.solver;
+  solver.cg_tolerance = 1e-7;
+  loop.set_parameters(stiff, solver, routing);
+  loop.run_steps(5);
+  loop.undo_cut();
+  loop.run_steps(300);
+  interact::LoopSnapshot undone;
+  ASSERT_TRUE(loop.latest(undone));
+  ASSERT_EQ(undone.cuts, 0);
+  ASSERT_EQ(undone.x.rows(), m.node_count());
+  EXPECT_EQ(undone.material.young_modulus_kpa, stiff.young_modulus_kpa) << "E of before the cut";
+  EXPECT_EQ(undone.solver.cg_tolerance, 1e-7);
+  // Four times as stiff, the same force dents it about a quarter as deep.
+  const double stiff_dent = undone.x(node, 1) - m.X(node, 1);
+  EXPECT_GT(stiff_dent, 0.0);
+  EXPECT_LT(stiff_dent, 0.5 * soft_dent) << "the undone organ steps with the old material";
 }
 
 // A running loop makes its cuts on another thread and goes on stepping meanwhile: the cut it

@@ -124,3 +124,52 @@ def test_a_world_is_served_over_openigtlink_and_to_the_web_page():
     assert points["liver"] > points["gallbladder"] > 100, points
     assert page is not None and "<html" in page.lower()
     assert w.time_s == 0.0  # this World was not stepped
+
+
+def test_a_sweep_presses_a_body_changes_its_material_and_takes_a_cut_back():
+    # A researcher's script: a tool on the liver's top, the liver made four times as stiff
+    # between steps (its dent shrinks), a scalpel stroke, then World.undo_cut(): the liver as it
+    # was just before the stroke, with the material of now.
+    s = scene()
+    del s["bodies"][1]["tools"]
+    w = lamina.world_scene(s)
+    rest = np.array(w.rest("liver"))
+    top = int(np.argmax(rest[:, 2]))
+    w.add_tool("liver", vertex=top, force_mn=[0, 0, -300])
+    st = w.step(600)
+    assert not st["unstable"]
+    soft = rest[top, 2] - w.x("liver")[top, 2]
+    assert soft > 0.5, soft
+    assert w.reaction_force_mn("liver")[2] > 100.0  # the tissue pushes the tool back up
+    e = w.material("liver")["young_modulus_kpa"]
+    assert e > 0
+    with pytest.raises(lamina.Error) as bad:
+        w.set_material("liver", poisson_ratio=0.7)
+    assert "poisson" in str(bad.value) and "\n" not in str(bad.value)
+    assert w.material("liver")["poisson_ratio"] < 0.5  # nothing changed
+    w.set_material("liver", young_modulus_kpa=4 * e)
+    w.step(600)
+    stiff = rest[top, 2] - w.x("liver")[top, 2]
+    assert 0.0 < stiff < 0.6 * soft, (soft, stiff)
+
+    w.clear_tools("liver")
+    before = np.array(w.x("liver"))
+    lo, hi = rest.min(0), rest.max(0)
+    y, up = 0.5 * (lo[1] + hi[1]) + 0.37, hi[2] + 5.0
+    path = [[lo[0] + 0.3 * (hi[0] - lo[0]), y, up], [lo[0] + 0.7 * (hi[0] - lo[0]), y, up]]
+    assert w.cut(path, 5.0 + 0.5 * (hi[2] - lo[2]), [0, 0, -1])["bodies"]["liver"]["cut_tets"] > 0
+    w.step(50)
+    t = w.time_s
+    w.set_material("liver", young_modulus_kpa=2 * e)
+    undone = w.undo_cut()
+    assert undone["bodies"] == ["liver"] and undone["ties_joined"] >= 0
+    assert w.topology("liver") == 2 and len(w.x("liver")) == len(rest)
+    np.testing.assert_array_equal(w.x("liver"), before)
+    assert w.time_s == t and w.material("liver")["young_modulus_kpa"] == 2 * e
+    assert not w.step(50)["unstable"]
+    with pytest.raises(lamina.Error) as none:
+        w.undo_cut()
+    assert "no cut to undo" in str(none.value)
+    w.reset()
+    assert w.topology("liver") == 2  # nothing cut since: nothing put back
+    np.testing.assert_array_equal(w.x("liver"), rest)

@@ -64,6 +64,11 @@ struct LoopSnapshot {
   uint64_t generation = 0;        ///< increases with each publication
   double achieved_rate_hz = 0.0;  ///< steps per wall second over the last second
   double dt_s = 0.0;              ///< the step's simulated time
+  /// The parameters the organ steps with now (set_parameters(); dt follows the rate), as the
+  /// world's BodyView gives them: what a panel shows is what steps.
+  sim::Material material;
+  sim::SolverOptions solver;
+  RoutingOptions routing;
   /// implicit Euler's steps take the multigrid (kMultigrid, or kAuto's choice for this dt)
   bool multigrid = false;
   /// Simulated seconds per wall second over the last second: 1 in real time, less when the
@@ -232,6 +237,7 @@ class RealtimeLoop {
     sim::Simulation sim;
     std::vector<LiveForce> forces;
     ToolDriver tools;
+    uint64_t params_version = 0;  // params_version_ when the cut was taken in
   };
   std::vector<BeforeCut> undo_;  // the oldest first, at most kUndoDepth
   // A cut being made on another thread while the loop steps on (the model divided and a

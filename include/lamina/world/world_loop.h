@@ -33,6 +33,7 @@
 #include "lamina/interact/rate_window.h"
 #include "lamina/interact/reaction_sample.h"
 #include "lamina/interact/tools.h"
+#include "lamina/world/cut_history.h"
 #include "lamina/world/dissection.h"
 #include "lamina/world/world.h"
 
@@ -172,7 +173,7 @@ class WorldLoop {
   /// released, the grasper opens if it held it). The last kUndoDepth cuts can be undone, one call
   /// each; a cut being made is waited for first; with none, the snapshot's cut_message says so.
   void undo_cut();
-  static constexpr int kUndoDepth = 8;
+  static constexpr int kUndoDepth = static_cast<int>(CutHistory::kDepth);
   /// New parameters for `body`, checked now and taken between two steps: its material
   /// (sim::set_parameters: new E or nu identify its springs again), its solver and the routing
   /// of its live forces. Every body steps at the world's dt (1 / rate in real time: change the
