@@ -5,14 +5,19 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <map>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "commands.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 
 namespace {
+
+using namespace lamina;
 
 // "1.5" -> {1.5, 1.5, 1.5}; "0.6,0.6,1.6" -> per axis.
 std::array<double, 3> parse_spacing(const std::string& s) {
@@ -44,47 +49,24 @@ std::array<int, 2> parse_image_size(const std::string& s, const char* option) {
                               "expected WIDTHxHEIGHT in pixels (16..8192), got '" + s + "'");
 }
 
-}  // namespace
+// One subcommand of `lamina`: its options registered on the app, bound to what it parses into
+// (held by `run`, so that they outlive the registration), and what runs it once parsed, with the
+// verbosity -q/-v chose (0, 1, 2).
+struct Subcommand {
+  CLI::App* app = nullptr;
+  std::function<int(int verbosity)> run;
+};
 
-namespace {
-
-// OpenMP threads that wait at a barrier spin for GOMP_SPINCOUNT iterations (libgomp's default
-// 300,000) before they sleep. One lamina alone gains nothing from the long spin, but two on a
-// 2-core machine (a sweep run in parallel, ctest -j2) spin on the cores the other needs: the
-// default poke took 46 s each instead of 1.7 s. A spin of 3,000 keeps the single run's time
-// (1.67 s either way) and makes two at once 4.4 s (docs/architecture.md). libgomp reads the
-// variable when it loads, before main, so lamina sets it and runs itself again, once; a user's
-// own GOMP_SPINCOUNT or OMP_WAIT_POLICY is left alone.
-void bound_openmp_spin(char** argv) {
-  if (std::getenv("GOMP_SPINCOUNT") || std::getenv("OMP_WAIT_POLICY")) return;
-  if (setenv("GOMP_SPINCOUNT", "3000", 0) != 0) return;
-  execv("/proc/self/exe", argv);  // returns only on failure: then run with libgomp's default
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  bound_openmp_spin(argv);
-  using namespace lamina;
-  CLI::App app{"Lamina: multi-layer volumetric mass-spring models of organs from segmentations"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", "lamina 0.1.0");
-  int verbosity = 1;
-  app.add_flag_function(
-      "-q,--quiet", [&](int64_t) { verbosity = 0; }, "only warnings and errors");
-  app.add_flag_function(
-      "-v,--verbose", [&](int64_t) { verbosity = 2; }, "debug messages");
-  app.add_option("--max-voxels", cli::volume_read_options.max_voxels,
-                 "refuse a volume with more voxels than this before reading it (default 2^31; "
-                 "a corrupt header can claim terabytes)")
-      ->envname("LAMINA_MAX_VOXELS")
-      ->check([](const std::string& v) {
-        return std::strtoll(v.c_str(), nullptr, 10) > 0 ? std::string()
-                                                        : "must be a positive number of voxels";
-      });
-
-  cli::PhantomArgs phantom;
-  std::string spacing = "1.5", size;
+// `lamina phantom`: the built-in phantom written as a mask.
+Subcommand add_phantom(CLI::App& app) {
+  struct Parsed {
+    cli::PhantomArgs phantom;
+    std::string spacing = "1.5", size;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& phantom = l->phantom;
+  auto& spacing = l->spacing;
+  auto& size = l->size;
   auto* ph = app.add_subcommand("phantom", "write the built-in liver-like phantom mask (NIfTI)");
   ph->add_option("-o,--output", phantom.output, "output image (.nii.gz, .nii, .nrrd, .mha)")
       ->required();
@@ -102,10 +84,23 @@ int main(int argc, char** argv) {
                "--carved-out the vena cava, the hepatic veins draining into it and the right "
                "one reaching the lateral surface are tunnels through label 1, and the lesion "
                "bulges 12 mm out; alone, the same organ's whole mask");
+  return {ph, [l](int) {
+            l->phantom.options.spacing_mm = parse_spacing(l->spacing);
+            if (!l->size.empty()) l->phantom.options.size = parse_size(l->size);
+            return cli::run_phantom(l->phantom);
+          }};
+}
 
-  cli::BuildArgs build;
+// `lamina build`: a model (or one per organ) from a segmentation.
+Subcommand add_build(CLI::App& app) {
+  struct Parsed {
+    cli::BuildArgs build;
+    double density_g_cm3 = 1.06;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& build = l->build;
+  auto& density_g_cm3 = l->density_g_cm3;
   auto& bo = build.options;
-  double density_g_cm3 = 1.06;
   auto* bu =
       app.add_subcommand("build", "build a multi-layer mass-spring model from a segmentation");
   bu->add_option(
@@ -157,19 +152,48 @@ int main(int argc, char** argv) {
   bu->add_option("--density", density_g_cm3, "tissue density in g/cm^3 (default 1.06, liver)");
   bu->add_option("--stiffness", bo.stiffness_n_per_m, "spring stiffness in N/m (default 3)");
   bu->add_flag("--json", build.json, "print the summary as one JSON object on stdout");
+  return {bu, [l](int verbosity) {
+            l->build.options.density_kg_per_mm3 = l->density_g_cm3 * 1e-6;  // g/cm^3 -> kg/mm^3
+            l->build.quiet = verbosity == 0;
+            l->build.verbose = verbosity == 2;
+            return cli::run_build(l->build);
+          }};
+}
 
-  cli::InfoArgs info;
+// `lamina info`: a saved model summarised.
+Subcommand add_info(CLI::App& app) {
+  struct Parsed {
+    cli::InfoArgs info;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& info = l->info;
   auto* in = app.add_subcommand("info", "summarise a saved model");
   in->add_option("model", info.model, "model file (.vtu)")->required();
   in->add_flag("--json", info.json, "print the summary as one JSON object on stdout");
+  return {in, [l](int) { return cli::run_info(l->info); }};
+}
 
-  cli::ExportArgs exp;
+// `lamina export`: one layer of a model as a mesh.
+Subcommand add_export(CLI::App& app) {
+  struct Parsed {
+    cli::ExportArgs exp;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& exp = l->exp;
   auto* ex = app.add_subcommand("export", "write one layer of a model as a mesh");
   ex->add_option("model", exp.model, "model file (.vtu)")->required();
   ex->add_option("-o,--output", exp.output, "mesh file (.obj, .ply, .vtp, .stl)")->required();
   ex->add_option("--layer", exp.layer, "layer index, 0 = skin (default 0)");
+  return {ex, [l](int) { return cli::run_export(l->exp); }};
+}
 
-  cli::RunArgs run;
+// `lamina run`: a scene simulated to files.
+Subcommand add_run(CLI::App& app) {
+  struct Parsed {
+    cli::RunArgs run;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& run = l->run;
   auto* ru = app.add_subcommand("run", "simulate a scene: tools push the organ, it responds");
   ru->add_option("scene", run.scene,
                  "scene file (.json, docs/scenes.md); default: the physical liver (tetrahedra, "
@@ -193,9 +217,22 @@ int main(int argc, char** argv) {
                  "checkpoint's)");
   ru->add_option("--stop-after", run.stop_after_steps,
                  "stop after N steps with a checkpoint (run a long job in chunks)");
+  return {ru, [l](int verbosity) {
+            l->run.quiet = verbosity == 0;
+            l->run.verbose = verbosity == 2;
+            return cli::run_run(l->run);
+          }};
+}
 
-  cli::ViewArgs view;
-  std::string view_size = "1400x900";
+// `lamina view`: the interactive viewer.
+Subcommand add_view(CLI::App& app) {
+  struct Parsed {
+    cli::ViewArgs view;
+    std::string view_size = "1400x900";
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& view = l->view;
+  auto& view_size = l->view_size;
   auto* vi = app.add_subcommand(
       "view", "open the interactive viewer: drag the organ with the mouse, tune every parameter");
   vi->add_option("input", view.what,
@@ -213,9 +250,23 @@ int main(int argc, char** argv) {
   vi->add_option("--script", view.script,
                  "scripted input: timed mouse/key events (docs/viewer.md)");
   vi->add_option("--report", view.report, "write a JSON report here when the window closes");
+  return {vi, [l, view_rate](int verbosity) {
+            l->view.size = parse_image_size(l->view_size, "--size");
+            l->view.verbose = verbosity == 2;
+            l->view.auto_rate = view_rate->count() == 0;
+            return cli::run_view(l->view);
+          }};
+}
 
-  cli::RenderArgs rend;
-  std::string render_size = "1200x900";
+// `lamina render`: a picture without a window.
+Subcommand add_render(CLI::App& app) {
+  struct Parsed {
+    cli::RenderArgs rend;
+    std::string render_size = "1200x900";
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& rend = l->rend;
+  auto& render_size = l->render_size;
   auto* re = app.add_subcommand("render", "render a picture without a window (no display needed)");
   re->add_option("input", rend.what,
                  "model (.vtu), segmentation, DICOM folder, scene (.json) or 'phantom' (default)");
@@ -237,16 +288,39 @@ int main(int argc, char** argv) {
                  "names (vessels,tumour)");
   re->add_flag("--legend", rend.legend,
                "name the organ and each structure drawn, in its colour (top right)");
+  return {re, [l](int verbosity) {
+            l->rend.size = parse_image_size(l->render_size, "--size");
+            l->rend.verbose = verbosity == 2;
+            return cli::run_render(l->rend);
+          }};
+}
 
-  cli::FiguresArgs figs;
+// `lamina figures`: the reference paper's figures.
+Subcommand add_figures(CLI::App& app) {
+  struct Parsed {
+    cli::FiguresArgs figs;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& figs = l->figs;
   auto* fi = app.add_subcommand(
       "figures", "reproduce the reference paper's figures 4-6 and a volume plot on any organ");
   fi->add_option("-o,--output", figs.output, "output folder (created)")->required();
   fi->add_option("--input", figs.input,
                  "segmentation or DICOM folder (default: the built-in phantom)");
   fi->add_flag("--quick", figs.quick, "shorter runs and fewer localities (a CI smoke run)");
+  return {fi, [l](int verbosity) {
+            l->figs.verbose = verbosity == 2;
+            return cli::run_figures(l->figs);
+          }};
+}
 
-  cli::SoakArgs soak;
+// `lamina soak`: a long run under random tools.
+Subcommand add_soak(CLI::App& app) {
+  struct Parsed {
+    cli::SoakArgs soak;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& soak = l->soak;
   auto* so = app.add_subcommand(
       "soak", "a long run under random tools: memory flat, no NaN, volume kept, back to rest");
   so->add_option("scene", soak.scene,
@@ -261,8 +335,19 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   so->add_flag("--json", soak.json, "print the summary as JSON on stdout");
   so->add_flag("--no-plot", soak.no_plot, "skip soak.png (no gnuplot needed)");
+  return {so, [l](int verbosity) {
+            l->soak.verbose = verbosity == 2;
+            return cli::run_soak(l->soak);
+          }};
+}
 
-  cli::ServeArgs serve;
+// `lamina serve`: the OpenIGTLink (and web) server.
+Subcommand add_serve(CLI::App& app) {
+  struct Parsed {
+    cli::ServeArgs serve;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& serve = l->serve;
   auto* se = app.add_subcommand(
       "serve",
       "run the simulation as an OpenIGTLink server for 3D Slicer: tool poses in, the deformed "
@@ -346,8 +431,20 @@ int main(int argc, char** argv) {
   se->add_option("--key", serve.key, "... and this PEM private key");
   se->add_option("--gain", serve.gain_n_per_mm,
                  "a page's mouse drag: force per mm dragged, N/mm (default 0.01)");
+  return {se, [l, serve_rate](int verbosity) {
+            l->serve.verbose = verbosity == 2;
+            l->serve.auto_rate = serve_rate->count() == 0;
+            return cli::run_serve(l->serve);
+          }};
+}
 
-  cli::BenchArgs bench;
+// `lamina bench`: this machine's measurements.
+Subcommand add_bench(CLI::App& app) {
+  struct Parsed {
+    cli::BenchArgs bench;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& bench = l->bench;
   auto* be = app.add_subcommand("bench",
                                 "measure this machine: step times, poke to rest, bandwidth floor");
   be->add_flag("--json", bench.json, "print one JSON object (keys: docs/benchmarks.md)");
@@ -360,8 +457,19 @@ int main(int argc, char** argv) {
         "paper_16ms_multigrid, 20k_16ms_multigrid, "
         "43k_neo_hookean, 100k, 100k_haptic_tip, 100k_neo_hookean")
       ->delimiter(',');
+  return {be, [l](int verbosity) {
+            l->bench.verbose = verbosity == 2;
+            return cli::run_bench(l->bench);
+          }};
+}
 
-  cli::ValidateArgs val;
+// `lamina validate`: the model against finite elements, and the stability suite.
+Subcommand add_validate(CLI::App& app) {
+  struct Parsed {
+    cli::ValidateArgs val;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& val = l->val;
   auto* va = app.add_subcommand(
       "validate",
       "check the mass-spring model against linear and corotational finite elements on the same "
@@ -397,8 +505,19 @@ int main(int argc, char** argv) {
   va->add_flag("--stability", val.stability,
                "the stability suite: indentations to 50%, pulls, several tools, dt sweeps per "
                "integrator, each released and checked (finite, layer order, energy, rest)");
+  return {va, [l](int verbosity) {
+            l->val.verbose = verbosity == 2;
+            return cli::run_validate(l->val);
+          }};
+}
 
-  cli::ResectArgs resect;
+// `lamina resect`: a resection planned on a segmentation.
+Subcommand add_resect(CLI::App& app) {
+  struct Parsed {
+    cli::ResectArgs resect;
+  };
+  auto l = std::make_shared<Parsed>();
+  auto& resect = l->resect;
   auto* rs = app.add_subcommand(
       "resect",
       "plan a resection on a segmentation: future liver remnant, tumour margins, vessels crossed "
@@ -433,6 +552,55 @@ int main(int argc, char** argv) {
                  "surface.obj/.vtp, report.json");
   rs->add_option("--format", resect.format, "the parts' label volume: nii.gz (default), nii, nrrd");
   rs->add_flag("--json", resect.json, "print the report as one JSON object on stdout");
+  return {rs, [l](int) { return cli::run_resect(l->resect); }};
+}
+
+// Every subcommand, in the order `lamina --help` lists them.
+std::vector<Subcommand> add_subcommands(CLI::App& app) {
+  return {add_phantom(app), add_build(app),    add_info(app),    add_export(app), add_run(app),
+          add_view(app),    add_render(app),   add_figures(app), add_soak(app),   add_serve(app),
+          add_bench(app),   add_validate(app), add_resect(app)};
+}
+
+}  // namespace
+
+namespace {
+
+// OpenMP threads that wait at a barrier spin for GOMP_SPINCOUNT iterations (libgomp's default
+// 300,000) before they sleep. One lamina alone gains nothing from the long spin, but two on a
+// 2-core machine (a sweep run in parallel, ctest -j2) spin on the cores the other needs: the
+// default poke took 46 s each instead of 1.7 s. A spin of 3,000 keeps the single run's time
+// (1.67 s either way) and makes two at once 4.4 s (docs/architecture.md). libgomp reads the
+// variable when it loads, before main, so lamina sets it and runs itself again, once; a user's
+// own GOMP_SPINCOUNT or OMP_WAIT_POLICY is left alone.
+void bound_openmp_spin(char** argv) {
+  if (std::getenv("GOMP_SPINCOUNT") || std::getenv("OMP_WAIT_POLICY")) return;
+  if (setenv("GOMP_SPINCOUNT", "3000", 0) != 0) return;
+  execv("/proc/self/exe", argv);  // returns only on failure: then run with libgomp's default
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bound_openmp_spin(argv);
+  using namespace lamina;
+  CLI::App app{"Lamina: multi-layer volumetric mass-spring models of organs from segmentations"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "lamina 0.1.0");
+  int verbosity = 1;
+  app.add_flag_function(
+      "-q,--quiet", [&](int64_t) { verbosity = 0; }, "only warnings and errors");
+  app.add_flag_function(
+      "-v,--verbose", [&](int64_t) { verbosity = 2; }, "debug messages");
+  app.add_option("--max-voxels", cli::volume_read_options.max_voxels,
+                 "refuse a volume with more voxels than this before reading it (default 2^31; "
+                 "a corrupt header can claim terabytes)")
+      ->envname("LAMINA_MAX_VOXELS")
+      ->check([](const std::string& v) {
+        return std::strtoll(v.c_str(), nullptr, 10) > 0 ? std::string()
+                                                        : "must be a positive number of voxels";
+      });
+  const std::vector<Subcommand> commands = add_subcommands(app);
 
   try {
     app.parse(argc, argv);
@@ -441,57 +609,8 @@ int main(int argc, char** argv) {
   }
   log::set_verbosity(verbosity);
   try {
-    if (*ph) {
-      phantom.options.spacing_mm = parse_spacing(spacing);
-      if (!size.empty()) phantom.options.size = parse_size(size);
-      return cli::run_phantom(phantom);
-    }
-    if (*bu) {
-      bo.density_kg_per_mm3 = density_g_cm3 * 1e-6;  // g/cm^3 -> kg/mm^3
-      build.quiet = verbosity == 0;
-      build.verbose = verbosity == 2;
-      return cli::run_build(build);
-    }
-    if (*in) return cli::run_info(info);
-    if (*ex) return cli::run_export(exp);
-    if (*vi) {
-      view.size = parse_image_size(view_size, "--size");
-      view.verbose = verbosity == 2;
-      view.auto_rate = view_rate->count() == 0;
-      return cli::run_view(view);
-    }
-    if (*re) {
-      rend.size = parse_image_size(render_size, "--size");
-      rend.verbose = verbosity == 2;
-      return cli::run_render(rend);
-    }
-    if (*be) {
-      bench.verbose = verbosity == 2;
-      return cli::run_bench(bench);
-    }
-    if (*va) {
-      val.verbose = verbosity == 2;
-      return cli::run_validate(val);
-    }
-    if (*fi) {
-      figs.verbose = verbosity == 2;
-      return cli::run_figures(figs);
-    }
-    if (*so) {
-      soak.verbose = verbosity == 2;
-      return cli::run_soak(soak);
-    }
-    if (*se) {
-      serve.verbose = verbosity == 2;
-      serve.auto_rate = serve_rate->count() == 0;
-      return cli::run_serve(serve);
-    }
-    if (*rs) return cli::run_resect(resect);
-    if (*ru) {
-      run.quiet = verbosity == 0;
-      run.verbose = verbosity == 2;
-      return cli::run_run(run);
-    }
+    for (const Subcommand& command : commands)
+      if (command.app->parsed()) return command.run(verbosity);
   } catch (const Error& e) {
     if (::isatty(2)) std::fprintf(stderr, "\r\033[K");  // clear a progress line
     std::fprintf(stderr, "lamina: error: %s\n", e.what());

@@ -512,6 +512,64 @@ void print_run(const io::RunSummary& sum, const std::string& output,
         sum.worst_jitter_us, sum.p99_jitter_us);
 }
 
+// What a run did, for summary.json and the printed summary: all but its timing and wall time.
+struct SetupSeconds {
+  double model_s = 0.0, prepare_s = 0.0;
+};
+io::RunSummary summarize_run(const io::ReadyScene& ready, const sim::Simulation& s,
+                             const LoopResult& loop, const io::RunProgress& so_far,
+                             const Cutting& cutting, SetupSeconds setup) {
+  const io::Scene& scene = ready.scene;
+  const Model& m = *ready.model;
+  io::RunSummary sum;
+  sum.scene = scene.source;
+  sum.model = ready.source;
+  sum.material = ready.setup.material;
+  sum.converged = loop.converged;
+  sum.stopped = loop.stopped;
+  sum.unstable = loop.unstable != sim::Instability::kNone;
+  sum.unstable_reason =
+      loop.unstable != sim::Instability::kNone ? sim::describe(loop.unstable) : "";
+  sum.steps = s.steps;
+  sum.sim_seconds = s.time_s;
+  sum.model_seconds = setup.model_s;
+  sum.setup_stage_seconds = ready.stage_seconds;
+  sum.setup_stage_seconds.emplace_back("prepare_solver", setup.prepare_s);
+  sum.max_displacement_mm = so_far.max_displacement_mm;
+  sum.max_abs_volume_change_pct = so_far.max_abs_volume_change_pct;
+  sum.final_rest_error_mm = max_rest_distance(s);
+  sum.final_volume_change_pct = loop.last.volume_change_pct;
+  sum.recoveries = s.recoveries;
+  sum.integrator = scene.solver.integrator;
+  sum.mode = scene.solver.mode;
+  sum.routing = scene.routing.routing;
+  if (scene.solver.integrator == sim::Integrator::kImplicitEuler)
+    sum.preconditioner = sim::uses_multigrid(s) ? "multigrid" : "jacobi";
+  sum.dt_s = scene.solver.dt_s;
+  sum.nodes = s.model().node_count();
+  sum.springs = static_cast<int64_t>(s.model().springs.size());
+  summarize_cuts(cutting, sum);
+  sum.layers = m.layer_count();
+  sum.fixed_nodes = static_cast<int32_t>(ready.setup.fixed.size());
+  sum.tools = static_cast<int32_t>(scene.tools.size());
+  sum.frames = so_far.frame;
+  sum.max_reaction_n = so_far.max_reaction_mn / 1000.0;
+  return sum;
+}
+
+// A run that blew up: when, why, and what to lower (the run until then is in `output`).
+Error unstable_error(const io::Scene& scene, const sim::Simulation& s, sim::Instability why,
+                     const std::string& output) {
+  double largest_n = 0.0;
+  for (const interact::Tool& t : scene.tools) largest_n = std::max(largest_n, t.force_mn.norm());
+  return Error(ErrorKind::kUnstable,
+               fmt::format("{}: unstable at t = {:.3g} s: {}; a tool force (largest {:.3g} N), "
+                           "dt = {:.3g} s or the stiffness is beyond what this model can take: "
+                           "lower it (the run until then is in {})",
+                           scene.source, s.time_s, sim::describe(why), largest_n / 1000.0,
+                           scene.solver.dt_s, output));
+}
+
 }  // namespace
 
 int run_run(const RunArgs& a) {
@@ -629,55 +687,16 @@ int run_run(const RunArgs& a) {
 
   // 4. Results.
   outputs.write_results(so_far);
-  io::RunSummary sum;
-  sum.scene = scene.source;
-  sum.model = ready.source;
-  sum.material = ready.setup.material;
-  sum.converged = loop.converged;
-  sum.stopped = loop.stopped;
-  sum.unstable = loop.unstable != sim::Instability::kNone;
-  sum.unstable_reason =
-      loop.unstable != sim::Instability::kNone ? sim::describe(loop.unstable) : "";
-  sum.steps = s.steps;
-  sum.sim_seconds = s.time_s;
-  sum.model_seconds = model_seconds;
-  sum.setup_stage_seconds = ready.stage_seconds;
-  sum.setup_stage_seconds.emplace_back("prepare_solver", prepare_seconds);
-  sum.max_displacement_mm = so_far.max_displacement_mm;
-  sum.max_abs_volume_change_pct = so_far.max_abs_volume_change_pct;
-  sum.final_rest_error_mm = max_rest_distance(s);
-  sum.final_volume_change_pct = loop.last.volume_change_pct;
-  sum.recoveries = s.recoveries;
-  sum.integrator = scene.solver.integrator;
-  sum.mode = scene.solver.mode;
-  sum.routing = scene.routing.routing;
-  if (scene.solver.integrator == sim::Integrator::kImplicitEuler)
-    sum.preconditioner = sim::uses_multigrid(s) ? "multigrid" : "jacobi";
-  sum.dt_s = scene.solver.dt_s;
-  sum.nodes = s.model().node_count();
-  sum.springs = static_cast<int64_t>(s.model().springs.size());
-  summarize_cuts(cutting, sum);
-  sum.layers = m.layer_count();
-  sum.fixed_nodes = static_cast<int32_t>(ready.setup.fixed.size());
-  sum.tools = static_cast<int32_t>(scene.tools.size());
-  sum.frames = so_far.frame;
-  sum.max_reaction_n = so_far.max_reaction_mn / 1000.0;
+  io::RunSummary sum = summarize_run(ready, s, loop, so_far, cutting,
+                                     {.model_s = model_seconds, .prepare_s = prepare_seconds});
   summarize_timing(loop, a, sum);
   sum.wall_seconds = seconds_since(t_start);
   const std::string json = io::run_summary_json(sum);
   write_file_atomically((outputs.out / "summary.json").string(),
                         [&](std::ostream& f) { f << json << "\n"; });
 
-  if (loop.unstable != sim::Instability::kNone) {
-    double largest_n = 0.0;
-    for (const interact::Tool& t : scene.tools) largest_n = std::max(largest_n, t.force_mn.norm());
-    throw Error(ErrorKind::kUnstable,
-                fmt::format("{}: unstable at t = {:.3g} s: {}; a tool force (largest {:.3g} N), "
-                            "dt = {:.3g} s or the stiffness is beyond what this model can take: "
-                            "lower it (the run until then is in {})",
-                            scene.source, s.time_s, sim::describe(loop.unstable),
-                            largest_n / 1000.0, scene.solver.dt_s, a.output));
-  }
+  if (loop.unstable != sim::Instability::kNone)
+    throw unstable_error(scene, s, loop.unstable, a.output);
   if (a.json)
     std::cout << json << "\n";
   else

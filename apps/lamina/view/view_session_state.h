@@ -193,6 +193,12 @@ struct ViewSession::State {
   nlohmann::json plan_json() const;
   // view_panels.cpp
   void panels();
+  void state_lines(const Model& m);  // the organ's state, and whether it keeps real time
+  void interaction_panel();
+  bool routing_widgets(const Model& m);  // true when a parameter changed
+  void display_panel(const Model& m);
+  void model_panel();
+  void plots_window();
   void embedded_panel(const Model& m);  // the Display panel's embedded surfaces
   /// The camera that frames the organ right of the left panel (its first view, "Fit view").
   void frame_organ(const Model& m) const;
