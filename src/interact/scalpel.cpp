@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 
 #include "lamina/core/clock.h"
 #include "lamina/core/error.h"
@@ -138,8 +139,13 @@ bool scalpels_active(const ScalpelDriver& d, double time_s) {
 }
 
 std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const Model>& model,
-                                       sim::Simulation& sim, ToolDriver& driver) {
+                                       sim::Simulation& sim, ToolDriver& driver,
+                                       std::vector<int32_t>* origin_out) {
   std::vector<CutEvent> events;
+  if (origin_out != nullptr) {
+    origin_out->resize(static_cast<size_t>(model->node_count()));
+    std::iota(origin_out->begin(), origin_out->end(), 0);
+  }
   for (size_t k = 0; k < d.scalpels.size(); ++k) {
     const Scalpel& sc = d.scalpels[k];
     ScalpelDriver::Progress& p = d.progress[k];
@@ -210,6 +216,10 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
       options.tip_to = p.columns.back().row(d.depth_rows).transpose();
     }
     e.report = cut_simulation(model, sim, driver, blade, origin, options);
+    if (origin_out != nullptr && e.report.cut_tets > 0) {  // this cut's origin after the last's
+      for (int32_t& o : origin) o = (*origin_out)[static_cast<size_t>(o)];
+      *origin_out = std::move(origin);
+    }
     for (model::StructureCut& c : crossed) {
       if (!(c.closed || finished) || reported_before(p.reported, c)) continue;
       p.reported.push_back(c);

@@ -80,11 +80,6 @@ void read_bodies(const Value& v, WorldScene& w) {
     WorldBodyScene b{.name = name, .scene = detail::read_scene_object(body, w.source, path)};
     // A world's tools are named where they act: no body is poked unless its scene says so.
     if (!in.contains("tools")) b.scene.default_tool = false;
-    if (!b.scene.scalpels.empty())
-      v.in.r.fail(path + ".tools",
-                  "a scene's scalpel does not cut a world's bodies yet: give it in "
-                  "\"dissections\" to divide the attachments it passes, or cut the tissue "
-                  "interactively (lamina view: K; lamina_world_cut)");
     w.bodies.push_back(std::move(b));
   }
 }
@@ -222,7 +217,7 @@ WorldScene load_world_scene(const std::string& path) {
 
 std::unique_ptr<ReadyWorld> make_ready_world(const WorldScene& scene,
                                              const ReadVolumeOptions& read_options,
-                                             const ProgressFn& progress) {
+                                             const ProgressFn& progress, bool scalpels_cut) {
   auto ready = std::make_unique<ReadyWorld>();
   ready->world.contact = scene.contact;
   const auto in_body = [&](size_t k, const Error& e) {
@@ -270,7 +265,7 @@ std::unique_ptr<ReadyWorld> make_ready_world(const WorldScene& scene,
     world::BodyDef def{.name = b.name,
                        .model = rs.model,
                        .simulation = make_scene_simulation(rs),
-                       .tools = make_tool_driver(rs.scene, /*warn_scalpels=*/false)};
+                       .tools = make_tool_driver(rs.scene, /*warn_scalpels=*/!scalpels_cut)};
     try {
       ready->ids.push_back(world::create_body(ready->world, std::move(def)));
     } catch (const Error& e) {

@@ -82,6 +82,22 @@ void keep_ties(const World& world, WorldBefore& before) {
 
 }  // namespace
 
+std::vector<interact::CutEvent> advance_scalpels(World& world, BodyId id,
+                                                 interact::ScalpelDriver& scalpels) {
+  Body& b = body(world, id);
+  const int32_t before_nodes = b.model->node_count();
+  std::shared_ptr<const Model> model = b.model;
+  std::vector<int32_t> origin;
+  std::vector<interact::CutEvent> events =
+      interact::advance_scalpels(scalpels, model, b.sim, b.tools, &origin);
+  if (model != b.model) {
+    // The cut model is cut_simulation()'s own, held by nobody else: the body's to hold.
+    b.model = std::const_pointer_cast<Model>(model);
+    renumber(world, id.index, before_nodes, origin);
+  }
+  return events;
+}
+
 model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
                           const Eigen::Vector3d& direction, double depth_mm,
                           std::vector<int32_t>* origin) {

@@ -1,6 +1,7 @@
 // `lamina build --organ` and `lamina run` on a world scene (issue 62): the TotalSegmentator
 // example made into a model per organ and a world scene that runs; the shipped cholecystectomy
-// frees the gallbladder with no inverted tetrahedron and the liver back at rest; a scene naming
+// frees the gallbladder with no inverted tetrahedron and the liver back at rest; a body's own
+// scalpel cuts it as it moves with its attachment holding; a scene naming
 // a body or a label that does not exist is one line, exit 2, nothing written.
 #include <gtest/gtest.h>
 
@@ -96,6 +97,48 @@ TEST(LaminaRunWorld, TheCholecystectomyFreesTheGallbladderAndTheLiverComesBackTo
   EXPECT_LT(liver["final_rest_error_mm"].get<double>(), 0.5);
   const json& gallbladder = s["bodies"][1];
   EXPECT_GT(gallbladder["max_displacement_mm"].get<double>(), 20.0);  // held by the grasper
+}
+
+// A body's own scalpel in a world scene: it cuts the liver's left lobe as it moves (several
+// cuts, each through the world's renumbering), while the gallbladder stays tied to its bed on
+// the liver's nodes; the wound gets a series; every body rests with no tetrahedron inverted.
+TEST(LaminaRunWorld, ABodysScalpelCutsItAsItMovesAndTheWorldRestsAfter) {
+  test::TempDir dir;
+  const std::string labels =
+      test::source_path("tests/data/liver_totalseg_example_3mm_labels.nii.gz").string();
+  std::ofstream(dir.path / "cut.json") << R"({
+    "bodies": [
+      {"name": "liver", "model": {"input": ")" +
+                                              labels + R"(",
+                                  "build": {"label": 1, "skin_vertices": 600, "display_triangles": 0}},
+       "tools": [{"scalpel": {"path": [[10, -275, 440], [10, -205, 440]], "direction": [0, 0, -1],
+                              "depth_mm": 40, "start_s": 0.0, "end_s": 0.3}}]},
+      {"name": "gallbladder", "model": {"input": ")" +
+                                              labels + R"(",
+                                        "build": {"label": 4, "skin_vertices": 300, "display_triangles": 0}}}],
+    "attachments": [{"name": "bed", "bodies": ["liver", "gallbladder"], "reach_mm": 3.0}],
+    "contact": {"rest_overlap_tolerance_mm": 6.0},
+    "solver": {"integrator": "implicit_euler", "dt_s": 0.001, "max_steps": 4000}})";
+  const test::RunResult r = run_lamina(dir, "-q run cut.json -o out --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json s = json::parse(r.out);
+  EXPECT_TRUE(s["converged"].get<bool>());
+  const json& liver = s["bodies"][0];
+  ASSERT_EQ(liver["name"], "liver");
+  EXPECT_GE(liver["cuts"].get<int32_t>(), 2) << "the blade cuts as it goes";
+  EXPECT_GT(liver["cut_tetrahedra"].get<int64_t>(), 10);
+  EXPECT_GT(liver["new_nodes"].get<int64_t>(), 0);
+  EXPECT_FALSE(s["bodies"][1].contains("cuts"));  // no scalpel of its own
+  for (const json& body : s["bodies"]) {
+    SCOPED_TRACE(body["name"].get<std::string>());
+    EXPECT_EQ(body["max_inverted_tets"].get<int64_t>(), 0);
+    EXPECT_LT(body["final_rest_error_mm"].get<double>(), 0.5);
+  }
+  // The bed's ties held through the liver's renumberings: none torn, none lost.
+  EXPECT_GT(s["attachments"]["total"].get<int64_t>(), 20);
+  EXPECT_EQ(s["attachments"]["torn"].get<int64_t>(), 0);
+  for (const char* f : {"liver_skin.pvd", "liver_wound.pvd", "gallbladder_skin.pvd", "ties.pvd"})
+    EXPECT_TRUE(fs::exists(dir.path / "out" / f)) << f;
 }
 
 TEST(LaminaRunWorld, ABodyOrLabelThatDoesNotExistIsOneLineAndNothingIsWritten) {

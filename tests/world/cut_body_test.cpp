@@ -99,6 +99,60 @@ TEST(CutBody, TheTiesFollowTheCopiesAndTheCutBodyStepsOnInContactAndComesBackToR
   EXPECT_EQ(count_ties(t.world).torn, 0);
 }
 
+// A scene's scalpel (world::advance_scalpels, `lamina run` of a world): it cuts A as it moves,
+// a cut every mean edge, each through the world's renumbering: every tie keeps its two points.
+TEST(CutBody, AScalpelMovingThroughABodyCutsItAsItGoesAndEveryTieKeepsItsPoints) {
+  TwoSpheres t = two_spheres(0.5, 1.0, 0.3);
+  const AttachmentId at = attach(t, 30.0);
+  const size_t ties = attachment(t.world, at).ties.size();
+  const Slit s = slit_into_a();
+  interact::ScalpelDriver scalpels =
+      interact::make_scalpel_driver({{.path = s.path,
+                                      .depth_direction = s.direction,
+                                      .depth_mm = s.depth_mm,
+                                      .start_s = 0.05,
+                                      .end_s = 0.25}},
+                                    *body(t.world, t.a).model, "test");
+  WorldStepStats st;
+  int32_t cuts = 0;
+  int64_t cut_tets = 0;
+  double worst_tie_jump = 0.0;
+  for (int k = 0; k < 2300; ++k) {
+    const auto ends_before = every_tie_end(t.world);
+    const uint32_t topology = body(t.world, t.a).topology;
+    for (const interact::CutEvent& e : advance_scalpels(t.world, t.a, scalpels)) {
+      cuts += e.report.cut_tets > 0 ? 1 : 0;
+      cut_tets += e.report.cut_tets;
+    }
+    const Body& a = body(t.world, t.a);
+    if (a.topology != topology) {
+      ASSERT_EQ(&a.sim.model(), a.model.get());
+      ASSERT_EQ(a.rest_overlap_mm.size(), static_cast<size_t>(a.model->node_count()));
+      const auto ends = every_tie_end(t.world);
+      for (size_t j = 0; j < ends.size(); ++j)
+        worst_tie_jump = std::max({worst_tie_jump, (ends[j].first - ends_before[j].first).norm(),
+                                   (ends[j].second - ends_before[j].second).norm()});
+    }
+    step(t.world, st);
+    ASSERT_EQ(st.unstable, sim::Instability::kNone) << "step " << k << ": " << st.unstable_body;
+  }
+  const Body& a = body(t.world, t.a);
+  std::printf(
+      "a moving scalpel: %d cuts, %lld tetrahedra, A %d nodes; 2 s after, A %.3f mm from "
+      "rest\n",
+      cuts, static_cast<long long>(cut_tets), a.model->node_count(), rest_distance(a));
+  EXPECT_GE(cuts, 3) << "the blade cuts as it goes, not once at its end";
+  EXPECT_EQ(a.topology, static_cast<uint32_t>(cuts));
+  EXPECT_EQ(body(t.world, t.b).topology, 0u);
+  EXPECT_LT(worst_tie_jump, 1e-9) << "a tie moved when its body was renumbered";
+  EXPECT_EQ(attachment(t.world, at).ties.size(), ties);
+  EXPECT_EQ(count_ties(t.world).torn, 0);
+  EXPECT_EQ(sim::inverted_tets(*a.model, a.sim.x), 0);
+  EXPECT_LT(rest_distance(a), 0.5);
+  EXPECT_LT(rest_distance(body(t.world, t.b)), 0.1);
+  EXPECT_THROW(advance_scalpels(t.world, BodyId{t.a.index, t.a.generation + 1}, scalpels), Error);
+}
+
 TEST(CutBody, ABladeThatMissesChangesNothingAndBadCallsAreRefusedWithNothingChanged) {
   TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
   attach(t, 30.0);

@@ -78,8 +78,8 @@ TEST(WorldScene, MistakesAreNamedWhereTheyAre) {
   m = refusal(R"({"bodies": [{"name": "a"}], "attachments": [{"bodies": ["a", "a"]}]})");
   EXPECT_TRUE(has(m, "attached to itself")) << m;
   m = refusal(R"({"bodies": [{"name": "a", "tools": [{"scalpel": {"path": [[0,0,0],[1,0,0]],
-                  "depth_mm": 5, "end_s": 1}}]}]})");
-  EXPECT_TRUE(has(m, "bodies[0].tools: a scene's scalpel does not cut a world's bodies yet")) << m;
+                  "depth_mm": -5, "end_s": 1}}]}]})");
+  EXPECT_TRUE(has(m, "bodies[0].tools[0].scalpel.depth_mm")) << m;
   m = refusal(R"({"bodies": [{"name": "a"}], "dissections": [{"depth_mm": 5}]})");
   EXPECT_TRUE(has(m, "dissections[0]: needs \"path\"")) << m;
   m = refusal(R"({"bodies": [{"name": "a"}], "contact": {"reach_mm": 0}})");

@@ -1,8 +1,9 @@
 // `lamina run` on a world scene (io::WorldScene, docs/scenes.md "World scenes"): every body
 // stepped in one world (world::step: tools, contact and attachments, each body's solve), the
-// dissections dividing the ties they pass, until every tool and blade is done and every body
-// has rested. Writes a VTK series per body's skin and structure, metrics.csv (the world's stages
-// and each body's measures per step) and summary.json (bodies, attachments, timing).
+// dissections dividing the ties they pass and each body's scalpels cutting it, until every tool
+// and blade is done and every body has rested. Writes a VTK series per body's skin and structure,
+// metrics.csv (the world's stages and each body's measures per step) and summary.json (bodies,
+// attachments, timing).
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -28,6 +29,7 @@
 #include "lamina/model/structure_colors.h"
 #include "lamina/model/summarize_model.h"
 #include "series_files.h"
+#include "world_scalpels.h"
 
 namespace lamina::cli {
 namespace {
@@ -43,6 +45,18 @@ struct BodySeries {
   model::Rgb8 color = model::kOrganColor;
   std::vector<std::pair<double, std::string>> files;
 };
+
+// Body b's embedded surface k as a series of its own, named after both ("liver_wound").
+void add_embedded_series(std::vector<BodySeries>& series, const world::Body& body, size_t b,
+                         size_t k, model::Rgb8 color, std::set<std::string>& names) {
+  BodySeries& se = series.emplace_back();
+  se.name = series_name(body.name + "_" + body.model->embedded[k].name, names);
+  se.body = b;
+  se.embedded = static_cast<int32_t>(k);
+  se.mesh.F = body.model->embedded[k].F;
+  se.color = color;
+  names.insert(se.name);
+}
 
 std::vector<BodySeries> world_series(const io::ReadyWorld& w, const io::SceneOutput& output) {
   std::vector<BodySeries> out;
@@ -60,13 +74,7 @@ std::vector<BodySeries> world_series(const io::ReadyWorld& w, const io::SceneOut
     for (size_t k = 0; k < m.embedded.size(); ++k) {
       const bool display = static_cast<int32_t>(k) == model::display_skin_index(m);
       if (!(display ? output.display_skin : output.embedded)) continue;
-      BodySeries& se = out.emplace_back();
-      se.name = series_name(body.name + "_" + m.embedded[k].name, names);
-      se.body = b;
-      se.embedded = static_cast<int32_t>(k);
-      se.mesh.F = m.embedded[k].F;
-      se.color = colors[k];
-      names.insert(se.name);
+      add_embedded_series(out, body, b, k, colors[k], names);
     }
   }
   return out;
@@ -87,6 +95,31 @@ void write_world_frame(std::vector<BodySeries>& series, const io::ReadyWorld& w,
     io::write_mesh(se.mesh, (out / (stem + ".vtp")).string(), se.color);
     if (obj) io::write_mesh(se.mesh, (out / (stem + ".obj")).string());
     se.files.emplace_back(w.world.time_s, stem + ".vtp");
+  }
+}
+
+// A body cut: its series' triangles are the cut model's, and a surface the cut added (the wound)
+// gets a series of its own when the scene writes the embedded surfaces.
+void follow_cut(std::vector<BodySeries>& series, const io::ReadyWorld& w, size_t b,
+                const io::SceneOutput& output) {
+  const world::Body& body = world::body(w.world, w.ids[b]);
+  const Model& m = *body.model;
+  std::set<std::string> names;
+  for (BodySeries& se : series) {
+    names.insert(se.name);
+    if (se.body != b) continue;
+    se.mesh.F = se.embedded < 0 ? model::layer_mesh(m, 0).F
+                                : m.embedded[static_cast<size_t>(se.embedded)].F;
+  }
+  if (!output.embedded) return;
+  const std::vector<model::Rgb8> colors = model::structure_colors(m);
+  for (size_t k = 0; k < m.embedded.size(); ++k) {
+    if (static_cast<int32_t>(k) == model::display_skin_index(m) ||
+        std::any_of(series.begin(), series.end(), [&](const BodySeries& se) {
+          return se.body == b && se.embedded == static_cast<int32_t>(k);
+        }))
+      continue;
+    add_embedded_series(series, body, b, k, colors[k], names);
   }
 }
 
@@ -148,8 +181,9 @@ void append_metrics(std::string& csv, const world::World& w, const world::WorldS
 }
 
 // Seconds after which the world is watched for rest: every finite tool's end and every blade's.
-double settle_from_s(const io::ReadyWorld& w, const io::WorldScene& scene) {
-  double t = 0.0;
+double settle_from_s(const io::ReadyWorld& w, const io::WorldScene& scene,
+                     const std::vector<BodyScalpels>& scalpels) {
+  double t = scalpels_end_s(scalpels);
   for (const world::BodyId id : w.ids)
     for (const interact::Tool& tool : world::body(w.world, id).tools.tools)
       t = std::max(t, std::isfinite(tool.end_s) ? tool.end_s : tool.start_s);
@@ -170,8 +204,8 @@ struct WorldLoop {
 };
 
 nlohmann::json summary_json(const io::WorldScene& scene, const io::ReadyWorld& w,
-                            const WorldLoop& loop, double model_s, double wall_s,
-                            const RunArgs& a) {
+                            const WorldLoop& loop, const std::vector<BodyScalpels>& scalpels,
+                            double model_s, double wall_s, const RunArgs& a) {
   using nlohmann::json;
   json bodies = json::array();
   for (size_t b = 0; b < w.ids.size(); ++b) {
@@ -193,6 +227,15 @@ nlohmann::json summary_json(const io::WorldScene& scene, const io::ReadyWorld& w
         {"max_inverted_tets", r.max_inverted_tets},
         {"converged", r.last.converged},
     });
+    const BodyScalpels& sc = scalpels[b];
+    if (!sc.driver.scalpels.empty()) {
+      json& j = bodies.back();
+      j["scalpels"] = sc.driver.scalpels.size();
+      j["cuts"] = sc.cuts;
+      j["cut_tetrahedra"] = sc.cut_tets;
+      j["new_nodes"] = sc.new_nodes;
+      j["structures_cut"] = sc.structures_cut;
+    }
   }
   json attachments = json::array();
   for (const world::AttachmentId id : w.attachments) {
@@ -250,11 +293,11 @@ nlohmann::json summary_json(const io::WorldScene& scene, const io::ReadyWorld& w
 }
 
 WorldLoop step_world(const RunArgs& a, const io::WorldScene& scene, io::ReadyWorld& w,
-                     std::vector<BodySeries>& series, const fs::path& out, std::string& csv,
-                     const ProgressFn& progress) {
+                     std::vector<BodyScalpels>& scalpels, std::vector<BodySeries>& series,
+                     const fs::path& out, std::string& csv, const ProgressFn& progress) {
   WorldLoop loop;
   loop.bodies.resize(w.ids.size());
-  const double settle = settle_from_s(w, scene);
+  const double settle = settle_from_s(w, scene, scalpels);
   std::vector<interact::RestWatch> rest;
   for (const world::BodyId id : w.ids) {
     const world::Body& b = world::body(w.world, id);
@@ -278,6 +321,8 @@ WorldLoop step_world(const RunArgs& a, const io::WorldScene& scene, io::ReadyWor
   for (int64_t k = 0; k < scene.solver.max_steps; ++k) {
     const double t0 = w.world.time_s;
     const auto c0 = Clock::now();
+    for (const size_t b : advance_world_scalpels(w, scalpels))
+      follow_cut(series, w, b, scene.output);
     const int32_t divided =
         world::advance_dissections(scene.dissections, w.world, t0, t0 + scene.solver.dt_s);
     world::step(w.world, st);
@@ -356,7 +401,8 @@ int run_world(const RunArgs& a) {
   check_output_folder(a.output);
   const ProgressFn progress = a.quiet ? ProgressFn{} : stderr_progress(a.verbose);
   const std::unique_ptr<io::ReadyWorld> w =
-      io::make_ready_world(scene, volume_read_options, progress);
+      io::make_ready_world(scene, volume_read_options, progress, /*scalpels_cut=*/true);
+  std::vector<BodyScalpels> scalpels = world_scalpels(*w, scene.source);
   const double model_s = seconds_since(t_start);
   const fs::path out(a.output);
   create_folder(out / "frames");
@@ -364,10 +410,14 @@ int run_world(const RunArgs& a) {
   std::set<std::string> names;
   for (const BodySeries& se : series) names.insert(se.name);
   names.insert("ties");
+  for (size_t b = 0; b < scalpels.size(); ++b)  // a cut adds its wound's series as it goes
+    if (!scalpels[b].driver.scalpels.empty())
+      names.insert(
+          series_name(world::body(w->world, w->ids[b]).name + "_" + model::kWoundName, {}));
   remove_stale_frames(out / "frames", names, 0);
 
   std::string csv = metrics_header(*w);
-  const WorldLoop loop = step_world(a, scene, *w, series, out, csv, progress);
+  const WorldLoop loop = step_world(a, scene, *w, scalpels, series, out, csv, progress);
   report_progress(progress,
                   fmt::format("simulated {:.2f} s in {} steps", w->world.time_s, w->world.steps),
                   1.0);
@@ -377,7 +427,8 @@ int run_world(const RunArgs& a) {
   write_file_atomically((out / "metrics.csv").string(), [&](std::ostream& f) { f << csv; });
   for (const BodySeries& se : series) write_pvd(out, se.name, se.files);
   if (!loop.tie_files.empty()) write_pvd(out, "ties", loop.tie_files);
-  const nlohmann::json sum = summary_json(scene, *w, loop, model_s, seconds_since(t_start), a);
+  const nlohmann::json sum =
+      summary_json(scene, *w, loop, scalpels, model_s, seconds_since(t_start), a);
   write_file_atomically((out / "summary.json").string(),
                         [&](std::ostream& f) { f << sum.dump(2) << "\n"; });
   if (loop.unstable != sim::Instability::kNone)
@@ -406,6 +457,11 @@ int run_world(const RunArgs& a) {
         b["name"].get<std::string>(), b["nodes"].get<int64_t>(),
         b["max_displacement_mm"].get<double>(), b["max_penetration_mm"].get<double>(),
         b["final_rest_error_mm"].get<double>(), b["max_inverted_tets"].get<int64_t>());
+  for (size_t b = 0; b < scalpels.size(); ++b)
+    if (!scalpels[b].driver.scalpels.empty())
+      std::cout << fmt::format("  {}'s scalpels: {} cuts, {} tetrahedra divided, {} new nodes\n",
+                               world::body(w->world, w->ids[b]).name, scalpels[b].cuts,
+                               scalpels[b].cut_tets, scalpels[b].new_nodes);
   if (ties.total > 0)
     std::cout << fmt::format("  attachments: {} ties, {} divided, {} torn\n", ties.total,
                              ties.divided, ties.torn);

@@ -123,9 +123,13 @@ ScalpelDriver make_scalpel_driver(const std::vector<Scalpel>& scalpels, const Mo
                                   const std::string& source = "scalpel");
 
 /// Moves the scalpels to sim.time_s and cuts where they have passed (cut_simulation()).
+/// @param[out] origin  if given: per node of the model after this call, the node of the model
+///                     before it that it came from, over every cut made (the identity if none),
+///                     for whoever holds more by the model's node numbers (world::advance_scalpels)
 /// @return the cuts made (most steps none)
 std::vector<CutEvent> advance_scalpels(ScalpelDriver& scalpels, std::shared_ptr<const Model>& model,
-                                       sim::Simulation& sim, ToolDriver& driver);
+                                       sim::Simulation& sim, ToolDriver& driver,
+                                       std::vector<int32_t>* origin = nullptr);
 
 /// Whether a scalpel is still to move at or after `time_s`.
 bool scalpels_active(const ScalpelDriver& scalpels, double time_s);

@@ -54,7 +54,8 @@ bool is_world_scene_file(const std::string& path);
 /// Parses and validates a world scene: every body as parse_scene() reads a scene (messages
 /// name it, "bodies[1].material.young_modulus_kpa: ..."), names unique and not empty, the
 /// attachments' bodies existing and distinct, no body giving its own "solver" or "output"
-/// (the world's are shared) or a scalpel (give a dissection).
+/// (the world's are shared). A body's scalpels cut that body (`lamina run`,
+/// world::advance_scalpels); a dissection divides the ties it passes.
 /// \note Throws lamina::Error (kInvalidInput) "SOURCE: KEY.PATH: problem".
 WorldScene parse_world_scene(const std::string& json_text, const std::string& source_name);
 
@@ -76,8 +77,11 @@ struct ReadyWorld {
 /// \note Throws lamina::Error (kInvalidInput) "SOURCE: bodies[k] ('NAME'): problem" for a body
 ///   whose model cannot be made or prepared, "SOURCE: problem" for bodies overlapping at rest
 ///   or an attachment whose skins come nowhere near each other; nothing is kept.
+/// @param scalpels_cut  whether the caller cuts with the bodies' scalpels (`lamina run`); if not,
+///                      a body's scalpels are said to be ignored (a warning naming the scene)
 std::unique_ptr<ReadyWorld> make_ready_world(const WorldScene& scene,
                                              const ReadVolumeOptions& read_options = {},
-                                             const ProgressFn& progress = {});
+                                             const ProgressFn& progress = {},
+                                             bool scalpels_cut = false);
 
 }  // namespace lamina::io

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "lamina/interact/prepared_cut.h"
+#include "lamina/interact/scalpel.h"
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/world/world.h"
 
@@ -33,6 +34,14 @@ namespace lamina::world {
 model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vector3d>& path,
                           const Eigen::Vector3d& direction, double depth_mm,
                           std::vector<int32_t>* origin = nullptr);
+
+/// A scene's scalpels moving through body `id` (interact::ScalpelDriver, made for the body's
+/// model): moved to the world's time, each cut they make is the body's as cut_body()'s is, with
+/// everything the world holds by its node numbers renumbered and its topology generation moved on.
+/// @return the cuts made (most steps none); the structures crossed where they are now
+/// \note Throws lamina::Error (kInvalidInput) for a stale handle.
+std::vector<interact::CutEvent> advance_scalpels(World& world, BodyId id,
+                                                 interact::ScalpelDriver& scalpels);
 
 struct WorldBefore;
 
