@@ -36,10 +36,14 @@ void close_jaws(sim::Simulation& s, const Jaws& jaws, Grasp& grasp, const std::s
   sim::hold_nodes(s, grasp.nodes, grasp.targets);
 }
 
-bool anything_under_jaws(const Model& m, const Eigen::MatrixX3d& x, const Jaws& jaws) {
+bool anything_under_jaws(const Model& m, const Eigen::MatrixX3d& x, const Jaws& jaws,
+                         const std::vector<uint8_t>* fixed) {
   const double r2 = jaws.radius_mm * jaws.radius_mm;
+  if (fixed != nullptr && fixed->size() != static_cast<size_t>(m.node_count())) fixed = nullptr;
   for (int32_t i = 0; i < m.layers[0].node_count; ++i)
-    if ((x.row(i).transpose() - jaws.center_mm).squaredNorm() <= r2) return true;
+    if ((x.row(i).transpose() - jaws.center_mm).squaredNorm() <= r2 &&
+        (fixed == nullptr || (*fixed)[static_cast<size_t>(i)] == 0))
+      return true;
   return false;
 }
 

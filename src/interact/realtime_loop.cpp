@@ -107,11 +107,12 @@ void RealtimeLoop::set_grasper(const std::optional<Jaws>& jaws) {
     {
       std::lock_guard snap(snapshot_mutex_);
       // The published model and shape: a cut replaces sim_ on the stepping thread.
-      any = anything_under_jaws(*published_.model, published_.x, *jaws);
+      any = anything_under_jaws(*published_.model, published_.x, *jaws, &published_.fixed);
     }
     if (!any)
-      throw invalid_input("grasper", fmt::format("nothing under the jaws: no skin node within {} "
-                                                 "mm of [{:.1f}, {:.1f}, {:.1f}]",
+      throw invalid_input("grasper", fmt::format("nothing under the jaws: no free skin node within "
+                                                 "{} mm of [{:.1f}, {:.1f}, {:.1f}] (none there, "
+                                                 "or it is fixed)",
                                                  jaws->radius_mm, jaws->center_mm.x(),
                                                  jaws->center_mm.y(), jaws->center_mm.z()));
   }

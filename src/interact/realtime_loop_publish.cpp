@@ -46,6 +46,7 @@ void RealtimeLoop::publish(bool force) {
   if (tip_contact_ >= 0) s.contact_nodes.push_back(tip_contact_);
   s.tool_tip_touching = tip_contact_ >= 0;
   s.grasped_nodes = tools_.hand.nodes;
+  s.fixed = sim_.fixed();
   s.lock_waits = lock_waits_.count;
   s.longest_cut_pause_us = longest_cut_pause_us_;
   s.longest_lock_wait_us = lock_waits_.longest_us;

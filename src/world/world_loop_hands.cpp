@@ -40,11 +40,12 @@ void WorldLoop::set_grasper(const std::optional<interact::Jaws>& jaws) {
     {
       std::lock_guard snap(m.snapshot_mutex);
       for (const BodyView& b : m.published.bodies)
-        any = any || interact::anything_under_jaws(*b.model, b.x, *jaws);
+        any = any || interact::anything_under_jaws(*b.model, b.x, *jaws, &b.fixed);
     }
     if (!any)
-      throw invalid_input("grasper", fmt::format("nothing under the jaws: no body's skin within "
-                                                 "{} mm of [{:.1f}, {:.1f}, {:.1f}]",
+      throw invalid_input("grasper", fmt::format("nothing under the jaws: no body's free skin "
+                                                 "within {} mm of [{:.1f}, {:.1f}, {:.1f}] (none "
+                                                 "there, or it is fixed)",
                                                  jaws->radius_mm, jaws->center_mm.x(),
                                                  jaws->center_mm.y(), jaws->center_mm.z()));
     m.new_close = *jaws;
@@ -72,6 +73,7 @@ void WorldLoop::Impl::take_hands() {
 void WorldLoop::Impl::move_hands() {
   tip_proxies.resize(world.bodies.size());
   hands_reaction_mn.setZero();
+  body_reaction_mn.assign(world.bodies.size(), Eigen::Vector3d::Zero());
   for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
     BodySlot& bs = world.bodies[slot];
     if (!bs.alive) continue;
@@ -84,6 +86,7 @@ void WorldLoop::Impl::move_hands() {
     }
     b.tools.tip = interact::load_of_tip(*b.model, b.sim.x, tip, b.tools.routing, proxy);
     hands_reaction_mn += proxy.device_force_mn;
+    body_reaction_mn[slot] += proxy.device_force_mn;
   }
   if (!jaws) {
     open_grasper();
@@ -132,7 +135,9 @@ void WorldLoop::Impl::move_hands() {
   }
   Body& b = world.bodies[static_cast<size_t>(grasp_slot)].body;
   interact::move_jaws(b.sim, jaws->center_mm, b.tools.hand);
-  hands_reaction_mn += interact::grasp_reaction(b.sim, b.tools.hand);
+  const Eigen::Vector3d pull = interact::grasp_reaction(b.sim, b.tools.hand);
+  hands_reaction_mn += pull;
+  body_reaction_mn[static_cast<size_t>(grasp_slot)] += pull;
 }
 
 void WorldLoop::Impl::open_grasper() {

@@ -80,6 +80,7 @@ struct WorldLoop::Impl {
   std::optional<interact::Jaws> close_at, jaws;
   int32_t grasp_slot = -1;
   Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> body_reaction_mn;  // per body slot: its part of the above
   WorldStepStats stats;
   interact::RateWindow window;
   double late_us = 0.0;

@@ -45,6 +45,12 @@ void WorldLoop::Impl::publish(bool force) {
     v.force_nodes.clear();
     for (const interact::ForceRoute& r : bs.body.tools.live_routes)
       v.force_nodes.push_back(r.contact_node);
+    v.grasped_nodes = b.tools.hand.nodes;
+    v.hands_reaction_mn =
+        slot < body_reaction_mn.size() ? body_reaction_mn[slot] : Eigen::Vector3d::Zero();
+    v.fixed = b.sim.fixed();
+    v.recoveries = b.sim.recoveries;
+    v.multigrid = sim::uses_multigrid(b.sim);
     ++n;
   }
   s.bodies.resize(n);

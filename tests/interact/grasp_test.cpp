@@ -129,6 +129,17 @@ TEST(Grasp, TheRealtimeLoopsGrasperHoldsPullsAndLetsGo) {
   const Eigen::Vector3d far = at - Eigen::Vector3d(0.0, 100.0, 0.0);
   EXPECT_THROW(loop.set_grasper(interact::Jaws{.center_mm = far}), Error) << "nothing there";
   EXPECT_THROW(loop.set_grasper(interact::Jaws{.center_mm = at, .radius_mm = -1.0}), Error);
+  // The far pole is fixed: jaws there are refused on the caller's thread, as the loop could not
+  // hold it (it once took them and left them open on the stepping thread, with a log line).
+  int32_t pole = 0;
+  for (int32_t i = 0; i < m.layers[0].node_count; ++i)
+    if (m.X(i, 1) > m.X(pole, 1)) pole = i;
+  try {
+    loop.set_grasper(interact::Jaws{.center_mm = m.X.row(pole).transpose(), .radius_mm = 2.0});
+    ADD_FAILURE() << "jaws on fixed skin were taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("or it is fixed"), std::string::npos) << e.what();
+  }
 
   loop.set_grasper(interact::Jaws{.center_mm = at, .radius_mm = 2.0});
   loop.run_steps(1);

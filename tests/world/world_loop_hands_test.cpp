@@ -120,6 +120,14 @@ TEST(WorldLoopHands, TheGrasperHoldsTheNearestBodyCarriesItWithTheJawsAndOpenedL
   ASSERT_EQ(snap.unstable, sim::Instability::kNone);
   EXPECT_NEAR(snap.bodies[1].x(top, 2) - at.z(), 5.0, 0.2) << "the held skin follows the jaws";
   EXPECT_LT(snap.hands_reaction_mn.z(), -10.0) << "the tissue pulls the grasper back down";
+  // Each body's view: what the grasper holds of it and its part of the pull.
+  EXPECT_EQ(static_cast<int32_t>(snap.bodies[1].grasped_nodes.size()), snap.grasped_nodes);
+  EXPECT_TRUE(snap.bodies[0].grasped_nodes.empty());
+  EXPECT_EQ(snap.bodies[1].hands_reaction_mn, snap.hands_reaction_mn);
+  EXPECT_EQ(snap.bodies[0].hands_reaction_mn.norm(), 0.0);
+  for (const int32_t i : snap.bodies[1].grasped_nodes)
+    EXPECT_EQ(snap.bodies[1].fixed[static_cast<size_t>(i)], 1) << "a held node is not held";
+  for (const BodyView& v : snap.bodies) EXPECT_EQ(v.recoveries, 0);
   EXPECT_LT(moved_from_rest(snap.bodies[0]), 0.5);
   loop.set_grasper(std::nullopt);
   loop.run_steps(3000);
@@ -132,21 +140,30 @@ TEST(WorldLoopHands, TheGrasperHoldsTheNearestBodyCarriesItWithTheJawsAndOpenedL
   EXPECT_THROW(loop.set_tool_tip(interact::ToolTip{.active = true, .radius_mm = 0.0}), Error);
 }
 
-// Jaws on skin that is all fixed (B's far cap) cannot hold it: they stay open, and the next jaws
-// given close anew where they are (they are not taken as moving a grasp that never happened).
-TEST(WorldLoopHands, JawsOnFixedSkinStayOpenAndTheNextJawsCloseAnew) {
+// Jaws on skin that is all fixed (B's far cap) cannot hold it: refused on the caller's thread
+// (the loop once took them and left them open with a log line), and the next jaws given close
+// where they are.
+TEST(WorldLoopHands, JawsOnFixedSkinAreRefusedAndTheNextJawsClose) {
   TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
   const Model& mb = *body(t.world, t.b).model;
   Eigen::Index far = 0;
   mb.X.topRows(mb.layers[0].node_count).col(0).maxCoeff(&far);
   const Eigen::Vector3d on_fixed = mb.X.row(far).transpose();
   ASSERT_TRUE(body(t.world, t.b).sim.fixed()[static_cast<size_t>(far)]);
+  const std::vector<uint8_t> body_fixed = body(t.world, t.b).sim.fixed();
   const Eigen::Vector3d on_a =
       body(t.world, t.a).model->X.row(highest_skin_node(*body(t.world, t.a).model)).transpose();
   WorldLoop loop(std::move(t.world), {.real_time = false});
-  loop.set_grasper(interact::Jaws{.center_mm = on_fixed, .radius_mm = 2.0});
-  loop.run_steps(2);
   WorldSnapshot snap;
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_EQ(snap.bodies[1].fixed, body_fixed);
+  try {
+    loop.set_grasper(interact::Jaws{.center_mm = on_fixed, .radius_mm = 2.0});
+    ADD_FAILURE() << "jaws on fixed skin were taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("or it is fixed"), std::string::npos) << e.what();
+  }
+  loop.run_steps(2);
   ASSERT_TRUE(loop.latest(snap));
   EXPECT_TRUE(snap.grasped_body.empty()) << "fixed skin was held";
   loop.set_grasper(interact::Jaws{.center_mm = on_a, .radius_mm = 4.0});

@@ -64,6 +64,10 @@ void WorldViewSession::State::panel() {
     }
     ImGui::EndTable();
   }
+  for (const world::BodyView& b : snap.bodies)  // as the one-organ panel says it
+    if (b.recoveries > 0)
+      ImGui::TextColored(ImVec4(1, 0.6f, 0.2f, 1), "%s: %lld steps redone after leaving bounds",
+                         b.name.c_str(), static_cast<long long>(b.recoveries));
   if (snap.tie_count.total > 0)
     ImGui::Text("attachments: %lld ties, %lld divided, %lld torn",
                 static_cast<long long>(snap.tie_count.total),
@@ -146,7 +150,8 @@ void WorldViewSession::State::body_parameters() {
   changed |= solver_widgets(solver, b.solver.dt_s, "dt s (the world's)");
   ImGui::PopID();
   if (b.solver.integrator == sim::Integrator::kImplicitEuler)
-    ImGui::Text("CG: %d iterations in the last step", b.stats.sim.cg_iterations);
+    ImGui::Text("CG: %d iterations in the last step, %s", b.stats.sim.cg_iterations,
+                b.multigrid ? "multigrid" : "Jacobi");
   if (changed) {
     try {
       loop->set_parameters(b.id, material, solver, b.routing);

@@ -35,9 +35,12 @@ struct Grasp {
 void close_jaws(sim::Simulation& sim, const Jaws& jaws, Grasp& grasp, const std::string& what);
 
 /// Whether any skin node at positions x lies within jaws.radius_mm of jaws.center_mm: the check
-/// made before jaws are asked to close (a scene at rest, the realtime loop's caller), where
-/// close_jaws() itself will run later, on another shape.
-bool anything_under_jaws(const Model& model, const Eigen::MatrixX3d& x, const Jaws& jaws);
+/// made before jaws are asked to close (a scene at rest, the loops' callers), where close_jaws()
+/// itself will run later, on another shape.
+/// @param fixed  if given, per node 1 = held where it is: only the others count, as close_jaws()
+///               holds only free nodes (the loops' published flags)
+bool anything_under_jaws(const Model& model, const Eigen::MatrixX3d& x, const Jaws& jaws,
+                         const std::vector<uint8_t>* fixed = nullptr);
 
 /// Moves the held nodes with the jaws' centre (their offsets kept). Cheap every step: the
 /// nodes are held already (sim::hold_nodes moves them and refreshes only their positions).

@@ -85,6 +85,8 @@ struct LoopSnapshot {
   std::vector<int32_t> contact_nodes;  ///< where each live force and the tool tip act
   bool tool_tip_touching = false;
   std::vector<int32_t> grasped_nodes;  ///< what the grasper holds (empty: open)
+  /// Per node, 1 = held where it is (fixed, or held by a grasp): jaws close on the others only.
+  std::vector<uint8_t> fixed;
   /// Since the loop was made: how many times the stepping thread found one of its locks held by
   /// a caller (setting forces, copying a snapshot) and the longest it waited for one, us. A
   /// caller holds them only to copy a few values, never while it draws or waits on a network,

@@ -68,7 +68,14 @@ struct BodyView {
   uint32_t topology = 0;  ///< the body's topology generation: node numbers are of this one
   Eigen::MatrixX3d x;     ///< #nodes by 3, mm
   BodyStepStats stats;    ///< its part of the last step
-  std::vector<int32_t> force_nodes;  ///< where the live forces act (skin nodes)
+  std::vector<int32_t> force_nodes;    ///< where the live forces act (skin nodes)
+  std::vector<int32_t> grasped_nodes;  ///< what the grasper holds of it (empty: none)
+  /// Its tissue's push on the hands (the tool tip's device and the grasper), mN.
+  Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
+  /// Per node, 1 = held where it is (fixed, or held by a grasp): jaws close on the others only.
+  std::vector<uint8_t> fixed;
+  int64_t recoveries = 0;  ///< steps redone after leaving bounds (sim::Simulation::recoveries)
+  bool multigrid = false;  ///< its implicit solve preconditioned by multigrid (else Jacobi)
   /// Its parameters as they step now (set_parameters(); dt is the world's).
   sim::Material material;
   sim::SolverOptions solver;
