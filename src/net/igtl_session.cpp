@@ -8,6 +8,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/interact/rate_choice.h"
 #include "lamina/sim/simulation.h"
 #include "web_session.h"
 
@@ -25,8 +26,7 @@ IgtlSession::IgtlSession(const ServeOptions& args, igtlink::Server& server,
       outgoing_(std::make_unique<Outgoing>(model, frame_)),
       streamed_layers_(args.all_layers ? model->layer_count() : 1),
       hands_(args, loop, frame_, start),
-      next_unstable_log_(start),
-      next_behind_warning_(start) {}
+      next_unstable_log_(start) {}
 
 Outgoing& IgtlSession::sent_for(const interact::LoopSnapshot& snap) {
   if (snap.model && snap.model_version != outgoing_version_) {
@@ -41,13 +41,7 @@ Outgoing& IgtlSession::sent_for(const interact::LoopSnapshot& snap) {
 // and with --send-hz 0 (nothing pushed: a client reads the answer to its request next) only to
 // the client whose rate it is.
 void IgtlSession::send_rate(int client, const interact::LoopSnapshot& now) {
-  const igtlink::Packed status = igtlink::pack_string("LaminaRealTime", rate_.status(now));
-  if (client >= 0)
-    server_.send(client, status);
-  else if (a_.send_hz > 0.0)
-    server_.broadcast(status);
-  else if (rate_.client() >= 0)
-    server_.send(rate_.client(), status);
+  send_rate_status(server_, rate_, client, a_.send_hz > 0.0, interact::measured_window(now));
 }
 
 void IgtlSession::tell_rate(int client) {
@@ -157,37 +151,15 @@ void IgtlSession::watch_stability() {
   loop_.reset();
 }
 
-// The loop measures real time over one-second windows; each new window is judged once. Every
-// client hears of a new rate, and each second the machine cannot keep the one a client (a
-// haptic device's 1 kHz) or --rate asked for, and when it keeps it again.
+// The loop measures real time over one-second windows; each new window is judged once
+// (ServeRate::judge). Every client hears of a new rate, and each second the machine cannot keep
+// the one a client (a haptic device's 1 kHz) or --rate asked for, and when it keeps it again.
 void IgtlSession::judge_second() {
-  const uint64_t window =
+  const uint64_t second =
       static_cast<uint64_t>(snap_.steps > 0 ? seconds(Clock::now() - start_) : 0);
-  if (window == last_window_) return;
-  last_window_ = window;
-  const double asked_hz = rate_.rate_hz();  // what the second just measured was asked to keep
-  const std::optional<double> new_rate = rate_.follow(snap_);
-  if (new_rate) loop_.set_rate(*new_rate);
-  if (new_rate || (snap_.measured_rate_hz == rate_.rate_hz() && (!snap_.keeping_up || behind_)))
-    send_rate(-1, snap_);
-  // A second measured at another rate than the one asked for says nothing of it.
-  if (snap_.measured_rate_hz != asked_hz) return;
-  if (!snap_.keeping_up) {
-    behind_s_ += 1.0;
-    // (The machine's rate moving down has said so itself.)
-    if (!new_rate && (!behind_ || Clock::now() >= next_behind_warning_)) {
-      log::warn(
-          "behind real time: {:.2f} simulated seconds per wall second ({:.0f} of {:.0f} "
-          "steps/s, {:.0f} us a step); a lower --rate, a smaller model or, on a busy machine, "
-          "--threads 1 keeps up",
-          snap_.real_time_factor, snap_.achieved_rate_hz, rate_.rate_hz(), snap_.mean_step_us);
-      next_behind_warning_ = Clock::now() + std::chrono::seconds(10);
-    }
-  } else if (behind_) {
-    log::info("back in real time ({:.2f} simulated seconds per wall second)",
-              snap_.real_time_factor);
-  }
-  behind_ = !snap_.keeping_up;
+  const ServeRate::Judgement j = rate_.judge(interact::measured_window(snap_), second);
+  if (j.new_rate) loop_.set_rate(*j.new_rate);
+  if (j.tell) send_rate(-1, snap_);
 }
 
 void IgtlSession::tick() {
@@ -222,8 +194,8 @@ int IgtlSession::finish(double wall_s, const web::Session* web) {
              "poses), {} out ({:.1f} MB, {} frames "
              "skipped), {} connections dropped; max reaction {:.3g} mN; steps waited for the "
              "server {} times, at most {:.3f} ms\n",
-             snap_.steps, snap_.time_s, wall_s, rtf, behind_s_, rate_.rate_hz(), rate_.chosen_by(),
-             c.clients, c.messages_in, hands_.poses, c.messages_out,
+             snap_.steps, snap_.time_s, wall_s, rtf, rate_.behind_s(), rate_.rate_hz(),
+             rate_.chosen_by(), c.clients, c.messages_in, hands_.poses, c.messages_out,
              static_cast<double>(c.bytes_out) / (1 << 20), c.frames_skipped, c.dropped,
              max_reaction_mn_, snap_.lock_waits, 1e-3 * snap_.longest_lock_wait_us);
   if (unstable_events_ > 0) {

@@ -90,11 +90,6 @@ class IgtlSession {
   int64_t unstable_events_ = 0;
   bool awaiting_reset_ = false;
   Clock::time_point next_unstable_log_;
-  // Real time, judged on the loop's one-second windows.
-  uint64_t last_window_ = 0;
-  bool behind_ = false;
-  double behind_s_ = 0.0;
-  Clock::time_point next_behind_warning_;
 };
 
 }  // namespace lamina::net

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "igtl_wire.h"
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/rate_choice.h"
@@ -58,7 +59,7 @@ std::optional<double> ServeRate::gone(int client) {
   return change_to(base_hz_);
 }
 
-std::optional<double> ServeRate::follow(const interact::LoopSnapshot& snap) {
+std::optional<double> ServeRate::follow(const interact::RateWindow& snap) {
   if (!follow_machine_ || client_ >= 0) return std::nullopt;
   const std::optional<double> next =
       interact::rate_to_follow(rate_hz_, snap, "--rate or a client's LaminaRate");
@@ -67,7 +68,7 @@ std::optional<double> ServeRate::follow(const interact::LoopSnapshot& snap) {
   return change_to(*next);
 }
 
-std::string ServeRate::status(const interact::LoopSnapshot& snap) const {
+std::string ServeRate::status(const interact::RateWindow& snap) const {
   nlohmann::json j;
   j["rate_hz"] = rate_hz_;
   j["chosen_by"] = chosen_by();
@@ -78,6 +79,44 @@ std::string ServeRate::status(const interact::LoopSnapshot& snap) const {
   j["step_ms"] = snap.mean_step_us / 1000.0;
   if (!snap.keeping_up) j["keeps_up_hz"] = interact::next_rate(rate_hz_, snap.mean_step_us, false);
   return j.dump();
+}
+
+ServeRate::Judgement ServeRate::judge(const interact::RateWindow& w, uint64_t second) {
+  Judgement j;
+  if (second == last_second_) return j;
+  last_second_ = second;
+  const double asked_hz = rate_hz_;  // what the second just measured was asked to keep
+  j.new_rate = follow(w);
+  j.tell = j.new_rate || (w.measured_rate_hz == rate_hz_ && (!w.keeping_up || behind_));
+  // A second measured at another rate than the one asked for says nothing of it.
+  if (w.measured_rate_hz != asked_hz) return j;
+  if (!w.keeping_up) {
+    behind_s_ += 1.0;
+    // (The machine's rate moving down has said so itself.)
+    if (!j.new_rate && (!behind_ || ServeClock::now() >= next_behind_warning_)) {
+      log::warn(
+          "behind real time: {:.2f} simulated seconds per wall second ({:.0f} of {:.0f} "
+          "steps/s, {:.0f} us a step); a lower --rate, a smaller model or, on a busy machine, "
+          "--threads 1 keeps up",
+          w.real_time_factor, w.achieved_rate_hz, rate_hz_, w.mean_step_us);
+      next_behind_warning_ = ServeClock::now() + std::chrono::seconds(10);
+    }
+  } else if (behind_) {
+    log::info("back in real time ({:.2f} simulated seconds per wall second)", w.real_time_factor);
+  }
+  behind_ = !w.keeping_up;
+  return j;
+}
+
+void send_rate_status(igtlink::Server& server, const ServeRate& rate, int client, bool streaming,
+                      const interact::RateWindow& measured) {
+  const igtlink::Packed status = igtlink::pack_string("LaminaRealTime", rate.status(measured));
+  if (client >= 0)
+    server.send(client, status);
+  else if (streaming)
+    server.broadcast(status);
+  else if (rate.client() >= 0)
+    server.send(rate.client(), status);
 }
 
 }  // namespace lamina::net

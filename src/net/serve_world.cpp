@@ -9,9 +9,9 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
-#include "lamina/interact/rate_choice.h"
 #include "lamina/world/world_loop.h"
 #include "serve_clock.h"
+#include "serve_rate.h"
 #include "servers.h"
 #include "world_igtl_session.h"
 #include "world_web_session.h"
@@ -88,10 +88,10 @@ int serve_world(Listening& listening, world::World world,
   if (!listening.servers || (!listening.servers->web && !listening.servers->igtl))
     throw invalid_input(source,
                         "nothing listens to serve the world on (a Listening served already)");
-  double rate_hz = a.auto_rate ? 1000.0 : a.rate_hz;
+  ServeRate rate(a.rate_hz, a.auto_rate);
   world::WorldLoop loop(
       std::move(world),
-      {.rate_hz = rate_hz, .threads = a.threads, .dissections = std::move(dissections)});
+      {.rate_hz = rate.rate_hz(), .threads = a.threads, .dissections = std::move(dissections)});
   const auto start = Clock::now();
   WorldEdges edges{.a = a, .start = start, .next_tick = start, .next_reaction = start};
   if (listening.servers->web)
@@ -99,52 +99,43 @@ int serve_world(Listening& listening, world::World world,
                                                     web_session_options(a), loop);
   if (listening.servers->igtl) {
     edges.igtl_server = listening.servers->igtl.get();
-    edges.igtl = std::make_unique<WorldIgtlSession>(a, *edges.igtl_server, loop, start);
+    edges.igtl = std::make_unique<WorldIgtlSession>(a, *edges.igtl_server, loop, rate, start);
   }
   world::WorldSnapshot snap;
   loop.latest(snap);
   log::info("lamina serve: world {}: {}; {} in real time{}{}{}", source, world_line(snap),
             a.auto_rate ? "1000 steps/s, then the rate this machine keeps"
-                        : fmt::format("{:g} steps/s", rate_hz),
+                        : fmt::format("{:g} steps/s", rate.rate_hz()),
             edges.igtl ? fmt::format("; OpenIGTLink on {}:{}", a.host, edges.igtl_server->port())
                        : std::string(),
             edges.web ? "; the web page" : "",
             a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(a.duration_s));
-  bool behind_said = false;
-  uint64_t judged = 0;  // the snapshot generation the rate was last judged on
   loop.start();
   while (keep_going()) {
     if (a.duration_s > 0.0 && Clock::now() >= deadline) break;
     edges.turn();
     loop.latest(snap);
     if (snap.unstable != sim::Instability::kNone) break;
-    if (a.auto_rate && snap.generation != judged && seconds(Clock::now() - start) >= 2.0) {
-      judged = snap.generation;
-      if (const auto next = interact::rate_to_follow(rate_hz, snap.rate, "--rate")) {
-        rate_hz = *next;
-        loop.set_rate(rate_hz);
-      }
-    }
-    if (!snap.rate.keeping_up && !behind_said) {
-      behind_said = true;
-      log::warn(
-          "real time: the world ran at {:.2f}x of the wall clock at {:g} Hz (a step "
-          "{:.2f} ms)",
-          snap.rate.real_time_factor, rate_hz, snap.rate.mean_step_us / 1000.0);
-    }
+    // Each wall second: the machine's rate followed, the time behind said (ServeRate::judge).
+    const auto second = static_cast<uint64_t>(snap.steps > 0 ? seconds(Clock::now() - start) : 0);
+    const ServeRate::Judgement j = rate.judge(snap.rate, second);
+    if (j.new_rate) loop.set_rate(*j.new_rate);
+    if (j.tell && edges.igtl) edges.igtl->tell_rate(-1);
   }
   loop.stop();
   loop.latest(snap);
   if (edges.web) edges.web->log_summary();
   if (edges.igtl) edges.igtl->log_summary(seconds(Clock::now() - start));
   listening.servers->igtl.reset();  // a Listening serves once
+  const double wall_s = seconds(Clock::now() - start);
   log::info(
-      "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s; {} of {} ties divided, {} "
-      "torn",
-      snap.steps, snap.time_s, seconds(Clock::now() - start), snap.tie_count.divided,
-      snap.tie_count.total, snap.tie_count.torn);
+      "lamina serve: {} steps, {:.2f} s simulated in {:.2f} s ({:.2f}x real time, {:.0f} s "
+      "behind, last at {:g} steps/s chosen by the {}); {} of {} ties divided, {} torn",
+      snap.steps, snap.time_s, wall_s, wall_s > 0.0 ? snap.time_s / wall_s : 0.0, rate.behind_s(),
+      rate.rate_hz(), rate.chosen_by(), snap.tie_count.divided, snap.tie_count.total,
+      snap.tie_count.torn);
   if (snap.unstable != sim::Instability::kNone) {
     log::error("lamina serve: body '{}' became unstable at t = {:.3f} s: {}", snap.unstable_body,
                snap.time_s, sim::describe(snap.unstable));

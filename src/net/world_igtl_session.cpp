@@ -12,16 +12,17 @@
 namespace lamina::net {
 
 WorldIgtlSession::WorldIgtlSession(const ServeOptions& options, igtlink::Server& server,
-                                   world::WorldLoop& loop, Clock::time_point start)
+                                   world::WorldLoop& loop, ServeRate& rate, Clock::time_point start)
     : a_(options),
       server_(server),
       loop_(loop),
+      rate_(rate),
       frame_(options.frame == "lps" ? igtlink::Frame::kLps : igtlink::Frame::kRas),
       hands_(options, loop, frame_, start) {
   loop_.latest(snap_);
   // Each body's skin goes out under the body's name, which the wire carries when it has 1 to 20
   // characters and no other message has it; else as LaminaBodyK (said once).
-  std::set<std::string> taken = {Outgoing::kReactionDevice, "LaminaCut"};
+  std::set<std::string> taken = {Outgoing::kReactionDevice, "LaminaCut", "LaminaRealTime"};
   for (size_t b = 0; b < snap_.bodies.size(); ++b) {
     const std::string& name = snap_.bodies[b].name;
     std::string device = name;
@@ -62,6 +63,12 @@ void WorldIgtlSession::handle(const igtlink::Message& msg) {
   if (hands_.scalpel_message(msg) || hands_.grasper_message(msg)) return;
   if (type == "TRANSFORM" || type == "POSITION") {
     hands_.tool_pose(msg);
+  } else if (type == "STRING" && msg.header.device == "LaminaRate") {
+    const std::string text = igtlink::read_string(msg.content, msg.size);
+    const std::optional<double> hz = rate_.ask(msg.client, msg.peer, text);
+    if (hz) loop_.set_rate(*hz);
+    // A new rate to every client while streaming (this one included), else the answer to it.
+    tell_rate(hz && a_.send_hz > 0.0 ? -1 : msg.client);
   } else if (type == "GET_POLYDATA") {
     loop_.latest(snap_);
     for (const igtlink::Packed& p : skins()) server_.send(msg.client, p);
@@ -73,7 +80,17 @@ void WorldIgtlSession::handle(const igtlink::Message& msg) {
 }
 
 void WorldIgtlSession::closed(int client) {
+  if (const auto hz = rate_.gone(client)) {
+    loop_.set_rate(*hz);
+    tell_rate(-1);
+  }
   hands_.closed(client);
+}
+
+void WorldIgtlSession::tell_rate(int client) {
+  world::WorldSnapshot now;
+  loop_.latest(now);
+  send_rate_status(server_, rate_, client, a_.send_hz > 0.0, now.rate);
 }
 
 double WorldIgtlSession::finish_paused_stroke(double now_s) {

@@ -2,9 +2,10 @@
 // The OpenIGTLink side of a world's serve (docs/openigtlink.md, "A world"): each body's skin
 // streamed as a POLYDATA named after the body, a tool's pose driving the world's tool tip (it
 // pushes whichever body it touches), the grasper's device its grasper (it closes on the body
-// nearest its jaws), the scalpel's strokes cutting every body they pass, and the tissue's push on
-// the hands sent back as LaminaReaction. The server's thread calls it between polls; the world
-// steps on its own thread (world::WorldLoop).
+// nearest its jaws), the scalpel's strokes cutting every body they pass, the tissue's push on
+// the hands sent back as LaminaReaction, and the rate: a client's LaminaRate asks for one, and
+// LaminaRealTime says it (net::ServeRate, as for one organ). The server's thread calls it between
+// polls; the world steps on its own thread (world::WorldLoop).
 #include <chrono>
 #include <memory>
 #include <set>
@@ -17,6 +18,7 @@
 #include "lamina/net/serve.h"
 #include "lamina/world/world_loop.h"
 #include "serve_clock.h"
+#include "serve_rate.h"
 
 namespace lamina::net {
 
@@ -25,7 +27,7 @@ class WorldIgtlSession {
   using Clock = ServeClock;
 
   WorldIgtlSession(const ServeOptions& options, igtlink::Server& server, world::WorldLoop& loop,
-                   Clock::time_point start);
+                   ServeRate& rate, Clock::time_point start);
 
   /// A client's message; `closed`: a client has gone (what it held is let go).
   void handle(const igtlink::Message& msg);
@@ -37,6 +39,9 @@ class WorldIgtlSession {
   void stream_reaction();
   /// Each tick: every body's skin to every client (laid out again for a body a cut renumbered).
   void tick();
+  /// LaminaRealTime (the rate, who chose it, whether the machine keeps it) to `client`, or (-1)
+  /// as news: to every client while the server streams, else to the client whose rate it is.
+  void tell_rate(int client);
   /// The session's summary line.
   void log_summary(double wall_s) const;
 
@@ -52,6 +57,7 @@ class WorldIgtlSession {
   const ServeOptions& a_;
   igtlink::Server& server_;
   world::WorldLoop& loop_;
+  ServeRate& rate_;
   const igtlink::Frame frame_;
   IgtlHands<world::WorldLoop> hands_;
   world::WorldSnapshot snap_;

@@ -288,6 +288,29 @@ TEST(Serve, AGrasperDeviceHoldsPullsAndLetsGo) {
   EXPECT_EQ(s.dropped, 0) << server.log();
 }
 
+/// A STRING message (US-ASCII) as the library packs it.
+std::vector<uint8_t> string_bytes(const std::string& device, const std::string& text) {
+  igtl::StringMessage::Pointer m = igtl::StringMessage::New();
+  m->SetDeviceName(device.c_str());
+  m->SetString(text.c_str());
+  m->Pack();
+  const auto* p = static_cast<const uint8_t*>(m->GetPackPointer());
+  return {p, p + m->GetPackSize()};
+}
+
+// The next LaminaRealTime status that `keep` accepts, within wait_s.
+std::optional<nlohmann::json> real_time_status(
+    Client& client, double wait_s, const std::function<bool(const nlohmann::json&)>& keep) {
+  const auto t0 = Clock::now();
+  for (double left = wait_s; left > 0.0; left = wait_s - seconds_since(t0)) {
+    const auto m = client.receive("STRING", "LaminaRealTime", left);
+    if (!m) break;
+    nlohmann::json j = nlohmann::json::parse(unpack<igtl::StringMessage>(*m)->GetString());
+    if (keep(j)) return j;
+  }
+  return std::nullopt;
+}
+
 // A world over OpenIGTLink (the cholecystectomy's liver and gallbladder): each body's skin comes
 // as a POLYDATA named after it; a tool's pose 3 mm into the liver's top pushes it in and the
 // reaction comes back up; the grasper's device closes on the liver's top and lifts it, and opened
@@ -363,6 +386,18 @@ TEST(Serve, AWorldSendsEachBodysSkinAndTheHandsActOnTheBodyTheyMeet) {
       undone_points = polydata_points(*l).rows();
   EXPECT_EQ(undone_points, lx.rows()) << "the undo did not put the liver back: " << server.log();
   EXPECT_TRUE(server.log_shows("takes the last cut back")) << server.log();
+  // The rate, as for one organ: a client asks for one (LaminaRate) and hears it kept
+  // (LaminaRealTime), and gives it back to the machine with "auto".
+  hand.send_bytes(string_bytes("LaminaRate", "250"));
+  const auto asked = real_time_status(
+      hand, 10.0, [](const nlohmann::json& j) { return j["chosen_by"] == "client"; });
+  ASSERT_TRUE(asked) << server.log();
+  EXPECT_EQ((*asked)["rate_hz"], 250.0);
+  hand.send_bytes(string_bytes("LaminaRate", "auto"));
+  const auto back = real_time_status(
+      hand, 10.0, [](const nlohmann::json& j) { return j["chosen_by"] == "machine"; });
+  ASSERT_TRUE(back) << server.log();
+  EXPECT_TRUE(server.log_shows("gives the rate back")) << server.log();
   server.process().terminate();
   EXPECT_EQ(server.process().wait(20.0), 0) << server.log();
   EXPECT_TRUE(server.log_shows("OpenIGTLink: 1 clients")) << server.log();
@@ -555,31 +590,6 @@ TEST(Serve, EmbeddedHzZeroStreamsNoneAndAnswersARequest) {
   EXPECT_EQ(s.dropped, 0) << server.log();
 }
 
-// Each bad client gets one log line naming it and its problem, and loses its connection; the
-// simulation keeps its pace and the next well-behaved client is served.
-/// A STRING message (US-ASCII) as the library packs it.
-std::vector<uint8_t> string_bytes(const std::string& device, const std::string& text) {
-  igtl::StringMessage::Pointer m = igtl::StringMessage::New();
-  m->SetDeviceName(device.c_str());
-  m->SetString(text.c_str());
-  m->Pack();
-  const auto* p = static_cast<const uint8_t*>(m->GetPackPointer());
-  return {p, p + m->GetPackSize()};
-}
-
-// The next LaminaRealTime status that `keep` accepts, within wait_s.
-std::optional<nlohmann::json> real_time_status(
-    Client& client, double wait_s, const std::function<bool(const nlohmann::json&)>& keep) {
-  const auto t0 = Clock::now();
-  for (double left = wait_s; left > 0.0; left = wait_s - seconds_since(t0)) {
-    const auto m = client.receive("STRING", "LaminaRealTime", left);
-    if (!m) break;
-    nlohmann::json j = nlohmann::json::parse(unpack<igtl::StringMessage>(*m)->GetString());
-    if (keep(j)) return j;
-  }
-  return std::nullopt;
-}
-
 // Without --rate the server steps at the highest rate the machine keeps and tells its clients;
 // a client that asks for 1 kHz (a haptic device) gets it, and is told each second the machine
 // cannot keep it, with the rate that would; when it goes, the machine's rate comes back. Text
@@ -695,6 +705,8 @@ TEST(Serve, TheReactionStreamsAtTheStepRateAndTheSkinAtItsOwn) {
   EXPECT_LE(skins, 40);
 }
 
+// Each bad client gets one log line naming it and its problem, and loses its connection; the
+// simulation keeps its pace and the next well-behaved client is served.
 TEST(Serve, BadClientsAreDroppedAndTheRestCarriesOn) {
   TempDir dir;
   Server server(dir.path, with({"phantom", "--rate", "500", "--stall-timeout", "1"}));

@@ -42,4 +42,7 @@ std::optional<double> rate_to_follow(double rate_hz, const LoopSnapshot& snap,
 std::optional<double> rate_to_follow(double rate_hz, const RateWindow& measured,
                                      const char* forced_by);
 
+/// A one-organ loop's snapshot's one-second window (LoopSnapshot carries its fields one by one).
+RateWindow measured_window(const LoopSnapshot& snap);
+
 }  // namespace lamina::interact
