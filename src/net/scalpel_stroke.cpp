@@ -51,8 +51,10 @@ std::string ScalpelStroke::finish(const Cut& cut, double depth_mm) {
   return said;
 }
 
-std::string cut_event_text(const interact::LoopSnapshot& snap, igtlink::Frame frame) {
-  const model::CutReport& r = snap.last_cut;
+namespace {
+
+// What one cut did to one model, positions in `frame`: cut_tets, pieces, structures_cut.
+nlohmann::json report_json(const model::CutReport& r, igtlink::Frame frame) {
   nlohmann::json pieces = nlohmann::json::array(), crossed = nlohmann::json::array();
   for (const model::CutPiece& p : r.pieces)
     pieces.push_back({{"volume_ml", p.volume_mm3 / 1000.0}, {"mass_g", p.mass_kg * 1000.0}});
@@ -64,12 +66,29 @@ std::string cut_event_text(const interact::LoopSnapshot& snap, igtlink::Frame fr
                        {"diameter_mm", c.diameter_mm},
                        {"closed", c.closed}});
   }
-  // Names come from the model; dump() escapes what is not ASCII (the STRING is US-ASCII).
-  return nlohmann::json{{"cuts", snap.cuts},
-                        {"cut_tets", r.cut_tets},
-                        {"pieces", pieces},
-                        {"structures_cut", crossed}}
-      .dump(-1, ' ', /*ensure_ascii=*/true);
+  return {{"cut_tets", r.cut_tets}, {"pieces", pieces}, {"structures_cut", crossed}};
+}
+
+}  // namespace
+
+// Names come from the model; dump() escapes what is not ASCII (the STRING is US-ASCII).
+std::string cut_event_text(const interact::LoopSnapshot& snap, igtlink::Frame frame) {
+  nlohmann::json j = report_json(snap.last_cut, frame);
+  j["cuts"] = snap.cuts;
+  return j.dump(-1, ' ', /*ensure_ascii=*/true);
+}
+
+std::string cut_event_text(const world::WorldSnapshot& snap, igtlink::Frame frame) {
+  nlohmann::json bodies = nlohmann::json::array();
+  int64_t tets = 0;
+  for (const auto& [name, report] : snap.last_cut) {
+    nlohmann::json b = report_json(report, frame);
+    b["name"] = name;
+    bodies.push_back(std::move(b));
+    tets += report.cut_tets;
+  }
+  return nlohmann::json{{"cuts", snap.cuts}, {"cut_tets", tets}, {"bodies", bodies}}.dump(
+      -1, ' ', /*ensure_ascii=*/true);
 }
 
 }  // namespace lamina::net

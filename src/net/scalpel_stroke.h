@@ -12,6 +12,7 @@
 
 #include "igtl_wire.h"
 #include "lamina/interact/realtime_loop.h"
+#include "lamina/world/world_loop.h"
 
 namespace lamina::net {
 
@@ -37,5 +38,8 @@ struct ScalpelStroke {
 /// ..., "pieces": [{"volume_ml", "mass_g"}...], "structures_cut": [{"name", "position_mm",
 /// "diameter_mm", "closed"}...]}.
 std::string cut_event_text(const interact::LoopSnapshot& snap, igtlink::Frame frame);
+/// A world's: {"cuts": ..., "cut_tets": (every body's), "bodies": [{"name", "cut_tets",
+/// "pieces", "structures_cut"}...]}, each body the last stroke divided.
+std::string cut_event_text(const world::WorldSnapshot& snap, igtlink::Frame frame);
 
 }  // namespace lamina::net

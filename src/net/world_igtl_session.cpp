@@ -7,6 +7,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "scalpel_stroke.h"
 #include "serve_outgoing.h"
 
 namespace lamina::net {
@@ -108,8 +109,31 @@ void WorldIgtlSession::stream_reaction() {
   }
 }
 
+// Each stroke that cut tissue, to every client as a STRING named LaminaCut (what it divided of
+// each body, the pieces, each vessel it crossed: a simulator's bleeding cue) and in the log; an
+// undo or a reset the loop logs itself.
+void WorldIgtlSession::report_cuts() {
+  if (snap_.cut_events == cut_events_seen_) return;
+  cut_events_seen_ = snap_.cut_events;
+  const bool more = snap_.cuts > cuts_seen_;
+  cuts_seen_ = snap_.cuts;
+  if (!more || snap_.last_cut.empty()) return;
+  int64_t tets = 0;
+  size_t crossed = 0;
+  for (const auto& [name, r] : snap_.last_cut) {
+    tets += r.cut_tets;
+    crossed += r.structures_cut.size();
+  }
+  log::info(
+      "cut: {} body(ies), {} tetrahedra divided, {} structure(s) crossed; sent as STRING "
+      "'LaminaCut'",
+      snap_.last_cut.size(), tets, crossed);
+  server_.broadcast(igtlink::pack_string("LaminaCut", cut_event_text(snap_, frame_)));
+}
+
 void WorldIgtlSession::tick() {
   loop_.latest(snap_);
+  report_cuts();
   if (a_.send_hz > 0.0 && server_.client_count() > 0)
     server_.stream(skins(), igtlink::Stream::kSurfaces);
 }

@@ -3,9 +3,9 @@
 // streamed as a POLYDATA named after the body, a tool's pose driving the world's tool tip (it
 // pushes whichever body it touches), the grasper's device its grasper (it closes on the body
 // nearest its jaws), the scalpel's strokes cutting every body they pass, the tissue's push on
-// the hands sent back as LaminaReaction, and the rate: a client's LaminaRate asks for one, and
-// LaminaRealTime says it (net::ServeRate, as for one organ). The server's thread calls it between
-// polls; the world steps on its own thread (world::WorldLoop).
+// the hands sent back as LaminaReaction, each cut reported as LaminaCut, and the rate: a client's
+// LaminaRate asks for one, and LaminaRealTime says it (net::ServeRate, as for one organ). The
+// server's thread calls it between polls; the world steps on its own thread (world::WorldLoop).
 #include <chrono>
 #include <memory>
 #include <set>
@@ -53,6 +53,7 @@ class WorldIgtlSession {
   };
   igtlink::Packed skin(size_t b);
   std::vector<igtlink::Packed> skins();
+  void report_cuts();
 
   const ServeOptions& a_;
   igtlink::Server& server_;
@@ -64,6 +65,8 @@ class WorldIgtlSession {
   std::vector<BodyOut> bodies_;  // per snapshot body
   int64_t reaction_sent_step_ = -1;
   double max_reaction_mn_ = 0.0;
+  uint64_t cut_events_seen_ = 0;  // the snapshot's cut_events last reported
+  int32_t cuts_seen_ = 0;
 };
 
 }  // namespace lamina::net

@@ -260,6 +260,8 @@ void WorldLoop::Impl::apply_pending() {
     last_cut_made_ms = 0.0;
     last_cut_steps_meanwhile = 0;
     cut_message.clear();
+    last_cut.clear();
+    ++cut_events;
     world::reset(world);
     unstable = sim::Instability::kNone;
     unstable_body.clear();

@@ -84,6 +84,7 @@ void WorldLoop::Impl::take_cut(bool wait) {
   }
   int32_t divided = 0;
   CutUndo entry;  // each body it divides as it was, and the ties then
+  std::vector<std::pair<std::string, model::CutReport>> reports;
   for (CutJob::OnBody& o : j.bodies) {
     if (!is_valid(world, o.id) || body(world, o.id).topology != o.topology) {
       log::warn("world: cut: body {} changed while the cut was made; it is not cut", o.id.index);
@@ -101,6 +102,7 @@ void WorldLoop::Impl::take_cut(bool wait) {
     ++divided;
     log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, o.id).name,
               r.cut_tets, r.new_nodes);
+    reports.emplace_back(body(world, o.id).name, std::move(r));
     std::lock_guard lock(mutex);
     topology_changed(o.id.index);
   }
@@ -113,6 +115,8 @@ void WorldLoop::Impl::take_cut(bool wait) {
   if (divided > 0) {
     entry.stroke_divided = divided_since(world, was_divided);
     push_cut(history, std::move(entry));
+    last_cut = std::move(reports);
+    ++cut_events;
   }
   last_cut_ms = cut_begin_ms + 1e3 * (now_s() - t0);  // the copies, and taking it in
   last_cut_made_ms = 1e3 * (now_s() - j.began_s);
@@ -151,6 +155,7 @@ void WorldLoop::Impl::apply_undos() {
     cuts -= static_cast<int32_t>(slots.size());  // one per body it divided
     tets_cut -= tets;
     cut_message.clear();
+    ++cut_events;
     log::info("world: undo: the last cut taken back ({} cut(s) in force)", cuts);
   }
   publish(true);

@@ -117,6 +117,8 @@ struct WorldLoop::Impl {
   int64_t tets_cut = 0;
   double last_cut_ms = 0.0;
   std::string cut_message;
+  std::vector<std::pair<std::string, model::CutReport>> last_cut;  // the snapshot's
+  uint64_t cut_events = 0;
   sim::Instability unstable = sim::Instability::kNone;
   std::string unstable_body;
   double last_publish_s = -1.0;

@@ -81,6 +81,10 @@ void WorldLoop::Impl::publish(bool force) {
   s.last_cut_made_ms = last_cut_made_ms;
   s.last_cut_steps_meanwhile = last_cut_steps_meanwhile;
   s.cut_message = cut_message;
+  if (s.cut_events != cut_events) {  // copied once a cut, not with every snapshot
+    s.last_cut = last_cut;
+    s.cut_events = cut_events;
+  }
   s.undoable = static_cast<int32_t>(history.undo.size());
   s.hands_reaction_mn = hands_reaction_mn;
   s.tip_touching = false;

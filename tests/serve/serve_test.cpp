@@ -372,6 +372,15 @@ TEST(Serve, AWorldSendsEachBodysSkinAndTheHandsActOnTheBodyTheyMeet) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   hand.send_bytes(transform_bytes("LaminaScalpelUp", to));
+  // Reported as one organ's cut is: a LaminaCut naming each body divided.
+  const auto reported = hand.receive("STRING", "LaminaCut", 20.0);
+  ASSERT_TRUE(reported) << server.log();
+  const nlohmann::json cut =
+      nlohmann::json::parse(unpack<igtl::StringMessage>(*reported)->GetString());
+  ASSERT_GE(cut["bodies"].size(), 1u) << cut.dump();
+  EXPECT_EQ(cut["bodies"][0]["name"], "liver") << cut.dump();
+  EXPECT_GT(cut["bodies"][0]["cut_tets"].get<int64_t>(), 0) << cut.dump();
+  EXPECT_EQ(cut["cut_tets"], cut["bodies"][0]["cut_tets"]) << cut.dump();
   Eigen::Index cut_points = lx.rows();
   const auto t1 = Clock::now();
   while (cut_points == lx.rows() && seconds_since(t1) < 20.0)

@@ -27,12 +27,14 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "lamina/interact/grasp.h"
 #include "lamina/interact/rate_window.h"
 #include "lamina/interact/reaction_sample.h"
 #include "lamina/interact/tools.h"
+#include "lamina/model/cut_tetrahedra.h"
 #include "lamina/world/cut_history.h"
 #include "lamina/world/dissection.h"
 #include "lamina/world/world.h"
@@ -118,6 +120,11 @@ struct WorldSnapshot {
   int64_t last_cut_steps_meanwhile = 0;
   /// Why the last cut() divided no tissue, or an undo_cut() with no cut to take back; or empty.
   std::string cut_message;
+  /// What the last stroke that cut tissue did to each body it divided, by name (what it divided,
+  /// the pieces, the structures crossed: the world's LaminaCut), and a count that moves on with
+  /// each such stroke, each undo and each reset (news since a caller last looked).
+  std::vector<std::pair<std::string, model::CutReport>> last_cut;
+  uint64_t cut_events = 0;
   /// How many of the last cuts undo_cut() can take back.
   int32_t undoable = 0;
   /// The hands (set_tool_tip(), set_grasper()): the tissue's push back on them, mN (the tip's
