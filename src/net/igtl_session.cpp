@@ -64,7 +64,7 @@ void IgtlSession::handle(const igtlink::Message& msg) {
   } else if (type == "GET_POLYDATA") {
     interact::LoopSnapshot snap;
     loop_.latest(snap);
-    server_.send(msg.client, sent_for(snap).requested(snap, msg.header.device));
+    server_.send(msg.client, sent_for(snap).requested(snap.x, msg.header.device));
   } else if (type == "GET_TRANS") {
     interact::LoopSnapshot snap;
     loop_.latest(snap);
@@ -103,7 +103,7 @@ void IgtlSession::stream_embedded() {
   Outgoing& out = sent_for(snap_);
   embedded_batch_.clear();
   for (int32_t e = 0; e < out.embedded_count(); ++e)
-    embedded_batch_.push_back(out.embedded(snap_, e));
+    embedded_batch_.push_back(out.embedded(snap_.x, e));
   server_.stream(embedded_batch_, igtlink::Stream::kEmbedded);
 }
 
@@ -170,7 +170,7 @@ void IgtlSession::tick() {
   if (a_.send_hz > 0.0 && server_.client_count() > 0) {
     std::vector<igtlink::Packed> batch;
     Outgoing& out = sent_for(snap_);
-    for (int32_t k = 0; k < streamed_layers_; ++k) batch.push_back(out.layer(snap_, k));
+    for (int32_t k = 0; k < streamed_layers_; ++k) batch.push_back(out.layer(snap_.x, k));
     if (a_.reaction_hz == 0.0) batch.push_back(out.reaction(snap_.reaction_mn));
     server_.stream(batch, igtlink::Stream::kSurfaces);
   }

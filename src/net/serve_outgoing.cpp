@@ -20,7 +20,8 @@ std::string layer_device(int32_t k) {
   return k == 0 ? "LaminaSkin" : "LaminaLayer" + std::to_string(k);
 }
 
-Outgoing::Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame)
+Outgoing::Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame,
+                   const std::string& prefix, const std::set<std::string>& taken_elsewhere)
     : shared_(std::move(model)), model_(*shared_), frame_(frame) {
   const Model& m = model_;
   for (int32_t k = 0; k < m.layer_count(); ++k) {
@@ -32,37 +33,38 @@ Outgoing::Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame)
   for (const EmbeddedSurface& e : m.embedded) {
     // A name the wire cannot carry, or one that another message already has, would reach a
     // client as some other surface: said, and that surface is not sent.
-    const bool taken = e.name == kReactionDevice || requested_layer(e.name) > 0 ||
-                       e.name == layer_device(0) || find_embedded(e.name) >= 0;
-    if (e.name.empty() || e.name.size() > kMaxDeviceName || taken) {
+    const std::string device = prefix + e.name;
+    const bool taken = device == kReactionDevice || requested_layer(device) > 0 ||
+                       device == layer_device(0) || find_embedded(device) >= 0 ||
+                       taken_elsewhere.count(device) > 0;
+    if (e.name.empty() || device.size() > kMaxDeviceName || taken) {
       log::warn(
           "the embedded surface '{}' is not sent over OpenIGTLink: {} (rename it in the "
           "scene's build.embed)",
-          e.name,
+          device,
           taken ? "another message has that device name"
                 : fmt::format("a device name has 1 to {} characters", kMaxDeviceName));
       continue;
     }
-    embedded_.push_back({&e, igtlink::PolyDataPacker(e.name, e.F, static_cast<int32_t>(e.V.rows())),
+    embedded_.push_back({&e, igtlink::PolyDataPacker(device, e.F, static_cast<int32_t>(e.V.rows())),
                          Eigen::MatrixX3d()});
   }
 }
 
-igtlink::Packed Outgoing::requested(const interact::LoopSnapshot& snap, const std::string& device) {
+igtlink::Packed Outgoing::requested(const Eigen::MatrixX3d& x, const std::string& device) {
   const int32_t e = find_embedded(device);
-  return e >= 0 ? embedded(snap, e) : layer(snap, requested_layer(device));
+  return e >= 0 ? embedded(x, e) : layer(x, requested_layer(device));
 }
 
-igtlink::Packed Outgoing::layer(const interact::LoopSnapshot& snap, int32_t k) {
+igtlink::Packed Outgoing::layer(const Eigen::MatrixX3d& x, int32_t k) {
   const ModelLayer& l = model_.layers[static_cast<size_t>(k)];
-  return layers_[static_cast<size_t>(k)].pack(snap.x.middleRows(l.first_node, l.node_count),
-                                              frame_);
+  return layers_[static_cast<size_t>(k)].pack(x.middleRows(l.first_node, l.node_count), frame_);
 }
 
-igtlink::Packed Outgoing::embedded(const interact::LoopSnapshot& snap, int32_t e) {
+igtlink::Packed Outgoing::embedded(const Eigen::MatrixX3d& x, int32_t e) {
   Embedded& out = embedded_[static_cast<size_t>(e)];
   const auto t0 = Clock::now();
-  model::embedded_positions(*out.surface, snap.x, out.points);
+  model::embedded_positions(*out.surface, x, out.points);
   igtlink::Packed message = out.packer.pack(out.points, frame_);
   out.pack_s += seconds(Clock::now() - t0);
   ++out.packs;

@@ -1,16 +1,17 @@
 #pragma once
-// What `lamina serve` sends over OpenIGTLink, packed from the loop's snapshot: the layers'
-// surfaces (LaminaSkin, LaminaLayerK), the embedded surfaces (named as in the model) and the
-// tissue's reaction (LaminaReaction), each packer laid out once for a model with its triangles.
-// A cut makes another model: a new Outgoing is made for it (IgtlSession::sent_for).
+// What `lamina serve` sends over OpenIGTLink, packed from a model's positions (a loop's snapshot):
+// the layers' surfaces (LaminaSkin, LaminaLayerK), the embedded surfaces (named as in the model,
+// after the body in a world: liver_portal_vein) and the tissue's reaction (LaminaReaction), each
+// packer laid out once for a model with its triangles. A cut makes another model: a new Outgoing
+// is made for it (IgtlSession::sent_for, WorldIgtlSession's per body).
 
 #include <Eigen/Core>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "igtl_wire.h"
-#include "lamina/interact/realtime_loop.h"
 #include "lamina/model/model.h"
 
 namespace lamina::net {
@@ -27,17 +28,21 @@ igtlink::Packed reaction_message(const Eigen::Vector3d& reaction_mn, igtlink::Fr
 
 class Outgoing {
  public:
-  /// Laid out for `model` (kept while sent); an embedded surface whose name the wire cannot
-  /// carry, or that another message has, is said in the log and not sent.
-  Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame);
+  /// Laid out for `model` (kept while sent); an embedded surface's device is `prefix` and its
+  /// name; one the wire cannot carry, or that another message has (`taken`, or this model's
+  /// own), is said in the log and not sent.
+  Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame, const std::string& prefix = "",
+           const std::set<std::string>& taken = {});
 
   /// A GET_POLYDATA names a layer (LaminaLayerK) or an embedded surface; any other name means
-  /// the skin (the protocol's example client asks as "Client").
-  igtlink::Packed requested(const interact::LoopSnapshot& snap, const std::string& device);
-  igtlink::Packed layer(const interact::LoopSnapshot& snap, int32_t k);
+  /// the skin (the protocol's example client asks as "Client"). `x`: the model's positions.
+  igtlink::Packed requested(const Eigen::MatrixX3d& x, const std::string& device);
+  igtlink::Packed layer(const Eigen::MatrixX3d& x, int32_t k);
   /// The embedded surface's points W x; its buffers are kept from one frame to the next.
-  igtlink::Packed embedded(const interact::LoopSnapshot& snap, int32_t e);
+  igtlink::Packed embedded(const Eigen::MatrixX3d& x, int32_t e);
   int32_t embedded_count() const { return static_cast<int32_t>(embedded_.size()); }
+  /// The embedded surface sent as `device`, or -1.
+  int32_t find_embedded(const std::string& device) const;
   igtlink::Packed reaction(const Eigen::Vector3d& reaction_mn) const;
   /// One line per embedded surface sent: its size on the wire and (at exit) what a frame of it
   /// cost.
@@ -54,7 +59,6 @@ class Outgoing {
     int64_t packs = 0;
   };
   int32_t requested_layer(const std::string& device) const;
-  int32_t find_embedded(const std::string& device) const;
 
   std::shared_ptr<const Model> shared_;  // a cut replaces the loop's: kept while sent
   const Model& model_;

@@ -35,11 +35,12 @@ web::SessionOptions web_session_options(const ServeOptions& a) {
 namespace {
 
 // The network's duties of one turn: the web page's (its frames), OpenIGTLink's (its clients'
-// messages, the reaction each step, the skins at send_hz, a paused stroke). Waits on the
+// messages, the reaction each step, the skins at send_hz, the embedded surfaces at embedded_hz,
+// a paused stroke). Waits on the
 // OpenIGTLink server's sockets when there is one, else sleeps: at most until the next duty.
 struct WorldEdges {
   const ServeOptions& a;
-  ServeClock::time_point start, next_tick, next_reaction;
+  ServeClock::time_point start, next_tick, next_reaction, next_embedded;
   std::unique_ptr<web::WorldSession> web = nullptr;
   igtlink::Server* igtl_server = nullptr;
   std::unique_ptr<WorldIgtlSession> igtl = nullptr;
@@ -55,6 +56,8 @@ struct WorldEdges {
     const auto now = Clock::now();
     wait_s = std::min(wait_s, seconds(next_tick - now));
     if (a.reaction_hz > 0.0) wait_s = std::min(wait_s, seconds(next_reaction - now));
+    const bool embedded = a.embedded_hz > 0.0 && igtl->has_embedded();
+    if (embedded) wait_s = std::min(wait_s, seconds(next_embedded - now));
     wait_s = std::min(wait_s, igtl->finish_paused_stroke(seconds(now - start)));
     igtl_server->poll(
         std::max(wait_s, 0.0), [&](const igtlink::Message& msg) { igtl->handle(msg); },
@@ -62,6 +65,10 @@ struct WorldEdges {
     if (a.reaction_hz > 0.0 && Clock::now() >= next_reaction) {
       advance(next_reaction, every(a.reaction_hz));
       igtl->stream_reaction();
+    }
+    if (embedded && Clock::now() >= next_embedded) {
+      advance(next_embedded, every(a.embedded_hz));
+      igtl->stream_embedded();
     }
     if (Clock::now() >= next_tick) {
       advance(next_tick, every(a.send_hz > 0.0 ? a.send_hz : 30.0));
@@ -93,13 +100,15 @@ int serve_world(Listening& listening, world::World world,
       std::move(world),
       {.rate_hz = rate.rate_hz(), .threads = a.threads, .dissections = std::move(dissections)});
   const auto start = Clock::now();
-  WorldEdges edges{.a = a, .start = start, .next_tick = start, .next_reaction = start};
+  WorldEdges edges{
+      .a = a, .start = start, .next_tick = start, .next_reaction = start, .next_embedded = start};
   if (listening.servers->web)
     edges.web = std::make_unique<web::WorldSession>(std::move(listening.servers->web),
                                                     web_session_options(a), loop);
   if (listening.servers->igtl) {
     edges.igtl_server = listening.servers->igtl.get();
     edges.igtl = std::make_unique<WorldIgtlSession>(a, *edges.igtl_server, loop, rate, start);
+    edges.igtl->log_embedded(false);
   }
   world::WorldSnapshot snap;
   loop.latest(snap);
@@ -127,7 +136,10 @@ int serve_world(Listening& listening, world::World world,
   loop.stop();
   loop.latest(snap);
   if (edges.web) edges.web->log_summary();
-  if (edges.igtl) edges.igtl->log_summary(seconds(Clock::now() - start));
+  if (edges.igtl) {
+    edges.igtl->log_embedded(true);
+    edges.igtl->log_summary(seconds(Clock::now() - start));
+  }
   listening.servers->igtl.reset();  // a Listening serves once
   const double wall_s = seconds(Clock::now() - start);
   log::info(

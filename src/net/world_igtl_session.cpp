@@ -23,7 +23,8 @@ WorldIgtlSession::WorldIgtlSession(const ServeOptions& options, igtlink::Server&
   loop_.latest(snap_);
   // Each body's skin goes out under the body's name, which the wire carries when it has 1 to 20
   // characters and no other message has it; else as LaminaBodyK (said once).
-  std::set<std::string> taken = {Outgoing::kReactionDevice, "LaminaCut", "LaminaRealTime"};
+  std::set<std::string>& taken = taken_;
+  taken = {Outgoing::kReactionDevice, "LaminaCut", "LaminaRealTime"};
   for (size_t b = 0; b < snap_.bodies.size(); ++b) {
     const std::string& name = snap_.bodies[b].name;
     std::string device = name;
@@ -35,22 +36,54 @@ WorldIgtlSession::WorldIgtlSession(const ServeOptions& options, igtlink::Server&
           name, device, kMaxDeviceName);
     }
     taken.insert(device);
-    bodies_.push_back({.device = device, .topology = ~0u, .packer = nullptr});
+    bodies_.push_back({.device = device, .topology = ~0u, .packer = nullptr, .embedded = nullptr});
     log::info("OpenIGTLink: POLYDATA '{}': the skin of {}, {} points, {} triangles", device, name,
               snap_.bodies[b].model->layers[0].node_count,
               snap_.bodies[b].model->layers[0].F.rows());
   }
+  for (size_t b = 0; b < bodies_.size(); ++b) laid_out(b);
+}
+
+// A body's packers, laid out again for the model a cut (or an undo, a reset) gave it: its skin's
+// triangles change, and a cut adds the wound to its embedded surfaces.
+WorldIgtlSession::BodyOut& WorldIgtlSession::laid_out(size_t b) {
+  const world::BodyView& v = snap_.bodies[b];
+  BodyOut& out = bodies_[b];
+  if (out.packer && out.topology == v.topology) return out;
+  const int32_t n = v.model->layers[0].node_count;
+  out.packer = std::make_unique<igtlink::PolyDataPacker>(out.device, v.model->layers[0].F, n);
+  out.embedded = std::make_unique<Outgoing>(v.model, frame_, out.device + "_", taken_);
+  out.topology = v.topology;
+  return out;
 }
 
 igtlink::Packed WorldIgtlSession::skin(size_t b) {
   const world::BodyView& v = snap_.bodies[b];
-  BodyOut& out = bodies_[b];
-  const int32_t n = v.model->layers[0].node_count;
-  if (!out.packer || out.topology != v.topology) {  // laid out again for the cut body's skin
-    out.packer = std::make_unique<igtlink::PolyDataPacker>(out.device, v.model->layers[0].F, n);
-    out.topology = v.topology;
+  return laid_out(b).packer->pack(v.x.topRows(v.model->layers[0].node_count), frame_);
+}
+
+bool WorldIgtlSession::has_embedded() const {
+  return std::any_of(bodies_.begin(), bodies_.end(), [](const BodyOut& o) {
+    return o.embedded && o.embedded->embedded_count() > 0;
+  });
+}
+
+// Their own stream, so that a client still taking one never misses a skin or a reaction.
+void WorldIgtlSession::stream_embedded() {
+  if (server_.client_count() == 0) return;
+  loop_.latest(snap_);
+  embedded_batch_.clear();
+  for (size_t b = 0; b < snap_.bodies.size() && b < bodies_.size(); ++b) {
+    Outgoing& out = *laid_out(b).embedded;
+    for (int32_t e = 0; e < out.embedded_count(); ++e)
+      embedded_batch_.push_back(out.embedded(snap_.bodies[b].x, e));
   }
-  return out.packer->pack(v.x.topRows(n), frame_);
+  server_.stream(embedded_batch_, igtlink::Stream::kEmbedded);
+}
+
+void WorldIgtlSession::log_embedded(bool at_exit) const {
+  for (const BodyOut& o : bodies_)
+    if (o.embedded) o.embedded->log_embedded(at_exit);
 }
 
 std::vector<igtlink::Packed> WorldIgtlSession::skins() {
@@ -71,7 +104,14 @@ void WorldIgtlSession::handle(const igtlink::Message& msg) {
     // A new rate to every client while streaming (this one included), else the answer to it.
     tell_rate(hz && a_.send_hz > 0.0 ? -1 : msg.client);
   } else if (type == "GET_POLYDATA") {
+    // A body's skin or one of its embedded surfaces by name; any other name: every skin.
     loop_.latest(snap_);
+    for (size_t b = 0; b < snap_.bodies.size() && b < bodies_.size(); ++b) {
+      BodyOut& out = laid_out(b);
+      const int32_t e = out.embedded->find_embedded(msg.header.device);
+      if (e >= 0) return server_.send(msg.client, out.embedded->embedded(snap_.bodies[b].x, e));
+      if (msg.header.device == out.device) return server_.send(msg.client, skin(b));
+    }
     for (const igtlink::Packed& p : skins()) server_.send(msg.client, p);
   } else if (type == "GET_TRANS") {
     server_.send(msg.client, reaction_message(loop_.latest_reaction().reaction_mn, frame_));

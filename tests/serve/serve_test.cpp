@@ -573,6 +573,38 @@ TEST(Serve, AScalpelStrokeCutsTheOrganAndTheVesselsCrossedComeBackAsAnEvent) {
   }
 }
 
+// A world's bodies' embedded surfaces stream as one organ's do, each named after its body and
+// itself (organ_vessels), laid out with the model's triangles, at rest where the model puts them;
+// a GET_POLYDATA naming one is answered with it.
+TEST(Serve, AWorldsEmbeddedSurfacesStreamNamedAfterTheBodyAndTheSurface) {
+  TempDir dir;
+  const std::string path = save_embedded_phantom(dir.file("embedded.vtu"));
+  const Model m = io::load_model(path);
+  ASSERT_FALSE(m.embedded.empty());
+  std::ofstream(dir.path / "world.json")
+      << R"({"bodies": [{"name": "organ", "model": {"model": ")" + path + R"("}}]})";
+  Server server(dir.path, with({(dir.path / "world.json").string(), "--embedded-hz", "20"}));
+  Client watcher(server.port());
+  for (const EmbeddedSurface& e : m.embedded) {
+    const auto message = watcher.receive("POLYDATA", "organ_" + e.name, 30.0);
+    ASSERT_TRUE(message) << e.name << "\n" << server.log();
+    const auto polydata = unpack<igtl::PolyDataMessage>(*message);
+    ASSERT_EQ(polydata->GetPoints()->GetNumberOfPoints(), e.V.rows()) << e.name;
+    ASSERT_EQ(polydata->GetPolygons()->GetNumberOfCells(), e.F.rows()) << e.name;
+    Eigen::MatrixX3d expected;
+    model::embedded_positions(e, m.X, expected);
+    expected.leftCols(2) *= -1.0;  // RAS
+    EXPECT_LT((polydata_points(*message) - expected).cwiseAbs().maxCoeff(), 1e-3) << e.name;
+  }
+  const std::string asked = "organ_" + m.embedded.back().name;
+  watcher.send_bytes(header_bytes(1, "GET_POLYDATA", asked, 0, {}));
+  EXPECT_TRUE(watcher.receive("POLYDATA", asked, 10.0)) << server.log();
+  server.process().terminate();
+  EXPECT_EQ(server.process().wait(20.0), 0) << server.log();
+  EXPECT_TRUE(server.log_shows("0 connections dropped")) << server.log();
+  EXPECT_TRUE(server.log_shows("POLYDATA '" + asked + "'")) << server.log();
+}
+
 // --embedded-hz 0: no embedded surface is streamed, the skin still is, and a GET_POLYDATA naming
 // one is answered with it.
 TEST(Serve, EmbeddedHzZeroStreamsNoneAndAnswersARequest) {
