@@ -121,12 +121,33 @@ int serve_world(Listening& listening, world::World world,
             a.duration_s > 0.0 ? fmt::format(" for {:g} s", a.duration_s) : "");
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(a.duration_s));
+  // A blow-up is said in one error line (at most every 10 s with the count, as a tool held where
+  // it blew the world up does it again), the world is reset to rest and the serve goes on, as
+  // one organ's does; the exit code says it happened.
+  int64_t unstable_events = 0;
+  bool awaiting_reset = false;
+  auto next_unstable_log = start;
   loop.start();
   while (keep_going()) {
     if (a.duration_s > 0.0 && Clock::now() >= deadline) break;
     edges.turn();
     loop.latest(snap);
-    if (snap.unstable != sim::Instability::kNone) break;
+    if (snap.unstable == sim::Instability::kNone) {
+      awaiting_reset = false;
+    } else if (!awaiting_reset) {
+      ++unstable_events;
+      awaiting_reset = true;
+      if (Clock::now() >= next_unstable_log) {
+        log::error(
+            "body '{}' became unstable at t = {:.3f} s: {}; the world is reset to rest (a lower "
+            "--tip-stiffness, a lower --rate or a stiffer material avoids it){}",
+            snap.unstable_body, snap.time_s, sim::describe(snap.unstable),
+            unstable_events > 1 ? fmt::format(" ({} times so far)", unstable_events) : "");
+        next_unstable_log = Clock::now() + std::chrono::seconds(10);
+      }
+      loop.reset();
+      continue;
+    }
     // Each wall second: the machine's rate followed, the time behind said (ServeRate::judge).
     const auto second = static_cast<uint64_t>(snap.steps > 0 ? seconds(Clock::now() - start) : 0);
     const ServeRate::Judgement j = rate.judge(snap.rate, second);
@@ -148,9 +169,9 @@ int serve_world(Listening& listening, world::World world,
       snap.steps, snap.time_s, wall_s, wall_s > 0.0 ? snap.time_s / wall_s : 0.0, rate.behind_s(),
       rate.rate_hz(), rate.chosen_by(), snap.tie_count.divided, snap.tie_count.total,
       snap.tie_count.torn);
-  if (snap.unstable != sim::Instability::kNone) {
-    log::error("lamina serve: body '{}' became unstable at t = {:.3f} s: {}", snap.unstable_body,
-               snap.time_s, sim::describe(snap.unstable));
+  if (unstable_events > 0) {
+    log::error("the world became unstable {} time(s) during the session (see above)",
+               unstable_events);
     return static_cast<int>(ErrorKind::kUnstable);
   }
   return 0;

@@ -415,34 +415,70 @@ TEST(Serve, AWorldSendsEachBodysSkinAndTheHandsActOnTheBodyTheyMeet) {
 // A case built to fail: a physical liver whose implicit solver may take one conjugate-gradient
 // iteration a step against a 1e-12 tolerance. Untouched it is at rest (nothing to solve); pushed
 // by a stiff tip (up to 4 N), every solve stops far short, and after
-// sim::kUnsolvedStepsToUnstable of them the simulation is unstable. The log says so in one error
-// line (at most every 10 s however often it recurs), the organ is put back at rest each time,
-// the session goes on, and its exit code is 5, not 0.
-TEST(Serve, AnUnstableSimulationIsLoggedResetAndEndsWithExitFive) {
+// sim::kUnsolvedStepsToUnstable of them the simulation is unstable.
+constexpr const char* kStallingSolver =
+    R"("solver": {"integrator": "implicit_euler", "preconditioner": "jacobi",
+                  "cg_max_iterations": 1, "cg_tolerance": 1e-12})";
+
+// Serves `scene` (written to stalls.json) with a stiff tip, presses the tool 3 mm into the most
+// anterior point of the skin streamed as `skin_device`, and waits (15 s at most) for the log to
+// say `said`.
+struct Stalled {
   TempDir dir;
-  std::ofstream(dir.path / "stalls.json") << R"({"model": {"build": {"skin_vertices": 400}},
-      "solver": {"integrator": "implicit_euler", "preconditioner": "jacobi", "cg_max_iterations": 1,
-                 "cg_tolerance": 1e-12}})";
-  Server server(dir.path, with({(dir.path / "stalls.json").string(), "--send-hz", "5",
-                                "--tip-stiffness", "2000"}));
-  Client tool(server.port());
-  const auto skin = tool.receive("POLYDATA", "LaminaSkin", 30.0);
-  ASSERT_TRUE(skin) << server.log();
+  std::unique_ptr<Server> server;
+  std::unique_ptr<Client> tool;
+};
+std::unique_ptr<Stalled> press_until(const std::string& scene, const std::string& skin_device,
+                                     const std::string& said) {
+  auto st = std::make_unique<Stalled>();
+  std::ofstream(st->dir.path / "stalls.json") << scene;
+  st->server = std::make_unique<Server>(
+      st->dir.path,
+      with({(st->dir.path / "stalls.json").string(), "--send-hz", "5", "--tip-stiffness", "2000"}));
+  st->tool = std::make_unique<Client>(st->server->port());
+  const auto skin = st->tool->receive("POLYDATA", skin_device, 30.0);
+  EXPECT_TRUE(skin) << st->server->log();
+  if (!skin) return st;
   const Eigen::MatrixX3d rest = polydata_points(*skin);
   Eigen::Index front = 0;
   rest.col(1).maxCoeff(&front);  // RAS: the most anterior node
-  tool.send_bytes(
+  st->tool->send_bytes(
       transform_bytes("Needle", rest.row(front).transpose() + Eigen::Vector3d(0, 3, 0)));
-  const auto t0 = Clock::now();
-  while (server.log().find("became unstable") == std::string::npos && seconds_since(t0) < 15.0)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  EXPECT_NE(server.log().find("the simulation became unstable at t = "), std::string::npos)
-      << server.log();
-  EXPECT_NE(server.log().find("the implicit solver missed its tolerance"), std::string::npos);
-  EXPECT_NE(server.log().find("the organ is reset to rest"), std::string::npos);
+  st->server->log_shows(said, 15.0);
+  return st;
+}
+
+// The log says so in one error line (at most every 10 s however often it recurs), the organ is
+// put back at rest each time, the session goes on, and its exit code is 5, not 0.
+TEST(Serve, AnUnstableSimulationIsLoggedResetAndEndsWithExitFive) {
+  const auto st = press_until(
+      std::string(R"({"model": {"build": {"skin_vertices": 400}}, )") + kStallingSolver + "}",
+      "LaminaSkin", "became unstable");
+  Server& server = *st->server;
+  EXPECT_TRUE(server.log_shows("the simulation became unstable at t = ")) << server.log();
+  EXPECT_TRUE(server.log_shows("the implicit solver missed its tolerance"));
+  EXPECT_TRUE(server.log_shows("the organ is reset to rest"));
   server.process().terminate();
   EXPECT_EQ(server.process().wait(20.0), 5) << server.log();
-  EXPECT_NE(server.log().find("time(s) during the session"), std::string::npos) << server.log();
+  EXPECT_TRUE(server.log_shows("time(s) during the session")) << server.log();
+}
+
+// The same case as a world of one body: said, the world reset and served on, exit 5 (a world's
+// serve once stopped at its first blow-up).
+TEST(Serve, AnUnstableWorldIsLoggedResetAndEndsWithExitFive) {
+  const auto st = press_until(
+      std::string(
+          R"({"bodies": [{"name": "organ", "model": {"build": {"skin_vertices": 400}}}], )") +
+          kStallingSolver + "}",
+      "organ", "the world is reset to rest");
+  Server& server = *st->server;
+  EXPECT_TRUE(server.log_shows("body 'organ' became unstable at t = ")) << server.log();
+  EXPECT_TRUE(server.log_shows("the implicit solver missed its tolerance")) << server.log();
+  // Served on after the reset: the skin still streams.
+  EXPECT_TRUE(st->tool->receive("POLYDATA", "organ", 5.0)) << server.log();
+  server.process().terminate();
+  EXPECT_EQ(server.process().wait(20.0), 5) << server.log();
+  EXPECT_TRUE(server.log_shows("time(s) during the session")) << server.log();
 }
 
 // The embedded surfaces of the model served (a display skin, vessels, a tumour) each stream as a
