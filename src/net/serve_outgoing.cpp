@@ -20,23 +20,23 @@ std::string layer_device(int32_t k) {
   return k == 0 ? "LaminaSkin" : "LaminaLayer" + std::to_string(k);
 }
 
-Outgoing::Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame,
-                   const std::string& prefix, const std::set<std::string>& taken_elsewhere)
-    : shared_(std::move(model)), model_(*shared_), frame_(frame) {
+Outgoing::Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame, OutgoingNames names)
+    : shared_(std::move(model)), model_(*shared_), frame_(frame), names_(std::move(names)) {
   const Model& m = model_;
-  for (int32_t k = 0; k < m.layer_count(); ++k) {
+  const int32_t layers = names_.inner_layers ? m.layer_count() : 1;
+  for (int32_t k = 0; k < layers; ++k) {
     const ModelLayer& layer = m.layers[static_cast<size_t>(k)];
     // The model's triangles index every node; a message indexes its own points.
     const Eigen::MatrixX3i F = layer.F.array() - layer.first_node;
-    layers_.emplace_back(layer_device(k), F, layer.node_count);
+    layers_.emplace_back(k == 0 ? names_.skin : layer_device(k), F, layer.node_count);
   }
   for (const EmbeddedSurface& e : m.embedded) {
     // A name the wire cannot carry, or one that another message already has, would reach a
     // client as some other surface: said, and that surface is not sent.
-    const std::string device = prefix + e.name;
+    const std::string device = names_.prefix + e.name;
     const bool taken = device == kReactionDevice || requested_layer(device) > 0 ||
-                       device == layer_device(0) || find_embedded(device) >= 0 ||
-                       taken_elsewhere.count(device) > 0;
+                       device == names_.skin || find_embedded(device) >= 0 ||
+                       names_.taken.count(device) > 0;
     if (e.name.empty() || device.size() > kMaxDeviceName || taken) {
       log::warn(
           "the embedded surface '{}' is not sent over OpenIGTLink: {} (rename it in the "
@@ -94,7 +94,7 @@ void Outgoing::log_embedded(bool at_exit) const {
 }
 
 int32_t Outgoing::requested_layer(const std::string& device) const {
-  for (int32_t k = 1; k < model_.layer_count(); ++k)
+  for (int32_t k = 1; k < static_cast<int32_t>(layers_.size()); ++k)
     if (device == layer_device(k)) return k;
   return 0;
 }

@@ -26,18 +26,29 @@ std::string layer_device(int32_t k);
 /// translation written in `frame`.
 igtlink::Packed reaction_message(const Eigen::Vector3d& reaction_mn, igtlink::Frame frame);
 
+/// The device names an Outgoing sends under. One organ's: LaminaSkin and LaminaLayerK, its
+/// embedded surfaces by their names; a world body's: its skin under the body's name, no inner
+/// layer, its embedded surfaces after the body (liver_portal_vein).
+struct OutgoingNames {
+  std::string skin = "LaminaSkin";  ///< layer 0's device (layer_device(0))
+  bool inner_layers = true;         ///< LaminaLayerK for the layers inside the skin
+  std::string prefix;               ///< before each embedded surface's name
+  std::set<std::string> taken;      ///< what other messages are sent as
+};
+
 class Outgoing {
  public:
-  /// Laid out for `model` (kept while sent); an embedded surface's device is `prefix` and its
-  /// name; one the wire cannot carry, or that another message has (`taken`, or this model's
-  /// own), is said in the log and not sent.
-  Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame, const std::string& prefix = "",
-           const std::set<std::string>& taken = {});
+  /// Laid out for `model` (kept while sent); an embedded surface's device is names.prefix and
+  /// its name; one the wire cannot carry, or that another message has (names.taken, or this
+  /// model's own), is said in the log and not sent.
+  Outgoing(std::shared_ptr<const Model> model, igtlink::Frame frame, OutgoingNames names = {});
 
   /// A GET_POLYDATA names a layer (LaminaLayerK) or an embedded surface; any other name means
   /// the skin (the protocol's example client asks as "Client"). `x`: the model's positions.
   igtlink::Packed requested(const Eigen::MatrixX3d& x, const std::string& device);
+  /// Layer k (0, the skin; the inner ones only with names.inner_layers).
   igtlink::Packed layer(const Eigen::MatrixX3d& x, int32_t k);
+  const std::string& skin_device() const { return names_.skin; }
   /// The embedded surface's points W x; its buffers are kept from one frame to the next.
   igtlink::Packed embedded(const Eigen::MatrixX3d& x, int32_t e);
   int32_t embedded_count() const { return static_cast<int32_t>(embedded_.size()); }
@@ -63,6 +74,7 @@ class Outgoing {
   std::shared_ptr<const Model> shared_;  // a cut replaces the loop's: kept while sent
   const Model& model_;
   igtlink::Frame frame_;
+  OutgoingNames names_;
   std::vector<igtlink::PolyDataPacker> layers_;
   std::vector<Embedded> embedded_;
 };

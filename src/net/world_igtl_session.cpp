@@ -36,7 +36,7 @@ WorldIgtlSession::WorldIgtlSession(const ServeOptions& options, igtlink::Server&
           name, device, kMaxDeviceName);
     }
     taken.insert(device);
-    bodies_.push_back({.device = device, .topology = ~0u, .packer = nullptr, .embedded = nullptr});
+    bodies_.push_back({.device = device, .topology = ~0u, .out = nullptr});
     log::info("OpenIGTLink: POLYDATA '{}': the skin of {}, {} points, {} triangles", device, name,
               snap_.bodies[b].model->layers[0].node_count,
               snap_.bodies[b].model->layers[0].F.rows());
@@ -46,26 +46,26 @@ WorldIgtlSession::WorldIgtlSession(const ServeOptions& options, igtlink::Server&
 
 // A body's packers, laid out again for the model a cut (or an undo, a reset) gave it: its skin's
 // triangles change, and a cut adds the wound to its embedded surfaces.
-WorldIgtlSession::BodyOut& WorldIgtlSession::laid_out(size_t b) {
+Outgoing& WorldIgtlSession::laid_out(size_t b) {
   const world::BodyView& v = snap_.bodies[b];
-  BodyOut& out = bodies_[b];
-  if (out.packer && out.topology == v.topology) return out;
-  const int32_t n = v.model->layers[0].node_count;
-  out.packer = std::make_unique<igtlink::PolyDataPacker>(out.device, v.model->layers[0].F, n);
-  out.embedded = std::make_unique<Outgoing>(v.model, frame_, out.device + "_", taken_);
-  out.topology = v.topology;
-  return out;
+  BodyOut& body = bodies_[b];
+  if (body.out && body.topology == v.topology) return *body.out;
+  body.out = std::make_unique<Outgoing>(v.model, frame_,
+                                        OutgoingNames{.skin = body.device,
+                                                      .inner_layers = false,
+                                                      .prefix = body.device + "_",
+                                                      .taken = taken_});
+  body.topology = v.topology;
+  return *body.out;
 }
 
 igtlink::Packed WorldIgtlSession::skin(size_t b) {
-  const world::BodyView& v = snap_.bodies[b];
-  return laid_out(b).packer->pack(v.x.topRows(v.model->layers[0].node_count), frame_);
+  return laid_out(b).layer(snap_.bodies[b].x, 0);
 }
 
 bool WorldIgtlSession::has_embedded() const {
-  return std::any_of(bodies_.begin(), bodies_.end(), [](const BodyOut& o) {
-    return o.embedded && o.embedded->embedded_count() > 0;
-  });
+  return std::any_of(bodies_.begin(), bodies_.end(),
+                     [](const BodyOut& o) { return o.out && o.out->embedded_count() > 0; });
 }
 
 // Their own stream, so that a client still taking one never misses a skin or a reaction.
@@ -74,7 +74,7 @@ void WorldIgtlSession::stream_embedded() {
   loop_.latest(snap_);
   embedded_batch_.clear();
   for (size_t b = 0; b < snap_.bodies.size() && b < bodies_.size(); ++b) {
-    Outgoing& out = *laid_out(b).embedded;
+    Outgoing& out = laid_out(b);
     for (int32_t e = 0; e < out.embedded_count(); ++e)
       embedded_batch_.push_back(out.embedded(snap_.bodies[b].x, e));
   }
@@ -83,7 +83,7 @@ void WorldIgtlSession::stream_embedded() {
 
 void WorldIgtlSession::log_embedded(bool at_exit) const {
   for (const BodyOut& o : bodies_)
-    if (o.embedded) o.embedded->log_embedded(at_exit);
+    if (o.out) o.out->log_embedded(at_exit);
 }
 
 std::vector<igtlink::Packed> WorldIgtlSession::skins() {
@@ -107,10 +107,10 @@ void WorldIgtlSession::handle(const igtlink::Message& msg) {
     // A body's skin or one of its embedded surfaces by name; any other name: every skin.
     loop_.latest(snap_);
     for (size_t b = 0; b < snap_.bodies.size() && b < bodies_.size(); ++b) {
-      BodyOut& out = laid_out(b);
-      const int32_t e = out.embedded->find_embedded(msg.header.device);
-      if (e >= 0) return server_.send(msg.client, out.embedded->embedded(snap_.bodies[b].x, e));
-      if (msg.header.device == out.device) return server_.send(msg.client, skin(b));
+      Outgoing& out = laid_out(b);
+      const int32_t e = out.find_embedded(msg.header.device);
+      if (e >= 0) return server_.send(msg.client, out.embedded(snap_.bodies[b].x, e));
+      if (msg.header.device == out.skin_device()) return server_.send(msg.client, skin(b));
     }
     for (const igtlink::Packed& p : skins()) server_.send(msg.client, p);
   } else if (type == "GET_TRANS") {

@@ -56,11 +56,10 @@ class WorldIgtlSession {
  private:
   struct BodyOut {
     std::string device;
-    uint32_t topology = ~0u;  // the body's topology its packers are laid out for
-    std::unique_ptr<igtlink::PolyDataPacker> packer;
-    std::unique_ptr<Outgoing> embedded;  // its embedded surfaces', named after it
+    uint32_t topology = ~0u;        // the body's topology its packers are laid out for
+    std::unique_ptr<Outgoing> out;  // its skin and embedded surfaces, named after it
   };
-  BodyOut& laid_out(size_t b);
+  Outgoing& laid_out(size_t b);
   igtlink::Packed skin(size_t b);
   std::vector<igtlink::Packed> skins();
   void report_cuts();
