@@ -46,16 +46,28 @@ struct BodySeries {
   std::vector<std::pair<double, std::string>> files;
 };
 
-// Body b's embedded surface k as a series of its own, named after both ("liver_wound").
-void add_embedded_series(std::vector<BodySeries>& series, const world::Body& body, size_t b,
-                         size_t k, model::Rgb8 color, std::set<std::string>& names) {
-  BodySeries& se = series.emplace_back();
-  se.name = series_name(body.name + "_" + body.model->embedded[k].name, names);
-  se.body = b;
-  se.embedded = static_cast<int32_t>(k);
-  se.mesh.F = body.model->embedded[k].F;
-  se.color = color;
-  names.insert(se.name);
+// Body b's embedded surfaces the scene writes (output.embedded; the display skin with
+// output.display_skin) that have no series yet, each as its own, named after both
+// ("liver_portal_vein"; after a cut, "liver_wound").
+void add_body_series(std::vector<BodySeries>& series, const world::Body& body, size_t b,
+                     const io::SceneOutput& output, std::set<std::string>& names) {
+  if (!output.embedded) return;
+  const Model& m = *body.model;
+  const std::vector<model::Rgb8> colors = model::structure_colors(m);
+  for (size_t k = 0; k < m.embedded.size(); ++k) {
+    const bool display = static_cast<int32_t>(k) == model::display_skin_index(m);
+    const bool has = std::any_of(series.begin(), series.end(), [&](const BodySeries& se) {
+      return se.body == b && se.embedded == static_cast<int32_t>(k);
+    });
+    if (has || !(display ? output.display_skin : output.embedded)) continue;
+    BodySeries& se = series.emplace_back();
+    se.name = series_name(body.name + "_" + m.embedded[k].name, names);
+    se.body = b;
+    se.embedded = static_cast<int32_t>(k);
+    se.mesh.F = m.embedded[k].F;
+    se.color = colors[k];
+    names.insert(se.name);
+  }
 }
 
 std::vector<BodySeries> world_series(const io::ReadyWorld& w, const io::SceneOutput& output) {
@@ -63,19 +75,12 @@ std::vector<BodySeries> world_series(const io::ReadyWorld& w, const io::SceneOut
   std::set<std::string> names;
   for (size_t b = 0; b < w.ids.size(); ++b) {
     const world::Body& body = world::body(w.world, w.ids[b]);
-    const Model& m = *body.model;
     BodySeries& skin = out.emplace_back();
     skin.name = series_name(body.name + "_skin", names);
     skin.body = b;
-    skin.mesh = model::layer_mesh(m, 0);
+    skin.mesh = model::layer_mesh(*body.model, 0);
     names.insert(skin.name);
-    if (!output.embedded) continue;
-    const std::vector<model::Rgb8> colors = model::structure_colors(m);
-    for (size_t k = 0; k < m.embedded.size(); ++k) {
-      const bool display = static_cast<int32_t>(k) == model::display_skin_index(m);
-      if (!(display ? output.display_skin : output.embedded)) continue;
-      add_embedded_series(out, body, b, k, colors[k], names);
-    }
+    add_body_series(out, body, b, output, names);
   }
   return out;
 }
@@ -111,16 +116,7 @@ void follow_cut(std::vector<BodySeries>& series, const io::ReadyWorld& w, size_t
     se.mesh.F = se.embedded < 0 ? model::layer_mesh(m, 0).F
                                 : m.embedded[static_cast<size_t>(se.embedded)].F;
   }
-  if (!output.embedded) return;
-  const std::vector<model::Rgb8> colors = model::structure_colors(m);
-  for (size_t k = 0; k < m.embedded.size(); ++k) {
-    if (static_cast<int32_t>(k) == model::display_skin_index(m) ||
-        std::any_of(series.begin(), series.end(), [&](const BodySeries& se) {
-          return se.body == b && se.embedded == static_cast<int32_t>(k);
-        }))
-      continue;
-    add_embedded_series(series, body, b, k, colors[k], names);
-  }
+  add_body_series(series, body, b, output, names);
 }
 
 // The active ties at this frame as lines (frames/ties_NNNNNN.vtp, their pull in mN), listed in
