@@ -376,7 +376,7 @@ void WorldLoop::Impl::one_step() {
   }
   {
     std::lock_guard lock(reaction_mutex);
-    reaction = {hands_reaction_mn, world.steps, world.time_s};
+    reaction = {hands_reaction_mn(), world.steps, world.time_s};
   }
   const double t1 = now_s();
   window.add(1e6 * (t1 - t0), late_us, t1, world.time_s, stepping_rate_hz, options.real_time);

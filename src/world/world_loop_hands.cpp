@@ -70,9 +70,14 @@ void WorldLoop::Impl::take_hands() {
   }
 }
 
+Eigen::Vector3d WorldLoop::Impl::hands_reaction_mn() const {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& f : body_reaction_mn) sum += f;
+  return sum;
+}
+
 void WorldLoop::Impl::move_hands() {
   tip_proxies.resize(world.bodies.size());
-  hands_reaction_mn.setZero();
   body_reaction_mn.assign(world.bodies.size(), Eigen::Vector3d::Zero());
   for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
     BodySlot& bs = world.bodies[slot];
@@ -85,7 +90,6 @@ void WorldLoop::Impl::move_hands() {
       continue;
     }
     b.tools.tip = interact::load_of_tip(*b.model, b.sim.x, tip, b.tools.routing, proxy);
-    hands_reaction_mn += proxy.device_force_mn;
     body_reaction_mn[slot] += proxy.device_force_mn;
   }
   if (!jaws) {
@@ -136,7 +140,6 @@ void WorldLoop::Impl::move_hands() {
   Body& b = world.bodies[static_cast<size_t>(grasp_slot)].body;
   interact::move_jaws(b.sim, jaws->center_mm, b.tools.hand);
   const Eigen::Vector3d pull = interact::grasp_reaction(b.sim, b.tools.hand);
-  hands_reaction_mn += pull;
   body_reaction_mn[static_cast<size_t>(grasp_slot)] += pull;
 }
 

@@ -79,8 +79,8 @@ struct WorldLoop::Impl {
   std::vector<interact::HapticProxy> tip_proxies;  // per body slot
   std::optional<interact::Jaws> close_at, jaws;
   int32_t grasp_slot = -1;
-  Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
-  std::vector<Eigen::Vector3d> body_reaction_mn;  // per body slot: its part of the above
+  std::vector<Eigen::Vector3d> body_reaction_mn;  // per body slot: its push on the hands
+  Eigen::Vector3d hands_reaction_mn() const;      // the sum: the snapshot's, the device's
   WorldStepStats stats;
   interact::RateWindow window;
   double late_us = 0.0;

@@ -86,7 +86,7 @@ void WorldLoop::Impl::publish(bool force) {
     s.cut_events = cut_events;
   }
   s.undoable = static_cast<int32_t>(history.undo.size());
-  s.hands_reaction_mn = hands_reaction_mn;
+  s.hands_reaction_mn = hands_reaction_mn();
   s.tip_touching = false;
   for (const BodySlot& bs : world.bodies)
     s.tip_touching = s.tip_touching || (bs.alive && !bs.body.tools.tip.nodes.empty());
