@@ -261,9 +261,9 @@ lamina_status lamina_world_dissect(lamina_world* world, const double* path_xyz, 
  * end along the `points` points of `path_xyz` (mm, interleaved, >= 2), reaching depth_mm along
  * `direction`, drawn on the bodies as they are now; the ties it passes are divided too. A body
  * cut is renumbered: lamina_world_body_model's handle describes the cut model from now on (read
- * its counts again), lamina_world_body_topology moves on, and its forces are released (set them
- * again on its new nodes). `tets_divided` (may be NULL) gets how many tetrahedra were divided:
- * 0 when the blade met no tissue. */
+ * its counts again), lamina_world_body_topology moves on, and its forces go on, carried to their
+ * nodes' first copies (set them again on its new nodes to change them). `tets_divided` (may be
+ * NULL) gets how many tetrahedra were divided: 0 when the blade met no tissue. */
 lamina_status lamina_world_cut(lamina_world* world, const double* path_xyz, int32_t points,
                                const double direction[3], double depth_mm, int64_t* tets_divided);
 /* Takes the last lamina_world_cut back: every body it divided as it was just before it

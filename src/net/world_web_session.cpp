@@ -64,6 +64,21 @@ void WorldSession::release_drag() {
   drag_ = {};
 }
 
+// The dragged body renumbered since the drag's last force (a cut carried the force to its node's
+// first copy; a reset or an undo let it go): the drag goes on from the node's copy, or ends.
+void WorldSession::follow_cut() {
+  if (!drag_.pushing) return;
+  loop_.latest(snap_);
+  for (const world::BodyView& b : snap_.bodies) {
+    if (b.id != drag_.body || b.topology == drag_.topology) continue;
+    const auto now = world::carried_force_nodes(
+        b, {interact::LiveForce{.node = drag_.node, .force_mn = Eigen::Vector3d::Zero()}});
+    if (!now) return;  // released: the next set_forces says it is stale, and the drag ends
+    drag_.node = (*now)[0];
+    drag_.topology = b.topology;
+  }
+}
+
 void WorldSession::handle(int client, const std::string& text) {
   const json m = parse_message(text);
   const std::string type = m["type"].get<std::string>();
@@ -83,10 +98,12 @@ void WorldSession::handle(int client, const std::string& text) {
   } else if (type == "drag") {
     const Eigen::Vector3d drag = vector3(m, "drag_mm", 1e4);
     if (drag_.client != client) return;
+    follow_cut();
     try {
       loop_.set_forces(drag_.body, drag_.topology,
                        {interact::LiveForce{.node = drag_.node,
                                             .force_mn = 1000.0 * options_.gain_n_per_mm * drag}});
+      drag_.pushing = true;
     } catch (const Error& e) {  // a stale body or topology: said, the drag ends
       event(client, e.what());
       drag_ = {};

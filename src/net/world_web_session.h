@@ -39,6 +39,7 @@ class WorldSession {
   void send_frame();
   void event(int client, const std::string& text);
   void release_drag();
+  void follow_cut();
   void hand(int client, const nlohmann::json& m);
   void release_tip();
   void release_grasper();
@@ -54,6 +55,7 @@ class WorldSession {
     world::BodyId body;
     uint32_t topology = 0;
     int32_t node = -1;
+    bool pushing = false;  // its force set on the loop (a cut carries it)
   } drag_;
   struct Hand {
     int client = -1, hand = -1;

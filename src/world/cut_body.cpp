@@ -11,16 +11,17 @@
 #include "world_work.h"
 
 namespace lamina::world {
-namespace {
 
-// Each old node's first copy: copies are numbered in their node's order, so the first copy of
-// node v is the first new node whose origin is v.
+// Copies are numbered in their node's order, so the first copy of node v is the first new node
+// whose origin is v.
 std::vector<int32_t> first_copies(const std::vector<int32_t>& origin, int32_t old_nodes) {
   std::vector<int32_t> first(static_cast<size_t>(old_nodes), -1);
   for (size_t i = origin.size(); i-- > 0;)
     first[static_cast<size_t>(origin[i])] = static_cast<int32_t>(i);
   return first;
 }
+
+namespace {
 
 // What the step caches of a body's skin is not the renumbered body's: its grid, every pair's
 // clearances and near lists (keyed by the models' addresses, which a new model may reuse), its

@@ -17,6 +17,12 @@
 
 namespace lamina::world {
 
+std::optional<std::vector<int32_t>> carried_force_nodes(
+    const BodyView& now, const std::vector<interact::LiveForce>& sent) {
+  if (now.force_nodes.size() != sent.size()) return std::nullopt;
+  return now.force_nodes;
+}
+
 WorldLoop::WorldLoop(World world, WorldLoopOptions options)
     : impl_(std::make_unique<Impl>(std::move(world), std::move(options))) {
   Impl& m = *impl_;
@@ -345,8 +351,11 @@ void WorldLoop::Impl::route_forces(int32_t slot) {
 }
 
 // A body renumbered (cut, or put back uncut): callers' node numbers of it are checked against
-// its new generation, and its live forces, on the old numbers, are released.
-void WorldLoop::Impl::topology_changed(int32_t slot) {
+// its new generation. A cut carries its live forces to their nodes' first copies (on the skin,
+// as the nodes were; their routes were carried with its tools, each copy taking its share), as
+// the one-organ loop carries them: a drag goes on through the cut. Put back (an undo, a reset),
+// they are released: their nodes may be copies that are no longer there.
+void WorldLoop::Impl::topology_changed(int32_t slot, const std::vector<int32_t>* origin) {
   Body& b = world.bodies[static_cast<size_t>(slot)].body;
   for (Handle& h : handles)
     if (h.id.index == slot) {
@@ -354,8 +363,20 @@ void WorldLoop::Impl::topology_changed(int32_t slot) {
       h.skin_nodes = b.model->layers[0].node_count;
       h.rings_locality = b.model->rings.locality;
     }
-  live[static_cast<size_t>(slot)].forces.clear();
-  b.tools.live_routes.clear();
+  std::vector<interact::LiveForce>& forces = live[static_cast<size_t>(slot)].forces;
+  if (origin != nullptr) {
+    int32_t before = 0;
+    for (const int32_t o : *origin) before = std::max(before, o + 1);
+    const std::vector<int32_t> first = first_copies(*origin, before);
+    for (interact::LiveForce& f : forces)
+      f.node = f.node >= 0 && f.node < before ? first[static_cast<size_t>(f.node)] : -1;
+    // Every node has a copy; a force that found none goes, and the rest are routed again.
+    if (std::erase_if(forces, [](const interact::LiveForce& f) { return f.node < 0; }) > 0)
+      route_forces(slot);
+  } else {
+    forces.clear();
+    b.tools.live_routes.clear();
+  }
   forget_tip(slot);
 }
 

@@ -91,8 +91,9 @@ void WorldLoop::Impl::take_cut(bool wait) {
       continue;
     }
     model::CutReport r;
+    std::vector<int32_t> origin;
     try {  // kept as it was for an undo (and a reset)
-      r = world::take_cut(world, o.id, o.cut, nullptr, &entry.before);
+      r = world::take_cut(world, o.id, o.cut, &origin, &entry.before);
     } catch (const Error& e) {  // nothing of the body changed
       log::warn("world: cut: {}", e.what());
       continue;
@@ -104,7 +105,7 @@ void WorldLoop::Impl::take_cut(bool wait) {
               r.cut_tets, r.new_nodes);
     reports.emplace_back(body(world, o.id).name, std::move(r));
     std::lock_guard lock(mutex);
-    topology_changed(o.id.index);
+    topology_changed(o.id.index, &origin);
   }
   const Stroke& s = j.stroke;
   // The ties this stroke divides, for its undo (a stroke that cut no tissue has none).

@@ -140,8 +140,10 @@ struct WorldLoop::Impl {
   void begin_cut(Stroke stroke);
   void take_cut(bool wait);
   void apply_undos();
-  void apply_parameters();              // under mutex: new_params
-  void topology_changed(int32_t slot);  // under mutex: a body renumbered
+  void apply_parameters();  // under mutex: new_params
+  // Under mutex: a body renumbered, by a cut (`origin`: its live forces carried to their nodes'
+  // first copies) or put back (none: they are released).
+  void topology_changed(int32_t slot, const std::vector<int32_t>* origin = nullptr);
   // The hands (world_loop_hands.cpp).
   void take_hands();              // under mutex: the tip and jaws the callers set
   void move_hands();              // before each step: the tip's loads, the jaws

@@ -238,6 +238,51 @@ TEST_F(WorldViewTest, AScalpelDragCutsTheBodyItCrossesWhichIsDrawnAndDraggedOnIt
   EXPECT_EQ(s->report()["cuts"]["strokes"], 1);
 }
 
+// A force pinned on a body (Shift at the drag's release) goes on through a cut of it: the loop
+// carries it to its node's first copy and the view follows it there (it is not sent again on the
+// old numbering, which the loop would refuse); C then lets it go and the cut body comes back.
+TEST_F(WorldViewTest, APinnedForceGoesOnThroughACutOfItsBodyAndCLetsItGo) {
+  auto s = tied_spheres();
+  s->start();
+  ASSERT_TRUE(simulate_for(*s, 0.1));
+  drag_from(*s, pixel_of(world::test_world::sphere_centre() + Eigen::Vector3d(0.0, 12.0, 0.0)),
+            Eigen::Vector2d(-24.0, 0));
+  ASSERT_THAT(s->last_press(), HasSubstr("drag a node"));
+  render::inject(InputEvent::key_down("shift"));
+  s->frame();
+  render::inject(InputEvent::release(MouseButton::kLeft));
+  s->frame();
+  render::inject(InputEvent::key_up("shift"));
+  s->frame();
+  ASSERT_TRUE(simulate_for(*s, 1.0));
+  ASSERT_EQ(s->snapshot().bodies[0].force_nodes.size(), 1u) << "Shift did not pin the drag";
+  const double pinned_moved = moved(s->snapshot().bodies[0]);
+  ASSERT_GT(pinned_moved, 1.0) << "the pinned force did not move body a";
+
+  stroke_down(*s, "k", pixel_of(world::test_world::sphere_centre()), 150.0);
+  ASSERT_TRUE(frames_until(
+      *s, [&] { return s->snapshot().bodies[0].topology == 1; }, 20.0))
+      << "the scalpel cut nothing: " << s->snapshot().cut_message;
+  ASSERT_TRUE(simulate_for(*s, 1.0));
+  EXPECT_EQ(s->status(), "") << "the pinned force was sent on the old numbering";
+  ASSERT_EQ(s->snapshot().bodies[0].force_nodes.size(), 1u) << "the cut let the pin go";
+  EXPECT_GT(moved(s->snapshot().bodies[0]), 0.5 * pinned_moved) << "the pin stopped pulling";
+  EXPECT_EQ(s->snapshot().unstable, sim::Instability::kNone);
+  s->frame();
+  bool arrow = false;
+  for (const render::DrawnModel& d : render::last_frame())
+    arrow |= d.name == "a" && !d.overlays.arrows.empty();
+  EXPECT_TRUE(arrow) << "the view forgot the pin the loop still pulls with";
+
+  render::inject(InputEvent::key_down("c"));
+  render::inject(InputEvent::key_up("c"));
+  s->frame();
+  ASSERT_TRUE(simulate_for(*s, 3.0));
+  EXPECT_TRUE(s->snapshot().bodies[0].force_nodes.empty());
+  EXPECT_LT(moved(s->snapshot().bodies[0]), 0.5) << "C did not let the cut body go back";
+  s->finish();
+}
+
 TEST_F(WorldViewTest, UUndoesTheLastCutAndTheBodyIsDrawnWholeAgain) {
   auto s = tied_spheres();
   s->start();

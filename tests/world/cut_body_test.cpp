@@ -2,7 +2,8 @@
 // changes): the ties on its nodes and skin follow the copies to the same points, the body steps
 // on in contact with its neighbour and comes back to rest, a blade that misses changes nothing,
 // and bad calls are refused with the world unchanged. The world loop's cut: the body's old node
-// numbers refused, its live forces released, and a reset puts the uncut body back.
+// numbers refused, its live forces carried to the copies (a drag goes on through the cut), and
+// a reset puts the uncut body back.
 #include "lamina/world/cut_body.h"
 
 #include <gtest/gtest.h>
@@ -187,11 +188,13 @@ TEST(WorldLoop, ACutRenumbersTheBodyRefusesItsOldNodesAndAResetPutsItBackUncut) 
   loop.set_forces(h[0].first, h[0].second, {pull});
   loop.set_forces(h[1].first, h[1].second, {{.node = 0, .force_mn = Eigen::Vector3d(0, 0, 50)}});
   loop.run_steps(10);
+  WorldSnapshot snap;
+  ASSERT_TRUE(loop.latest(snap));
+  const Eigen::Vector3d pulled_at = snap.bodies[0].x.row(a_node).transpose();
 
   const Slit s = slit_into_a();
   loop.cut(s.path, s.direction, s.depth_mm);
-  loop.run_steps(10);
-  WorldSnapshot snap;
+  loop.run_steps(1);
   ASSERT_TRUE(loop.latest(snap));
   EXPECT_EQ(snap.cuts, 1);
   EXPECT_GT(snap.tets_cut, 0);
@@ -199,8 +202,16 @@ TEST(WorldLoop, ACutRenumbersTheBodyRefusesItsOldNodesAndAResetPutsItBackUncut) 
   EXPECT_EQ(snap.bodies[0].topology, 1u);
   EXPECT_EQ(snap.bodies[1].topology, 0u);
   EXPECT_GT(snap.bodies[0].model->node_count(), nodes_before);
-  EXPECT_TRUE(snap.bodies[0].force_nodes.empty()) << "A's forces were on its old numbers";
+  // A's pull goes on, on its node's first copy: a skin node of the new numbering, where the
+  // node was (one step on), and the drag still lifts it.
+  ASSERT_EQ(snap.bodies[0].force_nodes.size(), 1u) << "the cut released A's pull";
+  const int32_t carried = snap.bodies[0].force_nodes[0];
+  EXPECT_LT(carried, snap.bodies[0].model->layers[0].node_count);
+  EXPECT_LT((snap.bodies[0].x.row(carried).transpose() - pulled_at).norm(), 0.5);
   EXPECT_EQ(snap.bodies[1].force_nodes.size(), 1u) << "B, not cut, keeps its force";
+  loop.run_steps(9);
+  ASSERT_TRUE(loop.latest(snap));
+  EXPECT_GT(snap.bodies[0].x(carried, 2), pulled_at.z() + 0.01) << "the pull stopped at the cut";
   EXPECT_EQ(snap.unstable, sim::Instability::kNone);
   // Nodes of the old generation are refused; of the new one taken.
   EXPECT_THROW(loop.set_forces(h[0].first, 0, {pull}), Error);

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <thread>
 
 #include "camera_moves.h"
@@ -346,21 +347,34 @@ void WorldViewSession::State::handle_mouse(const render::Input& in) {
   }
 }
 
-// A body renumbered since the last frame (cut, or put back uncut by a reset): drawn with its new
-// skin; the loop let its forces go, and their nodes are of its old numbering: the drag and pins
-// on it are dropped too.
+// A body renumbered since the last frame (cut, or put back uncut by a reset or an undo): drawn
+// with its new skin. A cut carried its forces to their nodes' first copies: the drag and pins on
+// it follow them there. Put back, the loop let them go: the drag and pins on it are dropped too.
 void WorldViewSession::State::forget_renumbered() {
   for (size_t b = 0; b < snap.bodies.size() && b < seen_topology.size(); ++b) {
     const world::BodyView& body = snap.bodies[b];
     if (body.topology == seen_topology[b]) continue;
     seen_topology[b] = body.topology;
     render::register_model(body.name, *body.model);  // its new skin; the style is kept
-    std::erase_if(pinned, [&](const Force& f) { return f.body == body.id; });
-    if (drag && drag->body == body.id) {
+    std::map<int32_t, int32_t> now;                  // a sent force's node: its node now
+    if (const auto carried = world::carried_force_nodes(body, sent[b])) {
+      for (size_t k = 0; k < carried->size(); ++k) now[sent[b][k].node] = (*carried)[k];
+      for (size_t k = 0; k < carried->size(); ++k) sent[b][k].node = (*carried)[k];
+    } else {
+      sent[b].clear();
+    }
+    const auto follows = [&](Force& f) {  // false: its force went
+      const auto it = now.find(f.force.node);
+      if (it == now.end()) return false;
+      f.force.node = it->second;
+      f.topology = body.topology;
+      return true;
+    };
+    std::erase_if(pinned, [&](Force& f) { return f.body == body.id && !follows(f); });
+    if (drag && drag->body == body.id && !follows(*drag)) {
       drag.reset();
       if (gesture == Gesture::kDrag) gesture = Gesture::kNone;
     }
-    sent[b].clear();
   }
 }
 

@@ -23,6 +23,11 @@
 
 namespace lamina::world {
 
+/// Each node's first copy after a cut (-1 for none): what a tie, a tool by vertex or a live force
+/// on the node is carried to (it is on the skin when the node was). `origin`: cut_body()'s, per
+/// new node the old node it came from; `old_nodes`: the body's node count before the cut.
+std::vector<int32_t> first_copies(const std::vector<int32_t>& origin, int32_t old_nodes);
+
 /// Cuts body `id` along a blade drawn at its current positions: its upper end along `path`,
 /// reaching depth_mm along `direction` (an interact::Scalpel's blade). A blade that divides none
 /// of its tetrahedra changes nothing (the topology generation stays).

@@ -140,6 +140,13 @@ struct WorldSnapshot {
   double longest_lock_wait_us = 0.0;
 };
 
+/// Where a caller's live forces on a body are after its topology moved on (from the snapshot it
+/// set them on to `now`): a cut carries them to their nodes' first copies (now.force_nodes, in
+/// the order they were set), a reset or an undo releases them.
+/// @return per force of `sent`, its node in now's numbering; nullopt if they were released
+std::optional<std::vector<int32_t>> carried_force_nodes(
+    const BodyView& now, const std::vector<interact::LiveForce>& sent);
+
 class WorldLoop {
  public:
   /// Takes over `world` (every body stepping at the same dt, as create_body() requires). Does not
@@ -176,8 +183,10 @@ class WorldLoop {
   /// the stroke; made on another thread while the world steps on and taken in between two
   /// steps: WorldLoopOptions::background_cuts), and divides the ties within reach_mm of it as
   /// dissect() does. Strokes are cut one after another; a reset drops a cut being made. A body cut
-  /// moves to a new topology generation: its live forces are released (their nodes were of the
-  /// older one; set them again on the latest snapshot's nodes). reset() puts the uncut bodies back.
+  /// moves to a new topology generation: its live forces go on, carried to their nodes' first
+  /// copies (each copy taking its share of the load, as the one-organ loop carries them; the
+  /// snapshot's force_nodes give their new nodes, carried_force_nodes() a caller's); a caller
+  /// sets them again on the new generation's nodes. reset() puts the uncut bodies back.
   /// \note Throws lamina::Error (kInvalidInput), nothing queued, for a blade as dissect() does.
   void cut(std::vector<Eigen::Vector3d> path, const Eigen::Vector3d& direction, double depth_mm,
            double reach_mm = 1.5);
@@ -205,7 +214,8 @@ class WorldLoop {
   /// The grasper: jaws given while it is open close on the body whose skin is nearest their
   /// centre (every free skin node of it within jaws.radius_mm held, interact::close_jaws), on
   /// the next step's shape; given again while closed they move what they hold; nullopt opens
-  /// them. A cut of the held body, or a reset, opens them.
+  /// them. A cut of the held body carries the hold to the copies; an undo of that cut, or a
+  /// reset, opens them.
   /// \note Throws lamina::Error (kInvalidInput), nothing changing, for jaws that are not finite
   ///   or a radius that is not positive, and, when closing, for no body's skin under the jaws
   ///   (on the latest snapshot).
