@@ -267,7 +267,8 @@ lamina_status lamina_world_dissect(lamina_world* world, const double* path_xyz, 
 lamina_status lamina_world_cut(lamina_world* world, const double* path_xyz, int32_t points,
                                const double direction[3], double depth_mm, int64_t* tets_divided);
 /* Takes the last lamina_world_cut back: every body it divided as it was just before it
- * (renumbered again: read its model's counts again; its forces released), the ties it divided in
+ * (renumbered again: read its model's counts again; its forces carried back to the nodes their
+ * copies came from), the ties it divided in
  * place again, the clock running on. The last 8 cuts can be undone, one call each;
  * LAMINA_ERROR_INVALID_INPUT when there is none. */
 lamina_status lamina_world_undo_cut(lamina_world* world);

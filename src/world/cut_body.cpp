@@ -140,7 +140,8 @@ model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepar
                               .model = std::const_pointer_cast<Model>(b.model),
                               .sim = std::move(*was),
                               .tools = std::move(tools_before),
-                              .rest_overlap_mm = b.rest_overlap_mm});
+                              .rest_overlap_mm = b.rest_overlap_mm,
+                              .origin = from});
   model::CutReport report = std::move(prepared.report);
   b.model = std::const_pointer_cast<Model>(model);
   renumber(world, id.index, before_nodes, from);

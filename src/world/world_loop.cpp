@@ -354,7 +354,8 @@ void WorldLoop::Impl::route_forces(int32_t slot) {
 // its new generation. A cut carries its live forces to their nodes' first copies (on the skin,
 // as the nodes were; their routes were carried with its tools, each copy taking its share), as
 // the one-organ loop carries them: a drag goes on through the cut. Put back (an undo, a reset),
-// they are released: their nodes may be copies that are no longer there.
+// they are released: their nodes may be copies that are no longer there (an undo then sets them
+// again on the nodes the copies came from: apply_undos).
 void WorldLoop::Impl::topology_changed(int32_t slot, const std::vector<int32_t>* origin) {
   Body& b = world.bodies[static_cast<size_t>(slot)].body;
   for (Handle& h : handles)

@@ -141,16 +141,24 @@ void WorldLoop::Impl::apply_undos() {
     }
     CutUndo u = std::move(history.undo.back());
     history.undo.pop_back();
+    // Each body it divided; the live forces on it go back to the nodes their copies came from.
     std::vector<int32_t> slots;
+    std::vector<std::vector<interact::LiveForce>> back;
     for (const BodyBefore& k : u.before.bodies) {
       slots.push_back(k.id.index);
       if (k.id.index == grasp_slot) open_grasper();  // its nodes are renumbered under the jaws
+      std::vector<interact::LiveForce>& f = back.emplace_back();
+      for (const interact::LiveForce& x : live[static_cast<size_t>(k.id.index)].forces)
+        if (x.node >= 0 && static_cast<size_t>(x.node) < k.origin.size())
+          f.push_back({k.origin[static_cast<size_t>(x.node)], x.force_mn, x.radius_mm});
     }
     const int64_t tets = u.tets;
     strokes_divided -= world::undo_cut(world, u);
-    for (const int32_t slot : slots) {
+    for (size_t k = 0; k < slots.size(); ++k) {
       std::lock_guard lock(mutex);
-      topology_changed(slot);
+      topology_changed(slots[k]);
+      live[static_cast<size_t>(slots[k])].forces = std::move(back[k]);
+      route_forces(slots[k]);
     }
     follow_the_clock();                          // the rate may have changed since
     cuts -= static_cast<int32_t>(slots.size());  // one per body it divided

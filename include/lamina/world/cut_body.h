@@ -72,6 +72,9 @@ struct BodyBefore {
   sim::Simulation sim;
   interact::ToolDriver tools;
   std::vector<double> rest_overlap_mm;
+  /// Per node after the change, the node of this body it came from (take_cut()'s origin, which
+  /// a loop's undo carries the live forces back through); empty when kept by keep_before().
+  std::vector<int32_t> origin = {};
 };
 struct WorldBefore {
   std::vector<BodyBefore> bodies;      ///< each body once, as it was before its first change

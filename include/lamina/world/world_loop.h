@@ -141,8 +141,9 @@ struct WorldSnapshot {
 };
 
 /// Where a caller's live forces on a body are after its topology moved on (from the snapshot it
-/// set them on to `now`): a cut carries them to their nodes' first copies (now.force_nodes, in
-/// the order they were set), a reset or an undo releases them.
+/// set them on to `now`): a cut carries them to their nodes' first copies, an undo back to the
+/// nodes the copies came from (now.force_nodes, in the order they were set); a reset releases
+/// them.
 /// @return per force of `sent`, its node in now's numbering; nullopt if they were released
 std::optional<std::vector<int32_t>> carried_force_nodes(
     const BodyView& now, const std::vector<interact::LiveForce>& sent);
@@ -192,9 +193,10 @@ class WorldLoop {
            double reach_mm = 1.5);
   /// Takes the last cut() back, between two steps: every body it divided as it was just before
   /// it (its model, shape and motion, the ties then), the clock running on and the parameters
-  /// set since kept. Each such body moves to a new topology generation (its live forces are
-  /// released, the grasper opens if it held it). The last kUndoDepth cuts can be undone, one call
-  /// each; a cut being made is waited for first; with none, the snapshot's cut_message says so.
+  /// set since kept. Each such body moves to a new topology generation (its live forces carried
+  /// back to the nodes their copies came from, the grasper opened if it held it). The last
+  /// kUndoDepth cuts can be undone, one call each; a cut being made is waited for first; with none,
+  /// the snapshot's cut_message says so.
   void undo_cut();
   static constexpr int kUndoDepth = static_cast<int>(CutHistory::kDepth);
   /// New parameters for `body`, checked now and taken between two steps: its material
