@@ -39,6 +39,7 @@ std::unique_ptr<WorldViewSession> tied_spheres() {
 
 using test::frames_until;
 using test::simulate_for;
+using test::simulate_until_rest;
 
 double moved(const world::BodyView& b) {
   return (b.x - b.model->X).rowwise().norm().maxCoeff();
@@ -126,7 +127,7 @@ TEST_F(WorldViewTest, BothBodiesAndTheTiesAreDrawnAndADragDentsOneThatComesBackW
   EXPECT_TRUE(arrow) << "the drag's force is not drawn";
   render::inject(InputEvent::release(MouseButton::kLeft));
   s->frame();
-  ASSERT_TRUE(simulate_for(*s, 4.0));
+  ASSERT_TRUE(simulate_until_rest(*s, 4.0, [&] { return moved(s->snapshot().bodies[0]) < 0.3; }));
   EXPECT_LT(moved(s->snapshot().bodies[0]), 0.3) << "released, body a did not come back";
   s->finish();
   const nlohmann::json r = s->report();
@@ -158,7 +159,7 @@ TEST_F(WorldViewTest, TheGrasperHoldsTheBodyPressedRetractsItWithTheDragAndLetsG
   s->frame();
   ASSERT_TRUE(frames_until(
       *s, [&] { return s->snapshot().grasped_body.empty(); }, 20.0));
-  ASSERT_TRUE(simulate_for(*s, 4.0));
+  ASSERT_TRUE(simulate_until_rest(*s, 4.0, [&] { return moved(s->snapshot().bodies[0]) < 0.3; }));
   EXPECT_EQ(s->snapshot().unstable, sim::Instability::kNone);
   EXPECT_LT(moved(s->snapshot().bodies[0]), 0.3) << "let go, body a did not come back";
   s->finish();
@@ -219,7 +220,7 @@ TEST_F(WorldViewTest, AScalpelDragCutsTheBodyItCrossesWhichIsDrawnAndDraggedOnIt
   EXPECT_EQ(s->status(), "") << "the drag's force was refused";
   render::inject(InputEvent::release(MouseButton::kLeft));
   s->frame();
-  ASSERT_TRUE(simulate_for(*s, 3.0));
+  ASSERT_TRUE(simulate_until_rest(*s, 3.0, [&] { return moved(s->snapshot().bodies[0]) < 0.5; }));
   EXPECT_EQ(s->snapshot().unstable, sim::Instability::kNone);
   EXPECT_LT(moved(s->snapshot().bodies[0]), 0.5) << "released, the cut body did not come back";
 
@@ -277,7 +278,7 @@ TEST_F(WorldViewTest, APinnedForceGoesOnThroughACutOfItsBodyAndCLetsItGo) {
   render::inject(InputEvent::key_down("c"));
   render::inject(InputEvent::key_up("c"));
   s->frame();
-  ASSERT_TRUE(simulate_for(*s, 3.0));
+  ASSERT_TRUE(simulate_until_rest(*s, 3.0, [&] { return moved(s->snapshot().bodies[0]) < 0.5; }));
   EXPECT_TRUE(s->snapshot().bodies[0].force_nodes.empty());
   EXPECT_LT(moved(s->snapshot().bodies[0]), 0.5) << "C did not let the cut body go back";
   s->finish();

@@ -26,4 +26,14 @@ bool simulate_for(Session& s, double seconds) {
   return frames_until(s, [&] { return s.snapshot().time_s >= until; });
 }
 
+/// Frames until the session's world is at rest (its own rest: a velocity test) with `rested()`
+/// true, or for `seconds` of simulated time: "back at rest within N s" without waiting out the
+/// N s once it holds. For a state the test waits to reach, not one it checks lasts.
+template <class Session, class Rested>
+bool simulate_until_rest(Session& s, double seconds, Rested rested) {
+  const double until = s.snapshot().time_s + seconds;
+  return frames_until(
+      s, [&] { return s.snapshot().time_s >= until || (s.snapshot().converged && rested()); });
+}
+
 }  // namespace lamina::test
