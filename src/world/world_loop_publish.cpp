@@ -42,9 +42,11 @@ void WorldLoop::Impl::publish(bool force) {
     v.material = b.sim.material();
     v.solver = b.sim.options();
     v.routing = b.tools.routing;
+    // The nodes the live forces are on (carried through a cut: what a caller's follow), not
+    // their routes' marker nodes, which a display skin's nearest corner may move.
     v.force_nodes.clear();
-    for (const interact::ForceRoute& r : bs.body.tools.live_routes)
-      v.force_nodes.push_back(r.contact_node);
+    if (slot < live.size())
+      for (const interact::LiveForce& f : live[slot].forces) v.force_nodes.push_back(f.node);
     v.grasped_nodes = b.tools.hand.nodes;
     v.hands_reaction_mn =
         slot < body_reaction_mn.size() ? body_reaction_mn[slot] : Eigen::Vector3d::Zero();

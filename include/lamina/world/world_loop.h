@@ -70,7 +70,8 @@ struct BodyView {
   uint32_t topology = 0;  ///< the body's topology generation: node numbers are of this one
   Eigen::MatrixX3d x;     ///< #nodes by 3, mm
   BodyStepStats stats;    ///< its part of the last step
-  std::vector<int32_t> force_nodes;    ///< where the live forces act (skin nodes)
+  /// The skin nodes the live forces are on, in the order they were set (a cut carries them)
+  std::vector<int32_t> force_nodes;
   std::vector<int32_t> grasped_nodes;  ///< what the grasper holds of it (empty: none)
   /// Its tissue's push on the hands (the tool tip's device and the grasper), mN.
   Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
