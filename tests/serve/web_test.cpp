@@ -383,6 +383,94 @@ TEST(Web, MalformedOversizedAndStalledClientsAreDroppedAndTheOthersGoOn) {
   ASSERT_TRUE(s) << w.server->log();
 }
 
+// A page's drag on a world goes on through a cut that an OpenIGTLink scalpel makes meanwhile in the
+// same serve: the world loop carries the drag's force to its node's copy and the page's drag
+// follows it (WorldSession::follow_cut), so its next forces are taken, not refused as of an
+// older topology, and its release lets the liver go back. Before, the page's drag ended at the
+// cut while the loop kept pulling with its last force: the release let nothing go.
+TEST(Web, AWorldDragGoesOnThroughACutMadeMeanwhileAndItsReleaseLetsGo) {
+  WebServer w({source_path("examples/cholecystectomy.json").string(), "--scalpel-depth", "200"});
+  Page page(w.port, w.token);
+  page.take_setup();
+  Client hand(w.server->port());
+  const auto skin = hand.receive("POLYDATA", "liver", 60.0);
+  ASSERT_TRUE(skin) << w.server->log();
+  const Eigen::MatrixX3d lx = polydata_points(*skin);  // RAS
+  const double rest_top = lx.col(2).maxCoeff();
+  // The page presses the liver's top from above.
+  const json& h = page.hello;
+  const size_t first = h["bodies"][0]["first_point"], count = h["bodies"][0]["points"];
+  size_t top = first;
+  for (size_t i = first; i < first + count; ++i)
+    if (page.point(page.rest, i).z() > page.point(page.rest, top).z()) top = i;
+  const Eigen::Vector3d p = page.point(page.rest, top);
+  page.send(
+      {{"type", "press"}, {"origin", {p.x(), p.y(), p.z() + 200.0}}, {"direction", {0, 0, -1}}});
+  ASSERT_TRUE(w.server->log_shows("drags liver node", 10.0)) << w.server->log();
+  // The page's events (text) kept; it is read on, so that the server never finds it stalled.
+  std::vector<std::string> events;
+  const auto read_page = [&] {
+    bool text = false;
+    const std::string m = page.read(&text);
+    if (text) events.push_back(m);
+  };
+  // The liver's highest skin point now, RAS z, from the OpenIGTLink stream.
+  const auto liver_top = [&] {
+    double z = -1e9;
+    for (int k = 0; k < 5; ++k)
+      if (const auto m = hand.receive("POLYDATA", "liver", 0.5))
+        z = polydata_points(*m).col(2).maxCoeff();
+    return z;
+  };
+  const auto drag_for = [&](double seconds) {
+    const auto t0 = Clock::now();
+    while (seconds_since(t0) < seconds) {
+      page.send({{"type", "drag"}, {"drag_mm", {0.0, 0.0, 60.0}}});
+      read_page();
+    }
+  };
+  // Dragged until lifted (a loaded machine under the sanitizers steps slower than real time).
+  double lifted = 0.0;
+  const auto tl = Clock::now();
+  while (seconds_since(tl) < 60.0 && lifted <= 1.0) {
+    drag_for(0.5);
+    lifted = liver_top() - rest_top;
+  }
+  ASSERT_GT(lifted, 1.0) << "the page's drag did not lift the liver";
+
+  // A scalpel stroke across the liver's middle (as Serve.AWorldSendsEachBodysSkin...'s), the
+  // page dragging on meanwhile.
+  const Eigen::Vector3d lo = lx.colwise().minCoeff(), hi = lx.colwise().maxCoeff();
+  const double x0 = 0.5 * (lo.x() + hi.x()) + 0.31;
+  const Eigen::Vector3d from(x0, lo.y() - 5, hi.z() + 5), to(x0, hi.y() + 5, hi.z() + 5);
+  for (int k = 0; k <= 40; ++k)
+    hand.send_bytes(transform_bytes("LaminaScalpel", from + (to - from) * (k / 40.0)));
+  hand.send_bytes(transform_bytes("LaminaScalpelUp", to));
+  std::optional<Received> cut;
+  const auto t0 = Clock::now();
+  while (!cut && seconds_since(t0) < 30.0) {
+    page.send({{"type", "drag"}, {"drag_mm", {0.0, 0.0, 60.0}}});
+    read_page();
+    cut = hand.receive("STRING", "LaminaCut", 0.05);
+  }
+  ASSERT_TRUE(cut) << "the stroke cut nothing: " << w.server->log();
+  events.clear();
+  drag_for(1.0);
+  for (const std::string& e : events)
+    EXPECT_EQ(e.find("topology generation"), std::string::npos) << "the drag was refused: " << e;
+  EXPECT_GT(liver_top() - rest_top, 0.5 * lifted) << "the drag stopped pulling at the cut";
+
+  // Released, the cut liver comes back.
+  page.send({{"type", "release"}});
+  double top_now = liver_top();
+  const auto t1 = Clock::now();
+  while (seconds_since(t1) < 60.0 && top_now - rest_top > 0.5) {
+    read_page();
+    top_now = liver_top();
+  }
+  EXPECT_LT(top_now - rest_top, 0.5) << "released, the cut liver did not come back";
+}
+
 // A scalpel stroke over OpenIGTLink cuts the organ: the page hears what it divided and each
 // vessel it crossed (a text event, in the model's frame), then is sent the new model.
 TEST(Web, ACutReachesThePageAsAnEventAndTheCutModel) {
