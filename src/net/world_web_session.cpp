@@ -73,7 +73,15 @@ void WorldSession::follow_cut() {
     if (b.id != drag_.body || b.topology == drag_.topology) continue;
     const auto now = world::carried_force_nodes(
         b, {interact::LiveForce{.node = drag_.node, .force_mn = Eigen::Vector3d::Zero()}});
-    if (!now) return;  // released: the next set_forces says it is stale, and the drag ends
+    if (!now) {  // released, or not the page's force alone: the drag ends, and lets go of it
+      try {
+        if (!b.force_nodes.empty()) loop_.set_forces(b.id, b.topology, {});
+      } catch (const Error& e) {  // renumbered again since: its forces went with it
+        log::info("web: {}", e.what());
+      }
+      drag_ = {};
+      return;
+    }
     drag_.node = (*now)[0];
     drag_.topology = b.topology;
   }
@@ -99,6 +107,7 @@ void WorldSession::handle(int client, const std::string& text) {
     const Eigen::Vector3d drag = vector3(m, "drag_mm", 1e4);
     if (drag_.client != client) return;
     follow_cut();
+    if (drag_.client != client) return;  // the cut's body was put back: the drag ended
     try {
       loop_.set_forces(drag_.body, drag_.topology,
                        {interact::LiveForce{.node = drag_.node,

@@ -360,8 +360,12 @@ void WorldViewSession::State::forget_renumbered() {
     if (const auto carried = world::carried_force_nodes(body, sent[b])) {
       for (size_t k = 0; k < carried->size(); ++k) now[sent[b][k].node] = (*carried)[k];
       for (size_t k = 0; k < carried->size(); ++k) sent[b][k].node = (*carried)[k];
-    } else {
+    } else {  // released; or other forces than the view sent (one it set meanwhile): let them go
       sent[b].clear();
+      try {
+        if (!body.force_nodes.empty()) loop->set_forces(body.id, body.topology, {});
+      } catch (const Error&) {  // renumbered again since: its forces went with it
+      }
     }
     const auto follows = [&](Force& f) {  // false: its force went
       const auto it = now.find(f.force.node);
