@@ -12,7 +12,6 @@
 #include "lamina/interact/contact.h"
 #include "lamina/interact/haptic_proxy.h"
 #include "lamina/interact/pick.h"
-#include "lamina/interact/realtime_loop.h"
 #include "lamina/interact/scalpel.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene.h"
@@ -21,6 +20,7 @@
 #include "lamina/model/embed_surface.h"
 #include "lamina/sim/carry_over.h"
 #include "lamina/sim/simulation.h"
+#include "lamina/world/organ_loop.h"
 #include "peak_rss.h"
 #include "sim/solver.h"  // white box: the tetrahedra's assembly switched per run
 
@@ -91,6 +91,61 @@ BENCHMARK(BM_PhysicalLiverStep)
     ->ArgsProduct({{1284, 10000}, {1, 10}, {0, 1}})
     ->ArgNames({"skin_vertices", "dt_ms", "assembled"})
     ->Unit(benchmark::kMicrosecond);
+
+// One organ's step through its loop (world::OrganLoop::run_steps: a world of one body, its tools
+// and hands, the reaction) against the bare step it wraps (interact::apply_tools + sim::step),
+// measured in the same run: the physical liver of the default scene under a 0.4 N live force at
+// its most anterior skin node, 1 ms steps. An iteration is a reset to rest and the first 100
+// steps of the push (one publication, as a reader at 10 Hz sees): the same work each time.
+// loop:0 is the reference. Medians of 5 repetitions.
+void BM_OrganLoopStep(benchmark::State& state) {
+  Model m = phantom_model(static_cast<int32_t>(state.range(0)), true);
+  io::Scene scene;
+  scene.solver.dt_s = 1e-3;
+  const io::SceneSetup setup = io::prepare_scene(scene, m);
+  const int32_t node = interact::most_anterior_skin_node(m);
+  const Eigen::Vector3d force(0.0, 400.0, 0.0);
+  constexpr int kSteps = 100;
+  double last_cg = 0.0;
+  if (state.range(1) == 0) {
+    sim::Simulation s = io::make_scene_simulation(scene, m, setup);
+    sim::prepare_solver(s);
+    interact::ToolDriver d{.routing = scene.routing};
+    for (auto _ : state) {
+      sim::reset(s);
+      d.live_routes.assign(1, interact::load_at_node(m, s.x, node, force,
+                                                     interact::kDefaultPatchRadiusMm, d.routing));
+      for (int k = 0; k < kSteps; ++k) {
+        interact::apply_tools(s, d);
+        last_cg = sim::step(s).cg_iterations;
+      }
+    }
+  } else {
+    world::OrganLoop loop(io::make_scene_simulation(scene, m, setup), scene.routing,
+                          {.real_time = false});
+    world::LoopSnapshot snap;
+    for (auto _ : state) {
+      loop.reset();
+      loop.set_forces({{.node = node, .force_mn = force}});
+      loop.run_steps(kSteps);
+      loop.latest(snap);
+      last_cg = snap.stats.cg_iterations;
+    }
+  }
+  const double steps = static_cast<double>(state.iterations()) * kSteps;
+  state.counters["nodes"] = m.node_count();
+  state.counters["last_cg_iterations"] = last_cg;
+  state.counters["us_per_step"] =
+      benchmark::Counter(steps, benchmark::Counter::kIsRate | benchmark::Counter::kInvert,
+                         benchmark::Counter::kIs1000);
+  state.counters["peak_rss_mb"] = bench::peak_rss_mb();
+}
+BENCHMARK(BM_OrganLoopStep)
+    ->ArgsProduct({{1284, 10000}, {0, 1}})
+    ->ArgNames({"skin_vertices", "loop"})
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
 
 // hold_nodes() on the physical liver as an indenter or a grasper calls it every step: a patch of
 // skin nodes within 15 mm of the most anterior one held 0.01 mm further in each call (the first
@@ -348,7 +403,7 @@ void BM_ScalpelAcrossTheOrgan(benchmark::State& state) {
 // it keeps without cutting, no step held up more than 10 ms): one second stepping alone, then
 // two seconds with a cut every 100 ms, each along the blade's last 6 mm (2 mm new, the rest
 // cut again so that the tetrahedra at the last cut's end are divided). The cuts are made on
-// another thread (RealtimeLoop::apply_cut) and taken in between two steps; background:0, the
+// another thread (OrganLoop::cut) and taken in between two steps; background:0, the
 // reference, makes them on the stepping thread between two steps.
 void BM_RealtimeLoopWhileCutting(benchmark::State& state) {
   Model m = phantom_model(static_cast<int32_t>(state.range(0)), true);
@@ -359,13 +414,13 @@ void BM_RealtimeLoopWhileCutting(benchmark::State& state) {
   double cut_pause_ms = 0.0;
   int64_t cuts = 0;
   for (auto _ : state) {
-    interact::LoopOptions o;
+    world::LoopOptions o;
     o.rate_hz = 1000.0;
     o.background_cuts = state.range(1) != 0;
-    interact::RealtimeLoop loop(io::make_scene_simulation(scene, m, setup), scene.routing, o);
+    world::OrganLoop loop(io::make_scene_simulation(scene, m, setup), scene.routing, o);
     loop.start();
     const auto watch = [&](double seconds, double& worst) {
-      interact::LoopSnapshot snap;
+      world::LoopSnapshot snap;
       loop.latest(snap);
       const double t0 = snap.time_s;
       const auto w0 = std::chrono::steady_clock::now();
@@ -390,7 +445,7 @@ void BM_RealtimeLoopWhileCutting(benchmark::State& state) {
     watch(0.5, warm);  // the loop's first steps (its threads, caches) are not what is measured
     idle_rtf = watch(1.0, idle_worst_ms);
     cutting_rtf = watch(2.0, worst_late_ms);
-    interact::LoopSnapshot snap;
+    world::LoopSnapshot snap;
     loop.latest(snap);
     cuts = snap.cuts;
     cut_pause_ms = 1e-3 * snap.longest_cut_pause_us;

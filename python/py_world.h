@@ -21,7 +21,7 @@ struct PyWorld {
   // What a cut, an undo or a reset replaced, kept: numpy views of x and rest taken before it
   // point into these buffers (they show the state before, never freed memory).
   struct Retired {
-    std::shared_ptr<Model> model;
+    std::shared_ptr<const Model> model;
     std::unique_ptr<sim::Simulation> sim;
   };
   std::vector<Retired> retired;

@@ -21,7 +21,7 @@ set(lamina_test_costs
   HapticProxy.AClosedPathThroughTheTissueReturnsNoMoreEnergyThanWasPutIn 19 41
   LaminaSoak.RandomToolsLeaveMemoryFlatNoNanAndTheModelBackAtRest 5 36
   PressSphere.TheModelThroughItsContactCodeMatchesFiniteElementsOnItsOwnTets 4 35
-  Grasp.TheRealtimeLoopsGrasperHoldsPullsAndLetsGo 15 32
+  OrganLoopHands.TheGrasperHoldsPullsAndLetsGo 15 32
   HapticProxy.AStiffCouplingIsBoundedAndRateLimitedAndTheProxyNeverCrosses 16 31
   Stability.DeepIndentationPullAndThreeToolsReleaseBackToRest 6 31
   FemSphere.PressedBlockConvergesAndTheFloorHoldsTheSpheresPush 3 30
@@ -66,7 +66,7 @@ set(lamina_test_costs
   LaminaRun.PaperScenesOnTheRealLiversConvergeThroughALargeDeformation 2 9
   LowestFrequency.MatchesADenseEigensolveAndItsScalingLaws 2 9
   Multigrid.ReachesJacobisStatesInFewerIterations 2 9
-  RealtimeLoop.ReactionBalancesTheHeldLoadAtRest 1 9
+  OrganLoop.ReactionBalancesTheHeldLoadAtRest 1 9
   RebuildReadyScene.ResolvesTheMaterialForTheNewModel 2 9
   Serve.APoseOnTheSkinPushesItAndTheReactionComesBackAgainstThePush 4 9
   TetAssembly.ImplicitEulerStepsAsWithTheElementProduct 2 9

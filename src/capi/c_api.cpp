@@ -12,18 +12,18 @@
 
 #include "c_api_support.h"
 #include "lamina/core/error.h"
-#include "lamina/interact/realtime_loop.h"
 #include "lamina/io/model_file.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/sim/simulation.h"
+#include "lamina/world/organ_loop.h"
 
 struct lamina_sim {
   lamina_model model;  // the simulation's own reference (lamina_sim_model hands it out)
-  std::unique_ptr<lamina::interact::RealtimeLoop> loop;
-  lamina::interact::LoopSnapshot snapshot;  // the state after the last call that stepped
+  std::unique_ptr<lamina::world::OrganLoop> loop;
+  lamina::world::LoopSnapshot snapshot;  // the state after the last call that stepped
   double max_force_n = 3.0, max_force_change_n = 0.05;  // the tool tip's haptic limits
   std::vector<Eigen::MatrixX3d> embedded_x;  // W x per embedded surface, kept between calls
 };
@@ -99,10 +99,11 @@ lamina_sim* wrap(std::shared_ptr<const lamina::Model> model, lamina::sim::Simula
                  const lamina::interact::RoutingOptions& routing) {
   auto out = std::make_unique<lamina_sim>();
   out->model.model = std::move(model);
-  lamina::interact::LoopOptions options;
+  lamina::world::LoopOptions options;
   options.rate_hz = 0.0;
   options.real_time = false;
-  out->loop = std::make_unique<lamina::interact::RealtimeLoop>(std::move(sim), routing, options);
+  out->loop = std::make_unique<lamina::world::OrganLoop>(out->model.model, std::move(sim), routing,
+                                                         options);
   out->loop->run_steps(0);  // publishes the state at rest
   out->loop->latest(out->snapshot);
   return out.release();
@@ -388,7 +389,7 @@ lamina_status lamina_sim_step(lamina_sim* sim, int32_t steps, lamina_step_stats*
                       " s: " + lamina::sim::describe(s.snapshot.stats.unstable) +
                       "; lower dt, the forces or the stiffness, then lamina_sim_reset");
     if (stats == nullptr) return;
-    const lamina::interact::LoopSnapshot& p = s.snapshot;
+    const lamina::world::LoopSnapshot& p = s.snapshot;
     stats->time_s = p.time_s;
     stats->steps = p.steps;
     stats->max_displacement_mm = p.stats.max_displacement_mm;

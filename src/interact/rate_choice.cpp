@@ -22,22 +22,6 @@ double next_rate(double rate_hz, double mean_step_us, bool keeping_up) {
   return rate_hz;
 }
 
-RateWindow measured_window(const LoopSnapshot& snap) {
-  RateWindow w;
-  w.achieved_rate_hz = snap.achieved_rate_hz;
-  w.measured_rate_hz = snap.measured_rate_hz;
-  w.real_time_factor = snap.real_time_factor;
-  w.keeping_up = snap.keeping_up;
-  w.mean_step_us = snap.mean_step_us;
-  w.worst_jitter_us = snap.worst_jitter_us;
-  return w;
-}
-
-std::optional<double> rate_to_follow(double rate_hz, const LoopSnapshot& snap,
-                                     const char* forced_by) {
-  return rate_to_follow(rate_hz, measured_window(snap), forced_by);
-}
-
 std::optional<double> rate_to_follow(double rate_hz, const RateWindow& snap,
                                      const char* forced_by) {
   if (snap.measured_rate_hz != rate_hz || !(snap.mean_step_us > 0.0)) return std::nullopt;

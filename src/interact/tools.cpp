@@ -272,6 +272,19 @@ Eigen::Vector3d tools_reaction(const sim::Simulation& s, const ToolDriver& d) {
   return r;
 }
 
+Eigen::Vector3d live_reaction(const sim::Simulation& s, const ToolDriver& d,
+                              const Eigen::Vector3d& device_force_mn) {
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  if (d.routing.routing == Routing::kNone) {
+    for (const ForceRoute& route : d.live_routes) r -= total_force(route);
+    r += device_force_mn;
+  } else {
+    r = reaction_force(s, d.loads);
+  }
+  if (!d.hand.nodes.empty()) r += grasp_reaction(s, d.hand);
+  return r;
+}
+
 double last_tool_end(const ToolDriver& d) {
   double end = 0.0;
   for (const Tool& t : d.tools) end = std::max(end, t.end_s);

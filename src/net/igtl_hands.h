@@ -1,6 +1,6 @@
 #pragma once
 // The hands over OpenIGTLink (docs/openigtlink.md): what a pose of the tool, the grasper or the
-// scalpel does, for one organ's loop (interact::RealtimeLoop) and a world's (world::WorldLoop)
+// scalpel does, for one organ's loop (world::OrganLoop) and a world's (world::WorldLoop)
 // alike, both of which take a tool tip, a grasper's jaws and a blade's cut. The sessions
 // (igtl_session.h, world_igtl_session.h) add what each streams.
 #include <fmt/format.h>

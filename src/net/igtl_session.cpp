@@ -14,9 +14,9 @@
 
 namespace lamina::net {
 
-IgtlSession::IgtlSession(const ServeOptions& args, igtlink::Server& server,
-                         interact::RealtimeLoop& loop, ServeRate& rate,
-                         std::shared_ptr<const Model> model, Clock::time_point start)
+IgtlSession::IgtlSession(const ServeOptions& args, igtlink::Server& server, world::OrganLoop& loop,
+                         ServeRate& rate, std::shared_ptr<const Model> model,
+                         Clock::time_point start)
     : a_(args),
       server_(server),
       loop_(loop),
@@ -28,7 +28,7 @@ IgtlSession::IgtlSession(const ServeOptions& args, igtlink::Server& server,
       hands_(args, loop, frame_, start),
       next_unstable_log_(start) {}
 
-Outgoing& IgtlSession::sent_for(const interact::LoopSnapshot& snap) {
+Outgoing& IgtlSession::sent_for(const world::LoopSnapshot& snap) {
   if (snap.model && snap.model_version != outgoing_version_) {
     outgoing_ = std::make_unique<Outgoing>(snap.model, frame_);
     outgoing_version_ = snap.model_version;
@@ -40,12 +40,12 @@ Outgoing& IgtlSession::sent_for(const interact::LoopSnapshot& snap) {
 // client (its answer to LaminaRate), or (-1) as news: to every client while the server streams,
 // and with --send-hz 0 (nothing pushed: a client reads the answer to its request next) only to
 // the client whose rate it is.
-void IgtlSession::send_rate(int client, const interact::LoopSnapshot& now) {
-  send_rate_status(server_, rate_, client, a_.send_hz > 0.0, interact::measured_window(now));
+void IgtlSession::send_rate(int client, const world::LoopSnapshot& now) {
+  send_rate_status(server_, rate_, client, a_.send_hz > 0.0, world::measured_window(now));
 }
 
 void IgtlSession::tell_rate(int client) {
-  interact::LoopSnapshot now;
+  world::LoopSnapshot now;
   loop_.latest(now);
   send_rate(client, now);
 }
@@ -62,11 +62,11 @@ void IgtlSession::handle(const igtlink::Message& msg) {
     // A new rate to every client while streaming (this one included), else the answer to it.
     tell_rate(hz && a_.send_hz > 0.0 ? -1 : msg.client);
   } else if (type == "GET_POLYDATA") {
-    interact::LoopSnapshot snap;
+    world::LoopSnapshot snap;
     loop_.latest(snap);
     server_.send(msg.client, sent_for(snap).requested(snap.x, msg.header.device));
   } else if (type == "GET_TRANS") {
-    interact::LoopSnapshot snap;
+    world::LoopSnapshot snap;
     loop_.latest(snap);
     server_.send(msg.client, outgoing_->reaction(snap.reaction_mn));
   } else {
@@ -110,7 +110,7 @@ void IgtlSession::stream_embedded() {
 // Each cut (or undo) in the log, and to every client as a STRING named LaminaCut (what it
 // divided, the pieces, each vessel it crossed: a simulator's bleeding cue). A cut refused is the
 // loop's to log.
-void IgtlSession::report_cuts(const interact::LoopSnapshot& sn) {
+void IgtlSession::report_cuts(const world::LoopSnapshot& sn) {
   if (sn.model_version == cuts_version_) return;
   cuts_version_ = sn.model_version;
   if (sn.cuts <= cuts_seen_) {
@@ -157,7 +157,7 @@ void IgtlSession::watch_stability() {
 void IgtlSession::judge_second() {
   const uint64_t second =
       static_cast<uint64_t>(snap_.steps > 0 ? seconds(Clock::now() - start_) : 0);
-  const ServeRate::Judgement j = rate_.judge(interact::measured_window(snap_), second);
+  const ServeRate::Judgement j = rate_.judge(world::measured_window(snap_), second);
   if (j.new_rate) loop_.set_rate(*j.new_rate);
   if (j.tell) send_rate(-1, snap_);
 }

@@ -13,8 +13,8 @@
 
 #include "igtl_hands.h"
 #include "igtl_server.h"
-#include "lamina/interact/realtime_loop.h"
 #include "lamina/net/serve.h"
+#include "lamina/world/organ_loop.h"
 #include "scalpel_stroke.h"
 #include "serve_clock.h"
 #include "serve_outgoing.h"
@@ -30,7 +30,7 @@ class IgtlSession {
  public:
   using Clock = ServeClock;
 
-  IgtlSession(const ServeOptions& args, igtlink::Server& server, interact::RealtimeLoop& loop,
+  IgtlSession(const ServeOptions& args, igtlink::Server& server, world::OrganLoop& loop,
               ServeRate& rate, std::shared_ptr<const Model> model, Clock::time_point start);
 
   /// A client's message; `closed`: a client has gone (what it held is let go).
@@ -60,16 +60,16 @@ class IgtlSession {
   void log_embedded(bool at_exit) const { outgoing_->log_embedded(at_exit); }
 
  private:
-  Outgoing& sent_for(const interact::LoopSnapshot& snap);
-  void send_rate(int client, const interact::LoopSnapshot& now);
+  Outgoing& sent_for(const world::LoopSnapshot& snap);
+  void send_rate(int client, const world::LoopSnapshot& now);
   void tell_rate(int client);
-  void report_cuts(const interact::LoopSnapshot& snap);
+  void report_cuts(const world::LoopSnapshot& snap);
   void watch_stability();
   void judge_second();
 
   const ServeOptions& a_;
   igtlink::Server& server_;
-  interact::RealtimeLoop& loop_;
+  world::OrganLoop& loop_;
   ServeRate& rate_;
   const igtlink::Frame frame_;
   const Clock::time_point start_;
@@ -78,8 +78,8 @@ class IgtlSession {
   std::unique_ptr<Outgoing> outgoing_;
   uint64_t outgoing_version_ = 0;
   const int32_t streamed_layers_;
-  IgtlHands<interact::RealtimeLoop> hands_;  // the tool, the grasper, the scalpel's strokes
-  interact::LoopSnapshot snap_;
+  IgtlHands<world::OrganLoop> hands_;  // the tool, the grasper, the scalpel's strokes
+  world::LoopSnapshot snap_;
   std::vector<igtlink::Packed> embedded_batch_;
   int64_t reaction_sent_step_ = -1;
   double max_reaction_mn_ = 0.0;

@@ -20,7 +20,7 @@ void ScalpelStroke::add(int from, const Eigen::Vector3d& tip, const Eigen::Vecto
   last_pose_s = now_s;
 }
 
-std::string ScalpelStroke::finish(interact::RealtimeLoop& loop, double depth_mm) {
+std::string ScalpelStroke::finish(world::OrganLoop& loop, double depth_mm) {
   return finish([&loop](std::vector<Eigen::Vector3d> top, const Eigen::Vector3d& axis,
                         double depth) { loop.cut(std::move(top), axis, depth); },
                 depth_mm);
@@ -72,7 +72,7 @@ nlohmann::json report_json(const model::CutReport& r, igtlink::Frame frame) {
 }  // namespace
 
 // Names come from the model; dump() escapes what is not ASCII (the STRING is US-ASCII).
-std::string cut_event_text(const interact::LoopSnapshot& snap, igtlink::Frame frame) {
+std::string cut_event_text(const world::LoopSnapshot& snap, igtlink::Frame frame) {
   nlohmann::json j = report_json(snap.last_cut, frame);
   j["cuts"] = snap.cuts;
   return j.dump(-1, ' ', /*ensure_ascii=*/true);

@@ -1,5 +1,5 @@
 // One organ served (net::serve_organ, include/lamina/net/serve.h): the simulation steps in its
-// own thread in real time (interact::RealtimeLoop, as in the viewer); this thread only talks to
+// own thread in real time (world::OrganLoop, as in the viewer); this thread only talks to
 // the network: tool poses in, the deformed surfaces and the tissue's reaction force out
 // (igtl_session.cpp: what each message does and what each tick sends), and the web page's
 // session beside it. A client that misbehaves is dropped with a log line and never holds up a
@@ -76,10 +76,10 @@ int serve_organ(Listening& listening, sim::Simulation simulation,
   igtlink::Server& server = *listening.servers->igtl;
   const Model& m = *model;
   ServeRate rate(a.rate_hz, a.auto_rate);
-  interact::LoopOptions lo;
+  world::LoopOptions lo;
   lo.rate_hz = rate.rate_hz();  // real time: each step is 1 / rate of simulated time
   lo.threads = a.threads;
-  interact::RealtimeLoop loop(std::move(simulation), routing, lo);
+  world::OrganLoop loop(model, std::move(simulation), routing, lo);
   const auto start = Clock::now();
   IgtlSession session(a, server, loop, rate, model, start);
   session.log_embedded(false);

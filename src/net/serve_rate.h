@@ -12,7 +12,6 @@
 
 #include "igtl_server.h"
 #include "lamina/interact/rate_window.h"
-#include "lamina/interact/realtime_loop.h"
 #include "serve_clock.h"
 
 namespace lamina::net {

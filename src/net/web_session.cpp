@@ -22,9 +22,8 @@ using json = nlohmann::json;
 
 }  // namespace
 
-Session::Session(std::unique_ptr<Server> server, SessionOptions options,
-                 interact::RealtimeLoop& loop, SharedTools tools,
-                 std::shared_ptr<const Model> model)
+Session::Session(std::unique_ptr<Server> server, SessionOptions options, world::OrganLoop& loop,
+                 SharedTools tools, std::shared_ptr<const Model> model)
     : server_(std::move(server)), options_(std::move(options)), loop_(loop), tools_(tools) {
   stream_ = std::make_unique<WebStream>(std::move(model), options_.hello_fields);
   server_->on([this](int client, const std::string&) { opened(client); },
@@ -122,12 +121,20 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
     const interact::SkinHit hit =
         interact::pick_skin(model, snap_.x, origin, direction.normalized());
     drag_node_ = hit.node;
+    drag_version_ = snap_.model_version;
     drag_client_ = hit.node >= 0 ? client : -1;
   } else if (type == "drag") {
     const Eigen::Vector3d drag = vector3(m, "drag_mm", 1e4);
-    if (drag_client_ == client && drag_node_ >= 0)
+    if (drag_client_ != client) return;
+    loop_.latest(snap_);
+    follow_drag();
+    if (drag_node_ < 0) return;
+    try {
       loop_.set_forces({interact::LiveForce{.node = drag_node_,
-                                            .force_mn = 1000.0 * options_.gain_n_per_mm * drag}});
+                                            .force_mn = 1000.0 * options_.gain_n_per_mm * drag}},
+                       drag_version_);
+    } catch (const Error&) {  // a cut or an undo came in meanwhile: the next message follows it
+    }
   } else if (type == "release") {
     if (drag_client_ == client) {
       loop_.set_forces({});
@@ -137,6 +144,17 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
   } else {
     throw invalid_input("message", "unknown type '" + type + "'");
   }
+}
+
+// A cut or an undo renumbers the nodes; the loop carried the drag's force to its node's first
+// copy (or back), so the drag goes on there. A drag whose force was not carried (pressed, not yet
+// pulled; or let go by a reset) ends quietly: the page's next drag is ignored until it presses
+// again.
+void Session::follow_drag() {
+  if (snap_.model_version == drag_version_ || drag_node_ < 0) return;
+  drag_version_ = snap_.model_version;
+  drag_node_ = snap_.force_nodes.size() == 1 ? snap_.force_nodes[0] : -1;
+  if (drag_node_ < 0) drag_client_ = -1;
 }
 
 void Session::closed(int client) {

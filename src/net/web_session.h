@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "lamina/interact/realtime_loop.h"
+#include "lamina/world/organ_loop.h"
 #include "web_server.h"
 #include "web_stream.h"
 
@@ -44,7 +44,7 @@ class Session {
  public:
   /// `server` is made (and listening) before the model is built, so that a port in use fails
   /// at once.
-  Session(std::unique_ptr<Server> server, SessionOptions options, interact::RealtimeLoop& loop,
+  Session(std::unique_ptr<Server> server, SessionOptions options, world::OrganLoop& loop,
           SharedTools tools, std::shared_ptr<const Model> model);
 
   const Server& server() const { return *server_; }
@@ -79,16 +79,18 @@ class Session {
 
   std::unique_ptr<Server> server_;
   SessionOptions options_;
-  interact::RealtimeLoop& loop_;
+  world::OrganLoop& loop_;
   SharedTools tools_;
   std::unique_ptr<WebStream> stream_;
   uint64_t stream_version_ = 0;
   int64_t cuts_seen_ = 0;
-  interact::LoopSnapshot snap_;
+  world::LoopSnapshot snap_;
   Hand tip_hand_, grasp_hand_;
   bool grasp_missed_ = false;  // the last grasp found nothing (said once per press)
   int drag_client_ = -1;
   int32_t drag_node_ = -1;
+  uint64_t drag_version_ = 0;  // the model version drag_node_ is a node of
+  void follow_drag();          // drag_node_ carried through a change of model, or the drag ended
   uint32_t frames_ = 0;
   std::chrono::steady_clock::time_point next_frame_;
   std::vector<double> encode_ms_, frame_kb_;

@@ -93,7 +93,7 @@ std::vector<interact::CutEvent> advance_scalpels(World& world, BodyId id,
       interact::advance_scalpels(scalpels, model, b.sim, b.tools, &origin);
   if (model != b.model) {
     // The cut model is cut_simulation()'s own, held by nobody else: the body's to hold.
-    b.model = std::const_pointer_cast<Model>(model);
+    b.model = model;
     renumber(world, id.index, before_nodes, origin);
   }
   return events;
@@ -109,7 +109,8 @@ model::CutReport cut_body(World& world, BodyId id, const std::vector<Eigen::Vect
 }
 
 model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepared,
-                          std::vector<int32_t>* origin, WorldBefore* before) {
+                          std::vector<int32_t>* origin, WorldBefore* before,
+                          bool parameters_changed) {
   Body& b = body(world, id);
   const int32_t before_nodes = b.model->node_count();
   if (!prepared.cut) {
@@ -125,10 +126,9 @@ model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepar
     throw invalid_input("cut of body '" + b.name + "'",
                         "the prepared cut is of another model than the body's");
   std::vector<int32_t> from = prepared.origin;
-  // The cut model is made by prepare_cut and owned by nobody else: the body may hold it as its
-  // own (mutable) model. A rate changed since it was prepared changed the body's dt.
+  // A rate changed since the cut was prepared changed the body's dt.
   std::shared_ptr<const Model> model = b.model;
-  const bool changed = prepared.sim->options().dt_s != b.sim.options().dt_s;
+  const bool changed = parameters_changed || prepared.sim->options().dt_s != b.sim.options().dt_s;
   // Kept for a reset as keep_before() keeps it, but the simulation replaced is moved there, not
   // copied (a copy of the paper-size liver's took about 2 ms of the stepping thread's pause).
   const bool keep = before != nullptr && !kept(*before, id);
@@ -137,13 +137,13 @@ model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepar
   std::optional<sim::Simulation> was = interact::take_cut(model, b.sim, b.tools, prepared, changed);
   if (keep)
     before->bodies.push_back({.id = id,
-                              .model = std::const_pointer_cast<Model>(b.model),
+                              .model = b.model,
                               .sim = std::move(*was),
                               .tools = std::move(tools_before),
                               .rest_overlap_mm = b.rest_overlap_mm,
                               .origin = from});
   model::CutReport report = std::move(prepared.report);
-  b.model = std::const_pointer_cast<Model>(model);
+  b.model = model;
   renumber(world, id.index, before_nodes, from);
   if (origin != nullptr) *origin = std::move(from);
   return report;

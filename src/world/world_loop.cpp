@@ -4,6 +4,7 @@
 #include "lamina/world/world_loop.h"
 
 #include <fmt/format.h>
+#include <malloc.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -32,7 +33,12 @@ WorldLoop::WorldLoop(World world, WorldLoopOptions options)
   if (!(m.options.publish_interval_s >= 0.0))
     throw invalid_input("world loop: publish_interval_s", "must be >= 0 s");
   m.rate_hz = m.stepping_rate_hz = m.options.rate_hz;
-  m.live.resize(m.world.bodies.size());
+  const size_t slots = m.world.bodies.size();
+  m.live.resize(slots);
+  m.tip_contact.assign(slots, -1);
+  m.warned_inside.assign(slots, 0);
+  m.parameters.assign(slots, 0);
+  m.tools_reaction.assign(slots, Eigen::Vector3d::Zero());
   for (const BodyId id : body_ids(m.world)) {
     const Body& b = body(m.world, id);
     m.handles.push_back({id, b.topology, b.model->layers[0].node_count, b.model->rings.locality});
@@ -51,6 +57,11 @@ WorldLoop::~WorldLoop() {
 
 void WorldLoop::start() {
   if (thread_.joinable()) return;
+  // Freed memory stays in the process: a cut made on another thread frees and allocates
+  // megabytes, and glibc's munmap/trim of them stalled the stepping thread's page faults for up
+  // to 50 ms (BM_RealtimeLoopWhileCutting, docs/benchmarks.md; 11-24 ms without them).
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   {
     std::lock_guard lock(impl_->mutex);
     impl_->stop_requested = false;
@@ -119,10 +130,11 @@ void WorldLoop::set_parameters(BodyId id, const sim::Material& material,
     std::lock_guard lock(m.snapshot_mutex);
     dt = m.published.dt_s;
   }
-  if (solver.dt_s != dt)
+  // In real time dt is the clock's (1 / rate); otherwise a new dt is the world's, every body's.
+  if (m.options.real_time && solver.dt_s != dt)
     throw invalid_input("world loop: dt_s",
-                        fmt::format("{:g} s, but every body of a world steps at its dt, {:g} s now "
-                                    "(in real time 1 / rate: change the rate instead)",
+                        fmt::format("{:g} s, but in real time every body steps at 1 / rate, "
+                                    "{:g} s now: change the rate instead",
                                     solver.dt_s, dt));
   std::lock_guard lock(m.mutex);
   const Impl::Handle& h = m.handle_of(id);
@@ -239,6 +251,7 @@ void WorldLoop::Impl::follow_the_clock() {
     sim::SolverOptions o = s.options();
     o.dt_s = dt;
     sim::set_parameters(s, s.material(), o);
+    ++parameters[static_cast<size_t>(id.index)];
   }
 }
 
@@ -317,15 +330,25 @@ void WorldLoop::Impl::apply_pending() {
   for (const int32_t slot : reroute) route_forces(slot);
 }
 
-// New parameters for the bodies (set_parameters(), checked there), each body's newest; dt stays
-// the world's (follow_the_clock() may have changed it since the check).
+// New parameters for the bodies (set_parameters(), checked there), each body's newest. In real
+// time dt stays the clock's (follow_the_clock() may have changed it since the check); otherwise
+// a new dt is every body's.
 void WorldLoop::Impl::apply_parameters() {
   for (NewParams& p : new_params) {
     BodySlot& bs = world.bodies[static_cast<size_t>(p.slot)];
     if (!bs.alive) continue;
-    p.solver.dt_s = bs.body.sim.options().dt_s;
+    if (options.real_time) p.solver.dt_s = bs.body.sim.options().dt_s;
     sim::set_parameters(bs.body.sim, p.material, p.solver);
     bs.body.tools.routing = p.routing;
+    ++parameters[static_cast<size_t>(p.slot)];
+    for (size_t k = 0; k < world.bodies.size(); ++k) {
+      sim::Simulation& other = world.bodies[k].body.sim;
+      if (!world.bodies[k].alive || other.options().dt_s == p.solver.dt_s) continue;
+      sim::SolverOptions o = other.options();
+      o.dt_s = p.solver.dt_s;
+      sim::set_parameters(other, other.material(), o);
+      ++parameters[k];
+    }
   }
   new_params.clear();
 }
@@ -397,8 +420,18 @@ void WorldLoop::Impl::one_step() {
                unstable_body, world.time_s, sim::describe(unstable));
   }
   {
+    // Every body's push on its live tools, as the one-organ loop renders it; an unstable step's
+    // is no force to render on a haptic device: none at all.
     std::lock_guard lock(reaction_mutex);
     reaction = {hands_reaction_mn(), world.steps, world.time_s};
+    for (size_t slot = 0; slot < world.bodies.size(); ++slot) {
+      const BodySlot& bs = world.bodies[slot];
+      const interact::HapticProxy* proxy = slot < tip_proxies.size() ? &tip_proxies[slot] : nullptr;
+      tools_reaction[slot] =
+          bs.alive && !halted() && proxy != nullptr
+              ? interact::live_reaction(bs.body.sim, bs.body.tools, proxy->device_force_mn)
+              : Eigen::Vector3d::Zero();
+    }
   }
   const double t1 = now_s();
   window.add(1e6 * (t1 - t0), late_us, t1, world.time_s, stepping_rate_hz, options.real_time);

@@ -18,13 +18,15 @@ namespace lamina::world {
 void WorldLoop::Impl::apply_cuts() {
   const bool background = threaded && options.background_cuts;
   take_cut(/*wait=*/!background);  // one begun in the thread before a stop() is waited for
-  apply_undos();                   // after the cut being made, which it may be asked to take back
   while (!tissue_cuts.empty() && !cut_job.valid()) {
     Stroke s = std::move(tissue_cuts.front());
     tissue_cuts.erase(tissue_cuts.begin());
     begin_cut(std::move(s));
     if (!background) take_cut(/*wait=*/true);
   }
+  // After the cuts asked for before it, being made or waiting: an undo may be asked for the cut
+  // just asked for (the viewer's K then U).
+  apply_undos();
 }
 
 // Copies of what the cut needs from every live body (its model, shared, and its state: a copy
@@ -34,6 +36,7 @@ void WorldLoop::Impl::begin_cut(Stroke stroke) {
   struct Source {
     BodyId id;
     uint32_t topology;
+    uint64_t parameters;
     std::string name;
     std::shared_ptr<const Model> model;
     sim::CarrySource from;
@@ -41,7 +44,8 @@ void WorldLoop::Impl::begin_cut(Stroke stroke) {
   std::vector<Source> sources;
   for (const BodyId id : body_ids(world)) {
     const Body& b = body(world, id);
-    sources.push_back({id, b.topology, b.name, b.model, sim::carry_source(b.sim)});
+    sources.push_back({id, b.topology, parameters[static_cast<size_t>(id.index)], b.name, b.model,
+                       sim::carry_source(b.sim)});
   }
   const bool background = threaded && options.background_cuts;
   cut_job = std::async(
@@ -53,7 +57,7 @@ void WorldLoop::Impl::begin_cut(Stroke stroke) {
           try {
             interact::PreparedCut p = interact::prepare_cut(*src.model, src.from, j.stroke.path,
                                                             j.stroke.direction, j.stroke.depth_mm);
-            if (p.cut) j.bodies.push_back({src.id, src.topology, std::move(p)});
+            if (p.cut) j.bodies.push_back({src.id, src.topology, src.parameters, std::move(p)});
           } catch (const Error& e) {  // a body without tetrahedra: named, the others cut
             j.skipped += (j.skipped.empty() ? "" : "; ") + src.name + ": " + e.what();
           }
@@ -93,7 +97,8 @@ void WorldLoop::Impl::take_cut(bool wait) {
     model::CutReport r;
     std::vector<int32_t> origin;
     try {  // kept as it was for an undo (and a reset)
-      r = world::take_cut(world, o.id, o.cut, &origin, &entry.before);
+      r = world::take_cut(world, o.id, o.cut, &origin, &entry.before,
+                          parameters[static_cast<size_t>(o.id.index)] != o.parameters);
     } catch (const Error& e) {  // nothing of the body changed
       log::warn("world: cut: {}", e.what());
       continue;
@@ -103,6 +108,9 @@ void WorldLoop::Impl::take_cut(bool wait) {
     ++divided;
     log::info("world: cut '{}': {} tetrahedra divided, {} nodes added", body(world, o.id).name,
               r.cut_tets, r.new_nodes);
+    for (const model::StructureCut& x : r.structures_cut)
+      log::warn("cut: {} cut across at ({:.1f}, {:.1f}, {:.1f}) mm, {:.1f} mm wide", x.name,
+                x.position_mm.x(), x.position_mm.y(), x.position_mm.z(), x.diameter_mm);
     reports.emplace_back(body(world, o.id).name, std::move(r));
     std::lock_guard lock(mutex);
     topology_changed(o.id.index, &origin);
@@ -120,6 +128,7 @@ void WorldLoop::Impl::take_cut(bool wait) {
     ++cut_events;
   }
   last_cut_ms = cut_begin_ms + 1e3 * (now_s() - t0);  // the copies, and taking it in
+  longest_cut_ms = std::max(longest_cut_ms, last_cut_ms);
   last_cut_made_ms = 1e3 * (now_s() - j.began_s);
   last_cut_steps_meanwhile = world.steps - j.steps;
   cut_message = divided > 0          ? std::string()
@@ -131,7 +140,7 @@ void WorldLoop::Impl::take_cut(bool wait) {
 // Undos asked, each the newest cut taken back (world_loop.h, undo_cut()): the bodies it divided
 // put back as they were just before it, on the clock of now and with the parameters set since.
 void WorldLoop::Impl::apply_undos() {
-  if (undos == 0 || cut_job.valid()) return;
+  if (undos == 0 || cut_job.valid() || !tissue_cuts.empty()) return;
   for (; undos > 0; --undos) {
     if (history.undo.empty()) {
       cut_message = "undo: there is no cut to undo";
@@ -164,6 +173,7 @@ void WorldLoop::Impl::apply_undos() {
     cuts -= static_cast<int32_t>(slots.size());  // one per body it divided
     tets_cut -= tets;
     cut_message.clear();
+    last_cut.clear();
     ++cut_events;
     log::info("world: undo: the last cut taken back ({} cut(s) in force)", cuts);
   }

@@ -87,10 +87,25 @@ void WorldLoop::Impl::move_hands() {
     if (!tip.active) {
       if (!b.tools.tip.nodes.empty()) b.tools.tip = {};
       proxy = {};  // placed afresh when the tip comes on again
+      tip_contact[slot] = -1;
       continue;
     }
     b.tools.tip = interact::load_of_tip(*b.model, b.sim.x, tip, b.tools.routing, proxy);
     body_reaction_mn[slot] += proxy.device_force_mn;
+    if (proxy.started_inside && warned_inside[slot] == 0)
+      log::warn(
+          "tool tip: the device is inside '{}', {:.1f} mm under its skin; the tip touches it "
+          "not until it is brought out (a tool starts outside the organ)",
+          b.name, proxy.start_depth_mm);
+    warned_inside[slot] = proxy.started_inside ? 1 : 0;
+    // The paper's local mode: the tissue a new contact loads becomes movable, and stays so.
+    const int32_t contact = b.tools.tip.contact_node;
+    if (contact >= 0 && contact != tip_contact[slot] && b.sim.options().mode == sim::Mode::kLocal) {
+      b.tools.touched.insert(b.tools.touched.end(), b.tools.tip.nodes.begin(),
+                             b.tools.tip.nodes.end());
+      interact::keep_touched_movable(b.sim, b.tools.touched);
+    }
+    tip_contact[slot] = contact;
   }
   if (!jaws) {
     open_grasper();
@@ -136,6 +151,12 @@ void WorldLoop::Impl::move_hands() {
       return;
     }
     close_at.reset();
+    Body& held = world.bodies[static_cast<size_t>(grasp_slot)].body;
+    if (held.sim.options().mode == sim::Mode::kLocal) {  // the tissue around the jaws moves
+      held.tools.touched.insert(held.tools.touched.end(), held.tools.hand.nodes.begin(),
+                                held.tools.hand.nodes.end());
+      interact::keep_touched_movable(held.sim, held.tools.touched);
+    }
   }
   Body& b = world.bodies[static_cast<size_t>(grasp_slot)].body;
   interact::move_jaws(b.sim, jaws->center_mm, b.tools.hand);
@@ -156,6 +177,7 @@ void WorldLoop::Impl::open_grasper() {
 // A body renumbered: the tip's load on it and its proxy start over on the new shape.
 void WorldLoop::Impl::forget_tip(int32_t slot) {
   if (static_cast<size_t>(slot) < tip_proxies.size()) tip_proxies[static_cast<size_t>(slot)] = {};
+  tip_contact[static_cast<size_t>(slot)] = -1;
   BodySlot& bs = world.bodies[static_cast<size_t>(slot)];
   if (bs.alive) bs.body.tools.tip = {};
 }

@@ -80,7 +80,12 @@ struct WorldLoop::Impl {
   std::optional<interact::Jaws> close_at, jaws;
   int32_t grasp_slot = -1;
   std::vector<Eigen::Vector3d> body_reaction_mn;  // per body slot: its push on the hands
-  Eigen::Vector3d hands_reaction_mn() const;      // the sum: the snapshot's, the device's
+  std::vector<int32_t> tip_contact;               // per body slot: the tip's contact node, or -1
+  std::vector<uint8_t> warned_inside;             // per body slot: the device-inside warning logged
+  // Per body slot: counts the changes of its material, solver or dt (a cut prepared before one
+  // sets the body's parameters of now on the cut simulation).
+  std::vector<uint64_t> parameters;
+  Eigen::Vector3d hands_reaction_mn() const;  // the sum: the snapshot's, the device's
   WorldStepStats stats;
   interact::RateWindow window;
   double late_us = 0.0;
@@ -97,7 +102,8 @@ struct WorldLoop::Impl {
     int64_t steps = 0;  // the world's when it began
     struct OnBody {
       BodyId id;
-      uint32_t topology = 0;  // the body's when it began: a change since drops its part
+      uint32_t topology = 0;    // the body's when it began: a change since drops its part
+      uint64_t parameters = 0;  // the body's parameters' count when it began
       interact::PreparedCut cut;
     };
     std::vector<OnBody> bodies{};  // those it divides
@@ -116,6 +122,7 @@ struct WorldLoop::Impl {
   int32_t cuts = 0;
   int64_t tets_cut = 0;
   double last_cut_ms = 0.0;
+  double longest_cut_ms = 0.0;  // since the loop was made (a reset keeps it)
   std::string cut_message;
   std::vector<std::pair<std::string, model::CutReport>> last_cut;  // the snapshot's
   uint64_t cut_events = 0;
@@ -129,6 +136,7 @@ struct WorldLoop::Impl {
   WorldSnapshot published;
   mutable std::mutex reaction_mutex;
   interact::ReactionSample reaction;
+  std::vector<Eigen::Vector3d> tools_reaction;  // per body slot: BodyView::reaction_mn
 
   bool halted() const { return unstable != sim::Instability::kNone; }
   void follow_the_clock();  // every body's dt = 1 / rate in real time

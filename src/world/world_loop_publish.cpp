@@ -18,6 +18,18 @@ interact::ReactionSample WorldLoop::latest_reaction() const {
   return impl_->reaction;
 }
 
+interact::ReactionSample WorldLoop::latest_reaction(BodyId id) const {
+  const Impl& m = *impl_;
+  std::lock_guard lock(m.reaction_mutex);
+  interact::ReactionSample out = m.reaction;
+  const auto slot = static_cast<size_t>(id.index);
+  // A loop makes and destroys no body: a slot's generation is written by nobody meanwhile.
+  const bool live = id.index >= 0 && slot < m.world.bodies.size() &&
+                    m.world.bodies[slot].generation == id.generation;
+  out.reaction_mn = live ? m.tools_reaction[slot] : Eigen::Vector3d::Zero();
+  return out;
+}
+
 void WorldLoop::Impl::publish(bool force) {
   const double t = now_s();
   if (!force && t - last_publish_s < options.publish_interval_s) return;
@@ -50,6 +62,12 @@ void WorldLoop::Impl::publish(bool force) {
     v.grasped_nodes = b.tools.hand.nodes;
     v.hands_reaction_mn =
         slot < body_reaction_mn.size() ? body_reaction_mn[slot] : Eigen::Vector3d::Zero();
+    v.reaction_mn = tools_reaction[slot];
+    v.contact_nodes.clear();
+    for (const interact::ForceRoute& r : b.tools.live_routes)
+      v.contact_nodes.push_back(r.contact_node);
+    v.tip_touching = tip_contact[slot] >= 0;
+    if (v.tip_touching) v.contact_nodes.push_back(tip_contact[slot]);
     v.fixed = b.sim.fixed();
     v.recoveries = b.sim.recoveries;
     v.multigrid = sim::uses_multigrid(b.sim);
@@ -80,6 +98,7 @@ void WorldLoop::Impl::publish(bool force) {
   s.cuts = cuts;
   s.tets_cut = tets_cut;
   s.last_cut_ms = last_cut_ms;
+  s.longest_cut_ms = longest_cut_ms;
   s.last_cut_made_ms = last_cut_made_ms;
   s.last_cut_steps_meanwhile = last_cut_steps_meanwhile;
   s.cut_message = cut_message;

@@ -11,7 +11,6 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/winding_number.h"
 #include "lamina/interact/haptic_proxy.h"
-#include "lamina/interact/realtime_loop.h"
 #include "support/held_sphere.h"
 #include "support/sphere_model.h"
 
@@ -169,22 +168,6 @@ TEST(Contact, AtRestTheTissuePushesBackWithExactlyTheToolsLoad) {
   // The dent at rest is 0.50 mm (0.4995 mm with one thread at -O1: round-off in where the rest
   // is declared), a clear dent against the 3 mm the sphere would overlap the rest shape.
   EXPECT_GT(s.x(node, 1) - m.X(node, 1), 0.4) << "the skin gave way";
-}
-
-// The realtime loop without routing: the reaction is exactly minus the tip's load every step,
-// the tip keeps pushing at rest, and a live force adds its own load, conserved.
-TEST(Contact, TheLoopsReactionIsMinusTheLoadOfTheTipAndTheForces) {
-  Eigen::Vector3d c;
-  const Model& m = sphere_model(&c);
-  sim::Simulation s = held_sphere({});
-  interact::RealtimeLoop loop(std::move(s), kNoRouting, {.real_time = false});
-  const int32_t node = front_node(m);
-  loop.set_forces({{.node = node, .force_mn = Eigen::Vector3d(0, 150, 0)}});
-  loop.run_steps(3000);
-  interact::LoopSnapshot snap;
-  ASSERT_TRUE(loop.latest(snap));
-  EXPECT_LT((snap.reaction_mn - Eigen::Vector3d(0, -150, 0)).norm(), 1e-9);
-  EXPECT_GT(snap.x(node, 1) - m.X(node, 1), 0.5);
 }
 
 }  // namespace

@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "lamina/core/error.h"
-#include "lamina/interact/realtime_loop.h"
 #include "support/held_sphere.h"
 #include "support/sphere_model.h"
 
@@ -145,23 +144,6 @@ TEST(HapticProxy, ADeviceInsideTheOrganIsNotPlacedUntilBroughtOut) {
   EXPECT_TRUE(proxy.placed);
   EXPECT_FALSE(proxy.started_inside);
   EXPECT_GT((proxy.proxy_mm - c).dot(outward), (skin - c).norm()) << "placed on the near side";
-}
-
-TEST(HapticProxy, BadLimitsAreRefusedByName) {
-  interact::RealtimeLoop loop(test::held_sphere(), kNoRouting, {.real_time = false});
-  interact::ToolTip tip{.active = true, .max_force_n = -1.0};
-  try {
-    loop.set_tool_tip(tip);
-    FAIL() << "a negative max_force_n was taken";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("max_force_n"), std::string::npos) << e.what();
-  }
-  tip.max_force_n = 3.0;
-  tip.max_force_change_n = 0.0;
-  EXPECT_THROW(loop.set_tool_tip(tip), Error);
-  tip.max_force_change_n = 0.05;
-  tip.radius_mm = std::nan("");
-  EXPECT_THROW(loop.set_tool_tip(tip), Error);
 }
 
 }  // namespace

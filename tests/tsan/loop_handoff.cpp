@@ -1,5 +1,5 @@
 // ThreadSanitizer run over the simulation thread and its handoff to a viewer (scripts/tsan.sh,
-// docs/testing.md). interact::RealtimeLoop steps on its own thread while another thread does
+// docs/testing.md). world::OrganLoop steps on its own thread while another thread does
 // what the viewer's frame loop does, as fast as it can: copies the latest snapshot, moves the
 // mouse force, pins and releases forces, moves the tool tip, changes parameters (including the
 // integrator, which rebuilds the projective solver on the loop's side), pauses, resets,
@@ -16,7 +16,7 @@
 
 #include "handoff_setup.h"
 #include "lamina/core/error.h"
-#include "lamina/interact/realtime_loop.h"
+#include "lamina/world/organ_loop.h"
 
 using namespace lamina;
 
@@ -26,15 +26,15 @@ int main(int argc, char** argv) {
   const Model& model = *setup->model;
   const double seconds = setup->seconds;
   const sim::Material& material = setup->material;
-  interact::LoopOptions options;
+  world::LoopOptions options;
   options.rate_hz = 2000.0;
   options.publish_interval_s = 0.0;  // publish every step: the most handoffs
-  interact::RealtimeLoop loop(sim::make_simulation(model, material), {}, options);
+  world::OrganLoop loop(sim::make_simulation(model, material), {}, options);
   loop.start();
 
   // The "viewer": a frame loop on this thread.
   const int32_t skin = model.layers[0].node_count;
-  interact::LoopSnapshot snap;
+  world::LoopSnapshot snap;
   uint64_t frames = 0, fresh = 0, last_generation = 0;
   const auto t0 = std::chrono::steady_clock::now();
   for (;; ++frames) {

@@ -18,7 +18,7 @@
 #include "beast.h"
 #include "handoff_setup.h"
 #include "lamina/core/error.h"
-#include "lamina/interact/realtime_loop.h"
+#include "lamina/world/organ_loop.h"
 
 using namespace lamina;
 namespace asio = boost::asio;
@@ -91,9 +91,9 @@ int main(int argc, char** argv) {
   const std::shared_ptr<Model> model = setup->model;
   const double seconds = setup->seconds;
   const sim::Material& material = setup->material;
-  interact::LoopOptions options;
+  world::LoopOptions options;
   options.rate_hz = 1000.0;
-  interact::RealtimeLoop loop(sim::make_simulation(*model, material), {}, options);
+  world::OrganLoop loop(sim::make_simulation(*model, material), {}, options);
   interact::ToolTip tip;
   int tip_client = -1, grasper_client = -1;
   net::web::ServerOptions so;

@@ -249,9 +249,14 @@ TEST(WorldLoopParameters, WhatCannotBeTakenIsRefusedWithNothingChanged) {
   sim::Material bad = a.material;
   bad.damping_kg_per_s = -1.0;
   refused([&] { loop.set_parameters(a.id, bad, a.solver, a.routing); }, "negative damping");
-  sim::SolverOptions other_dt = a.solver;
-  other_dt.dt_s *= 2.0;
-  refused([&] { loop.set_parameters(a.id, a.material, other_dt, a.routing); }, "another dt");
+  {  // in real time dt is 1 / rate: another is refused
+    WorldLoop real_time(std::move(two_spheres(0.5, 0.0, 0.0).world), {.rate_hz = 500.0});
+    const WorldSnapshot r = latest(real_time);
+    sim::SolverOptions other_dt = r.bodies[0].solver;
+    other_dt.dt_s *= 2.0;
+    refused([&] { real_time.set_parameters(r.bodies[0].id, a.material, other_dt, a.routing); },
+            "another dt in real time");
+  }
   interact::RoutingOptions far = a.routing;
   far.routing = interact::Routing::kPaper;
   far.locality = a.model->rings.locality + 5;
@@ -266,6 +271,24 @@ TEST(WorldLoopParameters, WhatCannotBeTakenIsRefusedWithNothingChanged) {
   EXPECT_EQ(s1.bodies[0].material.damping_kg_per_s, a.material.damping_kg_per_s);
   EXPECT_EQ(s1.bodies[0].solver.dt_s, a.solver.dt_s);
   EXPECT_EQ(s1.bodies[0].routing.locality, a.routing.locality);
+}
+
+// Without real time dt is the world's: a new one set on one body is every body's (the one-organ
+// loop's caller sets dt this way: a world of one body).
+TEST(WorldLoopParameters, WithoutRealTimeANewDtIsEveryBodys) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  WorldLoop loop(std::move(t.world), {.real_time = false});
+  const WorldSnapshot s0 = latest(loop);
+  ASSERT_EQ(s0.bodies.size(), 2u);
+  const BodyView& a = s0.bodies[0];
+  sim::SolverOptions half = a.solver;
+  half.dt_s *= 0.5;
+  loop.set_parameters(a.id, a.material, half, a.routing);
+  loop.run_steps(2);
+  const WorldSnapshot s1 = latest(loop);
+  EXPECT_EQ(s1.dt_s, half.dt_s);
+  for (const BodyView& b : s1.bodies) EXPECT_EQ(b.solver.dt_s, half.dt_s) << b.name;
+  EXPECT_NEAR(s1.time_s - s0.time_s, 2 * half.dt_s, 1e-12);
 }
 
 }  // namespace

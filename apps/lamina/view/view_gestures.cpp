@@ -43,7 +43,8 @@ const char* gesture_name(Gesture g) {
 
 void ViewSession::State::handle_key(const std::string& key) {
   if (key == "r") {
-    loop->reset();  // opens the jaws; the scene's grasper closes again at its start
+    loop->reset();  // opens the jaws; the scene's grasper closes again at its start; uncuts
+    reset_asked = cuts > 0;
     grasp_held = false;
     scene_grasp = vm->grasper.has_value();
     scene_grasp_since_s = -1.0;

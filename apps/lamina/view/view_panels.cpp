@@ -95,7 +95,7 @@ void ViewSession::State::panels() {
   if (ImGui::CollapsingHeader("Material", ImGuiTreeNodeFlags_DefaultOpen))
     changed |= material_widgets(material, last_volume_kpa);
   if (ImGui::CollapsingHeader("Solver", ImGuiTreeNodeFlags_DefaultOpen)) {
-    // In real time each step is 1/rate (RealtimeLoop): show that, not the scene's dt, which
+    // In real time each step is 1/rate (OrganLoop): show that, not the scene's dt, which
     // only the "as fast as possible" rate 0 steps.
     changed |= solver_widgets(solver, rate_hz > 0.0 ? 1.0 / rate_hz : 0.0, "dt s (1/rate)");
     if (ImGui::InputDouble("rate Hz (0 = max)", &rate_hz, 100, 1000, "%.0f"))

@@ -66,7 +66,8 @@ void ViewSession::State::watch_real_time_and_drag(double t) {
 // the window's and the solver's start (55 ms a step measured where 7 ms is the rule).
 void ViewSession::State::follow_the_machine(double t) {
   if (!auto_rate || paused || rate_hz <= 0.0 || t < 2.0) return;
-  const std::optional<double> next = interact::rate_to_follow(rate_hz, snap, "--rate");
+  const std::optional<double> next =
+      interact::rate_to_follow(rate_hz, world::measured_window(snap), "--rate");
   if (!next) return;
   rate_hz = *next;
   loop->set_rate(rate_hz);

@@ -39,7 +39,7 @@ bool ViewSession::script_drives_mouse() const {
   return state_->script.drives_mouse();
 }
 
-const interact::LoopSnapshot& ViewSession::snapshot() const {
+const world::LoopSnapshot& ViewSession::snapshot() const {
   return state_->snap;
 }
 
@@ -127,7 +127,10 @@ int ViewSession::run() {
 
 void ViewSession::State::start_loop() {
   routing.locality = std::min(routing.locality, vm->model.rings.locality);
-  sim::Simulation s = sim::make_simulation(vm->model, material, solver);
+  // The loop's own copy of the model: the viewer replaces vm->model with a cut one, and an undo
+  // goes back to the model the loop was made with.
+  auto own = std::make_shared<const Model>(vm->model);
+  sim::Simulation s = sim::make_simulation(*own, material, solver);
   sim::fix_nodes(s, vm->fixed);
   sim::support_nodes(s, vm->support.nodes, vm->support.stiffness_n_per_m);
   fixed_at.clear();
@@ -136,10 +139,10 @@ void ViewSession::State::start_loop() {
   for (size_t k = 0; k < vm->support.nodes.size(); ++k)
     support_at.emplace_back(vm->model.X.row(vm->support.nodes[k]).transpose(),
                             vm->support.stiffness_n_per_m[k]);
-  interact::LoopOptions lo;
+  world::LoopOptions lo;
   lo.rate_hz = rate_hz;
   lo.threads = 1;  // the window draws on the other core (llvmpipe renders on the CPU)
-  loop = std::make_unique<interact::RealtimeLoop>(std::move(s), routing, lo);
+  loop = std::make_unique<world::OrganLoop>(std::move(own), std::move(s), routing, lo);
   pinned.clear();
   for (const auto& [node, force] : vm->pinned) pinned.push_back({node, force});
   sent = pinned;
@@ -285,10 +288,10 @@ void ViewSession::State::on_frame() {
   }
 }
 
-// A cut (K) made on the simulation thread, or undone (U): its model is shown from now on, its
-// display skin split along the cut and the wound inside. Node indices change, so the pinned forces
-// are let go (the loop carried them over, but this session names nodes by the old model); the
-// structures it crossed are marked where they were cut.
+// A cut (K) made on the simulation thread, undone (U), or every cut taken back by a reset (R):
+// its model is shown from now on, its display skin split along the cut and the wound inside. Node
+// indices change, so the pinned forces are let go (the loop carried them over, but this session
+// names nodes by the old model); the structures it crossed are marked where they were cut.
 void ViewSession::State::adopt_cut() {
   if (snap.model_version == model_version) {
     if (!snap.cut_error.empty() && cut_message == "cutting...") cut_message = snap.cut_error;
@@ -302,13 +305,16 @@ void ViewSession::State::adopt_cut() {
   pinned.clear();
   update_forces();
   watched = last_drag_node = drag_peak_node = -1;
-  if (snap.cuts < cuts) {  // an undo (U): the marks of the cuts taken back go too
+  if (snap.cuts < cuts) {  // an undo (U) or a reset (R): the marks of the cuts taken back go
     for (; cuts > snap.cuts && !crossed_before.empty(); --cuts) {
       crossed.resize(crossed_before.back());
       crossed_before.pop_back();
     }
     cuts = snap.cuts;
-    cut_message = fmt::format("undid the last cut ({} in force)", cuts);
+    cut_message = reset_asked && cuts == 0
+                      ? std::string("reset: the organ is whole again, its cuts taken back")
+                      : fmt::format("undid the last cut ({} in force)", cuts);
+    reset_asked = false;
     log::info("lamina view: {}", cut_message);
     return;
   }

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// `lamina view`'s session on the viewer engine (render/viewer.h): it owns the simulation (an
-/// interact::RealtimeLoop in its own thread), turns the engine's input into the reference paper's
+/// world::OrganLoop in its own thread), turns the engine's input into the reference paper's
 /// drag (force = gain x drag, Shift pins it), tool tips and camera moves, replays scripted input,
 /// builds the panels, rebuilds the model in the background, and writes the report, the
 /// screenshots and the deformed skin. It uses the engine's API only, so it runs the same on a
@@ -30,11 +30,11 @@
 #include <vector>
 
 #include "lamina/core/progress.h"
-#include "lamina/interact/realtime_loop.h"
 #include "lamina/interact/tools.h"
 #include "lamina/model/model.h"
 #include "lamina/model/surface_support.h"
 #include "lamina/sim/simulation.h"
+#include "lamina/world/organ_loop.h"
 
 namespace lamina::cli {
 
@@ -117,7 +117,7 @@ class ViewSession {
   /// The report's content as of now (docs/viewer.md lists its keys).
   nlohmann::json report() const;
   /// The simulation's latest state as the last frame saw it.
-  const interact::LoopSnapshot& snapshot() const;
+  const world::LoopSnapshot& snapshot() const;
   /// The current model (replaced by a rebuild).
   const Model& model() const;
   /// What the last left-button press did and why: "drag node N", or why it did not drag

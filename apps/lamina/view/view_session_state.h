@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "lamina/geometry/plan_resection.h"
-#include "lamina/interact/realtime_loop.h"
 #include "lamina/render/input.h"
 #include "lamina/render/viewer.h"
+#include "lamina/world/organ_loop.h"
 #include "traced_stroke.h"
 #include "view_script.h"
 #include "view_session.h"
@@ -41,8 +41,8 @@ struct History {
 struct ViewSession::State {
   ViewOptions options;
   std::unique_ptr<ViewModel> vm;
-  std::unique_ptr<interact::RealtimeLoop> loop;
-  interact::LoopSnapshot snap;
+  std::unique_ptr<world::OrganLoop> loop;
+  world::LoopSnapshot snap;
   uint64_t shown_generation = ~uint64_t{0};  // the snapshot last sent to the engine
 
   // Live parameters (the panels edit these, then hand them to the loop).
@@ -76,6 +76,7 @@ struct ViewSession::State {
   TracedStroke scalpel;        // the blade's path under the drag
   uint64_t model_version = 0;  // the loop's cut model adopted
   int64_t cuts = 0;
+  bool reset_asked = false;  // R: the next change of model is the organ put back uncut
   std::vector<model::StructureCut> crossed;  // every structure the cuts in force crossed (marked)
   std::vector<size_t> crossed_before;        // per cut in force: crossed.size() before it
   std::string cut_message;                   // what the last cut did, or why it did nothing

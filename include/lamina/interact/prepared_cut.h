@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// A cut in two halves, for a loop that steps on while the cut is made (the one-organ
-/// RealtimeLoop and the world's loop alike): prepare_cut() divides the model and makes a
+/// OrganLoop and the world's loop alike): prepare_cut() divides the model and makes a
 /// simulation of the cut model, its solver prepared, from copies alone and on any thread (tens to
 /// hundreds of milliseconds); take_cut() then puts the state of the moment and the tools into
 /// it between two steps (a fraction of a millisecond). Done at once, the two are a cut made on

@@ -9,7 +9,7 @@
 #include <array>
 #include <optional>
 
-#include "lamina/interact/realtime_loop.h"
+#include "lamina/interact/rate_window.h"
 
 namespace lamina::interact {
 
@@ -33,16 +33,10 @@ double next_rate(double rate_hz, double mean_step_us, bool keeping_up);
 
 /// The rung a loop stepping at `rate_hz` moves to, judged on its last measured second
 /// (next_rate()), or nothing: nothing until a second has been measured at `rate_hz`
-/// (LoopSnapshot::measured_rate_hz; the loop's window starts again at a new rate, so a rate just
+/// (RateWindow::measured_rate_hz; the loop's window starts again at a new rate, so a rate just
 /// set is judged on a whole second of its own steps), nor when next_rate() keeps it. A move is
 /// logged, naming `forced_by` (what forces a rate instead). The viewer's and `lamina serve`'s.
-std::optional<double> rate_to_follow(double rate_hz, const LoopSnapshot& snap,
-                                     const char* forced_by);
-/// The same, judged on a loop's RateWindow (the world loop's).
 std::optional<double> rate_to_follow(double rate_hz, const RateWindow& measured,
                                      const char* forced_by);
-
-/// A one-organ loop's snapshot's one-second window (LoopSnapshot carries its fields one by one).
-RateWindow measured_window(const LoopSnapshot& snap);
 
 }  // namespace lamina::interact

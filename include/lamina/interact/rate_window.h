@@ -2,7 +2,8 @@
 /// \file
 /// A real-time loop's measure of itself over its last whole second of wall time: the rate it
 /// achieved, its mean step, its worst lateness and how many simulated seconds it made per wall
-/// second. The one-organ loop (realtime_loop.h) and the world's (world/world_loop.h) keep one.
+/// second. The world's loop (world/world_loop.h) keeps one; the one-organ loop is a world of one
+/// body.
 
 #include <algorithm>
 #include <cstdint>

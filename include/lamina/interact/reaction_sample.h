@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// The tissue's push back on the tools after one step, as the real-time loops publish it every
-/// step (interact::RealtimeLoop::latest_reaction(), world::WorldLoop::latest_reaction()): a haptic
+/// step (world::OrganLoop::latest_reaction(), world::WorldLoop::latest_reaction()): a haptic
 /// device's rate, without copying the state their snapshots copy.
 #include <Eigen/Core>
 #include <cstdint>

@@ -236,6 +236,14 @@ Eigen::Vector3d reaction_force(const sim::Simulation& sim, const Loads& loads);
 /// (reaction_force() of driver.loads) plus each grasper's pull (grasp_reaction()).
 Eigen::Vector3d tools_reaction(const sim::Simulation& sim, const ToolDriver& driver);
 
+/// The tissue's push back on a real-time loop's live hands on a body, mN, after a step: without
+/// routing exactly minus the live forces' loads (Newton's third law) plus the tool tip's device
+/// force (its coupling's: bounded, continuous); with the paper's routing, whose copies are not
+/// a tool's load, the tissue's push on the loaded nodes (reaction_force()); in either, the live
+/// grasper's pull on what it holds.
+Eigen::Vector3d live_reaction(const sim::Simulation& sim, const ToolDriver& driver,
+                              const Eigen::Vector3d& device_force_mn);
+
 /// The time after which no tool acts any more (0 with no tools; infinity if one never ends).
 double last_tool_end(const ToolDriver& driver);
 

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "lamina/interact/realtime_loop.h"
 #include "lamina/world/dissection.h"
+#include "lamina/world/organ_loop.h"
 #include "lamina/world/world.h"
 
 namespace lamina::net {
@@ -99,7 +99,7 @@ class Listening {
 /// Asked about every 0.1 s while serving; false ends the serve (Ctrl-C, a Python signal).
 using KeepGoing = std::function<bool()>;
 
-/// Serves one organ: `simulation` steps in real time (interact::RealtimeLoop) at options.rate_hz
+/// Serves one organ: `simulation` steps in real time (world::OrganLoop) at options.rate_hz
 /// while this thread answers the clients, until `keep_going` says no or options.duration_s has
 /// passed; a blow-up is said, counted and the organ reset. `source` names the organ in the log.
 /// The servers are used up: a Listening serves once.

@@ -21,7 +21,7 @@ namespace lamina::sim {
 Simulation carry_over(const Simulation& sim, const Model& cut, const std::vector<int32_t>& origin);
 
 /// carry_over() in two halves, for a loop that steps on while a cut is made
-/// (interact::RealtimeLoop): what a simulation of the cut model needs from the one it continues,
+/// (world::OrganLoop): what a simulation of the cut model needs from the one it continues,
 /// copied (carry_source(), quick), then the simulation made from the copies alone on any thread
 /// (made_for_cut(), slow: the tetrahedra identified, the solver prepared), then the state of the
 /// moment put in (restore_state(made, carried_state(capture_state(sim), ...)), quick).

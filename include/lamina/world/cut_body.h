@@ -61,14 +61,17 @@ struct WorldBefore;
 ///   (unless kept already), its simulation moved there rather than copied
 /// \note Throws lamina::Error (kInvalidInput) for a stale handle, or a prepared cut of another
 ///   model (its origin does not match the body's nodes).
+/// @param[in]     parameters_changed  the body's material or solver changed since the cut was
+///   prepared: the cut simulation takes the body's of now (a change of dt is seen without it)
 model::CutReport take_cut(World& world, BodyId id, interact::PreparedCut& prepared,
-                          std::vector<int32_t>* origin = nullptr, WorldBefore* before = nullptr);
+                          std::vector<int32_t>* origin = nullptr, WorldBefore* before = nullptr,
+                          bool parameters_changed = false);
 
 /// A body as it was before a change of its topology, and the ties of the world then: what
 /// put_back() restores (a loop's reset after cuts).
 struct BodyBefore {
   BodyId id;
-  std::shared_ptr<Model> model;
+  std::shared_ptr<const Model> model;
   sim::Simulation sim;
   interact::ToolDriver tools;
   std::vector<double> rest_overlap_mm;

@@ -53,16 +53,16 @@ struct AttachmentId {
 /// What a body is made of. The model is shared so that its address stays put: the simulation
 /// refers to it.
 struct BodyDef {
-  std::string name;                ///< names the body in messages and reports; unique in a world
-  std::shared_ptr<Model> model{};  ///< non-null, with the simulation made on it
-  sim::Simulation simulation{};    ///< made with sim::make_simulation(*model, ...)
-  interact::ToolDriver tools{};    ///< this body's tools (their times on the world's clock)
+  std::string name;  ///< names the body in messages and reports; unique in a world
+  std::shared_ptr<const Model> model{};  ///< non-null, with the simulation made on it
+  sim::Simulation simulation{};          ///< made with sim::make_simulation(*model, ...)
+  interact::ToolDriver tools{};          ///< this body's tools (their times on the world's clock)
 };
 
 /// A body in the world.
 struct Body {
   std::string name;
-  std::shared_ptr<Model> model;
+  std::shared_ptr<const Model> model;
   sim::Simulation sim;
   interact::ToolDriver tools;
   /// Counts the changes of this body's nodes (a cut): what a caller kept of an older

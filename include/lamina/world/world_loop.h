@@ -1,11 +1,11 @@
 #pragma once
 /// \file
 /// A world stepping in its own thread at the wall clock's pace (world::step, one step every
-/// 1 / rate seconds), decoupled from whoever draws it: the world's counterpart of the one-organ
-/// interact::RealtimeLoop, which the viewer runs a world scene with (docs/world.md, "The world
-/// in real time"). Callers push and pull bodies with live forces, sweep a blade through the
-/// attachments, pause, reset and change the rate at any time; the commands take effect between
-/// two steps. The loop publishes a snapshot (every body's positions, model and topology
+/// 1 / rate seconds), decoupled from whoever draws it: the viewer runs a world scene with it
+/// (docs/world.md, "The world in real time"), and one organ is a world of one body
+/// (world::OrganLoop, organ_loop.h). Callers push and pull bodies with live forces, sweep a blade
+/// through the attachments, pause, reset and change the rate at any time; the commands take effect
+/// between two steps. The loop publishes a snapshot (every body's positions, model and topology
 /// generation, the ties, the stages' times, the achieved rate) that a caller copies when it
 /// draws: neither side waits for the other.
 ///
@@ -49,7 +49,7 @@ struct WorldLoopOptions {
   /// never stretched to hide it. false: the bodies' dt whatever the rate.
   bool real_time = true;
   /// Threads each step may use; 0 = OpenMP's default (a viewer drawing on the same cores sets 1,
-  /// as it does for the one-organ loop: realtime_loop.h).
+  /// as it does for one organ).
   int threads = 0;
   /// Minimum wall time between two published snapshots, s.
   double publish_interval_s = 1.0 / 240.0;
@@ -75,6 +75,14 @@ struct BodyView {
   std::vector<int32_t> grasped_nodes;  ///< what the grasper holds of it (empty: none)
   /// Its tissue's push on the hands (the tool tip's device and the grasper), mN.
   Eigen::Vector3d hands_reaction_mn = Eigen::Vector3d::Zero();
+  /// Its tissue's push on every live tool on it after the last step, mN: the live forces', the
+  /// tip's device force and the grasper's pull (interact::live_reaction; zero once unstable).
+  /// What the one-organ loop renders (LoopSnapshot::reaction_mn).
+  Eigen::Vector3d reaction_mn = Eigen::Vector3d::Zero();
+  /// Where the live forces' routes touch it (each route's contact node), then the tool tip's
+  /// contact node while it touches it.
+  std::vector<int32_t> contact_nodes;
+  bool tip_touching = false;
   /// Per node, 1 = held where it is (fixed, or held by a grasp): jaws close on the others only.
   std::vector<uint8_t> fixed;
   int64_t recoveries = 0;  ///< steps redone after leaving bounds (sim::Simulation::recoveries)
@@ -119,11 +127,14 @@ struct WorldSnapshot {
   double last_cut_ms = 0.0;
   double last_cut_made_ms = 0.0;
   int64_t last_cut_steps_meanwhile = 0;
+  /// The longest of the cuts' times on the stepping thread (last_cut_ms) since the loop was made.
+  double longest_cut_ms = 0.0;
   /// Why the last cut() divided no tissue, or an undo_cut() with no cut to take back; or empty.
   std::string cut_message;
   /// What the last stroke that cut tissue did to each body it divided, by name (what it divided,
-  /// the pieces, the structures crossed: the world's LaminaCut), and a count that moves on with
-  /// each such stroke, each undo and each reset (news since a caller last looked).
+  /// the pieces, the structures crossed: the world's LaminaCut; empty after an undo), and a count
+  /// that moves on with each such stroke, each undo and each reset (news since a caller last
+  /// looked).
   std::vector<std::pair<std::string, model::CutReport>> last_cut;
   uint64_t cut_events = 0;
   /// How many of the last cuts undo_cut() can take back.
@@ -244,6 +255,9 @@ class WorldLoop {
   /// snapshots come at most every publish_interval_s, and cheap (no positions are copied): what a
   /// 1 kHz haptic loop reads.
   interact::ReactionSample latest_reaction() const;
+  /// `body`'s tissue's push on every live tool on it after the last step, every step
+  /// (BodyView::reaction_mn); zero for a stale handle.
+  interact::ReactionSample latest_reaction(BodyId body) const;
 
   /// The live bodies' handles and their topology generations as of the latest snapshot.
   std::vector<std::pair<BodyId, uint32_t>> bodies() const;

@@ -1,7 +1,7 @@
 // The fixed-rate simulation thread and skin picking: forces move the organ and their release
 // returns it to rest, the loop never runs faster than its rate, parameters change live and are
 // checked, and the reaction force balances the load at rest.
-#include "lamina/interact/realtime_loop.h"
+#include "lamina/world/organ_loop.h"
 
 #include <gtest/gtest.h>
 
@@ -23,12 +23,12 @@ using test::held_sphere;
 using test::sphere_model;
 
 // These fixed-step tests keep the solver's own dt (the real-time loop would step 1 / rate).
-const interact::LoopOptions kSolverDt{.real_time = false};
+const world::LoopOptions kSolverDt{.real_time = false};
 
-TEST(RealtimeLoop, RefusesBadRoutingWhenMadeAndWhenSet) {
+TEST(OrganLoop, RefusesBadRoutingWhenMadeAndWhenSet) {
   // On the caller's thread, named: not later, in the stepping thread's first routed force.
-  EXPECT_THROW(interact::RealtimeLoop(held_sphere(), {.penetration_depth = 0}), Error);
-  interact::RealtimeLoop loop(held_sphere(), {});
+  EXPECT_THROW(world::OrganLoop(held_sphere(), {.penetration_depth = 0}), Error);
+  world::OrganLoop loop(held_sphere(), {});
   EXPECT_THROW(loop.set_parameters({}, {}, {.ring_attenuation = 2.0}), Error);
 }
 
@@ -44,13 +44,13 @@ TEST(PickSkin, RayTowardsTheCentreHitsTheNearSideAndARayAwayMisses) {
   EXPECT_EQ(interact::pick_skin(m, m.X, origin, Eigen::Vector3d(0, -1, 0)).node, -1);
 }
 
-TEST(RealtimeLoop, ForceMovesTheNodeAlongItAndReleaseReturnsToRest) {
+TEST(OrganLoop, ForceMovesTheNodeAlongItAndReleaseReturnsToRest) {
   const Model& m = sphere_model();
-  interact::RealtimeLoop loop(held_sphere(), {}, kSolverDt);
+  world::OrganLoop loop(held_sphere(), {}, kSolverDt);
   const int32_t node = front_node(m);
   loop.set_forces({{node, Eigen::Vector3d(0, 300, 0)}});  // 0.3 N posteriorly
   loop.run_steps(400);
-  interact::LoopSnapshot s;
+  world::LoopSnapshot s;
   ASSERT_TRUE(loop.latest(s));
   const Eigen::Vector3d moved = s.x.row(node) - m.X.row(node);
   EXPECT_GT(moved.y(), 1.0);
@@ -66,7 +66,7 @@ TEST(RealtimeLoop, ForceMovesTheNodeAlongItAndReleaseReturnsToRest) {
   EXPECT_FALSE(loop.latest(s)) << "no new snapshot without steps";
 }
 
-TEST(RealtimeLoop, ReactionBalancesTheHeldLoadAtRest) {
+TEST(OrganLoop, ReactionBalancesTheHeldLoadAtRest) {
   const Model& m = sphere_model();
   sim::SolverOptions implicit;  // settles in fewer steps
   implicit.integrator = sim::Integrator::kImplicitEuler;
@@ -75,10 +75,10 @@ TEST(RealtimeLoop, ReactionBalancesTheHeldLoadAtRest) {
   // held node's load goes into its support, not back to the tool).
   interact::RoutingOptions routing;
   routing.penetration_depth = 3;
-  interact::RealtimeLoop loop(held_sphere(implicit), routing, kSolverDt);
+  world::OrganLoop loop(held_sphere(implicit), routing, kSolverDt);
   loop.set_forces({{front_node(m), Eigen::Vector3d(0, 200, 0)}});
   loop.run_steps(2000);
-  interact::LoopSnapshot s;
+  world::LoopSnapshot s;
   ASSERT_TRUE(loop.latest(s));
   ASSERT_TRUE(s.stats.converged) << "not at rest";
   // Every routed copy pushes +y; the tissue pushes back with as much.
@@ -86,10 +86,10 @@ TEST(RealtimeLoop, ReactionBalancesTheHeldLoadAtRest) {
   EXPECT_NEAR(s.reaction_mn.y(), -applied, 0.02 * applied);
 }
 
-TEST(RealtimeLoop, ToolTipPushesTheSkinOutOfTheSphere) {
+TEST(OrganLoop, ToolTipPushesTheSkinOutOfTheSphere) {
   Eigen::Vector3d c;
   const Model& m = sphere_model(&c);
-  interact::RealtimeLoop loop(held_sphere(), {}, kSolverDt);
+  world::OrganLoop loop(held_sphere(), {}, kSolverDt);
   const int32_t node = front_node(m);
   interact::ToolTip tip;
   tip.active = true;
@@ -98,7 +98,7 @@ TEST(RealtimeLoop, ToolTipPushesTheSkinOutOfTheSphere) {
   tip.center_mm = m.X.row(node).transpose() - Eigen::Vector3d(0, 3.0, 0);
   loop.set_tool_tip(tip);
   loop.run_steps(2000);
-  interact::LoopSnapshot s;
+  world::LoopSnapshot s;
   ASSERT_TRUE(loop.latest(s));
   EXPECT_TRUE(s.tool_tip_touching);
   EXPECT_GT(s.x(node, 1) - m.X(node, 1), 1.0) << "the skin gave way under the tip";
@@ -106,8 +106,8 @@ TEST(RealtimeLoop, ToolTipPushesTheSkinOutOfTheSphere) {
   EXPECT_LT(s.reaction_mn.y(), 0.0);
 }
 
-TEST(RealtimeLoop, ParametersAreCheckedAndAppliedLive) {
-  interact::RealtimeLoop loop(held_sphere(), {}, kSolverDt);
+TEST(OrganLoop, ParametersAreCheckedAndAppliedLive) {
+  world::OrganLoop loop(held_sphere(), {}, kSolverDt);
   sim::SolverOptions bad;
   bad.dt_s = -1;
   EXPECT_THROW(loop.set_parameters({}, bad, {}), Error);
@@ -119,7 +119,7 @@ TEST(RealtimeLoop, ParametersAreCheckedAndAppliedLive) {
   implicit.dt_s = 0.05;
   loop.set_parameters({}, implicit, {});
   loop.run_steps(10);
-  interact::LoopSnapshot s;
+  world::LoopSnapshot s;
   ASSERT_TRUE(loop.latest(s));
   EXPECT_NEAR(s.time_s, 0.5, 1e-9);
   EXPECT_GT(s.stats.cg_iterations, -1);
@@ -129,14 +129,14 @@ TEST(RealtimeLoop, ParametersAreCheckedAndAppliedLive) {
   EXPECT_NEAR(s.time_s, 0.05, 1e-9);
 }
 
-TEST(RealtimeLoop, InRealTimeAStepIsOneOverTheRateWhateverTheSolversDt) {
+TEST(OrganLoop, InRealTimeAStepIsOneOverTheRateWhateverTheSolversDt) {
   // The simulated clock follows the wall clock: 1 kHz steps 1 ms, whatever dt the scene or the
   // parameters ask; a new rate changes the step.
   sim::SolverOptions coarse;
   coarse.dt_s = 0.01;
-  interact::RealtimeLoop loop(held_sphere(coarse), {});  // real time at 1 kHz by default
+  world::OrganLoop loop(held_sphere(coarse), {});  // real time at 1 kHz by default
   loop.run_steps(100);
-  interact::LoopSnapshot s;
+  world::LoopSnapshot s;
   ASSERT_TRUE(loop.latest(s));
   EXPECT_NEAR(s.time_s, 0.1, 1e-9);
   EXPECT_DOUBLE_EQ(s.dt_s, 0.001);
@@ -148,18 +148,18 @@ TEST(RealtimeLoop, InRealTimeAStepIsOneOverTheRateWhateverTheSolversDt) {
   EXPECT_DOUBLE_EQ(s.dt_s, 0.002);
 }
 
-TEST(RealtimeLoop, ThreadNeverOutrunsItsRateAndStopsPromptly) {
+TEST(OrganLoop, ThreadNeverOutrunsItsRateAndStopsPromptly) {
   const Model& m = sphere_model();
-  interact::LoopOptions o;
+  world::LoopOptions o;
   o.rate_hz = 200.0;
-  interact::RealtimeLoop loop(held_sphere(), {}, o);
+  world::OrganLoop loop(held_sphere(), {}, o);
   loop.set_forces({{front_node(m), Eigen::Vector3d(0, 100, 0)}});
   const auto t0 = std::chrono::steady_clock::now();
   loop.start();
   std::this_thread::sleep_for(std::chrono::milliseconds(1300));
   loop.stop();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  interact::LoopSnapshot s;
+  world::LoopSnapshot s;
   loop.latest(s);
   EXPECT_GT(s.steps, 0) << "the thread did not run";
   EXPECT_LE(static_cast<double>(s.steps), 200.0 * wall + 2.0) << "faster than its rate";
@@ -178,20 +178,20 @@ TEST(RealtimeLoop, ThreadNeverOutrunsItsRateAndStopsPromptly) {
 // The stepping thread counts its waits for a caller's locks: a caller copying a snapshot at
 // every chance holds the snapshot lock often enough that some steps must wait for it, and each
 // wait lasts about one copy, never anything like a second.
-TEST(RealtimeLoop, CountsTheStepsThatWaitedForACaller) {
-  interact::LoopOptions o = kSolverDt;
+TEST(OrganLoop, CountsTheStepsThatWaitedForACaller) {
+  world::LoopOptions o = kSolverDt;
   o.rate_hz = 0.0;             // as fast as it can
   o.publish_interval_s = 0.0;  // a snapshot after every step
-  interact::RealtimeLoop loop(held_sphere(), {}, o);
+  world::OrganLoop loop(held_sphere(), {}, o);
   loop.start();
   const auto t0 = std::chrono::steady_clock::now();
   int64_t copies = 0;
   while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(500)) {
-    interact::LoopSnapshot s;  // generation 0: every call copies under the lock
+    world::LoopSnapshot s;  // generation 0: every call copies under the lock
     copies += loop.latest(s);
   }
   loop.stop();
-  interact::LoopSnapshot s;
+  world::LoopSnapshot s;
   loop.latest(s);
   ASSERT_GT(s.steps, 0);
   EXPECT_GT(copies, 0);
