@@ -123,6 +123,7 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
     drag_node_ = hit.node;
     drag_version_ = snap_.model_version;
     drag_client_ = hit.node >= 0 ? client : -1;
+    if (hit.node >= 0) log::info("web client {}: drags node {}", peer, hit.node);
   } else if (type == "drag") {
     const Eigen::Vector3d drag = vector3(m, "drag_mm", 1e4);
     if (drag_client_ != client) return;

@@ -9,20 +9,15 @@
 namespace lamina::world {
 namespace {
 
-// The organ as the one body of a world: no contact with itself, so that it steps exactly as its
-// simulation alone (world_step.cpp).
+// The organ as the one body of a world: it steps exactly as its simulation alone.
 World world_of(std::shared_ptr<const Model> model, sim::Simulation sim,
                const interact::RoutingOptions& routing) {
   if (!model) throw invalid_input("organ loop", "no model");
   interact::check_routing(routing, model->rings.locality);  // here, not in the stepping thread
-  World w;
-  w.contact.enabled = false;
-  w.contact.self_contact = false;
-  create_body(w, BodyDef{.name = "organ",
-                         .model = std::move(model),
-                         .simulation = std::move(sim),
-                         .tools = {.routing = routing}});
-  return w;
+  return one_body_world(BodyDef{.name = "organ",
+                                .model = std::move(model),
+                                .simulation = std::move(sim),
+                                .tools = {.routing = routing}});
 }
 
 // The same, the model the caller's (held, not owned: the caller keeps it).

@@ -339,6 +339,14 @@ int32_t divide_ties(World& world, const BladeSweep& sweep, double reach_mm) {
   return divided;
 }
 
+World one_body_world(BodyDef def) {
+  World w;
+  w.contact.enabled = false;
+  w.contact.self_contact = false;
+  create_body(w, std::move(def));
+  return w;
+}
+
 void reset(World& world) {
   for (BodySlot& s : world.bodies)
     if (s.alive) {

@@ -285,6 +285,16 @@ class Client {
     return std::nullopt;
   }
 
+  /// The newest message of this type and device: the first within timeout_s, then any sent
+  /// behind it (a reader slower than the stream sees the state of now, not a backlog's past).
+  std::optional<Received> newest(const std::string& type, const std::string& device,
+                                 double timeout_s) {
+    std::optional<Received> last = receive(type, device, timeout_s);
+    if (!last) return last;
+    while (auto next = receive(type, device, 0.002)) last = std::move(next);
+    return last;
+  }
+
   /// True if the server closes the connection within timeout_s (what it sends meanwhile is
   /// read and dropped).
   bool closed_by_server(double timeout_s) {

@@ -404,6 +404,8 @@ void drag_through_a_cut(WebServer& w, Page& page, Client& hand, const std::strin
   const Eigen::Vector3d p = page.point(page.rest, top);
   page.send(
       {{"type", "press"}, {"origin", {p.x(), p.y(), p.z() + 200.0}}, {"direction", {0, 0, -1}}});
+  ASSERT_TRUE(w.server->log_shows("drags", 10.0))
+      << "the press picked nothing: " << w.server->log();
   // The page's events (text) kept; it is read on, so that the server never finds it stalled.
   std::vector<std::string> events;
   const auto read_page = [&] {
@@ -412,16 +414,16 @@ void drag_through_a_cut(WebServer& w, Page& page, Client& hand, const std::strin
     if (text) events.push_back(m);
   };
   // The skin's highest point now within 5 mm of the column its top stood in at rest, RAS z, from
-  // the OpenIGTLink stream (pushed down, the top of the whole skin may be elsewhere).
+  // the OpenIGTLink stream's newest frame (pushed down, the top of the whole skin may be
+  // elsewhere; a loaded machine reads slower than the stream sends, and an older frame in the
+  // backlog is the past).
   const auto skin_top = [&] {
     double z = -1e9;
-    for (int k = 0; k < 5; ++k)
-      if (const auto m = hand.receive("POLYDATA", device, 0.5)) {
-        const Eigen::MatrixX3d x = polydata_points(*m);
-        z = -1e9;
-        for (Eigen::Index i = 0; i < x.rows(); ++i)
-          if ((x.row(i).head<2>().transpose() - column).norm() < 5.0) z = std::max(z, x(i, 2));
-      }
+    if (const auto m = hand.newest("POLYDATA", device, 2.0)) {
+      const Eigen::MatrixX3d x = polydata_points(*m);
+      for (Eigen::Index i = 0; i < x.rows(); ++i)
+        if ((x.row(i).head<2>().transpose() - column).norm() < 5.0) z = std::max(z, x(i, 2));
+    }
     return z;
   };
   // Dragged by `up_mm` until the top is `past` (a loaded machine under the sanitizers steps
@@ -439,7 +441,7 @@ void drag_through_a_cut(WebServer& w, Page& page, Client& hand, const std::strin
     return top_now;
   };
   const double lifted = drag_until(60.0, [&](double z) { return z - rest_top > 1.0; }) - rest_top;
-  ASSERT_GT(lifted, 1.0) << "the page's drag did not lift it";
+  ASSERT_GT(lifted, 1.0) << "the page's drag did not lift it: " << w.server->log();
 
   // A scalpel stroke across its middle, the page dragging on meanwhile.
   const Eigen::Vector3d lo = lx.colwise().minCoeff(), hi = lx.colwise().maxCoeff();

@@ -37,6 +37,8 @@
 #include "lamina/model/structure_colors.h"
 #include "lamina/model/summarize_model.h"
 #include "lamina/sim/simulation.h"
+#include "lamina/world/cut_body.h"
+#include "lamina/world/world.h"
 #include "scalpel_checkpoint.h"
 #include "series_files.h"
 
@@ -339,10 +341,13 @@ struct RunProgressReport {
 // never ends is followed until the model rests under its load), or until max_steps, too many
 // an unstable simulation (sim::Instability), or --stop-after. Frames, metrics and checkpoints are
 // written as it goes.
-LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s,
-                    interact::ToolDriver& driver, RunOutputs& outputs, io::RunProgress& so_far,
-                    const std::function<void(int64_t)>& write_checkpoint, RunProgressReport& report,
-                    Cutting& cutting) {
+LoopResult step_run(const RunArgs& a, const io::Scene& scene, world::World& w, RunOutputs& outputs,
+                    io::RunProgress& so_far, const std::function<void(int64_t)>& write_checkpoint,
+                    RunProgressReport& report, Cutting& cutting) {
+  const world::BodyId organ = world::body_ids(w).front();
+  sim::Simulation& s = world::body(w, organ).sim;
+  interact::ToolDriver& driver = world::body(w, organ).tools;
+  world::WorldStepStats stats;
   LoopResult r;
   interact::RestWatch rest = interact::rest_watch(s, driver);
   for (const interact::Scalpel& sc : cutting.scalpels.scalpels)
@@ -363,8 +368,8 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s
     const double start_s = s.time_s;
     const auto t0 = Clock::now();
     if (!cutting.scalpels.scalpels.empty()) {
-      for (interact::CutEvent& e :
-           interact::advance_scalpels(cutting.scalpels, cutting.model, s, driver)) {
+      for (interact::CutEvent& e : world::advance_scalpels(w, organ, cutting.scalpels)) {
+        cutting.model = world::body(w, organ).model;
         for (const model::StructureCut& c : e.report.structures_cut)
           log::warn(
               "t = {:.3f} s: the scalpel cut {} across at ({:.1f}, {:.1f}, {:.1f}) mm, "
@@ -380,8 +385,8 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, sim::Simulation& s
         cutting.events.push_back(std::move(e));
       }
     }
-    interact::apply_tools(s, driver);
-    r.last = sim::step(s);
+    world::step(w, stats);  // the tools, then the solve: as the simulation alone
+    r.last = stats.bodies.front().sim;
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     r.step_us.push_back(us);
     const Eigen::Vector3d reaction = interact::tools_reaction(s, driver);
@@ -606,7 +611,16 @@ int run_run(const RunArgs& a) {
     throw invalid_input(a.resume, "was written for another model than the one " + ready.source +
                                       " gives now (its fingerprint differs)");
   const auto t_prepare = Clock::now();
-  sim::Simulation s = io::make_scene_simulation(ready);
+  // One organ is a world of one body (docs/world.md): its simulation and tools are the body's,
+  // stepped by world::step and cut by world::advance_scalpels.
+  world::World w =
+      world::one_body_world({.name = "organ",
+                             .model = ready.model,
+                             .simulation = io::make_scene_simulation(ready),
+                             .tools = io::make_tool_driver(scene, /*warn_scalpels=*/false)});
+  const world::BodyId organ = world::body_ids(w).front();
+  sim::Simulation& s = world::body(w, organ).sim;
+  interact::ToolDriver& driver = world::body(w, organ).tools;
   const double prepare_seconds = seconds_since(t_prepare);
   if (ready.setup.fixed.empty() && ready.setup.support.nodes.empty() &&
       scene.material.anchor_stiffness_n_per_m == 0.0 && scene.solver.mode == sim::Mode::kGlobal)
@@ -614,7 +628,6 @@ int run_run(const RunArgs& a) {
         "{}: no fixed nodes, no support and no anchor springs: a pushed model drifts as a rigid "
         "body and may not come back to rest",
         scene.source);
-  interact::ToolDriver driver = io::make_tool_driver(scene, /*warn_scalpels=*/false);
   Cutting cutting{.model = ready.model,
                   .scalpels = interact::make_scalpel_driver(scene.scalpels, m, scene.source)};
 
@@ -632,6 +645,7 @@ int run_run(const RunArgs& a) {
     if (resume->scalpels) {
       restore_scalpels(*resume->scalpels, a.resume, ready.model, cutting.model, cutting.scalpels,
                        cutting.events, s, driver);
+      world::body(w, organ).model = cutting.model;  // the cuts made again: the body's model
       if (cutting.model != ready.model) outputs.follow_cut(*cutting.model);
     }
     restore_run(*resume, a.resume, s, driver, outputs.series);
@@ -670,8 +684,7 @@ int run_run(const RunArgs& a) {
   };
 
   // 3. Step.
-  LoopResult loop =
-      step_run(a, scene, s, driver, outputs, so_far, write_checkpoint, report, cutting);
+  LoopResult loop = step_run(a, scene, w, outputs, so_far, write_checkpoint, report, cutting);
   if (!loop.stopped && !outputs.frame_written_at(s.time_s))
     outputs.write_frames(s, so_far);  // the final state
   report_progress(report.progress, fmt::format("simulated {:.2f} s in {} steps", s.time_s, s.steps),

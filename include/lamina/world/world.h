@@ -170,6 +170,12 @@ class World {
 ///   the world is then unchanged.
 BodyId create_body(World& world, BodyDef def);
 
+/// One organ as a world of one body without contact (neither with another body nor with
+/// itself), which steps exactly as its simulation alone: what the one-organ loop
+/// (organ_loop.h) and `lamina run` of one organ step. Its body is the world's first.
+/// \note Throws lamina::Error (kInvalidInput) as create_body() does.
+World one_body_world(BodyDef def);
+
 /// Removes a body and the attachments that hold it; its handle (and theirs) become stale.
 /// \note Throws lamina::Error (kInvalidInput) for a stale handle.
 void destroy_body(World& world, BodyId id);
