@@ -178,7 +178,13 @@ void ViewSession::State::update_forces() {
                     });
   if (same) return;
   sent = now;
-  loop->set_forces(now);
+  try {
+    // On the model this session shows: a cut or an undo the loop took in since is refused here
+    // (its nodes are numbered anew), and adopt_cut() lets these forces go on the next frame.
+    loop->set_forces(now, model_version);
+  } catch (const Error& e) {
+    log::debug("lamina view: forces of model {} not set: {}", model_version, e.what());
+  }
 }
 
 // The scene's grasper, once a frame while it plays: closed at its point, then its jaws where
