@@ -95,7 +95,7 @@ void WorldLoop::Impl::move_hands() {
     if (proxy.started_inside && warned_inside[slot] == 0)
       log::warn(
           "tool tip: the device is inside '{}', {:.1f} mm under its skin; the tip touches it "
-          "not until it is brought out (a tool starts outside the organ)",
+          "only once it is brought out (a tool starts outside the organ)",
           b.name, proxy.start_depth_mm);
     warned_inside[slot] = proxy.started_inside ? 1 : 0;
     // The paper's local mode: the tissue a new contact loads becomes movable, and stays so.
