@@ -2,8 +2,6 @@
 // organ's.
 #include "lamina/world/organ_loop.h"
 
-#include <algorithm>
-
 #include "lamina/core/error.h"
 
 namespace lamina::world {
@@ -77,12 +75,6 @@ void OrganLoop::set_parameters(const sim::Material& material, const sim::SolverO
     s.dt_s = world_.dt_s;
   }
   loop_.set_parameters(id_, material, s, routing);
-}
-
-std::shared_ptr<const Model> OrganLoop::model() const {
-  std::lock_guard lock(mutex_);
-  loop_.latest(world_);
-  return world_.bodies.front().model;
 }
 
 bool OrganLoop::latest(LoopSnapshot& out) const {

@@ -125,6 +125,18 @@ struct Page {
   }
 };
 
+// The page presses the topmost of its points first..first+count with a ray down from above.
+// @return that point's index
+size_t press_top(Page& page, size_t first, size_t count) {
+  size_t top = first;
+  for (size_t i = first; i < first + count; ++i)
+    if (page.point(page.rest, i).z() > page.point(page.rest, top).z()) top = i;
+  const Eigen::Vector3d p = page.point(page.rest, top);
+  page.send(
+      {{"type", "press"}, {"origin", {p.x(), p.y(), p.z() + 200.0}}, {"direction", {0, 0, -1}}});
+  return top;
+}
+
 TEST(Web, ThePageNeedsTheTokenAndItsScriptsAreServedFromTheBuild) {
   WebServer w;
   EXPECT_EQ(get(w.port, "/").result(), http::status::forbidden);
@@ -229,12 +241,8 @@ TEST(Web, AWorldSceneStreamsEveryBodyAndADragPullsTheOnePressed) {
   ASSERT_EQ(first + count, h["bodies"][1]["first_point"].get<size_t>());
   ASSERT_EQ(page.rest.size() / 4, h["points"].get<size_t>());
   // The liver's topmost point, and a ray down onto it from above.
-  size_t top = first;
-  for (size_t i = first; i < first + count; ++i)
-    if (page.point(page.rest, i).z() > page.point(page.rest, top).z()) top = i;
+  const size_t top = press_top(page, first, count);
   const Eigen::Vector3d p = page.point(page.rest, top);
-  page.send(
-      {{"type", "press"}, {"origin", {p.x(), p.y(), p.z() + 200.0}}, {"direction", {0, 0, -1}}});
   ASSERT_TRUE(w.server->log_shows("drags liver node", 10.0)) << w.server->log();
   net::web::FrameInfo info;
   double lift = 0.0;
@@ -399,12 +407,7 @@ void drag_through_a_cut(WebServer& w, Page& page, Client& hand, const std::strin
   Eigen::Index highest = 0;
   const double rest_top = lx.col(2).maxCoeff(&highest);
   const Eigen::Vector2d column = lx.row(highest).head<2>().transpose();
-  size_t top = first;
-  for (size_t i = first; i < first + count; ++i)
-    if (page.point(page.rest, i).z() > page.point(page.rest, top).z()) top = i;
-  const Eigen::Vector3d p = page.point(page.rest, top);
-  page.send(
-      {{"type", "press"}, {"origin", {p.x(), p.y(), p.z() + 200.0}}, {"direction", {0, 0, -1}}});
+  press_top(page, first, count);
   ASSERT_TRUE(w.server->log_shows("drags", 10.0))
       << "the press picked nothing: " << w.server->log();
   // The page's events (text) kept; it is read on, so that the server never finds it stalled.

@@ -201,9 +201,6 @@ class OrganLoop {
   /// fixed-step tools that want the same physics without a thread.
   void run_steps(int64_t steps) { loop_.run_steps(steps); }
 
-  /// The model of the latest snapshot: the one the loop was made with until a cut.
-  std::shared_ptr<const Model> model() const;
-
  private:
   WorldLoop loop_;
   BodyId id_;
