@@ -187,5 +187,34 @@ TEST(WorldLoop, InRealTimeEveryBodyStepsOneOverTheRateAndTheClockFollowsTheSteps
   EXPECT_EQ(snap.unstable, sim::Instability::kNone);
 }
 
+// The stepping thread counts its waits for a caller's lock. A caller copying a fresh snapshot
+// back to back holds the snapshot lock most of the time, so most publishes must wait (counted
+// by LockWaits, tests/core), each about one copy long, never anything like a second. (A one-organ
+// loop's caller cannot do this: OrganLoop copies a world snapshot only when it is new.)
+TEST(WorldLoop, CountsTheStepsThatWaitedForACallersCopy) {
+  TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
+  WorldLoop loop(std::move(t.world),
+                 {.rate_hz = 0.0, .real_time = false, .threads = 1, .publish_interval_s = 0.0});
+  loop.start();
+  const auto t0 = std::chrono::steady_clock::now();
+  int64_t copies = 0;
+  int64_t steps = 0;
+  // 20 publishes at least (under ASan a step of the pair took up to 130 ms), 20 s at most.
+  while (steps < 20 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20)) {
+    WorldSnapshot s;  // empty: every call copies under the lock
+    copies += loop.latest(s);
+    steps = s.steps;
+  }
+  loop.stop();
+  WorldSnapshot s;
+  loop.latest(s);
+  ASSERT_GE(s.steps, 20) << "the loop did not step";
+  EXPECT_GT(copies, 0);
+  EXPECT_GT(s.lock_waits, 0) << copies << " copies beside " << s.steps << " steps";
+  EXPECT_LE(s.lock_waits, 3 * s.steps + 3) << "at most one wait per lock a step takes";
+  EXPECT_GT(s.longest_lock_wait_us, 0.0);
+  EXPECT_LT(s.longest_lock_wait_us, 1e6);
+}
+
 }  // namespace
 }  // namespace lamina::world
