@@ -13,36 +13,70 @@
 #include "bindings.h"
 #include "lamina/core/error.h"
 #include "lamina/interact/run_tools.h"
-#include "lamina/interact/scalpel.h"
 #include "lamina/io/scene.h"
 #include "lamina/io/scene_model.h"
 #include "lamina/model/embed_surface.h"
+#include "lamina/world/cut_body.h"
+#include "lamina/world/world.h"
 
 namespace py = pybind11;
 
 namespace lamina::python {
 namespace {
 
-// What a Python Simulation holds: its model (shared with Python), the simulation, its tools
-// and the raw forces the caller holds on nodes (driver.held_forces, the tools add to them).
+// What a Python Simulation holds: a world of one body (world::one_body_world), the organ, whose
+// model, simulation and tools are the body's and which world::step() steps, as a world of
+// several organs and every loop step theirs; the raw forces the caller holds on nodes are the
+// body's driver.held_forces (the tools add to them).
 struct PySimulation {
-  std::shared_ptr<Model> model;
-  sim::Simulation sim;
-  interact::ToolDriver driver;
+  world::World world;
+  world::WorldStepStats stats;  // the last world step's (its vectors reused step to step)
   sim::StepStats last;
   std::string scene;  // the scene it came from, if any
-  // W x per embedded surface, refreshed by embedded_positions(); sized once by wire(), so each
+  // W x per embedded surface, refreshed by embedded_positions(); sized once when made, so each
   // buffer stays where the views handed out point.
   std::vector<Eigen::MatrixX3d> embedded_x;
   // What a cut replaced, kept: numpy views taken before it point into these buffers (they
   // show the state before the cut, never freed memory).
   struct Retired {
-    std::shared_ptr<Model> model;
+    std::shared_ptr<const Model> model;
     std::unique_ptr<sim::Simulation> sim;
     interact::ToolDriver driver;
   };
   std::vector<Retired> retired;
+
+  world::Body& body() { return world.bodies.front().body; }
+  const world::Body& body() const { return world.bodies.front().body; }
+  sim::Simulation& sim() { return body().sim; }
+  const sim::Simulation& sim() const { return body().sim; }
+  interact::ToolDriver& driver() { return body().tools; }
+  const interact::ToolDriver& driver() const { return body().tools; }
+  const Model& model() const { return *body().model; }
+  // Python's Model is held by shared_ptr<Model> (it exposes no setter: nothing changes it).
+  std::shared_ptr<Model> shared_model() const {
+    return std::const_pointer_cast<Model>(body().model);
+  }
 };
+
+std::unique_ptr<PySimulation> make_py_simulation(std::shared_ptr<const Model> model,
+                                                 sim::Simulation sim, interact::ToolDriver driver,
+                                                 std::string scene) {
+  auto p = std::make_unique<PySimulation>();
+  p->world = world::one_body_world({.name = "organ",
+                                    .model = std::move(model),
+                                    .simulation = std::move(sim),
+                                    .tools = std::move(driver)});
+  p->scene = std::move(scene);
+  p->driver().held_forces = Eigen::MatrixX3d::Zero(p->model().node_count(), 3);
+  p->embedded_x.resize(p->model().embedded.size());
+  return p;
+}
+
+// One step of the organ: the world's (its tools, then the solve: as the simulation alone).
+sim::StepStats step_once(PySimulation& p) {
+  world::step(p.world, p.stats);
+  return p.stats.bodies.front().sim;
+}
 
 sim::Integrator parse_integrator(const std::string& name) {
   for (auto i : {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler,
@@ -84,11 +118,6 @@ interact::Touch parse_touch(const std::string& name) {
   throw invalid_input("touch", "is '" + name + "'; display_skin or skin expected");
 }
 
-void wire(PySimulation& p) {
-  p.driver.held_forces = Eigen::MatrixX3d::Zero(p.model->node_count(), 3);
-  p.embedded_x.resize(p.model->embedded.size());
-}
-
 // The embedded surface an index or a name selects: IndexError / KeyError listing the names.
 size_t embedded_index(const Model& model, const std::variant<int64_t, std::string>& which) {
   std::string names;
@@ -116,7 +145,7 @@ void throw_if_unstable(const PySimulation& p, const char* what) {
   throw Error(ErrorKind::kUnstable,
               fmt::format("{}: unstable at t = {:.4g} s: {}; lower dt, the tool forces or the "
                           "stiffness, then reset()",
-                          what, p.sim.time_s, sim::describe(p.last.unstable)));
+                          what, p.sim().time_s, sim::describe(p.last.unstable)));
 }
 
 sim::StepStats step_n(PySimulation& p, int64_t steps) {
@@ -125,8 +154,7 @@ sim::StepStats step_n(PySimulation& p, int64_t steps) {
   {
     py::gil_scoped_release release;
     for (int64_t k = 0; k < steps; ++k) {
-      interact::apply_tools(p.sim, p.driver);
-      p.last = sim::step(p.sim);
+      p.last = step_once(p);
       if (p.last.unstable != sim::Instability::kNone) break;
     }
   }
@@ -156,10 +184,10 @@ py::dict run_dict(const PySimulation& p, const interact::ToolRun& run, const Pea
   py::dict d;
   d["steps"] = run.steps;
   d["converged"] = run.converged;
-  d["time_s"] = p.sim.time_s;
+  d["time_s"] = p.sim().time_s;
   d["max_displacement_mm"] = run.last.max_displacement_mm;
   d["volume_change_pct"] = run.last.volume_change_pct;
-  d["recoveries"] = p.sim.recoveries;
+  d["recoveries"] = p.sim().recoveries;
   d["peak_displacement_mm"] = peaks.displacement_mm;
   d["peak_abs_volume_change_pct"] = peaks.abs_volume_change_pct;
   d["max_reaction_mn"] = peaks.reaction_mn;
@@ -174,26 +202,26 @@ static void bind_simulation_tools(py::class_<PySimulation>& simulation) {
       .def(
           "fix_nodes",
           [](PySimulation& p, const std::vector<int64_t>& n) {
-            sim::fix_nodes(p.sim, nodes_of(n));
+            sim::fix_nodes(p.sim(), nodes_of(n));
           },
           py::arg("nodes"), "Holds these nodes at their rest positions from now on.")
       .def(
           "hold_nodes",
           [](PySimulation& p, const std::vector<int64_t>& n, const Eigen::MatrixX3d& x) {
-            sim::hold_nodes(p.sim, nodes_of(n), x);
+            sim::hold_nodes(p.sim(), nodes_of(n), x);
           },
           py::arg("nodes"), py::arg("positions_mm"),
           "Holds these nodes at (len(nodes), 3) positions, mm.")
       .def(
           "release_nodes",
           [](PySimulation& p, const std::vector<int64_t>& n) {
-            sim::release_nodes(p.sim, nodes_of(n));
+            sim::release_nodes(p.sim(), nodes_of(n));
           },
           py::arg("nodes"), "Lets held or fixed nodes move again.")
       .def(
           "support_nodes",
           [](PySimulation& p, const std::vector<int64_t>& n, const std::vector<double>& k) {
-            sim::support_nodes(p.sim, nodes_of(n), k);
+            sim::support_nodes(p.sim(), nodes_of(n), k);
           },
           py::arg("nodes"), py::arg("stiffness_n_per_m"),
           "Ties each node to its rest position by a spring, N/m.");
@@ -207,9 +235,9 @@ static void bind_simulation_tool_list(py::class_<PySimulation>& simulation) {
           [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
              std::optional<int32_t> vertex, const Eigen::Vector3d& force_mn,
              std::optional<double> start_s, double end_s, double radius_mm) {
-            p.driver.tools.push_back(tool_from("add_tool", point_mm, vertex, force_mn, start_s,
-                                               end_s, radius_mm, p.sim.time_s));
-            return p.driver.tools.size() - 1;
+            p.driver().tools.push_back(tool_from("add_tool", point_mm, vertex, force_mn, start_s,
+                                                 end_s, radius_mm, p.sim().time_s));
+            return p.driver().tools.size() - 1;
           },
           py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
           py::arg("force_mn"), py::arg("start_s") = py::none(),
@@ -225,9 +253,9 @@ static void bind_simulation_tool_list(py::class_<PySimulation>& simulation) {
           [](PySimulation& p, std::optional<Eigen::Vector3d> point_mm,
              std::optional<int32_t> vertex, const Eigen::Vector3d& pull_mm, double pull_s,
              std::optional<double> start_s, double end_s, double radius_mm) {
-            p.driver.tools.push_back(grasp_from("add_grasp", point_mm, vertex, pull_mm, pull_s,
-                                                start_s, end_s, radius_mm, p.sim.time_s));
-            return p.driver.tools.size() - 1;
+            p.driver().tools.push_back(grasp_from("add_grasp", point_mm, vertex, pull_mm, pull_s,
+                                                  start_s, end_s, radius_mm, p.sim().time_s));
+            return p.driver().tools.size() - 1;
           },
           py::kw_only(), py::arg("point_mm") = py::none(), py::arg("vertex") = py::none(),
           py::arg("pull_mm") = Eigen::Vector3d::Zero(), py::arg("pull_s") = 1.0,
@@ -240,15 +268,15 @@ static void bind_simulation_tool_list(py::class_<PySimulation>& simulation) {
       .def(
           "clear_tools",
           [](PySimulation& p) {
-            for (interact::Grasp& g : p.driver.grasps) interact::open_jaws(p.sim, g);
-            p.driver.tools.clear();
-            p.driver.routes.clear();
-            p.driver.active.clear();
-            p.driver.grasps.clear();
+            for (interact::Grasp& g : p.driver().grasps) interact::open_jaws(p.sim(), g);
+            p.driver().tools.clear();
+            p.driver().routes.clear();
+            p.driver().active.clear();
+            p.driver().grasps.clear();
           },
           "Lifts every tool off (graspers let go).")
       .def_property_readonly("tool_count",
-                             [](const PySimulation& p) { return p.driver.tools.size(); })
+                             [](const PySimulation& p) { return p.driver().tools.size(); })
       .def("step", &step_n, py::arg("steps") = 1,
            "Takes `steps` steps with the tools and raw forces; returns the last StepStats.");
 }
@@ -264,10 +292,10 @@ static void bind_simulation_runs(py::class_<PySimulation>& simulation) {
             // Listening first, as `lamina serve` does: a port in use fails before anything.
             net::Listening listening(o, /*igtl=*/true);
             if (listening.web_url().size()) py::print("the page is at", listening.web_url());
-            sim::Simulation copy = p.sim;  // served from its state now; this one is unchanged
+            sim::Simulation copy = p.sim();  // served from its state now; this one is unchanged
             return serve_until_interrupted([&](const net::KeepGoing& keep_going) {
-              return net::serve_organ(listening, std::move(copy), p.model, p.driver.routing, o,
-                                      source, keep_going);
+              return net::serve_organ(listening, std::move(copy), p.body().model,
+                                      p.driver().routing, o, source, keep_going);
             });
           },
           "Serves a copy of the simulation in its state now, in real time, as `lamina serve`\n"
@@ -290,7 +318,7 @@ static void bind_simulation_runs(py::class_<PySimulation>& simulation) {
             {
               py::gil_scoped_release release;
               run = interact::run_tools(
-                  p.sim, p.driver, until_s, stop_at_rest,
+                  p.sim(), p.driver(), until_s, stop_at_rest,
                   [&](const sim::Simulation& s, const interact::ToolDriver& d,
                       const sim::StepStats& st) {
                     peaks.displacement_mm = std::max(peaks.displacement_mm, st.max_displacement_mm);
@@ -304,7 +332,8 @@ static void bind_simulation_runs(py::class_<PySimulation>& simulation) {
                     vol.push_back(st.volume_change_pct);
                     energy.push_back(st.kinetic_energy_j);
                     reaction.push_back(r);
-                  });
+                  },
+                  [&p] { return step_once(p); });
             }
             p.last = run.last;
             throw_if_unstable(p, "run");
@@ -341,31 +370,40 @@ static void bind_simulation_changes(py::class_<PySimulation>& simulation) {
       .def(
           "reaction_force_mn",
           [](const PySimulation& p) {
-            return Eigen::Vector3d(interact::tools_reaction(p.sim, p.driver));
+            return Eigen::Vector3d(interact::tools_reaction(p.sim(), p.driver()));
           },
           "the tissue's push back on the tools in the last step, mN (3 values)")
       .def(
           "cut",
           [](PySimulation& p, const std::vector<Eigen::Vector3d>& path, double depth_mm,
              const Eigen::Vector3d& direction) {
-            std::shared_ptr<const Model> model = p.model;
-            sim::Simulation work = p.sim;
-            interact::ToolDriver driver = p.driver;
+            // The body is cut in a copy of its state: numpy views taken before keep the
+            // buffers they had, which show the state before the cut (kept in p.retired).
+            world::Body& b = p.body();
+            PySimulation::Retired kept{b.model, std::make_unique<sim::Simulation>(b.sim), b.tools};
+            std::swap(*kept.sim, b.sim);
+            std::swap(kept.driver, b.tools);
+            const auto put_back = [&] {  // nothing was cut: the body keeps its own buffers
+              std::swap(*kept.sim, b.sim);
+              std::swap(kept.driver, b.tools);
+            };
             std::vector<int32_t> origin;
             model::CutReport r;
-            {
+            try {
               py::gil_scoped_release release;
-              r = interact::cut_now(model, work, driver, path, direction, depth_mm, origin);
+              r = world::cut_body(p.world, world::body_ids(p.world).front(), path, direction,
+                                  depth_mm, &origin);
+            } catch (...) {
+              put_back();
+              throw;
             }
             if (r.cut_tets > 0) {
-              p.retired.push_back({p.model, std::make_unique<sim::Simulation>(std::move(p.sim)),
-                                   std::move(p.driver)});
-              p.sim = std::move(work);
-              p.driver = std::move(driver);
-              p.model = std::const_pointer_cast<Model>(model);
+              p.retired.push_back(std::move(kept));
               // A buffer for the wound, which the cut adds (the others' buffers move with their
               // matrices: views taken before stay valid).
-              p.embedded_x.resize(p.model->embedded.size());
+              p.embedded_x.resize(p.model().embedded.size());
+            } else {
+              put_back();
             }
             py::dict d;
             d["cut_tets"] = r.cut_tets;
@@ -412,7 +450,9 @@ static void bind_simulation_changes(py::class_<PySimulation>& simulation) {
       .def(
           "reset",
           [](PySimulation& p) {
-            sim::reset(p.sim);
+            sim::reset(p.sim());  // tools and raw forces kept, unlike world::reset()
+            p.world.time_s = 0.0;
+            p.world.steps = 0;
             p.last = {};
           },
           "Every node back at rest, time 0; parameters, fixed nodes and tools kept.")
@@ -467,11 +507,8 @@ static void bind_scene_functions(py::module_& m) {
           py::gil_scoped_release release;
           return io::make_ready_scene(scene);
         }();
-        auto p = std::make_unique<PySimulation>(PySimulation{
-            ready.model, io::make_scene_simulation(ready), {}, {}, ready.scene.source, {}, {}});
-        p->driver = io::make_tool_driver(ready.scene);
-        wire(*p);
-        return p;
+        return make_py_simulation(ready.model, io::make_scene_simulation(ready),
+                                  io::make_tool_driver(ready.scene), ready.scene.source);
       },
       py::arg("scene") = "phantom", py::kw_only(), py::arg("paper") = false,
       "A simulation set up as `lamina run SCENE` sets it up: SCENE is a scene .json, a .vtu\n"
@@ -536,13 +573,11 @@ void bind_simulation(py::module_& m) {
                                     .cg_max_iterations = cg_max_iterations,
                                     .cg_tolerance = cg_tolerance,
                                     .preconditioner = parse_preconditioner(preconditioner)};
-             auto p = std::make_unique<PySimulation>(
-                 PySimulation{model, sim::make_simulation(*model, mat, opt), {}, {}, {}, {}, {}});
-             p->driver.routing = ro;
-             sim::fix_nodes(p->sim, nodes_of(fixed));
-             sim::prepare_solver(p->sim);  // the multigrid now, not in the first step
-             wire(*p);
-             return p;
+             sim::Simulation s = sim::make_simulation(*model, mat, opt);
+             sim::fix_nodes(s, nodes_of(fixed));
+             sim::prepare_solver(s);  // the multigrid now, not in the first step
+             return make_py_simulation(model, std::move(s), interact::ToolDriver{.routing = ro},
+                                       {});
            }),
            py::arg("model"), py::kw_only(), py::arg("stiffness_n_per_m") = 3.0,
            py::arg("damping_kg_per_s") = 3.0, py::arg("mass_damping_per_s") = 0.0,
@@ -571,29 +606,29 @@ void bind_simulation(py::module_& m) {
            "touch: display_skin (without routing, tools touch the model's display skin when it\n"
            "has one; its load reaches the nodes by the embedding's weights) or skin.\n"
            "fixed: node indices held at rest (without them a push moves the organ bodily).")
-      .def_property_readonly("model", [](const PySimulation& p) { return p.model; })
+      .def_property_readonly("model", [](const PySimulation& p) { return p.shared_model(); })
       .def_property(
-          "x", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.sim.x; },
-          [](PySimulation& p, const Eigen::MatrixX3d& x) { p.sim.x = x; },
+          "x", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.sim().x; },
+          [](PySimulation& p, const Eigen::MatrixX3d& x) { p.sim().x = x; },
           py::return_value_policy::reference_internal, "positions, (nodes, 3) mm, a view")
       .def_property(
-          "v", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.sim.v; },
-          [](PySimulation& p, const Eigen::MatrixX3d& v) { p.sim.v = v; },
+          "v", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.sim().v; },
+          [](PySimulation& p, const Eigen::MatrixX3d& v) { p.sim().v = v; },
           py::return_value_policy::reference_internal, "velocities, (nodes, 3) mm/s, a view")
       .def_property(
-          "f_ext", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.driver.held_forces; },
-          [](PySimulation& p, const Eigen::MatrixX3d& f) { p.driver.held_forces = f; },
+          "f_ext", [](PySimulation& p) -> Eigen::MatrixX3d& { return p.driver().held_forces; },
+          [](PySimulation& p, const Eigen::MatrixX3d& f) { p.driver().held_forces = f; },
           py::return_value_policy::reference_internal,
           "raw external forces held on nodes, (nodes, 3) mN, a view; kept from step to step")
       .def(
           "embedded_positions",
           [](py::object self, const std::variant<int64_t, std::string>& which) {
             PySimulation& p = self.cast<PySimulation&>();
-            const size_t k = embedded_index(*p.model, which);
+            const size_t k = embedded_index(p.model(), which);
             Eigen::MatrixX3d& out = p.embedded_x[k];
             {
               py::gil_scoped_release release;
-              model::embedded_positions(p.model->embedded[k], p.sim.x, out);
+              model::embedded_positions(p.model().embedded[k], p.sim().x, out);
             }
             return matrix_view(out, self);
           },
@@ -603,18 +638,18 @@ void bind_simulation(py::module_& m) {
           "simulation keeps per surface. The next call for that surface overwrites it (copy to\n"
           "keep one); valid while the simulation lives. Only the first call for a surface\n"
           "allocates. A bad index raises IndexError, a bad name KeyError, naming the surfaces.")
-      .def_property_readonly("time_s", [](const PySimulation& p) { return p.sim.time_s; })
-      .def_property_readonly("steps", [](const PySimulation& p) { return p.sim.steps; })
-      .def_property_readonly("recoveries", [](const PySimulation& p) { return p.sim.recoveries; })
+      .def_property_readonly("time_s", [](const PySimulation& p) { return p.sim().time_s; })
+      .def_property_readonly("steps", [](const PySimulation& p) { return p.sim().steps; })
+      .def_property_readonly("recoveries", [](const PySimulation& p) { return p.sim().recoveries; })
       .def_property_readonly(
           "stats", [](const PySimulation& p) { return p.last; }, "the last step's StepStats")
-      .def_property_readonly("dt_s", [](const PySimulation& p) { return p.sim.options().dt_s; })
+      .def_property_readonly("dt_s", [](const PySimulation& p) { return p.sim().options().dt_s; })
       .def_property_readonly(
           "fixed",
           [](const PySimulation& p) {
             std::vector<int32_t> out;
-            for (size_t i = 0; i < p.sim.fixed().size(); ++i)
-              if (p.sim.fixed()[i]) out.push_back(static_cast<int32_t>(i));
+            for (size_t i = 0; i < p.sim().fixed().size(); ++i)
+              if (p.sim().fixed()[i]) out.push_back(static_cast<int32_t>(i));
             return out;
           },
           "indices of the nodes held where they are");

@@ -15,14 +15,18 @@ RestWatch rest_watch(const sim::Simulation& sim, const ToolDriver& driver) {
 }
 
 ToolRun run_tools(sim::Simulation& sim, ToolDriver& driver, double t_end_s, bool stop_at_rest,
-                  const StepObserver& per_step) {
+                  const StepObserver& per_step, const Stepper& step) {
   RestWatch rest = rest_watch(sim, driver);
   ToolRun run;
   // 1e-9 s: a time reached by adding dt many times lands a rounding error short of t_end_s.
   while (sim.time_s < t_end_s - 1e-9 && sim.steps < sim.options().max_steps) {
     const double start = sim.time_s;
-    apply_tools(sim, driver);
-    run.last = sim::step(sim);
+    if (step) {
+      run.last = step();
+    } else {
+      apply_tools(sim, driver);
+      run.last = sim::step(sim);
+    }
     ++run.steps;
     if (per_step) per_step(sim, driver, run.last);
     if (run.last.unstable != sim::Instability::kNone) break;  // the caller says so

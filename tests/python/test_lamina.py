@@ -227,6 +227,30 @@ def test_a_cut_divides_the_organ_reports_its_vessels_and_the_pieces_come_to_rest
         sim.cut(path, depth_mm=0.0, direction=(0, 0, 1))
 
 
+def test_a_blade_that_misses_changes_nothing_and_the_views_stay_the_simulations(phantom_model):
+    """A cut that divides nothing leaves the simulation as it was: its views taken before are
+    still its own memory (a write through them moves the organ), its node count and time too."""
+    m = phantom_model
+    sim = lamina.Simulation(m, fixed=back_nodes(m))
+    sim.step(3)
+    x, f = sim.x, sim.f_ext
+    lo, hi = m.X.min(axis=0), m.X.max(axis=0)
+    beside = hi[0] + 50.0  # a plane well to the side of the organ
+    r = sim.cut([(beside, lo[1], lo[2]), (beside, hi[1], lo[2])], depth_mm=10.0,
+                direction=(0, 0, 1))
+    assert r["cut_tets"] == 0 and r["new_nodes"] == 0
+    assert sim.x.shape == (m.node_count, 3) and sim.steps == 3
+    assert np.shares_memory(x, sim.x) and np.shares_memory(f, sim.f_ext)
+    with pytest.raises(lamina.Error, match="depth_mm"):  # refused: the views stay too
+        sim.cut([(beside, lo[1], lo[2]), (beside, hi[1], lo[2])], depth_mm=0.0,
+                direction=(0, 0, 1))
+    assert np.shares_memory(x, sim.x) and np.shares_memory(f, sim.f_ext)
+    node = int(np.argmin(m.X[:, 1]))  # the front: free
+    f[node] = (0.0, -300.0, 0.0)  # through the view taken before the cut
+    sim.step(20)
+    assert sim.x[node, 1] < m.X[node, 1] - 0.1
+
+
 def test_embedded_surfaces_are_read_only_views_of_the_model(anatomy_model):
     m = anatomy_model
     e = m.embedded

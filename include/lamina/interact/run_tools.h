@@ -45,11 +45,18 @@ struct ToolRun {
 using StepObserver =
     std::function<void(const sim::Simulation&, const ToolDriver&, const sim::StepStats&)>;
 
+/// One step of the tools and the model, returning the model's measurements: apply_tools() then
+/// sim::step() for a simulation alone, world::step() for the body of a world of one (Python's
+/// Simulation), which does the same.
+using Stepper = std::function<sim::StepStats()>;
+
 /// Steps `sim` with `driver`'s tools until simulated time reaches `t_end_s` or the solver's
 /// max_steps, or, if `stop_at_rest`, until the model has come to rest (RestWatch), or until the
 /// simulation becomes unstable (ToolRun::last.unstable, which the caller must report).
+/// @param[in] step  takes one step of `sim` with `driver`'s tools; empty: apply_tools() then
+///   sim::step()
 /// \note Throws lamina::Error (kInvalidInput) as apply_tools() for a tool that touches nothing.
 ToolRun run_tools(sim::Simulation& sim, ToolDriver& driver, double t_end_s, bool stop_at_rest,
-                  const StepObserver& per_step = {});
+                  const StepObserver& per_step = {}, const Stepper& step = {});
 
 }  // namespace lamina::interact
