@@ -289,9 +289,8 @@ struct RunOutputs {
   }
 };
 
-// The scalpels of a run, the model they cut and what each cut did.
+// The scalpels of a run and what each cut did (the model they cut is the body's).
 struct Cutting {
-  std::shared_ptr<const Model> model;  // the model the simulation runs on, replaced by each cut
   interact::ScalpelDriver scalpels;
   std::vector<interact::CutEvent> events{};
 };
@@ -369,7 +368,6 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, world::World& w, R
     const auto t0 = Clock::now();
     if (!cutting.scalpels.scalpels.empty()) {
       for (interact::CutEvent& e : world::advance_scalpels(w, organ, cutting.scalpels)) {
-        cutting.model = world::body(w, organ).model;
         for (const model::StructureCut& c : e.report.structures_cut)
           log::warn(
               "t = {:.3f} s: the scalpel cut {} across at ({:.1f}, {:.1f}, {:.1f}) mm, "
@@ -380,7 +378,7 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, world::World& w, R
           log::debug("t = {:.3f} s: cut {} tetrahedra, {} new nodes, {} piece(s), in {:.1f} ms",
                      e.time_s, e.report.cut_tets, e.report.new_nodes, e.report.pieces.size(),
                      1e3 * e.seconds);
-          outputs.follow_cut(*cutting.model);
+          outputs.follow_cut(*world::body(w, organ).model);
         }
         cutting.events.push_back(std::move(e));
       }
@@ -628,8 +626,7 @@ int run_run(const RunArgs& a) {
         "{}: no fixed nodes, no support and no anchor springs: a pushed model drifts as a rigid "
         "body and may not come back to rest",
         scene.source);
-  Cutting cutting{.model = ready.model,
-                  .scalpels = interact::make_scalpel_driver(scene.scalpels, m, scene.source)};
+  Cutting cutting{.scalpels = interact::make_scalpel_driver(scene.scalpels, m, scene.source)};
 
   // 2. Outputs, and the state a resume continues from. Everything the loop accumulates is in
   // so_far, which a checkpoint saves and a resume restores whole.
@@ -643,10 +640,11 @@ int run_run(const RunArgs& a) {
                                         std::string(resume->scalpels ? "with" : "without") +
                                         " scalpels: resume with the scene it was written for");
     if (resume->scalpels) {
-      restore_scalpels(*resume->scalpels, a.resume, ready.model, cutting.model, cutting.scalpels,
+      // The cuts made again: the body's model.
+      std::shared_ptr<const Model>& cut = world::body(w, organ).model;
+      restore_scalpels(*resume->scalpels, a.resume, ready.model, cut, cutting.scalpels,
                        cutting.events, s, driver);
-      world::body(w, organ).model = cutting.model;  // the cuts made again: the body's model
-      if (cutting.model != ready.model) outputs.follow_cut(*cutting.model);
+      if (cut != ready.model) outputs.follow_cut(*cut);
     }
     restore_run(*resume, a.resume, s, driver, outputs.series);
     so_far = resume->progress;
@@ -678,8 +676,8 @@ int run_run(const RunArgs& a) {
       ck.series_names.push_back(se.name);
     }
     if (!cutting.scalpels.scalpels.empty())
-      ck.scalpels =
-          capture_scalpels(ready.model, cutting.model, cutting.scalpels, cutting.events, s, driver);
+      ck.scalpels = capture_scalpels(ready.model, world::body(w, organ).model, cutting.scalpels,
+                                     cutting.events, s, driver);
     io::save_checkpoint(ck, checkpoint_path);
   };
 
