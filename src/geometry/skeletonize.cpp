@@ -26,8 +26,13 @@ constexpr uint32_t kCentreBit = 1u << kCentre;
 constexpr double kMedialSlope = 0.6;
 // A terminal branch shorter than this times the radius where it joins is a spur of the surface.
 constexpr double kSpurLength = 1.5;
+// A curve's end whose radius grows inwards by this much a millimetre or more is bent off the
+// axis, along a flat end's medial sheet to its rim.
+constexpr double kBentEndSlope = 0.4;
 
-int position(int dx, int dy, int dz) { return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1); }
+int position(int dx, int dy, int dz) {
+  return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1);
+}
 
 // The 3 x 3 x 3 cube's adjacencies as bit masks, the centre left out of every one.
 struct CubeTables {
@@ -48,8 +53,7 @@ struct CubeTables {
             for (int dy = -1; dy <= 1; ++dy)
               for (int dx = -1; dx <= 1; ++dx) {
                 const int qx = x + dx, qy = y + dy, qz = z + dz;
-                if ((dx | dy | dz) == 0 || std::abs(qx) > 1 || std::abs(qy) > 1 ||
-                    std::abs(qz) > 1)
+                if ((dx | dy | dz) == 0 || std::abs(qx) > 1 || std::abs(qy) > 1 || std::abs(qz) > 1)
                   continue;
                 const int q = position(qx, qy, qz);
                 if (q == kCentre) continue;
@@ -232,12 +236,14 @@ Skeleton skeletonize(const Mask& mask) {
   for (int64_t v = 0; v < static_cast<int64_t>(in.size()); ++v)
     if (in[static_cast<size_t>(v)] != 0) skeleton.push_back(v);
   std::vector<int64_t> branch;
+  std::vector<double> along;  // path length from the end, mm
   for (bool pruned = true; pruned;) {
     pruned = false;
     for (const int64_t end : skeleton) {
       if (in[static_cast<size_t>(end)] == 0 || std::popcount(cube_of(end) & ~kCentreBit) != 1)
         continue;
       branch.assign(1, end);
+      along.assign(1, 0.0);
       int64_t previous = -1, at = end, junction = -1, widest = end;
       double length = 0.0;
       for (;;) {
@@ -257,14 +263,34 @@ Skeleton skeletonize(const Mask& mask) {
         previous = at;
         at += offset[static_cast<size_t>(q)];
         branch.push_back(at);
+        along.push_back(length);
         if (depth[static_cast<size_t>(at)] > depth[static_cast<size_t>(widest)]) widest = at;
       }
-      if (junction >= 0) {
-        if (length >= kSpurLength * depth[static_cast<size_t>(junction)]) continue;
+      const bool spur = junction >= 0 ? length < kSpurLength * depth[static_cast<size_t>(junction)]
+                                      : length <= depth[static_cast<size_t>(widest)];
+      if (spur && junction >= 0) {
         branch.pop_back();  // the junction stays
-      } else {
-        if (length > depth[static_cast<size_t>(widest)]) continue;
+      } else if (spur) {
         branch.erase(std::find(branch.begin(), branch.end(), widest));
+      } else {
+        // A curve of its own; its end bent off the axis to a flat end's rim goes: from there the
+        // radius grows by kBentEndSlope a millimetre in or more (a 3 mm tube's: 1, 1.41, 2, 3 mm
+        // over 4.6 mm), where a vessel tapers by far less. The new end is where the radius has
+        // grown most beyond that slope (the axis's end).
+        const float r0 = depth[static_cast<size_t>(end)];
+        size_t keep = 0;
+        double most = 0.0;
+        for (size_t k = 1; k + 1 < branch.size(); ++k) {
+          const float rk = depth[static_cast<size_t>(branch[k])];
+          if (along[k] > 2.0 * rk) break;
+          const double beyond = rk - r0 - kBentEndSlope * along[k];
+          if (beyond >= 0.0 && beyond >= most) {
+            most = beyond;
+            keep = k;
+          }
+        }
+        if (keep == 0) continue;
+        branch.resize(keep);
       }
       for (const int64_t v : branch) in[static_cast<size_t>(v)] = 0;
       pruned = true;

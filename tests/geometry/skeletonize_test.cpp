@@ -7,8 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <functional>
 #include <unordered_set>
+
+#include "support/volumes.h"
 
 namespace {
 
@@ -16,20 +17,8 @@ using namespace lamina;
 using geometry::is_simple_point;
 using geometry::skeletonize;
 
-uint32_t bit(int dx, int dy, int dz) { return 1u << ((dx + 1) + 3 * (dy + 1) + 9 * (dz + 1)); }
-
-Mask make_mask(std::array<int64_t, 3> size, std::array<double, 3> spacing,
-               const std::function<bool(double, double, double)>& inside_mm) {
-  Mask m;
-  m.frame.size = size;
-  m.frame.spacing_mm = spacing;
-  m.inside.assign(static_cast<size_t>(m.frame.voxel_count()), 0);
-  for (int64_t k = 0; k < size[2]; ++k)
-    for (int64_t j = 0; j < size[1]; ++j)
-      for (int64_t i = 0; i < size[0]; ++i)
-        m.inside[static_cast<size_t>(m.frame.index(i, j, k))] =
-            inside_mm(i * spacing[0], j * spacing[1], k * spacing[2]) ? 1 : 0;
-  return m;
+uint32_t bit(int dx, int dy, int dz) {
+  return 1u << ((dx + 1) + 3 * (dy + 1) + 9 * (dz + 1));
 }
 
 // Per skeleton voxel, its 26-neighbours in the skeleton.
@@ -38,7 +27,8 @@ std::vector<int> neighbour_counts(const geometry::Skeleton& s) {
   const GridFrame& f = s.frame;
   std::vector<int> counts;
   for (const int64_t v : s.voxels) {
-    const int64_t i = v % f.size[0], j = (v / f.size[0]) % f.size[1], k = v / (f.size[0] * f.size[1]);
+    const int64_t i = v % f.size[0], j = (v / f.size[0]) % f.size[1],
+                  k = v / (f.size[0] * f.size[1]);
     int n = 0;
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
@@ -66,7 +56,7 @@ TEST(SimplePoint, AFaceOfASolidIsSimpleAPointOfALineOrInsideIsNot) {
   EXPECT_TRUE(is_simple_point(bit(1, 0, 0))) << "a line's end";
   EXPECT_FALSE(is_simple_point((1u << 27) - 1)) << "inside: a cavity";
   uint32_t ring = 0;  // the centre of a ring around it in the plane z = 0: removing it makes no
-  for (int dy = -1; dy <= 1; ++dy)  // tunnel (it has one already), but the plane's voxels
+  for (int dy = -1; dy <= 1; ++dy)    // tunnel (it has one already), but the plane's voxels
     for (int dx = -1; dx <= 1; ++dx)  // above and below are background on both sides: a
       if ((dx | dy) != 0) ring |= bit(dx, dy, 0);  // 6-background split in two
   EXPECT_FALSE(is_simple_point(ring));
@@ -74,7 +64,7 @@ TEST(SimplePoint, AFaceOfASolidIsSimpleAPointOfALineOrInsideIsNot) {
 
 TEST(Skeletonize, ACylinderBecomesItsAxisWithItsRadius) {
   const double r = 5.0;  // voxels of 1 mm; axis along i at j = k = 10
-  const Mask m = make_mask({50, 21, 21}, {1, 1, 1}, [&](double x, double y, double z) {
+  const Mask m = test::mask_where({50, 21, 21}, {1, 1, 1}, [&](double x, double y, double z) {
     return x >= 5 && x <= 44 && std::hypot(y - 10, z - 10) <= r;
   });
   const geometry::Skeleton s = skeletonize(m);
@@ -109,7 +99,7 @@ TEST(Skeletonize, ACylinderBecomesItsAxisWithItsRadius) {
 
 TEST(Skeletonize, ATorusKeepsItsHoleAsAClosedCurve) {
   const double big = 12.0, small = 3.5;  // in the plane k = 10, centred at (20, 20)
-  const Mask m = make_mask({41, 41, 21}, {1, 1, 1}, [&](double x, double y, double z) {
+  const Mask m = test::mask_where({41, 41, 21}, {1, 1, 1}, [&](double x, double y, double z) {
     return std::hypot(std::hypot(x - 20, y - 20) - big, z - 10) <= small;
   });
   const geometry::Skeleton s = skeletonize(m);
@@ -126,7 +116,7 @@ TEST(Skeletonize, ATOfTubesOnAnisotropicVoxelsHasOneJunctionAndThreeEnds) {
   // A trunk along z and a branch along x from its middle; voxels 0.6 x 0.6 x 1.5 mm.
   const std::array<double, 3> h{0.6, 0.6, 1.5};
   const double r = 2.5;
-  const Mask m = make_mask({80, 30, 40}, h, [&](double x, double y, double z) {
+  const Mask m = test::mask_where({80, 30, 40}, h, [&](double x, double y, double z) {
     const bool trunk = z >= 6 && z <= 54 && std::hypot(x - 12, y - 9) <= r;
     const bool branch = x >= 12 && x <= 42 && std::hypot(y - 9, z - 30) <= r;
     return trunk || branch;
@@ -150,9 +140,10 @@ TEST(Skeletonize, ATOfTubesOnAnisotropicVoxelsHasOneJunctionAndThreeEnds) {
 }
 
 TEST(Skeletonize, AnEmptyMaskHasNoSkeletonAndABallShrinksToAPoint) {
-  const Mask empty = make_mask({8, 8, 8}, {1, 1, 1}, [](double, double, double) { return false; });
+  const Mask empty =
+      test::mask_where({8, 8, 8}, {1, 1, 1}, [](double, double, double) { return false; });
   EXPECT_TRUE(skeletonize(empty).voxels.empty());
-  const Mask ball = make_mask({21, 21, 21}, {1, 1, 1}, [](double x, double y, double z) {
+  const Mask ball = test::mask_where({21, 21, 21}, {1, 1, 1}, [](double x, double y, double z) {
     return std::hypot(x - 10, y - 10, z - 10) <= 6.0;
   });
   const geometry::Skeleton s = skeletonize(ball);

@@ -1,7 +1,9 @@
 #pragma once
-// Synthetic label volumes for tests: spheres and boxes on small grids.
+// Synthetic label volumes and masks for tests: spheres and boxes on small grids, shapes given
+// by a function.
 
 #include <cmath>
+#include <functional>
 
 #include "lamina/core/grid.h"
 
@@ -35,6 +37,22 @@ inline int64_t count_label(const LabelVolume& v, int32_t label) {
   int64_t n = 0;
   for (int32_t l : v.labels) n += l == label;
   return n;
+}
+
+/// A mask of `size` voxels of `spacing` mm at the origin: inside where `inside_mm` says so of
+/// the voxel's centre (i, j, k times the spacing).
+inline Mask mask_where(std::array<int64_t, 3> size, std::array<double, 3> spacing,
+                       const std::function<bool(double, double, double)>& inside_mm) {
+  Mask m;
+  m.frame.size = size;
+  m.frame.spacing_mm = spacing;
+  m.inside.assign(static_cast<size_t>(m.frame.voxel_count()), 0);
+  for (int64_t k = 0; k < size[2]; ++k)
+    for (int64_t j = 0; j < size[1]; ++j)
+      for (int64_t i = 0; i < size[0]; ++i)
+        m.inside[static_cast<size_t>(m.frame.index(i, j, k))] =
+            inside_mm(i * spacing[0], j * spacing[1], k * spacing[2]) ? 1 : 0;
+  return m;
 }
 
 }  // namespace lamina::test

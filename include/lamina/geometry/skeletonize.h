@@ -14,11 +14,11 @@ namespace lamina::geometry {
 
 /// A skeleton of a mask, on the mask's grid.
 struct Skeleton {
-  GridFrame frame;                ///< the mask's
-  std::vector<int64_t> voxels;    ///< linear indices of the skeleton's voxels, ascending
-  std::vector<float> radius_mm;   ///< per skeleton voxel: distance from its centre to the
-                                  ///< nearest background voxel's centre, mm
-  int32_t passes = 0;             ///< thinning passes made (each peels about one voxel layer)
+  GridFrame frame;               ///< the mask's
+  std::vector<int64_t> voxels;   ///< linear indices of the skeleton's voxels, ascending
+  std::vector<float> radius_mm;  ///< per skeleton voxel: distance from its centre to the
+                                 ///< nearest background voxel's centre, mm
+  int32_t passes = 0;            ///< thinning passes made (each peels about one voxel layer)
 };
 
 /// Thins `mask` to its curve skeleton: distance-ordered homotopic thinning (Pudney 1998). Each
