@@ -8,6 +8,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "lamina/geometry/make_phantom.h"
 #include "support/volumes.h"
 
 namespace {
@@ -103,6 +104,63 @@ TEST(VesselGraph, ACylinderIsOneBranchAndALoneVoxelOneNode) {
   EXPECT_TRUE(d.branches.empty());
   EXPECT_EQ(d.nodes[0].degree, 0);
   EXPECT_TRUE(vessel_graph(geometry::Skeleton{}).nodes.empty());
+}
+
+// The phantom's portal tree, whose segments make_phantom.cpp lists (kVessels, mm): a trunk
+// through the hilum to a bifurcation, a branch into each lobe, each dividing in two. Its graph on
+// a 1 mm grid is that tree: the three bifurcations and four leaves where they were built, each
+// branch as long as its segment within 6% (and a radius, to a leaf) and as wide within 1 mm.
+TEST(VesselGraph, ThePhantomsPortalTreeIsTheTreeItWasBuiltAs) {
+  geometry::PhantomOptions o;
+  o.spacing_mm = {1.0, 1.0, 1.0};
+  o.carved_out = true;
+  const LabelVolume v = geometry::make_phantom(o);
+  Mask m;
+  m.frame = v.frame;
+  m.inside.resize(v.labels.size());
+  for (size_t i = 0; i < v.labels.size(); ++i)
+    m.inside[i] = v.labels[i] == geometry::kPhantomVessel ? 1 : 0;
+  const VesselGraph g = vessel_graph(skeletonize(m));
+
+  const Eigen::Vector3d hilum(-14, 14, -22), right(-55, 8, -8), left(22, 2, -2);
+  const std::vector<Eigen::Vector3d> leaves{
+      {-88, 2, 10}, {-60, 26, -26}, {62, -14, 14}, {38, 18, 14}};
+  const auto node_near = [&](const Eigen::Vector3d& p, double within_mm) {
+    for (size_t n = 0; n < g.nodes.size(); ++n)
+      if ((g.nodes[n].position_mm - p).norm() <= within_mm) return static_cast<int32_t>(n);
+    return -1;
+  };
+  ASSERT_EQ(g.branches.size(), 7u);
+  ASSERT_EQ(g.nodes.size(), 8u);  // the four leaves, the three bifurcations, the trunk's end
+  for (const Eigen::Vector3d& j : {hilum, right, left}) {
+    const int32_t n = node_near(j, 2.5);
+    ASSERT_GE(n, 0) << "no junction at " << j.transpose();
+    EXPECT_EQ(g.nodes[static_cast<size_t>(n)].degree, 3);
+  }
+  for (const Eigen::Vector3d& leaf : leaves) {
+    const int32_t n = node_near(leaf, 3.0);
+    ASSERT_GE(n, 0) << "no end at " << leaf.transpose();
+    EXPECT_EQ(g.nodes[static_cast<size_t>(n)].degree, 1);
+  }
+  const auto expect_branch = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                 double radius_mm, bool leaf) {
+    const int32_t na = node_near(a, 3.0), nb = node_near(b, 3.0);
+    for (const VesselGraph::Branch& br : g.branches)
+      if ((br.a == na && br.b == nb) || (br.a == nb && br.b == na)) {
+        // A skeleton's free end lies up to a radius inside its tube's rounded end.
+        const double slack = 0.06 * (a - b).norm() + (leaf ? radius_mm : 0.0);
+        EXPECT_NEAR(br.length_mm, (a - b).norm(), slack) << a.transpose();
+        EXPECT_NEAR(br.radius_mm, radius_mm, 1.0);
+        return;
+      }
+    ADD_FAILURE() << "no branch from " << a.transpose() << " to " << b.transpose();
+  };
+  expect_branch(hilum, right, 4.5, false);
+  expect_branch(hilum, left, 4.5, false);
+  expect_branch(right, leaves[0], 3.0, true);
+  expect_branch(right, leaves[1], 3.0, true);
+  expect_branch(left, leaves[2], 3.0, true);
+  expect_branch(left, leaves[3], 3.0, true);
 }
 
 }  // namespace

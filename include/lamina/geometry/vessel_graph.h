@@ -22,7 +22,7 @@ struct VesselGraph {
   struct Branch {
     int32_t a = -1, b = -1;       ///< its nodes (a == b: a closed loop)
     std::vector<int64_t> voxels;  ///< the skeleton voxels between them, from a's side to b's
-    double length_mm = 0.0;       ///< along its voxels, from node a's position to node b's
+    double length_mm = 0.0;       ///< along its voxels (smoothed), from node a's position to b's
     double radius_mm = 0.0;       ///< the median of its voxels' radii (its nodes' if it has none)
   };
   GridFrame frame;
