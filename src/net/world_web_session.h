@@ -40,6 +40,7 @@ class WorldSession {
   void event(int client, const std::string& text);
   void release_drag();
   void follow_cut();
+  bool topology_moved_on() const;
   void hand(int client, const nlohmann::json& m);
   void release_tip();
   void release_grasper();

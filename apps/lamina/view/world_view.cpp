@@ -400,7 +400,14 @@ void WorldViewSession::State::send_forces() {
     try {
       loop->set_forces(body.id, body.topology, forces);
       sent[b] = std::move(forces);
-    } catch (const Error& e) {  // a body's topology changed under the drag: said, not applied
+    } catch (const Error& e) {
+      // A cut taken since this frame's snapshot carried the forces; the next frame follows it.
+      // Anything else is said, and the drag ends.
+      const auto live = loop->bodies();
+      const bool cut_since = std::any_of(live.begin(), live.end(), [&](const auto& h) {
+        return h.first == body.id && h.second != body.topology;
+      });
+      if (cut_since) continue;
       status = e.what();
       drag.reset();
     }
