@@ -16,4 +16,10 @@ namespace lamina::geometry::detail {
 std::vector<float> distance_to_foreground(const GridFrame& frame,
                                           const std::vector<uint8_t>& inside);
 
+/// For every voxel, the linear index of the voxel inside `inside` (non-zero) nearest to it
+/// (itself when it is inside; -1 for every voxel when nothing is inside): the same transform
+/// with each distance's voxel kept (a feature transform). Ties go to one of the nearest.
+/// Per voxel 16 bytes while it runs: crop a large grid to the box that matters first.
+std::vector<int64_t> nearest_foreground(const GridFrame& frame, const std::vector<uint8_t>& inside);
+
 }  // namespace lamina::geometry::detail
