@@ -347,6 +347,53 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
         [](const RemnantPiece& a, const RemnantPiece& b) { return a.volume_ml > b.volume_ml; });
   }
 
+  // 2b. The functional remnant: the trees of the portal vein and hepatic veins, their
+  // territories, what the resection cuts off.
+  for (int32_t s = 0; s < n_structures; ++s) {
+    const ResectionStructure& st = opt.structures[s];
+    const VesselTreeKind kind = vessel_tree_kind(st.name);
+    if (kind == VesselTreeKind::kNone || st.role == SurfaceRole::kTumour) continue;
+    Mask vessel;
+    vessel.frame = g;
+    vessel.inside.assign(organ.inside.size(), 0);
+    for (int64_t k = 0; k < g.size[2]; ++k)
+      for (int64_t j = 0; j < g.size[1]; ++j)
+        for (int64_t i = 0; i < g.size[0]; ++i) {
+          const int64_t w = input_index(i, j, k);
+          vessel.inside[g.index(i, j, k)] = w >= 0 && structures[static_cast<size_t>(w)] == s + 1;
+        }
+    plan.trees.push_back(vascular_tree(organ, vessel, source + ": " + st.name, kind, st.label));
+    plan.trees.back().territories.name = st.name;
+  }
+  if (plan.trees.empty()) {
+    r.functional_missing =
+        "no portal vein or hepatic veins among the structures (name them: --embed "
+        "LABEL:portal_vein, LABEL:hepatic_veins)";
+  } else {
+    std::vector<uint8_t> function;
+    r.functional = functional_remnant(plan.trees, organ, rest.inside, r.remnant_ml, function);
+    r.functional_flr_percent = 100.0 * r.functional->functional_ml / r.whole_ml;
+    r.functional_sufficient = r.functional_flr_percent >= r.flr_threshold_percent;
+    plan.function.frame = f;
+    plan.function.source = source;
+    plan.function.labels.assign(n_voxels, 0);
+    plan.territories.assign(plan.trees.size(), plan.function);
+    for (int64_t k = 0; k < g.size[2]; ++k)
+      for (int64_t j = 0; j < g.size[1]; ++j)
+        for (int64_t i = 0; i < g.size[0]; ++i) {
+          const int64_t v = g.index(i, j, k);
+          const int64_t w = input_index(i, j, k);
+          if (w < 0 || organ.inside[v] == 0) continue;
+          plan.function.labels[static_cast<size_t>(w)] = function[v];
+          for (size_t t = 0; t < plan.trees.size(); ++t) {
+            const TreeTerritories& tt = plan.trees[t].territories;
+            const int32_t seed = tt.seed_of[v];
+            plan.territories[t].labels[static_cast<size_t>(w)] =
+                seed < 0 ? 0 : tt.seed_branch[static_cast<size_t>(seed)] + 1;
+          }
+        }
+  }
+
   // 3. Each tumour's pieces against the surface.
   for (int32_t s = 0; s < n_structures; ++s) {
     if (opt.structures[s].role != SurfaceRole::kTumour) continue;

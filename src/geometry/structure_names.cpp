@@ -35,6 +35,14 @@ bool is_vessel_name(const std::string& name) {
                      "biliar", "duct", "vascul"});
 }
 
+VesselTreeKind vessel_tree_kind(const std::string& name) {
+  if (is_tumour_name(name)) return VesselTreeKind::kNone;
+  const std::string n = name_key(name);
+  if (n == "pv" || has_any(n, {"portalvein", "portal"})) return VesselTreeKind::kPortal;
+  if (n == "hv" || has_any(n, {"hepaticvein"})) return VesselTreeKind::kHepatic;
+  return VesselTreeKind::kNone;
+}
+
 SurfaceRole guess_role(const std::string& name) {
   // A tumour's name first: "tumour thrombus in the portal vein" is a lesion.
   if (is_tumour_name(name)) return SurfaceRole::kTumour;

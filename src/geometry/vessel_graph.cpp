@@ -6,15 +6,12 @@
 #include <set>
 #include <utility>
 
+#include "voxel_centre.h"
+
 namespace lamina::geometry {
 namespace {
 
-Eigen::Vector3d centre_mm(const GridFrame& f, int64_t v) {
-  const int64_t i = v % f.size[0], j = (v / f.size[0]) % f.size[1], k = v / (f.size[0] * f.size[1]);
-  const std::array<double, 3> p =
-      f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
-  return {p[0], p[1], p[2]};
-}
+using detail::voxel_centre_mm;
 
 // The length of a path through `points` (a node, a branch's voxel centres, a node), each inner
 // point first averaged with those within two steps of it: a 26-connected voxel path along a
@@ -86,7 +83,7 @@ VesselGraph vessel_graph(const Skeleton& skeleton) {
     for (const int32_t s : members) {
       node_of[static_cast<size_t>(s)] = static_cast<int32_t>(g.nodes.size());
       n.voxels.push_back(voxels[static_cast<size_t>(s)]);
-      n.position_mm += centre_mm(f, voxels[static_cast<size_t>(s)]);
+      n.position_mm += voxel_centre_mm(f, voxels[static_cast<size_t>(s)]);
       n.radius_mm = std::max<double>(n.radius_mm, skeleton.radius_mm[static_cast<size_t>(s)]);
     }
     n.position_mm /= static_cast<double>(members.size());
@@ -124,7 +121,7 @@ VesselGraph vessel_graph(const Skeleton& skeleton) {
       walked[static_cast<size_t>(s)] = 1;
       b.voxels.push_back(voxels[static_cast<size_t>(s)]);
       radii.push_back(skeleton.radius_mm[static_cast<size_t>(s)]);
-      path.push_back(centre_mm(f, voxels[static_cast<size_t>(s)]));
+      path.push_back(voxel_centre_mm(f, voxels[static_cast<size_t>(s)]));
       int32_t after = -1;  // the neighbour it did not come from (a curve voxel has two)
       for (int32_t e = first[static_cast<size_t>(s)]; e < first[static_cast<size_t>(s) + 1]; ++e)
         if (next[static_cast<size_t>(e)] != previous) after = next[static_cast<size_t>(e)];

@@ -45,6 +45,44 @@ std::vector<std::string> resection_findings(const geometry::ResectionReport& r) 
   }
   if (r.remnant_pieces.size() > 1)
     out.push_back(fmt::format("the remnant is left in {} pieces", r.remnant_pieces.size()));
+  if (!r.functional) {
+    if (!r.functional_missing.empty())
+      out.push_back("the functional remnant is not assessed: " + r.functional_missing);
+    return out;
+  }
+  const geometry::FunctionalRemnant& fr = *r.functional;
+  const std::string lost = fmt::format("devascularized {:.1f} mL, congested {:.1f} mL",
+                                       fr.devascularized_ml, fr.congested_ml);
+  // The headline: enough liver by volume, not enough that keeps its inflow and outflow.
+  if (r.flr_sufficient && !r.functional_sufficient)
+    out.insert(out.begin(),
+               fmt::format("the remnant is sufficient geometrically ({:.1f}%) but not "
+                           "functionally: {:.1f}% keeps its inflow and outflow, under the {:.0f}% "
+                           "a {} liver needs ({})",
+                           r.flr_percent, r.functional_flr_percent, r.flr_threshold_percent,
+                           geometry::to_string(r.liver), lost));
+  else if (fr.lost_ml > 0.0)
+    out.push_back(
+        fmt::format("the resection cuts {:.1f} mL of the remnant off its vessels ({}): "
+                    "functional remnant {:.1f}%",
+                    fr.lost_ml, lost, r.functional_flr_percent));
+  for (const auto& t : fr.trees) {
+    if (t.divided > 0)
+      out.push_back(fmt::format(
+          "{}: {} branch{} divided, {:.1f} mL of the remnant {} after it", t.name, t.divided,
+          t.divided == 1 ? "" : "es", t.lost_ml,
+          t.kind == geometry::VesselTreeKind::kPortal ? "devascularized" : "congested"));
+    if (t.unrooted_mm > 0.0)
+      out.push_back(
+          fmt::format("{}: {:.0f} mm of centreline in pieces that reach no root (gaps "
+                      "over 5 mm, blobs): their tissue is given to the nearest branch "
+                      "that does",
+                      t.name, t.unrooted_mm));
+  }
+  if (!fr.portal)
+    out.push_back("devascularization is not assessed: no portal vein among the structures");
+  if (!fr.hepatic)
+    out.push_back("congestion is not assessed: no hepatic veins among the structures");
   return out;
 }
 
@@ -101,6 +139,44 @@ std::string resection_report_json(const geometry::ResectionReport& r,
   j["remnant_fragments_ml"] = round2(r.remnant_fragments_ml);
   if (r.remnant_voxels + r.resected_voxels > 0)  // a segmentation's plan, not a model's
     j["voxels_by_centre"] = {{"remnant", r.remnant_voxels}, {"resected", r.resected_voxels}};
+  if (r.functional) {
+    const geometry::FunctionalRemnant& fr = *r.functional;
+    ojson trees = ojson::array();
+    for (const auto& t : fr.trees) {
+      ojson branches = ojson::array();
+      for (const auto& b : t.branches)
+        branches.push_back({{"id", b.id},
+                            {"parent", b.parent},
+                            {"length_mm", round2(b.length_mm)},
+                            {"radius_mm", round2(b.radius_mm)},
+                            {"territory_ml", round2(b.territory_ml)},
+                            {"remnant_ml", round2(b.remnant_ml)},
+                            {"lost_ml", round2(b.lost_ml)},
+                            {"state", b.state}});
+      trees.push_back({{"name", t.name},
+                       {"kind", t.kind == geometry::VesselTreeKind::kPortal ? "portal" : "hepatic"},
+                       {"roots", t.roots},
+                       {"bridged_gaps", t.bridged_gaps},
+                       {"unrooted_mm", round2(t.unrooted_mm)},
+                       {"branches_divided", t.divided},
+                       {"lost_ml", round2(t.lost_ml)},
+                       {"branches", branches}});
+    }
+    j["functional_remnant"] = {{"assessed", {{"portal", fr.portal}, {"hepatic", fr.hepatic}}},
+                               {"remnant_ml", round2(r.remnant_ml)},
+                               {"devascularized_ml", round2(fr.devascularized_ml)},
+                               {"congested_ml", round2(fr.congested_ml)},
+                               {"lost_ml", round2(fr.lost_ml)},
+                               {"functional_ml", round2(fr.functional_ml)},
+                               {"percent", round2(r.functional_flr_percent)},
+                               {"geometric_percent", round2(r.flr_percent)},
+                               {"threshold_percent", r.flr_threshold_percent},
+                               {"sufficient", r.functional_sufficient},
+                               {"trees", trees}};
+  } else {
+    j["functional_remnant"] = nullptr;
+    j["functional_remnant_missing"] = r.functional_missing;
+  }
   j["findings"] = resection_findings(r);
   return j.dump(2);
 }

@@ -153,6 +153,9 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
       }
     geometry::file_remnant_pieces(r, found);
   }
+  // A model keeps its vessels' surfaces, not their voxels: no centrelines to follow.
+  r.functional_missing =
+      "a model holds no vessel territories: plan on the segmentation for the functional remnant";
   return r;
 }
 

@@ -72,6 +72,30 @@ TEST(ResectCli, ThePhantomsPlanIsReportedAndWrittenForSlicer) {
   const std::string png = test::read_text(d.work / "plan" / "resection.png");
   EXPECT_EQ(png.substr(1, 3), "PNG");
   EXPECT_EQ(file["outputs"]["picture"], "plan/resection.png");
+
+  // The functional remnant (the phantom names its portal vein and hepatic veins): its volumes
+  // add up, and the function and territories read back on the input's grid.
+  const json& fr = j["functional_remnant"];
+  ASSERT_TRUE(fr.is_object()) << j.dump();
+  EXPECT_TRUE(fr["assessed"]["portal"].get<bool>());
+  EXPECT_TRUE(fr["assessed"]["hepatic"].get<bool>());
+  EXPECT_NEAR(fr["functional_ml"].get<double>(), remnant - fr["lost_ml"].get<double>(), 0.02);
+  const LabelVolume function =
+      io::read_label_volume((d.work / "plan" / "function.nii.gz").string());
+  const LabelVolume portal =
+      io::read_label_volume((d.work / "plan" / "territories.nii.gz").string());
+  ASSERT_EQ(function.frame.size, input.frame.size);
+  ASSERT_EQ(portal.frame.size, input.frame.size);
+  const double voxel_ml = input.frame.voxel_volume_mm3() / 1000.0;
+  int64_t lost = 0, in_remnant = 0;
+  for (size_t v = 0; v < function.labels.size(); ++v) {
+    EXPECT_EQ(function.labels[v] != 0, parts.labels[v] == 1) << "a remnant voxel has a function";
+    EXPECT_EQ(portal.labels[v] != 0, parts.labels[v] != 0) << "an organ voxel has a territory";
+    in_remnant += function.labels[v] != 0;
+    lost += function.labels[v] > 1;
+  }
+  EXPECT_EQ(in_remnant, j["voxels_by_centre"]["remnant"].get<int64_t>());
+  EXPECT_NEAR(static_cast<double>(lost) * voxel_ml, fr["lost_ml"].get<double>(), 0.01);
 }
 
 TEST(ResectCli, AnObliqueGridsPartsKeepItsFrame) {
@@ -237,6 +261,9 @@ TEST(ResectCli, RefusesBadSurfacesWithOneLineAndWritesNothing) {
       {"", {"--plane", "--surface"}},
       {"--plane 0,0,0:1,0,0 --keep 0,5,5", {"--keep", "on the resection surface"}},
       {"--plane 0,0,0:1,0,0 --embed 9=bile", {"label 9"}},
+      // The vena cava (outside the organ) named as the portal vein: no tree to follow.
+      {"--plane 0,0,0:1,0,0 --label 1 --embed 2=bile_duct,3=tumour,4=hepatic_veins,5=portal_vein",
+       {"portal_vein", "inside the organ"}},
   };
   for (const Case& c : cases) {
     const auto r = lamina(d, "resect " + c.args + " -o out");

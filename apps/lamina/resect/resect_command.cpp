@@ -90,6 +90,13 @@ std::string text_of(const geometry::ResectionReport& r) {
     t += fmt::format(" (and {:.2f} mL of slivers under {:.0f} mL along the cut)",
                      r.remnant_fragments_ml, geometry::kMinPieceMl);
   t += "\n";
+  if (r.functional)
+    t += fmt::format(
+        "functional remnant {:.1f} mL, {:.1f}% ({}): devascularized {:.1f} mL, congested {:.1f} "
+        "mL\n",
+        r.functional->functional_ml, r.functional_flr_percent,
+        r.functional_sufficient ? "sufficient" : "INSUFFICIENT", r.functional->devascularized_ml,
+        r.functional->congested_ml);
   for (const std::string& f : io::resection_findings(r)) t += "finding: " + f + "\n";
   return t;
 }
@@ -259,6 +266,28 @@ int run_resect(const ResectArgs& a) {
     if (!model_input) {
       j["outputs"]["parts"] = parts;
       j["outputs"]["parts_labels"] = {{"1", "remnant"}, {"2", "resected"}};
+    }
+    // The functional remnant's volumes: each remnant voxel's function, each tree's territories.
+    if (r.functional) {
+      const std::string function = (out / ("function." + a.format)).string();
+      io::write_label_volume(plan.function, function);
+      j["outputs"]["function"] = function;
+      j["outputs"]["function_labels"] = {{"1", "functional"},
+                                         {"2", "devascularized"},
+                                         {"3", "congested"},
+                                         {"4", "devascularized and congested"}};
+      for (size_t t = 0; t < plan.trees.size(); ++t) {
+        const bool portal = plan.trees[t].kind == geometry::VesselTreeKind::kPortal;
+        std::string file = portal ? "territories" : "drainage";
+        for (size_t u = 0; u < t; ++u)
+          if (plan.trees[u].kind == plan.trees[t].kind) file += "_" + std::to_string(t);
+        file = (out / (file + "." + a.format)).string();
+        io::write_label_volume(plan.territories[t], file);
+        j["outputs"][portal ? "territories" : "drainage"].push_back(
+            {{"tree", plan.trees[t].territories.name},
+             {"file", file},
+             {"labels", "branch id + 1 (functional_remnant.trees[].branches[].id)"}});
+      }
     }
     // The picture; without EGL the rest is written and the picture's absence said.
     const std::string picture = (out / "resection.png").string();

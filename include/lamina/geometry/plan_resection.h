@@ -11,6 +11,7 @@
 
 #include "lamina/core/grid.h"
 #include "lamina/core/surface_role.h"
+#include "lamina/geometry/functional_remnant.h"
 #include "lamina/geometry/resection_surface.h"
 #include "lamina/geometry/structure_names.h"
 
@@ -94,6 +95,12 @@ struct ResectionReport {
   double remnant_fragments_ml = 0.0;         ///< the smaller pieces' volume
   /// Voxels counted by their centres (the label volume written): remnant, resected
   int64_t remnant_voxels = 0, resected_voxels = 0;
+  /// The functional remnant, when the structures hold a portal vein or hepatic veins (by name:
+  /// vessel_tree_kind()); none otherwise, with the reason in functional_missing.
+  std::optional<FunctionalRemnant> functional;
+  double functional_flr_percent = 0.0;  ///< functional remnant / whole
+  bool functional_sufficient = false;
+  std::string functional_missing;
 };
 
 /// A report's volumes, remnant side and future liver remnant from the organ's volume on each side
@@ -117,6 +124,14 @@ struct ResectionPlan {
   /// The organ as planned (its labels, the structures it encloses, largest piece, cavities
   /// filled), cropped to its box with a voxel of background around: for its surface.
   Mask organ;
+  /// The vessel trees with their territories (on the organ's grid), when the functional
+  /// remnant was assessed.
+  std::vector<VascularTree> trees;
+  /// On the input's grid, when the functional remnant was assessed: each remnant voxel's
+  /// function (kFunctional, kDevascularized, kCongested, kDevascularizedCongested), 0 elsewhere.
+  LabelVolume function;
+  /// On the input's grid, per tree: each organ voxel's branch (its id + 1), 0 outside the organ.
+  std::vector<LabelVolume> territories;
 };
 
 /// The built-in phantom for planning: its carved-out anatomy (liver, portal vein, two tumours,

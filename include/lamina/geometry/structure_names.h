@@ -22,6 +22,13 @@ bool is_tumour_name(const std::string& name);
 /// "aorta", "vessel", "bile duct", "biliary" ... (any case, with or without '_', '-' or spaces).
 bool is_vessel_name(const std::string& name);
 
+/// The vessel tree a structure's name says it is, for its territories (issue 63).
+enum class VesselTreeKind { kNone, kPortal, kHepatic };
+
+/// kPortal for "portal vein", "portal_veins", "PV"; kHepatic for "hepatic vein(s)", "HV"; kNone
+/// for every other name (the vena cava, arteries, ducts, a tumour's name).
+VesselTreeKind vessel_tree_kind(const std::string& name);
+
 /// The role a structure called `name` gets when its role is not given: kTumour for a tumour's
 /// name, kVessel for a vessel's, else kStructure.
 SurfaceRole guess_role(const std::string& name);

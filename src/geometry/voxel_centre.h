@@ -1,0 +1,20 @@
+#pragma once
+// A voxel's centre from its linear index (internal to src/geometry: the vessel graph and tree
+// keep their voxels as linear indices of the mask's grid).
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+
+#include "lamina/core/grid.h"
+
+namespace lamina::geometry::detail {
+
+inline Eigen::Vector3d voxel_centre_mm(const GridFrame& f, int64_t v) {
+  const int64_t i = v % f.size[0], j = (v / f.size[0]) % f.size[1], k = v / (f.size[0] * f.size[1]);
+  const std::array<double, 3> p =
+      f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+  return {p[0], p[1], p[2]};
+}
+
+}  // namespace lamina::geometry::detail
