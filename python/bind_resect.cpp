@@ -111,6 +111,16 @@ void bind_resect(py::module_& m) {
         py::object mask = py::cast(plan->parts);
         report["parts"] = mask.attr("labels").attr("copy")();
         report["parts_mask"] = mask;
+        // The functional remnant's volumes, when assessed: each remnant voxel's function and
+        // each tree's territories, by the tree's name.
+        if (plan->report.functional) {
+          report["function"] = py::cast(plan->function).attr("labels").attr("copy")();
+          py::dict territories;
+          for (size_t t = 0; t < plan->trees.size(); ++t)
+            territories[py::str(plan->trees[t].territories.name)] =
+                py::cast(plan->territories[t]).attr("labels").attr("copy")();
+          report["territories"] = territories;
+        }
         return report;
       },
       py::arg("mask") = "phantom", py::kw_only(), py::arg("plane") = py::none(),
@@ -125,7 +135,10 @@ void bind_resect(py::module_& m) {
       "normal (20%), chemotherapy (30%) or cirrhosis (40%); labels: the organ's labels; embed:\n"
       "structures, 2 or (2, 'portal_vein') - a name saying tumour gets margins.\n"
       "Returns the report as a dict (the keys of `lamina resect --json`), with 'parts': int32\n"
-      "(k, j, i), 1 remnant, 2 resected, and 'parts_mask': the same as a lamina.Mask.");
+      "(k, j, i), 1 remnant, 2 resected, and 'parts_mask': the same as a lamina.Mask; with a\n"
+      "portal vein or hepatic veins among the structures also 'function' (int32 (k, j, i): 1\n"
+      "functional, 2 devascularized, 3 congested, 4 both) and 'territories' ({tree name: int32\n"
+      "(k, j, i) branch id + 1}).");
 }
 
 }  // namespace lamina::python

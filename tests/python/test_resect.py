@@ -15,7 +15,7 @@ def test_resect_matches_the_command_line_and_gives_the_parts(cli):
                            "25", "--json"], capture_output=True, text=True, check=True)
     cli = json.loads(done.stdout)
     for key in ("volumes_ml", "future_liver_remnant", "tumours", "structures_crossed",
-                "remnant_pieces", "findings"):
+                "remnant_pieces", "functional_remnant", "findings"):
         assert r[key] == cli[key], key
     parts = r["parts"]
     assert parts.dtype == np.int32 and parts.shape == r["parts_mask"].shape
@@ -26,6 +26,25 @@ def test_resect_matches_the_command_line_and_gives_the_parts(cli):
     i = np.arange(parts.shape[2]) * m.spacing_mm[0] + m.origin_mm[0]
     assert (i[np.nonzero(parts == 1)[2]] < 30 + m.spacing_mm[0]).all()
     assert any("under the 25.0 mm" in f for f in r["findings"])
+
+
+def test_resect_gives_the_functional_remnant_as_volumes():
+    # The plane x = 5 mm divides the left portal branch and the left hepatic vein.
+    r = lamina.resect(plane=((5, 0, 0), (1, 0, 0)))
+    fr = r["functional_remnant"]
+    assert fr["assessed"] == {"portal": True, "hepatic": True}
+    function, parts = r["function"], r["parts"]
+    assert function.shape == parts.shape
+    assert ((function > 0) == (parts == 1)).all()
+    voxel_ml = np.prod(r["parts_mask"].spacing_mm) / 1000
+    assert abs((function > 1).sum() * voxel_ml - fr["lost_ml"]) < 0.01
+    assert fr["lost_ml"] > 0 and fr["functional_ml"] < fr["remnant_ml"]
+    portal = r["territories"]["portal_vein"]
+    assert ((portal > 0) == (parts > 0)).all()
+    # Every branch's territory as the report counts it.
+    tree = next(t for t in fr["trees"] if t["name"] == "portal_vein")
+    for b in tree["branches"]:
+        assert abs((portal == b["id"] + 1).sum() * voxel_ml - b["territory_ml"]) < 0.01
 
 
 def test_resect_takes_a_mask_with_named_structures():
