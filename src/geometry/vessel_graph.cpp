@@ -6,7 +6,7 @@
 #include <set>
 #include <utility>
 
-#include "voxel_centre.h"
+#include "vessel_internal.h"
 
 namespace lamina::geometry {
 namespace {

@@ -10,11 +10,12 @@
 #include <queue>
 
 #include "lamina/core/error.h"
-#include "voxel_centre.h"
+#include "vessel_internal.h"
 
 namespace lamina::geometry {
 namespace {
 
+using detail::near_outside;
 using detail::voxel_centre_mm;
 
 struct Pieces {
@@ -27,31 +28,6 @@ struct Pieces {
   }
   void join(int32_t a, int32_t b) { up[static_cast<size_t>(find(a))] = find(b); }
 };
-
-// Whether a voxel outside `organ` (or beyond its grid) lies within `reach_mm` of `p`.
-bool near_outside(const Mask& organ, const Eigen::Vector3d& p, double reach_mm) {
-  const GridFrame& f = organ.frame;
-  const Eigen::Vector3d o(f.origin_mm[0], f.origin_mm[1], f.origin_mm[2]);
-  std::array<int64_t, 3> c{}, r{};
-  for (int a = 0; a < 3; ++a) {
-    const Eigen::Vector3d axis(f.direction[a], f.direction[3 + a], f.direction[6 + a]);
-    c[a] = std::llround((p - o).dot(axis) / f.spacing_mm[a]);
-    r[a] = static_cast<int64_t>(std::ceil(reach_mm / f.spacing_mm[a]));
-  }
-  const double reach2 = reach_mm * reach_mm;
-  for (int64_t dk = -r[2]; dk <= r[2]; ++dk)
-    for (int64_t dj = -r[1]; dj <= r[1]; ++dj)
-      for (int64_t di = -r[0]; di <= r[0]; ++di) {
-        const double d2 = std::pow(di * f.spacing_mm[0], 2) + std::pow(dj * f.spacing_mm[1], 2) +
-                          std::pow(dk * f.spacing_mm[2], 2);
-        if (d2 > reach2) continue;
-        const int64_t i = c[0] + di, j = c[1] + dj, k = c[2] + dk;
-        if (i < 0 || j < 0 || k < 0 || i >= f.size[0] || j >= f.size[1] || k >= f.size[2])
-          return true;
-        if (organ.inside[static_cast<size_t>(f.index(i, j, k))] == 0) return true;
-      }
-  return false;
-}
 
 // Splits branch `b` at its voxel `q` into two joined by a new node there; returns the node.
 int32_t split_branch(VesselGraph& g, int32_t b, size_t q) {
@@ -75,6 +51,8 @@ int32_t split_branch(VesselGraph& g, int32_t b, size_t q) {
   g.branches.push_back(second);
   return node;
 }
+
+}  // namespace
 
 // Joins each piece's ends to the nearest centreline of another piece within reach, nearest gaps
 // first, each pair of pieces once.
@@ -143,8 +121,6 @@ int32_t bridge_gaps(VesselGraph& g, double max_gap_mm) {
   }
   return bridged;
 }
-
-}  // namespace
 
 VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& name,
                        const VesselTreeOptions& options) {
@@ -249,4 +225,32 @@ VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& 
   return t;
 }
 
+namespace detail {
+
+// Whether a voxel outside `organ` (or beyond its grid) lies within `reach_mm` of `p`.
+bool near_outside(const Mask& organ, const Eigen::Vector3d& p, double reach_mm) {
+  const GridFrame& f = organ.frame;
+  const Eigen::Vector3d o(f.origin_mm[0], f.origin_mm[1], f.origin_mm[2]);
+  std::array<int64_t, 3> c{}, r{};
+  for (int a = 0; a < 3; ++a) {
+    const Eigen::Vector3d axis(f.direction[a], f.direction[3 + a], f.direction[6 + a]);
+    c[a] = std::llround((p - o).dot(axis) / f.spacing_mm[a]);
+    r[a] = static_cast<int64_t>(std::ceil(reach_mm / f.spacing_mm[a]));
+  }
+  const double reach2 = reach_mm * reach_mm;
+  for (int64_t dk = -r[2]; dk <= r[2]; ++dk)
+    for (int64_t dj = -r[1]; dj <= r[1]; ++dj)
+      for (int64_t di = -r[0]; di <= r[0]; ++di) {
+        const double d2 = std::pow(di * f.spacing_mm[0], 2) + std::pow(dj * f.spacing_mm[1], 2) +
+                          std::pow(dk * f.spacing_mm[2], 2);
+        if (d2 > reach2) continue;
+        const int64_t i = c[0] + di, j = c[1] + dj, k = c[2] + dk;
+        if (i < 0 || j < 0 || k < 0 || i >= f.size[0] || j >= f.size[1] || k >= f.size[2])
+          return true;
+        if (organ.inside[static_cast<size_t>(f.index(i, j, k))] == 0) return true;
+      }
+  return false;
+}
+
+}  // namespace detail
 }  // namespace lamina::geometry

@@ -9,31 +9,18 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/skeletonize.h"
+#include "support/volumes.h"
 
 namespace lamina::geometry {
 namespace {
 
-struct Phantom {
-  Mask organ, vessel;
-};
+using Phantom = test::OrganAndVessels;
 
 Phantom phantom() {
-  PhantomOptions o;
-  o.spacing_mm = {1.0, 1.0, 1.0};
-  o.carved_out = true;
-  const LabelVolume v = make_phantom(o);
-  Phantom p;
-  p.organ.frame = p.vessel.frame = v.frame;
-  p.organ.inside.resize(v.labels.size());
-  p.vessel.inside.resize(v.labels.size());
-  for (size_t i = 0; i < v.labels.size(); ++i) {
-    p.vessel.inside[i] = v.labels[i] == kPhantomVessel ? 1 : 0;
-    p.organ.inside[i] = v.labels[i] != 0 && v.labels[i] != kPhantomVenaCava ? 1 : 0;
-  }
-  return p;
+  return test::phantom_organ_and_vessels({kPhantomVessel});
 }
 
-// The branches of `t` in a tree, and each one's parent's far node's position.
+// The branches of `t` in a tree.
 int32_t count_rooted(const VesselTree& t) {
   int32_t n = 0;
   for (const int32_t f : t.from_node) n += f >= 0;
@@ -42,7 +29,7 @@ int32_t count_rooted(const VesselTree& t) {
 
 TEST(VesselTree, ThePhantomsPortalTreeIsRootedAtItsTrunkWithItsBuiltParents) {
   const Phantom p = phantom();
-  const VesselTree t = vessel_tree(vessel_graph(skeletonize(p.vessel)), p.organ, "portal vein");
+  const VesselTree t = vessel_tree(vessel_graph(skeletonize(p.vessels)), p.organ, "portal vein");
   ASSERT_EQ(t.roots.size(), 1u);
   const Eigen::Vector3d root = t.graph.nodes[static_cast<size_t>(t.roots[0])].position_mm;
   EXPECT_LT(root.z(), -50.0) << "the trunk's lower end, below the hilum";
@@ -80,15 +67,15 @@ TEST(VesselTree, ThePhantomsPortalTreeIsRootedAtItsTrunkWithItsBuiltParents) {
 TEST(VesselTree, AGapCutIntoABranchIsBridged) {
   Phantom p = phantom();
   // A 3 mm slab across the left branch (x from -14 to 22) at x = 5.
-  const GridFrame& f = p.vessel.frame;
+  const GridFrame& f = p.vessels.frame;
   for (int64_t k = 0; k < f.size[2]; ++k)
     for (int64_t j = 0; j < f.size[1]; ++j)
       for (int64_t i = 0; i < f.size[0]; ++i) {
         const auto x =
             f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
-        if (x[0] > 3.5 && x[0] < 6.5) p.vessel.inside[static_cast<size_t>(f.index(i, j, k))] = 0;
+        if (x[0] > 3.5 && x[0] < 6.5) p.vessels.inside[static_cast<size_t>(f.index(i, j, k))] = 0;
       }
-  const VesselTree t = vessel_tree(vessel_graph(skeletonize(p.vessel)), p.organ, "portal vein");
+  const VesselTree t = vessel_tree(vessel_graph(skeletonize(p.vessels)), p.organ, "portal vein");
   EXPECT_EQ(t.roots.size(), 1u);
   EXPECT_GE(t.bridged_gaps, 1);
   EXPECT_EQ(t.unrooted_mm, 0.0) << "the left lobe's part reached through the bridge";

@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 
 #include "lamina/core/grid.h"
+#include "lamina/geometry/make_phantom.h"
 
 namespace lamina::test {
 
@@ -53,6 +55,31 @@ inline Mask mask_where(std::array<int64_t, 3> size, std::array<double, 3> spacin
         m.inside[static_cast<size_t>(m.frame.index(i, j, k))] =
             inside_mm(i * spacing[0], j * spacing[1], k * spacing[2]) ? 1 : 0;
   return m;
+}
+
+/// The carved-out phantom at 1 mm as an organ (every label but the vena cava, which lies
+/// outside it) and a vessel mask of `vessel_labels`: the vessel trees' tests.
+struct OrganAndVessels {
+  Mask organ, vessels;
+};
+inline OrganAndVessels phantom_organ_and_vessels(std::initializer_list<int32_t> vessel_labels,
+                                                 bool anatomy = false) {
+  geometry::PhantomOptions o;
+  o.spacing_mm = {1.0, 1.0, 1.0};
+  o.carved_out = true;
+  o.anatomy = anatomy;
+  const LabelVolume v = geometry::make_phantom(o);
+  OrganAndVessels p;
+  p.organ.frame = p.vessels.frame = v.frame;
+  p.organ.inside.resize(v.labels.size());
+  p.vessels.inside.resize(v.labels.size());
+  for (size_t i = 0; i < v.labels.size(); ++i) {
+    const int32_t l = v.labels[i];
+    p.organ.inside[i] = l != 0 && l != geometry::kPhantomVenaCava ? 1 : 0;
+    p.vessels.inside[i] = 0;
+    for (const int32_t w : vessel_labels) p.vessels.inside[i] |= l == w ? 1 : 0;
+  }
+  return p;
 }
 
 }  // namespace lamina::test

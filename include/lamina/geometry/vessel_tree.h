@@ -43,6 +43,11 @@ struct VesselTreeOptions {
   double least_tree_mm = 20.0;
 };
 
+/// Joins each piece's ends (nodes of one branch) to the nearest centreline of another piece within
+/// `max_gap_mm` plus the end's radius, nearest gaps first, each pair of pieces once: a branch
+/// without voxels, onto a node or onto a new node splitting a branch. Returns the gaps bridged.
+int32_t bridge_gaps(VesselGraph& graph, double max_gap_mm);
+
 /// Roots `graph` where its vessels leave `organ`: for each connected piece (after the gaps are
 /// bridged), the node nearest the organ's outside (within its widest branch's radius and two
 /// voxels) whose widest branch is the widest; then each branch's flow direction by the shortest

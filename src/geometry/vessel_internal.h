@@ -1,6 +1,7 @@
 #pragma once
-// A voxel's centre from its linear index (internal to src/geometry: the vessel graph and tree
-// keep their voxels as linear indices of the mask's grid).
+// Shared by the vessel graph, tree and separation (internal to src/geometry): a voxel's centre
+// from its linear index (they keep voxels as linear indices of the mask's grid), and whether a
+// point is near the organ's outside (where a tree leaves it).
 
 #include <Eigen/Core>
 #include <array>
@@ -16,5 +17,8 @@ inline Eigen::Vector3d voxel_centre_mm(const GridFrame& f, int64_t v) {
       f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
   return {p[0], p[1], p[2]};
 }
+
+/// Whether a voxel outside `organ` (or beyond its grid) lies within `reach_mm` of `p`.
+bool near_outside(const Mask& organ, const Eigen::Vector3d& p, double reach_mm);
 
 }  // namespace lamina::geometry::detail

@@ -1,0 +1,75 @@
+// separate_trees and couinaud_segments on the phantom, whose portal vein and hepatic veins are
+// known by construction (make_phantom.cpp: kVessels, kHepaticVeins): one mask holding both is
+// split into the built trees, the portal bifurcations are found where they were built, the
+// three hepatic veins' azimuths near the built ones, and every organ voxel gets a segment.
+#include "lamina/geometry/couinaud_segments.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "lamina/core/error.h"
+#include "lamina/geometry/make_phantom.h"
+#include "lamina/geometry/separate_trees.h"
+#include "lamina/geometry/skeletonize.h"
+#include "support/volumes.h"
+
+namespace lamina::geometry {
+namespace {
+
+using Phantom = test::OrganAndVessels;
+
+Phantom phantom() {
+  return test::phantom_organ_and_vessels({kPhantomVessel, kPhantomHepaticVeins}, true);
+}
+
+// Degrees from the patient's right (-x) towards anterior (-y), as the landmarks give them.
+double azimuth(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+  return std::atan2(-(to.y() - from.y()), -(to.x() - from.x())) * 180.0 / M_PI;
+}
+
+TEST(CouinaudSegments, ThePhantomsMergedVesselsSplitIntoTheBuiltTreesAndTheirLandmarks) {
+  const Phantom p = phantom();
+  const SeparatedTrees sep =
+      separate_trees(vessel_graph(skeletonize(p.vessels)), p.organ, "vessels");
+  EXPECT_EQ(sep.portal.branches.size(), 7u) << "the trunk, two branches, four leaves";
+  EXPECT_EQ(sep.hepatic.branches.size(), 3u) << "the right, middle and left veins";
+  EXPECT_EQ(sep.cut_branches, 0);
+  const VesselTree portal = vessel_tree(sep.portal, p.organ, "portal");
+  const VesselTree hepatic = vessel_tree(sep.hepatic, p.organ, "hepatic");
+  const CouinaudSegments s = couinaud_segments(p.organ, portal, hepatic, "segments");
+  const CouinaudLandmarks& lm = s.landmarks;
+  EXPECT_LT((lm.portal_bifurcation_mm - Eigen::Vector3d(-14, 14, -22)).norm(), 3.0);
+  EXPECT_LT((lm.right_portal_bifurcation_mm - Eigen::Vector3d(-55, 8, -8)).norm(), 3.0);
+  // The built veins leave (-17, 64, 36) for their first bends.
+  const Eigen::Vector3d confluence(-17, 64, 36);
+  const double built[3] = {azimuth(confluence, {-52, 30, 33}), azimuth(confluence, {-30, 10, 22}),
+                           azimuth(confluence, {10, 30, 38})};
+  for (int v = 0; v < 3; ++v)
+    EXPECT_NEAR(lm.vein_azimuth_deg[static_cast<size_t>(v)], built[v], 20.0) << "vein " << v;
+  // Every organ voxel in one segment; the volumes sum to the organ's.
+  int64_t organ = 0;
+  for (size_t v = 0; v < p.organ.inside.size(); ++v) {
+    organ += p.organ.inside[v];
+    EXPECT_EQ(s.segment[v] != 0, p.organ.inside[v] != 0);
+    EXPECT_LE(s.segment[v], 8);
+  }
+  double sum = 0.0;
+  for (int k = 1; k <= 8; ++k) sum += s.volume_ml[static_cast<size_t>(k)];
+  EXPECT_NEAR(sum, static_cast<double>(organ) * p.organ.frame.voxel_volume_mm3() / 1000.0, 1e-6);
+}
+
+TEST(CouinaudSegments, VesselsWithNoTrunkInTheOrgansUpperQuarterCannotBeSeparated) {
+  // The portal vein alone: no hepatic veins reach the upper quarter.
+  const Phantom p = test::phantom_organ_and_vessels({kPhantomVessel});
+  try {
+    separate_trees(vessel_graph(skeletonize(p.vessels)), p.organ, "liver vessels");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("liver vessels"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cannot be separated"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace lamina::geometry
