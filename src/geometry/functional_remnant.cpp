@@ -2,6 +2,8 @@
 // resected, their flow followed from the roots, each remnant voxel's nearest seed asked.
 #include "lamina/geometry/functional_remnant.h"
 
+#include <algorithm>
+
 #include "lamina/core/error.h"
 #include "lamina/geometry/skeletonize.h"
 #include "lamina/geometry/vessel_graph.h"
@@ -22,6 +24,49 @@ VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::str
   t.territories =
       tree_territories(organ, vessel_tree(vessel_graph(skeletonize(vessel)), organ, name), name);
   return t;
+}
+
+TumourTerritory tumour_territory(const VascularTree& tree, const std::vector<int64_t>& voxels,
+                                 double voxel_ml) {
+  const TreeTerritories& t = tree.territories;
+  const size_t n_branches = t.tree.graph.branches.size();
+  TumourTerritory out;
+  out.tree = t.name;
+  std::vector<int64_t> count(n_branches, 0);
+  for (const int64_t v : voxels) {
+    const int32_t s = t.seed_of[static_cast<size_t>(v)];
+    if (s >= 0) ++count[static_cast<size_t>(t.seed_branch[static_cast<size_t>(s)])];
+  }
+  for (size_t b = 0; b < n_branches; ++b)
+    if (count[b] > 0) out.branches.push_back(static_cast<int32_t>(b));
+  std::stable_sort(out.branches.begin(), out.branches.end(), [&](int32_t x, int32_t y) {
+    return count[static_cast<size_t>(x)] > count[static_cast<size_t>(y)];
+  });
+  if (out.branches.empty()) return out;
+  // The nearest common ancestor: the first branch on the first one's way to the root that
+  // every other one's way passes through.
+  const std::vector<int32_t>& parent = t.tree.parent;
+  std::vector<int32_t> passes(n_branches, 0);
+  for (const int32_t b : out.branches)
+    for (int32_t x = b; x >= 0; x = parent[static_cast<size_t>(x)])
+      ++passes[static_cast<size_t>(x)];
+  const auto all = static_cast<int32_t>(out.branches.size());
+  for (int32_t x = out.branches[0]; x >= 0; x = parent[static_cast<size_t>(x)])
+    if (passes[static_cast<size_t>(x)] == all) {
+      out.subtree = x;
+      break;
+    }
+  if (out.subtree < 0) return out;
+  // Its territory: every branch whose way to the root passes through it.
+  for (size_t b = 0; b < n_branches; ++b) {
+    if (t.tree.from_node[b] < 0) continue;
+    for (int32_t x = static_cast<int32_t>(b); x >= 0; x = parent[static_cast<size_t>(x)])
+      if (x == out.subtree) {
+        out.territory_ml += static_cast<double>(t.branch_voxels[b]) * voxel_ml;
+        break;
+      }
+  }
+  return out;
 }
 
 FunctionalRemnant functional_remnant(const std::vector<VascularTree>& trees, const Mask& organ,

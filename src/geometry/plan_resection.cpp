@@ -418,12 +418,21 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
       Eigen::Vector3d centre = Eigen::Vector3d::Zero(), nearest = Eigen::Vector3d::Zero();
     };
     std::vector<Acc> acc(static_cast<size_t>(pieces));
+    // Each piece's voxels on the organ's grid, for its portal territory.
+    const VascularTree* portal_tree = nullptr;
+    for (const VascularTree& vt : plan.trees)
+      if (vt.kind == VesselTreeKind::kPortal && portal_tree == nullptr) portal_tree = &vt;
+    std::vector<std::vector<int64_t>> in_organ(portal_tree ? acc.size() : 0);
     for (int64_t k = b[2]; k <= b[5]; ++k)
       for (int64_t j = b[1]; j <= b[4]; ++j)
         for (int64_t i = b[0]; i <= b[3]; ++i) {
           const int32_t p = piece_of[t.frame.index(i - b[0], j - b[1], k - b[2])];
           if (p == 0) continue;
           Acc& a = acc[p - 1];
+          const int64_t gi = i - off[0], gj = j - off[1], gk = k - off[2];
+          if (portal_tree && gi >= 0 && gj >= 0 && gk >= 0 && gi < g.size[0] && gj < g.size[1] &&
+              gk < g.size[2])
+            in_organ[static_cast<size_t>(p - 1)].push_back(g.index(gi, gj, gk));
           const Eigen::Vector3d x = in_axes.at(i, j, k);
           const SideQuery q = side.query(x);
           const double gap = std::abs(q.signed_mm) - in_axes.half_extent(q.normal);
@@ -455,6 +464,8 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
       const bool in_front = a.front > 0;
       tm.side = divided ? "divided" : (in_front == r.remnant_in_front ? "remnant" : "resected");
       tm.clear = tm.side == "resected" && tm.margin_mm >= opt.margin_mm;
+      if (portal_tree)
+        tm.territory = tumour_territory(*portal_tree, in_organ[o], voxel_mm3 / 1000.0);
       r.tumours.push_back(tm);
     }
   }

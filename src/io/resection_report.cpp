@@ -112,7 +112,7 @@ std::string resection_report_json(const geometry::ResectionReport& r,
                                {"sufficient", r.flr_sufficient}};
   j["margin_wanted_mm"] = r.margin_mm;
   ojson tumours = ojson::array();
-  for (const auto& t : r.tumours)
+  for (const auto& t : r.tumours) {
     tumours.push_back({{"name", t.name},
                        {"label", t.label},
                        {"piece", t.piece},
@@ -122,6 +122,15 @@ std::string resection_report_json(const geometry::ResectionReport& r,
                        {"margin_mm", round2(t.margin_mm)},
                        {"nearest_surface_point_mm", vec(t.nearest_mm)},
                        {"clear", t.clear}});
+    if (t.territory) {
+      const auto& tt = *t.territory;
+      tumours.back()["portal_territory"] =
+          ojson{{"tree", tt.tree},
+                {"branches", tt.branches},
+                {"subtree_branch", tt.subtree >= 0 ? ojson(tt.subtree) : ojson(nullptr)},
+                {"territory_ml", round2(tt.territory_ml)}};
+    }
+  }
   j["tumours"] = tumours;
   ojson crossings = ojson::array();
   for (const auto& c : r.crossings)

@@ -117,6 +117,31 @@ TEST(FunctionalRemnant, APlaneThatMissesTheTreesCutsNothingOff) {
   for (const TreeFate& t : plan.report.functional->trees) EXPECT_EQ(t.divided, 0) << t.name;
 }
 
+TEST(FunctionalRemnant, EachTumoursPortalTerritoryIsTheBranchBuiltToFeedIt) {
+  // The right lobe's tumour at (-60, -18, 32) lies nearest the right lateral leaf, built from
+  // (-55, 8, -8) to (-88, 2, 10); the left lobe's lesion at (60, -14, 43.5) the left lateral
+  // one, (22, 2, -2) to (62, -14, 14).
+  const ResectionPlan plan = plan_resection(
+      planning_phantom(), SideOf(plane_surface({5, 0, 0}, {1, 0, 0})), planning_phantom_options());
+  ASSERT_EQ(plan.report.tumours.size(), 2u);
+  const VesselTree& tree = plan.trees[0].territories.tree;
+  const Eigen::Vector3d leaf_end[2] = {{-88, 2, 10}, {62, -14, 14}};
+  for (size_t t = 0; t < 2; ++t) {
+    const TumourMargin& tm = plan.report.tumours[t];
+    ASSERT_TRUE(tm.territory.has_value());
+    const TumourTerritory& tt = *tm.territory;
+    ASSERT_EQ(tt.branches.size(), 1u) << tm.name << " " << tm.piece;
+    EXPECT_EQ(tt.subtree, tt.branches[0]);
+    const VesselGraph::Branch& b = tree.graph.branches[static_cast<size_t>(tt.subtree)];
+    const double to_end =
+        std::min((tree.graph.nodes[static_cast<size_t>(b.a)].position_mm - leaf_end[t]).norm(),
+                 (tree.graph.nodes[static_cast<size_t>(b.b)].position_mm - leaf_end[t]).norm());
+    EXPECT_LT(to_end, 8.0) << "the built leaf's end (its skeleton ends a radius or so short)";
+    const auto& fate = plan.report.functional->trees[0].branches[static_cast<size_t>(tt.subtree)];
+    EXPECT_NEAR(tt.territory_ml, fate.territory_ml, 1e-9);
+  }
+}
+
 TEST(FunctionalRemnant, WithoutAPortalVeinOrHepaticVeinsItIsNotClaimed) {
   ResectionOptions o = planning_phantom_options();
   std::erase_if(o.structures, [](const ResectionStructure& s) {

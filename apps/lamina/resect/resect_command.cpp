@@ -74,12 +74,16 @@ std::string text_of(const geometry::ResectionReport& r) {
   t += fmt::format("future liver remnant {:.1f}% ({} liver: at least {:.0f}%): {}\n", r.flr_percent,
                    to_string(r.liver), r.flr_threshold_percent,
                    r.flr_sufficient ? "sufficient" : "INSUFFICIENT");
-  for (const auto& x : r.tumours)
+  for (const auto& x : r.tumours) {
     t += fmt::format(
         "{} {}: {:.1f} mL at ({:.1f}, {:.1f}, {:.1f}) mm, {}, margin {:.1f} mm "
         "(wanted {:.1f}){}\n",
         x.name, x.piece, x.volume_ml, x.centre_mm.x(), x.centre_mm.y(), x.centre_mm.z(), x.side,
         x.margin_mm, r.margin_mm, x.clear ? "" : "  <-- not clear");
+    if (x.territory && x.territory->subtree >= 0)
+      t += fmt::format("  fed by {} branch {}: its territory {:.1f} mL\n", x.territory->tree,
+                       x.territory->subtree, x.territory->territory_ml);
+  }
   if (r.crossings.empty()) t += "no structure is crossed inside the organ\n";
   for (const auto& c : r.crossings)
     t += fmt::format("crosses {} at ({:.1f}, {:.1f}, {:.1f}) mm, diameter {:.1f} mm\n", c.name,

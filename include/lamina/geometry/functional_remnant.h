@@ -62,6 +62,20 @@ struct FunctionalRemnant {
   std::vector<TreeFate> trees;
 };
 
+/// A tumour's vascular territory (issue 63): the branches whose territories hold its voxels, and
+/// the smallest subtree holding them all (their nearest common ancestor's): what an anatomical
+/// resection of the tumour takes.
+struct TumourTerritory {
+  std::string tree;               ///< the tree's name
+  std::vector<int32_t> branches;  ///< feeding the tumour's voxels, by how many, most first
+  int32_t subtree = -1;           ///< the common ancestor; -1 when they are in two trees
+  double territory_ml = 0.0;      ///< the subtree's territory
+};
+
+/// The territory of a tumour whose voxels (on the organ's grid) are `voxels`, in `tree`.
+TumourTerritory tumour_territory(const VascularTree& tree, const std::vector<int64_t>& voxels,
+                                 double voxel_ml);
+
 /// Each remnant voxel's function, for the label volume written beside the parts.
 enum : uint8_t {
   kFunctional = 1,

@@ -57,6 +57,8 @@ struct TumourMargin {
   Eigen::Vector3d nearest_mm = Eigen::Vector3d::Zero();  ///< the surface's point nearest it
   /// Resected with at least the wanted margin
   bool clear = false;
+  /// Its portal territory, when a portal vein is among the structures (none otherwise).
+  std::optional<TumourTerritory> territory;
 };
 
 /// A place where the surface divides a structure (a vessel cut across).
