@@ -155,10 +155,17 @@ FunctionalRemnant functional_remnant(const std::vector<VascularTree>& trees, con
     devascularized += (l & 1) != 0;
     congested += (l & 2) != 0;
   }
-  out.devascularized_ml = static_cast<double>(devascularized) * voxel_ml;
-  out.congested_ml = static_cast<double>(congested) * voxel_ml;
-  out.lost_ml = static_cast<double>(lost_voxels) * voxel_ml;
-  out.functional_ml = std::max(0.0, remnant_ml - out.lost_ml);
+  // The remnant's volume splits the voxels the surface passes through; its voxels by centre
+  // may hold a little more or less. The lost volumes are the remnant's share of them, so that
+  // they never exceed it.
+  int64_t remnant_voxels = 0;
+  for (size_t v = 0; v < n; ++v) remnant_voxels += organ.inside[v] != 0 && kept[v] != 0;
+  const double per_voxel =
+      remnant_voxels > 0 ? remnant_ml / static_cast<double>(remnant_voxels) : voxel_ml;
+  out.devascularized_ml = static_cast<double>(devascularized) * per_voxel;
+  out.congested_ml = static_cast<double>(congested) * per_voxel;
+  out.lost_ml = static_cast<double>(lost_voxels) * per_voxel;
+  out.functional_ml = remnant_ml - out.lost_ml;
   return out;
 }
 

@@ -12,6 +12,8 @@
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/plan_resection.h"
+#include "lamina/io/label_volume_io.h"
+#include "support/test_paths.h"
 
 namespace lamina::geometry {
 namespace {
@@ -87,8 +89,11 @@ TEST(FunctionalRemnant, DividingTheLeftPortalBranchDevascularizesWhatItFeedsAsBu
   ASSERT_GT(expected, 1000);
   EXPECT_NEAR(static_cast<double>(made), static_cast<double>(expected),
               0.02 * static_cast<double>(expected));
-  EXPECT_NEAR(fr.devascularized_ml, static_cast<double>(made) * f.voxel_volume_mm3() / 1000.0,
-              1e-6);
+  // The lost volumes are the remnant's share of its voxels by centre.
+  EXPECT_NEAR(fr.devascularized_ml,
+              plan.report.remnant_ml * static_cast<double>(made) /
+                  static_cast<double>(plan.report.remnant_voxels),
+              1e-9);
 
   // Each tree's territories partition the organ: their volumes sum to the whole's.
   for (const TreeFate& t : fr.trees) {
@@ -140,6 +145,39 @@ TEST(FunctionalRemnant, EachTumoursPortalTerritoryIsTheBranchBuiltToFeedIt) {
     const auto& fate = plan.report.functional->trees[0].branches[static_cast<size_t>(tt.subtree)];
     EXPECT_NEAR(tt.territory_ml, fate.territory_ml, 1e-9);
   }
+}
+
+TEST(FunctionalRemnant, OnARealSegmentationTheLeftBranchIsCutOffOnlyByAPlaneAcrossIt) {
+  // TotalSegmentator's example (3 mm): liver, portal and splenic vein, vena cava, gallbladder.
+  // The portal vein enters at the hilum near x = -60 mm; its right branch runs to -x, its left
+  // one to +x. Sagittal planes, the patient's right side kept.
+  const LabelVolume v =
+      io::read_label_volume(test::real_data("liver_totalseg_example_3mm_labels.nii.gz"));
+  ResectionOptions o;
+  o.organ_labels = {1};
+  o.structures = {{2, "portal_vein", SurfaceRole::kVessel},
+                  {3, "vena_cava", SurfaceRole::kVessel},
+                  {4, "gallbladder", SurfaceRole::kStructure}};
+  const auto plan_at = [&](double x, double keep_x) {
+    o.keep_point = Eigen::Vector3d(keep_x, -185, 389);
+    return plan_resection(v, SideOf(plane_surface({x, -185, 389}, {1, 0, 0})), o).report;
+  };
+  // Across the left lobe, left of the hilum, the right side kept: the left branch divided, the
+  // left lobe's tissue right of the plane cut off, the rest kept.
+  const ResectionReport across = plan_at(-40.0, -140.0);
+  ASSERT_TRUE(across.functional.has_value());
+  EXPECT_EQ(across.functional->trees[0].divided, 1);
+  EXPECT_GT(across.functional->devascularized_ml, 10.0);
+  EXPECT_LT(across.functional->devascularized_ml, 0.5 * across.remnant_ml);
+  EXPECT_LT(across.functional_flr_percent, across.flr_percent);
+  // Through the right lobe, the hilum's side kept: what the right branch feeds beyond the plane
+  // is resected; the remnant keeps its inflow whole.
+  const ResectionReport right = plan_at(-100.0, 0.0);
+  EXPECT_EQ(right.functional->lost_ml, 0.0);
+  EXPECT_DOUBLE_EQ(right.functional_flr_percent, right.flr_percent);
+  // The same plane, the right lobe's end kept: it has lost its inflow.
+  const ResectionReport end = plan_at(-100.0, -140.0);
+  EXPECT_GT(end.functional->devascularized_ml, 0.9 * end.remnant_ml);
 }
 
 TEST(FunctionalRemnant, WithoutAPortalVeinOrHepaticVeinsItIsNotClaimed) {

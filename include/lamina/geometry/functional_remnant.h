@@ -57,8 +57,9 @@ struct FunctionalRemnant {
   bool portal = false, hepatic = false;  ///< which trees were assessed
   double devascularized_ml = 0.0;        ///< remnant tissue cut off from the portal root
   double congested_ml = 0.0;             ///< remnant tissue cut off from the hepatic roots
-  double lost_ml = 0.0;                  ///< either (by voxel centres)
-  double functional_ml = 0.0;            ///< the remnant less lost_ml
+  double lost_ml = 0.0;                  ///< either
+  // The three: the remnant's volume times the share of its voxels (by centre) they hold.
+  double functional_ml = 0.0;  ///< the remnant less lost_ml
   std::vector<TreeFate> trees;
 };
 
