@@ -75,60 +75,92 @@ FunctionalRemnant functional_remnant(const std::vector<VascularTree>& trees, con
   FunctionalRemnant out;
   const double voxel_ml = organ.frame.voxel_volume_mm3() / 1000.0;
   const size_t n = organ.inside.size();
-  // Per voxel: bit 0 devascularized, bit 1 congested.
-  std::vector<uint8_t> lost(n, 0);
-  for (const VascularTree& vt : trees) {
-    const TreeTerritories& t = vt.territories;
-    const VesselGraph& g = t.tree.graph;
-    const uint8_t bit = vt.kind == VesselTreeKind::kPortal ? 1 : 2;
-    (vt.kind == VesselTreeKind::kPortal ? out.portal : out.hepatic) = true;
-    std::vector<uint8_t> blocked(t.seeds.size(), 0);
-    for (size_t s = 0; s < t.seeds.size(); ++s) {
-      const auto v = static_cast<size_t>(t.seeds[s]);
-      blocked[s] = organ.inside[v] != 0 && kept[v] == 0 ? 1 : 0;
-    }
-    const std::vector<uint8_t> on = still_connected(t, blocked);
 
+  // Per tree: which seeds the resection takes, which still reach the root.
+  std::vector<std::vector<uint8_t>> blocked(trees.size()), on(trees.size());
+  for (size_t t = 0; t < trees.size(); ++t) {
+    const TreeTerritories& tt = trees[t].territories;
+    blocked[t].assign(tt.seeds.size(), 0);
+    for (size_t s = 0; s < tt.seeds.size(); ++s) {
+      const auto v = static_cast<size_t>(tt.seeds[s]);
+      blocked[t][s] = organ.inside[v] != 0 && kept[v] == 0 ? 1 : 0;
+    }
+    on[t] = still_connected(tt, blocked[t]);
+    (trees[t].kind == VesselTreeKind::kPortal ? out.portal : out.hepatic) = true;
+  }
+
+  // One pass over the remnant's voxels: each one's function, and per branch its remnant and
+  // lost voxels (a plane that moves asks this again: the territories themselves are fixed).
+  std::vector<std::vector<int64_t>> remnant_of(trees.size()), lost_of(trees.size());
+  for (size_t t = 0; t < trees.size(); ++t) {
+    remnant_of[t].assign(trees[t].territories.tree.graph.branches.size(), 0);
+    lost_of[t].assign(remnant_of[t].size(), 0);
+  }
+  function.assign(n, 0);
+  int64_t remnant_voxels = 0, lost_voxels = 0, devascularized = 0, congested = 0;
+  for (size_t v = 0; v < n; ++v) {
+    if (organ.inside[v] == 0 || kept[v] == 0) continue;
+    ++remnant_voxels;
+    uint8_t l = 0;  // bit 0 devascularized, bit 1 congested
+    for (size_t t = 0; t < trees.size(); ++t) {
+      const TreeTerritories& tt = trees[t].territories;
+      const int32_t s = tt.seed_of[v];
+      if (s < 0) continue;
+      const auto b = static_cast<size_t>(tt.seed_branch[static_cast<size_t>(s)]);
+      ++remnant_of[t][b];
+      if (on[t][static_cast<size_t>(s)] != 0) continue;
+      ++lost_of[t][b];
+      l |= trees[t].kind == VesselTreeKind::kPortal ? 1 : 2;
+    }
+    function[v] = l == 0   ? kFunctional
+                  : l == 1 ? kDevascularized
+                  : l == 2 ? kCongested
+                           : kDevascularizedCongested;
+    lost_voxels += l != 0;
+    devascularized += (l & 1) != 0;
+    congested += (l & 2) != 0;
+  }
+  // The remnant's volume splits the voxels the surface passes through; its voxels by centre
+  // may hold a little more or less. The lost volumes are the remnant's share of them, so that
+  // they never exceed it.
+  const double per_voxel =
+      remnant_voxels > 0 ? remnant_ml / static_cast<double>(remnant_voxels) : voxel_ml;
+  out.devascularized_ml = static_cast<double>(devascularized) * per_voxel;
+  out.congested_ml = static_cast<double>(congested) * per_voxel;
+  out.lost_ml = static_cast<double>(lost_voxels) * per_voxel;
+  out.functional_ml = remnant_ml - out.lost_ml;
+
+  // Each tree's branches: their volumes, and their state from their seeds (blocked where the
+  // surface takes them, cut off downstream of a block).
+  for (size_t t = 0; t < trees.size(); ++t) {
+    const TreeTerritories& tt = trees[t].territories;
+    const VesselGraph& g = tt.tree.graph;
     TreeFate fate;
-    fate.name = t.name;
-    fate.kind = vt.kind;
-    fate.roots = static_cast<int32_t>(t.tree.roots.size());
-    fate.bridged_gaps = t.tree.bridged_gaps;
-    fate.unrooted_mm = t.tree.unrooted_mm;
+    fate.name = tt.name;
+    fate.kind = trees[t].kind;
+    fate.roots = static_cast<int32_t>(tt.tree.roots.size());
+    fate.bridged_gaps = tt.tree.bridged_gaps;
+    fate.unrooted_mm = tt.tree.unrooted_mm;
+    std::vector<int32_t> seeds_of(g.branches.size(), 0), blocked_of(g.branches.size(), 0),
+        off_of(g.branches.size(), 0);
+    for (size_t s = 0; s < tt.seeds.size(); ++s) {
+      const auto b = static_cast<size_t>(tt.seed_branch[s]);
+      ++seeds_of[b];
+      blocked_of[b] += blocked[t][s];
+      off_of[b] += on[t][s] == 0 ? 1 : 0;
+    }
     fate.branches.resize(g.branches.size());
     for (size_t b = 0; b < g.branches.size(); ++b) {
       BranchFate& bf = fate.branches[b];
       bf.id = static_cast<int32_t>(b);
-      bf.parent = t.tree.parent[b];
+      bf.parent = tt.tree.parent[b];
       bf.length_mm = g.branches[b].length_mm;
       bf.radius_mm = g.branches[b].radius_mm;
-    }
-    for (size_t v = 0; v < n; ++v) {
-      const int32_t s = t.seed_of[v];
-      if (s < 0) continue;
-      const int32_t b = t.seed_branch[static_cast<size_t>(s)];
-      BranchFate& bf = fate.branches[static_cast<size_t>(b)];
-      bf.territory_ml += voxel_ml;
-      if (kept[v] == 0) continue;
-      bf.remnant_ml += voxel_ml;
-      if (on[static_cast<size_t>(s)] != 0) continue;
-      bf.lost_ml += voxel_ml;
-      fate.lost_ml += voxel_ml;
-      lost[v] |= bit;
-    }
-    // Each branch's state from its seeds: blocked ones where the surface takes it, cut off ones
-    // downstream of a block.
-    std::vector<int32_t> seeds_of(g.branches.size(), 0), blocked_of(g.branches.size(), 0),
-        off_of(g.branches.size(), 0);
-    for (size_t s = 0; s < t.seeds.size(); ++s) {
-      const auto b = static_cast<size_t>(t.seed_branch[s]);
-      ++seeds_of[b];
-      blocked_of[b] += blocked[s];
-      off_of[b] += on[s] == 0 ? 1 : 0;
-    }
-    for (size_t b = 0; b < g.branches.size(); ++b) {
-      BranchFate& bf = fate.branches[b];
-      if (t.tree.from_node[b] < 0)
+      bf.territory_ml = static_cast<double>(tt.branch_voxels[b]) * voxel_ml;
+      bf.remnant_ml = static_cast<double>(remnant_of[t][b]) * per_voxel;
+      bf.lost_ml = static_cast<double>(lost_of[t][b]) * per_voxel;
+      fate.lost_ml += bf.lost_ml;
+      if (tt.tree.from_node[b] < 0)
         bf.state = "unrooted";
       else if (seeds_of[b] > 0 && blocked_of[b] == seeds_of[b])
         bf.state = "resected";
@@ -142,30 +174,6 @@ FunctionalRemnant functional_remnant(const std::vector<VascularTree>& trees, con
     }
     out.trees.push_back(std::move(fate));
   }
-  function.assign(n, 0);
-  int64_t lost_voxels = 0, devascularized = 0, congested = 0;
-  for (size_t v = 0; v < n; ++v) {
-    if (organ.inside[v] == 0 || kept[v] == 0) continue;
-    const uint8_t l = lost[v];
-    function[v] = l == 0   ? kFunctional
-                  : l == 1 ? kDevascularized
-                  : l == 2 ? kCongested
-                           : kDevascularizedCongested;
-    lost_voxels += l != 0;
-    devascularized += (l & 1) != 0;
-    congested += (l & 2) != 0;
-  }
-  // The remnant's volume splits the voxels the surface passes through; its voxels by centre
-  // may hold a little more or less. The lost volumes are the remnant's share of them, so that
-  // they never exceed it.
-  int64_t remnant_voxels = 0;
-  for (size_t v = 0; v < n; ++v) remnant_voxels += organ.inside[v] != 0 && kept[v] != 0;
-  const double per_voxel =
-      remnant_voxels > 0 ? remnant_ml / static_cast<double>(remnant_voxels) : voxel_ml;
-  out.devascularized_ml = static_cast<double>(devascularized) * per_voxel;
-  out.congested_ml = static_cast<double>(congested) * per_voxel;
-  out.lost_ml = static_cast<double>(lost_voxels) * per_voxel;
-  out.functional_ml = remnant_ml - out.lost_ml;
   return out;
 }
 
