@@ -58,7 +58,8 @@ void bind_resect(py::module_& m) {
       "resect",
       [](py::object input, std::optional<std::pair<Point, Point>> plane,
          std::optional<std::string> surface, std::optional<Point> keep, double margin_mm,
-         const std::string& liver, const std::vector<int32_t>& labels, const py::sequence& embed) {
+         const std::string& liver, const std::vector<int32_t>& labels, const py::sequence& embed,
+         bool segments) {
         if (plane.has_value() == surface.has_value())
           throw invalid_input("resect", "give one of plane=(point, normal) or surface=PATH");
         geometry::ResectionOptions o;
@@ -69,6 +70,7 @@ void bind_resect(py::module_& m) {
         if (!labels.empty()) o.organ_labels = labels;
         for (const auto& e : embed) o.structures.push_back(structure_of(e));
         o.margin_mm = margin_mm;
+        o.segments = segments;
         if (liver == "normal")
           o.liver = geometry::LiverCondition::kNormal;
         else if (liver == "chemotherapy")
@@ -121,12 +123,14 @@ void bind_resect(py::module_& m) {
                 py::cast(plan->territories[t]).attr("labels").attr("copy")();
           report["territories"] = territories;
         }
+        if (plan->report.segment_landmarks)
+          report["segments"] = py::cast(plan->segments).attr("labels").attr("copy")();
         return report;
       },
       py::arg("mask") = "phantom", py::kw_only(), py::arg("plane") = py::none(),
       py::arg("surface") = py::none(), py::arg("keep") = py::none(), py::arg("margin_mm") = 10.0,
       py::arg("liver") = "normal", py::arg("labels") = std::vector<int32_t>{},
-      py::arg("embed") = py::list(),
+      py::arg("embed") = py::list(), py::arg("segments") = false,
       "Plans a resection (lamina resect): mask is a Mask or a path ('phantom' = the built-in\n"
       "one with its carved-out anatomy, already named), or a Model or .vtu path (planned from\n"
       "its own surfaces along a plane; no parts). plane=((x, y, z), (nx, ny, nz)) mm LPS,\n"
@@ -138,7 +142,8 @@ void bind_resect(py::module_& m) {
       "(k, j, i), 1 remnant, 2 resected, and 'parts_mask': the same as a lamina.Mask; with a\n"
       "portal vein or hepatic veins among the structures also 'function' (int32 (k, j, i): 1\n"
       "functional, 2 devascularized, 3 congested, 4 both) and 'territories' ({tree name: int32\n"
-      "(k, j, i) branch id + 1}).");
+      "(k, j, i) branch id + 1}); segments=True: Couinaud's segments ('segments': int32 (k, j, i)\n"
+      "1-8, a first stage: docs/resection.md).");
 }
 
 }  // namespace lamina::python

@@ -552,6 +552,10 @@ Subcommand add_resect(CLI::App& app) {
                  "surface.obj/.vtp, report.json");
   rs->add_option("--format", resect.format, "the parts' label volume: nii.gz (default), nii, nrrd");
   rs->add_flag("--json", resect.json, "print the report as one JSON object on stdout");
+  rs->add_flag("--segments", resect.segments,
+               "Couinaud's segments from the portal and hepatic veins' landmarks, written as "
+               "segments.nii.gz with -o (a first stage: mean Dice 0.57 against experts' labels, "
+               "docs/resection.md)");
   return {rs, [l](int) { return cli::run_resect(l->resect); }};
 }
 

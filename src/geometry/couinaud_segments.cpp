@@ -1,7 +1,6 @@
-// Couinaud's segments (couinaud_segments.h): the portal tree walked down its widest subtrees to
-// its main and right bifurcations, the hepatic veins' trunks found as the three peaks of their
-// centrelines' azimuths about the confluence, then every organ voxel classified by its azimuth
-// and height.
+// Couinaud's segments (couinaud_segments.h): the confluence, the portal level and the three
+// hepatic veins found on the centrelines, then every organ voxel classified by its azimuth about
+// the confluence's vertical axis and its height. Heights are fractions of the organ's height.
 #include "lamina/geometry/couinaud_segments.h"
 
 #include <algorithm>
@@ -15,6 +14,24 @@ namespace lamina::geometry {
 namespace {
 
 constexpr double kDeg = 180.0 / std::numbers::pi;
+// The confluence: the widest vessel above this share of the organ's height.
+constexpr double kUpperQuarter = 0.75;
+// Wide horizontal vessels below this height are portal (the hepatic veins' trunks run higher),
+// unless they leave the confluence (within this distance of it, mm).
+constexpr double kPortalBelow = 0.8;
+constexpr double kTrunkFromConfluenceMm = 20.0;
+// The hepatic veins' trunks are looked for this far from the axis (mm): beyond the vena cava's
+// radius, within the veins' main course.
+constexpr double kVeinFromMm = 10.0, kVeinToMm = 60.0;
+// and fan out in front of the vena cava: azimuths from 45 degrees behind the right to 45 behind
+// the left.
+constexpr double kVeinAzimuthLo = -45.0, kVeinAzimuthHi = 225.0;
+constexpr double kVeinsApartDeg = 25.0;
+// Calibrated on 3D-IRCADb's expert labels (docs/resection.md): their right transverse plane
+// lies 0.1 of the organ's height below the left one (0.52 and 0.66 of it on average), and
+// segment 1 within 25 mm of the vena cava's axis, from 0.2 below to 0.15 above the portal level.
+constexpr double kRightBelowLeft = 0.1;
+constexpr double kCaudateRadiusMm = 25.0, kCaudateBelow = 0.2, kCaudateAbove = 0.15;
 
 // Degrees from the patient's right (-x in LPS) towards anterior (-y), in [-90, 270).
 double azimuth_deg(const Eigen::Vector3d& p, const Eigen::Vector3d& axis) {
@@ -23,166 +40,144 @@ double azimuth_deg(const Eigen::Vector3d& p, const Eigen::Vector3d& axis) {
   return a;
 }
 
-struct Subtrees {
-  std::vector<std::vector<int32_t>> children;
-  std::vector<double> length;             // each branch's subtree's centreline, mm
-  std::vector<Eigen::Vector3d> centroid;  // its length-weighted centre
-};
-
-Subtrees subtrees(const VesselTree& t) {
-  const VesselGraph& g = t.graph;
-  Subtrees s;
-  s.children.resize(g.branches.size());
-  s.length.assign(g.branches.size(), 0.0);
-  s.centroid.assign(g.branches.size(), Eigen::Vector3d::Zero());
-  for (const int32_t b : t.order)
-    if (t.parent[static_cast<size_t>(b)] >= 0)
-      s.children[static_cast<size_t>(t.parent[static_cast<size_t>(b)])].push_back(b);
-  for (auto it = t.order.rbegin(); it != t.order.rend(); ++it) {
-    const auto b = static_cast<size_t>(*it);
-    const VesselGraph::Branch& br = g.branches[b];
-    const Eigen::Vector3d mid = 0.5 * (g.nodes[static_cast<size_t>(br.a)].position_mm +
-                                       g.nodes[static_cast<size_t>(br.b)].position_mm);
-    s.length[b] += br.length_mm;
-    s.centroid[b] += br.length_mm * mid;
-    const int32_t p = t.parent[b];
-    if (p >= 0) {
-      s.length[static_cast<size_t>(p)] += s.length[b];
-      s.centroid[static_cast<size_t>(p)] += s.centroid[b];
-    }
-  }
-  for (size_t b = 0; b < s.centroid.size(); ++b)
-    if (s.length[b] > 0.0) s.centroid[b] /= s.length[b];
-  return s;
-}
-
-// The far node of branch b (away from the root).
-const Eigen::Vector3d& far_end(const VesselTree& t, int32_t b) {
-  const VesselGraph::Branch& br = t.graph.branches[static_cast<size_t>(b)];
-  const int32_t far = t.from_node[static_cast<size_t>(b)] == br.a ? br.b : br.a;
-  return t.graph.nodes[static_cast<size_t>(far)].position_mm;
-}
-
-// From branch b down its largest subtrees to the first branch whose two largest children each
-// hold at least `share` of its subtree: returns that branch (-1 when none), and its children.
-int32_t main_bifurcation(const Subtrees& s, int32_t b, double share, std::array<int32_t, 2>& kids) {
-  while (b >= 0) {
-    std::vector<int32_t> c = s.children[static_cast<size_t>(b)];
-    if (c.empty()) return -1;
-    std::sort(c.begin(), c.end(), [&](int32_t x, int32_t y) {
-      return s.length[static_cast<size_t>(x)] > s.length[static_cast<size_t>(y)];
-    });
-    if (c.size() >= 2 &&
-        s.length[static_cast<size_t>(c[1])] >= share * s.length[static_cast<size_t>(b)]) {
-      kids = {c[0], c[1]};
-      return b;
-    }
-    b = c[0];
-  }
-  return -1;
-}
-
 }  // namespace
 
-CouinaudSegments couinaud_segments(const Mask& organ, const VesselTree& portal,
-                                   const VesselTree& hepatic, const std::string& name) {
+CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels,
+                                   const std::string& name) {
   CouinaudSegments out;
   CouinaudLandmarks& lm = out.landmarks;
+  const GridFrame& f = organ.frame;
 
-  // The portal bifurcations: from the widest branch leaving the root.
-  const Subtrees ps = subtrees(portal);
-  int32_t trunk = -1;
-  for (const int32_t b : portal.order)
-    if (portal.parent[static_cast<size_t>(b)] < 0 &&
-        (trunk < 0 || ps.length[static_cast<size_t>(b)] > ps.length[static_cast<size_t>(trunk)]))
-      trunk = b;
-  std::array<int32_t, 2> kids{};
-  const int32_t main = trunk < 0 ? -1 : main_bifurcation(ps, trunk, 0.2, kids);
-  if (main < 0)
-    throw invalid_input(name, "Couinaud's segments: the portal vein's bifurcation is not found");
-  lm.portal_bifurcation_mm = far_end(portal, main);
-  // The right branch: the child whose subtree lies further to the patient's right (-x).
-  const int32_t right =
-      ps.centroid[static_cast<size_t>(kids[0])].x() < ps.centroid[static_cast<size_t>(kids[1])].x()
-          ? kids[0]
-          : kids[1];
-  std::array<int32_t, 2> right_kids{};
-  const int32_t right_split = main_bifurcation(ps, right, 0.2, right_kids);
-  lm.right_portal_bifurcation_mm =
-      right_split >= 0 ? far_end(portal, right_split) : lm.portal_bifurcation_mm;
+  // The organ's height.
+  double z_lo = INFINITY, z_hi = -INFINITY;
+  for (int64_t v = 0; v < f.voxel_count(); ++v)
+    if (organ.inside[static_cast<size_t>(v)] != 0) {
+      const double z = detail::voxel_centre_mm(f, v).z();
+      z_lo = std::min(z_lo, z);
+      z_hi = std::max(z_hi, z);
+    }
+  const double height = z_hi - z_lo;
+  const auto share = [&](double z) { return (z - z_lo) / height; };
 
-  // The hepatic veins' trunks: peaks of their centrelines' azimuths above the portal
-  // bifurcation, each voxel weighted by its branch's cross-section.
-  if (hepatic.roots.empty())
-    throw invalid_input(name, "Couinaud's segments: the hepatic veins have no root");
-  lm.confluence_mm = hepatic.graph.nodes[static_cast<size_t>(hepatic.roots[0])].position_mm;
+  // The confluence: the node in the upper quarter where the most cross-section meets (where the
+  // hepatic veins reach the vena cava).
+  const GridFrame& vf = vessels.frame;
+  std::vector<double> meeting(vessels.nodes.size(), 0.0);
+  for (const VesselGraph::Branch& b : vessels.branches)
+    for (const int32_t n : {b.a, b.b}) meeting[static_cast<size_t>(n)] += b.radius_mm * b.radius_mm;
+  double widest = 0.0;
+  for (size_t n = 0; n < vessels.nodes.size(); ++n)
+    if (share(vessels.nodes[n].position_mm.z()) > kUpperQuarter && meeting[n] > widest) {
+      widest = meeting[n];
+      lm.confluence_mm = vessels.nodes[n].position_mm;
+    }
+  if (widest <= 0.0)
+    throw invalid_input(name,
+                        "Couinaud's segments: no vessel in the organ's upper quarter (the "
+                        "hepatic veins' confluence)");
+
+  // The portal level: the median height of the wide, nearly horizontal branches, each weighted
+  // by its cross-section, its length and the fourth power of its horizontality.
+  std::vector<std::pair<double, double>> levels;  // height share, weight
+  for (const VesselGraph::Branch& b : vessels.branches) {
+    if (b.voxels.size() < 4) continue;
+    // The hepatic veins' trunks, which leave the confluence, are not the portal vein's.
+    if ((vessels.nodes[static_cast<size_t>(b.a)].position_mm - lm.confluence_mm).norm() <
+            kTrunkFromConfluenceMm ||
+        (vessels.nodes[static_cast<size_t>(b.b)].position_mm - lm.confluence_mm).norm() <
+            kTrunkFromConfluenceMm)
+      continue;
+    const Eigen::Vector3d first = detail::voxel_centre_mm(vf, b.voxels.front());
+    const Eigen::Vector3d chord = detail::voxel_centre_mm(vf, b.voxels.back()) - first;
+    const double length = chord.norm();
+    if (length < 5.0) continue;
+    double mean_z = 0.0;
+    for (const int64_t v : b.voxels) mean_z += detail::voxel_centre_mm(vf, v).z();
+    const double level = share(mean_z / static_cast<double>(b.voxels.size()));
+    if (level > kPortalBelow) continue;
+    const double horizontal = 1.0 - std::abs(chord.z()) / length;
+    levels.emplace_back(level, b.radius_mm * b.radius_mm * length * std::pow(horizontal, 4));
+  }
+  double total = 0.0;
+  for (const auto& l : levels) total += l.second;
+  if (total <= 0.0)
+    throw invalid_input(name,
+                        "Couinaud's segments: no wide horizontal vessel across the organ's "
+                        "middle (the portal vein's branches)");
+  std::sort(levels.begin(), levels.end());
+  double portal = levels.back().first, sum = 0.0;
+  for (const auto& l : levels)
+    if ((sum += l.second) >= 0.5 * total) {
+      portal = l.first;
+      break;
+    }
+  lm.portal_level_mm = z_lo + portal * height;
+  lm.right_level_mm = z_lo + (portal - kRightBelowLeft) * height;
+
+  // The hepatic veins: the three strongest peaks of the centrelines' azimuths above the portal
+  // level, each voxel weighted by its branch's cross-section.
   constexpr int kBins = 72;  // 5 degrees
   std::array<double, kBins> histogram{};
-  for (const int32_t b : hepatic.order) {
-    const VesselGraph::Branch& br = hepatic.graph.branches[static_cast<size_t>(b)];
-    for (const int64_t v : br.voxels) {
-      const Eigen::Vector3d p = detail::voxel_centre_mm(hepatic.graph.frame, v);
+  for (const VesselGraph::Branch& b : vessels.branches)
+    for (const int64_t v : b.voxels) {
+      const Eigen::Vector3d p = detail::voxel_centre_mm(vf, v);
       const double r = std::hypot(p.x() - lm.confluence_mm.x(), p.y() - lm.confluence_mm.y());
-      if (p.z() < lm.portal_bifurcation_mm.z() || r < 10.0) continue;
+      if (p.z() <= lm.portal_level_mm || r <= kVeinFromMm || r >= kVeinToMm) continue;
       const int bin = std::clamp(static_cast<int>((azimuth_deg(p, lm.confluence_mm) + 90.0) / 5.0),
                                  0, kBins - 1);
-      histogram[static_cast<size_t>(bin)] += br.radius_mm * br.radius_mm;
+      histogram[static_cast<size_t>(bin)] += b.radius_mm * b.radius_mm;
     }
-  }
   std::array<double, kBins> smooth{};
   for (int i = 0; i < kBins; ++i)
     for (int d = -2; d <= 2; ++d)
       smooth[static_cast<size_t>(i)] += histogram[static_cast<size_t>((i + d + kBins) % kBins)];
+  const auto at = [&](int i) { return smooth[static_cast<size_t>((i + kBins) % kBins)]; };
   std::vector<int> peaks;
   for (int i = 0; i < kBins; ++i) {
-    const double here = smooth[static_cast<size_t>(i)];
-    if (here <= 0.0 || here < smooth[static_cast<size_t>((i + 1) % kBins)] ||
-        here < smooth[static_cast<size_t>((i + kBins - 1) % kBins)])
-      continue;
-    peaks.push_back(i);
+    const double azimuth = i * 5.0 - 90.0;
+    if (azimuth >= kVeinAzimuthLo && azimuth <= kVeinAzimuthHi && at(i) > 0.0 &&
+        at(i) >= at(i + 1) && at(i) >= at(i - 1))
+      peaks.push_back(i);
   }
-  std::sort(peaks.begin(), peaks.end(), [&](int a, int b) {
-    return smooth[static_cast<size_t>(a)] > smooth[static_cast<size_t>(b)];
-  });
+  std::stable_sort(peaks.begin(), peaks.end(), [&](int a, int b) { return at(a) > at(b); });
   std::vector<int> chosen;
   for (const int p : peaks) {
     bool apart = true;
-    for (const int c : chosen) apart = apart && std::abs(p - c) >= 5;  // 25 degrees
+    for (const int c : chosen) apart = apart && std::abs(p - c) * 5.0 >= kVeinsApartDeg;
     if (apart) chosen.push_back(p);
     if (chosen.size() == 3) break;
   }
   if (chosen.size() < 3)
     throw invalid_input(name,
                         "Couinaud's segments: fewer than three hepatic-vein trunks above the "
-                        "portal bifurcation");
+                        "portal level");
   std::sort(chosen.begin(), chosen.end());
-  for (int v = 0; v < 3; ++v)
-    lm.vein_azimuth_deg[static_cast<size_t>(v)] = chosen[static_cast<size_t>(v)] * 5.0 + 2.5 - 90.0;
+  for (size_t v = 0; v < 3; ++v) lm.vein_azimuth_deg[v] = chosen[v] * 5.0 + 2.5 - 90.0;
 
   // Every organ voxel by its azimuth about the confluence's axis and its height.
-  const GridFrame& f = organ.frame;
   out.segment.assign(organ.inside.size(), 0);
   const double voxel_ml = f.voxel_volume_mm3() / 1000.0;
-  const double z_left = lm.portal_bifurcation_mm.z(), z_right = lm.right_portal_bifurcation_mm.z();
-  for (int64_t k = 0; k < f.size[2]; ++k)
-    for (int64_t j = 0; j < f.size[1]; ++j)
-      for (int64_t i = 0; i < f.size[0]; ++i) {
-        const auto v = static_cast<size_t>(f.index(i, j, k));
-        if (organ.inside[v] == 0) continue;
-        const Eigen::Vector3d p = detail::voxel_centre_mm(f, static_cast<int64_t>(v));
-        const double a = azimuth_deg(p, lm.confluence_mm);
-        uint8_t s = 0;
-        if (a < lm.vein_azimuth_deg[0])
-          s = p.z() >= z_right ? 7 : 6;
-        else if (a < lm.vein_azimuth_deg[1])
-          s = p.z() >= z_right ? 8 : 5;
-        else if (a < lm.vein_azimuth_deg[2])
-          s = 4;
-        else
-          s = p.z() >= z_left ? 2 : 3;
-        out.segment[v] = s;
-        out.volume_ml[s] += voxel_ml;
-      }
+  const double caudate_lo = z_lo + (portal - kCaudateBelow) * height,
+               caudate_hi = z_lo + (portal + kCaudateAbove) * height;
+  for (int64_t v = 0; v < f.voxel_count(); ++v) {
+    if (organ.inside[static_cast<size_t>(v)] == 0) continue;
+    const Eigen::Vector3d p = detail::voxel_centre_mm(f, v);
+    const double a = azimuth_deg(p, lm.confluence_mm);
+    const double r = std::hypot(p.x() - lm.confluence_mm.x(), p.y() - lm.confluence_mm.y());
+    uint8_t s = 0;
+    if (r < kCaudateRadiusMm && p.z() > caudate_lo && p.z() < caudate_hi)
+      s = 1;
+    else if (a < lm.vein_azimuth_deg[0])
+      s = p.z() >= lm.right_level_mm ? 7 : 6;
+    else if (a < lm.vein_azimuth_deg[1])
+      s = p.z() >= lm.right_level_mm ? 8 : 5;
+    else if (a < lm.vein_azimuth_deg[2])
+      s = 4;
+    else
+      s = p.z() >= lm.portal_level_mm ? 2 : 3;
+    out.segment[static_cast<size_t>(v)] = s;
+    out.volume_ml[s] += voxel_ml;
+  }
   return out;
 }
 

@@ -13,6 +13,8 @@
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/mask_filters.h"
 #include "lamina/geometry/prepare_mask.h"
+#include "lamina/geometry/skeletonize.h"
+#include "lamina/geometry/vessel_graph.h"
 
 namespace lamina::geometry {
 namespace {
@@ -349,6 +351,8 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
 
   // 2b. The functional remnant: the trees of the portal vein and hepatic veins, their
   // territories, what the resection cuts off.
+  std::vector<VesselGraph> merged;  // labels holding both trees: for the segments only
+  std::string merged_names;
   for (int32_t s = 0; s < n_structures; ++s) {
     const ResectionStructure& st = opt.structures[s];
     const VesselTreeKind kind = vessel_tree_kind(st.name);
@@ -362,13 +366,21 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
           const int64_t w = input_index(i, j, k);
           vessel.inside[g.index(i, j, k)] = w >= 0 && structures[static_cast<size_t>(w)] == s + 1;
         }
+    if (kind == VesselTreeKind::kMerged) {
+      if (opt.segments) merged.push_back(vessel_graph(skeletonize(vessel)));
+      merged_names += (merged_names.empty() ? "" : ", ") + st.name;
+      continue;
+    }
     plan.trees.push_back(vascular_tree(organ, vessel, source + ": " + st.name, kind, st.label));
     plan.trees.back().territories.name = st.name;
   }
   if (plan.trees.empty()) {
     r.functional_missing =
-        "no portal vein or hepatic veins among the structures (name them: --embed "
-        "LABEL:portal_vein, LABEL:hepatic_veins)";
+        merged_names.empty()
+            ? "no portal vein or hepatic veins among the structures (name them: --embed "
+              "LABEL=portal_vein,LABEL=hepatic_veins)"
+            : "the portal vein and hepatic veins come as one label (" + merged_names +
+                  "): they are not told apart yet; give them as two labels";
   } else {
     std::vector<uint8_t> function;
     r.functional = functional_remnant(plan.trees, organ, rest.inside, r.remnant_ml, function);
@@ -392,6 +404,52 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
                 seed < 0 ? 0 : tt.seed_branch[static_cast<size_t>(seed)] + 1;
           }
         }
+  }
+
+  // 2c. Couinaud's segments from the trees' centrelines together.
+  if (opt.segments) {
+    if (plan.trees.empty() && merged.empty())
+      throw invalid_input(source,
+                          "Couinaud's segments need the portal vein and hepatic veins among the "
+                          "structures (--embed LABEL=portal_vein,LABEL=hepatic_veins, or one "
+                          "label named liver_vessels)");
+    VesselGraph all;
+    all.frame = g;
+    std::vector<const VesselGraph*> graphs;
+    for (const VascularTree& vt : plan.trees) graphs.push_back(&vt.territories.tree.graph);
+    for (const VesselGraph& mg : merged) graphs.push_back(&mg);
+    for (const VesselGraph* gp : graphs) {
+      const VesselGraph& tg = *gp;
+      const auto base = static_cast<int32_t>(all.nodes.size());
+      all.nodes.insert(all.nodes.end(), tg.nodes.begin(), tg.nodes.end());
+      for (VesselGraph::Branch b : tg.branches) {
+        b.a += base;
+        b.b += base;
+        all.branches.push_back(std::move(b));
+      }
+    }
+    const CouinaudSegments cs = couinaud_segments(organ, all, source);
+    r.segment_landmarks = cs.landmarks;
+    r.segment_ml = cs.volume_ml;
+    std::array<int64_t, 9> in_segment{}, resected{};
+    plan.segments.frame = f;
+    plan.segments.source = source;
+    plan.segments.labels.assign(n_voxels, 0);
+    for (int64_t k = 0; k < g.size[2]; ++k)
+      for (int64_t j = 0; j < g.size[1]; ++j)
+        for (int64_t i = 0; i < g.size[0]; ++i) {
+          const int64_t v = g.index(i, j, k);
+          const uint8_t s = cs.segment[static_cast<size_t>(v)];
+          if (s == 0) continue;
+          ++in_segment[s];
+          resected[s] += rest.inside[static_cast<size_t>(v)] == 0;
+          const int64_t w = input_index(i, j, k);
+          if (w >= 0) plan.segments.labels[static_cast<size_t>(w)] = s;
+        }
+    for (size_t s = 1; s <= 8; ++s)
+      r.segment_resected_percent[s] = in_segment[s] > 0 ? 100.0 * static_cast<double>(resected[s]) /
+                                                              static_cast<double>(in_segment[s])
+                                                        : 0.0;
   }
 
   // 3. Each tumour's pieces against the surface.

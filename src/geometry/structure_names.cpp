@@ -38,6 +38,9 @@ bool is_vessel_name(const std::string& name) {
 VesselTreeKind vessel_tree_kind(const std::string& name) {
   if (is_tumour_name(name)) return VesselTreeKind::kNone;
   const std::string n = name_key(name);
+  if ((has_any(n, {"portal"}) && has_any(n, {"hepatic"})) ||
+      has_any(n, {"hepaticvessel", "livervessel"}))
+    return VesselTreeKind::kMerged;
   if (n == "pv" || has_any(n, {"portalvein", "portal"})) return VesselTreeKind::kPortal;
   if (n == "hv" || has_any(n, {"hepaticvein"})) return VesselTreeKind::kHepatic;
   return VesselTreeKind::kNone;

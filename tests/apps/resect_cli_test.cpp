@@ -231,6 +231,37 @@ TEST(ResectCli, SlicerMarkupsGiveTheSamePlanAsThePlane) {
   }
 }
 
+TEST(ResectCli, CouinaudsSegmentsAreWrittenOnTheInputsGridWhenAsked) {
+  const Dir d;
+  const auto r = lamina(d, "resect --plane 5,0,0:1,0,0 --segments -o plan --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  ASSERT_TRUE(j["couinaud_segments"].is_object()) << j.dump();
+  const LabelVolume parts = io::read_label_volume((d.work / "plan" / "parts.nii.gz").string());
+  const LabelVolume segments =
+      io::read_label_volume((d.work / "plan" / "segments.nii.gz").string());
+  ASSERT_EQ(segments.frame.size, parts.frame.size);
+  // Every organ voxel in one segment 1-8; per segment, the share the parts say is resected.
+  int64_t in[9] = {}, resected[9] = {};
+  for (size_t v = 0; v < parts.labels.size(); ++v) {
+    const int32_t s = segments.labels[v];
+    ASSERT_EQ(s != 0, parts.labels[v] != 0);
+    ASSERT_LE(s, 8);
+    ++in[s];
+    resected[s] += parts.labels[v] == 2;
+  }
+  double sum = 0.0;
+  for (int s = 1; s <= 8; ++s) {
+    const json& seg = j["couinaud_segments"]["segments"][s - 1];
+    sum += seg["volume_ml"].get<double>();
+    if (in[s] > 0)
+      EXPECT_NEAR(seg["resected_percent"].get<double>(),
+                  100.0 * static_cast<double>(resected[s]) / static_cast<double>(in[s]), 0.01)
+          << "segment " << s;
+  }
+  EXPECT_NEAR(sum, j["volumes_ml"]["whole"].get<double>(), 0.002 * sum);
+}
+
 TEST(ResectCli, RefusesBadSurfacesWithOneLineAndWritesNothing) {
   const Dir d;
   write(d.work / "open.mrk.json",
@@ -262,6 +293,9 @@ TEST(ResectCli, RefusesBadSurfacesWithOneLineAndWritesNothing) {
       {"", {"--plane", "--surface"}},
       {"--plane 0,0,0:1,0,0 --keep 0,5,5", {"--keep", "on the resection surface"}},
       {"--plane 0,0,0:1,0,0 --embed 9=bile", {"label 9"}},
+      // Couinaud's segments without vessels named to read them from.
+      {"--plane 0,0,0:1,0,0 --label 1 --embed 2=vessel,3=tumour,4=veins,5=cava --segments",
+       {"segments need"}},
       // The vena cava (outside the organ) named as the portal vein: no tree to follow.
       {"--plane 0,0,0:1,0,0 --label 1 --embed 2=bile_duct,3=tumour,4=hepatic_veins,5=portal_vein",
        {"portal_vein", "inside the organ"}},

@@ -21,6 +21,19 @@ TEST(StructureNames, ANameSuggestsItsRoleWhenNoneIsGiven) {
         << n;
 }
 
+TEST(StructureNames, ANameSaysWhichVesselTreeItIs) {
+  using geometry::VesselTreeKind;
+  for (const char* n : {"portal_vein", "Portal Veins", "PV", "portal"})
+    EXPECT_EQ(geometry::vessel_tree_kind(n), VesselTreeKind::kPortal) << n;
+  for (const char* n : {"hepatic_veins", "Hepatic Vein", "HV"})
+    EXPECT_EQ(geometry::vessel_tree_kind(n), VesselTreeKind::kHepatic) << n;
+  for (const char* n : {"portal and hepatic veins", "hepatic vessel", "liver_vessels"})
+    EXPECT_EQ(geometry::vessel_tree_kind(n), VesselTreeKind::kMerged) << n;
+  for (const char* n : {"vena cava", "IVC", "hepatic artery", "bile duct", "vessels",
+                        "tumour thrombus in the portal vein"})
+    EXPECT_EQ(geometry::vessel_tree_kind(n), VesselTreeKind::kNone) << n;
+}
+
 TEST(StructureNames, RolesAreSpelledOneWayEachAndReadBack) {
   for (const SurfaceRole r : {SurfaceRole::kDisplaySkin, SurfaceRole::kVessel, SurfaceRole::kTumour,
                               SurfaceRole::kStructure, SurfaceRole::kWound})

@@ -49,6 +49,16 @@ def test_resect_gives_the_functional_remnant_as_volumes():
         assert abs((portal == b["id"] + 1).sum() * voxel_ml - b["territory_ml"]) < 0.01
 
 
+def test_resect_gives_couinauds_segments_when_asked():
+    r = lamina.resect(plane=((5, 0, 0), (1, 0, 0)), segments=True)
+    segments, parts = r["segments"], r["parts"]
+    assert ((segments > 0) == (parts > 0)).all() and segments.max() <= 8
+    voxel_ml = np.prod(r["parts_mask"].spacing_mm) / 1000
+    for s in r["couinaud_segments"]["segments"]:
+        assert abs((segments == s["segment"]).sum() * voxel_ml - s["volume_ml"]) < 0.01
+    assert "segments" not in lamina.resect(plane=((5, 0, 0), (1, 0, 0)))
+
+
 def test_resect_takes_a_mask_with_named_structures():
     mask = lamina.phantom(carved_out=True)
     r = lamina.resect(mask, plane=((-30, 0, 0), (1, 0, 0)), labels=[1],

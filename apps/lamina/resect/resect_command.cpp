@@ -101,6 +101,12 @@ std::string text_of(const geometry::ResectionReport& r) {
         r.functional->functional_ml, r.functional_flr_percent,
         r.functional_sufficient ? "sufficient" : "INSUFFICIENT", r.functional->devascularized_ml,
         r.functional->congested_ml);
+  if (r.segment_landmarks) {
+    t += "Couinaud segments (a first stage, check them):";
+    for (size_t s = 1; s <= 8; ++s)
+      t += fmt::format(" {}: {:.0f} mL ({:.0f}% resected){}", s, r.segment_ml[s],
+                       r.segment_resected_percent[s], s < 8 ? "," : "\n");
+  }
   for (const std::string& f : io::resection_findings(r)) t += "finding: " + f + "\n";
   return t;
 }
@@ -212,6 +218,7 @@ int run_resect(const ResectArgs& a) {
       a.plane.empty() ? io::read_resection_surface(a.surface) : parse_plane(a.plane);
   geometry::ResectionOptions opt;
   opt.margin_mm = a.margin_mm;
+  opt.segments = a.segments;
   opt.liver = liver;
   if (!a.keep.empty() && a.keep != "larger") opt.keep_point = parse_point(a.keep, "--keep");
   const bool phantom = a.input == io::kScenePhantom;
@@ -241,6 +248,9 @@ int run_resect(const ResectArgs& a) {
       throw invalid_input(a.input,
                           "a model's structures are its own: --label and --embed are "
                           "for segmentations");
+    if (a.segments)
+      throw invalid_input("--segments",
+                          "a model holds no vessel centrelines: plan on the segmentation");
     m = io::load_model(a.input);
     plan.report = model::plan_on_model(*m, m->X, surface, opt);
   } else {
@@ -270,6 +280,11 @@ int run_resect(const ResectArgs& a) {
     if (!model_input) {
       j["outputs"]["parts"] = parts;
       j["outputs"]["parts_labels"] = {{"1", "remnant"}, {"2", "resected"}};
+    }
+    if (r.segment_landmarks) {
+      const std::string segments = (out / ("segments." + a.format)).string();
+      io::write_label_volume(plan.segments, segments);
+      j["outputs"]["segments"] = segments;
     }
     // The functional remnant's volumes: each remnant voxel's function, each tree's territories.
     if (r.functional) {

@@ -1,11 +1,11 @@
 #pragma once
 /// \file
-/// Couinaud's eight liver segments from the vessel trees (issue 63), as the planners place them
+/// Couinaud's eight liver segments from the vessels (issue 63), as the planners place them
 /// (Bismuth 1982; Fasel et al. 1998; Oliveira et al. 2011): the three hepatic veins run in the
 /// vertical scissurae that divide the liver into four sectors around the vena cava (right
 /// posterior 6+7, right anterior 5+8, left medial 4, left lateral 2+3), and transverse planes at
-/// the portal vein's bifurcations divide the sectors into superior and inferior segments. The
-/// caudate lobe, segment 1, lies behind the portal bifurcation against the vena cava.
+/// the portal vein's level divide the sectors into superior and inferior segments. The caudate
+/// lobe, segment 1, lies about the vena cava around that level.
 
 #include <Eigen/Core>
 #include <array>
@@ -14,21 +14,24 @@
 #include <vector>
 
 #include "lamina/core/grid.h"
-#include "lamina/geometry/vessel_tree.h"
+#include "lamina/geometry/vessel_graph.h"
 
 namespace lamina::geometry {
 
 /// Where the segments' planes were placed (physical mm; z superior).
 struct CouinaudLandmarks {
-  /// The hepatic veins' confluence (their tree's root): the vertical axis of the scissurae.
+  /// The vena cava's axis at the hepatic veins' confluence (the widest vessel in the organ's
+  /// upper quarter): the vertical axis of the scissurae.
   Eigen::Vector3d confluence_mm = Eigen::Vector3d::Zero();
   /// The right, middle and left hepatic veins' azimuths about that axis, degrees from the
   /// patient's right towards anterior (right 0, anterior 90, left 180).
   std::array<double, 3> vein_azimuth_deg{};
-  /// The portal vein's main bifurcation: the left transverse plane (2 above 3).
-  Eigen::Vector3d portal_bifurcation_mm = Eigen::Vector3d::Zero();
-  /// The right portal vein's bifurcation: the right transverse plane (8 above 5, 7 above 6).
-  Eigen::Vector3d right_portal_bifurcation_mm = Eigen::Vector3d::Zero();
+  /// The portal vein's level: the height of the wide, nearly horizontal vessels across the
+  /// organ's middle (its right and left branches at the hilum), mm: the left transverse plane
+  /// (2 above 3).
+  double portal_level_mm = 0.0;
+  /// The right transverse plane (8 above 5, 7 above 6), mm.
+  double right_level_mm = 0.0;
 };
 
 struct CouinaudSegments {
@@ -37,11 +40,12 @@ struct CouinaudSegments {
   CouinaudLandmarks landmarks;
 };
 
-/// The segments of `organ` from its portal and hepatic trees (rooted: vessel_tree()).
-/// \note Throws lamina::Error (kInvalidInput) naming `name` when the landmarks are not found:
-///   fewer than three hepatic-vein trunks above the portal bifurcation, or no portal
-///   bifurcation.
-CouinaudSegments couinaud_segments(const Mask& organ, const VesselTree& portal,
-                                   const VesselTree& hepatic, const std::string& name);
+/// The segments of `organ` from its vessels' centrelines: the portal vein and the hepatic veins,
+/// as one graph (one label holding both, or the union of the two trees' graphs).
+/// \note Throws lamina::Error (kInvalidInput) naming `name` when the landmarks are not found: no
+///   vessel in the organ's upper quarter, no wide horizontal vessel across its middle, fewer
+///   than three hepatic-vein trunks above the portal level.
+CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels,
+                                   const std::string& name);
 
 }  // namespace lamina::geometry

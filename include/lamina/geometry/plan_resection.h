@@ -4,6 +4,7 @@
 /// margin and the structures a resection surface divides (`lamina resect`, docs/resection.md).
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -11,6 +12,7 @@
 
 #include "lamina/core/grid.h"
 #include "lamina/core/surface_role.h"
+#include "lamina/geometry/couinaud_segments.h"
 #include "lamina/geometry/functional_remnant.h"
 #include "lamina/geometry/resection_surface.h"
 #include "lamina/geometry/structure_names.h"
@@ -41,6 +43,9 @@ struct ResectionOptions {
   std::optional<Eigen::Vector3d> keep_point;
   double margin_mm = 10.0;  ///< the margin wanted around each tumour, mm
   LiverCondition liver = LiverCondition::kNormal;
+  /// Couinaud's segments from the vessel trees' centrelines (couinaud_segments.h), and which
+  /// of them the resection takes.
+  bool segments = false;
 };
 
 /// A tumour (one connected piece of a tumour label) against the resection surface.
@@ -103,6 +108,10 @@ struct ResectionReport {
   double functional_flr_percent = 0.0;  ///< functional remnant / whole
   bool functional_sufficient = false;
   std::string functional_missing;
+  /// Couinaud's segments, when asked for: where their planes were placed, each one's volume
+  /// and the share of it the resection takes (by voxel centres), [1..8].
+  std::optional<CouinaudLandmarks> segment_landmarks;
+  std::array<double, 9> segment_ml{}, segment_resected_percent{};
 };
 
 /// A report's volumes, remnant side and future liver remnant from the organ's volume on each side
@@ -134,6 +143,8 @@ struct ResectionPlan {
   LabelVolume function;
   /// On the input's grid, per tree: each organ voxel's branch (its id + 1), 0 outside the organ.
   std::vector<LabelVolume> territories;
+  /// On the input's grid, when asked for: each organ voxel's Couinaud segment, 0 outside.
+  LabelVolume segments;
 };
 
 /// The built-in phantom for planning: its carved-out anatomy (liver, portal vein, two tumours,

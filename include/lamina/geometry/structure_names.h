@@ -22,11 +22,13 @@ bool is_tumour_name(const std::string& name);
 /// "aorta", "vessel", "bile duct", "biliary" ... (any case, with or without '_', '-' or spaces).
 bool is_vessel_name(const std::string& name);
 
-/// The vessel tree a structure's name says it is, for its territories (issue 63).
-enum class VesselTreeKind { kNone, kPortal, kHepatic };
+/// The vessel tree a structure's name says it is, for its territories (issue 63); kMerged: one
+/// label holding both (Couinaud's segments read it; the functional remnant needs them apart).
+enum class VesselTreeKind { kNone, kPortal, kHepatic, kMerged };
 
-/// kPortal for "portal vein", "portal_veins", "PV"; kHepatic for "hepatic vein(s)", "HV"; kNone
-/// for every other name (the vena cava, arteries, ducts, a tumour's name).
+/// kMerged for a name with both "portal" and "hepatic", "hepatic vessel(s)" (MSD task 8's) or
+/// "liver vessel(s)"; kPortal for "portal vein", "portal_veins", "PV"; kHepatic for "hepatic
+/// vein(s)", "HV"; kNone for every other name (the vena cava, arteries, ducts, a tumour's).
 VesselTreeKind vessel_tree_kind(const std::string& name);
 
 /// The role a structure called `name` gets when its role is not given: kTumour for a tumour's
