@@ -4,8 +4,13 @@
 #include "lamina/geometry/separate_trees.h"
 
 #include <algorithm>
+// GCC 12 warns of a maybe-uninitialized optional inside Boost.Graph's edge iterator (a false
+// positive of its inliner in Boost 1.74's header, not this file's code).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <boost/graph/adjacency_list.hpp>
 #include <boost/graph/boykov_kolmogorov_max_flow.hpp>
+#pragma GCC diagnostic pop
 #include <cmath>
 #include <numbers>
 #include <numeric>

@@ -297,10 +297,13 @@ int run_resect(const ResectArgs& a) {
                                          {"4", "devascularized and congested"}};
       for (size_t t = 0; t < plan.trees.size(); ++t) {
         const bool portal = plan.trees[t].kind == geometry::VesselTreeKind::kPortal;
-        std::string file = portal ? "territories" : "drainage";
-        for (size_t u = 0; u < t; ++u)
-          if (plan.trees[u].kind == plan.trees[t].kind) file += "_" + std::to_string(t);
-        file = (out / (file + "." + a.format)).string();
+        // A second tree of a kind (two portal labels) gets its index in the name.
+        bool repeated = false;
+        for (size_t u = 0; u < t; ++u) repeated |= plan.trees[u].kind == plan.trees[t].kind;
+        const std::string file =
+            (out / fmt::format("{}{}.{}", portal ? "territories" : "drainage",
+                               repeated ? fmt::format("_{}", t) : "", a.format))
+                .string();
         io::write_label_volume(plan.territories[t], file);
         j["outputs"][portal ? "territories" : "drainage"].push_back(
             {{"tree", plan.trees[t].territories.name},
