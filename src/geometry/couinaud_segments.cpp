@@ -49,15 +49,9 @@ CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels
   const GridFrame& f = organ.frame;
 
   // The organ's height.
-  double z_lo = INFINITY, z_hi = -INFINITY;
-  for (int64_t v = 0; v < f.voxel_count(); ++v)
-    if (organ.inside[static_cast<size_t>(v)] != 0) {
-      const double z = detail::voxel_centre_mm(f, v).z();
-      z_lo = std::min(z_lo, z);
-      z_hi = std::max(z_hi, z);
-    }
-  const double height = z_hi - z_lo;
-  const auto share = [&](double z) { return (z - z_lo) / height; };
+  const detail::Heights heights = detail::organ_heights(organ);
+  const double z_lo = heights.lo, height = heights.hi - heights.lo;
+  const auto share = [&](double z) { return heights.share(z); };
 
   // The confluence: the node in the upper quarter where the most cross-section meets (where the
   // hepatic veins reach the vena cava).

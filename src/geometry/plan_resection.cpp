@@ -228,6 +228,13 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     if (i < 0 || j < 0 || k < 0 || i >= f.size[0] || j >= f.size[1] || k >= f.size[2]) return -1;
     return f.index(i, j, k);
   };
+  // Every voxel of the mask's grid, as visit(v, i, j, k): the maps written back to the input's
+  // grid (input_index(i, j, k)) go through it.
+  const auto each_mask_voxel = [&](const auto& visit) {
+    for (int64_t k = 0; k < g.size[2]; ++k)
+      for (int64_t j = 0; j < g.size[1]; ++j)
+        for (int64_t i = 0; i < g.size[0]; ++i) visit(g.index(i, j, k), i, j, k);
+  };
 
   // 1. Every organ voxel's side; the ones the surface passes through split exactly. Blocks of
   // voxels far from the surface are decided by their centre (one query for 64 voxels: the
@@ -314,17 +321,14 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
   Mask rest;
   rest.frame = g;
   rest.inside.assign(organ.inside.size(), 0);
-  for (int64_t k = 0; k < g.size[2]; ++k)
-    for (int64_t j = 0; j < g.size[1]; ++j)
-      for (int64_t i = 0; i < g.size[0]; ++i) {
-        const int64_t v = g.index(i, j, k);
-        if (sides[v] == kOutside) continue;
-        const bool kept = sides[v] == remnant;
-        rest.inside[v] = kept;
-        (kept ? r.remnant_voxels : r.resected_voxels) += 1;
-        const int64_t w = input_index(i, j, k);
-        if (w >= 0) plan.parts.labels[static_cast<size_t>(w)] = kept ? 1 : 2;
-      }
+  each_mask_voxel([&](int64_t v, int64_t i, int64_t j, int64_t k) {
+    if (sides[v] == kOutside) return;
+    const bool kept = sides[v] == remnant;
+    rest.inside[v] = kept;
+    (kept ? r.remnant_voxels : r.resected_voxels) += 1;
+    const int64_t w = input_index(i, j, k);
+    if (w >= 0) plan.parts.labels[static_cast<size_t>(w)] = kept ? 1 : 2;
+  });
   {
     std::vector<int32_t> piece_of;
     const int32_t pieces = label_components(rest, /*fully_connected=*/false, piece_of);
@@ -360,12 +364,10 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     Mask vessel;
     vessel.frame = g;
     vessel.inside.assign(organ.inside.size(), 0);
-    for (int64_t k = 0; k < g.size[2]; ++k)
-      for (int64_t j = 0; j < g.size[1]; ++j)
-        for (int64_t i = 0; i < g.size[0]; ++i) {
-          const int64_t w = input_index(i, j, k);
-          vessel.inside[g.index(i, j, k)] = w >= 0 && structures[static_cast<size_t>(w)] == s + 1;
-        }
+    each_mask_voxel([&](int64_t v, int64_t i, int64_t j, int64_t k) {
+      const int64_t w = input_index(i, j, k);
+      vessel.inside[v] = w >= 0 && structures[static_cast<size_t>(w)] == s + 1;
+    });
     if (kind == VesselTreeKind::kMerged) {
       if (opt.segments) merged.push_back(vessel_graph(skeletonize(vessel)));
       merged_names += (merged_names.empty() ? "" : ", ") + st.name;
@@ -390,20 +392,17 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     plan.function.source = source;
     plan.function.labels.assign(n_voxels, 0);
     plan.territories.assign(plan.trees.size(), plan.function);
-    for (int64_t k = 0; k < g.size[2]; ++k)
-      for (int64_t j = 0; j < g.size[1]; ++j)
-        for (int64_t i = 0; i < g.size[0]; ++i) {
-          const int64_t v = g.index(i, j, k);
-          const int64_t w = input_index(i, j, k);
-          if (w < 0 || organ.inside[v] == 0) continue;
-          plan.function.labels[static_cast<size_t>(w)] = function[v];
-          for (size_t t = 0; t < plan.trees.size(); ++t) {
-            const TreeTerritories& tt = plan.trees[t].territories;
-            const int32_t seed = tt.seed_of[v];
-            plan.territories[t].labels[static_cast<size_t>(w)] =
-                seed < 0 ? 0 : tt.seed_branch[static_cast<size_t>(seed)] + 1;
-          }
-        }
+    each_mask_voxel([&](int64_t v, int64_t i, int64_t j, int64_t k) {
+      const int64_t w = input_index(i, j, k);
+      if (w < 0 || organ.inside[v] == 0) return;
+      plan.function.labels[static_cast<size_t>(w)] = function[v];
+      for (size_t t = 0; t < plan.trees.size(); ++t) {
+        const TreeTerritories& tt = plan.trees[t].territories;
+        const int32_t seed = tt.seed_of[v];
+        plan.territories[t].labels[static_cast<size_t>(w)] =
+            seed < 0 ? 0 : tt.seed_branch[static_cast<size_t>(seed)] + 1;
+      }
+    });
   }
 
   // 2c. Couinaud's segments from the trees' centrelines together.
@@ -435,17 +434,14 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     plan.segments.frame = f;
     plan.segments.source = source;
     plan.segments.labels.assign(n_voxels, 0);
-    for (int64_t k = 0; k < g.size[2]; ++k)
-      for (int64_t j = 0; j < g.size[1]; ++j)
-        for (int64_t i = 0; i < g.size[0]; ++i) {
-          const int64_t v = g.index(i, j, k);
-          const uint8_t s = cs.segment[static_cast<size_t>(v)];
-          if (s == 0) continue;
-          ++in_segment[s];
-          resected[s] += rest.inside[static_cast<size_t>(v)] == 0;
-          const int64_t w = input_index(i, j, k);
-          if (w >= 0) plan.segments.labels[static_cast<size_t>(w)] = s;
-        }
+    each_mask_voxel([&](int64_t v, int64_t i, int64_t j, int64_t k) {
+      const uint8_t s = cs.segment[static_cast<size_t>(v)];
+      if (s == 0) return;
+      ++in_segment[s];
+      resected[s] += rest.inside[static_cast<size_t>(v)] == 0;
+      const int64_t w = input_index(i, j, k);
+      if (w >= 0) plan.segments.labels[static_cast<size_t>(w)] = s;
+    });
     for (size_t s = 1; s <= 8; ++s)
       r.segment_resected_percent[s] = in_segment[s] > 0 ? 100.0 * static_cast<double>(resected[s]) /
                                                               static_cast<double>(in_segment[s])

@@ -13,7 +13,6 @@
 #pragma GCC diagnostic pop
 #include <cmath>
 #include <numbers>
-#include <numeric>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/vessel_tree.h"
@@ -49,12 +48,6 @@ void add_both_ways(FlowGraph& g, int32_t a, int32_t b, double c) {
   reverse[ba] = ab;
 }
 
-int32_t find(std::vector<int32_t>& up, int32_t x) {
-  while (up[static_cast<size_t>(x)] != x)
-    x = up[static_cast<size_t>(x)] = up[static_cast<size_t>(up[static_cast<size_t>(x)])];
-  return x;
-}
-
 // The branches whose nodes are both `side`, with their nodes renumbered.
 VesselGraph subgraph(const VesselGraph& g, const std::vector<uint8_t>& side_of, uint8_t side) {
   VesselGraph out;
@@ -86,26 +79,11 @@ SeparatedTrees separate_trees(VesselGraph g, const Mask& organ, const std::strin
   bridge_gaps(g, VesselTreeOptions{}.max_gap_mm);
   const size_t n_nodes = g.nodes.size();
 
-  // The organ's height (physical z: superior).
-  double z_lo = INFINITY, z_hi = -INFINITY;
+  // The organ's height (physical z: superior), and each node's widest branch.
   const GridFrame& f = organ.frame;
-  for (int64_t k = 0; k < f.size[2]; ++k)
-    for (int64_t j = 0; j < f.size[1]; ++j)
-      for (int64_t i = 0; i < f.size[0]; ++i)
-        if (organ.inside[static_cast<size_t>(f.index(i, j, k))] != 0) {
-          const double z = f.to_physical(static_cast<double>(i), static_cast<double>(j),
-                                         static_cast<double>(k))[2];
-          z_lo = std::min(z_lo, z);
-          z_hi = std::max(z_hi, z);
-        }
-  const double height = z_hi - z_lo;
-  const auto at_height = [&](double z) { return (z - z_lo) / height; };
-
-  // The hepatic veins' trunk: the widest node reaching the outside in the upper quarter.
-  std::vector<double> widest(n_nodes, 0.0);
-  for (const auto& b : g.branches)
-    for (const int32_t n : {b.a, b.b})
-      widest[static_cast<size_t>(n)] = std::max(widest[static_cast<size_t>(n)], b.radius_mm);
+  const detail::Heights heights = detail::organ_heights(organ);
+  const auto at_height = [&](double z) { return heights.share(z); };
+  const std::vector<double> widest = detail::widest_branch_at_nodes(g);
   const double voxel_mm = std::max({f.spacing_mm[0], f.spacing_mm[1], f.spacing_mm[2]});
   int32_t hepatic = -1;
   for (size_t n = 0; n < n_nodes; ++n) {
@@ -181,13 +159,13 @@ SeparatedTrees separate_trees(VesselGraph g, const Mask& organ, const std::strin
   auto color = boost::get(boost::vertex_color, flow);
 
   // Sides: 1 portal (the source's), 2 hepatic (the rest of the trunks' pieces), 0 neither yet.
-  std::vector<int32_t> up(n_nodes);
-  std::iota(up.begin(), up.end(), 0);
-  for (const auto& b : g.branches) up[static_cast<size_t>(find(up, b.a))] = find(up, b.b);
-  const int32_t portal_piece = find(up, pb.a), hepatic_piece = find(up, hepatic);
+  detail::Pieces pieces(n_nodes);
+  for (const auto& b : g.branches) pieces.join(b.a, b.b);
+  const auto find = [&](int32_t n) { return pieces.find(n); };
+  const int32_t portal_piece = find(pb.a), hepatic_piece = find(hepatic);
   std::vector<uint8_t> side(n_nodes, 0);
   for (size_t n = 0; n < n_nodes; ++n) {
-    const int32_t piece = find(up, static_cast<int32_t>(n));
+    const int32_t piece = find(static_cast<int32_t>(n));
     if (color[n] == boost::black_color)
       side[n] = 1;
     else if (color[n] == boost::white_color || piece == portal_piece || piece == hepatic_piece)
@@ -198,7 +176,7 @@ SeparatedTrees separate_trees(VesselGraph g, const Mask& organ, const std::strin
   std::vector<int32_t> piece_widest(n_nodes, -1);
   for (size_t n = 0; n < n_nodes; ++n) {
     if (side[n] != 0) continue;
-    int32_t& w = piece_widest[static_cast<size_t>(find(up, static_cast<int32_t>(n)))];
+    int32_t& w = piece_widest[static_cast<size_t>(find(static_cast<int32_t>(n)))];
     if (w < 0 || widest[static_cast<size_t>(w)] < widest[n]) w = static_cast<int32_t>(n);
   }
   std::vector<uint8_t> piece_side(n_nodes, 0);
@@ -214,13 +192,13 @@ SeparatedTrees separate_trees(VesselGraph g, const Mask& organ, const std::strin
     piece_side[p] = nearest[1] <= nearest[2] ? 1 : 2;
   }
   for (size_t n = 0; n < n_nodes; ++n)
-    if (side[n] == 0) side[n] = piece_side[static_cast<size_t>(find(up, static_cast<int32_t>(n)))];
+    if (side[n] == 0) side[n] = piece_side[static_cast<size_t>(find(static_cast<int32_t>(n)))];
   for (const auto& b : g.branches) {
     const uint8_t sa = side[static_cast<size_t>(b.a)], sb = side[static_cast<size_t>(b.b)];
     if (sa != sb) {
       ++out.cut_branches;
       out.cut_area_mm2 += std::numbers::pi * b.radius_mm * b.radius_mm;
-    } else if (piece_widest[static_cast<size_t>(find(up, b.a))] >= 0) {
+    } else if (piece_widest[static_cast<size_t>(find(b.a))] >= 0) {
       out.assigned_by_distance_mm += b.length_mm;
     }
   }

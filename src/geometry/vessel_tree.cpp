@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <numeric>
 #include <queue>
 
 #include "lamina/core/error.h"
@@ -16,18 +15,8 @@ namespace lamina::geometry {
 namespace {
 
 using detail::near_outside;
+using detail::Pieces;
 using detail::voxel_centre_mm;
-
-struct Pieces {
-  std::vector<int32_t> up;
-  explicit Pieces(size_t n) : up(n) { std::iota(up.begin(), up.end(), 0); }
-  int32_t find(int32_t x) {
-    while (up[static_cast<size_t>(x)] != x)
-      x = up[static_cast<size_t>(x)] = up[static_cast<size_t>(up[static_cast<size_t>(x)])];
-    return x;
-  }
-  void join(int32_t a, int32_t b) { up[static_cast<size_t>(find(a))] = find(b); }
-};
 
 // Splits branch `b` at its voxel `q` into two joined by a new node there; returns the node.
 int32_t split_branch(VesselGraph& g, int32_t b, size_t q) {
@@ -131,13 +120,9 @@ VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& 
   const size_t n_nodes = g.nodes.size(), n_branches = g.branches.size();
 
   // Each node's widest branch, and the pieces with their centreline lengths.
-  std::vector<double> widest(n_nodes, 0.0);
+  const std::vector<double> widest = detail::widest_branch_at_nodes(g);
   Pieces pieces(n_nodes);
-  for (const auto& b : g.branches) {
-    for (const int32_t n : {b.a, b.b})
-      widest[static_cast<size_t>(n)] = std::max(widest[static_cast<size_t>(n)], b.radius_mm);
-    pieces.join(b.a, b.b);
-  }
+  for (const auto& b : g.branches) pieces.join(b.a, b.b);
   std::vector<double> piece_mm(n_nodes, 0.0);
   for (const auto& b : g.branches) piece_mm[static_cast<size_t>(pieces.find(b.a))] += b.length_mm;
 
