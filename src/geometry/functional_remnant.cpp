@@ -69,98 +69,136 @@ TumourTerritory tumour_territory(const VascularTree& tree, const std::vector<int
   return out;
 }
 
+TreeFlow tree_flow(const VascularTree& tree, double voxel_ml) {
+  const TreeTerritories& t = tree.territories;
+  const VesselGraph& g = t.tree.graph;
+  TreeFlow f;
+  f.name = t.name;
+  f.kind = tree.kind;
+  f.roots = static_cast<int32_t>(t.tree.roots.size());
+  f.bridged_gaps = t.tree.bridged_gaps;
+  f.unrooted_mm = t.tree.unrooted_mm;
+  f.seed_upstream = t.seed_upstream;
+  f.seed_branch = t.seed_branch;
+  f.branch_parent = t.tree.parent;
+  for (size_t b = 0; b < g.branches.size(); ++b) {
+    f.branch_rooted.push_back(t.tree.from_node[b] >= 0 ? 1 : 0);
+    f.branch_length_mm.push_back(g.branches[b].length_mm);
+    f.branch_radius_mm.push_back(g.branches[b].radius_mm);
+    f.branch_territory_ml.push_back(static_cast<double>(t.branch_voxels[b]) * voxel_ml);
+  }
+  return f;
+}
+
 FunctionalRemnant functional_remnant(const std::vector<VascularTree>& trees, const Mask& organ,
                                      const std::vector<uint8_t>& kept, double remnant_ml,
                                      std::vector<uint8_t>& function) {
-  FunctionalRemnant out;
   const double voxel_ml = organ.frame.voxel_volume_mm3() / 1000.0;
-  const size_t n = organ.inside.size();
-
-  // Per tree: which seeds the resection takes, which still reach the root.
-  std::vector<std::vector<uint8_t>> blocked(trees.size()), on(trees.size());
+  // A seed is taken where it lies in the organ on the resected side (a trunk beyond the organ
+  // is not).
+  std::vector<TreeFlow> flows;
+  std::vector<std::vector<uint8_t>> blocked(trees.size());
+  TissueCells cells;
+  cells.uniform_ml = voxel_ml;
   for (size_t t = 0; t < trees.size(); ++t) {
     const TreeTerritories& tt = trees[t].territories;
+    flows.push_back(tree_flow(trees[t], voxel_ml));
     blocked[t].assign(tt.seeds.size(), 0);
     for (size_t s = 0; s < tt.seeds.size(); ++s) {
       const auto v = static_cast<size_t>(tt.seeds[s]);
       blocked[t][s] = organ.inside[v] != 0 && kept[v] == 0 ? 1 : 0;
     }
-    on[t] = still_connected(tt, blocked[t]);
+    cells.seed_of.push_back(&tt.seed_of);
+  }
+  return functional_remnant(flows, blocked, cells, kept, remnant_ml, function);
+}
+
+FunctionalRemnant functional_remnant(const std::vector<TreeFlow>& trees,
+                                     const std::vector<std::vector<uint8_t>>& blocked,
+                                     const TissueCells& cells, const std::vector<uint8_t>& kept,
+                                     double remnant_ml, std::vector<uint8_t>& function) {
+  FunctionalRemnant out;
+  std::vector<std::vector<uint8_t>> on(trees.size());
+  for (size_t t = 0; t < trees.size(); ++t) {
+    on[t] = still_connected(trees[t], blocked[t]);
     (trees[t].kind == VesselTreeKind::kPortal ? out.portal : out.hepatic) = true;
   }
-
-  // One pass over the remnant's voxels: each one's function, and per branch its remnant and
-  // lost voxels (a plane that moves asks this again: the territories themselves are fixed).
-  std::vector<std::vector<int64_t>> remnant_of(trees.size()), lost_of(trees.size());
-  for (size_t t = 0; t < trees.size(); ++t) {
-    remnant_of[t].assign(trees[t].territories.tree.graph.branches.size(), 0);
-    lost_of[t].assign(remnant_of[t].size(), 0);
-  }
+  const size_t n = kept.size();
   function.assign(n, 0);
-  int64_t remnant_voxels = 0, lost_voxels = 0, devascularized = 0, congested = 0;
-  for (size_t v = 0; v < n; ++v) {
-    if (organ.inside[v] == 0 || kept[v] == 0) continue;
-    ++remnant_voxels;
+  if (trees.empty()) {
+    out.functional_ml = remnant_ml;
+    return out;
+  }
+
+  // One pass over the remnant's cells: each one's function, and per branch its remnant and
+  // lost volume (a plane that moves asks this again: the territories themselves are fixed).
+  std::vector<std::vector<double>> remnant_of(trees.size()), lost_of(trees.size());
+  for (size_t t = 0; t < trees.size(); ++t) {
+    remnant_of[t].assign(trees[t].branches(), 0.0);
+    lost_of[t].assign(trees[t].branches(), 0.0);
+  }
+  const std::vector<int32_t>& first = *cells.seed_of[0];  // -1: outside the organ
+  double remnant = 0.0, lost = 0.0, devascularized = 0.0, congested = 0.0;
+  for (size_t c = 0; c < n; ++c) {
+    if (first[c] < 0 || kept[c] == 0) continue;
+    const double w = cells.cell_ml != nullptr ? (*cells.cell_ml)[c] : cells.uniform_ml;
+    remnant += w;
     uint8_t l = 0;  // bit 0 devascularized, bit 1 congested
     for (size_t t = 0; t < trees.size(); ++t) {
-      const TreeTerritories& tt = trees[t].territories;
-      const int32_t s = tt.seed_of[v];
+      const int32_t s = (*cells.seed_of[t])[c];
       if (s < 0) continue;
-      const auto b = static_cast<size_t>(tt.seed_branch[static_cast<size_t>(s)]);
-      ++remnant_of[t][b];
+      const auto b = static_cast<size_t>(trees[t].seed_branch[static_cast<size_t>(s)]);
+      remnant_of[t][b] += w;
       if (on[t][static_cast<size_t>(s)] != 0) continue;
-      ++lost_of[t][b];
+      lost_of[t][b] += w;
       l |= trees[t].kind == VesselTreeKind::kPortal ? 1 : 2;
     }
-    function[v] = l == 0   ? kFunctional
+    function[c] = l == 0   ? kFunctional
                   : l == 1 ? kDevascularized
                   : l == 2 ? kCongested
                            : kDevascularizedCongested;
-    lost_voxels += l != 0;
-    devascularized += (l & 1) != 0;
-    congested += (l & 2) != 0;
+    if (l != 0) lost += w;
+    if ((l & 1) != 0) devascularized += w;
+    if ((l & 2) != 0) congested += w;
   }
-  // The remnant's volume splits the voxels the surface passes through; its voxels by centre
-  // may hold a little more or less. The lost volumes are the remnant's share of them, so that
-  // they never exceed it.
-  const double per_voxel =
-      remnant_voxels > 0 ? remnant_ml / static_cast<double>(remnant_voxels) : voxel_ml;
-  out.devascularized_ml = static_cast<double>(devascularized) * per_voxel;
-  out.congested_ml = static_cast<double>(congested) * per_voxel;
-  out.lost_ml = static_cast<double>(lost_voxels) * per_voxel;
+  // The remnant's volume splits the cells the surface passes through; its cells by centre may
+  // hold a little more or less. The lost volumes are the remnant's share of them.
+  const double scale = remnant > 0.0 ? remnant_ml / remnant : 1.0;
+  out.devascularized_ml = devascularized * scale;
+  out.congested_ml = congested * scale;
+  out.lost_ml = lost * scale;
   out.functional_ml = remnant_ml - out.lost_ml;
 
   // Each tree's branches: their volumes, and their state from their seeds (blocked where the
   // surface takes them, cut off downstream of a block).
   for (size_t t = 0; t < trees.size(); ++t) {
-    const TreeTerritories& tt = trees[t].territories;
-    const VesselGraph& g = tt.tree.graph;
+    const TreeFlow& f = trees[t];
     TreeFate fate;
-    fate.name = tt.name;
-    fate.kind = trees[t].kind;
-    fate.roots = static_cast<int32_t>(tt.tree.roots.size());
-    fate.bridged_gaps = tt.tree.bridged_gaps;
-    fate.unrooted_mm = tt.tree.unrooted_mm;
-    std::vector<int32_t> seeds_of(g.branches.size(), 0), blocked_of(g.branches.size(), 0),
-        off_of(g.branches.size(), 0);
-    for (size_t s = 0; s < tt.seeds.size(); ++s) {
-      const auto b = static_cast<size_t>(tt.seed_branch[s]);
+    fate.name = f.name;
+    fate.kind = f.kind;
+    fate.roots = f.roots;
+    fate.bridged_gaps = f.bridged_gaps;
+    fate.unrooted_mm = f.unrooted_mm;
+    std::vector<int32_t> seeds_of(f.branches(), 0), blocked_of(f.branches(), 0),
+        off_of(f.branches(), 0);
+    for (size_t s = 0; s < f.seeds(); ++s) {
+      const auto b = static_cast<size_t>(f.seed_branch[s]);
       ++seeds_of[b];
       blocked_of[b] += blocked[t][s];
       off_of[b] += on[t][s] == 0 ? 1 : 0;
     }
-    fate.branches.resize(g.branches.size());
-    for (size_t b = 0; b < g.branches.size(); ++b) {
+    fate.branches.resize(f.branches());
+    for (size_t b = 0; b < f.branches(); ++b) {
       BranchFate& bf = fate.branches[b];
       bf.id = static_cast<int32_t>(b);
-      bf.parent = tt.tree.parent[b];
-      bf.length_mm = g.branches[b].length_mm;
-      bf.radius_mm = g.branches[b].radius_mm;
-      bf.territory_ml = static_cast<double>(tt.branch_voxels[b]) * voxel_ml;
-      bf.remnant_ml = static_cast<double>(remnant_of[t][b]) * per_voxel;
-      bf.lost_ml = static_cast<double>(lost_of[t][b]) * per_voxel;
+      bf.parent = f.branch_parent[b];
+      bf.length_mm = f.branch_length_mm[b];
+      bf.radius_mm = f.branch_radius_mm[b];
+      bf.territory_ml = f.branch_territory_ml[b];
+      bf.remnant_ml = remnant_of[t][b] * scale;
+      bf.lost_ml = lost_of[t][b] * scale;
       fate.lost_ml += bf.lost_ml;
-      if (tt.tree.from_node[b] < 0)
+      if (f.branch_rooted[b] == 0)
         bf.state = "unrooted";
       else if (seeds_of[b] > 0 && blocked_of[b] == seeds_of[b])
         bf.state = "resected";
@@ -172,6 +210,7 @@ FunctionalRemnant functional_remnant(const std::vector<VascularTree>& trees, con
         bf.state = "kept";
       if (bf.state == "divided") ++fate.divided;
     }
+    fate.connected = std::move(on[t]);
     out.trees.push_back(std::move(fate));
   }
   return out;

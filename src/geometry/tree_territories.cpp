@@ -78,14 +78,4 @@ TreeTerritories tree_territories(const Mask& organ, VesselTree tree, const std::
   return t;
 }
 
-std::vector<uint8_t> still_connected(const TreeTerritories& t,
-                                     const std::vector<uint8_t>& blocked) {
-  std::vector<uint8_t> on(t.seeds.size(), 0);
-  for (size_t s = 0; s < t.seeds.size(); ++s) {
-    const int32_t up = t.seed_upstream[s];
-    on[s] = blocked[s] == 0 && (up < 0 || on[static_cast<size_t>(up)] != 0) ? 1 : 0;
-  }
-  return on;
-}
-
 }  // namespace lamina::geometry

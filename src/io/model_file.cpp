@@ -24,6 +24,9 @@ namespace lamina::io {
 namespace detail {
 
 uint32_t crc(uint32_t c, const void* data, size_t bytes) {
+  // zlib answers a null buffer (an empty vector's data()) with 0, the initial value: the sum so
+  // far would be lost (a tree's seeds have no triangles).
+  if (bytes == 0) return c;
   return static_cast<uint32_t>(crc32_z(c, static_cast<const Bytef*>(data), bytes));
 }
 
@@ -233,7 +236,10 @@ using namespace detail;
 // Version 6 added each embedded surface's role (FieldData embedded_role): every model with
 // embedded surfaces is written as version 6; in older files the reader gives each the role the
 // older readers saw in its name and label (read_embedded_fields).
-constexpr int32_t kFormatVersion = 6;
+// Version 7 added the vessel trees (FieldData tree_*, seed_*, branch_*; issue 63): a model with
+// trees is written as 7, one without as before.
+constexpr int32_t kFormatVersion = 7;
+constexpr int32_t kFormatVersionEmbedded = 6;
 constexpr int32_t kFormatVersionCut = 5;
 constexpr int32_t kFormatVersionWithoutEmbedded = 2;
 
@@ -253,6 +259,7 @@ void check_savable(const Model& m, const std::string& path) {
     throw Error(ErrorKind::kInternal,
                 path + ": cannot save: the model's arrays disagree in size or index range");
   check_embedded_savable(m, path);
+  check_trees_savable(m, path);
   check_cut_savable(m, path);
 }
 
@@ -356,9 +363,10 @@ void detail::write_model(const Model& m, const std::string& path, std::ostream& 
   // as in version 2.
   add_embedded(m, piece);
   const std::vector<uint8_t> source(m.source.begin(), m.source.end());
-  const int32_t version = !m.embedded.empty() ? kFormatVersion
-                          : is_cut(m)         ? kFormatVersionCut
-                                              : kFormatVersionWithoutEmbedded;
+  const int32_t version = !m.trees.empty()      ? kFormatVersion
+                          : !m.embedded.empty() ? kFormatVersionEmbedded
+                          : is_cut(m)           ? kFormatVersionCut
+                                                : kFormatVersionWithoutEmbedded;
 
   {
     const char* const field = "      ";
@@ -377,6 +385,7 @@ void detail::write_model(const Model& m, const std::string& path, std::ostream& 
     write_array(out, field, "layer_face_count", face_count, 1, true);
     write_array(out, field, "tet_count", std::vector<int64_t>{m.tets.size()}, 1, true);
     write_embedded_field_data(out, field, m);
+    write_tree_field_data(out, field, m);
     write_array(out, field, "source", source, 1, true);
     write_array(out, field, "content_crc32",
                 std::vector<int64_t>{static_cast<int64_t>(model_fingerprint(m))}, 1, true);
@@ -621,6 +630,7 @@ Model detail::parse_model(const std::string& path, std::string_view text) {
   if (version == 5 || (version >= 6 && f.arrays.contains("CellData/share")))
     read_cut_cells(path, f, cells, triangles, triangles + spring_count,
                    triangles + spring_count + tet_count, m);
+  if (version >= 7 && f.arrays.contains("FieldData/tree_kind")) read_trees(path, f, m);
   // Every value above passed its own check; the checksum catches one changed to another valid
   // value (an edited position or stiffness). Files written before it existed have none.
   if (f.arrays.contains("FieldData/content_crc32")) {
@@ -662,7 +672,9 @@ uint32_t fingerprint(const Model& m, bool roles) {
   // Models without embedded surfaces keep the checksum version 2 gave them (checkpoints name
   // their model by it).
   if (!m.embedded.empty()) c = embedded_fingerprint(c, m, roles);
-  return cut_fingerprint(c, m);
+  c = cut_fingerprint(c, m);
+  // Models without trees keep the checksum version 6 gave them.
+  return m.trees.empty() ? c : trees_fingerprint(c, m);
 }
 
 }  // namespace lamina::io::detail

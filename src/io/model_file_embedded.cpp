@@ -31,6 +31,18 @@ std::string surface_named(const Model& m, size_t s) {
 
 }  // namespace
 
+std::vector<std::string> split_names(const std::vector<uint8_t>& bytes) {
+  std::vector<std::string> names;
+  if (!bytes.empty()) names.emplace_back();
+  for (const uint8_t b : bytes) {
+    if (b == '\n')
+      names.emplace_back();
+    else
+      names.back() += static_cast<char>(b);
+  }
+  return names;
+}
+
 void check_embedded_savable(const Model& m, const std::string& path) {
   int64_t points = m.node_count();
   for (size_t s = 0; s < m.embedded.size(); ++s) {
@@ -144,14 +156,7 @@ EmbeddedLayout read_embedded_fields(const std::string& path, const VtuFile& f, i
   const auto outside = read_values<int32_t>(path, f, "FieldData/embedded_outside", count);
   const auto bytes = read_values<uint8_t>(path, f, "FieldData/embedded_names",
                                           tuple_count(path, f, "FieldData/embedded_names"));
-  std::vector<std::string> names;
-  if (!bytes.empty()) names.emplace_back();
-  for (const uint8_t b : bytes) {
-    if (b == '\n')
-      names.emplace_back();
-    else
-      names.back() += static_cast<char>(b);
-  }
+  const std::vector<std::string> names = split_names(bytes);
   if (static_cast<int64_t>(names.size()) != count)
     throw bad("embedded_names holds " + std::to_string(names.size()) + " name(s) for " +
               std::to_string(count) + " embedded surface(s)");
@@ -286,20 +291,23 @@ void read_embedded_cells(const std::string& path, CellWalker& cells, const Embed
 }
 
 uint32_t embedded_fingerprint(uint32_t c, const Model& m, bool roles) {
-  for (const EmbeddedSurface& e : m.embedded) {
-    c = crc(c, e.name.data(), e.name.size());
-    c = crc(c, "\n", 1);  // so that no two lists of names give the same bytes
-    c = crc(c, &e.label, sizeof e.label);
-    if (roles) c = crc(c, &e.role, sizeof e.role);
-    c = crc(c, &e.outside, sizeof e.outside);
-    c = crc(c, e.V.data(), static_cast<size_t>(e.V.size()) * sizeof(double));
-    c = crc(c, e.F.data(), static_cast<size_t>(e.F.size()) * sizeof(int));
-    c = crc(c, e.corners.data(), static_cast<size_t>(e.corners.size()) * sizeof(int));
-    c = crc(c, e.weights.data(), static_cast<size_t>(e.weights.size()) * sizeof(double));
-    // Surfaces without offsets keep the checksum version 3 gave them.
-    if (e.offsets.rows() > 0)
-      c = crc(c, e.offsets.data(), static_cast<size_t>(e.offsets.size()) * sizeof(double));
-  }
+  for (const EmbeddedSurface& e : m.embedded) c = surface_fingerprint(c, e, roles);
+  return c;
+}
+
+uint32_t surface_fingerprint(uint32_t c, const EmbeddedSurface& e, bool roles) {
+  c = crc(c, e.name.data(), e.name.size());
+  c = crc(c, "\n", 1);  // so that no two lists of names give the same bytes
+  c = crc(c, &e.label, sizeof e.label);
+  if (roles) c = crc(c, &e.role, sizeof e.role);
+  c = crc(c, &e.outside, sizeof e.outside);
+  c = crc(c, e.V.data(), static_cast<size_t>(e.V.size()) * sizeof(double));
+  c = crc(c, e.F.data(), static_cast<size_t>(e.F.size()) * sizeof(int));
+  c = crc(c, e.corners.data(), static_cast<size_t>(e.corners.size()) * sizeof(int));
+  c = crc(c, e.weights.data(), static_cast<size_t>(e.weights.size()) * sizeof(double));
+  // Surfaces without offsets keep the checksum version 3 gave them.
+  if (e.offsets.rows() > 0)
+    c = crc(c, e.offsets.data(), static_cast<size_t>(e.offsets.size()) * sizeof(double));
   return c;
 }
 

@@ -101,6 +101,9 @@ Model parse_model(const std::string& path, std::string_view text);
 
 // --- The embedded surfaces (model_file_embedded.cpp). ---
 
+// Names stored joined by '\n' as bytes (embedded_names, tree_names), split again.
+std::vector<std::string> split_names(const std::vector<uint8_t>& bytes);
+
 // Refuses (kInvalidInput) a name that would not read back as itself; (kInternal) arrays whose
 // sizes disagree, which save_model() would read out of bounds.
 void check_embedded_savable(const Model& m, const std::string& path);
@@ -135,8 +138,22 @@ void read_embedded_cells(const std::string& path, CellWalker& cells, const Embed
 // model_fingerprint()'s share of the surfaces, continuing checksum `c`; with `roles` (files of
 // version 6 on) their roles too.
 uint32_t embedded_fingerprint(uint32_t c, const Model& m, bool roles);
+// One surface's share (its name, label, role with `roles`, points, triangles, weights, offsets).
+uint32_t surface_fingerprint(uint32_t c, const EmbeddedSurface& e, bool roles);
 // model_fingerprint(), or the sum files before version 6 stored (without the roles).
 uint32_t fingerprint(const Model& m, bool roles);
+
+// --- The vessel trees (model_file_trees.cpp, format version 7). ---
+
+// Refuses (kInvalidInput) a name that would not read back as itself; (kInternal) arrays whose
+// sizes disagree.
+void check_trees_savable(const Model& m, const std::string& path);
+// The trees' FieldData arrays; nothing for a model without trees.
+void write_tree_field_data(std::ostream& out, const char* indent, const Model& m);
+// Reads and checks them into m.trees (after the nodes are read: corners are checked against them).
+void read_trees(const std::string& path, const VtuFile& f, Model& m);
+// model_fingerprint()'s share of the trees, continuing checksum `c`.
+uint32_t trees_fingerprint(uint32_t c, const Model& m);
 
 // --- A cut model's shares and materials (model_file_cut.cpp, format version 5). ---
 

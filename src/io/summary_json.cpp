@@ -35,6 +35,16 @@ std::string summary_json(const model::ModelSummary& s, const model::BuildReport*
                              {"volume_ml", e.volume_ml},
                              {"closed", e.closed},
                              {"manifold", e.manifold}});
+  j["trees"] = nlohmann::json::array();
+  for (const auto& t : s.trees)
+    j["trees"].push_back(
+        {{"name", t.name},
+         {"kind", t.kind == geometry::VesselTreeKind::kPortal ? "portal" : "hepatic"},
+         {"roots", t.roots},
+         {"branches", t.branches},
+         {"seeds", t.seeds},
+         {"bridged_gaps", t.bridged_gaps},
+         {"unrooted_mm", t.unrooted_mm}});
   if (s.tets.count > 0)
     j["tets"] = {{"count", s.tets.count},
                  {"min_dihedral_deg", s.tets.min_dihedral_deg},
@@ -180,6 +190,13 @@ std::string summary_table(const model::ModelSummary& s, const model::BuildReport
                                          "most {:.2f}x their tetrahedron",
                                          e.outside, e.offset, e.max_amplification)
                            : "");
+  for (const auto& t : s.trees)
+    out += fmt::format(
+        "  vessel tree {} ({}): {} root(s), {} branches, {} centreline seeds, {} gap(s) "
+        "bridged{}\n",
+        t.name, t.kind == geometry::VesselTreeKind::kPortal ? "portal inflow" : "hepatic outflow",
+        t.roots, t.branches, t.seeds, t.bridged_gaps,
+        t.unrooted_mm > 0.0 ? fmt::format(", {:.0f} mm in no tree", t.unrooted_mm) : "");
   if (b)
     for (const auto& w : b->warnings) out += "  note: " + w + "\n";
   return out;

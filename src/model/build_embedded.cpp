@@ -9,6 +9,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/display_skin.h"
+#include "lamina/geometry/functional_remnant.h"
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/geometry/structure_names.h"
 #include "lamina/model/embed_surface.h"
@@ -19,6 +20,71 @@ namespace {
 // Where a structure's voxels come from, for messages: its own mask file or the segmentation.
 const LabelVolume& source_of(const EmbedStructure& s, const LabelVolume& organ) {
   return s.mask ? *s.mask : organ;
+}
+
+// The voxels of structure `s` on the organ mask's grid (a crop of the segmentation's: the same
+// spacing and axes, shifted by whole voxels).
+Mask structure_on_organ_grid(const EmbedStructure& s, const LabelVolume& volume,
+                             const Mask& organ) {
+  const LabelVolume& v = source_of(s, volume);
+  const GridFrame &f = organ.frame, &g = v.frame;
+  std::array<int64_t, 3> shift{};
+  for (int a = 0; a < 3; ++a) {
+    double along = 0.0;  // the organ grid's origin along the volume's axis a, in voxels
+    for (int r = 0; r < 3; ++r) along += g.direction[3 * r + a] * (f.origin_mm[r] - g.origin_mm[r]);
+    shift[a] = std::llround(along / g.spacing_mm[a]);
+  }
+  Mask m;
+  m.frame = f;
+  m.inside.assign(static_cast<size_t>(f.voxel_count()), 0);
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i) {
+        const int64_t a = i + shift[0], b = j + shift[1], c = k + shift[2];
+        if (a < 0 || b < 0 || c < 0 || a >= g.size[0] || b >= g.size[1] || c >= g.size[2]) continue;
+        const int32_t l = v.labels[static_cast<size_t>(g.index(a, b, c))];
+        m.inside[static_cast<size_t>(f.index(i, j, k))] = s.label != 0 ? l == s.label : l != 0;
+      }
+  return m;
+}
+
+// The tree of a structure named a portal vein or hepatic veins (geometry::vessel_tree_kind), its
+// seeds embedded in the rest tetrahedra; none (and a warning) when no tree is found.
+void add_tree(Model& m, const EmbedStructure& s, const LabelVolume& volume, const Mask& organ,
+              BuildReport& report) {
+  const std::string name = structure_name(s);
+  const geometry::VesselTreeKind kind = geometry::vessel_tree_kind(name);
+  if (kind != geometry::VesselTreeKind::kPortal && kind != geometry::VesselTreeKind::kHepatic)
+    return;
+  if (structure_role(s) == SurfaceRole::kTumour) return;
+  geometry::VascularTree tree;
+  try {
+    tree = geometry::vascular_tree(organ, structure_on_organ_grid(s, volume, organ), name, kind,
+                                   s.label);
+  } catch (const Error& e) {
+    report.warnings.push_back(
+        fmt::format("no vessel tree for {}: {}; a plan on this model gives no functional remnant",
+                    name, e.what()));
+    return;
+  }
+  const geometry::TreeTerritories& t = tree.territories;
+  ModelVesselTree mt;
+  mt.flow = geometry::tree_flow(tree, organ.frame.voxel_volume_mm3() / 1000.0);
+  mt.flow.name = name;
+  mt.label = s.label;
+  Eigen::MatrixX3d X(static_cast<Eigen::Index>(t.seeds.size()), 3);
+  const GridFrame& f = organ.frame;
+  for (size_t q = 0; q < t.seeds.size(); ++q) {
+    const int64_t v = t.seeds[q];
+    const std::array<double, 3> p = f.to_physical(static_cast<double>(v % f.size[0]),
+                                                  static_cast<double>((v / f.size[0]) % f.size[1]),
+                                                  static_cast<double>(v / (f.size[0] * f.size[1])));
+    X.row(static_cast<Eigen::Index>(q)) << p[0], p[1], p[2];
+    mt.in_organ.push_back(organ.inside[static_cast<size_t>(v)]);
+  }
+  mt.seeds = embed_points(m, X, name, SurfaceRole::kVessel, s.label);
+  mt.seeds.outside = 0;  // not kept for seeds (ModelVesselTree::seeds)
+  m.trees.push_back(std::move(mt));
 }
 
 }  // namespace
@@ -190,6 +256,7 @@ void add_embedded(Model& m, const LabelVolume& volume, const Mask& organ, const 
     const Mask mask = geometry::prepare_mask(v, select).mask;
     add(geometry::structure_surface(mask, o.structure_triangles, structure_name(s)),
         structure_name(s), structure_role(s), s.label);
+    add_tree(m, s, volume, organ, report);
   }
 }
 

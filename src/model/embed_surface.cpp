@@ -218,14 +218,23 @@ Eigen::Vector3d limit_amplification(const Model& m, int32_t t, const Eigen::Vect
 
 EmbeddedSurface embed_surface(const Model& m, const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                               const std::string& name, SurfaceRole role, int32_t label) {
-  if (!m.has_tets())
-    throw invalid_input(name, "the model has no tetrahedra to carry it (build with tetrahedra)");
   if (V.rows() == 0 || F.rows() == 0) throw invalid_input(name, "the surface is empty");
   if (F.minCoeff() < 0 || F.maxCoeff() >= V.rows())
     throw invalid_input(name, "a triangle names a vertex the surface does not have");
+  EmbeddedSurface s = embed_points(m, V, name, role, label);
+  s.F = F;
+  return s;
+}
+
+EmbeddedSurface embed_points(const Model& m, const Eigen::MatrixX3d& V, const std::string& name,
+                             SurfaceRole role, int32_t label) {
+  if (!m.has_tets())
+    throw invalid_input(name, "the model has no tetrahedra to carry it (build with tetrahedra)");
+  if (V.rows() == 0) throw invalid_input(name, "there are no points to embed");
   if (!V.allFinite()) throw invalid_input(name, "a vertex is not finite");
   EmbeddedSurface s;
-  s.name = name, s.role = role, s.label = label, s.V = V, s.F = F;
+  s.name = name, s.role = role, s.label = label, s.V = V;
+  s.F.resize(0, 3);
   s.corners.resize(V.rows(), 4);
   s.weights.resize(V.rows(), 4);
   const TetGrid g = make_grid(m);

@@ -163,6 +163,18 @@ Model keep_nodes(const Model& m, const std::vector<uint8_t>& keep,
     for (size_t t = 0; t < tris.size(); ++t) k.F.row(static_cast<Eigen::Index>(t)) = tris[t];
     out.embedded.push_back(std::move(k));
   }
+  // The vessel trees whose every seed stays (a seed lost would break the flow through it).
+  for (const ModelVesselTree& tree : m.trees) {
+    const EmbeddedSurface& e = tree.seeds;
+    bool all = true;
+    for (Eigen::Index v = 0; v < e.V.rows() && all; ++v)
+      all = all_kept([&](int c) { return e.corners(v, c); }, 4);
+    if (!all) continue;
+    ModelVesselTree k = tree;
+    for (Eigen::Index v = 0; v < e.V.rows(); ++v)
+      for (int c = 0; c < 4; ++c) k.seeds.corners(v, c) = new_index[e.corners(v, c)];
+    out.trees.push_back(std::move(k));
+  }
   out.rings = compute_rings(out, std::max(1, m.rings.locality));
   return out;
 }

@@ -13,13 +13,15 @@
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/model/embed_surface.h"
 #include "lamina/model/keep_piece.h"
+#include "lamina/model/model_territories.h"
 
 namespace lamina::model {
 
 geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX3d& x,
                                         const geometry::ResectionSurface& plane,
                                         const geometry::ResectionOptions& options,
-                                        const std::vector<const Eigen::MatrixX3d*>& embedded_x) {
+                                        const std::vector<const Eigen::MatrixX3d*>& embedded_x,
+                                        const ModelTerritories* territories) {
   const std::string& source = model.source;
   if (!plane.is_plane)
     throw invalid_input(source, "a model is planned along a plane (--plane, or a markups Plane)");
@@ -125,10 +127,11 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
   std::sort(r.crossings.begin(), r.crossings.end(),
             [](const auto& a, const auto& b) { return a.diameter_mm > b.diameter_mm; });
 
-  // 4. The remnant's pieces: its tetrahedra joined where they share a node.
+  // 4. The remnant's pieces: its tetrahedra (by their centroids) joined where they share a node.
+  std::vector<uint8_t> kept;
   if (model.has_tets()) {
     const Eigen::MatrixX4i& T = model.tets.T;
-    std::vector<uint8_t> kept(static_cast<size_t>(T.rows()), 0);
+    kept.assign(static_cast<size_t>(T.rows()), 0);
     for (Eigen::Index t = 0; t < T.rows(); ++t) {
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       for (int k = 0; k < 4; ++k) c += x.row(T(t, k)).transpose() / 4.0;
@@ -153,9 +156,23 @@ geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX
       }
     geometry::file_remnant_pieces(r, found);
   }
-  // A model keeps its vessels' surfaces, not their voxels: no centrelines to follow.
-  r.functional_missing =
-      "a model holds no vessel territories: plan on the segmentation for the functional remnant";
+
+  // 5. The functional remnant: the trees the model carries, their seeds where the organ is now.
+  if (model.trees.empty() || !model.has_tets()) {
+    r.functional_missing =
+        "the model carries no vessel trees: build it from a segmentation whose structures name "
+        "the portal vein or hepatic veins (--embed LABEL=portal_vein,LABEL=hepatic_veins)";
+    return r;
+  }
+  ModelTerritories made;
+  if (territories == nullptr || territories->tets != model.tets.size()) {
+    made = model_territories(model);
+    territories = &made;
+  }
+  r.functional =
+      functional_on_model(model, *territories, x, p0, n, r.remnant_in_front, r.remnant_ml);
+  r.functional_flr_percent = 100.0 * r.functional->functional_ml / r.whole_ml;
+  r.functional_sufficient = r.functional_flr_percent >= r.flr_threshold_percent;
   return r;
 }
 

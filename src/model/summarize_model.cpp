@@ -46,6 +46,14 @@ ModelSummary summarize_model(const Model& model, const BuildReport* build) {
                           .closed = q.closed,
                           .manifold = q.manifold});
   }
+  for (const ModelVesselTree& t : model.trees)
+    s.trees.push_back({.name = t.flow.name,
+                       .kind = t.flow.kind,
+                       .roots = t.flow.roots,
+                       .branches = static_cast<int32_t>(t.flow.branches()),
+                       .seeds = static_cast<int32_t>(t.flow.seeds()),
+                       .bridged_gaps = t.flow.bridged_gaps,
+                       .unrooted_mm = t.flow.unrooted_mm});
   s.total_mass_kg = std::accumulate(model.mass_kg.begin(), model.mass_kg.end(), 0.0);
   s.locality = model.rings.locality;
   s.ring_entries = static_cast<int64_t>(model.rings.members.size());

@@ -290,3 +290,93 @@ TEST(ModelFileEmbedded, EditedFilesAreRefusedOnLoad) {
 
 }  // namespace
 }  // namespace lamina::io
+
+namespace lamina::io {
+namespace {
+
+// with_surfaces() carrying a small portal tree (issue 63): a trunk of two seeds, a branch of two
+// after it, the last one beyond the organ (an offset).
+Model with_tree() {
+  Model m = with_surfaces();
+  ModelVesselTree t;
+  t.flow.name = "portal_vein";
+  t.flow.kind = geometry::VesselTreeKind::kPortal;
+  t.flow.roots = 1;
+  t.flow.seed_upstream = {-1, 0, 1, 2};
+  t.flow.seed_branch = {0, 0, 1, 1};
+  t.flow.branch_parent = {-1, 0};
+  t.flow.branch_rooted = {1, 1};
+  t.flow.branch_length_mm = {4.0, 6.5};
+  t.flow.branch_radius_mm = {3.0, 1.5};
+  t.flow.branch_territory_ml = {20.0, 11.0};
+  t.label = 2;
+  const Eigen::RowVector3d c = m.X.colwise().mean();
+  Eigen::MatrixX3d V(4, 3);
+  V << c, c + Eigen::RowVector3d(2, 0, 0), c + Eigen::RowVector3d(4, 1, 0),
+      Eigen::RowVector3d(m.X.col(0).maxCoeff() + 20.0, c.y(), c.z());
+  t.seeds = model::embed_points(m, V, t.flow.name, SurfaceRole::kVessel, t.label);
+  t.seeds.outside = 0;  // as lamina build leaves it: not kept
+  t.in_organ = {1, 1, 1, 0};
+  m.trees.push_back(t);
+  return m;
+}
+
+TEST(ModelFileTrees, TreesRoundTripBitExactlyAsVersionSeven) {
+  const TempDir dir;
+  const Model m = with_tree();
+  ASSERT_GT(model::offset_vertices(m.trees[0].seeds), 0);
+  const std::string path = dir.file("model.vtu");
+  save_model(m, path);
+  expect_same_model(m, load_model(path));
+  EXPECT_NE(file_text(path).find("Name=\"lamina_format_version\" NumberOfTuples=\"1\" "
+                                 "format=\"ascii\">\n        7\n"),
+            std::string::npos);
+  // Without trees the file is the version 6 it was, checksum and all.
+  Model without = m;
+  without.trees.clear();
+  EXPECT_EQ(model_fingerprint(without), model_fingerprint(with_surfaces()));
+  EXPECT_NE(model_fingerprint(without), model_fingerprint(m));
+}
+
+TEST(ModelFileTrees, EditedTreesAreRefusedOnLoad) {
+  const TempDir dir;
+  const std::string path = dir.file("model.vtu");
+  save_model(with_tree(), path);
+  const std::string text = file_text(path);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {replace_value(text, "tree_kind", 0, "9"),
+       "vessel tree 0 ('portal_vein') has kind 9; expected 1 (portal vein) or 2"},
+      {replace_value(text, "seed_upstream", 1, "2"),
+       "seed 1: upstream seed 2 does not come before it"},
+      {replace_value(text, "seed_branch", 2, "5"), "seed 2: branch 5 is no branch of the tree"},
+      {replace_value(text, "seed_corners", 0, "100000"), "seed 0: corner 100000 is not a node"},
+      {replace_value(text, "seed_weights", 0, "7"), "seed 0: weights sum to"},
+      {replace_value(text, "branch_parent", 1, "4"), "branch 1: parent 4 is no branch"},
+      {replace_value(text, "branch_radius_mm", 0, "-1"), "must be finite and >= 0"},
+      {replace_value(text, "tree_seed_count", 0, "0"), "has 0 seeds and 2 branches"},
+      // Every value still valid: only the checksum tells.
+      {replace_value(text, "branch_territory_ml", 0, "21"), "do not match their checksum"},
+  };
+  for (const auto& [edited, expected] : cases) {
+    write_text(path, edited);
+    expect_load_error(path, expected);
+  }
+}
+
+TEST(ModelFileTrees, ATreeWhoseNameWouldNotReadBackIsRefusedOnSave) {
+  const TempDir dir;
+  Model m = with_tree();
+  m.trees[0].flow.name = "portal\nvein";
+  const std::string path = dir.file("model.vtu");
+  try {
+    save_model(m, path);
+    ADD_FAILURE() << "saved";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("vessel tree 0 has the name"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(path));
+}
+
+}  // namespace
+}  // namespace lamina::io

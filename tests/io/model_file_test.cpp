@@ -146,10 +146,10 @@ TEST(ModelFile, WrongVersionThrows) {
   const TempDir dir;
   const std::string path = dir.file("model.vtu");
   save_model(make_test_model(), path);
-  write_text(path, replace_values(file_text(path), "lamina_format_version", "7"));
-  expect_load_error(path, "version 7 (this build reads versions 1 to 6)");
+  write_text(path, replace_values(file_text(path), "lamina_format_version", "8"));
+  expect_load_error(path, "version 8 (this build reads versions 1 to 7)");
   write_text(path, replace_values(file_text(path), "lamina_format_version", "0"));
-  expect_load_error(path, "version 0 (this build reads versions 1 to 6)");
+  expect_load_error(path, "version 0 (this build reads versions 1 to 7)");
 }
 
 TEST(ModelFile, TetrahedraRoundTripBitExactly) {

@@ -79,6 +79,26 @@ inline void expect_same_model(const Model& a, const Model& b) {
     ASSERT_EQ(e.offsets.rows(), f.offsets.rows()) << e.name;
     expect_bitwise_equal(as_vector(e.offsets), as_vector(f.offsets), "embedded offsets");
   }
+  ASSERT_EQ(a.trees.size(), b.trees.size());
+  for (size_t t = 0; t < a.trees.size(); ++t) {
+    const ModelVesselTree &e = a.trees[t], &f = b.trees[t];
+    EXPECT_EQ(e.flow.name, f.flow.name);
+    EXPECT_EQ(e.flow.kind, f.flow.kind);
+    EXPECT_EQ(e.label, f.label);
+    EXPECT_EQ(e.flow.roots, f.flow.roots);
+    EXPECT_EQ(e.flow.seed_upstream, f.flow.seed_upstream);
+    EXPECT_EQ(e.flow.seed_branch, f.flow.seed_branch);
+    EXPECT_EQ(e.flow.branch_parent, f.flow.branch_parent);
+    EXPECT_EQ(e.flow.branch_rooted, f.flow.branch_rooted);
+    expect_bitwise_equal(e.flow.branch_length_mm, f.flow.branch_length_mm, "branch length");
+    expect_bitwise_equal(e.flow.branch_radius_mm, f.flow.branch_radius_mm, "branch radius");
+    expect_bitwise_equal(e.flow.branch_territory_ml, f.flow.branch_territory_ml, "territory");
+    EXPECT_EQ(e.in_organ, f.in_organ);
+    EXPECT_EQ(e.seeds.corners, f.seeds.corners);
+    EXPECT_EQ(e.seeds.V, f.seeds.V);
+    EXPECT_EQ(e.seeds.weights, f.seeds.weights);
+    EXPECT_EQ(e.seeds.offsets, f.seeds.offsets);
+  }
 }
 
 inline std::string file_text(const std::string& path) {

@@ -12,6 +12,7 @@
 
 #include "lamina/core/grid.h"
 #include "lamina/geometry/structure_names.h"
+#include "lamina/geometry/tree_flow.h"
 #include "lamina/geometry/tree_territories.h"
 
 namespace lamina::geometry {
@@ -51,6 +52,8 @@ struct TreeFate {
   double lost_ml = 0.0;  ///< the remnant's tissue this tree no longer serves
   int32_t divided = 0;   ///< branches the surface divides
   std::vector<BranchFate> branches;
+  /// Per seed: 1 while its flow still reaches the root (what a picture shades by).
+  std::vector<uint8_t> connected;
 };
 
 struct FunctionalRemnant {
@@ -85,6 +88,9 @@ enum : uint8_t {
   kDevascularizedCongested = 4
 };
 
+/// What the functional remnant needs of `tree`: its seeds' flow, its branches, their territories.
+TreeFlow tree_flow(const VascularTree& tree, double voxel_ml);
+
 /// The functional remnant of a resection that keeps the organ voxels `kept` marks (non-zero, on
 /// the organ's grid) and takes the organ's others.
 /// @param[in] remnant_ml  the geometric remnant's volume (split voxels exact)
@@ -93,5 +99,25 @@ enum : uint8_t {
 FunctionalRemnant functional_remnant(const std::vector<VascularTree>& trees, const Mask& organ,
                                      const std::vector<uint8_t>& kept, double remnant_ml,
                                      std::vector<uint8_t>& function);
+
+/// The organ's tissue as cells (its voxels, a model's tetrahedra), each with its nearest seed in
+/// each tree: what the functional remnant counts, wherever the trees were carried.
+struct TissueCells {
+  /// Per tree (in the order of the flows), per cell: its nearest seed, -1 outside the organ.
+  std::vector<const std::vector<int32_t>*> seed_of;
+  /// Per cell: its volume, mL; null: `uniform_ml` each.
+  const std::vector<double>* cell_ml = nullptr;
+  double uniform_ml = 0.0;
+};
+
+/// The functional remnant over any cells: per tree, the seeds `blocked` says the resection takes
+/// (non-zero), the cells `kept` says are the remnant's (non-zero).
+/// @param[in] remnant_ml  the geometric remnant's volume: the lost volumes are its share of the
+///   remnant's cells they hold, so that they never exceed it
+/// @param[out] function   per cell: 0 outside the remnant, else kFunctional, ... as above
+FunctionalRemnant functional_remnant(const std::vector<TreeFlow>& trees,
+                                     const std::vector<std::vector<uint8_t>>& blocked,
+                                     const TissueCells& cells, const std::vector<uint8_t>& kept,
+                                     double remnant_ml, std::vector<uint8_t>& function);
 
 }  // namespace lamina::geometry

@@ -37,9 +37,4 @@ struct TreeTerritories {
 ///   inside the organ").
 TreeTerritories tree_territories(const Mask& organ, VesselTree tree, const std::string& name);
 
-/// Per seed: whether it still connects to its root when the seeds `blocked` says are cut off
-/// (those in the organ on the resected side): its own and every seed upstream of it unblocked.
-/// @param[in] blocked  per seed, non-zero when the resection takes it
-std::vector<uint8_t> still_connected(const TreeTerritories& t, const std::vector<uint8_t>& blocked);
-
 }  // namespace lamina::geometry

@@ -22,6 +22,11 @@ EmbeddedSurface embed_surface(const Model& model, const Eigen::MatrixX3d& V,
                               const Eigen::MatrixX3i& F, const std::string& name, SurfaceRole role,
                               int32_t label = 0);
 
+/// Points embedded as embed_surface() embeds a surface's vertices, without triangles: a vessel
+/// tree's seeds (ModelVesselTree::seeds). Throws as embed_surface() does ("there are no points to
+/// embed" for none).
+EmbeddedSurface embed_points(const Model& model, const Eigen::MatrixX3d& V, const std::string& name,
+                             SurfaceRole role, int32_t label = 0);
 /// The name `lamina build` gives the display skin it embeds.
 inline constexpr const char* kDisplaySkinName = "display_skin";
 

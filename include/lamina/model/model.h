@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "lamina/core/surface_role.h"
+#include "lamina/geometry/tree_flow.h"
 
 namespace lamina {
 
@@ -120,6 +121,19 @@ struct EmbeddedSurface {
 /// nodes: the bound on the sum of |weights| (|sum_c w_c d_c| <= sum_c |w_c| max_c |d_c|).
 inline constexpr double kMaxAmplification = 2.0;
 
+/// A vessel tree the model carries (issue 63): its centreline's seeds, embedded in the rest
+/// tetrahedra like a surface's vertices (so they follow the organ), with the flow between them;
+/// the tissue each branch feeds or drains is the nearest seed's (model::model_territories).
+struct ModelVesselTree {
+  geometry::TreeFlow flow;
+  int32_t label = 0;  ///< the segmentation label it came from (0: a separate mask)
+  /// The seeds as points without triangles: rest positions, corners, weights (and offsets for
+  /// a trunk beyond the organ); seeds.name is the tree's, seeds.outside is 0 (not kept).
+  EmbeddedSurface seeds;
+  /// Per seed: 1 when it lies in the organ (only there does a resection take it).
+  std::vector<uint8_t> in_organ;
+};
+
 /// The model. Nodes are ordered by layer: layer 0 (the skin) first; the interior nodes of the
 /// tetrahedra (on no layer) come last.
 struct Model {
@@ -133,6 +147,9 @@ struct Model {
   Rings rings;
   /// Surfaces carried by the tetrahedra, drawn (and touched) instead of, or inside, the skin.
   std::vector<EmbeddedSurface> embedded;
+  /// The portal and hepatic-vein trees of structures so named (empty for others): what the
+  /// functional remnant of a plan on the model follows.
+  std::vector<ModelVesselTree> trees;
   double density_kg_per_mm3 = 1.06e-6;  ///< used to lump the masses (liver: 1.06 g/cm^3)
   std::string source;                   ///< what it was built from (path or "built-in phantom")
 

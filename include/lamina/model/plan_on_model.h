@@ -8,6 +8,7 @@
 
 #include "lamina/geometry/plan_resection.h"
 #include "lamina/model/model.h"
+#include "lamina/model/model_territories.h"
 
 namespace lamina::model {
 
@@ -22,15 +23,22 @@ namespace lamina::model {
 ///   (model::structures_crossed, kept where the skin's winding number says inside).
 /// - Remnant pieces: the tetrahedra on the remnant's side (by their centroids), joined where they
 ///   share a node.
+/// - The functional remnant (issue 63), when the model carries vessel trees (Model::trees): the
+///   seeds in the organ on the resected side taken, the tissue on the remnant's side whose
+///   nearest seed no longer reaches its root lost (model::functional_on_model); without trees,
+///   functional_missing says why.
 /// Of `options`, keep_point, margin_mm and liver are used (the structures are the model's own).
 /// @param[in] embedded_x  each embedded surface's positions at x (Frame::embedded_x's
 ///                        convention), or empty to compute them here
+/// @param[in] territories  model_territories(model), kept by a caller that plans again and
+///                         again (the viewer); null, or made for other tetrahedra: made here
 /// \note Throws lamina::Error (kInvalidInput): a surface that is not a plane ("a model is planned
 ///   along a plane"), a plane that misses the organ, a point to keep on the plane, x of the wrong
 ///   size.
-geometry::ResectionReport plan_on_model(
-    const Model& model, const Eigen::MatrixX3d& x, const geometry::ResectionSurface& plane,
-    const geometry::ResectionOptions& options,
-    const std::vector<const Eigen::MatrixX3d*>& embedded_x = {});
+geometry::ResectionReport plan_on_model(const Model& model, const Eigen::MatrixX3d& x,
+                                        const geometry::ResectionSurface& plane,
+                                        const geometry::ResectionOptions& options,
+                                        const std::vector<const Eigen::MatrixX3d*>& embedded_x = {},
+                                        const ModelTerritories* territories = nullptr);
 
 }  // namespace lamina::model

@@ -40,6 +40,14 @@ struct EmbeddedSummary {
 };
 
 /// The whole model's statistics.
+/// A vessel tree the model carries (Model::trees).
+struct TreeSummary {
+  std::string name;
+  geometry::VesselTreeKind kind = geometry::VesselTreeKind::kPortal;
+  int32_t roots = 0, branches = 0, seeds = 0, bridged_gaps = 0;
+  double unrooted_mm = 0.0;
+};
+
 struct ModelSummary {
   int64_t nodes = 0;
   int64_t springs = 0, intra_layer_springs = 0, inter_layer_springs = 0;
@@ -53,6 +61,7 @@ struct ModelSummary {
   double min_rest_length_mm = 0.0, max_rest_length_mm = 0.0;
   std::vector<LayerSummary> layers;
   std::vector<EmbeddedSummary> embedded;  ///< the display skin and structures, in model order
+  std::vector<TreeSummary> trees;         ///< the vessel trees, in model order
 };
 
 /// One layer as a standalone mesh (vertex indices local to the layer), at rest or at positions x

@@ -645,37 +645,43 @@ void follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade&
       detail::split_embedded(model.X, model.tets, g.star, divided,
                              afresh ? *options.unsplit_blade : rest_blade, rest_index, m.embedded);
   const std::vector<uint8_t>& affected = g.affected;
+  // Each vertex (or a tree's seed) to the copy of its tetrahedron on its side.
+  const auto relocate = [&](EmbeddedSurface& s, Eigen::Index v, const Eigen::Vector3d* hint) {
+    const std::array<int32_t, 4> cs{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2),
+                                    s.corners(v, 3)};
+    if (!(affected[cs[0]] || affected[cs[1]] || affected[cs[2]] || affected[cs[3]])) {
+      for (int k = 0; k < 4; ++k) s.corners(v, k) = g.first_new[cs[k]];
+      return;
+    }
+    // A vertex the split made lies on the cut: its side is its triangles' (a point on them).
+    const Eigen::Vector3d q = hint ? *hint : Eigen::Vector3d(s.V.row(v).transpose());
+    const int32_t t = finder.tet_of(cs, q);
+    if (t < 0)
+      throw Error(ErrorKind::kInternal, "cut: " + s.name + " vertex " + std::to_string(v) +
+                                            " names corners that are no tetrahedron");
+    Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+    // A vertex far outside follows its weights' point by an offset: its side is its own
+    // point's, not that one's (a gallbladder beside a liver cut through went to the other
+    // piece).
+    const bool offset = s.offsets.rows() > 0 && !s.offsets.row(v).isZero();
+    if (hint || offset) {
+      bary = finder.weights_at(t, q);
+    } else {
+      for (int k = 0; k < 4; ++k) bary[corner_of(T, t, cs[k])] = s.weights(v, k);
+    }
+    int32_t c = g.copies.first[t];
+    if (division_of[t] >= 0 && !on_side(T, d.crossings, t, divided[division_of[t]].side, bary)) ++c;
+    for (int k = 0; k < 4; ++k) s.corners(v, k) = g.new_node(T, c, corner_of(T, t, cs[k]));
+  };
   for (size_t e = 0; e < m.embedded.size(); ++e)
     for (Eigen::Index v = 0; v < m.embedded[e].corners.rows(); ++v) {
-      EmbeddedSurface& s = m.embedded[e];
-      const std::array<int32_t, 4> cs{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2),
-                                      s.corners(v, 3)};
-      if (!(affected[cs[0]] || affected[cs[1]] || affected[cs[2]] || affected[cs[3]])) {
-        for (int k = 0; k < 4; ++k) s.corners(v, k) = g.first_new[cs[k]];
-        continue;
-      }
-      // A vertex the split made lies on the cut: its side is its triangles' (a point on them).
       const bool hinted = static_cast<size_t>(v) < hints[e].size() && hints[e][v].allFinite();
-      const Eigen::Vector3d q = hinted ? hints[e][v] : Eigen::Vector3d(s.V.row(v).transpose());
-      const int32_t t = finder.tet_of(cs, q);
-      if (t < 0)
-        throw Error(ErrorKind::kInternal, "cut: " + s.name + " vertex " + std::to_string(v) +
-                                              " names corners that are no tetrahedron");
-      Eigen::Vector4d bary = Eigen::Vector4d::Zero();
-      // A vertex far outside follows its weights' point by an offset: its side is its own
-      // point's, not that one's (a gallbladder beside a liver cut through went to the other
-      // piece).
-      const bool offset = s.offsets.rows() > 0 && !s.offsets.row(v).isZero();
-      if (hinted || offset) {
-        bary = finder.weights_at(t, q);
-      } else {
-        for (int k = 0; k < 4; ++k) bary[corner_of(T, t, cs[k])] = s.weights(v, k);
-      }
-      int32_t c = g.copies.first[t];
-      if (division_of[t] >= 0 && !on_side(T, d.crossings, t, divided[division_of[t]].side, bary))
-        ++c;
-      for (int k = 0; k < 4; ++k) s.corners(v, k) = g.new_node(T, c, corner_of(T, t, cs[k]));
+      relocate(m.embedded[e], v, hinted ? &hints[e][v] : nullptr);
     }
+  // The vessel trees' seeds: points, never split.
+  m.trees = model.trees;
+  for (ModelVesselTree& tree : m.trees)
+    for (Eigen::Index v = 0; v < tree.seeds.corners.rows(); ++v) relocate(tree.seeds, v, nullptr);
   detail::close_sections(m.embedded, had, rest_index);
   // The wound: each side's cut surface, on the copies of that side.
   std::vector<int32_t> first_copy(divided.size());
