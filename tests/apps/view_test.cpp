@@ -314,6 +314,12 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
   EXPECT_GE(plan["updates"].get<int>(), 10);
   EXPECT_TRUE(plan["resected"].get<bool>());
   EXPECT_EQ(plan["error"], "");
+  // The model carries the portal and hepatic trees (issue 63): the plan's functional remnant is
+  // at most its geometric one, and the skin is coloured by the territories (the last plan's).
+  ASSERT_TRUE(plan.contains("functional_flr_percent")) << plan.dump();
+  EXPECT_LE(plan["functional_flr_percent"].get<double>(), plan["flr_percent"].get<double>() + 1e-9);
+  EXPECT_GE(plan["devascularized_ml"].get<double>(), 0.0);
+  EXPECT_GT(plan["territory_triangles"].get<int>(), 1000) << plan.dump();
   // The cut divided the organ in two; its larger piece is the plan's remnant (the display skin's
   // volume against the tetrahedra's, which lie 1-2% inside it).
   const size_t at = r.err.find("lamina view: cut ");

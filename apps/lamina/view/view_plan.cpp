@@ -80,6 +80,7 @@ void ViewSession::State::toggle_plan() {
   } else {
     for (const char* name : kPlanModels)
       if (render::has_model(name)) render::remove_model(name);
+    hide_function();
     style.embedded = plan.looks;
   }
 }
@@ -107,11 +108,18 @@ void ViewSession::State::update_plan() {
   if (plan.keep == 2) o.keep_point = plan.point - plan.normal;
   try {
     const geometry::ResectionSurface s = geometry::plane_surface(plan.point, plan.normal);
-    plan.report = model::plan_on_model(vm->model, x, s, o, embedded_x);
+    // The trees' territories once per topology (a cut or a rebuild changes the tetrahedra).
+    if (plan.made.tets != vm->model.tets.size() || plan.made.flows.size() != vm->model.trees.size())
+      plan.made = model::model_territories(vm->model);
+    plan.report = model::plan_on_model(vm->model, x, s, o, embedded_x, &plan.made);
     plan.error.clear();
   } catch (const Error& e) {
     plan.error = e.what();
   }
+  if (plan.error.empty())
+    show_function(x, embedded_x);
+  else
+    hide_function();
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   plan.update_ms.push_back(ms);
   ++plan.updates;
@@ -311,6 +319,7 @@ void ViewSession::State::plan_panel() {
       ImGui::Text("crosses %s, %.1f mm", c.name.c_str(), c.diameter_mm);
     if (r.remnant_pieces.size() > 1)
       ImGui::TextColored(bad, "remnant in %zu pieces", r.remnant_pieces.size());
+    function_panel();
   }
   if (!plan.update_ms.empty())
     ImGui::Text("plan: %.1f ms (%lld updates)", plan.update_ms.back(),
@@ -342,6 +351,16 @@ nlohmann::json ViewSession::State::plan_json() const {
     tumours.push_back({{"name", t.name}, {"side", t.side}, {"margin_mm", t.margin_mm}});
   j["tumours"] = tumours;
   j["crossings"] = plan.report.crossings.size();
+  if (plan.report.functional) {
+    const geometry::FunctionalRemnant& f = *plan.report.functional;
+    j["functional_flr_percent"] = plan.report.functional_flr_percent;
+    j["devascularized_ml"] = f.devascularized_ml;
+    j["congested_ml"] = f.congested_ml;
+    j["shaded_triangles"] = plan.shaded_triangles;
+    j["territory_triangles"] = plan.territory_triangles;
+  } else {
+    j["functional_missing"] = plan.report.functional_missing;
+  }
   return j;
 }
 

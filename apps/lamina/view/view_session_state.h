@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "lamina/geometry/plan_resection.h"
+#include "lamina/model/model_territories.h"
 #include "lamina/render/input.h"
 #include "lamina/render/viewer.h"
 #include "lamina/world/organ_loop.h"
@@ -116,6 +117,13 @@ struct ViewSession::State {
     std::vector<render::EmbeddedLook> looks;  // the structures' colours before the margins'
     bool awaiting_cut = false;  // X was pressed: the resected pieces go once the cut is in
     bool remnant_in_front = true;
+    // The functional remnant's picture (view_plan_function.cpp): the model's territories, made
+    // once per topology; per tree, the seed nearest each display-skin vertex at rest.
+    bool territories = true;  // colour the skin by the portal territories
+    model::ModelTerritories made;
+    std::vector<std::vector<int32_t>> skin_seed;
+    Eigen::Index skin_rows = -1;
+    int64_t shaded_triangles = 0, territory_triangles = 0;  // drawn by the last plan
   } plan;
   // The boundary by rest position (a cut's copies keep their node's): the fixed nodes and the
   // supported ones with their stiffness, as the loop started; the remnant after X takes them.
@@ -186,6 +194,10 @@ struct ViewSession::State {
   // view_plan.cpp
   void toggle_plan();
   void update_plan();  // each frame: the plan again when the plane or the organ moved
+  // The functional remnant on the skin at x: lost tissue shaded, territories coloured.
+  void show_function(const Eigen::MatrixX3d& x, const std::vector<const Eigen::MatrixX3d*>& ex);
+  void hide_function();
+  void function_panel();
   bool press_on_plane(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction);
   void move_plane(const Eigen::Vector2d& drag_px, bool turn);
   void resect_plan();
