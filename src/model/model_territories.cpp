@@ -50,7 +50,7 @@ void split(const Corners& c, int level, std::vector<Eigen::Vector4d>& out) {
     split(part, level - 1, out);
 }
 
-constexpr int kMaxLevel = 2;
+constexpr int kMaxLevel = 1;
 
 }  // namespace
 

@@ -83,12 +83,18 @@ def test_resect_plans_a_model_from_its_own_surfaces():
     mask = lamina.phantom(carved_out=True)
     model = lamina.build_model(mask, label=1, embed=[(2, "portal_vein"), (3, "tumour")],
                                display_triangles=20000, structure_triangles=4000)
-    a = lamina.resect(model, plane=((30, 0, 0), (1, 0, 0)))
-    b = lamina.resect(mask, plane=((30, 0, 0), (1, 0, 0)), labels=[1],
+    a = lamina.resect(model, plane=((30.7, 0, 0), (1, 0, 0)))
+    b = lamina.resect(mask, plane=((30.7, 0, 0), (1, 0, 0)), labels=[1],
                       embed=[(2, "portal_vein"), (3, "tumour")])
     assert "parts" not in a and "parts" in b
     for part in ("remnant", "resected"):
         assert abs(a["volumes_ml"][part] / b["volumes_ml"][part] - 1) < 0.01, part
     assert [t["side"] for t in a["tumours"]] == [t["side"] for t in b["tumours"]]
+    # The model carries the portal tree: its functional remnant is the segmentation's.
+    fa, fb = a["functional_remnant"], b["functional_remnant"]
+    assert fa is not None and fb is not None
+    assert fb["devascularized_ml"] > 10
+    assert abs(fa["devascularized_ml"] - fb["devascularized_ml"]) < (
+        0.05 * fb["devascularized_ml"] + 0.005 * b["volumes_ml"]["remnant"])
     with pytest.raises(lamina.Error, match="its own"):
         lamina.resect(model, plane=((30, 0, 0), (1, 0, 0)), labels=[1])
