@@ -5,6 +5,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { MeshoptDecoder } from './vendor/meshopt_decoder.mjs';
+import { setupPlan } from './plan.js';
 
 const KIND_SURFACE = 1, KIND_REST = 2, KIND_FRAME = 3;
 const token = new URLSearchParams(location.search).get('token') || '';
@@ -42,6 +43,8 @@ window.lamina.organOnScreen = () => {
   return { lo, hi };
 };
 window.lamina.session = () => renderer.xr.getSession();
+// Whether the organ's skin is drawn in the plan's vertex colours.
+window.lamina.skinHasColours = () => surfaces.some((s) => s.desc.organ && s.mesh.material.vertexColors);
 window.lamina.closeSocket = () => ws && ws.close();
 
 // --- Scene ---
@@ -245,7 +248,8 @@ function connect() {
     try {
       if (typeof event.data === 'string') {
         const m = JSON.parse(event.data);
-        if (m.type === 'hello') makeSurfaces(m);
+        if (m.type === 'hello') { makeSurfaces(m); plan.onModel(); }
+        else if (m.type === 'plan') plan.onReply(m);
         else if (m.type === 'event') status(m.text, m.bad);
         else if (m.type === 'cut') onCut(m);
         return;
@@ -486,5 +490,8 @@ window.addEventListener('resize', () => {
   camera.updateProjectionMatrix();
   renderer.setSize(view.clientWidth, view.clientHeight);
 });
+
+// The resection plan (plan.js): a plane the server plans along, the skin coloured by its answer.
+const plan = setupPlan({ organ, surfaces: () => surfaces, send, organBox, stats });
 
 MeshoptDecoder.ready.then(connect);

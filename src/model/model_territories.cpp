@@ -160,4 +160,50 @@ geometry::FunctionalRemnant functional_on_model(const Model& m, const ModelTerri
   return geometry::functional_remnant(terr.flows, blocked, cells, kept, remnant_ml, function);
 }
 
+std::vector<int32_t> portal_sectors(const geometry::TreeFlow& flow) {
+  std::vector<int32_t> out(flow.branches(), -1);
+  std::vector<int32_t> path;  // b up to its root's branch
+  for (size_t b = 0; b < out.size(); ++b) {
+    path.clear();
+    for (auto x = static_cast<int32_t>(b); x >= 0; x = flow.branch_parent[static_cast<size_t>(x)])
+      path.push_back(x);
+    out[b] = path[path.size() > 2 ? path.size() - 3 : 0];
+  }
+  return out;
+}
+
+std::vector<uint8_t> surface_function(const Model& m,
+                                      const std::vector<std::vector<int32_t>>& seed_of,
+                                      const geometry::FunctionalRemnant& fr,
+                                      const Eigen::MatrixX3d& P, const Eigen::Vector3d& p0,
+                                      const Eigen::Vector3d& normal, bool remnant_in_front) {
+  const auto n = static_cast<size_t>(P.rows());
+  std::vector<uint8_t> lost(n, 0), out(n, kOnResectedSide);
+  std::vector<int32_t> sector(n, -1);
+  for (size_t t = 0; t < m.trees.size() && t < fr.trees.size() && t < seed_of.size(); ++t) {
+    const std::vector<uint8_t>& on = fr.trees[t].connected;
+    const geometry::TreeFlow& flow = m.trees[t].flow;
+    const bool portal = flow.kind == geometry::VesselTreeKind::kPortal;
+    const std::vector<int32_t> sectors = portal ? portal_sectors(flow) : std::vector<int32_t>{};
+    for (size_t v = 0; v < n && v < seed_of[t].size(); ++v) {
+      const int32_t s = seed_of[t][v];
+      if (s < 0 || static_cast<size_t>(s) >= on.size()) continue;
+      if (on[static_cast<size_t>(s)] == 0) lost[v] |= portal ? 1 : 2;
+      if (portal && sector[v] < 0)
+        sector[v] = sectors[static_cast<size_t>(flow.seed_branch[static_cast<size_t>(s)])];
+    }
+  }
+  for (size_t v = 0; v < n; ++v) {
+    const double d = (P.row(static_cast<Eigen::Index>(v)).transpose() - p0).dot(normal);
+    if ((d > 0.0) != remnant_in_front) continue;
+    const int code = lost[v] == 1     ? kShownDevascularized
+                     : lost[v] == 2   ? kShownCongested
+                     : lost[v] == 3   ? kShownBoth
+                     : sector[v] >= 0 ? 1 + sector[v] % 8
+                                      : static_cast<int>(kFunctionalPlain);
+    out[v] = static_cast<uint8_t>(code);
+  }
+  return out;
+}
+
 }  // namespace lamina::model

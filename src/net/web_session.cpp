@@ -13,6 +13,7 @@
 #include "scalpel_stroke.h"
 #include "serve_clock.h"
 #include "web_message.h"
+#include "web_plan.h"
 
 namespace lamina::net::web {
 namespace {
@@ -142,6 +143,17 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
       drag_client_ = -1;
       drag_node_ = -1;
     }
+  } else if (type == "plan") {
+    // The resection plane (model frame): the plan on the organ's current shape, to this page.
+    const Eigen::Vector3d point = vector3(m, "point", 1e6), normal = vector3(m, "normal", 1e6);
+    if (!(normal.norm() > 0.0)) throw invalid_input("message", "'normal' has zero length");
+    loop_.latest(snap_);
+    const Model& model = snap_.model ? *snap_.model : stream_->model();
+    const Eigen::MatrixX3d& x = snap_.x.rows() == model.node_count() ? snap_.x : model.X;
+    server_->send(client,
+                  std::make_shared<const std::string>(
+                      plan_reply(model, snap_.model_version, x, point, normal.normalized(), plan_)),
+                  false);
   } else {
     throw invalid_input("message", "unknown type '" + type + "'");
   }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "lamina/world/organ_loop.h"
+#include "web_plan.h"
 #include "web_server.h"
 #include "web_stream.h"
 
@@ -91,6 +92,7 @@ class Session {
   int32_t drag_node_ = -1;
   uint64_t drag_version_ = 0;  // the model version drag_node_ is a node of
   void follow_drag();          // drag_node_ carried through a change of model, or the drag ended
+  PlanCache plan_;             // the pages' resection plans: the territories, kept per model
   uint32_t frames_ = 0;
   std::chrono::steady_clock::time_point next_frame_;
   std::vector<double> encode_ms_, frame_kb_;

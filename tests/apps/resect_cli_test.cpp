@@ -135,8 +135,8 @@ TEST(ResectCli, AModelIsPlannedFromItsOwnSurfaces) {
   const auto seg =
       lamina(d,
              "resect p.nii.gz --label 1 --embed 2=portal_vein,3=tumour,4=hepatic_veins "
-             "--plane 30,0,0:1,0,0 --json");
-  const auto mod = lamina(d, "resect m.vtu --plane 30,0,0:1,0,0 --json -o plan");
+             "--plane 30.7,0,0:1,0,0 --json");
+  const auto mod = lamina(d, "resect m.vtu --plane 30.7,0,0:1,0,0 --json -o plan");
   ASSERT_EQ(seg.exit_code, 0) << seg.err;
   ASSERT_EQ(mod.exit_code, 0) << mod.err;
   const json a = json::parse(seg.out), m = json::parse(mod.out);
@@ -148,6 +148,13 @@ TEST(ResectCli, AModelIsPlannedFromItsOwnSurfaces) {
   EXPECT_EQ(m["structures_crossed"].size(), a["structures_crossed"].size());
   EXPECT_FALSE(m["structures_crossed"].empty());
   EXPECT_FALSE(m.contains("voxels_by_centre"));
+  // The model carries the portal and hepatic trees (issue 63): its functional remnant is the
+  // segmentation's (docs/resection.md), given as numbers; no volume is written for a model.
+  ASSERT_FALSE(m["functional_remnant"].is_null()) << mod.out;
+  EXPECT_NEAR(m["functional_remnant"]["percent"].get<double>(),
+              a["functional_remnant"]["percent"].get<double>(), 0.5);
+  EXPECT_FALSE(fs::exists(d.work / "plan" / "function.nii.gz"));
+  EXPECT_TRUE(fs::exists(d.work / "plan" / "report.json"));
 
   // The same anatomy as separate masks beside the organ's own label (issue 61: masks were
   // embedded as label 0, read as the display skin, and the plan reported none of them): the
@@ -170,7 +177,7 @@ TEST(ResectCli, AModelIsPlannedFromItsOwnSurfaces) {
              "--embed-mask tumour.nii.gz=tumour --embed-mask hepatic.nii.gz=hepatic_veins "
              "--display-triangles 30000 --structure-triangles 6000 -o masks.vtu");
   ASSERT_EQ(bm.exit_code, 0) << bm.err;
-  const auto masks = lamina(d, "resect masks.vtu --plane 30,0,0:1,0,0 --json");
+  const auto masks = lamina(d, "resect masks.vtu --plane 30.7,0,0:1,0,0 --json");
   ASSERT_EQ(masks.exit_code, 0) << masks.err;
   const json k = json::parse(masks.out);
   for (const char* part : {"remnant", "resected"})

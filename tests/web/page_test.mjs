@@ -154,6 +154,34 @@ try {
   assert.ok(dragged > 3, `a drag moved the skin ${dragged} mm`);
   assert.ok(after < 0.5 * dragged, `released, the skin stays ${after} mm from rest`);
 
+  // --- The resection plan (issue 63): the plane moved by its slider, the server's plan on the
+  // organ's shape, the skin coloured by what it says (the model carries the portal and hepatic
+  // trees: the functional remnant, territories, tissue cut off) ---
+  await page.check('#plan');
+  await page.waitForFunction(() => window.lamina.stats.plan, null, { timeout: 20000 });
+  const planAt = async (value) => {
+    const n = await page.evaluate(() => window.lamina.stats.planRequests);
+    await page.locator('#plan-at').fill(String(value));
+    await page.waitForFunction((k) => window.lamina.stats.planRequests > k &&
+      window.lamina.stats.plan && !window.lamina.stats.planPending, n, { timeout: 20000 });
+    await sleep(300);
+    return page.evaluate(() => window.lamina.stats.plan);
+  };
+  const across = await planAt(-0.5);  // across the left portal branch: tissue cut off
+  assert.ok(!across.error, across.error);
+  assert.ok(across.functional, `no functional remnant: ${across.functional_missing}`);
+  assert.ok(across.functional.percent <= across.flr_percent + 1e-9);
+  const shown = (state, lo, hi) => state.filter((v) => v >= lo && v <= hi).length;
+  assert.equal(across.skin_surface, 0, 'the display skin is the first surface drawn');
+  assert.ok(shown(across.skin_state, 1, 8) > 100, 'the remnant is coloured by its territories');
+  assert.ok(shown(across.skin_state, 0, 0) > 100, 'the resected side is left as it was');
+  measured.plan_devascularized_ml = +across.functional.devascularized_ml.toFixed(1);
+  measured.plan_shaded_vertices = shown(across.skin_state, 9, 11);
+  assert.ok(await page.evaluate(() => window.lamina.skinHasColours()), 'the skin took the plan\'s colours');
+  await page.screenshot({ path: join(out, 'plan.png') });
+  await page.uncheck('#plan');
+  assert.equal(await page.evaluate(() => window.lamina.skinHasColours()), false);
+
   // --- Bad clients beside it: a wrong token, garbage: each dropped, the page streams on ---
   const before = (await stats()).frames;
   await page.evaluate((u) => {

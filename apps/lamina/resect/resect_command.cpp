@@ -286,8 +286,9 @@ int run_resect(const ResectArgs& a) {
       io::write_label_volume(plan.segments, segments);
       j["outputs"]["segments"] = segments;
     }
-    // The functional remnant's volumes: each remnant voxel's function, each tree's territories.
-    if (r.functional) {
+    // The functional remnant's volumes: each remnant voxel's function, each tree's territories
+    // (a segmentation's; a model's plan has its numbers only).
+    if (r.functional && !model_input) {
       const std::string function = (out / ("function." + a.format)).string();
       io::write_label_volume(plan.function, function);
       j["outputs"]["function"] = function;

@@ -2,8 +2,8 @@
 // plane is shown, the display skin's triangles on the remnant's side whose tissue the plane cuts
 // off its portal inflow are shaded dark violet-grey, off its hepatic outflow dark blue-grey
 // (both: near black),
-// and the others, when asked, take the colour of the portal territory feeding them (the
-// branches two generations below the trunk, the level of Couinaud's sectors). Drawn as meshes
+// and the others, when asked, take the colour of the portal territory feeding them
+// (model::surface_function: the sectors two generations below the trunk). Drawn as meshes
 // 0.4 mm outside the skin, so that they never fight it for depth.
 #include <imgui.h>
 
@@ -45,18 +45,6 @@ void show(const char* name, const SurfaceMesh& mesh, const Eigen::Vector3f& colo
   render::set_style(name, st);
 }
 
-// Per branch of `flow`: its ancestor two generations below its root's branch (or itself).
-std::vector<int32_t> sector_of(const geometry::TreeFlow& flow) {
-  std::vector<int32_t> out(flow.branches(), -1);
-  for (size_t b = 0; b < out.size(); ++b) {
-    std::vector<int32_t> path;  // b up to its root's branch
-    for (auto x = static_cast<int32_t>(b); x >= 0; x = flow.branch_parent[static_cast<size_t>(x)])
-      path.push_back(x);
-    out[b] = path[path.size() > 2 ? path.size() - 3 : 0];
-  }
-  return out;
-}
-
 }  // namespace
 
 void ViewSession::State::hide_function() {
@@ -87,24 +75,10 @@ void ViewSession::State::show_function(const Eigen::MatrixX3d& x,
     model::embedded_positions(e, x, own);
     P = &own;
   }
-  // Each vertex's state (bit 0 devascularized, bit 1 congested) and portal sector.
-  const geometry::FunctionalRemnant& fr = *plan.report.functional;
-  std::vector<uint8_t> lost(static_cast<size_t>(P->rows()), 0);
-  std::vector<int32_t> sector(lost.size(), -1);
-  for (size_t t = 0; t < m.trees.size() && t < fr.trees.size(); ++t) {
-    const std::vector<uint8_t>& on = fr.trees[t].connected;
-    const bool portal = m.trees[t].flow.kind == geometry::VesselTreeKind::kPortal;
-    const std::vector<int32_t> sectors =
-        portal ? sector_of(m.trees[t].flow) : std::vector<int32_t>{};
-    for (size_t v = 0; v < lost.size(); ++v) {
-      const int32_t s = plan.skin_seed[t][v];
-      if (s < 0 || static_cast<size_t>(s) >= on.size()) continue;
-      if (on[static_cast<size_t>(s)] == 0) lost[v] |= portal ? 1 : 2;
-      if (portal && sector[v] < 0)
-        sector[v] =
-            sectors[static_cast<size_t>(m.trees[t].flow.seed_branch[static_cast<size_t>(s)])];
-    }
-  }
+  // Each vertex's function under the plan (model::surface_function).
+  const std::vector<uint8_t> state =
+      model::surface_function(m, plan.skin_seed, *plan.report.functional, *P, plan.point,
+                              plan.normal, plan.report.remnant_in_front);
   // Lifted along the vertex normals.
   Eigen::MatrixX3d normal = Eigen::MatrixX3d::Zero(P->rows(), 3);
   for (Eigen::Index f = 0; f < e.F.rows(); ++f) {
@@ -117,22 +91,19 @@ void ViewSession::State::show_function(const Eigen::MatrixX3d& x,
     const double len = normal.row(v).norm();
     if (len > 0.0) lifted.row(v) += kLiftMm / len * normal.row(v);
   }
-  // Each triangle on the remnant's side (by its centre) by its first vertex.
+  // Each triangle by its first vertex.
   std::array<std::vector<bool>, 3> shade;
   std::array<std::vector<bool>, 8> territory;
   for (auto& s : shade) s.assign(static_cast<size_t>(e.F.rows()), false);
   for (auto& s : territory) s.assign(static_cast<size_t>(e.F.rows()), false);
   plan.shaded_triangles = plan.territory_triangles = 0;
   for (Eigen::Index f = 0; f < e.F.rows(); ++f) {
-    const Eigen::Vector3d c =
-        (P->row(e.F(f, 0)) + P->row(e.F(f, 1)) + P->row(e.F(f, 2))).transpose() / 3.0;
-    if (((c - plan.point).dot(plan.normal) > 0.0) != plan.report.remnant_in_front) continue;
-    const auto v = static_cast<size_t>(e.F(f, 0));
-    if (lost[v] != 0) {
-      shade[lost[v] - 1][static_cast<size_t>(f)] = true;
+    const uint8_t v = state[static_cast<size_t>(e.F(f, 0))];
+    if (v >= model::kShownDevascularized && v <= model::kShownBoth) {
+      shade[v - model::kShownDevascularized][static_cast<size_t>(f)] = true;
       ++plan.shaded_triangles;
-    } else if (plan.territories && sector[v] >= 0) {
-      territory[static_cast<size_t>(sector[v]) % 8][static_cast<size_t>(f)] = true;
+    } else if (plan.territories && v > model::kOnResectedSide && v < model::kShownDevascularized) {
+      territory[v - 1][static_cast<size_t>(f)] = true;
       ++plan.territory_triangles;
     }
   }

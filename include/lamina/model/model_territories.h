@@ -60,4 +60,28 @@ geometry::FunctionalRemnant functional_on_model(const Model& model,
                                                 const Eigen::Vector3d& normal,
                                                 bool remnant_in_front, double remnant_ml);
 
+/// Per branch of `flow`: its sector, the ancestor two generations below its root's branch (or
+/// itself when shallower): the level of Couinaud's sectors, what a picture colours by.
+std::vector<int32_t> portal_sectors(const geometry::TreeFlow& flow);
+
+/// What a surface's vertex shows of a plan (the viewer's and the web page's colours).
+enum SurfaceFunction : uint8_t {
+  kOnResectedSide = 0,  ///< beyond the plane: not the remnant's
+  // 1..8: functional, in its portal sector's colour (sector id mod 8, + 1)
+  kShownDevascularized = 9,
+  kShownCongested = 10,
+  kShownBoth = 11,
+  kFunctionalPlain = 12,  ///< functional, no portal tree to colour it by
+};
+
+/// Per vertex of a surface the model carries, at positions P: its SurfaceFunction under the plan
+/// whose functional remnant is `fr` (the plane p0, normal, the remnant's side).
+/// @param[in] seed_of  per tree (Model::trees order), per vertex: the seed nearest its rest
+///                     position (nearest_seeds())
+std::vector<uint8_t> surface_function(const Model& model,
+                                      const std::vector<std::vector<int32_t>>& seed_of,
+                                      const geometry::FunctionalRemnant& fr,
+                                      const Eigen::MatrixX3d& P, const Eigen::Vector3d& p0,
+                                      const Eigen::Vector3d& normal, bool remnant_in_front);
+
 }  // namespace lamina::model
