@@ -11,7 +11,7 @@
 namespace lamina::geometry {
 
 VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::string& name,
-                           VesselTreeKind kind, int32_t label) {
+                           VesselTreeKind kind, int32_t label, const Mask* outlet) {
   bool inside = false;
   for (size_t v = 0; v < vessel.inside.size() && !inside; ++v)
     inside = vessel.inside[v] != 0 && organ.inside[v] != 0;
@@ -21,8 +21,10 @@ VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::str
   VascularTree t;
   t.kind = kind;
   t.label = label;
-  t.territories =
-      tree_territories(organ, vessel_tree(vessel_graph(skeletonize(vessel)), organ, name), name);
+  VesselTreeOptions options;
+  options.outlet = outlet;
+  t.territories = tree_territories(
+      organ, vessel_tree(vessel_graph(skeletonize(vessel)), organ, name, options), name);
   return t;
 }
 

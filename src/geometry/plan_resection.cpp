@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
@@ -357,23 +358,34 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
   // territories, what the resection cuts off.
   std::vector<VesselGraph> merged;  // labels holding both trees: for the segments only
   std::string merged_names;
+  // Structure s's voxels on the organ's grid.
+  const auto structure_mask = [&](int32_t s) {
+    Mask m;
+    m.frame = g;
+    m.inside.assign(organ.inside.size(), 0);
+    each_mask_voxel([&](int64_t v, int64_t i, int64_t j, int64_t k) {
+      const int64_t w = input_index(i, j, k);
+      m.inside[v] = w >= 0 && structures[static_cast<size_t>(w)] == s + 1;
+    });
+    return m;
+  };
+  // The vena cava, when given: where the hepatic veins' trees are rooted.
+  std::optional<Mask> cava;
+  for (int32_t s = 0; s < n_structures && !cava; ++s)
+    if (is_vena_cava_name(opt.structures[s].name)) cava = structure_mask(s);
   for (int32_t s = 0; s < n_structures; ++s) {
     const ResectionStructure& st = opt.structures[s];
     const VesselTreeKind kind = vessel_tree_kind(st.name);
     if (kind == VesselTreeKind::kNone || st.role == SurfaceRole::kTumour) continue;
-    Mask vessel;
-    vessel.frame = g;
-    vessel.inside.assign(organ.inside.size(), 0);
-    each_mask_voxel([&](int64_t v, int64_t i, int64_t j, int64_t k) {
-      const int64_t w = input_index(i, j, k);
-      vessel.inside[v] = w >= 0 && structures[static_cast<size_t>(w)] == s + 1;
-    });
+    const Mask vessel = structure_mask(s);
     if (kind == VesselTreeKind::kMerged) {
       if (opt.segments) merged.push_back(vessel_graph(skeletonize(vessel)));
       merged_names += (merged_names.empty() ? "" : ", ") + st.name;
       continue;
     }
-    plan.trees.push_back(vascular_tree(organ, vessel, source + ": " + st.name, kind, st.label));
+    plan.trees.push_back(
+        vascular_tree(organ, vessel, source + ": " + st.name, kind, st.label,
+                      kind == VesselTreeKind::kHepatic && cava ? &*cava : nullptr));
     plan.trees.back().territories.name = st.name;
   }
   if (plan.trees.empty()) {

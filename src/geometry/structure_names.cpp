@@ -46,6 +46,12 @@ VesselTreeKind vessel_tree_kind(const std::string& name) {
   return VesselTreeKind::kNone;
 }
 
+bool is_vena_cava_name(const std::string& name) {
+  if (is_tumour_name(name)) return false;
+  const std::string n = name_key(name);
+  return n == "ivc" || has_any(n, {"venacava", "cava"});
+}
+
 SurfaceRole guess_role(const std::string& name) {
   // A tumour's name first: "tumour thrombus in the portal vein" is a lesion.
   if (is_tumour_name(name)) return SurfaceRole::kTumour;

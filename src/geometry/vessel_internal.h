@@ -26,6 +26,8 @@ inline Eigen::Vector3d voxel_centre_mm(const GridFrame& f, int64_t v) {
 
 /// Whether a voxel outside `organ` (or beyond its grid) lies within `reach_mm` of `p`.
 bool near_outside(const Mask& organ, const Eigen::Vector3d& p, double reach_mm);
+/// Whether a voxel inside `mask` (on its grid) lies within `reach_mm` of `p`.
+bool near_inside(const Mask& mask, const Eigen::Vector3d& p, double reach_mm);
 
 /// The connected pieces of a graph's nodes (union-find with path halving).
 struct Pieces {

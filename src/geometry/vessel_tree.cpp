@@ -14,6 +14,7 @@
 namespace lamina::geometry {
 namespace {
 
+using detail::near_inside;
 using detail::near_outside;
 using detail::Pieces;
 using detail::voxel_centre_mm;
@@ -126,17 +127,34 @@ VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& 
   std::vector<double> piece_mm(n_nodes, 0.0);
   for (const auto& b : g.branches) piece_mm[static_cast<size_t>(pieces.find(b.a))] += b.length_mm;
 
-  // A root per piece: the widest node that reaches the organ's outside.
+  // A root per piece: the widest node next to the outlet when one is given (the vena cava for
+  // the hepatic veins), else (or for a piece that does not reach it) the widest node that
+  // reaches the organ's outside.
   const double voxel_mm =
       std::max({organ.frame.spacing_mm[0], organ.frame.spacing_mm[1], organ.frame.spacing_mm[2]});
-  std::vector<int32_t> root_of(n_nodes, -1);
-  for (size_t n = 0; n < n_nodes; ++n) {
-    if (widest[n] <= 0.0) continue;  // a lone voxel: no branch to feed
-    const auto p = static_cast<size_t>(pieces.find(static_cast<int32_t>(n)));
-    const int32_t best = root_of[p];
-    if (best >= 0 && widest[static_cast<size_t>(best)] >= widest[n]) continue;
-    if (near_outside(organ, g.nodes[n].position_mm, widest[n] + 2.0 * voxel_mm))
-      root_of[p] = static_cast<int32_t>(n);
+  const auto widest_root = [&](const auto& qualifies) {
+    std::vector<int32_t> root_of(n_nodes, -1);
+    for (size_t n = 0; n < n_nodes; ++n) {
+      if (widest[n] <= 0.0) continue;  // a lone voxel: no branch to feed
+      const auto p = static_cast<size_t>(pieces.find(static_cast<int32_t>(n)));
+      const int32_t best = root_of[p];
+      if (best >= 0 && widest[static_cast<size_t>(best)] >= widest[n]) continue;
+      if (qualifies(g.nodes[n].position_mm, widest[n] + 2.0 * voxel_mm))
+        root_of[p] = static_cast<int32_t>(n);
+    }
+    return root_of;
+  };
+  std::vector<int32_t> root_of = widest_root(
+      [&](const Eigen::Vector3d& q, double reach) { return near_outside(organ, q, reach); });
+  if (options.outlet != nullptr) {
+    const std::vector<int32_t> at_outlet = widest_root([&](const Eigen::Vector3d& q, double reach) {
+      return near_inside(*options.outlet, q, reach);
+    });
+    for (size_t p = 0; p < n_nodes; ++p)
+      if (at_outlet[p] >= 0) {
+        root_of[p] = at_outlet[p];
+        ++t.outlet_roots;
+      }
   }
   for (size_t p = 0; p < n_nodes; ++p)
     if (root_of[p] >= 0 && (piece_mm[p] >= options.least_tree_mm || t.roots.empty()))
@@ -212,9 +230,12 @@ VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& 
 
 namespace detail {
 
-// Whether a voxel outside `organ` (or beyond its grid) lies within `reach_mm` of `p`.
-bool near_outside(const Mask& organ, const Eigen::Vector3d& p, double reach_mm) {
-  const GridFrame& f = organ.frame;
+namespace {
+
+// Whether a voxel of `mask` that is `inside` (or, for !inside, beyond its grid) lies within
+// `reach_mm` of `p`.
+bool near_voxel(const Mask& mask, const Eigen::Vector3d& p, double reach_mm, bool inside) {
+  const GridFrame& f = mask.frame;
   const Eigen::Vector3d o(f.origin_mm[0], f.origin_mm[1], f.origin_mm[2]);
   std::array<int64_t, 3> c{}, r{};
   for (int a = 0; a < 3; ++a) {
@@ -230,11 +251,23 @@ bool near_outside(const Mask& organ, const Eigen::Vector3d& p, double reach_mm) 
                           std::pow(dk * f.spacing_mm[2], 2);
         if (d2 > reach2) continue;
         const int64_t i = c[0] + di, j = c[1] + dj, k = c[2] + dk;
-        if (i < 0 || j < 0 || k < 0 || i >= f.size[0] || j >= f.size[1] || k >= f.size[2])
-          return true;
-        if (organ.inside[static_cast<size_t>(f.index(i, j, k))] == 0) return true;
+        if (i < 0 || j < 0 || k < 0 || i >= f.size[0] || j >= f.size[1] || k >= f.size[2]) {
+          if (!inside) return true;
+          continue;
+        }
+        if ((mask.inside[static_cast<size_t>(f.index(i, j, k))] != 0) == inside) return true;
       }
   return false;
+}
+
+}  // namespace
+
+bool near_outside(const Mask& organ, const Eigen::Vector3d& p, double reach_mm) {
+  return near_voxel(organ, p, reach_mm, false);
+}
+
+bool near_inside(const Mask& mask, const Eigen::Vector3d& p, double reach_mm) {
+  return near_voxel(mask, p, reach_mm, true);
 }
 
 }  // namespace detail

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <set>
 
 #include "lamina/core/error.h"
@@ -51,7 +52,7 @@ Mask structure_on_organ_grid(const EmbedStructure& s, const LabelVolume& volume,
 // The tree of a structure named a portal vein or hepatic veins (geometry::vessel_tree_kind), its
 // seeds embedded in the rest tetrahedra; none (and a warning) when no tree is found.
 void add_tree(Model& m, const EmbedStructure& s, const LabelVolume& volume, const Mask& organ,
-              BuildReport& report) {
+              const Mask* cava, BuildReport& report) {
   const std::string name = structure_name(s);
   const geometry::VesselTreeKind kind = geometry::vessel_tree_kind(name);
   if (kind != geometry::VesselTreeKind::kPortal && kind != geometry::VesselTreeKind::kHepatic)
@@ -60,7 +61,8 @@ void add_tree(Model& m, const EmbedStructure& s, const LabelVolume& volume, cons
   geometry::VascularTree tree;
   try {
     tree = geometry::vascular_tree(organ, structure_on_organ_grid(s, volume, organ), name, kind,
-                                   s.label);
+                                   s.label,
+                                   kind == geometry::VesselTreeKind::kHepatic ? cava : nullptr);
   } catch (const Error& e) {
     report.warnings.push_back(
         fmt::format("no vessel tree for {}: {}; a plan on this model gives no functional remnant",
@@ -250,13 +252,18 @@ void add_embedded(Model& m, const LabelVolume& volume, const Mask& organ, const 
   if (o.display_triangles > 0)
     add(geometry::display_skin(organ, o.display_triangles), kDisplaySkinName,
         SurfaceRole::kDisplaySkin, 0);
+  // The vena cava, when embedded: where the hepatic veins' trees are rooted.
+  std::optional<Mask> cava;
+  for (const EmbedStructure& s : o.embed)
+    if (!cava && geometry::is_vena_cava_name(structure_name(s)))
+      cava = structure_on_organ_grid(s, volume, organ);
   for (const EmbedStructure& s : o.embed) {
     const LabelVolume& v = source_of(s, volume);
     geometry::MaskOptions select{.label = s.label, .clean = false, .min_voxels = 1};
     const Mask mask = geometry::prepare_mask(v, select).mask;
     add(geometry::structure_surface(mask, o.structure_triangles, structure_name(s)),
         structure_name(s), structure_role(s), s.label);
-    add_tree(m, s, volume, organ, report);
+    add_tree(m, s, volume, organ, cava ? &*cava : nullptr, report);
   }
 }
 

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "lamina/core/error.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/geometry/skeletonize.h"
@@ -99,6 +101,83 @@ TEST(VesselTree, AVesselThatNeverReachesTheOrgansSurfaceHasNoRoot) {
     EXPECT_NE(std::string(e.what()).find("hepatic veins"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("no root"), std::string::npos) << e.what();
   }
+}
+
+}  // namespace
+}  // namespace lamina::geometry
+
+namespace lamina::geometry {
+namespace {
+
+// The least distance from p to a voxel centre of `mask`, mm.
+double distance_to(const Mask& mask, const Eigen::Vector3d& p) {
+  double best = INFINITY;
+  const GridFrame& f = mask.frame;
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i) {
+        if (mask.inside[static_cast<size_t>(f.index(i, j, k))] == 0) continue;
+        const auto q =
+            f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+        best = std::min(best, (p - Eigen::Vector3d(q[0], q[1], q[2])).norm());
+      }
+  return best;
+}
+
+TEST(VesselTree, GivenTheVenaCavaTheHepaticVeinsAreRootedWhereTheyDrainIntoIt) {
+  // The wrapped phantom: the liver closes behind the vena cava, and the right hepatic vein
+  // reaches the organ's lateral surface, here widened there (as a real segmentation's blobs can).
+  // Rooted at the organ's outside, the tree starts at its widest end there; given the vena cava
+  // (issue 63), at the vena cava.
+  PhantomOptions o;
+  o.spacing_mm = {1.5, 1.5, 1.5};
+  o.carved_out = true;
+  o.wrapped = true;
+  const LabelVolume v = make_phantom(o);
+  Mask organ, veins, cava;
+  organ.frame = veins.frame = cava.frame = v.frame;
+  for (const int32_t l : v.labels) {
+    organ.inside.push_back(l != 0 && l != kPhantomVenaCava ? 1 : 0);
+    veins.inside.push_back(l == kPhantomHepaticVeins ? 1 : 0);
+    cava.inside.push_back(l == kPhantomVenaCava ? 1 : 0);
+  }
+  // The right vein widened (7 mm) for 25 mm from where it reaches the lateral surface (its end
+  // of least x, the patient's right): rooted at the organ's outside, the tree starts there.
+  {
+    const VesselGraph first = vessel_graph(skeletonize(veins));
+    Eigen::Vector3d lateral(INFINITY, 0, 0);
+    for (const auto& n : first.nodes)
+      if (n.position_mm.x() < lateral.x()) lateral = n.position_mm;
+    const GridFrame& f = v.frame;
+    for (int64_t k = 0; k < f.size[2]; ++k)
+      for (int64_t j = 0; j < f.size[1]; ++j)
+        for (int64_t i = 0; i < f.size[0]; ++i) {
+          const auto q =
+              f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+          const Eigen::Vector3d d = Eigen::Vector3d(q[0], q[1], q[2]) - lateral;
+          const double t = std::clamp(d.x(), 0.0, 25.0);  // along +x, 25 mm in
+          if ((d - Eigen::Vector3d(t, 0, 0)).norm() <= 7.0)
+            veins.inside[static_cast<size_t>(f.index(i, j, k))] = 1;
+        }
+  }
+  const VesselGraph g = vessel_graph(skeletonize(veins));
+  VesselTreeOptions at_cava;
+  at_cava.outlet = &cava;
+  const VesselTree with = vessel_tree(g, organ, "hepatic veins", at_cava);
+  const VesselTree without = vessel_tree(g, organ, "hepatic veins");
+  ASSERT_FALSE(with.roots.empty());
+  EXPECT_GE(with.outlet_roots, 1);
+  EXPECT_EQ(without.outlet_roots, 0);
+  const auto root_distance = [&](const VesselTree& t) {
+    double d = INFINITY;
+    for (const int32_t r : t.roots)
+      d = std::min(d, distance_to(cava, t.graph.nodes[static_cast<size_t>(r)].position_mm));
+    return d;
+  };
+  const double d_with = root_distance(with), d_without = root_distance(without);
+  // Within the widest vein's radius and two voxels of the vena cava; without it, at the blob.
+  EXPECT_LT(d_with, 10.0) << "without the vena cava the root is " << d_without << " mm from it";
+  EXPECT_GT(d_without, 50.0);
 }
 
 }  // namespace

@@ -31,6 +31,10 @@ enum class VesselTreeKind { kNone, kPortal, kHepatic, kMerged };
 /// vein(s)", "HV"; kNone for every other name (the vena cava, arteries, ducts, a tumour's).
 VesselTreeKind vessel_tree_kind(const std::string& name);
 
+/// True for the inferior vena cava's names: "vena cava", "IVC", "inferior_vena_cava" (where the
+/// hepatic veins drain: their trees' roots, issue 63).
+bool is_vena_cava_name(const std::string& name);
+
 /// The role a structure called `name` gets when its role is not given: kTumour for a tumour's
 /// name, kVessel for a vessel's, else kStructure.
 SurfaceRole guess_role(const std::string& name);

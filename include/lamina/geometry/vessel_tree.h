@@ -32,6 +32,8 @@ struct VesselTree {
   /// Centreline in pieces that reach no root (blobs, pieces beyond the largest gap bridged):
   /// in no tree, their territory goes to the nearest branch that is.
   double unrooted_mm = 0.0;
+  /// Pieces rooted at VesselTreeOptions::outlet (the others at the organ's outside).
+  int32_t outlet_roots = 0;
 };
 
 struct VesselTreeOptions {
@@ -41,6 +43,10 @@ struct VesselTreeOptions {
   /// A piece with less centreline than this is a blob when no root is found for it, else a
   /// tree of its own is looked for.
   double least_tree_mm = 20.0;
+  /// Where the trees drain or come from, on the organ's grid (the vena cava for the hepatic
+  /// veins): a piece that reaches it (within its widest branch's radius and two voxels) is
+  /// rooted at its widest node there; null, or a piece that does not: at the organ's outside.
+  const Mask* outlet = nullptr;
 };
 
 /// Joins each piece's ends (nodes of one branch) to the nearest centreline of another piece within
@@ -48,10 +54,11 @@ struct VesselTreeOptions {
 /// without voxels, onto a node or onto a new node splitting a branch. Returns the gaps bridged.
 int32_t bridge_gaps(VesselGraph& graph, double max_gap_mm);
 
-/// Roots `graph` where its vessels leave `organ`: for each connected piece (after the gaps are
-/// bridged), the node nearest the organ's outside (within its widest branch's radius and two
-/// voxels) whose widest branch is the widest; then each branch's flow direction by the shortest
-/// path along the centrelines from the root (a loop is opened where the two ways meet).
+/// Roots `graph` where its vessels leave `organ` (or reach options.outlet): for each connected
+/// piece (after the gaps are bridged), the node nearest the organ's outside (within its widest
+/// branch's radius and two voxels) whose widest branch is the widest; then each branch's flow
+/// direction by the shortest path along the centrelines from the root (a loop is opened where the
+/// two ways meet).
 /// @param[in] graph  vessel_graph()'s
 /// @param[in] organ  the organ's mask, on the graph's grid or a crop of it (same spacing and axes)
 /// @param[in] name   the vessel's name, for the error
