@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <memory>
 #include <thread>
 
 #include "lamina/core/error.h"
@@ -13,6 +14,7 @@
 #include "serve_clock.h"
 #include "serve_rate.h"
 #include "servers.h"
+#include "web_plan.h"
 #include "world_igtl_session.h"
 #include "world_web_session.h"
 
@@ -29,6 +31,12 @@ web::SessionOptions web_session_options(const ServeOptions& a) {
                      {"tip_radius_mm", a.tip_radius_mm},
                      {"grasp_radius_mm", so.grasp_radius_mm},
                      {"frame_hz", a.web_hz}};
+  // The pages' resection plans, the trees' territories kept per model (web_plan.h).
+  auto cache = std::make_shared<web::PlanCache>();
+  so.plan = [cache](const Model& m, uint64_t version, const Eigen::MatrixX3d& x,
+                    const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+    return web::plan_reply(m, version, x, point, normal, *cache);
+  };
   return so;
 }
 

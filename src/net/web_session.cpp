@@ -13,7 +13,6 @@
 #include "scalpel_stroke.h"
 #include "serve_clock.h"
 #include "web_message.h"
-#include "web_plan.h"
 
 namespace lamina::net::web {
 namespace {
@@ -150,10 +149,11 @@ void Session::handle(int client, const std::string& peer, const std::string& tex
     loop_.latest(snap_);
     const Model& model = snap_.model ? *snap_.model : stream_->model();
     const Eigen::MatrixX3d& x = snap_.x.rows() == model.node_count() ? snap_.x : model.X;
-    server_->send(client,
-                  std::make_shared<const std::string>(
-                      plan_reply(model, snap_.model_version, x, point, normal.normalized(), plan_)),
-                  false);
+    const std::string reply =
+        options_.plan
+            ? options_.plan(model, snap_.model_version, x, point, normal.normalized())
+            : json{{"type", "plan"}, {"error", "this server does not plan resections"}}.dump();
+    server_->send(client, std::make_shared<const std::string>(reply), false);
   } else {
     throw invalid_input("message", "unknown type '" + type + "'");
   }

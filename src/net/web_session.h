@@ -8,13 +8,13 @@
 
 #include <chrono>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "lamina/world/organ_loop.h"
-#include "web_plan.h"
 #include "web_server.h"
 #include "web_stream.h"
 
@@ -39,6 +39,12 @@ struct SessionOptions {
   /// shares OpenIGTLink's (SharedTools).
   interact::ToolTip tip;
   nlohmann::json hello_fields;  ///< joins every hello (the tools' limits, the rate)
+  /// Answers a page's "plan" message (web_plan.h's plan_reply with its cache: lamina serve's);
+  /// empty: the page is told this server does not plan. Given here so that the session's own
+  /// code does not pull in the planner (the TSan harness builds the session alone).
+  std::function<std::string(const Model& model, uint64_t model_version, const Eigen::MatrixX3d& x,
+                            const Eigen::Vector3d& point, const Eigen::Vector3d& normal)>
+      plan;
 };
 
 class Session {
@@ -92,7 +98,6 @@ class Session {
   int32_t drag_node_ = -1;
   uint64_t drag_version_ = 0;  // the model version drag_node_ is a node of
   void follow_drag();          // drag_node_ carried through a change of model, or the drag ended
-  PlanCache plan_;             // the pages' resection plans: the territories, kept per model
   uint32_t frames_ = 0;
   std::chrono::steady_clock::time_point next_frame_;
   std::vector<double> encode_ms_, frame_kb_;
