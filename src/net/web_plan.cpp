@@ -54,16 +54,10 @@ std::string plan_reply(const Model& m, uint64_t model_version, const Eigen::Matr
   if (skin >= 0) {
     Eigen::MatrixX3d P;
     model::embedded_positions(m.embedded[skin], x, P);
-    std::vector<uint8_t> state;
-    if (r.functional) {
-      state = model::surface_function(m, cache.skin_seed, *r.functional, P, point, normal,
-                                      r.remnant_in_front);
-    } else {  // no trees: the remnant's side, plain
-      state.assign(static_cast<size_t>(P.rows()), model::kOnResectedSide);
-      for (Eigen::Index v = 0; v < P.rows(); ++v)
-        if (((P.row(v).transpose() - point).dot(normal) > 0.0) == r.remnant_in_front)
-          state[static_cast<size_t>(v)] = model::kFunctionalPlain;
-    }
+    // Without trees the functional remnant is empty: the remnant's side plain, the rest not.
+    const std::vector<uint8_t> state = model::surface_function(
+        m, cache.skin_seed, r.functional.value_or(geometry::FunctionalRemnant{}), P, point, normal,
+        r.remnant_in_front);
     reply["skin_state"] = state;
   }
   return reply.dump();
