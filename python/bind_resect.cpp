@@ -59,7 +59,7 @@ void bind_resect(py::module_& m) {
       [](py::object input, std::optional<std::pair<Point, Point>> plane,
          std::optional<std::string> surface, std::optional<Point> keep, double margin_mm,
          const std::string& liver, const std::vector<int32_t>& labels, const py::sequence& embed,
-         bool segments) {
+         const py::object& segments) {
         if (plane.has_value() == surface.has_value())
           throw invalid_input("resect", "give one of plane=(point, normal) or surface=PATH");
         geometry::ResectionOptions o;
@@ -70,7 +70,22 @@ void bind_resect(py::module_& m) {
         if (!labels.empty()) o.organ_labels = labels;
         for (const auto& e : embed) o.structures.push_back(structure_of(e));
         o.margin_mm = margin_mm;
-        o.segments = segments;
+        // segments: True (placed as `auto`), or what places them: "auto", "vessels", "atlas".
+        if (py::isinstance<py::bool_>(segments)) {
+          o.segments = segments.cast<bool>();
+        } else if (py::isinstance<py::str>(segments)) {
+          const std::string from = segments.cast<std::string>();
+          o.segments = true;
+          if (from == "vessels")
+            o.segments_from = geometry::SegmentPlacement::kVessels;
+          else if (from == "atlas")
+            o.segments_from = geometry::SegmentPlacement::kAtlas;
+          else if (from != "auto")
+            throw invalid_input("resect",
+                                "segments='" + from + "': say True, 'auto', 'vessels' or 'atlas'");
+        } else {
+          throw invalid_input("resect", "segments: say True, 'auto', 'vessels' or 'atlas'");
+        }
         if (liver == "normal")
           o.liver = geometry::LiverCondition::kNormal;
         else if (liver == "chemotherapy")
@@ -130,7 +145,7 @@ void bind_resect(py::module_& m) {
       py::arg("mask") = "phantom", py::kw_only(), py::arg("plane") = py::none(),
       py::arg("surface") = py::none(), py::arg("keep") = py::none(), py::arg("margin_mm") = 10.0,
       py::arg("liver") = "normal", py::arg("labels") = std::vector<int32_t>{},
-      py::arg("embed") = py::list(), py::arg("segments") = false,
+      py::arg("embed") = py::list(), py::arg("segments") = py::bool_(false),
       "Plans a resection (lamina resect): mask is a Mask or a path ('phantom' = the built-in\n"
       "one with its carved-out anatomy, already named), or a Model or .vtu path (planned from\n"
       "its own surfaces along a plane; no parts). plane=((x, y, z), (nx, ny, nz)) mm LPS,\n"
@@ -143,7 +158,8 @@ void bind_resect(py::module_& m) {
       "portal vein or hepatic veins among the structures also 'function' (int32 (k, j, i): 1\n"
       "functional, 2 devascularized, 3 congested, 4 both) and 'territories' ({tree name: int32\n"
       "(k, j, i) branch id + 1}); segments=True: Couinaud's segments ('segments': int32 (k, j, i)\n"
-      "1-8, a first stage: docs/resection.md).");
+      "1-8, a first stage: docs/resection.md), placed as `auto`; or segments='vessels' or\n"
+      "'atlas' (lamina resect --segments-from).");
 }
 
 }  // namespace lamina::python

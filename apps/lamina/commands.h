@@ -186,7 +186,8 @@ struct ResectArgs {
   std::string output;              ///< folder: parts, surface, report.json
   std::string format = "nii.gz";   ///< the parts' label volume: nii.gz, nii or nrrd
   bool json = false;
-  bool segments = false;  ///< Couinaud's segments from the vessels (a first stage)
+  bool segments = false;               ///< Couinaud's segments (a first stage)
+  std::string segments_from = "auto";  ///< what places them: auto, vessels, atlas
 };
 /// Plans a resection: volumes, future liver remnant, tumour margins, structures crossed
 /// (docs/resection.md).

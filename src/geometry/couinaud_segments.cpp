@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "couinaud_internal.h"
 #include "lamina/core/error.h"
 #include "vessel_internal.h"
 
@@ -28,25 +29,62 @@ constexpr double kVeinFromMm = 10.0, kVeinToMm = 60.0;
 constexpr double kVeinAzimuthLo = -45.0, kVeinAzimuthHi = 225.0;
 constexpr double kVeinsApartDeg = 25.0;
 // Calibrated on 3D-IRCADb's expert labels (docs/resection.md): their right transverse plane
-// lies 0.1 of the organ's height below the left one (0.52 and 0.66 of it on average), and
-// segment 1 within 25 mm of the vena cava's axis, from 0.2 below to 0.15 above the portal level.
-constexpr double kRightBelowLeft = 0.1;
-constexpr double kCaudateRadiusMm = 25.0, kCaudateBelow = 0.2, kCaudateAbove = 0.15;
+// lies 0.14 of the organ's height below the left one (0.51 and 0.65 of it on average), and
+// segment 1 within 35 mm of their scissurae's axis, from 0.18 below to 0.11 above the left
+// transverse plane (the means of the planes fitted to their 20 livers' labels).
+constexpr double kRightBelowLeft = 0.14;
+constexpr double kCaudateRadiusMm = 35.0, kCaudateBelow = 0.18, kCaudateAbove = 0.11;
 
-// Degrees from the patient's right (-x in LPS) towards anterior (-y), in [-90, 270).
+}  // namespace
+
+namespace detail {
+
 double azimuth_deg(const Eigen::Vector3d& p, const Eigen::Vector3d& axis) {
   double a = std::atan2(-(p.y() - axis.y()), -(p.x() - axis.x())) * kDeg;
   if (a < -90.0) a += 360.0;
   return a;
 }
 
-}  // namespace
+void place_segments(const Mask& organ, const Heights& heights, CouinaudSegments& out) {
+  const CouinaudLandmarks& lm = out.landmarks;
+  const GridFrame& f = organ.frame;
+  const double height = heights.hi - heights.lo;
+  const double caudate_lo = lm.portal_level_mm - kCaudateBelow * height,
+               caudate_hi = lm.portal_level_mm + kCaudateAbove * height;
+  out.segment.assign(organ.inside.size(), 0);
+  out.volume_ml = {};
+  const double voxel_ml = f.voxel_volume_mm3() / 1000.0;
+  for (int64_t v = 0; v < f.voxel_count(); ++v) {
+    if (organ.inside[static_cast<size_t>(v)] == 0) continue;
+    const Eigen::Vector3d p = voxel_centre_mm(f, v);
+    const double a = azimuth_deg(p, lm.confluence_mm);
+    const double r = std::hypot(p.x() - lm.confluence_mm.x(), p.y() - lm.confluence_mm.y());
+    uint8_t s = 0;
+    if (r < kCaudateRadiusMm && p.z() > caudate_lo && p.z() < caudate_hi)
+      s = 1;
+    else if (a < lm.vein_azimuth_deg[0])
+      s = p.z() >= lm.right_level_mm ? 7 : 6;
+    else if (a < lm.vein_azimuth_deg[1])
+      s = p.z() >= lm.right_level_mm ? 8 : 5;
+    else if (a < lm.vein_azimuth_deg[2])
+      s = 4;
+    else
+      s = p.z() >= lm.portal_level_mm ? 2 : 3;
+    out.segment[static_cast<size_t>(v)] = s;
+    out.volume_ml[s] += voxel_ml;
+  }
+}
+
+double right_level_share(double portal_share) {
+  return portal_share - kRightBelowLeft;
+}
+
+}  // namespace detail
 
 CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels,
                                    const std::string& name) {
   CouinaudSegments out;
   CouinaudLandmarks& lm = out.landmarks;
-  const GridFrame& f = organ.frame;
 
   // The organ's height.
   const detail::Heights heights = detail::organ_heights(organ);
@@ -106,7 +144,7 @@ CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels
       break;
     }
   lm.portal_level_mm = z_lo + portal * height;
-  lm.right_level_mm = z_lo + (portal - kRightBelowLeft) * height;
+  lm.right_level_mm = z_lo + detail::right_level_share(portal) * height;
 
   // The hepatic veins: the three strongest peaks of the centrelines' azimuths above the portal
   // level, each voxel weighted by its branch's cross-section.
@@ -117,8 +155,8 @@ CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels
       const Eigen::Vector3d p = detail::voxel_centre_mm(vf, v);
       const double r = std::hypot(p.x() - lm.confluence_mm.x(), p.y() - lm.confluence_mm.y());
       if (p.z() <= lm.portal_level_mm || r <= kVeinFromMm || r >= kVeinToMm) continue;
-      const int bin = std::clamp(static_cast<int>((azimuth_deg(p, lm.confluence_mm) + 90.0) / 5.0),
-                                 0, kBins - 1);
+      const int bin = std::clamp(
+          static_cast<int>((detail::azimuth_deg(p, lm.confluence_mm) + 90.0) / 5.0), 0, kBins - 1);
       histogram[static_cast<size_t>(bin)] += b.radius_mm * b.radius_mm;
     }
   std::array<double, kBins> smooth{};
@@ -149,29 +187,8 @@ CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels
   for (size_t v = 0; v < 3; ++v) lm.vein_azimuth_deg[v] = chosen[v] * 5.0 + 2.5 - 90.0;
 
   // Every organ voxel by its azimuth about the confluence's axis and its height.
-  out.segment.assign(organ.inside.size(), 0);
-  const double voxel_ml = f.voxel_volume_mm3() / 1000.0;
-  const double caudate_lo = z_lo + (portal - kCaudateBelow) * height,
-               caudate_hi = z_lo + (portal + kCaudateAbove) * height;
-  for (int64_t v = 0; v < f.voxel_count(); ++v) {
-    if (organ.inside[static_cast<size_t>(v)] == 0) continue;
-    const Eigen::Vector3d p = detail::voxel_centre_mm(f, v);
-    const double a = azimuth_deg(p, lm.confluence_mm);
-    const double r = std::hypot(p.x() - lm.confluence_mm.x(), p.y() - lm.confluence_mm.y());
-    uint8_t s = 0;
-    if (r < kCaudateRadiusMm && p.z() > caudate_lo && p.z() < caudate_hi)
-      s = 1;
-    else if (a < lm.vein_azimuth_deg[0])
-      s = p.z() >= lm.right_level_mm ? 7 : 6;
-    else if (a < lm.vein_azimuth_deg[1])
-      s = p.z() >= lm.right_level_mm ? 8 : 5;
-    else if (a < lm.vein_azimuth_deg[2])
-      s = 4;
-    else
-      s = p.z() >= lm.portal_level_mm ? 2 : 3;
-    out.segment[static_cast<size_t>(v)] = s;
-    out.volume_ml[s] += voxel_ml;
-  }
+  lm.placed_by = CouinaudPlacement::kVessels;
+  detail::place_segments(organ, heights, out);
   return out;
 }
 

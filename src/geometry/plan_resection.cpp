@@ -417,13 +417,21 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     });
   }
 
-  // 2c. Couinaud's segments from the trees' centrelines together.
+  // 2c. Couinaud's segments: from the trees' centrelines together, or by the atlas.
   if (opt.segments) {
     if (plan.trees.empty() && merged.empty())
       throw invalid_input(source,
                           "Couinaud's segments need the portal vein and hepatic veins among the "
                           "structures (--embed LABEL=portal_vein,LABEL=hepatic_veins, or one "
                           "label named liver_vessels)");
+    bool portal = false, hepatic = false;
+    for (const VascularTree& vt : plan.trees) {
+      portal = portal || vt.kind == VesselTreeKind::kPortal;
+      hepatic = hepatic || vt.kind == VesselTreeKind::kHepatic;
+    }
+    const bool from_vessels =
+        opt.segments_from == SegmentPlacement::kVessels ||
+        (opt.segments_from == SegmentPlacement::kAuto && portal && hepatic && merged.empty());
     VesselGraph all;
     all.frame = g;
     std::vector<const VesselGraph*> graphs;
@@ -439,7 +447,17 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
         all.branches.push_back(std::move(b));
       }
     }
-    const CouinaudSegments cs = couinaud_segments(organ, all, source);
+    const CouinaudSegments cs = [&] {
+      if (!from_vessels) return couinaud_segments_from_atlas(organ, source);
+      if (opt.segments_from == SegmentPlacement::kVessels)
+        return couinaud_segments(organ, all, source);
+      try {
+        return couinaud_segments(organ, all, source);
+      } catch (const Error& e) {
+        r.segment_fallback = e.what();
+        return couinaud_segments_from_atlas(organ, source);
+      }
+    }();
     r.segment_landmarks = cs.landmarks;
     r.segment_ml = cs.volume_ml;
     std::array<int64_t, 9> in_segment{}, resected{};

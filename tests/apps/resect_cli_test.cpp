@@ -244,6 +244,9 @@ TEST(ResectCli, CouinaudsSegmentsAreWrittenOnTheInputsGridWhenAsked) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json j = json::parse(r.out);
   ASSERT_TRUE(j["couinaud_segments"].is_object()) << j.dump();
+  // The phantom's portal vein and hepatic veins are two labels: their landmarks place them.
+  EXPECT_EQ(j["couinaud_segments"]["placed_by"], "vessels");
+  EXPECT_TRUE(j["couinaud_segments"]["vessels_not_used"].is_null());
   const LabelVolume parts = io::read_label_volume((d.work / "plan" / "parts.nii.gz").string());
   const LabelVolume segments =
       io::read_label_volume((d.work / "plan" / "segments.nii.gz").string());
@@ -267,6 +270,39 @@ TEST(ResectCli, CouinaudsSegmentsAreWrittenOnTheInputsGridWhenAsked) {
           << "segment " << s;
   }
   EXPECT_NEAR(sum, j["volumes_ml"]["whole"].get<double>(), 0.002 * sum);
+}
+
+TEST(ResectCli, CouinaudsSegmentsFromOneMergedVesselLabelArePlacedByTheAtlas) {
+  const Dir d;
+  // A vessel label named as both trees: auto takes the atlas, which agrees with experts
+  // better than the landmarks of a merged tree (docs/resection.md).
+  const std::string merged =
+      "resect --plane 5,0,0:1,0,0 --label 1 --embed "
+      "2=liver_vessels,4=hepatic_veins --segments --json";
+  const auto a = lamina(d, merged);
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  const json ja = json::parse(a.out);
+  EXPECT_EQ(ja["couinaud_segments"]["placed_by"], "atlas");
+  // Asked for explicitly: the phantom's two trees placed by the atlas as well.
+  const auto b =
+      lamina(d,
+             "resect --plane 5,0,0:1,0,0 --label 1 --embed 2=portal_vein,4=hepatic_veins "
+             "--segments --segments-from atlas --json");
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const json jb = json::parse(b.out);
+  EXPECT_EQ(jb["couinaud_segments"]["placed_by"], "atlas");
+  // The same organ, the same atlas: the same segments.
+  for (int s = 0; s < 8; ++s)
+    EXPECT_EQ(ja["couinaud_segments"]["segments"][s]["volume_ml"],
+              jb["couinaud_segments"]["segments"][s]["volume_ml"])
+        << "segment " << s + 1;
+  // The vessels asked for where the merged label (the portal vein alone) has no landmarks:
+  // refused, naming what is missing.
+  const auto c = lamina(d,
+                        "resect --plane 5,0,0:1,0,0 --label 1 --embed 2=liver_vessels "
+                        "--segments --segments-from vessels");
+  EXPECT_EQ(c.exit_code, 2);
+  EXPECT_NE(c.err.find("upper quarter"), std::string::npos) << c.err;
 }
 
 TEST(ResectCli, RefusesBadSurfacesWithOneLineAndWritesNothing) {

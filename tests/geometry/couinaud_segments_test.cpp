@@ -2,11 +2,14 @@
 // known by construction (make_phantom.cpp: kVessels, kHepaticVeins): one mask holding both is
 // split into the built trees; from it the confluence and the portal level are found where they
 // were built, the three hepatic veins' azimuths near the built ones, and every organ voxel
-// gets a segment.
+// gets a segment. The atlas's placement puts the segments where the anatomy has them about the
+// axis it places in the organ's box.
 #include "lamina/geometry/couinaud_segments.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "lamina/core/error.h"
@@ -39,6 +42,7 @@ TEST(CouinaudSegments, ThePhantomsMergedVesselsSplitIntoTheBuiltTreesAndTheirLan
   const CouinaudSegments s =
       couinaud_segments(p.organ, vessel_graph(skeletonize(p.vessels)), "segments");
   const CouinaudLandmarks& lm = s.landmarks;
+  EXPECT_EQ(lm.placed_by, CouinaudPlacement::kVessels);
   // The confluence: the hepatic veins' trunks, which meet at (-17, 64, 36).
   EXPECT_LT((lm.confluence_mm - Eigen::Vector3d(-17, 64, 36)).norm(), 10.0);
   // The portal level: between the bifurcation (z = -22) and its branches' ends (-8 and -2).
@@ -62,6 +66,68 @@ TEST(CouinaudSegments, ThePhantomsMergedVesselsSplitIntoTheBuiltTreesAndTheirLan
   double sum = 0.0;
   for (int k = 1; k <= 8; ++k) sum += s.volume_ml[static_cast<size_t>(k)];
   EXPECT_NEAR(sum, static_cast<double>(organ) * p.organ.frame.voxel_volume_mm3() / 1000.0, 1e-6);
+}
+
+TEST(CouinaudSegments, TheAtlasPlacesTheSegmentsInTheirAnatomicalOrderInTheOrgansBox) {
+  const Phantom p = phantom();
+  const CouinaudSegments s = couinaud_segments_from_atlas(p.organ, "atlas");
+  const CouinaudLandmarks& lm = s.landmarks;
+  EXPECT_EQ(lm.placed_by, CouinaudPlacement::kAtlas);
+  // The organ's box, and each segment's centroid.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
+  std::array<Eigen::Vector3d, 9> centre;
+  centre.fill(Eigen::Vector3d::Zero());
+  std::array<int64_t, 9> count{};
+  const GridFrame& f = p.organ.frame;
+  for (int64_t k = 0; k < f.size[2]; ++k)
+    for (int64_t j = 0; j < f.size[1]; ++j)
+      for (int64_t i = 0; i < f.size[0]; ++i) {
+        const auto v = static_cast<size_t>(f.index(i, j, k));
+        ASSERT_EQ(s.segment[v] != 0, p.organ.inside[v] != 0);
+        if (p.organ.inside[v] == 0) continue;
+        const auto x =
+            f.to_physical(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+        const Eigen::Vector3d q(x[0], x[1], x[2]);
+        lo = lo.cwiseMin(q);
+        hi = hi.cwiseMax(q);
+        centre[s.segment[v]] += q;
+        ++count[s.segment[v]];
+      }
+  for (int seg = 1; seg <= 8; ++seg) {
+    ASSERT_GT(count[static_cast<size_t>(seg)], 0) << "segment " << seg << " is empty";
+    centre[static_cast<size_t>(seg)] /= static_cast<double>(count[static_cast<size_t>(seg)]);
+    EXPECT_NEAR(
+        s.volume_ml[static_cast<size_t>(seg)],
+        static_cast<double>(count[static_cast<size_t>(seg)]) * f.voxel_volume_mm3() / 1000.0,
+        1e-9 * s.volume_ml[static_cast<size_t>(seg)]);
+  }
+  // The axis inside the box, right of its middle's left (LPS: x grows to the patient's left).
+  EXPECT_GT(lm.confluence_mm.x(), lo.x() + 0.5 * (hi.x() - lo.x()));
+  EXPECT_LT(lm.confluence_mm.x(), hi.x());
+  EXPECT_GT(lm.portal_level_mm, lm.right_level_mm);
+  // From the patient's right to the left: 7 and 6, then 8 and 5, then 4, then 2 and 3.
+  const auto x = [&](int seg) { return centre[static_cast<size_t>(seg)].x(); };
+  const auto z = [&](int seg) { return centre[static_cast<size_t>(seg)].z(); };
+  EXPECT_LT(x(7), x(4));
+  EXPECT_LT(x(6), x(4));
+  EXPECT_LT(x(4), x(2));
+  EXPECT_LT(x(4), x(3));
+  // The right posterior sector behind the right anterior one (y grows to the back).
+  EXPECT_GT(centre[7].y(), centre[8].y());
+  EXPECT_GT(centre[6].y(), centre[5].y());
+  // Superior over inferior.
+  EXPECT_GT(z(7), z(6));
+  EXPECT_GT(z(8), z(5));
+  EXPECT_GT(z(2), z(3));
+  // An empty organ has no box to place them in.
+  Mask empty = p.organ;
+  std::fill(empty.inside.begin(), empty.inside.end(), 0);
+  try {
+    couinaud_segments_from_atlas(empty, "empty liver");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("empty liver"), std::string::npos) << e.what();
+  }
 }
 
 TEST(CouinaudSegments, VesselsWithNoTrunkInTheOrgansUpperQuarterAreRefused) {

@@ -57,6 +57,16 @@ def test_resect_gives_couinauds_segments_when_asked():
     for s in r["couinaud_segments"]["segments"]:
         assert abs((segments == s["segment"]).sum() * voxel_ml - s["volume_ml"]) < 0.01
     assert "segments" not in lamina.resect(plane=((5, 0, 0), (1, 0, 0)))
+    assert r["couinaud_segments"]["placed_by"] == "vessels"
+
+
+def test_resect_places_segments_by_the_atlas_when_asked():
+    a = lamina.resect(plane=((5, 0, 0), (1, 0, 0)), segments="atlas")
+    assert a["couinaud_segments"]["placed_by"] == "atlas"
+    assert ((a["segments"] > 0) == (a["parts"] > 0)).all()
+    assert sorted(set(a["segments"][a["segments"] > 0].ravel())) == list(range(1, 9))
+    with pytest.raises(lamina.Error, match="segments='atlases'"):
+        lamina.resect(plane=((5, 0, 0), (1, 0, 0)), segments="atlases")
 
 
 def test_resect_takes_a_mask_with_named_structures():

@@ -102,7 +102,10 @@ std::string text_of(const geometry::ResectionReport& r) {
         r.functional_sufficient ? "sufficient" : "INSUFFICIENT", r.functional->devascularized_ml,
         r.functional->congested_ml);
   if (r.segment_landmarks) {
-    t += "Couinaud segments (a first stage, check them):";
+    t += fmt::format("Couinaud segments (a first stage, check them; placed by the {}):",
+                     r.segment_landmarks->placed_by == geometry::CouinaudPlacement::kAtlas
+                         ? "atlas"
+                         : "vessels");
     for (size_t s = 1; s <= 8; ++s)
       t += fmt::format(" {}: {:.0f} mL ({:.0f}% resected){}", s, r.segment_ml[s],
                        r.segment_resected_percent[s], s < 8 ? "," : "\n");
@@ -219,6 +222,9 @@ int run_resect(const ResectArgs& a) {
   geometry::ResectionOptions opt;
   opt.margin_mm = a.margin_mm;
   opt.segments = a.segments;
+  opt.segments_from = a.segments_from == "vessels" ? geometry::SegmentPlacement::kVessels
+                      : a.segments_from == "atlas" ? geometry::SegmentPlacement::kAtlas
+                                                   : geometry::SegmentPlacement::kAuto;
   opt.liver = liver;
   if (!a.keep.empty() && a.keep != "larger") opt.keep_point = parse_point(a.keep, "--keep");
   const bool phantom = a.input == io::kScenePhantom;

@@ -18,8 +18,15 @@
 
 namespace lamina::geometry {
 
+/// What placed the segments' planes.
+enum class CouinaudPlacement {
+  kVessels,  ///< the centrelines' landmarks (couinaud_segments)
+  kAtlas,    ///< the experts' planes in the organ's box (couinaud_segments_from_atlas)
+};
+
 /// Where the segments' planes were placed (physical mm; z superior).
 struct CouinaudLandmarks {
+  CouinaudPlacement placed_by = CouinaudPlacement::kVessels;
   /// The vena cava's axis at the hepatic veins' confluence (the widest vessel in the organ's
   /// upper quarter): the vertical axis of the scissurae.
   Eigen::Vector3d confluence_mm = Eigen::Vector3d::Zero();
@@ -39,6 +46,18 @@ struct CouinaudSegments {
   std::array<double, 9> volume_ml{};  ///< per segment 1-8 ([0] unused)
   CouinaudLandmarks landmarks;
 };
+
+/// The segments of `organ` placed by an atlas: the planes the experts of 3D-IRCADb-01 drew
+/// (fitted to their labels of 20 livers: docs/resection.md), their mean position as shares of
+/// the organ's bounding box (the scissurae's axis at 0.63 of its width from the patient's right
+/// and 0.59 of its depth from the front; the right, middle and left planes at -1, 40 and 73
+/// degrees; the left and right transverse planes at 0.65 and 0.51 of its height). Measured
+/// against those labels leave-one-out (each liver placed by the other 19's mean) it scores a
+/// mean Dice of 0.735, against 0.57 for the landmarks found on their merged vessel masks: the
+/// placement for vessels that come as one label. Needs only the organ, so it never fails on a
+/// non-empty mask.
+/// \note Throws lamina::Error (kInvalidInput) naming `name` when `organ` is empty.
+CouinaudSegments couinaud_segments_from_atlas(const Mask& organ, const std::string& name);
 
 /// The segments of `organ` from its vessels' centrelines: the portal vein and the hepatic veins,
 /// as one graph (one label holding both, or the union of the two trees' graphs).

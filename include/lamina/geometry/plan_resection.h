@@ -26,6 +26,9 @@ enum class LiverCondition { kNormal, kChemotherapy, kCirrhosis };
 double flr_threshold_percent(LiverCondition condition);
 const char* to_string(LiverCondition condition);
 
+/// What places Couinaud's segments (ResectionOptions::segments_from).
+enum class SegmentPlacement { kAuto, kVessels, kAtlas };
+
 /// A structure of the segmentation: a tumour (its margin is measured) or a vessel or duct (its
 /// crossings are found).
 struct ResectionStructure {
@@ -43,9 +46,13 @@ struct ResectionOptions {
   std::optional<Eigen::Vector3d> keep_point;
   double margin_mm = 10.0;  ///< the margin wanted around each tumour, mm
   LiverCondition liver = LiverCondition::kNormal;
-  /// Couinaud's segments from the vessel trees' centrelines (couinaud_segments.h), and which
-  /// of them the resection takes.
+  /// Couinaud's segments (couinaud_segments.h), and which of them the resection takes.
   bool segments = false;
+  /// What places them: kAuto takes the vessels' landmarks when the portal vein and the hepatic
+  /// veins come as two labels (their trees known apart), else the atlas (one label holding both:
+  /// on 3D-IRCADb's merged masks the atlas scored a mean Dice of 0.735 against the vessels'
+  /// 0.57), and the atlas when the vessels' landmarks are not found.
+  SegmentPlacement segments_from = SegmentPlacement::kAuto;
 };
 
 /// A tumour (one connected piece of a tumour label) against the resection surface.
@@ -111,6 +118,9 @@ struct ResectionReport {
   /// Couinaud's segments, when asked for: where their planes were placed, each one's volume
   /// and the share of it the resection takes (by voxel centres), [1..8].
   std::optional<CouinaudLandmarks> segment_landmarks;
+  /// Why the atlas placed them when the vessels were asked (auto) and their landmarks were not
+  /// found; empty otherwise.
+  std::string segment_fallback;
   std::array<double, 9> segment_ml{}, segment_resected_percent{};
 };
 
