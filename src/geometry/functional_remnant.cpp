@@ -10,13 +10,16 @@
 
 namespace lamina::geometry {
 
-VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::string& name,
-                           VesselTreeKind kind, int32_t label, const Mask* outlet) {
+VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::string& source,
+                           const std::string& name, VesselTreeKind kind, int32_t label,
+                           const Mask* outlet) {
+  // Errors say where the tree came from; the territories carry the tree's own name.
+  const std::string where = source.empty() ? name : source + ": " + name;
   bool inside = false;
   for (size_t v = 0; v < vessel.inside.size() && !inside; ++v)
     inside = vessel.inside[v] != 0 && organ.inside[v] != 0;
   if (!inside)
-    throw invalid_input(name,
+    throw invalid_input(where,
                         "no voxel of the vessel lies inside the organ: is it the right label?");
   VascularTree t;
   t.kind = kind;
@@ -24,7 +27,8 @@ VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::str
   VesselTreeOptions options;
   options.outlet = outlet;
   t.territories = tree_territories(
-      organ, vessel_tree(vessel_graph(skeletonize(vessel)), organ, name, options), name);
+      organ, vessel_tree(vessel_graph(skeletonize(vessel)), organ, where, options), where);
+  t.territories.name = name;
   return t;
 }
 

@@ -384,9 +384,8 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
       continue;
     }
     plan.trees.push_back(
-        vascular_tree(organ, vessel, source + ": " + st.name, kind, st.label,
+        vascular_tree(organ, vessel, source, st.name, kind, st.label,
                       kind == VesselTreeKind::kHepatic && cava ? &*cava : nullptr));
-    plan.trees.back().territories.name = st.name;
   }
   if (plan.trees.empty()) {
     r.functional_missing =

@@ -60,7 +60,7 @@ void add_tree(Model& m, const EmbedStructure& s, const LabelVolume& volume, cons
   if (structure_role(s) == SurfaceRole::kTumour) return;
   geometry::VascularTree tree;
   try {
-    tree = geometry::vascular_tree(organ, structure_on_organ_grid(s, volume, organ), name, kind,
+    tree = geometry::vascular_tree(organ, structure_on_organ_grid(s, volume, organ), "", name, kind,
                                    s.label,
                                    kind == geometry::VesselTreeKind::kHepatic ? cava : nullptr);
   } catch (const Error& e) {

@@ -27,10 +27,13 @@ struct VascularTree {
 /// The tree and territories of the vessel `vessel` (a mask on the organ's grid) in `organ`,
 /// rooted where it reaches `outlet` when given (the vena cava, for the hepatic veins;
 /// VesselTreeOptions::outlet), else where it leaves the organ.
-/// \note Throws lamina::Error (kInvalidInput) naming `name`: no voxel of the vessel inside the
-///   organ, no root found (vessel_tree()).
-VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::string& name,
-                           VesselTreeKind kind, int32_t label, const Mask* outlet = nullptr);
+/// `name` is the tree's (its territories' name); `source`, where it came from (the
+/// segmentation's path; empty: none), leads its errors.
+/// \note Throws lamina::Error (kInvalidInput) naming "source: name": no voxel of the vessel
+///   inside the organ, no root found (vessel_tree()).
+VascularTree vascular_tree(const Mask& organ, const Mask& vessel, const std::string& source,
+                           const std::string& name, VesselTreeKind kind, int32_t label,
+                           const Mask* outlet = nullptr);
 
 /// A branch of a tree against a resection.
 struct BranchFate {
