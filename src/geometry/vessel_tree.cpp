@@ -146,6 +146,7 @@ VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& 
   };
   std::vector<int32_t> root_of = widest_root(
       [&](const Eigen::Vector3d& q, double reach) { return near_outside(organ, q, reach); });
+  std::vector<uint8_t> at_outlet_piece(n_nodes, 0);
   if (options.outlet != nullptr) {
     const std::vector<int32_t> at_outlet = widest_root([&](const Eigen::Vector3d& q, double reach) {
       return near_inside(*options.outlet, q, reach);
@@ -153,7 +154,7 @@ VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& 
     for (size_t p = 0; p < n_nodes; ++p)
       if (at_outlet[p] >= 0) {
         root_of[p] = at_outlet[p];
-        ++t.outlet_roots;
+        at_outlet_piece[p] = 1;
       }
   }
   for (size_t p = 0; p < n_nodes; ++p)
@@ -166,6 +167,9 @@ VesselTree vessel_tree(VesselGraph graph, const Mask& organ, const std::string& 
              return piece_mm[static_cast<size_t>(pieces.find(o))] >= options.least_tree_mm;
            });
   });
+  // Counted among the roots kept (a small piece's outlet root dropped above is none).
+  for (const int32_t r : t.roots)
+    t.outlet_roots += at_outlet_piece[static_cast<size_t>(pieces.find(r))];
   if (t.roots.empty())
     throw invalid_input(name,
                         "no root found: the vessel does not reach the organ's surface (where its "

@@ -167,6 +167,8 @@ TEST(VesselTree, GivenTheVenaCavaTheHepaticVeinsAreRootedWhereTheyDrainIntoIt) {
   const VesselTree without = vessel_tree(g, organ, "hepatic veins");
   ASSERT_FALSE(with.roots.empty());
   EXPECT_GE(with.outlet_roots, 1);
+  EXPECT_LE(with.outlet_roots, static_cast<int32_t>(with.roots.size()))
+      << "counted among the kept roots";
   EXPECT_EQ(without.outlet_roots, 0);
   const auto root_distance = [&](const VesselTree& t) {
     double d = INFINITY;

@@ -32,7 +32,7 @@ struct VesselTree {
   /// Centreline in pieces that reach no root (blobs, pieces beyond the largest gap bridged):
   /// in no tree, their territory goes to the nearest branch that is.
   double unrooted_mm = 0.0;
-  /// Pieces rooted at VesselTreeOptions::outlet (the others at the organ's outside).
+  /// Roots at VesselTreeOptions::outlet, among `roots` (the others at the organ's outside).
   int32_t outlet_roots = 0;
 };
 
