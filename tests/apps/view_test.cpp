@@ -289,17 +289,20 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
       << " build p.nii.gz --label 1 --embed 2=portal_vein,3=tumour,4=hepatic_veins -o m.vtu\n";
   ASSERT_EQ(run_shell(dir, "sh prepare.sh", "prepare_run.sh").exit_code, 0);
   std::ofstream(dir.path / "quit.json")
-      << R"({"events": [{"at": 6.4, "window_screenshot": "planned.png"},)"
-      << R"( {"at": 15.2, "window_screenshot": "remnant.png"}, {"at": 16.0, "quit": true}]})";
+      << R"({"events": [{"at": 9.4, "window_screenshot": "planned.png"},)"
+      << R"( {"at": 18.2, "window_screenshot": "remnant.png"}, {"at": 19.0, "quit": true}]})";
+  // The gestures read the mouse and Shift once a frame: each drag is held still for a second
+  // before its release (and Shift after it), so that a slow frame (the first plan, or a
+  // sanitizer's build) still sees the drag's end with Shift down.
   std::ofstream(dir.path / "session.sh")
       << cli << " -v view m.vtu --script quit.json --report report.json & "
       << "w=$(xdotool search --sync --onlyvisible --name Lamina | head -n 1); sleep 1.5; "
-         "xdotool key --window $w p sleep 1.0 keydown shift mousemove --window $w 800 450 "
+         "xdotool key --window $w p sleep 2.0 keydown shift mousemove --window $w 800 450 "
          "sleep 0.3 mousedown 1 sleep 0.2 mousemove --window $w 800 440 sleep 0.1 "
-         "mousemove --window $w 800 430 sleep 0.1 mousemove --window $w 800 420 sleep 0.1 "
-         "mouseup 1 keyup shift sleep 0.5 mousemove --window $w 800 450 sleep 0.3 mousedown 1 "
-         "sleep 0.3 mousemove --window $w 840 450 sleep 0.1 mousemove --window $w 880 450 "
-         "sleep 0.1 mousemove --window $w 920 450 sleep 0.3 mouseup 1 sleep 1.5 "
+         "mousemove --window $w 800 430 sleep 0.1 mousemove --window $w 800 420 sleep 1.0 "
+         "mouseup 1 sleep 0.5 keyup shift sleep 0.5 mousemove --window $w 800 450 sleep 0.3 "
+         "mousedown 1 sleep 0.3 mousemove --window $w 840 450 sleep 0.1 mousemove --window $w 880 "
+         "450 sleep 0.1 mousemove --window $w 920 450 sleep 1.0 mouseup 1 sleep 1.5 "
          "key --window $w x sleep 5.5 mousemove --window $w 700 450 sleep 0.3 mousedown 1 "
          "sleep 0.3 mousemove --window $w 700 480 sleep 0.1 mousemove --window $w 700 510 "
          "sleep 0.1 mousemove --window $w 700 540 sleep 1.0 mouseup 1; wait\n";
