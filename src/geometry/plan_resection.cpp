@@ -379,7 +379,9 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     if (kind == VesselTreeKind::kNone || st.role == SurfaceRole::kTumour) continue;
     const Mask vessel = structure_mask(s);
     if (kind == VesselTreeKind::kMerged) {
-      if (opt.segments) merged.push_back(vessel_graph(skeletonize(vessel)));
+      // Only the vessels' placement reads a merged label's centrelines (auto takes the atlas).
+      if (opt.segments && opt.segments_from == SegmentPlacement::kVessels)
+        merged.push_back(vessel_graph(skeletonize(vessel)));
       merged_names += (merged_names.empty() ? "" : ", ") + st.name;
       continue;
     }
@@ -418,7 +420,7 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
 
   // 2c. Couinaud's segments: from the trees' centrelines together, or by the atlas.
   if (opt.segments) {
-    if (plan.trees.empty() && merged.empty())
+    if (plan.trees.empty() && merged_names.empty())
       throw invalid_input(source,
                           "Couinaud's segments need the portal vein and hepatic veins among the "
                           "structures (--embed LABEL=portal_vein,LABEL=hepatic_veins, or one "
@@ -430,24 +432,25 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     }
     const bool from_vessels =
         opt.segments_from == SegmentPlacement::kVessels ||
-        (opt.segments_from == SegmentPlacement::kAuto && portal && hepatic && merged.empty());
-    VesselGraph all;
-    all.frame = g;
-    std::vector<const VesselGraph*> graphs;
-    for (const VascularTree& vt : plan.trees) graphs.push_back(&vt.territories.tree.graph);
-    for (const VesselGraph& mg : merged) graphs.push_back(&mg);
-    for (const VesselGraph* gp : graphs) {
-      const VesselGraph& tg = *gp;
-      const auto base = static_cast<int32_t>(all.nodes.size());
-      all.nodes.insert(all.nodes.end(), tg.nodes.begin(), tg.nodes.end());
-      for (VesselGraph::Branch b : tg.branches) {
-        b.a += base;
-        b.b += base;
-        all.branches.push_back(std::move(b));
-      }
-    }
+        (opt.segments_from == SegmentPlacement::kAuto && portal && hepatic && merged_names.empty());
     const CouinaudSegments cs = [&] {
       if (!from_vessels) return couinaud_segments_from_atlas(organ, source);
+      // The trees' centrelines together, as one graph.
+      VesselGraph all;
+      all.frame = g;
+      std::vector<const VesselGraph*> graphs;
+      for (const VascularTree& vt : plan.trees) graphs.push_back(&vt.territories.tree.graph);
+      for (const VesselGraph& mg : merged) graphs.push_back(&mg);
+      for (const VesselGraph* gp : graphs) {
+        const VesselGraph& tg = *gp;
+        const auto base = static_cast<int32_t>(all.nodes.size());
+        all.nodes.insert(all.nodes.end(), tg.nodes.begin(), tg.nodes.end());
+        for (VesselGraph::Branch b : tg.branches) {
+          b.a += base;
+          b.b += base;
+          all.branches.push_back(std::move(b));
+        }
+      }
       if (opt.segments_from == SegmentPlacement::kVessels)
         return couinaud_segments(organ, all, source);
       try {
