@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstddef>
 
 #include "lamina/render/viewer.h"
 #include "viewer_state.h"
@@ -19,23 +20,42 @@ const Input& input() {
   return viewer_state("input").input;
 }
 
+// The queue is trickled, as Dear ImGui trickles its own: a frame applies the events up to and
+// including a button change, and a release that follows a move waits for the next frame. The
+// gestures read the input once a frame, so a slow frame (a sanitizer's, a loaded machine's: a
+// second and more) that saw a press, the whole drag and the release at once would take the
+// press at the drag's end (no drag at all) or a release with the Shift let go after it.
 void apply_input_events(ViewerState& s) {
   Input& in = s.input;
   in.pressed = {};
   in.released = {};
   in.wheel = 0.0;
   in.keys.clear();
-  for (const InputEvent& e : s.queue) {
+  size_t applied = 0;
+  bool moved = false;
+  for (; applied < s.queue.size(); ++applied) {
+    const InputEvent& e = s.queue[applied];
+    if (e.kind == InputEvent::Kind::kButton) {
+      const size_t b = static_cast<size_t>(e.button);
+      if (!e.down && moved && b < in.buttons.size() && in.buttons[b]) break;
+    }
     switch (e.kind) {
       case InputEvent::Kind::kMouseMove:
+        moved = moved || e.mouse_px != in.mouse_px;
         in.mouse_px = e.mouse_px;
         break;
       case InputEvent::Kind::kButton: {
         const size_t b = static_cast<size_t>(e.button);
         if (b >= in.buttons.size()) break;
+        const bool changed = e.down != in.buttons[b];
         if (e.down && !in.buttons[b]) in.pressed[b] = true;
         if (!e.down && in.buttons[b]) in.released[b] = true;
         in.buttons[b] = e.down;
+        if (changed) {
+          ++applied;  // the rest of the queue is the next frame's
+          s.queue.erase(s.queue.begin(), s.queue.begin() + static_cast<std::ptrdiff_t>(applied));
+          return;
+        }
         break;
       }
       case InputEvent::Kind::kWheel:
@@ -53,7 +73,7 @@ void apply_input_events(ViewerState& s) {
         break;
     }
   }
-  s.queue.clear();
+  s.queue.erase(s.queue.begin(), s.queue.begin() + static_cast<std::ptrdiff_t>(applied));
 }
 
 void feed_ui_input(ViewerState& s) {
@@ -68,8 +88,8 @@ void feed_ui_input(ViewerState& s) {
   s.last_frame_time_s = now;
   const Input& in = s.input;
   io.MousePos = ImVec2(static_cast<float>(in.mouse_px.x()), static_cast<float>(in.mouse_px.y()));
-  // A click shorter than a frame still reaches the panels as held for this frame.
-  for (size_t b = 0; b < in.buttons.size(); ++b) io.MouseDown[b] = in.buttons[b] || in.pressed[b];
+  // A click shorter than a frame reaches the panels as held one frame (the release is trickled).
+  for (size_t b = 0; b < in.buttons.size(); ++b) io.MouseDown[b] = in.buttons[b];
   io.MouseWheel = static_cast<float>(in.wheel);
   io.KeyShift = in.shift;
   io.KeyCtrl = in.ctrl;

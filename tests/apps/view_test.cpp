@@ -57,10 +57,12 @@ TEST(View, ScriptedDragMovesTheSkinAndReleaseLetsItReturn) {
   std::ofstream(dir.path / "drag.json") << R"({"events": [
     {"at": 0.5, "mouse": [0.5, 0.5]},
     {"at": 0.7, "press": "left"},
-    {"at": 0.8, "mouse": [0.5, 0.35], "over": 0.8},
-    {"at": 2.0, "screenshot": "dragged.png"},
-    {"at": 2.2, "release": "left"},
-    {"at": 5.0, "quit": true}]})";
+    {"at": 0.8, "mouse": [0.5, 0.35], "over": 0.2},
+    {"at": 1.1, "wait": {"simulated_s": 0.4}},
+    {"at": 1.2, "screenshot": "dragged.png"},
+    {"at": 1.3, "release": "left"},
+    {"at": 1.4, "wait": {"simulated_s": 0.5}},
+    {"at": 1.5, "quit": true}]})";
   const auto r = run_shell(dir, std::string(kXvfb) + quoted(test::lamina_cli()) +
                                     " view --rate 1000 --script drag.json --report report.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -79,13 +81,15 @@ TEST(View, ScriptedDragMovesTheSkinAndReleaseLetsItReturn) {
   EXPECT_EQ(r.err.find("fell behind real time") != std::string::npos,
             rep["fell_behind"].get<bool>())
       << r.err;
-  // The drag lasts 1.4 s of wall time: a machine that cannot keep up (ASan beside another test
-  // in CI: 1.96 mm) dents the skin less, and says so above; a dent is still required.
-  EXPECT_GT(rep["max_displacement_mm"].get<double>(), rep["fell_behind"].get<bool>() ? 0.5 : 2.0)
-      << "the drag did not move the skin";
+  // The drag is held 0.4 simulated seconds however slowly this machine steps (the script waits
+  // for the simulation's clock; the input is trickled, so even a frame of a second sees the press
+  // where it was): 10 mm here, and the same on a sanitized machine that falls behind.
+  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 5.0) << "the drag did not move the skin\n"
+                                                           << rep.dump();
   EXPECT_LT(rep["final_max_displacement_mm"].get<double>(),
             0.8 * rep["max_displacement_mm"].get<double>())
-      << "the organ did not start back to rest after release";
+      << "the organ did not start back to rest after release\n"
+      << rep.dump();
   EXPECT_EQ(rep["recoveries"], 0);
   EXPECT_TRUE(is_png(dir.path / "dragged.png"));
   EXPECT_FALSE(fs::exists(dir.path / "imgui.ini")) << "stray file";
@@ -193,6 +197,7 @@ TEST(View, RebuildSwapsTheModelUnderTheRunningSimulation) {
     {"at": 0.6, "mouse": [0.5, 0.5]},
     {"at": 0.8, "press": "left"},
     {"at": 0.9, "mouse": [0.5, 0.4], "over": 0.5},
+    {"at": 1.5, "wait": {"simulated_s": 0.4}},
     {"at": 2.1, "release": "left"},
     {"at": 2.6, "quit": true}]})";
   const auto r = run_shell(dir, std::string(kXvfb) + quoted(test::lamina_cli()) +
@@ -202,7 +207,7 @@ TEST(View, RebuildSwapsTheModelUnderTheRunningSimulation) {
   EXPECT_EQ(rep["rebuilds"], 1) << "the rebuild did not finish before the drag";
   EXPECT_EQ(rep["layers"], 3);
   EXPECT_EQ(rep["drags"], 1) << "dragging the rebuilt model failed";
-  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 1.0);
+  EXPECT_GT(rep["max_displacement_mm"].get<double>(), 1.0) << rep.dump();
 }
 
 TEST(View, RealMouseEventsFromXdotoolDragTheOrgan) {
@@ -360,6 +365,12 @@ TEST(View, BadScriptIsRejectedBeforeAnyWindow) {
       run_shell(dir, std::string(kXvfb) + quoted(test::lamina_cli()) + " view --script bad.json");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("bad.json: events[0].press"), std::string::npos) << r.err;
+  std::ofstream(dir.path / "wait.json")
+      << R"({"events": [{"at": 1, "wait": {"simulated_s": -1}}]})";
+  const auto w = run_shell(
+      dir, std::string(kXvfb) + quoted(test::lamina_cli()) + " view --script wait.json", "wait.sh");
+  EXPECT_EQ(w.exit_code, 2);
+  EXPECT_NE(w.err.find("wait.json: events[0].wait: expected"), std::string::npos) << w.err;
 }
 
 TEST(Render, WritesAPictureWithNoDisplayAndRejectsBadOptions) {

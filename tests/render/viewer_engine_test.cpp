@@ -175,7 +175,8 @@ TEST_F(ViewerEngine, InjectedInputReachesTheCallbackAsAWindowsWould) {
   ASSERT_TRUE(frame_tick());
   EXPECT_EQ(calls, 1);
 
-  // A click shorter than a frame is still seen: pressed and released, not held.
+  // A click shorter than a frame is seen over two frames (the input is trickled): the press
+  // where it happened, then the release with what followed it.
   inject(InputEvent::move_to({400, 300}));
   inject(InputEvent::press(MouseButton::kLeft));
   inject(InputEvent::release(MouseButton::kLeft));
@@ -187,8 +188,15 @@ TEST_F(ViewerEngine, InjectedInputReachesTheCallbackAsAWindowsWould) {
   ASSERT_TRUE(frame_tick());
   EXPECT_EQ(seen.mouse_px, Eigen::Vector2d(400, 300));
   EXPECT_TRUE(seen.went_down(MouseButton::kLeft));
+  EXPECT_TRUE(seen.down(MouseButton::kLeft));
+  EXPECT_FALSE(seen.released[0]);
+  EXPECT_FALSE(seen.shift) << "what followed the press is the next frame's";
+  ASSERT_TRUE(frame_tick());
+  EXPECT_FALSE(seen.went_down(MouseButton::kLeft));
   EXPECT_TRUE(seen.released[0]);
   EXPECT_FALSE(seen.down(MouseButton::kLeft));
+  EXPECT_FALSE(seen.shift);
+  ASSERT_TRUE(frame_tick());
   EXPECT_TRUE(seen.shift);
   EXPECT_DOUBLE_EQ(seen.wheel, 3.0);
   ASSERT_EQ(seen.keys.size(), 1u);
@@ -214,6 +222,36 @@ TEST_F(ViewerEngine, InjectedInputReachesTheCallbackAsAWindowsWould) {
   inject(InputEvent::move_to({600, 500}));
   ASSERT_TRUE(frame_tick());
   EXPECT_FALSE(seen.ui_wants_mouse);
+}
+
+// A whole drag that arrives within one slow frame (a loaded or sanitized machine draws a frame
+// a second): the press is seen where it happened, the moves a frame later with the button still
+// down, the release after them, and Shift let go after the release only after it.
+TEST_F(ViewerEngine, ADragWithinOneFrameIsSeenPressMovesAndReleaseInTurn) {
+  init(Backend::kMock);
+  Input seen;
+  set_callback([&] { seen = input(); });
+  inject(InputEvent::move_to({100, 100}));
+  ASSERT_TRUE(frame_tick());
+  inject(InputEvent::key_down("shift"));
+  inject(InputEvent::press(MouseButton::kLeft));
+  for (int k = 1; k <= 5; ++k) inject(InputEvent::move_to({100.0, 100.0 - 10.0 * k}));
+  inject(InputEvent::release(MouseButton::kLeft));
+  inject(InputEvent::key_up("shift"));
+  ASSERT_TRUE(frame_tick());
+  EXPECT_TRUE(seen.went_down(MouseButton::kLeft));
+  EXPECT_EQ(seen.mouse_px, Eigen::Vector2d(100, 100)) << "the press is where it happened";
+  EXPECT_TRUE(seen.shift);
+  ASSERT_TRUE(frame_tick());
+  EXPECT_EQ(seen.mouse_px, Eigen::Vector2d(100, 50));
+  EXPECT_TRUE(seen.down(MouseButton::kLeft)) << "the drag's end is seen before its release";
+  EXPECT_FALSE(seen.released[0]);
+  ASSERT_TRUE(frame_tick());
+  EXPECT_TRUE(seen.released[0]);
+  EXPECT_TRUE(seen.shift) << "Shift was let go after the release";
+  ASSERT_TRUE(frame_tick());
+  EXPECT_FALSE(seen.shift);
+  EXPECT_FALSE(seen.released[0]);
 }
 
 TEST_F(ViewerEngine, CameraFitsTheFirstModelAndCloseEndsTheFrames) {

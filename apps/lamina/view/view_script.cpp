@@ -105,9 +105,18 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
         if (ev.rebuild_layers < 1 || ev.rebuild_layers > 16 || ev.rebuild_skin_vertices < 50)
           throw invalid_input(at, "layers must be 1..16 and skin_vertices >= 50");
       } else if (key == "wait") {
-        if (value != "rebuild" && value != "settled")
-          throw invalid_input(at, "expected \"rebuild\" or \"settled\"");
-        ev.wait = value.get<std::string>();
+        if (value.is_object() && value.size() == 1 && value.contains("simulated_s") &&
+            value["simulated_s"].is_number() && value["simulated_s"].get<double>() > 0.0 &&
+            value["simulated_s"].get<double>() <= 3600.0) {
+          ev.wait = "simulated";
+          ev.wait_simulated_s = value["simulated_s"].get<double>();
+        } else if (value == "rebuild" || value == "settled") {
+          ev.wait = value.get<std::string>();
+        } else {
+          throw invalid_input(at,
+                              "expected \"rebuild\", \"settled\" or {\"simulated_s\": S} "
+                              "(0 < S <= 3600)");
+        }
       } else if (key == "quit") {
         if (!value.is_boolean()) throw invalid_input(at, "expected true");
         ev.quit = value.get<bool>();

@@ -250,7 +250,11 @@ void ViewSession::State::act_on_script(double t) {
     }
     // Held at once, and judged from the next frame on: the input played with it (a release
     // just before a "settled") reaches the gestures only in this frame's tick.
-    if (!e.wait.empty()) script.hold(t, e.wait);
+    if (!e.wait.empty()) {
+      script.hold(t, e.wait);
+      wait_from_sim_s = snap.time_s;
+      wait_simulated_s = e.wait_simulated_s;
+    }
     if (e.quit) quit = true;
   }
 }
@@ -258,6 +262,13 @@ void ViewSession::State::act_on_script(double t) {
 // Whether what a script's "wait" names is still under way.
 bool ViewSession::State::waiting_for(const std::string& what) {
   if (what == "rebuild") return rebuild_pending();
+  // "simulated": until the simulation's clock has run on that long (a reset or a rebuild that
+  // took it back starts the count again); a paused or unstable simulation ends the wait.
+  if (what == "simulated") {
+    if (paused || unstable_now) return false;
+    if (snap.time_s < wait_from_sim_s) wait_from_sim_s = snap.time_s;
+    return snap.time_s < wait_from_sim_s + wait_simulated_s;
+  }
   // "settled": a release whose 3-second record is not yet taken.
   return released_at_sim_s >= 0.0 && settle_3s_mm < 0.0;
 }

@@ -60,12 +60,14 @@ struct InputEvent {
 };
 
 /// The input of one frame: the state after the events that arrived since the previous frame,
-/// and what those events changed. Valid from the start of frame_tick() to the next one.
+/// and what those events changed. Valid from the start of frame_tick() to the next one. The
+/// events are trickled: a frame takes them up to and including one button change, and a release
+/// after a move waits a frame, so that each press and release is seen where it happened.
 struct Input {
   Eigen::Vector2d mouse_px = Eigen::Vector2d::Zero();  ///< window pixels from the top left
   std::array<bool, 3> buttons{};                       ///< held now, by MouseButton
-  std::array<bool, 3> pressed{};   ///< went down this frame (also when already up again)
-  std::array<bool, 3> released{};  ///< went up this frame
+  std::array<bool, 3> pressed{};                       ///< went down this frame
+  std::array<bool, 3> released{};                      ///< went up this frame
   bool shift = false, ctrl = false, alt = false;
   double wheel = 0.0;             ///< clicks this frame, > 0 away from the user
   std::vector<std::string> keys;  ///< keys pressed this frame (not modifiers), in order
