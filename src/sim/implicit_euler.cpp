@@ -282,7 +282,9 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
   }
   iterations = it;
 
-  // 5. Update, check and measure; dv keeps this step's change for the next warm start.
+  // 5. Update, check and measure; dv keeps this step's change for the next warm start. A step
+  //    that would collapse a tetrahedron is shortened (inversion_limit.cpp).
+  const double alpha = volume_keeping_fraction(s, sim.x, s.dv, h, T);
   NodeState state(sim, s);
   Cols dv(s.dv);
   const ConstCols v(sim.v);
@@ -290,7 +292,7 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
     Partial acc;
     for (int64_t q = begin; q < end; ++q) {
       const int32_t i = s.active_nodes[q];
-      const double vx = dv.x[i], vy = dv.y[i], vz = dv.z[i];
+      const double vx = alpha * dv.x[i], vy = alpha * dv.y[i], vz = alpha * dv.z[i];
       dv.x[i] = vx - v.x[i], dv.y[i] = vy - v.y[i], dv.z[i] = vz - v.z[i];
       finish_node(s, state, i, h, save, vx, vy, vz, acc);
     }
@@ -303,6 +305,7 @@ Measured implicit_euler_with(Simulation& sim, double h, bool save, int32_t& iter
   // model) is the integrator's motion to 1e-6 of it; one at 1e-3 is not.
   m.stalled = b2 != 0.0 && r2 > 1e4 * stop2;
   m.residual = b2 > 0.0 ? std::sqrt(r2 / b2) : 0.0;
+  m.step_fraction = alpha;
   return m;
 }
 

@@ -326,6 +326,8 @@ struct Measured {
   bool solved = true;     ///< implicit Euler: CG reached its tolerance
   bool stalled = false;   ///< implicit Euler: CG ended more than 100 times above its tolerance
   double residual = 0.0;  ///< implicit Euler: |r| / |b| at CG's end
+  /// implicit Euler: the fraction of the solved step taken (volume_keeping_fraction), 1 whole
+  double step_fraction = 1.0;
   /// 6 x the skin's volume over its triangles with a movable corner, when the pass measured it
   /// at the step's end (NaN: step() measures it).
   double skin_volume6 = std::numeric_limits<double>::quiet_NaN();
@@ -468,6 +470,11 @@ Measured semi_implicit_euler(Simulation& sim, double h, bool save, StepProfile& 
 /// Whether semi_implicit_euler() takes the lanes' fused pass (springs only, no volume term).
 bool lanes_apply(const Solver& s);
 Measured semi_implicit_euler_lanes(Simulation& sim, double h, bool save, StepProfile& profile);
+/// The fraction (1, 1/2, 1/4, ... down to 1/1024) of the step x + h v1 that leaves every active
+/// tetrahedron at least a fifth of its volume at x (inversion_limit.cpp); 1 for a step that
+/// collapses none. Held nodes count as not moving.
+double volume_keeping_fraction(const Solver& s, const Eigen::MatrixX3d& x,
+                               const Eigen::MatrixX3d& v1, double h, int threads);
 Measured implicit_euler(Simulation& sim, double h, bool save, int32_t& iterations,
                         StepProfile& profile);
 Measured projective_step(Simulation& sim, double h, bool save, StepProfile& profile);

@@ -112,6 +112,7 @@ StepStats step(Simulation& sim) {
     const Measured solve = m;
     m = measure(sim);
     m.solved = solve.solved, m.stalled = solve.stalled, m.residual = solve.residual;
+    m.step_fraction = solve.step_fraction;
     st.profile.recover_us = us_since(tr);
   }
   sim.time_s += h;
@@ -135,6 +136,7 @@ StepStats step(Simulation& sim) {
   st.converged = !st.failed && st.max_speed_mm_per_s < s.options.rest_speed_mm_per_s;
   st.solver_converged = m.solved;
   st.solver_residual = m.residual;
+  st.step_fraction = m.step_fraction;
   watch_stability(sim, st, m.stalled);
   st.profile.measure_us = us_since(tm);
   st.step_us = us_since(t0);

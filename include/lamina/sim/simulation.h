@@ -170,6 +170,10 @@ struct StepStats {
   bool solver_converged = true;
   /// Implicit Euler: the final residual over the right-hand side, |b - A dv| / |b|.
   double solver_residual = 0.0;
+  /// Implicit Euler: the fraction of the solved step taken, 1 (whole) unless the step would have
+  /// collapsed a tetrahedron to under a fifth of its volume (then 1/2, 1/4, ...: a line search
+  /// that keeps the tetrahedra from inverting under a load the linearisation cannot follow).
+  double step_fraction = 1.0;
   /// Not kNone once the simulation has left physical bounds (Instability): stop, say so, and
   /// reset() before going on. Every entry point (lamina run, view, serve, Python, the C API)
   /// ends or stops on it.
