@@ -484,6 +484,9 @@ static void bind_step_stats(py::module_& m) {
                     "implicit Euler: conjugate gradients reached their tolerance")
       .def_readonly("solver_residual", &sim::StepStats::solver_residual,
                     "implicit Euler: |b - A dv| / |b| at the solve's end")
+      .def_readonly("step_fraction", &sim::StepStats::step_fraction,
+                    "implicit Euler: the fraction of the solved step taken (1 unless it would "
+                    "have collapsed a tetrahedron)")
       .def("__repr__", [](const sim::StepStats& s) {
         return "<lamina.StepStats max_displacement_mm=" + std::to_string(s.max_displacement_mm) +
                " volume_change_pct=" + std::to_string(s.volume_change_pct) +
