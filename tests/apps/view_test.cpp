@@ -293,9 +293,14 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
       << cli << " phantom --carved-out -o p.nii.gz && " << cli
       << " build p.nii.gz --label 1 --embed 2=portal_vein,3=tumour,4=hepatic_veins -o m.vtu\n";
   ASSERT_EQ(run_shell(dir, "sh prepare.sh", "prepare_run.sh").exit_code, 0);
+  // The script waits for what takes this machine's own time: after the planned picture it holds
+  // until X's resection is done (cut, resected part gone, remnant in use) and then writes
+  // resected.png, which the X events' script waits for before the drag on the remnant; the
+  // remnant's picture and the quit follow that drag.
   std::ofstream(dir.path / "quit.json")
       << R"({"events": [{"at": 9.4, "window_screenshot": "planned.png"},)"
-      << R"( {"at": 18.2, "window_screenshot": "remnant.png"}, {"at": 19.0, "quit": true}]})";
+      << R"( {"at": 9.5, "wait": "resected"}, {"at": 9.6, "window_screenshot": "resected.png"},)"
+      << R"( {"at": 14.0, "window_screenshot": "remnant.png"}, {"at": 14.8, "quit": true}]})";
   // The gestures read the mouse and Shift once a frame: each drag is held still for a second
   // before its release (and Shift after it), so that a slow frame (the first plan, or a
   // sanitizer's build) still sees the drag's end with Shift down.
@@ -308,7 +313,9 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
          "mouseup 1 sleep 0.5 keyup shift sleep 0.5 mousemove --window $w 800 450 sleep 0.3 "
          "mousedown 1 sleep 0.3 mousemove --window $w 840 450 sleep 0.1 mousemove --window $w 880 "
          "450 sleep 0.1 mousemove --window $w 920 450 sleep 1.0 mouseup 1 sleep 1.5 "
-         "key --window $w x sleep 5.5 mousemove --window $w 700 450 sleep 0.3 mousedown 1 "
+         "key --window $w x; "
+         "n=0; while [ ! -s resected.png ] && [ $n -lt 1200 ]; do sleep 0.1; n=$((n+1)); done; "
+         "sleep 0.5; xdotool mousemove --window $w 700 450 sleep 0.3 mousedown 1 "
          "sleep 0.3 mousemove --window $w 700 480 sleep 0.1 mousemove --window $w 700 510 "
          "sleep 0.1 mousemove --window $w 700 540 sleep 1.0 mouseup 1; wait\n";
   const auto r = run_shell(dir, std::string(kXvfb) + "sh session.sh");
@@ -319,7 +326,9 @@ TEST(View, RealMouseEventsFromXdotoolPlanAResectionAndPerformIt) {
   // Turned away from the organ's long axis (x), and moved along it from its centre (x -2.5).
   EXPECT_LT(plan["normal"][0].get<double>(), 0.9995) << plan.dump();
   EXPECT_GT(plan["point_mm"][0].get<double>(), 10.0) << plan.dump();
-  EXPECT_GE(plan["updates"].get<int>(), 10);
+  // The plan follows the plane while it moves: at least one plan for each drag besides the first
+  // (a loaded machine's frames of a third of a second give 7; an idle one 18).
+  EXPECT_GE(plan["updates"].get<int>(), 3) << plan.dump();
   EXPECT_TRUE(plan["resected"].get<bool>());
   EXPECT_EQ(plan["error"], "");
   // The model carries the portal and hepatic trees (issue 63): the plan's functional remnant is

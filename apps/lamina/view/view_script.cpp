@@ -110,12 +110,12 @@ std::vector<ScriptEvent> load_view_script(const std::string& path) {
             value["simulated_s"].get<double>() <= 3600.0) {
           ev.wait = "simulated";
           ev.wait_simulated_s = value["simulated_s"].get<double>();
-        } else if (value == "rebuild" || value == "settled") {
+        } else if (value == "rebuild" || value == "settled" || value == "resected") {
           ev.wait = value.get<std::string>();
         } else {
           throw invalid_input(at,
-                              "expected \"rebuild\", \"settled\" or {\"simulated_s\": S} "
-                              "(0 < S <= 3600)");
+                              "expected \"rebuild\", \"settled\", \"resected\" or "
+                              "{\"simulated_s\": S} (0 < S <= 3600)");
         }
       } else if (key == "quit") {
         if (!value.is_boolean()) throw invalid_input(at, "expected true");

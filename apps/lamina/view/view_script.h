@@ -26,7 +26,9 @@ struct ScriptEvent {
   /// Hold the script's clock here until something that takes this machine's own time is done:
   /// "rebuild" (the model a rebuild before this event asked for is in use) or "settled" (3
   /// simulated seconds have passed since the last drag's release, and the report measured it)
-  /// or "simulated" (wait_simulated_s simulated seconds have passed since the hold began: a
+  /// or "resected" (X's resection is done: cut, the resected part taken away, the remnant in
+  /// use; two minutes at most) or "simulated" (wait_simulated_s simulated seconds have passed
+  /// since the hold began: a
   /// drag held that long dents the organ alike on a fast and on a sanitized machine).
   std::string wait;
   double wait_simulated_s = 0.0;

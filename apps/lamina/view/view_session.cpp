@@ -254,6 +254,7 @@ void ViewSession::State::act_on_script(double t) {
       script.hold(t, e.wait);
       wait_from_sim_s = snap.time_s;
       wait_simulated_s = e.wait_simulated_s;
+      wait_since_s = t;
     }
     if (e.quit) quit = true;
   }
@@ -262,6 +263,11 @@ void ViewSession::State::act_on_script(double t) {
 // Whether what a script's "wait" names is still under way.
 bool ViewSession::State::waiting_for(const std::string& what) {
   if (what == "rebuild") return rebuild_pending();
+  // "resected": X's cut is in, the resected part gone and the remnant in use (held two minutes
+  // at most: a resection that failed says so in the panel and the report, and the script goes on).
+  if (what == "resected")
+    return seconds() - wait_since_s < 120.0 &&
+           (!plan.resected || plan.awaiting_cut || rebuild_pending());
   // "simulated": until the simulation's clock has run on that long (a reset or a rebuild that
   // took it back starts the count again); a paused or unstable simulation ends the wait.
   if (what == "simulated") {

@@ -168,6 +168,7 @@ struct ViewSession::State {
   double released_at_sim_s = -1.0, settle_3s_mm = -1.0;
   // A script's "simulated" wait: the simulated time it began at and how long it holds.
   double wait_from_sim_s = 0.0, wait_simulated_s = 0.0;
+  double wait_since_s = 0.0;                    // the wall time (seconds()) the script's hold began
   Clock::time_point start_time = Clock::now();  // start()'s clock, which scripts also follow
   std::vector<std::string> screenshots;
   std::string status;
