@@ -51,7 +51,7 @@ double volume_keeping_fraction(const Solver& s, const Eigen::MatrixX3d& x,
         const double floor = kKeptVolume * v0;
         // The largest of 1, 1/2, 1/4, ... at which the volume stays above the floor (the volume
         // is a cubic in alpha: a halving search, not its roots, is enough for a safeguard).
-        double alpha = std::min(1.0, alpha_min);
+        double alpha = alpha_min;  // no tetrahedron needs to look above the smallest so far
         while (alpha > 1.0 / 1024.0 &&
                !(det(e1 + alpha * d1, e2 + alpha * d2, e3 + alpha * d3) >= floor))
           alpha *= 0.5;

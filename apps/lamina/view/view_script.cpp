@@ -143,17 +143,17 @@ ScriptPlayer::ScriptPlayer(std::vector<ScriptEvent> events) : events_(std::move(
     drives_mouse_ |= e.mouse || e.press >= 0 || e.release >= 0 || e.shift || e.scroll != 0.0;
 }
 
-void ScriptPlayer::hold(double t, const std::string& what) {
+void ScriptPlayer::hold(double t, const ScriptEvent& e) {
   if (held()) return;
   held_since_s_ = t;
-  held_for_ = what;
+  held_for_ = e;
 }
 
 void ScriptPlayer::resume(double t) {
   if (!held()) return;
   held_s_ += t - held_since_s_;
   held_since_s_ = -1.0;
-  held_for_.clear();
+  held_for_ = {};
 }
 
 std::vector<ScriptEvent> ScriptPlayer::play(double wall_t, const Eigen::Vector2i& window) {

@@ -28,8 +28,8 @@ struct ScriptEvent {
   /// simulated seconds have passed since the last drag's release, and the report measured it)
   /// or "resected" (X's resection is done: cut, the resected part taken away, the remnant in
   /// use; two minutes at most) or "simulated" (wait_simulated_s simulated seconds have passed
-  /// since the hold began: a
-  /// drag held that long dents the organ alike on a fast and on a sanitized machine).
+  /// since the hold began: a drag held that long dents the organ alike on a fast and on a
+  /// sanitized machine).
   std::string wait;
   double wait_simulated_s = 0.0;
   bool quit = false;
@@ -52,20 +52,23 @@ class ScriptPlayer {
   /// @return the events due by t_s, in order; a wait event ends the list (nothing after it is
   ///         played in the same call, so the caller can hold() the clock first)
   std::vector<ScriptEvent> play(double t_s, const Eigen::Vector2i& window);
-  /// Holds the script's clock from t_s for what a wait event names: play() returns nothing until
-  /// resume(); the events after the hold keep their spacing, shifted by how long it lasted.
-  void hold(double t_s, const std::string& what);
+  /// Holds the script's clock from t_s for what wait event `e` names: play() returns nothing
+  /// until resume(); the events after the hold keep their spacing, shifted by how long it lasted.
+  void hold(double t_s, const ScriptEvent& e);
   void resume(double t_s);
   bool held() const { return held_since_s_ >= 0.0; }
-  const std::string& held_for() const { return held_for_; }  ///< the wait being held for
+  const std::string& held_for() const { return held_for_.wait; }  ///< the wait being held for
+  /// The wait event being held for (its wait_simulated_s), and the wall time its hold began.
+  const ScriptEvent& hold_event() const { return held_for_; }
+  double held_since() const { return held_since_s_; }
 
  private:
   std::vector<ScriptEvent> events_;
   size_t next_ = 0;
   bool drives_mouse_ = false;
   double held_since_s_ = -1.0, held_s_ = 0.0;  // a hold in progress; all holds so far
-  std::string held_for_;
-  std::optional<ScriptEvent> glide_;  // a mouse glide in progress
+  ScriptEvent held_for_;                       // the wait event of the hold in progress
+  std::optional<ScriptEvent> glide_;           // a mouse glide in progress
   Eigen::Vector2d glide_from_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d pos_ = Eigen::Vector2d::Zero();  // where the script put the pointer, pixels
 };

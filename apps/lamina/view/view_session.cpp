@@ -251,10 +251,8 @@ void ViewSession::State::act_on_script(double t) {
     // Held at once, and judged from the next frame on: the input played with it (a release
     // just before a "settled") reaches the gestures only in this frame's tick.
     if (!e.wait.empty()) {
-      script.hold(t, e.wait);
+      script.hold(t, e);
       wait_from_sim_s = snap.time_s;
-      wait_simulated_s = e.wait_simulated_s;
-      wait_since_s = t;
     }
     if (e.quit) quit = true;
   }
@@ -266,14 +264,14 @@ bool ViewSession::State::waiting_for(const std::string& what) {
   // "resected": X's cut is in, the resected part gone and the remnant in use (held two minutes
   // at most: a resection that failed says so in the panel and the report, and the script goes on).
   if (what == "resected")
-    return seconds() - wait_since_s < 120.0 &&
+    return seconds() - script.held_since() < 120.0 &&
            (!plan.resected || plan.awaiting_cut || rebuild_pending());
   // "simulated": until the simulation's clock has run on that long (a reset or a rebuild that
   // took it back starts the count again); a paused or unstable simulation ends the wait.
   if (what == "simulated") {
     if (paused || unstable_now) return false;
     if (snap.time_s < wait_from_sim_s) wait_from_sim_s = snap.time_s;
-    return snap.time_s < wait_from_sim_s + wait_simulated_s;
+    return snap.time_s < wait_from_sim_s + script.hold_event().wait_simulated_s;
   }
   // "settled": a release whose 3-second record is not yet taken.
   return released_at_sim_s >= 0.0 && settle_3s_mm < 0.0;

@@ -166,9 +166,7 @@ struct ViewSession::State {
   // The last release, in simulated seconds, and the largest displacement 3 simulated seconds
   // later (-1: not yet): the simulation's own clock, so that a slow machine measures the same.
   double released_at_sim_s = -1.0, settle_3s_mm = -1.0;
-  // A script's "simulated" wait: the simulated time it began at and how long it holds.
-  double wait_from_sim_s = 0.0, wait_simulated_s = 0.0;
-  double wait_since_s = 0.0;                    // the wall time (seconds()) the script's hold began
+  double wait_from_sim_s = 0.0;  // the simulated time a script's "simulated" wait began at
   Clock::time_point start_time = Clock::now();  // start()'s clock, which scripts also follow
   std::vector<std::string> screenshots;
   std::string status;

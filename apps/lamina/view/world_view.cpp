@@ -144,7 +144,7 @@ void WorldViewSession::State::act_on_script(double t) {
   if (script.held()) {
     // Any wait is for the world to settle: every body at rest (the world's own judgement), a
     // minute at most.
-    if (!snap.converged && t - hold_since_s < 60.0) return;
+    if (!snap.converged && t - script.held_since() < 60.0) return;
     if (!snap.converged) status = "the world did not come to rest within a minute";
     script.resume(t);
   }
@@ -156,10 +156,7 @@ void WorldViewSession::State::act_on_script(double t) {
     }
     if (!e.screenshot.empty()) save_screenshot(e.screenshot, false);
     if (!e.window_screenshot.empty()) window_shot = e.window_screenshot;
-    if (!e.wait.empty()) {
-      script.hold(t, e.wait);
-      hold_since_s = t;
-    }
+    if (!e.wait.empty()) script.hold(t, e);
     if (e.quit) quit = true;
   }
 }

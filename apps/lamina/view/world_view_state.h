@@ -74,7 +74,6 @@ struct WorldViewSession::State {
   std::vector<std::string> screenshots;
   std::string window_shot;
   int32_t frame_interval_us = 16667;
-  double hold_since_s = 0.0;  // a script's wait began
 
   double seconds() const { return seconds_since(start_time); }
   void on_frame();
