@@ -38,6 +38,7 @@ set(lamina_test_costs
   LaminaRun.TwoToolsAtOnceBothDeformTheSkin 3 18
   Simulation.WithDampingAndNoToolEnergyNeverRises 2 17
   LaminaValidate.TheIndenterRadiusIsTheUsersAndABadOneIsRefused 3 16
+  LaminaValidate.RefineBuildsEverySizePressesItToRestAndRefinementSoftensTheDent 4 30
   Run.RealtimeKeepsItsRateAndReportsTheReaction 4 16
   Serve.TheExamplePolyDataClientGetsTheWholeSkin 9 16
   StabilityWatch.APokedOrganLetGoIsNeverCalledUnstable 3 15

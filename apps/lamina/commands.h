@@ -153,6 +153,9 @@ struct ValidateArgs {
   /// Diagnostic: the finite elements on the model's own tetrahedra instead of an independent
   /// mesh (separates the model's error from the discretisation's).
   bool fem_on_model = false;
+  /// The dent as the mesh is refined: the organ built at these skin sizes (two or more), each
+  /// pressed by the same held push (refinement_report.h); empty = the comparison
+  std::vector<int32_t> refine;
   bool verbose = false;
 };
 /// The mass-spring model against linear and corotational finite elements on the same

@@ -505,6 +505,13 @@ Subcommand add_validate(CLI::App& app) {
   va->add_flag("--stability", val.stability,
                "the stability suite: indentations to 50%, pulls, several tools, dt sweeps per "
                "integrator, each released and checked (finite, layer order, energy, rest)");
+  va->add_option("--refine", val.refine,
+                 "the dent as the mesh is refined: the organ built at these skin vertex counts "
+                 "(comma-separated, two or more), each pressed by the same held 0.4 N push "
+                 "(over --indenter-radius, default 5 mm; at the paper's point, or --deepest), "
+                 "against the finest and an elastic half-space")
+      ->delimiter(',')
+      ->check(CLI::Range(50, 5000000));
   return {va, [l](int verbosity) {
             l->val.verbose = verbosity == 2;
             return cli::run_validate(l->val);

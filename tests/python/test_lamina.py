@@ -530,6 +530,19 @@ def test_validate_quick(tmp_path):
     assert "/nonexistent/mask.nii.gz" in str(e.value) and e.value.exit_code == 2
 
 
+def test_validate_refine():
+    # A researcher's refinement sweep: the same held push at two sizes of the phantom; the finer
+    # dents deeper (coarse tetrahedra are stiff to a small patch, docs/validation.md).
+    summary = lamina.validate("phantom", refine=[800, 400], deepest=True)
+    rows = summary["rows"]
+    assert [r["skin_vertices"] for r in rows] == [400, 800]
+    assert all(r["rested"] for r in rows)
+    assert rows[1]["dent_mm"] > rows[0]["dent_mm"] > 0.0
+    with pytest.raises(lamina.Error) as e:
+        lamina.validate("phantom", refine=[400])
+    assert "--refine" in str(e.value) and e.value.exit_code == 2
+
+
 def test_docs_first_example_runs():
     """docs/python.md's first example, as written."""
     text = (REPO / "docs" / "python.md").read_text()

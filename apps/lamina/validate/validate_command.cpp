@@ -18,6 +18,7 @@
 #include "lamina/model/identify_springs.h"
 #include "lamina/validate/indentation.h"
 #include "plots.h"
+#include "refinement_report.h"
 #include "stability_report.h"
 
 namespace lamina::cli {
@@ -132,6 +133,18 @@ void draw_plots(const fs::path& out, const std::vector<std::string>& solvers,
 int run_validate(const ValidateArgs& a) {
   const auto t0 = Clock::now();
   io::Scene scene = io::scene_for(a.what);
+  if (!a.refine.empty()) {
+    if (a.stability || a.tool_only || a.fem_on_model || a.quick || !a.depths.empty())
+      throw invalid_input("--refine",
+                          "runs alone: not with --stability, --tool-only, --fem-on-model, "
+                          "--quick or --depths");
+    if (!scene.model_path.empty())
+      throw invalid_input(a.what,
+                          "lamina validate --refine builds the organ at several sizes: give the "
+                          "mask (or a scene with model.input), not a saved model");
+    make_elastic(scene);
+    return report_refinement(a, std::move(scene));
+  }
   if (!scene.model_path.empty())
     throw invalid_input(a.what,
                         "lamina validate meshes the segmentation for its finite elements: give "
