@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <utility>
+#include <vector>
 
 #include "lamina/core/log.h"
 #include "preconditioner.h"
@@ -34,6 +35,20 @@ bool still_fits(const Solver& s, const MultigridPreconditioner& p, double h) {
   return 2 * s.active_nodes.size() >= p.nodes.size();
 }
 
+// The median over the rows of A's diagonal over the inertia's (kAutoCertainRatio).
+double median_stiffness_ratio(const Solver& s, const MultigridPreconditioner& p,
+                              const SparseRows& A, double h) {
+  const Eigen::VectorXd d = A.diagonal();
+  std::vector<double> q(p.nodes.size());
+  for (size_t k = 0; k < q.size(); ++k)
+    q[k] = d[static_cast<Eigen::Index>(3 * k)] / inertia_diagonal(s, p.nodes[k], h);
+  const auto mid = q.begin() + static_cast<std::ptrdiff_t>(q.size() / 2);
+  std::nth_element(q.begin(), mid, q.end());
+  return *mid;
+}
+
+}  // namespace
+
 // kAuto's trial: Jacobi-preconditioned CG on the system at rest A, from zero, to the step's
 // tolerance, on a smooth right side (every node pushed alike, as by its weight: the slow, smooth
 // motion Jacobi is slow on). Returns its iterations, at most `cap`: the choice needs no more
@@ -46,8 +61,6 @@ int32_t jacobi_trial(const SparseRows& A, const SolverOptions& o, int32_t cap) {
       A, b, o.cg_tolerance, cap,
       [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inv_diag.cwiseProduct(r); });
 }
-
-}  // namespace
 
 bool setup_multigrid(Solver& s, double h) {
   if (s.options.preconditioner == Preconditioner::kJacobi || s.active_nodes.empty()) return false;
@@ -79,10 +92,19 @@ bool setup_multigrid(Solver& s, double h) {
   p.chosen = true;
   if (p.pick == Preconditioner::kAuto) {
     const int32_t decisive = std::min(kAutoTrialIterations, s.options.cg_max_iterations);
-    p.trial_iterations = jacobi_trial(A, s.options, decisive);
-    p.chosen = p.trial_iterations >= decisive;
-    log::info("implicit Euler: Jacobi's trial solve took {}{} iterations: {}", p.trial_iterations,
-              p.chosen ? " or more" : "", p.chosen ? "the multigrid" : "Jacobi");
+    p.stiffness_ratio = median_stiffness_ratio(s, p, A, h);
+    if (p.stiffness_ratio >= kAutoCertainRatio) {
+      p.trial_iterations = -1;
+      log::info(
+          "implicit Euler: the multigrid (the stiffness outweighs the inertia {:.0f}x on the "
+          "diagonal: Jacobi would take {} iterations or more)",
+          p.stiffness_ratio, static_cast<int>(4.8 * std::sqrt(p.stiffness_ratio)));
+    } else {
+      p.trial_iterations = jacobi_trial(A, s.options, decisive);
+      p.chosen = p.trial_iterations >= decisive;
+      log::info("implicit Euler: Jacobi's trial solve took {}{} iterations: {}", p.trial_iterations,
+                p.chosen ? " or more" : "", p.chosen ? "the multigrid" : "Jacobi");
+    }
     if (!p.chosen) {
       p.mg.levels.clear();  // nothing of a hierarchy this run will not use
       p.system = {};

@@ -41,6 +41,13 @@ constexpr double kRelineariseAt = 1.5;
 // benchmark's held poke; 54 (3,358 nodes, 10 ms) multigrid 1.13x faster; 61, 69, 78 and 100
 // (4,957 nodes at 10 ms, 2,321 at 16.7 ms, 9,871 at 10 ms and 16.7 ms) multigrid 1.6-2.8x.
 constexpr int32_t kAutoTrialIterations = 50;
+// ... and takes it without the trial when the trial's answer is certain: Jacobi's iterations
+// grow as the square root of q, the median over the rows of the system's diagonal over the
+// inertia's (1 + h^2 K_ii / m_i (1 + h alpha)): 4.8-6.3 sqrt(q) on the tetrahedral phantom from
+// 618 to 47,685 nodes at 1-16.7 ms (4 iterations at q = 1.24, 46 at 54, 78 at 186, 199 at
+// 1,743). From q = 300 on the trial would take 83 or more, and at 47,685 nodes and 16.7 ms
+// (q = 1,743) it spent 50 products of the finest level learning it.
+constexpr double kAutoCertainRatio = 300.0;
 
 struct MultigridPreconditioner {
   static constexpr bool kPointwise = false;
@@ -56,6 +63,8 @@ struct MultigridPreconditioner {
   bool chosen = false;  ///< the multigrid applies (kMultigrid, or kAuto's trial)
   /// kAuto's trial: Jacobi's iterations at rest, at most kAutoTrialIterations (-1: none)
   int32_t trial_iterations = -1;
+  /// kAuto: the median of the system's diagonal over the inertia's (kAutoCertainRatio)
+  double stiffness_ratio = 0.0;
   std::vector<int32_t> nodes;   ///< per row: its node
   std::vector<int32_t> row_of;  ///< per node: its row, or -1
   BlockRows system;             ///< the matrix the hierarchy was last built from, by blocks
@@ -76,11 +85,16 @@ struct MultigridPreconditioner {
   int64_t fallbacks = 0;     ///< steps that found the V-cycle indefinite and took Jacobi instead
 };
 
+/// kAuto's trial: Jacobi-preconditioned CG on the system at rest `A` (setup_multigrid()), from
+/// zero on a smooth right side, to o.cg_tolerance: its iterations, at most `cap`.
+int32_t jacobi_trial(const SparseRows& A, const SolverOptions& o, int32_t cap);
+
 /// Whether the steps take the multigrid (what uses_multigrid() reports): kMultigrid, or kAuto
 /// once setup_multigrid() has chosen it.
 bool multigrid_applies(const Solver& s);
-/// Whether this step takes the multigrid: kMultigrid, or kAuto when Jacobi's trial solve of
-/// the system at rest took kAutoTrialIterations or more. Decides again, and builds the
+/// Whether this step takes the multigrid: kMultigrid, or kAuto when the stiffness outweighs the
+/// inertia past kAutoCertainRatio or, below it, Jacobi's trial solve of the system at rest took
+/// kAutoTrialIterations or more. Decides again, and builds the
 /// hierarchy, when the movable nodes, the material or h changed since.
 bool setup_multigrid(Solver& s, double h);
 /// After the residual pass: the finest level's smoother from the step's linearisation, and the

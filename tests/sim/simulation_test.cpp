@@ -454,7 +454,10 @@ TEST(LowestFrequency, MatchesADenseEigensolveAndItsScalingLaws) {
     if (a >= 0 && b >= 0) K.block<3, 3>(3 * a, 3 * b) -= k, K.block<3, 3>(3 * b, 3 * a) -= k;
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(K, Eigen::EigenvaluesOnly);
-  EXPECT_NEAR(omega, std::sqrt(eig.eigenvalues()[0]), 1e-6 * omega);
+  // Within half the default tolerance (1e-4; measured 3.6e-6 off), and to 1e-6 when asked.
+  const double exact = std::sqrt(eig.eigenvalues()[0]);
+  EXPECT_NEAR(omega, exact, 0.5e-4 * exact);
+  EXPECT_NEAR(sim::lowest_angular_frequency(s, 300, 1e-10), exact, 1e-6 * exact);
   // Four times stiffer: twice as fast; four times heavier: half as fast.
   sim::set_parameters(s, {.stiffness_n_per_m = 12.0}, s.options());
   EXPECT_NEAR(sim::lowest_angular_frequency(s), 2.0 * omega, 1e-6 * omega);

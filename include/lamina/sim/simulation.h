@@ -398,12 +398,15 @@ void implicit_system_product(Simulation& sim, double h, const Eigen::MatrixX3d& 
 double layer_volume(const Model& model, const Eigen::MatrixX3d& x, int32_t layer = 0);
 
 /// omega_1, rad/s: the slowest natural frequency of the model about its rest shape, with its
-/// held nodes, support and anchors and the current masses and stiffness (inverse iteration on a
-/// sparse factorization; the volume terms are left out). Mass-proportional damping
-/// Material::mass_damping_per_s = 2 zeta omega_1 damps that mode at damping ratio zeta.
+/// held nodes, support and anchors and the current masses and stiffness (LOBPCG preconditioned
+/// by a multigrid V-cycle on the stiffness at rest; the volume terms are left out), to within
+/// about `tolerance` of itself (relative; the iteration's own rate estimates what is left).
+/// Mass-proportional damping Material::mass_damping_per_s = 2 zeta omega_1 damps that mode at
+/// damping ratio zeta: 1e-4 is far finer than a damping ratio is known.
 /// \note Throws lamina::Error (kInvalidInput) if the model is held nowhere (its slowest motion
 ///   is a free drift) or everywhere.
-double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations = 300);
+double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations = 300,
+                                double tolerance = 1e-4);
 
 /// Semi-implicit Euler's stability limit for this simulation's masses, stiffness and damping,
 /// s: the largest dt with h^2 w^2 + 2 h c < 4 at every free node, w^2 Gershgorin's bound on the
