@@ -71,7 +71,7 @@ double lowest_angular_frequency(const Simulation& sim, int32_t max_iterations, d
     // then about the last fall times rho / (1 - rho). rho is the larger of the last two falls'
     // ratios, at least 1/2 and at most 0.95, so an early lull does not pass for convergence. The
     // damping needs omega to a few digits: the default 1e-4 stopped a 20k-node phantom after 26
-    // iterations instead of 48 (omega within 1e-5 of the converged one).
+    // iterations instead of 48 (omega within 4.5e-5 of the converged one).
     const double drop = previous - omega2;
     if (it >= 3 && drop >= 0.0 && drops[1] > 0.0) {
       const double rho = std::clamp(
