@@ -16,8 +16,10 @@
 
 #include "lamina/core/error.h"
 #include "lamina/core/log.h"
+#include "lamina/geometry/mesh_measures.h"
 #include "lamina/interact/tools.h"
 #include "lamina/io/scene_model.h"
+#include "lamina/model/summarize_model.h"
 #include "lamina/validate/indentation.h"
 #include "plots.h"
 
@@ -71,13 +73,13 @@ std::optional<size_t> within_from(const std::vector<Size>& sizes, Dent dent) {
 }
 
 Size press(const io::Scene& scene, int32_t skin_vertices, Eigen::Vector3d& contact,
-           Eigen::Vector3d& direction, double radius_mm, bool deepest, const ProgressFn& progress) {
+           Eigen::Vector3d& direction, double radius_mm, bool deepest) {
   Size r;
   r.skin_vertices = skin_vertices;
   io::Scene at = scene;
   at.build.skin_vertices = skin_vertices;
   const auto t0 = Clock::now();
-  const io::ReadyScene ready = io::make_ready_scene(at, volume_read_options, progress);
+  const io::ReadyScene ready = io::make_ready_scene(at, volume_read_options);
   r.build_s = std::chrono::duration<double>(Clock::now() - t0).count();
   const Model& m = *ready.model;
   if (!contact.allFinite()) {  // the coarsest model places the push for every size
@@ -112,11 +114,7 @@ Size press(const io::Scene& scene, int32_t skin_vertices, Eigen::Vector3d& conta
   r.nodes = m.node_count();
   r.skin_nodes = m.layers[0].node_count;
   r.tets = m.tets.size();
-  const Eigen::MatrixX3i& F = m.layers[0].F;
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c)
-      r.skin_edge_mm += (m.X.row(F(f, c)) - m.X.row(F(f, (c + 1) % 3))).norm();
-  r.skin_edge_mm /= std::max<double>(1.0, 3.0 * static_cast<double>(F.rows()));
+  r.skin_edge_mm = geometry::measure_mesh(model::layer_mesh(m, 0)).mean_edge_mm;
   return r;
 }
 
@@ -176,7 +174,7 @@ int report_refinement(const ValidateArgs& a, io::Scene scene) {
                                 sizes[k], k + 1, sizes.size(),
                                 std::chrono::duration<double>(Clock::now() - t0).count()),
                     static_cast<double>(k) / static_cast<double>(sizes.size()));
-    rows.push_back(press(scene, sizes[k], contact, direction, radius, a.deepest, {}));
+    rows.push_back(press(scene, sizes[k], contact, direction, radius, a.deepest));
     log::info("validate --refine: {} nodes, dent {:.3f} mm ({} steps{})", rows.back().nodes,
               rows.back().dent_mm, rows.back().steps, rows.back().rested ? "" : ", not at rest");
   }
