@@ -7,6 +7,8 @@
 // SKIN... (--smoothed: Vanek's smoothed aggregation instead of the steps' plain one). Also
 // times one V-cycle below the finest level in Eigen's double CSR and in float blocks.
 // --geometric RATIO: also the geometric coarse space (a model of SKIN / RATIO skin vertices).
+// --grid F: also a grid's coarse level (build_multigrid's grid_mm: F x the mean tetrahedron
+// edge), the aggregation below it.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <omp.h>
@@ -206,6 +208,7 @@ int run(int argc, char** argv) {
   int64_t coarsest = 1500;
   bool smoothed = false;
   int geometric = 0;  // > 0: also the geometric coarse space, a model of skin / geometric
+  double grid = 0.0;  // > 0: also a grid's coarse level, spacing grid x the mean edge
   std::vector<int> sizes;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
@@ -217,12 +220,14 @@ int run(int argc, char** argv) {
       coarsest = std::atoll(argv[++k]);
     else if (a == "--geometric" && k + 1 < argc)
       geometric = std::atoi(argv[++k]);
+    else if (a == "--grid" && k + 1 < argc)
+      grid = std::atof(argv[++k]);
     else if (!a.empty() && a.find_first_not_of("0123456789") == std::string::npos)
       sizes.push_back(std::atoi(a.c_str()));
     else {
       fmt::print(stderr,
                  "usage: multigrid_harness [--dt S] [--coarsest N] [--smoothed] [--geometric "
-                 "RATIO] [SKIN...]{}\n",
+                 "RATIO] [--grid F] [SKIN...]{}\n",
                  a == "--help" || a == "-h" ? "" : fmt::format(" (not understood: {})", a));
       return a == "--help" || a == "-h" ? 0 : 2;
     }
@@ -297,6 +302,30 @@ int run(int argc, char** argv) {
         skin, ready.model->node_count(), fmt::format("{}", fmt::join(mg.shape.unknowns, ">")),
         mg.shape.operator_complexity, setup, s3, s8, r3, r8, per_it, mb, mb / 1e3 / bandwidth * 1e3,
         fmt::format("{:.2f}/{:.2f}", csr_ms, blocks_ms));
+    if (grid > 0.0) {
+      double edges = 0.0;
+      int64_t count = 0;
+      const Model& m = *ready.model;
+      for (Eigen::Index t = 0; t < m.tets.T.rows(); ++t)
+        for (int a = 0; a < 4; ++a)
+          for (int b = a + 1; b < 4; ++b, ++count)
+            edges += (m.X.row(m.tets.T(t, a)) - m.X.row(m.tets.T(t, b))).norm();
+      const double spacing = grid * edges / static_cast<double>(count);
+      sim::detail::Multigrid gm;
+      const auto t2 = Clock::now();
+      sim::detail::build_multigrid(A, points, gm, coarsest, smoothed, spacing);
+      gm.threads = omp_get_max_threads();
+      const double g_setup = since(t2);
+      const int gs3 = pcg(A, gm, smooth, 1e-3, 500);
+      const int gs8 = pcg(A, gm, smooth, 1e-8, 500);
+      const int gr3 = pcg(A, gm, noise, 1e-3, 500);
+      const int gr8 = pcg(A, gm, noise, 1e-8, 500);
+      fmt::print(
+          "{:>6} {:>7} {:>28} {:>5.2f} {:>7.2f} {:>6} {:>6} {:>6} {:>6}   grid: {:.2f} mm "
+          "spacing\n",
+          "", "", fmt::format("{}", fmt::join(gm.shape.unknowns, ">")),
+          gm.shape.operator_complexity, g_setup, gs3, gs8, gr3, gr8, spacing);
+    }
     if (geometric > 0) {
       Geometric g;
       const auto t2 = Clock::now();

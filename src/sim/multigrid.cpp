@@ -114,7 +114,7 @@ SparseRows galerkin(const MultigridLevel& level, const std::vector<int32_t>& pad
 
 // inv_diag, omega and the workspace of a level; the float blocks of a coarse level's A.
 void finish_level(MultigridLevel& level, bool coarse) {
-  if (coarse) to_float_blocks(level.A, kCoarseBlock, kCoarseBlock, level.A_blocks);
+  if (coarse) to_float_blocks(level.A, level.block, level.block, level.A_blocks);
   level.inv_diag = level.A.diagonal().cwiseInverse();
   if (!level.inv_diag.allFinite() || (level.A.diagonal().array() <= 0.0).any())
     throw Error(ErrorKind::kInternal, "multigrid: a level's diagonal is not positive");
@@ -141,8 +141,53 @@ double jacobi_spectral_radius(const SparseRows& A, const Eigen::VectorXd& inv_di
   return rho;
 }
 
-void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
-                     int64_t coarsest_unknowns, bool smoothed) {
+// A corner only given zero weights (a point on its cell's far face) is not made: P has no empty
+// column, and the coarse operator no empty row.
+Eigen::MatrixX3d grid_prolongation(const Eigen::MatrixX3d& points, double grid_mm, SparseRows& P) {
+  const Eigen::RowVector3d low = points.colwise().minCoeff();
+  const Eigen::RowVector3d extent = points.colwise().maxCoeff() - low;
+  Eigen::Array3i cells;
+  for (int d = 0; d < 3; ++d)
+    cells[d] = std::max(1, static_cast<int>(std::ceil(extent[d] / grid_mm)));
+  const auto corner_key = [&](const Eigen::Array3i& c) {
+    return (static_cast<int64_t>(c[2]) * (cells[1] + 1) + c[1]) * (cells[0] + 1) + c[0];
+  };
+  std::vector<int32_t> corner_of(static_cast<size_t>(corner_key(cells)) + 1, -1);
+  std::vector<Eigen::Vector3d> corners;
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<size_t>(24 * points.rows()));
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    const Eigen::Array3d u = ((points.row(i) - low) / grid_mm).transpose().array();
+    Eigen::Array3i cell;
+    Eigen::Array3d f;
+    for (int d = 0; d < 3; ++d) {
+      cell[d] = std::clamp(static_cast<int>(std::floor(u[d])), 0, cells[d] - 1);
+      f[d] = std::clamp(u[d] - cell[d], 0.0, 1.0);
+    }
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Array3i bit((k & 1), (k >> 1) & 1, (k >> 2) & 1);
+      double w = 1.0;
+      for (int d = 0; d < 3; ++d) w *= bit[d] != 0 ? f[d] : 1.0 - f[d];
+      if (w <= 0.0) continue;
+      const Eigen::Array3i c = cell + bit;
+      int32_t& column = corner_of[static_cast<size_t>(corner_key(c))];
+      if (column < 0) {
+        column = static_cast<int32_t>(corners.size());
+        corners.emplace_back(low.transpose() + grid_mm * c.cast<double>().matrix());
+      }
+      for (int d = 0; d < 3; ++d) t.emplace_back(3 * i + d, 3 * column + d, w);
+    }
+  }
+  P.resize(3 * points.rows(), 3 * static_cast<Eigen::Index>(corners.size()));
+  P.setFromTriplets(t.begin(), t.end());
+  Eigen::MatrixX3d out(static_cast<Eigen::Index>(corners.size()), 3);
+  for (size_t k = 0; k < corners.size(); ++k)
+    out.row(static_cast<Eigen::Index>(k)) = corners[k].transpose();
+  return out;
+}
+
+void build_multigrid(SparseRows A, const Eigen::MatrixX3d& fine_points, Multigrid& mg,
+                     int64_t coarsest_unknowns, bool smoothed, double grid_mm) {
   const auto t0 = Clock::now();
   mg.levels.clear();
   // At most 10 levels (below): no level is moved by a reallocation (0.4 s at 47,685 nodes).
@@ -150,6 +195,20 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
   mg.shape = {};
   mg.levels.emplace_back();
   mg.levels[0].A = std::move(A);
+  Eigen::MatrixX3d points = fine_points;
+  if (grid_mm > 0.0 && mg.levels[0].A.rows() > coarsest_unknowns) {
+    MultigridLevel& fine = mg.levels[0];
+    finish_level(fine, false);
+    points = grid_prolongation(fine_points, grid_mm, fine.P);
+    fine.R = fine.P.transpose();
+    to_float_blocks(fine.P, 3, 3, fine.P_blocks);
+    to_float_blocks(fine.R, 3, 3, fine.R_blocks);
+    MultigridLevel next;
+    next.A = galerkin(fine, next.padding);
+    log::debug("multigrid level 0: {} unknowns, a {:.3g} mm grid of {} corners, coarse {} nonzeros",
+               fine.A.rows(), grid_mm, points.rows(), next.A.nonZeros());
+    mg.levels.push_back(std::move(next));
+  }
   // The near-null space on the finest level: per node, the three translations and the three
   // rotations about the origin (each aggregate's QR below recentres them).
   const auto n0 = static_cast<int32_t>(points.rows());
@@ -231,11 +290,11 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
       level.P.prune(0.0);
     }
     level.R = level.P.transpose();
-    const int level_block = mg.levels.size() > 1 ? kCoarseBlock : 3;
-    to_float_blocks(level.P, level_block, kCoarseBlock, level.P_blocks);
-    to_float_blocks(level.R, kCoarseBlock, level_block, level.R_blocks);
+    to_float_blocks(level.P, level.block, kCoarseBlock, level.P_blocks);
+    to_float_blocks(level.R, kCoarseBlock, level.block, level.R_blocks);
     const double t_aggregate = seconds_since(t0);
     MultigridLevel next;
+    next.block = kCoarseBlock;
     next.padding = std::move(padding);
     next.A = galerkin(level, next.padding);
     log::debug(

@@ -32,9 +32,10 @@ struct MultigridLevel {
   /// blocks of this level's node (3 unknowns on the finest, 6 below) by the next one's (6).
   FloatBlocks A_blocks, P_blocks, R_blocks;
   std::vector<int32_t> padding;  ///< the unknowns that pad a node to six (no rigid motion)
-  Eigen::VectorXd inv_diag;      ///< 1 / diag(A)
-  double omega = 0.0;            ///< damped Jacobi's weight, 4 / (3 rho(D^-1 A))
-  Eigen::VectorXd b, x, r;       ///< workspace: right side, solution, residual
+  int block = 3;  ///< unknowns per node: 3 on the finest and a grid level, 6 on aggregates'
+  Eigen::VectorXd inv_diag;  ///< 1 / diag(A)
+  double omega = 0.0;        ///< damped Jacobi's weight, 4 / (3 rho(D^-1 A))
+  Eigen::VectorXd b, x, r;   ///< workspace: right side, solution, residual
 };
 
 /// What a hierarchy is (the benchmark and the run summary report it).
@@ -58,8 +59,18 @@ struct Multigrid {
 /// `smoothed`: Vanek's smoothed aggregation, each prolongation smoothed by one damped-Jacobi step
 /// (P = (I - omega D^-1 A) P_tentative); the steps take the plain one (docs/benchmarks.md, issue
 /// 48: the harness multigrid_harness compares them).
+/// `grid_mm` > 0: the first coarse level is geometric, the corners of a regular grid of that
+/// spacing over the points (the cells that hold a node), each node interpolated trilinearly from
+/// its cell's corners (linear motions, the rigid ones among them, are in the coarse space); the
+/// aggregation starts below it.
 void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg,
-                     int64_t coarsest_unknowns = 1500, bool smoothed = false);
+                     int64_t coarsest_unknowns = 1500, bool smoothed = false, double grid_mm = 0.0);
+
+/// The grid's coarse level of build_multigrid(): P (3 #points x 3 #corners) interpolates the
+/// corners of a regular grid of spacing `grid_mm` over `points` (those of the cells that hold a
+/// point) trilinearly to the points, a weight per point and corner on each axis; returns the
+/// corners' positions (#corners x 3, mm).
+Eigen::MatrixX3d grid_prolongation(const Eigen::MatrixX3d& points, double grid_mm, SparseRows& P);
 
 /// The hierarchy again for a new matrix on the same unknowns (a relinearised system): keeps the
 /// aggregates and prolongations, computes each coarse operator P^T A P again, the smoothing
