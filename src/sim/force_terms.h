@@ -44,6 +44,9 @@ struct EdgeSprings {
   static bool on(const Solver& s) { return !s.tets.on; }
   static void forces(Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f);
   static double energy_mj(const Solver& s, const Eigen::MatrixX3d& x);
+  /// The energy at x of the springs with a movable end (`active`: s.active_springs) or of the
+  /// others (the part refresh_frozen_positions() caches: local mode's springs that stay put).
+  static double part_energy_mj(const Solver& s, const Eigen::MatrixX3d& x, bool active);
   static void add_stiffness_rows(const Solver& s, std::vector<double>& row);
   static void add_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
                                  BlockRows& out);

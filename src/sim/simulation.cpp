@@ -124,6 +124,7 @@ void refresh_frozen_positions(Simulation& sim) {
     s.frozen_layer_volume6_mm3[k] =
         volume6(m.layers[k].F, sim.x, frozen.data(), static_cast<int64_t>(frozen.size()), 1);
   }
+  s.frozen_spring_energy_stale = true;
 }
 
 }  // namespace detail

@@ -305,6 +305,12 @@ struct Solver {
   std::vector<std::vector<int32_t>> layer_triangles;
   std::vector<std::vector<int32_t>> frozen_layer_triangles;  ///< per layer: the others
   std::vector<double> frozen_layer_volume6_mm3;
+  /// The energy of the springs between two nodes that do not move (mN mm): the stability
+  /// watch's total is the active springs' and this (EdgeSprings::part_energy_mj). Made when the
+  /// watch next needs it after the nodes that do not move have changed (stale), not on every
+  /// hold_nodes() of an indenter.
+  double frozen_spring_energy_mj = 0.0;
+  bool frozen_spring_energy_stale = true;
 
   // Workspace, sized once (no allocation per step). Rows of nodes that do not move stay zero in
   // r, z, p, dv: the implicit solve treats them as held.

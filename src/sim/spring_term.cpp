@@ -152,6 +152,22 @@ double EdgeSprings::energy_mj(const Solver& s, const Eigen::MatrixX3d& x) {
   return e;
 }
 
+double EdgeSprings::part_energy_mj(const Solver& s, const Eigen::MatrixX3d& x, bool active) {
+  const Springs& sp = s.model->springs;
+  const auto spring = [&](size_t k) {
+    const double l = (x.row(sp.i[k]) - x.row(sp.j[k])).norm() - sp.rest_length_mm[k];
+    return 0.5 * s.springs.stiffness_n_per_m[k] * l * l;
+  };
+  double e = 0.0;
+  if (active) {
+    for (int32_t k : s.active_springs) e += spring(static_cast<size_t>(k));
+  } else {
+    for (size_t k = 0; k < sp.size(); ++k)
+      if (!s.movable[sp.i[k]] && !s.movable[sp.j[k]]) e += spring(k);
+  }
+  return e;
+}
+
 void EdgeSprings::forces(Solver& s, const Eigen::MatrixX3d& x, Eigen::MatrixX3d& f) {
   // Every spring, not only the active ones: this is the whole model's force at any x.
   const Springs& sp = s.model->springs;

@@ -6,6 +6,8 @@
 
 #include "lamina/interact/tools.h"
 #include "lamina/sim/simulation.h"
+#include "sim/force_terms.h"  // white box: the springs' energy in parts
+#include "sim/solver.h"
 #include "support/tet_phantom.h"
 
 namespace {
@@ -90,6 +92,47 @@ TEST(StabilityWatch, EnergyPumpedInWithoutAToolIsCalledUnstableAndResetStartsAfr
   EXPECT_EQ(sim::step(s).unstable, sim::Instability::kEnergyGrowth);
   sim::reset(s);
   EXPECT_EQ(sim::step(s).unstable, sim::Instability::kNone);
+}
+
+// The watch sums the springs that move each time and takes the others' energy from a cache made
+// when the nodes that do not move change (local mode's frozen part, held nodes): the two parts
+// are the whole energy, however far the held nodes were moved before they were held, and stay so
+// as the rest moves on.
+TEST(StabilityWatch, TheSpringsThatStayPutAreCountedFromTheirCache) {
+  sim::Simulation s = held({}, {});
+  const Model& m = s.model();
+  const int32_t front = interact::most_anterior_skin_node(m);
+  s.f_ext.row(front) << 0.0, 20.0, 0.0;
+  for (int k = 0; k < 100; ++k) sim::step(s);
+  // The poked part of the organ, held where the poke has moved it.
+  std::vector<int32_t> upper;
+  const double reach = 0.3 * (m.X.colwise().maxCoeff() - m.X.colwise().minCoeff()).maxCoeff();
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if ((m.X.row(i) - m.X.row(front)).norm() < reach && s.movable()[i]) upper.push_back(i);
+  ASSERT_GT(upper.size(), 10u);
+  Eigen::MatrixX3d where(static_cast<Eigen::Index>(upper.size()), 3);
+  for (size_t k = 0; k < upper.size(); ++k)
+    where.row(static_cast<Eigen::Index>(k)) = s.x.row(upper[k]);
+  sim::hold_nodes(s, upper, where);
+  s.f_ext.setZero();
+  const sim::detail::Solver& solver = s.solver();
+  using Springs = sim::detail::EdgeSprings;
+  for (int round = 0; round < 2; ++round) {
+    if (round == 1) {  // the clamp stretches what it holds: the cache must be made again
+      const double y = s.x(front, 1);
+      where.col(1) = (where.col(1).array() - y) * 1.05 + y;
+      sim::hold_nodes(s, upper, where);
+    }
+    // Quiet steps: the watch takes the energy (and makes the cache) every kEnergyCheckSteps.
+    for (int64_t k = 0; k < 2 * sim::kEnergyCheckSteps; ++k)
+      ASSERT_EQ(sim::step(s).unstable, sim::Instability::kNone);
+    ASSERT_FALSE(solver.frozen_spring_energy_stale);
+    const double whole = Springs::energy_mj(solver, s.x);
+    ASSERT_GT(solver.frozen_spring_energy_mj, 0.05 * whole) << "the held part stores energy";
+    EXPECT_NEAR(Springs::part_energy_mj(solver, s.x, true) + solver.frozen_spring_energy_mj, whole,
+                1e-9 * whole)
+        << "round " << round;
+  }
 }
 
 TEST(StabilityWatch, ALoadBeyondTheOrgansSizeFailsTenStepsThenIsUnstable) {
