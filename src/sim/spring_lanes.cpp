@@ -74,7 +74,70 @@ void fill_spring_lanes(Solver& s) {
   if (!t.stiffness.empty())
     for (size_t e = 0; e < t.spring.size(); ++e)
       t.stiffness[e] = t.spring[e] < 0 ? 0.0 : k[t.spring[e]];
+  LocalLanes& l = t.local;
+  for (size_t e = 0; e < l.entry.size(); ++e)
+    l.k_rest[e] = l.entry[e] < 0 ? 0.0f : t.k_rest[static_cast<size_t>(l.entry[e])];
 }
+
+namespace {
+
+// Local mode's own blocks (LocalLanes): when the movable nodes would use less than half the
+// lanes of the model's blocks they lie in, and are few enough for one thread (fewer entries
+// than lanes_threads() gives a second thread; larger regions take the per-spring passes, which
+// split over threads).
+void refresh_local_lanes(Solver& s) {
+  SpringLanes& t = s.lanes;
+  LocalLanes& l = t.local;
+  const SpringTerm& st = s.springs;
+  const auto count = static_cast<int32_t>(s.active_nodes.size());
+  l.on = false;
+  l.entry.clear();  // fill_spring_lanes() copies nothing while off
+  if (s.tets.on || count == 0 ||
+      2 * static_cast<size_t>(count) >= static_cast<size_t>(kLanes) * t.active_blocks.size())
+    return;
+  const int32_t blocks = block_count(count);
+  const auto node = [&](int32_t lane) { return s.active_nodes[std::min(lane, count - 1)]; };
+  const auto degree = [&](int32_t i) { return st.adj_offsets[i + 1] - st.adj_offsets[i]; };
+  l.slot_offsets.assign(static_cast<size_t>(blocks) + 1, 0);
+  for (int32_t b = 0; b < blocks; ++b) {
+    int32_t slots = 0;
+    for (int32_t q = b * kLanes; q < std::min(count, (b + 1) * kLanes); ++q)
+      slots = std::max(slots, degree(node(q)));
+    l.slot_offsets[b + 1] = l.slot_offsets[b] + slots;
+  }
+  const auto entries = static_cast<size_t>(l.slot_offsets[blocks]) * kLanes;
+  if (entries >= 8192) return;
+  l.count = count;
+  l.own4.resize(static_cast<size_t>(blocks) * kLanes);
+  l.other4.resize(entries);
+  l.inverse_rest.resize(entries);
+  l.k_rest.resize(entries);
+  l.entry.resize(entries);
+  std::vector<uint8_t> read(static_cast<size_t>(t.nodes), 0);
+  for (int32_t b = 0; b < blocks; ++b)
+    for (int32_t q = 0; q < kLanes; ++q) {
+      const int32_t lane = b * kLanes + q, i = node(lane);
+      l.own4[static_cast<size_t>(lane)] = 4 * i;
+      read[static_cast<size_t>(i)] = 1;
+      for (int32_t k = 0; k < l.slot_offsets[b + 1] - l.slot_offsets[b]; ++k) {
+        const auto e = static_cast<size_t>(l.slot_offsets[b] + k) * kLanes + q;
+        const bool real = lane < count && k < degree(i);
+        const int64_t from =
+            real ? (int64_t{t.slot_offsets[i / kLanes]} + k) * kLanes + i % kLanes : -1;
+        l.entry[e] = from;
+        l.other4[e] = real ? t.other4[static_cast<size_t>(from)] : 4 * i;
+        l.inverse_rest[e] = real ? t.inverse_rest[static_cast<size_t>(from)] : 0.0f;
+        l.k_rest[e] = real ? t.k_rest[static_cast<size_t>(from)] : 0.0f;
+        read[static_cast<size_t>(l.other4[e] / 4)] = 1;
+      }
+    }
+  l.read_nodes.clear();
+  for (int32_t i = 0; i < t.nodes; ++i)
+    if (read[static_cast<size_t>(i)]) l.read_nodes.push_back(i);
+  l.on = true;
+}
+
+}  // namespace
 
 void refresh_spring_lanes(Solver& s) {
   SpringLanes& t = s.lanes;
@@ -94,6 +157,7 @@ void refresh_spring_lanes(Solver& s) {
   t.stiffness.resize(products ? t.spring.size() : 0);
   t.force.resize(products ? 3 * static_cast<size_t>(t.nodes) : 0);
   if (products && !sized) fill_spring_lanes(s);
+  refresh_local_lanes(s);
   t.reads_all = s.active_nodes.size() * 2 >= static_cast<size_t>(t.nodes);
   t.read_nodes.clear();
   if (t.reads_all) return;  // converting every node is cheaper than listing them

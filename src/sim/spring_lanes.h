@@ -34,6 +34,21 @@ using AlignedVector = std::vector<T, xsimd::aligned_allocator<T>>;
 
 struct Solver;
 
+/// Local mode's few movable nodes as blocks of their own, for when the model's blocks they lie
+/// in would be less than half used (the paper's poke: 122 nodes over 27 blocks of 16): block b
+/// holds active_nodes[kLanes b, kLanes (b + 1)), the last padded with the last node at zero
+/// stiffness, each lane's slots copied from the model's layout (refresh_spring_lanes()).
+struct LocalLanes {
+  bool on = false;
+  int32_t count = 0;                  ///< the movable nodes
+  AlignedVector<int32_t> own4;        ///< per lane: 4 x its node
+  std::vector<int32_t> slot_offsets;  ///< per block + 1: its slots, kLanes entries each
+  AlignedVector<int32_t> other4;      ///< per entry, as SpringLanes::other4
+  AlignedVector<float> inverse_rest, k_rest;
+  std::vector<int64_t> entry;       ///< per entry: the model layout's it copies (-1: padding)
+  std::vector<int32_t> read_nodes;  ///< the nodes the blocks read, ascending
+};
+
 struct SpringLanes {
   int32_t nodes = 0;
   double centre[3] = {0.0, 0.0, 0.0};  ///< subtracted before rounding to float (precision)
@@ -51,6 +66,7 @@ struct SpringLanes {
   std::vector<int64_t> work_before;
   std::vector<int32_t> read_nodes;  ///< the nodes those blocks read, ascending
   bool reads_all = true;            ///< read_nodes is every node (global mode)
+  LocalLanes local;                 ///< the explicit step's blocks in local mode
 
   // Implicit Euler's products K p on the same layout (spring_lanes_product.h), sized only for
   // implicit Euler on springs (refresh()).

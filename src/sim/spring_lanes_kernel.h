@@ -63,29 +63,46 @@ inline void gather_positions(const float* p, const IndexLanes& node4, FloatLanes
 #endif
 }
 
-/// The spring force on each node of block b (mN), from the packed positions, into f[3][kLanes].
-inline void block_spring_force(const SpringLanes& t, int32_t b, float* __restrict fx,
-                               float* __restrict fy, float* __restrict fz) {
-  const float* p = t.p.data();
-  alignas(64) int32_t own[kLanes];
-  for (int32_t q = 0; q < kLanes; ++q) own[q] = 4 * std::min(b * kLanes + q, t.nodes - 1);
+/// The spring force (mN) on the nodes 4 x own4[q] of one block, whose slots are entries
+/// [begin, end) of other4, k_rest and inverse_rest, from the packed positions p, into f[kLanes].
+inline void lanes_spring_force(const float* p, const int32_t* own4, const int32_t* other4,
+                               const float* k_rest, const float* inverse_rest, int64_t begin,
+                               int64_t end, float* __restrict fx, float* __restrict fy,
+                               float* __restrict fz) {
   FloatLanes px, py, pz;
-  gather_positions(p, IndexLanes::load_aligned(own), px, py, pz);
+  gather_positions(p, IndexLanes::load_aligned(own4), px, py, pz);
   FloatLanes ax(0.0f), ay(0.0f), az(0.0f);
-  for (int64_t e = int64_t{t.slot_offsets[b]} * kLanes,
-               end = int64_t{t.slot_offsets[b + 1]} * kLanes;
-       e < end; e += kLanes) {
+  for (int64_t e = begin; e < end; e += kLanes) {
     FloatLanes qx, qy, qz;
-    gather_positions(p, IndexLanes::load_aligned(t.other4.data() + e), qx, qy, qz);
+    gather_positions(p, IndexLanes::load_aligned(other4 + e), qx, qy, qz);
     const FloatLanes dx = qx - px, dy = qy - py, dz = qz - pz;
     // k (l - L) / l = k L (1/L - 1/l): zero at rest, where 1/l is 1/L in the same arithmetic.
     const FloatLanes tension =
-        FloatLanes::load_aligned(t.k_rest.data() + e) *
-        (FloatLanes::load_aligned(t.inverse_rest.data() + e) - inverse_length(dx, dy, dz));
+        FloatLanes::load_aligned(k_rest + e) *
+        (FloatLanes::load_aligned(inverse_rest + e) - inverse_length(dx, dy, dz));
     ax = xsimd::fma(tension, dx, ax), ay = xsimd::fma(tension, dy, ay),
     az = xsimd::fma(tension, dz, az);
   }
   ax.store_aligned(fx), ay.store_aligned(fy), az.store_aligned(fz);
+}
+
+/// The spring force on each node of the model's block b (mN), from the packed positions.
+inline void block_spring_force(const SpringLanes& t, int32_t b, float* __restrict fx,
+                               float* __restrict fy, float* __restrict fz) {
+  alignas(64) int32_t own[kLanes];
+  for (int32_t q = 0; q < kLanes; ++q) own[q] = 4 * std::min(b * kLanes + q, t.nodes - 1);
+  lanes_spring_force(t.p.data(), own, t.other4.data(), t.k_rest.data(), t.inverse_rest.data(),
+                     int64_t{t.slot_offsets[b]} * kLanes, int64_t{t.slot_offsets[b + 1]} * kLanes,
+                     fx, fy, fz);
+}
+
+/// The spring force on each node of local block b (LocalLanes), from the packed positions.
+inline void local_block_spring_force(const SpringLanes& t, int32_t b, float* __restrict fx,
+                                     float* __restrict fy, float* __restrict fz) {
+  const LocalLanes& l = t.local;
+  lanes_spring_force(t.p.data(), l.own4.data() + int64_t{b} * kLanes, l.other4.data(),
+                     l.k_rest.data(), l.inverse_rest.data(), int64_t{l.slot_offsets[b]} * kLanes,
+                     int64_t{l.slot_offsets[b + 1]} * kLanes, fx, fy, fz);
 }
 
 }  // namespace lamina::sim::detail

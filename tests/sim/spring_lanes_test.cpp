@@ -170,3 +170,42 @@ TEST(SpringLanesProduct, ImplicitEulerSettlesWhereExplicitEulerDoes) {
 }
 
 }  // namespace
+
+namespace {
+
+// Local mode's own blocks of lanes (LocalLanes: the paper's poke region, its nodes scattered over
+// the model's blocks) step as the per-spring passes in double do, within single precision's
+// forces: the same motion under a held push and after it, and both come to rest.
+TEST(SpringLanes, LocalModesOwnBlocksStepAsThePerSpringPassesDo) {
+  const Model& m = links_model(1284);
+  const int32_t front = interact::most_anterior_skin_node(m);
+  std::vector<int32_t> region;  // about the paper's four rings around the poke
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if ((m.X.row(i) - m.X.row(front)).norm() < 25.0) region.push_back(i);
+  const auto make = [&](bool own_blocks) {
+    sim::Simulation s = sim::make_simulation(m, {}, {.mode = sim::Mode::kLocal});
+    sim::set_local_nodes(s, region);
+    EXPECT_TRUE(s.solver().lanes.local.on) << "the region's nodes fill under half the blocks";
+    if (!own_blocks) s.solver().lanes.local.on = false;  // white box: the per-spring passes
+    s.f_ext.row(front) << 0.0, 400.0, 0.0;
+    return s;
+  };
+  sim::Simulation lanes = make(true), springs = make(false);
+  ASSERT_GT(region.size(), 40u);
+  double peak = 0.0, apart = 0.0;
+  for (int k = 0; k < 600; ++k) {
+    if (k == 100) lanes.f_ext.setZero(), springs.f_ext.setZero();  // let go after 1 s
+    const sim::StepStats a = sim::step(lanes), b = sim::step(springs);
+    ASSERT_EQ(a.unstable, sim::Instability::kNone);
+    EXPECT_NEAR(a.skin_volume_mm3, b.skin_volume_mm3, 1e-6 * b.skin_volume_mm3);
+    peak = std::max(peak, (springs.x - m.X).rowwise().norm().maxCoeff());
+    apart = std::max(apart, (lanes.x - springs.x).rowwise().norm().maxCoeff());
+  }
+  ASSERT_GT(peak, 5.0) << "the poke moves the region";
+  EXPECT_LT(apart, 1e-5 * peak);                // 1.3e-7 measured
+  for (int32_t i = 0; i < m.node_count(); ++i)  // nothing outside the region moved
+    if (std::find(region.begin(), region.end(), i) == region.end())
+      ASSERT_EQ((lanes.x.row(i) - m.X.row(i)).norm(), 0.0) << "node " << i;
+}
+
+}  // namespace

@@ -100,14 +100,16 @@ int64_t allocations_in_steps(sim::Simulation& s, int steps) {
   return allocations.load() - before;
 }
 
-sim::Simulation poked(const Model& m, const sim::Material& mat, const sim::SolverOptions& o) {
+sim::Simulation poked(const Model& m, const sim::Material& mat, const sim::SolverOptions& o,
+                      int32_t stride = 1) {
   sim::Simulation s = sim::make_simulation(m, mat, o);
   sim::fix_nodes(s, {0, 1, 2});
   s.f_ext.row(m.node_count() / 2) << 120.0, -60.0, 30.0;
   if (o.mode == sim::Mode::kLocal) {
     std::vector<int32_t> local;
-    // A few nodes around the poke: the explicit step copies their springs together.
-    for (int32_t i = m.node_count() / 2 - 20; i < m.node_count() / 2 + 20; ++i) local.push_back(i);
+    // A few nodes around the poke, consecutive (the model's blocks of lanes) or every stride-th
+    // (scattered over many blocks: local mode's own blocks, LocalLanes).
+    for (int32_t k = -20; k < 20; ++k) local.push_back(m.node_count() / 2 + stride * k);
     sim::set_local_nodes(s, local);
   }
   sim::step(s);  // the first step may size what it caches
@@ -122,10 +124,12 @@ TEST(StepAllocation, NoStepAllocates) {
     const Model& model;
     sim::Material material;
     sim::SolverOptions options;
+    int32_t stride = 1;  ///< local mode's nodes: every stride-th about the poke
   };
   const Case cases[] = {
       {"explicit, global (the lanes)", links, {}, {}},
       {"explicit, local", links, {}, {.mode = sim::Mode::kLocal}},
+      {"explicit, local, scattered", links, {}, {.mode = sim::Mode::kLocal}, 7},
       {"explicit, volume term", links, {.volume_stiffness_kpa = 5.0}, {}},
       {"implicit Euler", links, {}, {.integrator = sim::Integrator::kImplicitEuler}},
       {"implicit Euler, tetrahedra",
@@ -146,7 +150,8 @@ TEST(StepAllocation, NoStepAllocates) {
     EXPECT_GT(allocations.load() - before, 0) << "operator new is not counted";
   }
   for (const Case& c : cases) {
-    sim::Simulation s = poked(c.model, c.material, c.options);
+    sim::Simulation s = poked(c.model, c.material, c.options, c.stride);
+    if (c.stride > 1) EXPECT_TRUE(s.solver().lanes.local.on) << c.name;
     EXPECT_EQ(allocations_in_steps(s, 50), 0) << c.name;
     EXPECT_GT((s.x - c.model.X).cwiseAbs().maxCoeff(), 1e-3) << c.name << ": nothing moved";
     if (c.options.preconditioner == sim::Preconditioner::kMultigrid) {
@@ -155,7 +160,7 @@ TEST(StepAllocation, NoStepAllocates) {
     }
   }
   {  // the tetrahedra's stiffness assembled each step (on by itself from 200,000 tetrahedra)
-    const Case& c = cases[4];
+    const Case& c = cases[5];
     ASSERT_EQ(c.options.preconditioner, sim::Preconditioner::kAuto);
     sim::Simulation s = poked(c.model, c.material, c.options);
     sim::detail::setup_tet_assembly(s.solver());
