@@ -1,6 +1,8 @@
 // Aggregation multigrid (multigrid.h): the hierarchy's setup and the V-cycle.
 #include "multigrid.h"
 
+#include <omp.h>
+
 #include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <algorithm>
@@ -98,8 +100,12 @@ constexpr int kCoarseBlock = 6;
 // it takes its node's first diagonal entry (the scale of its neighbours: a positive definite
 // operator, and a smoother's weight for it that the power iteration does not see as an outlier).
 SparseRows galerkin(const MultigridLevel& level, const std::vector<int32_t>& padding) {
-  const SparseRows AP = level.A * level.P;
-  SparseRows coarse = level.R * AP;
+  SparseRows coarse;
+  if (!galerkin_by_blocks(level.A, level.P, level.block, kCoarseBlock, padding,
+                          omp_get_max_threads(), coarse)) {
+    const SparseRows AP = level.A * level.P;
+    coarse = level.R * AP;
+  }
   if (padding.empty()) return coarse;
   SparseRows pad(coarse.rows(), coarse.cols());
   std::vector<Eigen::Triplet<double>> t;

@@ -72,6 +72,13 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& points, Multigrid& mg
 /// corners' positions (#corners x 3, mm).
 Eigen::MatrixX3d grid_prolongation(const Eigen::MatrixX3d& points, double grid_mm, SparseRows& P);
 
+/// P^T A P into `out` for a prolongation whose every fine node's rows (`fine_block` of them) lie
+/// in one coarse node's `coarse_block` columns (plain aggregation's), summed in dense blocks on
+/// `threads` threads, the `padding` unknowns' rows and columns left empty; false (out untouched)
+/// for any other P (galerkin.cpp).
+bool galerkin_by_blocks(const SparseRows& A, const SparseRows& P, int fine_block, int coarse_block,
+                        const std::vector<int32_t>& padding, int threads, SparseRows& out);
+
 /// The hierarchy again for a new matrix on the same unknowns (a relinearised system): keeps the
 /// aggregates and prolongations, computes each coarse operator P^T A P again, the smoothing
 /// weights and the coarsest factorisation (its pattern's analysis kept when the pattern is).

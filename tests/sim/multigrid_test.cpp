@@ -108,6 +108,41 @@ TEST(Multigrid, AGridsCoarseLevelCarriesTheRigidMotionsAndPreconditions) {
   EXPECT_LT(2 * grid, jacobi) << grid << " against Jacobi's " << jacobi;
 }
 
+// The coarse operators summed block by block (galerkin.cpp) are Eigen's two sparse products'
+// P^T (A P), at every level of a hierarchy (3 fine unknowns a node, then 6), with the padded
+// unknowns' rows and columns left empty; a prolongation that spreads a node over two coarse
+// nodes (the grid's, smoothed aggregation's) is left to Eigen.
+TEST(Multigrid, TheCoarseOperatorsByBlocksAreTheSparseProducts) {
+  sim::Simulation s = poked(sim::Preconditioner::kMultigrid);
+  sim::prepare_solver(s);
+  const sim::detail::Multigrid& mg = s.solver().multigrid->mg;
+  ASSERT_GE(mg.levels.size(), 2u);
+  for (size_t l = 0; l + 1 < mg.levels.size(); ++l) {
+    const sim::detail::MultigridLevel& level = mg.levels[l];
+    const std::vector<int32_t>& padding = mg.levels[l + 1].padding;
+    const sim::detail::SparseRows AP = level.A * level.P;
+    const sim::detail::SparseRows eigen = level.R * AP;
+    sim::detail::SparseRows blocks;
+    ASSERT_TRUE(
+        sim::detail::galerkin_by_blocks(level.A, level.P, level.block, 6, padding, 2, blocks));
+    ASSERT_EQ(blocks.rows(), eigen.rows());
+    EXPECT_LT((Eigen::MatrixXd(blocks) - Eigen::MatrixXd(eigen)).norm(),
+              1e-12 * Eigen::MatrixXd(eigen).norm())
+        << "level " << l;
+    for (int32_t k : padding) {
+      EXPECT_EQ(blocks.row(k).nonZeros(), 0) << "padded row " << k;
+      EXPECT_EQ(sim::detail::SparseRows(blocks.transpose()).row(k).nonZeros(), 0);
+    }
+    EXPECT_LE(blocks.nonZeros(), eigen.nonZeros() + 36 * eigen.rows() / 6);
+  }
+  // A node spread over two coarse nodes: not plain aggregation's.
+  const sim::detail::MultigridLevel& fine = mg.levels[0];
+  sim::detail::SparseRows spread = fine.P;
+  spread.coeffRef(0, (fine.P.cols() - 1)) += 0.5;
+  sim::detail::SparseRows unused;
+  EXPECT_FALSE(sim::detail::galerkin_by_blocks(fine.A, spread, 3, 6, {}, 1, unused));
+}
+
 TEST(Multigrid, ReachesJacobisStatesInFewerIterations) {
   auto run = [](sim::Preconditioner pre, int32_t& iterations) -> Eigen::MatrixX3d {
     sim::Simulation s = poked(pre);
