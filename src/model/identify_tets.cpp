@@ -16,10 +16,32 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 
 using detail::find_spring;
 
-}  // namespace
+// Each node's first spring in springs sorted by (i, j) (#nodes + 1): the spring between a and b
+// is then found in min(a, b)'s few entries, not by two binary searches over all of them (a
+// cut's identification looks up six per tetrahedron).
+std::vector<int32_t> spring_rows(const Springs& sp, int32_t nodes) {
+  std::vector<int32_t> first(static_cast<size_t>(nodes) + 1, 0);
+  for (const int32_t i : sp.i) ++first[static_cast<size_t>(i) + 1];
+  for (int32_t i = 0; i < nodes; ++i) first[i + 1] += first[i];
+  return first;
+}
 
-TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
-                                TetElasticity elasticity) {
+int32_t spring_in_rows(const Springs& sp, const std::vector<int32_t>& first, int32_t a, int32_t b) {
+  const int32_t i = std::min(a, b), j = std::max(a, b);
+  for (int32_t e = first[i]; e < first[i + 1]; ++e)
+    if (sp.j[e] == j) return e;
+  return -1;
+}
+
+// Whether `before` was identified with the constants `out` is being identified with.
+bool same_constants(const TetIdentification& before, const TetIdentification& out) {
+  return before.elasticity == out.elasticity && before.shear_modulus_kpa == out.shear_modulus_kpa &&
+         before.lame_lambda_kpa == out.lame_lambda_kpa;
+}
+
+TetIdentification identify(const Model& m, const ElasticMaterial& material,
+                           TetElasticity elasticity, const TetIdentification* before,
+                           const std::vector<int32_t>* known) {
   check_elastic_material(material);
   if (!m.has_tets())
     throw invalid_input(m.source.empty() ? std::string("model") : m.source,
@@ -44,6 +66,16 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
 
   const Springs& sp = m.springs;
   const Eigen::Index nt = m.tets.size();
+  if (before && !same_constants(*before, out)) before = nullptr, known = nullptr;
+  if (known && known->size() != static_cast<size_t>(nt))
+    throw invalid_input(m.source, "known tetrahedra: " + std::to_string(known->size()) +
+                                      " entries for " + std::to_string(nt) + " tetrahedra");
+  if (known)
+    for (const int32_t k : *known)
+      if (k >= before->q_n_per_m.rows())
+        throw invalid_input(m.source, "known tetrahedra: tetrahedron " + std::to_string(k) +
+                                          " is not one of the identified model's");
+  const std::vector<int32_t> rows = spring_rows(sp, m.node_count());
   out.spring_n_per_m.assign(sp.size(), 0.0);
   out.tet_springs.resize(nt, 6);
   out.q_n_per_m = Eigen::Matrix<double, Eigen::Dynamic, 21, Eigen::RowMajor>::Zero(nt, 21);
@@ -53,6 +85,19 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
   Eigen::Index bad = nt;  // the first tetrahedron whose edge is no spring
 #pragma omp parallel for schedule(static) reduction(min : bad)
   for (Eigen::Index t = 0; t < nt; ++t) {
+    if (known && (*known)[static_cast<size_t>(t)] >= 0) {
+      const int32_t from = (*known)[static_cast<size_t>(t)];
+      for (int k = 0; k < 6; ++k) {
+        const int32_t e =
+            spring_in_rows(sp, rows, m.tets.T(t, kTetEdge[k][0]), m.tets.T(t, kTetEdge[k][1]));
+        if (e < 0) bad = std::min(bad, t);
+        out.tet_springs(t, k) = std::max(e, 0);
+      }
+      out.q_n_per_m.row(t) = before->q_n_per_m.row(from);
+      out.rest_volume_mm3[static_cast<size_t>(t)] =
+          before->rest_volume_mm3[static_cast<size_t>(from)];
+      continue;
+    }
     Eigen::Vector3d p[4];
     for (int c = 0; c < 4; ++c) p[c] = m.X.row(m.tets.T(t, c)).transpose();
     const double volume = (p[1] - p[0]).cross(p[2] - p[0]).dot(p[3] - p[0]) / 6.0;
@@ -62,7 +107,7 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
     Eigen::Vector3d w[6];
     for (int k = 0; k < 6; ++k) {
       const int a = m.tets.T(t, kTetEdge[k][0]), b = m.tets.T(t, kTetEdge[k][1]);
-      const int32_t e = find_spring(sp, a, b);
+      const int32_t e = spring_in_rows(sp, rows, a, b);
       if (e < 0) bad = std::min(bad, t);
       out.tet_springs(t, k) = std::max(e, 0);
       const Eigen::Vector3d edge = p[kTetEdge[k][1]] - p[kTetEdge[k][0]];
@@ -120,6 +165,19 @@ TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
     for (int k = 0, at = 0; k < 6; at += 6 - k, ++k)
       out.spring_n_per_m[static_cast<size_t>(out.tet_springs(t, k))] += out.q_n_per_m(t, at);
   return out;
+}
+
+}  // namespace
+
+TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
+                                TetElasticity elasticity) {
+  return identify(m, material, elasticity, nullptr, nullptr);
+}
+
+TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
+                                TetElasticity elasticity, const TetIdentification& before,
+                                const std::vector<int32_t>& known) {
+  return identify(m, material, elasticity, &before, &known);
 }
 
 }  // namespace lamina::model

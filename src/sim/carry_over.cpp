@@ -29,7 +29,8 @@ CarrySource carry_source(const Simulation& sim) {
   CarrySource c{.material = sim.material(),
                 .options = sim.options(),
                 .support_n_per_m = sim.solver().support.support_n_per_m,
-                .state = capture_state(sim)};
+                .state = capture_state(sim),
+                .tets_id = sim.solver().tets.id};
   // The preconditioner the simulation chose, kept: the cut changes a few tetrahedra, not which
   // one suits the model (and "auto" would solve a trial system again at every cut).
   if (c.options.integrator == Integrator::kImplicitEuler &&
@@ -65,7 +66,13 @@ SimState carried_state(const SimState& was, const Model& before, const Model& cu
 Simulation made_for_cut(const CarrySource& from, const Model& before, const Model& cut,
                         const std::vector<int32_t>& origin, bool prepare) {
   check_origin(before, cut, origin);
-  Simulation out = make_simulation(cut, from.material, from.options);
+  // The tetrahedra the cut left as they were keep their constants: identifying every one again
+  // (a 6x6 inverse each) was most of an event beyond paper size (docs/benchmarks.md).
+  detail::KnownTets known;
+  if (from.tets_id && cut.has_tets())
+    known = {.before = from.tets_id, .same = model::same_tets(before, cut, origin)};
+  Simulation out =
+      detail::make_simulation(cut, from.material, from.options, known.before ? &known : nullptr);
   // Support, divided among a node's copies by their masses (a cut adds no hold on the organ).
   if (!from.support_n_per_m.empty()) {
     std::vector<int32_t> nodes;

@@ -202,10 +202,10 @@ Eigen::Matrix<double, 3, 4> grads_of(const TetTerm& tt, int64_t t, double& v0) {
 void NeoHookeanTets::setup(Solver& s) {
   TetTerm& t = s.tets;
   const Model& m = *s.model;
-  const double mu = t.id.shear_modulus_kpa, lambda = t.id.lame_lambda_kpa;
+  const double mu = t.id->shear_modulus_kpa, lambda = t.id->lame_lambda_kpa;
   t.mu_kpa = mu;
   t.lambda_kpa = lambda + mu;
-  t.guard_kpa = t.id.guard_modulus_kpa;
+  t.guard_kpa = t.id->guard_modulus_kpa;
   t.neo.assign(t.block.size(), NeoBlock{});
   for (Eigen::Index q = 0; q < m.tets.size(); ++q) {
     Eigen::Matrix3d Dm;

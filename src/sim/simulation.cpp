@@ -61,7 +61,8 @@ const std::vector<double>& Simulation::spring_stiffness_n_per_m() const {
   return solver_->springs.stiffness_n_per_m;
 }
 const model::TetIdentification& Simulation::tet_identification() const {
-  return solver_->tets.id;
+  static const model::TetIdentification none;
+  return solver_->tets.id ? *solver_->tets.id : none;
 }
 
 namespace detail {
@@ -142,14 +143,14 @@ std::vector<double> uniform_springs(const Springs& springs, double k) {
 // What the material decides beyond the parameters themselves: masses, spring constants, the
 // tetrahedra's identification (when `identify`: it depends only on E, nu and the model), the
 // volume terms' tables, the support.
-void resolve(Solver& s, bool identify) {
+void resolve(Solver& s, bool identify, const KnownTets* known = nullptr) {
   const Model& model = *s.model;
   const Material& material = s.material;
   const auto n = static_cast<size_t>(model.node_count());
   s.mass_kg =
       material.node_mass_kg > 0.0 ? std::vector<double>(n, material.node_mass_kg) : model.mass_kg;
-  if (identify) setup_tets(s);
-  s.springs.stiffness_n_per_m = s.tets.on ? s.tets.id.spring_n_per_m
+  if (identify) setup_tets(s, known);
+  s.springs.stiffness_n_per_m = s.tets.on ? s.tets.id->spring_n_per_m
                                 : material.stiffness_n_per_m > 0.0
                                     ? uniform_springs(model.springs, material.stiffness_n_per_m)
                                     : model.springs.stiffness_n_per_m;
@@ -236,6 +237,13 @@ void check_parameters(const Material& m, const SolverOptions& o) {
 
 Simulation make_simulation(const Model& model, const Material& material,
                            const SolverOptions& options) {
+  return detail::make_simulation(model, material, options, nullptr);
+}
+
+namespace detail {
+
+Simulation make_simulation(const Model& model, const Material& material,
+                           const SolverOptions& options, const KnownTets* known) {
   check_parameters(material, options);
   check_against_model(model, material, options);
   Simulation sim;
@@ -256,7 +264,7 @@ Simulation make_simulation(const Model& model, const Material& material,
   for (int32_t k = 0; k < model.layer_count(); ++k)
     s.rest_layer_volume_mm3[k] = layer_volume(model, model.X, k);
   s.rest_skin_volume_mm3 = s.rest_layer_volume_mm3.empty() ? 0.0 : s.rest_layer_volume_mm3[0];
-  resolve(s, /*identify=*/true);
+  resolve(s, /*identify=*/true, known);
   s.blowup_limit_mm = (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
   for (Eigen::MatrixX3d* m : {&s.x_prev, &s.v_prev, &s.r, &s.p, &s.z, &s.y, &s.dv})
     *m = Eigen::MatrixX3d::Zero(n, 3);
@@ -264,6 +272,8 @@ Simulation make_simulation(const Model& model, const Material& material,
   refresh(sim);
   return sim;
 }
+
+}  // namespace detail
 
 void set_parameters(Simulation& sim, const Material& material, const SolverOptions& options) {
   check_parameters(material, options);

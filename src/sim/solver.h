@@ -200,7 +200,8 @@ struct alignas(64) NeoBlockLinear {
 /// (all tetrahedron edges) are carried here and the spring passes are skipped.
 struct TetTerm {
   bool on = false;  ///< Material::young_modulus_kpa > 0 on a model with tetrahedra
-  model::TetIdentification id;
+  /// shared, never changed: copies of the simulation (a cut's carry_over()) read it
+  std::shared_ptr<const model::TetIdentification> id;
   std::vector<TetBlock> block;         ///< tetrahedron t is lane t % 8 of block t / 8
   std::vector<TetBlockLinear> linear;  ///< per block (implicit Euler)
   TetRows force;                       ///< each corner's force, mN
@@ -408,9 +409,20 @@ void spring_product(const Solver& s, int32_t i, const ConstCols& p, double& kx, 
 void spring_diagonal(const Solver& s, int32_t i, double& d0, double& d1, double& d2);
 
 // --- The tetrahedra (tet_term.cpp; their energies' passes: force_terms.h). ---
+/// Tetrahedra whose constants an earlier identification holds (a cut's carried simulation:
+/// model::same_tets(), model::identify_tets()'s `known`).
+struct KnownTets {
+  std::shared_ptr<const model::TetIdentification> before;
+  std::vector<int32_t> same;  ///< per tetrahedron: its index in `before`'s model, or -1
+};
+/// make_simulation(), the tetrahedra `known` names (may be null) taking their constants from
+/// an earlier identification (carry_over()).
+Simulation make_simulation(const Model& model, const Material& material,
+                           const SolverOptions& options, const KnownTets* known);
 /// The tables every energy of the tetrahedra shares (identification, nodes, rows, corners), then
-/// the energy's own constants (force_terms.h: TetEnergies).
-void setup_tets(Solver& s);
+/// the energy's own constants (force_terms.h: TetEnergies); with `known`, the tetrahedra it
+/// names take their constants from there.
+void setup_tets(Solver& s, const KnownTets* known = nullptr);
 /// Node i's corners of a per-tetrahedron buffer (tets.force, product or diag) added to f (below).
 inline void gather_tets(const Solver& s, const TetRows& rows, int32_t i, double& fx, double& fy,
                         double& fz);

@@ -290,7 +290,7 @@ void add_element_blocks(const Eigen::Matrix<double, 12, 12>& k12, const int32_t 
   }
 }
 
-void setup_tets(Solver& s) {
+void setup_tets(Solver& s, const KnownTets* known) {
   TetTerm& t = s.tets;
   const Model& m = *s.model;
   t.on = s.material.young_modulus_kpa > 0.0 && m.has_tets();
@@ -298,10 +298,12 @@ void setup_tets(Solver& s) {
     t = TetTerm{};
     return;
   }
-  t.id = model::identify_tets(m,
-                              {.young_modulus_kpa = s.material.young_modulus_kpa,
-                               .poisson_ratio = s.material.poisson_ratio},
-                              s.material.tet_elasticity);
+  const model::ElasticMaterial elastic{.young_modulus_kpa = s.material.young_modulus_kpa,
+                                       .poisson_ratio = s.material.poisson_ratio};
+  t.id = std::make_shared<const model::TetIdentification>(
+      known && known->before
+          ? model::identify_tets(m, elastic, s.material.tet_elasticity, *known->before, known->same)
+          : model::identify_tets(m, elastic, s.material.tet_elasticity));
   const Eigen::Index nt = m.tets.size();
   const size_t blocks = static_cast<size_t>((nt + L - 1) / L);
   // Unused lanes of the last block: every corner node 0, no stiffness, a unit rest volume (no
@@ -330,19 +332,19 @@ void setup_tets(Solver& s) {
 
 void CoupledTets::setup(Solver& s) {
   TetTerm& t = s.tets;
+  const model::TetIdentification& id = *t.id;
   const Model& m = *s.model;
   for (Eigen::Index q = 0; q < m.tets.size(); ++q) {
     TetBlock& b = t.block[static_cast<size_t>(q / L)];
     const int l = static_cast<int>(q % L);
     for (int k = 0; k < 6; ++k)
-      b.rest_length_mm[k][l] =
-          m.springs.rest_length_mm[static_cast<size_t>(t.id.tet_springs(q, k))];
-    for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(t.id.q_n_per_m(q, v));
-    b.rest_volume_mm3[l] = t.id.rest_volume_mm3[static_cast<size_t>(q)];
+      b.rest_length_mm[k][l] = m.springs.rest_length_mm[static_cast<size_t>(id.tet_springs(q, k))];
+    for (int v = 0; v < 21; ++v) b.q[v][l] = static_cast<float>(id.q_n_per_m(q, v));
+    b.rest_volume_mm3[l] = id.rest_volume_mm3[static_cast<size_t>(q)];
     // A cut's copy carries its share of the tetrahedron's material (Q already has it).
     const double share = m.tets.share_of(q);
-    b.volume_stiffness[l] = share * t.id.volume_modulus_kpa / b.rest_volume_mm3[l];
-    b.guard_stiffness[l] = share * t.id.guard_modulus_kpa / b.rest_volume_mm3[l];
+    b.volume_stiffness[l] = share * id.volume_modulus_kpa / b.rest_volume_mm3[l];
+    b.guard_stiffness[l] = share * id.guard_modulus_kpa / b.rest_volume_mm3[l];
   }
 }
 

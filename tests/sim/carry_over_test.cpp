@@ -9,6 +9,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/model/cut_tetrahedra.h"
+#include "lamina/model/identify_tets.h"
 #include "lamina/sim/simulation.h"
 #include "support/tet_phantom.h"
 
@@ -124,6 +125,88 @@ TEST(CarryOver, PiecesPulledApartOpenTheCutAndComeBackToRest) {
               (s.x - c.model.X).rowwise().norm().maxCoeff());
   EXPECT_LT((s.x - c.model.X).rowwise().norm().maxCoeff(), 0.5);
   EXPECT_LT(widest_gap(s, c.origin), 0.5);
+}
+
+// The carried simulation takes the constants of the tetrahedra the cut left as they were from
+// the one it continues (model::same_tets()) instead of identifying them again: they must be
+// exactly a fresh identification's, after a first cut and after a second one across the copies
+// of the first (whose copies are then found as themselves, not as the tetrahedron they came
+// from).
+TEST(CarryOver, TheTetrahedraTheCutLeftKeepTheirConstantsExactly) {
+  const CutOrgan& c = cut_organ();
+  const Model& m = c.model;
+  const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
+  const double y0 = m.X.col(1).mean() + 0.17;
+  const model::Blade across = model::sweep_blade(
+      {Eigen::Vector3d(lo.x() - 5, y0, lo.z() - 5), Eigen::Vector3d(hi.x() + 5, y0, lo.z() - 5)},
+      Eigen::Vector3d::UnitZ(), hi.z() - lo.z() + 10);
+  Model twice;
+  std::vector<int32_t> origin2;
+  model::CutReport report2;
+  model::cut_tetrahedra(m, m.X, across, twice, origin2, report2);
+  ASSERT_GT(report2.cut_tets, 0);
+
+  const sim::Simulation once = sim::carry_over(held_uncut(), m, c.origin);
+  const sim::Simulation again = sim::carry_over(once, twice, origin2);
+  const model::ElasticMaterial e{.young_modulus_kpa = 6.0, .poisson_ratio = 0.45};
+  struct Case {
+    const Model* cut;
+    const sim::Simulation* sim;
+    const Model* before;
+    const std::vector<int32_t>* origin;
+    int64_t divided;
+  };
+  for (const auto& [cut, sim, before, origin, divided] :
+       {Case{&m, &once, &test::tet_phantom(), &c.origin, c.report.cut_tets},
+        Case{&twice, &again, &m, &origin2, report2.cut_tets}}) {
+    const model::TetIdentification fresh = model::identify_tets(*cut, e);
+    const model::TetIdentification& carried = sim->tet_identification();
+    ASSERT_EQ(carried.q_n_per_m.rows(), fresh.q_n_per_m.rows());
+    EXPECT_EQ(carried.q_n_per_m, fresh.q_n_per_m);
+    EXPECT_EQ(carried.tet_springs, fresh.tet_springs);
+    EXPECT_EQ(carried.spring_n_per_m, fresh.spring_n_per_m);
+    EXPECT_EQ(carried.rest_volume_mm3, fresh.rest_volume_mm3);
+    // Every tetrahedron but the divided ones' copies is found, each as the same element.
+    const std::vector<int32_t> same = model::same_tets(*before, *cut, *origin);
+    int64_t found = 0;
+    for (size_t t = 0; t < same.size(); ++t) {
+      if (same[t] < 0) continue;
+      ++found;
+      for (int k = 0; k < 4; ++k)
+        ASSERT_EQ((*origin)[static_cast<size_t>(cut->tets.T(static_cast<Eigen::Index>(t), k))],
+                  before->tets.T(same[t], k));
+      ASSERT_EQ(cut->tets.share_of(static_cast<int64_t>(t)), before->tets.share_of(same[t]));
+    }
+    EXPECT_EQ(found, before->tets.size() - divided);
+  }
+}
+
+// A cut model whose tetrahedra are not in the cut's order (two swapped) loses the walk there:
+// those are identified afresh, none is taken for another.
+TEST(CarryOver, TetrahedraOutOfTheCutsOrderAreNeverTakenForOthers) {
+  const CutOrgan& c = cut_organ();
+  Model shuffled = c.model;
+  const Eigen::Index last = shuffled.tets.size() - 1;
+  shuffled.tets.T.row(3).swap(shuffled.tets.T.row(last));
+  if (!shuffled.tets.share.empty()) std::swap(shuffled.tets.share[3], shuffled.tets.share[last]);
+  if (!shuffled.tets.material.empty())
+    std::swap(shuffled.tets.material[3], shuffled.tets.material[last]);
+  std::swap(shuffled.tets.region[3], shuffled.tets.region[last]);
+  const std::vector<int32_t> same = model::same_tets(test::tet_phantom(), shuffled, c.origin);
+  int64_t found = 0;
+  for (size_t t = 0; t < same.size(); ++t) {
+    if (same[t] < 0) continue;
+    ++found;
+    for (int k = 0; k < 4; ++k)
+      ASSERT_EQ(c.origin[static_cast<size_t>(shuffled.tets.T(static_cast<Eigen::Index>(t), k))],
+                test::tet_phantom().tets.T(same[t], k));
+  }
+  EXPECT_GT(found, 0);
+  EXPECT_LT(found, test::tet_phantom().tets.size() - c.report.cut_tets);
+  const sim::Simulation s = sim::carry_over(held_uncut(), shuffled, c.origin);
+  EXPECT_EQ(
+      s.tet_identification().q_n_per_m,
+      model::identify_tets(shuffled, {.young_modulus_kpa = 6.0, .poisson_ratio = 0.45}).q_n_per_m);
 }
 
 TEST(CarryOver, AnOriginThatDoesNotMatchIsRefused) {

@@ -172,4 +172,13 @@ inline double copy_share(const Model& before, const Model& cut, const std::vecto
   return m0 > 0.0 ? cut.mass_kg[static_cast<size_t>(i)] / m0 : 1.0;
 }
 
+/// Each tetrahedron of a cut model that the cut left as it was: the index of the same element
+/// in `before` (the same corners, by origin, the same share and material: its rest shape and
+/// constants are that one's), or -1 for a copy of a divided tetrahedron. Linear: it walks the
+/// two lists together, as cut_tetrahedra() keeps the tetrahedra's order (a divided one's two
+/// copies in its place); a cut model not so ordered gets -1 where the walk loses its way (the
+/// caller then does the work afresh, never wrongly).
+std::vector<int32_t> same_tets(const Model& before, const Model& cut,
+                               const std::vector<int32_t>& origin);
+
 }  // namespace lamina::model

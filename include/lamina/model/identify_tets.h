@@ -75,4 +75,15 @@ struct TetIdentification {
 TetIdentification identify_tets(const Model& model, const ElasticMaterial& material,
                                 TetElasticity elasticity = TetElasticity::kCoupled);
 
+/// identify_tets() for a model some of whose tetrahedra were identified before: tetrahedron t
+/// with known[t] >= 0 is the same element (the same rest corners, share and material) as
+/// tetrahedron known[t] of the model `before` identifies, and takes its constants from there
+/// instead of inverting its 6x6 again (a cut keeps all but a few: model::same_tets()). `before`
+/// must be of the same material and elasticity (else every tetrahedron is identified afresh).
+/// \note Throws as identify_tets(), and lamina::Error (kInvalidInput) if `known` is not one
+///   entry per tetrahedron naming tetrahedra of `before`.
+TetIdentification identify_tets(const Model& model, const ElasticMaterial& material,
+                                TetElasticity elasticity, const TetIdentification& before,
+                                const std::vector<int32_t>& known);
+
 }  // namespace lamina::model

@@ -4,6 +4,7 @@
 /// the nodes and the tetrahedra, not the motion.
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "lamina/model/model.h"
@@ -30,6 +31,9 @@ struct CarrySource {
   SolverOptions options;                ///< with the preconditioner sim chose, kept
   std::vector<double> support_n_per_m;  ///< per node of sim's model
   SimState state;                       ///< sim's when copied
+  /// sim's tetrahedra's constants (shared, never changed; null without tetrahedra): the ones
+  /// the cut leaves as they were keep theirs (model::same_tets())
+  std::shared_ptr<const model::TetIdentification> tets_id;
 };
 CarrySource carry_source(const Simulation& sim);
 
