@@ -141,6 +141,12 @@ void refresh_local_lanes(Solver& s) {
 
 void refresh_spring_lanes(Solver& s) {
   SpringLanes& t = s.lanes;
+  if (t.nodes != s.model->node_count()) {  // not made: the tetrahedra carry the springs (resolve)
+    t.active_blocks.clear();
+    t.local.on = false;
+    t.local.entry.clear();
+    return;
+  }
   t.movable.assign(s.movable.begin(), s.movable.end());
   t.active_blocks.clear();
   for (int32_t i : s.active_nodes)

@@ -82,7 +82,9 @@ inline int32_t block_count(int32_t nodes) {
   return (nodes + kLanes - 1) / kLanes;
 }
 
-/// The lanes' layout from the model's springs, and the rest lengths (make_simulation).
+/// The lanes' layout from the model's springs, and the rest lengths (resolve(), once the
+/// springs step by themselves: not while tetrahedra carry them; refresh_spring_lanes() then
+/// leaves them unmade).
 void setup_spring_lanes(Solver& s);
 /// The lanes' stiffness from springs.stiffness_n_per_m (whenever the material resolves it, and
 /// when refresh() sizes implicit Euler's tables).

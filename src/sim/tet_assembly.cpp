@@ -16,34 +16,54 @@ void setup_tet_assembly(Solver& s) {
   const Tets& tets = s.model->tets;
   const int32_t n = s.model->node_count();
   const Eigen::Index nt = tets.size();
-  // Each node's row: itself, then its neighbours through its tetrahedra (TetTerm::corners).
-  a.offsets.assign(1, 0);
-  a.column.clear();
-  std::vector<int32_t> near;
-  for (int32_t i = 0; i < n; ++i) {
-    near.clear();
-    for (int32_t k = s.tets.corner_offsets[i]; k < s.tets.corner_offsets[i + 1]; ++k)
-      for (int c = 0; c < 4; ++c)
-        if (const int32_t j = tets.T(s.tets.corners[k] / 4, c); j != i) near.push_back(j);
-    std::sort(near.begin(), near.end());
-    near.erase(std::unique(near.begin(), near.end()), near.end());
-    a.column.push_back(i);
-    a.column.insert(a.column.end(), near.begin(), near.end());
-    a.offsets.push_back(static_cast<int32_t>(a.column.size()));
+  const std::vector<int32_t>& corner_offsets = s.tets.corner_offsets;
+  const std::vector<int32_t>& corners = s.tets.corners;
+  // Made again at every cut (carry_over), so node by node on the threads, each node's
+  // neighbours told apart with a stamp and each entry found through a scratch table of where
+  // each neighbour sits in the row: the binary search per corner pair it replaces was 100 ms of
+  // a 48k-node cut's 175 (docs/benchmarks.md). Each (tetrahedron, corner) belongs to one node's
+  // row, so the rows fill the tetrahedra's entries without sharing any.
+  // Each node's row length: itself and the distinct nodes it shares a tetrahedron with.
+  a.offsets.assign(static_cast<size_t>(n) + 1, 0);
+#pragma omp parallel
+  {
+    std::vector<int32_t> stamp(static_cast<size_t>(n), -1);
+#pragma omp for schedule(static)
+    for (int32_t i = 0; i < n; ++i) {
+      int32_t count = 1;
+      stamp[i] = i;
+      for (int32_t k = corner_offsets[i]; k < corner_offsets[i + 1]; ++k)
+        for (int c = 0; c < 4; ++c)
+          if (const int32_t j = tets.T(corners[k] / 4, c); stamp[j] != i) stamp[j] = i, ++count;
+      a.offsets[static_cast<size_t>(i) + 1] = count;
+    }
   }
+  for (int32_t i = 0; i < n; ++i) a.offsets[i + 1] += a.offsets[i];
+  a.column.resize(static_cast<size_t>(a.offsets[n]));
   a.entry.resize(16 * static_cast<size_t>(nt));
-  for (Eigen::Index q = 0; q < nt; ++q)
-    for (int r = 0; r < 4; ++r) {
-      const int32_t i = tets.T(q, r);
-      for (int c = 0; c < 4; ++c) {
-        const int32_t j = tets.T(q, c);
-        const auto first = a.column.begin() + a.offsets[i],
-                   last = a.column.begin() + a.offsets[i + 1];
-        const auto at = j == i ? first : std::lower_bound(first + 1, last, j);
-        a.entry[16 * static_cast<size_t>(q) + 4 * r + c] =
-            static_cast<int32_t>(at - a.column.begin());
+#pragma omp parallel
+  {
+    // stamp[j] == i: j is in row i, at place[j].
+    std::vector<int32_t> stamp(static_cast<size_t>(n), -1), place(static_cast<size_t>(n), 0);
+#pragma omp for schedule(static)
+    for (int32_t i = 0; i < n; ++i) {
+      int32_t* row = a.column.data() + a.offsets[i];
+      int32_t count = 1;
+      row[0] = i;
+      stamp[i] = i;
+      for (int32_t k = corner_offsets[i]; k < corner_offsets[i + 1]; ++k)
+        for (int c = 0; c < 4; ++c)
+          if (const int32_t j = tets.T(corners[k] / 4, c); stamp[j] != i)
+            stamp[j] = i, row[count++] = j;
+      std::sort(row + 1, row + count);
+      for (int32_t e = 0; e < count; ++e) place[row[e]] = a.offsets[i] + e;
+      for (int32_t k = corner_offsets[i]; k < corner_offsets[i + 1]; ++k) {
+        const int32_t q = corners[k] / 4, r = corners[k] % 4;
+        for (int c = 0; c < 4; ++c)
+          a.entry[16 * static_cast<size_t>(q) + 4 * r + c] = place[tets.T(q, c)];
       }
     }
+  }
   // Three floats past the last block: assembled_tet_product_packed() loads a block's last row
   // as four.
   a.block.assign(9 * a.column.size() + 3, 0.0f);

@@ -334,7 +334,11 @@ void CoupledTets::setup(Solver& s) {
   TetTerm& t = s.tets;
   const model::TetIdentification& id = *t.id;
   const Model& m = *s.model;
-  for (Eigen::Index q = 0; q < m.tets.size(); ++q) {
+  // On the threads (a cut makes the blocks again: 4.5 ms of a 48k-node event on one); a block's
+  // lanes on one thread.
+  const Eigen::Index nt = m.tets.size();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index q = 0; q < nt; ++q) {
     TetBlock& b = t.block[static_cast<size_t>(q / L)];
     const int l = static_cast<int>(q % L);
     for (int k = 0; k < 6; ++k)

@@ -15,6 +15,7 @@
 #include "lamina/sim/simulation.h"
 #include "sim/spring_lanes_product.h"  // white box: the lanes and the CSR product side by side
 #include "support/random_rows.h"
+#include "support/tet_phantom.h"
 
 namespace {
 
@@ -206,6 +207,30 @@ TEST(SpringLanes, LocalModesOwnBlocksStepAsThePerSpringPassesDo) {
   for (int32_t i = 0; i < m.node_count(); ++i)  // nothing outside the region moved
     if (std::find(region.begin(), region.end(), i) == region.end())
       ASSERT_EQ((lanes.x.row(i) - m.X.row(i)).norm(), 0.0) << "node " << i;
+}
+
+// The lanes are made only where the springs step by themselves (not while tetrahedra carry
+// them): a tissue switched from tetrahedra to the paper's springs makes them then, and steps
+// (semi-implicit Euler and implicit Euler's lane products) exactly as one made with the springs.
+TEST(SpringLanes, AreMadeWhenTheTissueTurnsFromTetrahedraToSprings) {
+  const Model& m = test::tet_phantom();
+  const sim::Material springs{.stiffness_n_per_m = 40.0, .damping_kg_per_s = 2.0};
+  for (const sim::Integrator integrator :
+       {sim::Integrator::kSemiImplicitEuler, sim::Integrator::kImplicitEuler}) {
+    const sim::SolverOptions o{.integrator = integrator, .dt_s = 0.002};
+    sim::Simulation switched = sim::make_simulation(
+        m, {.stiffness_n_per_m = 0.0, .damping_kg_per_s = 2.0, .young_modulus_kpa = 6.0}, o);
+    EXPECT_EQ(switched.solver().lanes.nodes, 0) << "lanes made while tetrahedra carry the springs";
+    sim::set_parameters(switched, springs, o);
+    sim::Simulation made = sim::make_simulation(m, springs, o);
+    ASSERT_EQ(switched.solver().lanes.nodes, m.node_count());
+    for (sim::Simulation* s : {&switched, &made}) {
+      s->f_ext.row(interact::most_anterior_skin_node(m)) << 0.0, 300.0, 0.0;
+      for (int k = 0; k < 40; ++k) ASSERT_EQ(sim::step(*s).unstable, sim::Instability::kNone);
+    }
+    EXPECT_GT((made.x - m.X).rowwise().norm().maxCoeff(), 0.1);
+    EXPECT_EQ(switched.x, made.x) << static_cast<int>(integrator);
+  }
 }
 
 }  // namespace

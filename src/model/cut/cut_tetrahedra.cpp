@@ -697,20 +697,20 @@ void count_pieces(const Model& model, const Copies& copies, const Model& m, CutR
   UnionFind parts(static_cast<size_t>(nn));
   for (int32_t c = 0; c < ncopies; ++c)
     for (int k = 1; k < 4; ++k) parts.join(m.tets.T(c, 0), m.tets.T(c, k));
-  std::unordered_map<int32_t, size_t> piece_of;
+  // Each root's piece (-1: none yet), by node: a hash map here was 2 ms of a 48k-node event.
+  std::vector<int32_t> piece_of(static_cast<size_t>(nn), -1);
   for (int32_t c = 0; c < ncopies; ++c) {
-    const int32_t r = parts.find(m.tets.T(c, 0));
-    auto [it, fresh] = piece_of.try_emplace(r, report.pieces.size());
-    if (fresh) report.pieces.emplace_back();
-    CutPiece& p = report.pieces[it->second];
+    int32_t& at = piece_of[static_cast<size_t>(parts.find(m.tets.T(c, 0)))];
+    if (at < 0) at = static_cast<int32_t>(report.pieces.size()), report.pieces.emplace_back();
+    CutPiece& p = report.pieces[static_cast<size_t>(at)];
     p.volume_mm3 += copies.share[c] * rest_volume(model.X, T, copies.tet[c]);
     ++p.tets;
   }
   for (int32_t i = 0; i < nn; ++i) {
-    const auto it = piece_of.find(parts.find(i));
-    if (it == piece_of.end()) continue;  // a node of no tetrahedron
-    report.pieces[it->second].mass_kg += m.mass_kg[i];
-    ++report.pieces[it->second].nodes;
+    const int32_t at = piece_of[static_cast<size_t>(parts.find(i))];
+    if (at < 0) continue;  // a node of no tetrahedron
+    report.pieces[static_cast<size_t>(at)].mass_kg += m.mass_kg[i];
+    ++report.pieces[static_cast<size_t>(at)].nodes;
   }
   std::sort(report.pieces.begin(), report.pieces.end(),
             [](const CutPiece& a, const CutPiece& b) { return a.volume_mm3 > b.volume_mm3; });
