@@ -4,9 +4,12 @@
 // tetrahedron keeps the entries of its 16 corner pairs, so that assemble_tets() adds its blocks
 // without searching. assemble_tets() sums each step's blocks into it, for whichever energy the
 // tetrahedra store.
+#include <fmt/format.h>
+
 #include <algorithm>
 
 #include "force_terms.h"
+#include "lamina/core/error.h"
 #include "solver.h"
 
 namespace lamina::sim::detail {
@@ -14,56 +17,52 @@ namespace lamina::sim::detail {
 void setup_tet_assembly(Solver& s) {
   TetAssembly& a = s.tets.assembly;
   const Tets& tets = s.model->tets;
+  const SpringTerm& springs = s.springs;  // its per-node CSR (setup_springs)
   const int32_t n = s.model->node_count();
   const Eigen::Index nt = tets.size();
   const std::vector<int32_t>& corner_offsets = s.tets.corner_offsets;
   const std::vector<int32_t>& corners = s.tets.corners;
-  // Made again at every cut (carry_over), so node by node on the threads, each node's
-  // neighbours told apart with a stamp and each entry found through a scratch table of where
-  // each neighbour sits in the row: the binary search per corner pair it replaces was 100 ms of
-  // a 48k-node cut's 175 (docs/benchmarks.md). Each (tetrahedron, corner) belongs to one node's
-  // row, so the rows fill the tetrahedra's entries without sharing any.
-  // Each node's row length: itself and the distinct nodes it shares a tetrahedron with.
+  // Each node's row: itself, then its springs' other ends, which are the nodes it shares a
+  // tetrahedron with (the springs are the tetrahedra's edges, identify_tets checks each edge is
+  // one) and are in increasing order (the springs are sorted by (i, j)). It is made again at
+  // every cut (carry_over), so taken from there, and each tetrahedron's entries found through a
+  // scratch table of where a neighbour sits in its row, node by node on the threads (each
+  // (tetrahedron, corner) belongs to one node's row): a binary search per corner pair was 100 ms
+  // of a 48k-node cut event's 175 (docs/benchmarks.md).
   a.offsets.assign(static_cast<size_t>(n) + 1, 0);
-#pragma omp parallel
-  {
-    std::vector<int32_t> stamp(static_cast<size_t>(n), -1);
-#pragma omp for schedule(static)
-    for (int32_t i = 0; i < n; ++i) {
-      int32_t count = 1;
-      stamp[i] = i;
-      for (int32_t k = corner_offsets[i]; k < corner_offsets[i + 1]; ++k)
-        for (int c = 0; c < 4; ++c)
-          if (const int32_t j = tets.T(corners[k] / 4, c); stamp[j] != i) stamp[j] = i, ++count;
-      a.offsets[static_cast<size_t>(i) + 1] = count;
-    }
-  }
-  for (int32_t i = 0; i < n; ++i) a.offsets[i + 1] += a.offsets[i];
+  for (int32_t i = 0; i < n; ++i)
+    a.offsets[i + 1] = a.offsets[i] + 1 + springs.adj_offsets[i + 1] - springs.adj_offsets[i];
   a.column.resize(static_cast<size_t>(a.offsets[n]));
   a.entry.resize(16 * static_cast<size_t>(nt));
+  int32_t missing = -1;  // a node with a tetrahedron edge that is no spring
 #pragma omp parallel
   {
     // stamp[j] == i: j is in row i, at place[j].
     std::vector<int32_t> stamp(static_cast<size_t>(n), -1), place(static_cast<size_t>(n), 0);
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) reduction(max : missing)
     for (int32_t i = 0; i < n; ++i) {
       int32_t* row = a.column.data() + a.offsets[i];
-      int32_t count = 1;
       row[0] = i;
-      stamp[i] = i;
-      for (int32_t k = corner_offsets[i]; k < corner_offsets[i + 1]; ++k)
-        for (int c = 0; c < 4; ++c)
-          if (const int32_t j = tets.T(corners[k] / 4, c); stamp[j] != i)
-            stamp[j] = i, row[count++] = j;
-      std::sort(row + 1, row + count);
-      for (int32_t e = 0; e < count; ++e) place[row[e]] = a.offsets[i] + e;
+      std::copy(springs.adj_other.begin() + springs.adj_offsets[i],
+                springs.adj_other.begin() + springs.adj_offsets[i + 1], row + 1);
+      for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
+        stamp[a.column[e]] = i;
+        place[a.column[e]] = e;
+      }
       for (int32_t k = corner_offsets[i]; k < corner_offsets[i + 1]; ++k) {
         const int32_t q = corners[k] / 4, r = corners[k] % 4;
-        for (int c = 0; c < 4; ++c)
-          a.entry[16 * static_cast<size_t>(q) + 4 * r + c] = place[tets.T(q, c)];
+        for (int c = 0; c < 4; ++c) {
+          const int32_t j = tets.T(q, c);
+          if (stamp[j] != i) missing = std::max(missing, i);
+          a.entry[16 * static_cast<size_t>(q) + 4 * r + c] = place[j];
+        }
       }
     }
   }
+  if (missing >= 0)
+    throw Error(
+        ErrorKind::kInternal,
+        fmt::format("node {} shares a tetrahedron with a node it has no spring to", missing));
   // Three floats past the last block: assembled_tet_product_packed() loads a block's last row
   // as four.
   a.block.assign(9 * a.column.size() + 3, 0.0f);

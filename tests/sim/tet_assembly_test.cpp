@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "lamina/model/cut_tetrahedra.h"
 #include "lamina/sim/simulation.h"
 #include "sim/force_terms.h"
 #include "sim/solver.h"  // white box: both products side by side
@@ -15,8 +16,26 @@ namespace {
 
 using namespace lamina;
 
-TEST(TetAssembly, EqualsTheElementByElementProductAndIsSymmetric) {
-  const Model& m = test::tet_phantom();
+// The small phantom cut through by a plane: copies of divided tetrahedra, nodes copied on both
+// sides, whose rows the pattern takes from the cut model's springs.
+const Model& cut_phantom() {
+  static const Model cut = [] {
+    const Model& m = test::tet_phantom();
+    const Eigen::Vector3d lo = m.X.colwise().minCoeff(), hi = m.X.colwise().maxCoeff();
+    const double x0 = m.X.col(0).mean() + 0.31;
+    const model::Blade b = model::sweep_blade(
+        {Eigen::Vector3d(x0, lo.y() - 5, lo.z() - 5), Eigen::Vector3d(x0, hi.y() + 5, lo.z() - 5)},
+        Eigen::Vector3d::UnitZ(), hi.z() - lo.z() + 10);
+    Model out;
+    std::vector<int32_t> origin;
+    model::CutReport report;
+    model::cut_tetrahedra(m, m.X, b, out, origin, report);
+    return out;
+  }();
+  return cut;
+}
+
+void expect_assembled_equals_element_product(const Model& m) {
   ASSERT_TRUE(m.has_tets());
   sim::Simulation sim =
       sim::make_simulation(m, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler});
@@ -72,6 +91,15 @@ TEST(TetAssembly, EqualsTheElementByElementProductAndIsSymmetric) {
   const std::vector<float> one = a.block;
   sim::detail::assemble_tets(s, 2);
   EXPECT_EQ(a.block, one);
+}
+
+TEST(TetAssembly, EqualsTheElementByElementProductAndIsSymmetric) {
+  expect_assembled_equals_element_product(test::tet_phantom());
+}
+
+TEST(TetAssembly, EqualsTheElementByElementProductOnACutModel) {
+  ASSERT_GT(cut_phantom().node_count(), test::tet_phantom().node_count());
+  expect_assembled_equals_element_product(cut_phantom());
 }
 
 TEST(TetAssembly, ImplicitEulerStepsAsWithTheElementProduct) {
