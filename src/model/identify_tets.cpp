@@ -39,9 +39,28 @@ bool same_constants(const TetIdentification& before, const TetIdentification& ou
          before.lame_lambda_kpa == out.lame_lambda_kpa;
 }
 
+// `known` fits the model and the identification it names.
+void check_known(const Model& m, const KnownTets& known) {
+  const auto problem = [&](const std::string& what) {
+    throw invalid_input(m.source.empty() ? std::string("model") : m.source,
+                        "known tetrahedra: " + what);
+  };
+  if (known.tets.size() != static_cast<size_t>(m.tets.size()))
+    problem(std::to_string(known.tets.size()) + " entries for " + std::to_string(m.tets.size()) +
+            " tetrahedra");
+  for (const int32_t k : known.tets)
+    if (k >= known.before->q_n_per_m.rows())
+      problem("tetrahedron " + std::to_string(k) + " is not one of the identified model's");
+  if (!known.springs.empty() && known.springs.size() != known.before->spring_n_per_m.size())
+    problem(std::to_string(known.springs.size()) + " springs for the identified model's " +
+            std::to_string(known.before->spring_n_per_m.size()));
+  for (const int32_t e : known.springs)
+    if (e >= static_cast<int64_t>(m.springs.size()))
+      problem("spring " + std::to_string(e) + " is not one of the model's");
+}
+
 TetIdentification identify(const Model& m, const ElasticMaterial& material,
-                           TetElasticity elasticity, const TetIdentification* before,
-                           const std::vector<int32_t>* known) {
+                           TetElasticity elasticity, const KnownTets* known) {
   check_elastic_material(material);
   if (!m.has_tets())
     throw invalid_input(m.source.empty() ? std::string("model") : m.source,
@@ -66,15 +85,8 @@ TetIdentification identify(const Model& m, const ElasticMaterial& material,
 
   const Springs& sp = m.springs;
   const Eigen::Index nt = m.tets.size();
-  if (before && !same_constants(*before, out)) before = nullptr, known = nullptr;
-  if (known && known->size() != static_cast<size_t>(nt))
-    throw invalid_input(m.source, "known tetrahedra: " + std::to_string(known->size()) +
-                                      " entries for " + std::to_string(nt) + " tetrahedra");
-  if (known)
-    for (const int32_t k : *known)
-      if (k >= before->q_n_per_m.rows())
-        throw invalid_input(m.source, "known tetrahedra: tetrahedron " + std::to_string(k) +
-                                          " is not one of the identified model's");
+  if (known && !(known->before && same_constants(*known->before, out))) known = nullptr;
+  if (known) check_known(m, *known);
   const std::vector<int32_t> rows = spring_rows(sp, m.node_count());
   out.spring_n_per_m.assign(sp.size(), 0.0);
   out.tet_springs.resize(nt, 6);
@@ -85,17 +97,21 @@ TetIdentification identify(const Model& m, const ElasticMaterial& material,
   Eigen::Index bad = nt;  // the first tetrahedron whose edge is no spring
 #pragma omp parallel for schedule(static) reduction(min : bad)
   for (Eigen::Index t = 0; t < nt; ++t) {
-    if (known && (*known)[static_cast<size_t>(t)] >= 0) {
-      const int32_t from = (*known)[static_cast<size_t>(t)];
+    if (known && known->tets[static_cast<size_t>(t)] >= 0) {
+      const int32_t from = known->tets[static_cast<size_t>(t)];
+      const TetIdentification& before = *known->before;
       for (int k = 0; k < 6; ++k) {
-        const int32_t e =
-            spring_in_rows(sp, rows, m.tets.T(t, kTetEdge[k][0]), m.tets.T(t, kTetEdge[k][1]));
+        const int32_t a = m.tets.T(t, kTetEdge[k][0]), b = m.tets.T(t, kTetEdge[k][1]);
+        // The earlier spring's one successor, if it joins these corners; else searched.
+        int32_t e = known->springs.empty() ? -1 : known->springs[before.tet_springs(from, k)];
+        if (e < 0 || sp.i[e] != std::min(a, b) || sp.j[e] != std::max(a, b))
+          e = spring_in_rows(sp, rows, a, b);
         if (e < 0) bad = std::min(bad, t);
         out.tet_springs(t, k) = std::max(e, 0);
       }
-      out.q_n_per_m.row(t) = before->q_n_per_m.row(from);
+      out.q_n_per_m.row(t) = before.q_n_per_m.row(from);
       out.rest_volume_mm3[static_cast<size_t>(t)] =
-          before->rest_volume_mm3[static_cast<size_t>(from)];
+          before.rest_volume_mm3[static_cast<size_t>(from)];
       continue;
     }
     Eigen::Vector3d p[4];
@@ -171,13 +187,12 @@ TetIdentification identify(const Model& m, const ElasticMaterial& material,
 
 TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
                                 TetElasticity elasticity) {
-  return identify(m, material, elasticity, nullptr, nullptr);
+  return identify(m, material, elasticity, nullptr);
 }
 
 TetIdentification identify_tets(const Model& m, const ElasticMaterial& material,
-                                TetElasticity elasticity, const TetIdentification& before,
-                                const std::vector<int32_t>& known) {
-  return identify(m, material, elasticity, &before, &known);
+                                TetElasticity elasticity, const KnownTets& known) {
+  return identify(m, material, elasticity, &known);
 }
 
 }  // namespace lamina::model

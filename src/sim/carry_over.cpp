@@ -70,7 +70,10 @@ Simulation made_for_cut(const CarrySource& from, const Model& before, const Mode
   // (a 6x6 inverse each) was most of an event beyond paper size (docs/benchmarks.md).
   detail::KnownTets known;
   if (from.tets_id && cut.has_tets())
-    known = {.before = from.tets_id, .same = model::same_tets(before, cut, origin)};
+    known = {.before = from.tets_id,
+             .tables = {.before = from.tets_id.get(),
+                        .tets = model::same_tets(before, cut, origin),
+                        .springs = model::same_springs(before, cut, origin)}};
   Simulation out =
       detail::make_simulation(cut, from.material, from.options, known.before ? &known : nullptr);
   // Support, divided among a node's copies by their masses (a cut adds no hold on the organ).

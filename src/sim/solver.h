@@ -409,11 +409,11 @@ void spring_product(const Solver& s, int32_t i, const ConstCols& p, double& kx, 
 void spring_diagonal(const Solver& s, int32_t i, double& d0, double& d1, double& d2);
 
 // --- The tetrahedra (tet_term.cpp; their energies' passes: force_terms.h). ---
-/// Tetrahedra whose constants an earlier identification holds (a cut's carried simulation:
-/// model::same_tets(), model::identify_tets()'s `known`).
+/// What an earlier identification knows of the model (a cut's carried simulation): the
+/// identification kept alive, and model::KnownTets's tables (its `before` set to it).
 struct KnownTets {
   std::shared_ptr<const model::TetIdentification> before;
-  std::vector<int32_t> same;  ///< per tetrahedron: its index in `before`'s model, or -1
+  model::KnownTets tables;
 };
 /// make_simulation(), the tetrahedra `known` names (may be null) taking their constants from
 /// an earlier identification (carry_over()).

@@ -302,7 +302,7 @@ void setup_tets(Solver& s, const KnownTets* known) {
                                        .poisson_ratio = s.material.poisson_ratio};
   t.id = std::make_shared<const model::TetIdentification>(
       known && known->before
-          ? model::identify_tets(m, elastic, s.material.tet_elasticity, *known->before, known->same)
+          ? model::identify_tets(m, elastic, s.material.tet_elasticity, known->tables)
           : model::identify_tets(m, elastic, s.material.tet_elasticity));
   const Eigen::Index nt = m.tets.size();
   const size_t blocks = static_cast<size_t>((nt + L - 1) / L);

@@ -178,7 +178,52 @@ TEST(CarryOver, TheTetrahedraTheCutLeftKeepTheirConstantsExactly) {
       ASSERT_EQ(cut->tets.share_of(static_cast<int64_t>(t)), before->tets.share_of(same[t]));
     }
     EXPECT_EQ(found, before->tets.size() - divided);
+    // Each spring found once is the one between copies of its ends; the springs not found are
+    // those at copied nodes (or gone with no successor).
+    const std::vector<int32_t> springs = model::same_springs(*before, *cut, *origin);
+    ASSERT_EQ(springs.size(), before->springs.size());
+    std::vector<int32_t> copies(static_cast<size_t>(before->node_count()), 0);
+    for (const int32_t o : *origin) ++copies[static_cast<size_t>(o)];
+    int64_t mapped = 0;
+    for (size_t e = 0; e < springs.size(); ++e) {
+      const int32_t f = springs[e];
+      if (f < 0) {
+        EXPECT_TRUE(copies[before->springs.i[e]] > 1 || copies[before->springs.j[e]] > 1) << e;
+        continue;
+      }
+      ++mapped;
+      ASSERT_EQ((*origin)[static_cast<size_t>(cut->springs.i[f])], before->springs.i[e]);
+      ASSERT_EQ((*origin)[static_cast<size_t>(cut->springs.j[f])], before->springs.j[e]);
+    }
+    EXPECT_GT(mapped, static_cast<int64_t>(before->springs.size()) * 9 / 10);
   }
+}
+
+// The earlier identification's tables must fit: refused, naming the problem, otherwise.
+TEST(CarryOver, KnownTablesThatDoNotFitTheModelAreRefused) {
+  const CutOrgan& c = cut_organ();
+  const model::ElasticMaterial e{.young_modulus_kpa = 6.0, .poisson_ratio = 0.45};
+  const model::TetIdentification before = model::identify_tets(test::tet_phantom(), e);
+  model::KnownTets known{.before = &before,
+                         .tets = model::same_tets(test::tet_phantom(), c.model, c.origin),
+                         .springs = model::same_springs(test::tet_phantom(), c.model, c.origin)};
+  EXPECT_EQ(model::identify_tets(c.model, e, model::TetElasticity::kCoupled, known).q_n_per_m,
+            model::identify_tets(c.model, e).q_n_per_m);
+  model::KnownTets short_tets = known;
+  short_tets.tets.pop_back();
+  EXPECT_THROW(model::identify_tets(c.model, e, model::TetElasticity::kCoupled, short_tets), Error);
+  model::KnownTets far_tet = known;
+  far_tet.tets[0] = static_cast<int32_t>(before.q_n_per_m.rows());
+  EXPECT_THROW(model::identify_tets(c.model, e, model::TetElasticity::kCoupled, far_tet), Error);
+  model::KnownTets far_spring = known;
+  far_spring.springs[0] = static_cast<int32_t>(c.model.springs.size());
+  EXPECT_THROW(model::identify_tets(c.model, e, model::TetElasticity::kCoupled, far_spring), Error);
+  // A spring named wrongly is not trusted: each is checked against the tetrahedron's corners.
+  model::KnownTets wrong_spring = known;
+  for (int32_t& f : wrong_spring.springs) f = f >= 0 ? (f + 1) % c.model.springs.size() : f;
+  EXPECT_EQ(
+      model::identify_tets(c.model, e, model::TetElasticity::kCoupled, wrong_spring).tet_springs,
+      model::identify_tets(c.model, e).tet_springs);
 }
 
 // A cut model whose tetrahedra are not in the cut's order (two swapped) loses the walk there:

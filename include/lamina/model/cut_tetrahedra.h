@@ -181,4 +181,11 @@ inline double copy_share(const Model& before, const Model& cut, const std::vecto
 std::vector<int32_t> same_tets(const Model& before, const Model& cut,
                                const std::vector<int32_t>& origin);
 
+/// Each spring of `before`: the one spring of the cut model between copies of its two ends, or
+/// -1 where there is none or there are several (a spring at a node the cut copied). Linear: a
+/// merge of the two sorted lists, the copies of a node following it (cut_tetrahedra()'s
+/// numbering); all -1 for an origin that does not keep the nodes' order.
+std::vector<int32_t> same_springs(const Model& before, const Model& cut,
+                                  const std::vector<int32_t>& origin);
+
 }  // namespace lamina::model

@@ -75,15 +75,26 @@ struct TetIdentification {
 TetIdentification identify_tets(const Model& model, const ElasticMaterial& material,
                                 TetElasticity elasticity = TetElasticity::kCoupled);
 
-/// identify_tets() for a model some of whose tetrahedra were identified before: tetrahedron t
-/// with known[t] >= 0 is the same element (the same rest corners, share and material) as
-/// tetrahedron known[t] of the model `before` identifies, and takes its constants from there
-/// instead of inverting its 6x6 again (a cut keeps all but a few: model::same_tets()). `before`
-/// must be of the same material and elasticity (else every tetrahedron is identified afresh).
-/// \note Throws as identify_tets(), and lamina::Error (kInvalidInput) if `known` is not one
-///   entry per tetrahedron naming tetrahedra of `before`.
+/// What an earlier identification knows of a model (a cut's: the model it was cut from).
+struct KnownTets {
+  const TetIdentification* before = nullptr;  ///< of the earlier model, same material
+  /// Per tetrahedron: the same element (the same rest corners, share and material) in the
+  /// earlier model, whose constants it takes, or -1 (model::same_tets())
+  std::vector<int32_t> tets;
+  /// Per spring of the earlier model: the one spring of this model between its ends' nodes, or
+  /// -1 (none, or several: a node the cut copied) (model::same_springs()); may be empty. A
+  /// known tetrahedron's springs are found through it instead of searched.
+  std::vector<int32_t> springs;
+};
+
+/// identify_tets() for a model some of whose tetrahedra were identified before: each one
+/// `known.tets` names takes its constants from `known.before` instead of inverting its 6x6
+/// again (a cut keeps all but a few). `known.before` must be of the same material and
+/// elasticity (else every tetrahedron is identified afresh).
+/// \note Throws as identify_tets(), and lamina::Error (kInvalidInput) if `known.tets` is not one
+///   entry per tetrahedron naming tetrahedra of `known.before`, or `known.springs` names springs
+///   that are not this model's.
 TetIdentification identify_tets(const Model& model, const ElasticMaterial& material,
-                                TetElasticity elasticity, const TetIdentification& before,
-                                const std::vector<int32_t>& known);
+                                TetElasticity elasticity, const KnownTets& known);
 
 }  // namespace lamina::model

@@ -1,5 +1,6 @@
-// The tetrahedra a cut left as they were, found by walking the two models' lists together (a
-// carried simulation takes their constants instead of identifying them again).
+// The tetrahedra and springs a cut left as they were, found by walking the two models' lists
+// together (a carried simulation takes their constants instead of identifying them again).
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -37,6 +38,28 @@ std::vector<int32_t> same_tets(const Model& before, const Model& cut,
         cut.tets.material_of(c) == before.tets.material_of(s))
       same[static_cast<size_t>(c)] = s;
   }
+  return same;
+}
+
+std::vector<int32_t> same_springs(const Model& before, const Model& cut,
+                                  const std::vector<int32_t>& origin) {
+  const Springs &a = before.springs, &b = cut.springs;
+  std::vector<int32_t> same(a.size(), -1);
+  if (origin.size() != static_cast<size_t>(cut.node_count())) return same;
+  for (size_t v = 0; v < origin.size(); ++v)
+    if (origin[v] < 0 || origin[v] >= before.node_count() || (v > 0 && origin[v] < origin[v - 1]))
+      return same;
+  // The cut's springs, sorted by (i, j), have their ends' origins in the same order (origin is
+  // monotone), so one pass over both finds each earlier spring's successors.
+  constexpr int32_t kSeveral = -2;
+  size_t e = 0;
+  for (size_t f = 0; f < b.size(); ++f) {
+    const int32_t i = origin[static_cast<size_t>(b.i[f])], j = origin[static_cast<size_t>(b.j[f])];
+    while (e < a.size() && (a.i[e] < i || (a.i[e] == i && a.j[e] < j))) ++e;
+    if (e == a.size()) break;
+    if (a.i[e] == i && a.j[e] == j) same[e] = same[e] == -1 ? static_cast<int32_t>(f) : kSeveral;
+  }
+  for (int32_t& s : same) s = std::max(s, -1);
   return same;
 }
 
