@@ -482,12 +482,15 @@ void cut_rings(const Model& model, const Glue& g, const std::vector<int32_t>& or
   if (model.rings.locality <= 0) return;
   const int32_t n = model.node_count();
   const auto nn = static_cast<int32_t>(origin.size());
+  // A node's rings reach an affected node exactly when it lies in that node's rings (within
+  // locality - 1 steps either way): the affected nodes' rings, not every node's, are read.
   std::vector<uint8_t> reaches(static_cast<size_t>(n), 0);
-  for (int32_t v = 0; v < n; ++v) {
-    const int64_t end = model.rings.offsets[static_cast<size_t>(v + 1) * model.rings.locality];
-    for (int64_t q = model.rings.offsets[static_cast<size_t>(v) * model.rings.locality];
-         q < end && !reaches[v]; ++q)
-      reaches[v] = g.affected[model.rings.members[q]];
+  for (int32_t u = 0; u < n; ++u) {
+    if (!g.affected[u]) continue;
+    const int64_t end = model.rings.offsets[static_cast<size_t>(u + 1) * model.rings.locality];
+    for (int64_t q = model.rings.offsets[static_cast<size_t>(u) * model.rings.locality]; q < end;
+         ++q)
+      reaches[static_cast<size_t>(model.rings.members[q])] = 1;
   }
   std::vector<uint8_t> keep(static_cast<size_t>(nn));
   for (int32_t i = 0; i < nn; ++i) keep[i] = !reaches[origin[i]];
