@@ -8,6 +8,7 @@
 #include <map>
 #include <thread>
 
+#include "lamina/core/keep_freed_memory.h"
 #include "lamina/geometry/make_phantom.h"
 #include "lamina/interact/contact.h"
 #include "lamina/interact/haptic_proxy.h"
@@ -342,6 +343,7 @@ model::Blade plane_through(const Model& m) {
 // of the cut model (model::cut_tetrahedra), then, with `with_simulation`, the physical liver's
 // simulation carried over to it (sim::carry_over: made afresh today).
 void BM_CutThroughTheOrgan(benchmark::State& state) {
+  keep_freed_memory();  // as every program that cuts does
   Model m = phantom_model(static_cast<int32_t>(state.range(0)), true);  // prepare_scene fixes nodes
   const bool with_simulation = state.range(1) != 0;
   io::Scene scene;
@@ -367,6 +369,7 @@ void BM_CutThroughTheOrgan(benchmark::State& state) {
 // the time of an iteration is the whole incision's cut events (model, simulation carried over,
 // tools), without the steps between them: divide by `cuts` for one event's.
 void BM_ScalpelAcrossTheOrgan(benchmark::State& state) {
+  keep_freed_memory();  // as every program that cuts does (lamina run, the real-time loops)
   Model m = phantom_model(static_cast<int32_t>(state.range(0)), true);
   io::Scene scene;
   const io::SceneSetup setup = io::prepare_scene(scene, m);

@@ -4,7 +4,6 @@
 #include "lamina/world/world_loop.h"
 
 #include <fmt/format.h>
-#include <malloc.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -12,6 +11,7 @@
 #include <string>
 
 #include "lamina/core/error.h"
+#include "lamina/core/keep_freed_memory.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pacer.h"
 #include "world_loop_impl.h"
@@ -60,8 +60,7 @@ void WorldLoop::start() {
   // Freed memory stays in the process: a cut made on another thread frees and allocates
   // megabytes, and glibc's munmap/trim of them stalled the stepping thread's page faults for up
   // to 50 ms (BM_RealtimeLoopWhileCutting, docs/benchmarks.md; 11-24 ms without them).
-  mallopt(M_MMAP_THRESHOLD, 256 << 20);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  keep_freed_memory();
   {
     std::lock_guard lock(impl_->mutex);
     impl_->stop_requested = false;

@@ -22,6 +22,7 @@
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/clock.h"
 #include "lamina/core/error.h"
+#include "lamina/core/keep_freed_memory.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pacer.h"
 #include "lamina/interact/run_tools.h"
@@ -627,6 +628,9 @@ int run_run(const RunArgs& a) {
         "body and may not come back to rest",
         scene.source);
   Cutting cutting{.scalpels = interact::make_scalpel_driver(scene.scalpels, m, scene.source)};
+  // Each cut makes the organ's model and simulation again: their memory reused, not faulted in
+  // afresh at every event (as the real-time loops do).
+  if (!scene.scalpels.empty()) keep_freed_memory();
 
   // 2. Outputs, and the state a resume continues from. Everything the loop accumulates is in
   // so_far, which a checkpoint saves and a resume restores whole.

@@ -20,6 +20,7 @@
 #include "lamina/core/atomic_file.h"
 #include "lamina/core/clock.h"
 #include "lamina/core/error.h"
+#include "lamina/core/keep_freed_memory.h"
 #include "lamina/core/log.h"
 #include "lamina/interact/pacer.h"
 #include "lamina/interact/run_tools.h"
@@ -289,6 +290,10 @@ int run_world(const RunArgs& a) {
   const std::unique_ptr<io::ReadyWorld> w =
       io::make_ready_world(scene, volume_read_options, progress, /*scalpels_cut=*/true);
   std::vector<BodyScalpels> scalpels = world_scalpels(*w, scene.source);
+  // A cut makes its body's model and simulation again: their memory reused, not faulted in
+  // afresh at every event (as in the real-time loops).
+  for (const BodyScalpels& b : scalpels)
+    if (!b.driver.scalpels.empty()) keep_freed_memory();
   const double model_s = seconds_since(t_start);
   const fs::path out(a.output);
   create_folder(out / "frames");
