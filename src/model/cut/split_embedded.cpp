@@ -255,6 +255,7 @@ int blade_crossed(const BladeIndex& index, const Eigen::Vector3d& p, const Eigen
 void keep_far_sides(const Around& around, const Tets& tets, const std::vector<uint8_t>& divided,
                     const BladeIndex& index, const std::function<const Locator&()>& wide,
                     const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, EmbeddedSurface& s) {
+  std::vector<std::pair<Eigen::Index, int>> across;  // a vertex and the blade triangle between
   for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
     // Inside its own tetrahedron: on its side. (Far outside, weights clamped and an offset.)
     const bool offset = s.offsets.rows() > 0 && !s.offsets.row(v).isZero();
@@ -280,13 +281,22 @@ void keep_far_sides(const Around& around, const Tets& tets, const std::vector<ui
       for (int k = 0; k < 4; ++k) c += X.row(s.corners(v, k)).transpose() / 4.0;
     }
     const int k = blade_crossed(index, p, c);
-    if (k < 0) continue;
-    const BladeTriangle& tri = index.tris[static_cast<size_t>(k)];
-    const Locator& near = wide();
-    const SideFilter allowed{near, tets, divided, &tri, tri.n.dot(p - tri.p0) > 0.0};
-    const int at = near.locate(p, allowed, /*within_margin=*/false);
-    if (at >= 0) embed_at(near, at, p, s, v);
+    if (k >= 0) across.emplace_back(v, k);
   }
+  if (across.empty()) return;
+  // Each one's search scans every tetrahedron near the blade: on the threads (read only), the
+  // vertices then embedded in order.
+  const Locator& near = wide();
+  std::vector<int> at(across.size(), -1);
+#pragma omp parallel for schedule(dynamic, 8)
+  for (size_t q = 0; q < across.size(); ++q) {
+    const Eigen::Vector3d p = s.V.row(across[q].first).transpose();
+    const BladeTriangle& tri = index.tris[static_cast<size_t>(across[q].second)];
+    const SideFilter allowed{near, tets, divided, &tri, tri.n.dot(p - tri.p0) > 0.0};
+    at[q] = near.locate(p, allowed, /*within_margin=*/false);
+  }
+  for (size_t q = 0; q < across.size(); ++q)
+    if (at[q] >= 0) embed_at(near, at[q], s.V.row(across[q].first).transpose(), s, across[q].first);
 }
 
 // Vertices an earlier split left on the blade (a progressive cut sweeps its path again) are told
