@@ -47,13 +47,14 @@ Mesh to_mesh(const SurfaceMesh& in, std::vector<int32_t>& origin) {
     }
   }
   origin.resize(points.size());
-  std::map<std::array<double, 3>, int32_t> at;
-  for (size_t v = 0; v < n; ++v) {
-    origin[v] = static_cast<int32_t>(v);
-    at.emplace(std::array{points[v].x(), points[v].y(), points[v].z()}, static_cast<int32_t>(v));
+  for (size_t v = 0; v < n; ++v) origin[v] = static_cast<int32_t>(v);
+  if (points.size() > n) {  // the duplicated ones' origins, by position (rarely: pinched fans)
+    std::map<std::array<double, 3>, int32_t> at;
+    for (size_t v = 0; v < n; ++v)
+      at.emplace(std::array{points[v].x(), points[v].y(), points[v].z()}, static_cast<int32_t>(v));
+    for (size_t v = n; v < points.size(); ++v)
+      origin[v] = at.at(std::array{points[v].x(), points[v].y(), points[v].z()});
   }
-  for (size_t v = n; v < points.size(); ++v)
-    origin[v] = at.at(std::array{points[v].x(), points[v].y(), points[v].z()});
   Mesh mesh;
   PMP::polygon_soup_to_polygon_mesh(points, faces, mesh);
   return mesh;

@@ -32,9 +32,16 @@ void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Ei
       for (int k = 0; k < 4; ++k) key[3 + k] = s.corners(v, k), key[7 + k] = s.weights(v, k);
       to[static_cast<size_t>(v)] = same.try_emplace(key, static_cast<int32_t>(v)).first->second;
     }
+    // The triangles with a vertex this split made: the only ones the welding, the dropping and
+    // the new boundary below touch (a display skin's other 100,000 were passed over three times
+    // an event).
+    std::vector<Eigen::Index> touched;
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+      if (s.F(f, 0) >= first_new || s.F(f, 1) >= first_new || s.F(f, 2) >= first_new)
+        touched.push_back(f);
     // The new vertices no triangle has any more are dropped (nothing outside knows them yet).
     std::vector<uint8_t> used(static_cast<size_t>(s.V.rows()), 0);
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (const Eigen::Index f : touched)
       for (int k = 0; k < 3; ++k) used[static_cast<size_t>(to[static_cast<size_t>(s.F(f, k))])] = 1;
     std::vector<int32_t> keep(static_cast<size_t>(s.V.rows()));
     Eigen::Index n = first_new;
@@ -54,21 +61,36 @@ void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Ei
     s.weights.conservativeResize(n, 4);
     if (s.offsets.rows() > 0) s.offsets.conservativeResize(n, 3);
     // A triangle two of whose corners were welded had no area: it goes (its neighbours across
-    // the welded edge meet instead).
-    Eigen::Index kept = 0;
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+    // the welded edge meet instead). The others keep their order; `touched` follows them.
+    std::vector<uint8_t> gone(touched.size(), 0);
+    bool any_gone = false;
+    for (size_t q = 0; q < touched.size(); ++q) {
+      const Eigen::Index f = touched[q];
       Eigen::RowVector3i g;
       for (int k = 0; k < 3; ++k)
         g[k] = keep[static_cast<size_t>(to[static_cast<size_t>(s.F(f, k))])];
-      if (g[0] != g[1] && g[1] != g[2] && g[0] != g[2]) s.F.row(kept++) = g;
+      s.F.row(f) = g;
+      gone[q] = !(g[0] != g[1] && g[1] != g[2] && g[0] != g[2]);
+      any_gone = any_gone || gone[q];
     }
-    s.F.conservativeResize(kept, 3);
+    if (any_gone) {
+      Eigen::Index kept = 0;
+      size_t q = 0, out = 0;
+      for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+        const bool is_touched = q < touched.size() && touched[q] == f;
+        if (is_touched && gone[q++]) continue;
+        if (is_touched) touched[out++] = kept;
+        s.F.row(kept++) = s.F.row(f);
+      }
+      touched.resize(out);
+      s.F.conservativeResize(kept, 3);
+    }
 
     // The boundary the cut made: each edge with a new end in one triangle only (every triangle
     // with such an edge has the new vertex), from its start.
     std::unordered_map<uint64_t, int> count;
     const auto fresh_edge = [&](int32_t a, int32_t b) { return a >= first_new || b >= first_new; };
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (const Eigen::Index f : touched)
       for (int k = 0; k < 3; ++k)
         if (fresh_edge(s.F(f, k), s.F(f, (k + 1) % 3)))
           ++count[edge_key(s.F(f, k), s.F(f, (k + 1) % 3))];
@@ -76,7 +98,7 @@ void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Ei
     std::unordered_map<int32_t, Eigen::Index>
         face_of;  // the triangle of a boundary edge, by its start
     std::set<int32_t> pinched;
-    for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (const Eigen::Index f : touched)
       for (int k = 0; k < 3; ++k) {
         const int32_t a = s.F(f, k), b = s.F(f, (k + 1) % 3);
         if (!fresh_edge(a, b) || count[edge_key(a, b)] != 1) continue;

@@ -467,27 +467,47 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
   if (s.offsets.rows() > 0) s.offsets.conservativeResize(total, 3);
   if (s.offsets.rows() > 0) s.offsets.bottomRows(added).setZero();
   hint.assign(static_cast<size_t>(total), Eigen::Vector3d::Constant(std::nan("")));
-  for (size_t v = 0; v < cut.origin.size(); ++v) {
-    if (cut.origin[v] >= 0) continue;
-    const int32_t i = id[v];
-    const Eigen::Vector3d p = cut.V.row(static_cast<Eigen::Index>(v)).transpose();
+  // Each new vertex's tetrahedron, found on the threads (read only: the searches of a
+  // structure's vertices outside the organ scan every tetrahedron near the blade), then embedded
+  // in order.
+  std::vector<size_t> fresh;  // the split's new vertices
+  for (size_t v = 0; v < cut.origin.size(); ++v)
+    if (cut.origin[v] < 0) fresh.push_back(v);
+  std::vector<SideFilter> side(fresh.size(), SideFilter{where, tets, is_divided});
+  std::vector<int> found(fresh.size(), -1);
+  const auto point = [&](size_t q) -> Eigen::Vector3d {
+    return cut.V.row(static_cast<Eigen::Index>(fresh[q])).transpose();
+  };
+#pragma omp parallel for schedule(dynamic, 16)
+  for (size_t q = 0; q < fresh.size(); ++q) {
     // Among the tetrahedra its triangles' side may follow.
-    const int k = blade_triangle_at(index, p, reach);
-    SideFilter allowed{where, tets, is_divided};
+    const int k = blade_triangle_at(index, point(q), reach);
     if (k >= 0) {
-      allowed.tri = &index.tris[static_cast<size_t>(k)];
-      allowed.above = allowed.tri->n.dot(side_point[v] - allowed.tri->p0) > 0.0;
+      side[q].tri = &index.tris[static_cast<size_t>(k)];
+      side[q].above = side[q].tri->n.dot(side_point[fresh[q]] - side[q].tri->p0) > 0.0;
     }
-    // Beyond the tetrahedra around this cut (ahead of a progressive cut's tip, where the tissue
-    // has not opened yet: welded again, taken apart when it opens), among all near the blade.
-    const Locator* in = &where;
-    int c = where.locate(p, allowed);
-    if (c < 0) {
-      in = &wide();
-      const SideFilter side{*in, tets, is_divided, allowed.tri, allowed.above};
-      c = in->locate(p, side);
-      if (c < 0) c = in->locate(p, side, /*within_margin=*/false);
+    found[q] = where.locate(point(q), side[q]);
+  }
+  // Beyond the tetrahedra around this cut (ahead of a progressive cut's tip, where the tissue
+  // has not opened yet: welded again, taken apart when it opens), among all near the blade.
+  const bool beyond = std::find(found.begin(), found.end(), -1) != found.end();
+  const Locator* wide_in = beyond ? &wide() : nullptr;
+  std::vector<int> found_wide(fresh.size(), -1);
+  if (beyond) {
+#pragma omp parallel for schedule(dynamic, 4)
+    for (size_t q = 0; q < fresh.size(); ++q) {
+      if (found[q] >= 0) continue;
+      const SideFilter in_wide{*wide_in, tets, is_divided, side[q].tri, side[q].above};
+      found_wide[q] = wide_in->locate(point(q), in_wide);
+      if (found_wide[q] < 0) found_wide[q] = wide_in->locate(point(q), in_wide, false);
     }
+  }
+  for (size_t q = 0; q < fresh.size(); ++q) {
+    const size_t v = fresh[q];
+    const int32_t i = id[v];
+    const Eigen::Vector3d p = point(q);
+    const Locator* in = found[q] >= 0 ? &where : wide_in;
+    const int c = found[q] >= 0 ? found[q] : found_wide[q];
     if (c < 0)
       throw Error(ErrorKind::kInternal, "cut: " + s.name + ": a split vertex is in no tetrahedron");
     s.V.row(i) = p.transpose();
