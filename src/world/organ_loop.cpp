@@ -68,13 +68,9 @@ void OrganLoop::set_forces(std::vector<interact::LiveForce> forces,
 
 void OrganLoop::set_parameters(const sim::Material& material, const sim::SolverOptions& solver,
                                const interact::RoutingOptions& routing) {
-  sim::SolverOptions s = solver;
-  if (real_time_) {  // dt is the clock's: the caller's is not looked at
-    std::lock_guard lock(mutex_);
-    loop_.latest(world_);
-    s.dt_s = world_.dt_s;
-  }
-  loop_.set_parameters(id_, material, s, routing);
+  // In real time dt is the clock's: the caller's is not looked at.
+  loop_.set_parameters(id_, material, solver, routing,
+                       real_time_ ? WorldLoop::Dt::kTheWorlds : WorldLoop::Dt::kGiven);
 }
 
 bool OrganLoop::latest(LoopSnapshot& out) const {

@@ -121,16 +121,19 @@ const WorldLoop::Impl::Handle& WorldLoop::Impl::handle_of(BodyId id) const {
 
 void WorldLoop::set_parameters(BodyId id, const sim::Material& material,
                                const sim::SolverOptions& solver,
-                               const interact::RoutingOptions& routing) {
+                               const interact::RoutingOptions& routing, Dt dt_from) {
   Impl& m = *impl_;
   sim::check_parameters(material, solver);  // throws, naming the bad parameter
+  const bool worlds_dt = dt_from == Dt::kTheWorlds;
   double dt = 0.0;
   {
     std::lock_guard lock(m.snapshot_mutex);
     dt = m.published.dt_s;
   }
   // In real time dt is the clock's (1 / rate); otherwise a new dt is the world's, every body's.
-  if (m.options.real_time && solver.dt_s != dt)
+  // A caller that leaves dt to the world is not checked against a snapshot: a rate changed
+  // between its read and this one would refuse it (the TSan handoff aborted on it, 2026-12-04).
+  if (m.options.real_time && !worlds_dt && solver.dt_s != dt)
     throw invalid_input("world loop: dt_s",
                         fmt::format("{:g} s, but in real time every body steps at 1 / rate, "
                                     "{:g} s now: change the rate instead",
@@ -140,10 +143,10 @@ void WorldLoop::set_parameters(BodyId id, const sim::Material& material,
   interact::check_routing(routing, h.rings_locality);
   for (Impl::NewParams& p : m.new_params)
     if (p.slot == id.index) {
-      p = {id.index, material, solver, routing};
+      p = {id.index, material, solver, routing, worlds_dt};
       return;
     }
-  m.new_params.push_back({id.index, material, solver, routing});
+  m.new_params.push_back({id.index, material, solver, routing, worlds_dt});
 }
 
 void WorldLoop::undo_cut() {
@@ -330,13 +333,13 @@ void WorldLoop::Impl::apply_pending() {
 }
 
 // New parameters for the bodies (set_parameters(), checked there), each body's newest. In real
-// time dt stays the clock's (follow_the_clock() may have changed it since the check); otherwise
-// a new dt is every body's.
+// time dt stays the clock's (follow_the_clock() may have changed it since the check), and so
+// does the world's when the caller left it (Dt::kTheWorlds); otherwise a new dt is every body's.
 void WorldLoop::Impl::apply_parameters() {
   for (NewParams& p : new_params) {
     BodySlot& bs = world.bodies[static_cast<size_t>(p.slot)];
     if (!bs.alive) continue;
-    if (options.real_time) p.solver.dt_s = bs.body.sim.options().dt_s;
+    if (options.real_time || p.worlds_dt) p.solver.dt_s = bs.body.sim.options().dt_s;
     sim::set_parameters(bs.body.sim, p.material, p.solver);
     bs.body.tools.routing = p.routing;
     ++parameters[static_cast<size_t>(p.slot)];

@@ -62,6 +62,7 @@ struct WorldLoop::Impl {
     sim::Material material;
     sim::SolverOptions solver;
     interact::RoutingOptions routing;
+    bool worlds_dt = false;  // Dt::kTheWorlds: solver.dt_s replaced by the world's when taken
   };
   std::vector<NewParams> new_params;  // the newest per body
   int new_undos = 0;

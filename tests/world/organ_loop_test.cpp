@@ -148,6 +148,30 @@ TEST(OrganLoop, InRealTimeAStepIsOneOverTheRateWhateverTheSolversDt) {
   EXPECT_DOUBLE_EQ(s.dt_s, 0.002);
 }
 
+TEST(OrganLoop, InRealTimeNewParametersAreTakenWhileTheRateChanges) {
+  // A viewer sets the rate and the parameters in one frame while the loop publishes steps at
+  // the old rate: the parameters are never refused for a dt the caller does not own (the loop
+  // once compared two snapshots read apart, and a step published between them threw).
+  world::LoopOptions fast;
+  fast.rate_hz = 3000.0;
+  fast.publish_interval_s = 0.0;  // publish every step: the most chances to land between
+  world::OrganLoop loop(held_sphere(), {}, fast);
+  loop.start();
+  sim::SolverOptions solver;
+  solver.dt_s = 0.005;  // not the clock's: not looked at in real time
+  // After each new rate the parameters are set back to back over the step that takes it up.
+  for (int i = 0; i < 200; ++i) {
+    loop.set_rate(i % 2 ? 1000.0 : 3000.0);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(2);
+    while (std::chrono::steady_clock::now() < until)
+      ASSERT_NO_THROW(loop.set_parameters({}, solver, {})) << "rate change " << i;
+  }
+  loop.stop();
+  world::LoopSnapshot s;
+  loop.latest(s);
+  EXPECT_TRUE(s.dt_s == 0.001 || s.dt_s == 1.0 / 3000.0) << s.dt_s;
+}
+
 TEST(OrganLoop, ThreadNeverOutrunsItsRateAndStopsPromptly) {
   const Model& m = sphere_model();
   world::LoopOptions o;

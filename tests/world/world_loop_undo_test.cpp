@@ -275,7 +275,7 @@ TEST(WorldLoopParameters, WhatCannotBeTakenIsRefusedWithNothingChanged) {
 
 // Without real time dt is the world's: a new one set on one body is every body's (the one-organ
 // loop's caller sets dt this way: a world of one body).
-TEST(WorldLoopParameters, WithoutRealTimeANewDtIsEveryBodys) {
+TEST(WorldLoopParameters, WithoutRealTimeANewDtIsEveryBodysUnlessLeftToTheWorld) {
   TwoSpheres t = two_spheres(0.5, 0.0, 0.0);
   WorldLoop loop(std::move(t.world), {.real_time = false});
   const WorldSnapshot s0 = latest(loop);
@@ -289,6 +289,21 @@ TEST(WorldLoopParameters, WithoutRealTimeANewDtIsEveryBodys) {
   EXPECT_EQ(s1.dt_s, half.dt_s);
   for (const BodyView& b : s1.bodies) EXPECT_EQ(b.solver.dt_s, half.dt_s) << b.name;
   EXPECT_NEAR(s1.time_s - s0.time_s, 2 * half.dt_s, 1e-12);
+  // A panel that changed a damping and left dt to the world (Dt::kTheWorlds): its older dt is
+  // not taken, the damping is; in real time it is not refused either.
+  sim::Material damped = a.material;
+  damped.damping_kg_per_s *= 2.0;
+  loop.set_parameters(a.id, damped, a.solver, a.routing, WorldLoop::Dt::kTheWorlds);
+  loop.run_steps(1);
+  const WorldSnapshot s2 = latest(loop);
+  EXPECT_EQ(s2.dt_s, half.dt_s);
+  EXPECT_EQ(s2.bodies[0].material.damping_kg_per_s, damped.damping_kg_per_s);
+  WorldLoop real_time(std::move(two_spheres(0.5, 0.0, 0.0).world), {.rate_hz = 500.0});
+  const WorldSnapshot r = latest(real_time);
+  EXPECT_NO_THROW(
+      real_time.set_parameters(r.bodies[0].id, damped, half, a.routing, WorldLoop::Dt::kTheWorlds));
+  real_time.run_steps(1);
+  EXPECT_EQ(latest(real_time).dt_s, 1.0 / 500.0);
 }
 
 }  // namespace

@@ -154,7 +154,10 @@ void WorldViewSession::State::body_parameters() {
                 b.multigrid ? "multigrid" : "Jacobi");
   if (changed) {
     try {
-      loop->set_parameters(b.id, material, solver, b.routing);
+      // A change of anything but dt keeps the world's, whatever it became since this snapshot.
+      loop->set_parameters(b.id, material, solver, b.routing,
+                           solver.dt_s == b.solver.dt_s ? world::WorldLoop::Dt::kTheWorlds
+                                                        : world::WorldLoop::Dt::kGiven);
       param_error.clear();
     } catch (const Error& e) {
       param_error = e.what();

@@ -211,14 +211,19 @@ class WorldLoop {
   /// the snapshot's cut_message says so.
   void undo_cut();
   static constexpr int kUndoDepth = static_cast<int>(CutHistory::kDepth);
+  /// Whose dt set_parameters() takes: the caller's solver.dt_s, or the world's as it is when
+  /// the parameters are taken (solver.dt_s not looked at: a panel that changed a stiffness, not
+  /// dt, whose snapshot may predate a new rate or the clock's own change).
+  enum class Dt { kGiven, kTheWorlds };
   /// New parameters for `body`, checked now and taken between two steps: its material
   /// (sim::set_parameters: new E or nu identify its springs again), its solver and the routing
   /// of its live forces. Every body steps at the world's dt (1 / rate in real time: change the
-  /// rate instead), so solver.dt_s must be the latest snapshot's dt_s.
+  /// rate instead): with Dt::kGiven, a new dt is every body's without real time, and in real time
+  /// solver.dt_s must be the latest snapshot's dt_s.
   /// \note Throws lamina::Error (kInvalidInput), nothing changing, for a stale handle, parameters
-  ///   sim::check_parameters() or interact::check_routing() refuses, or another dt.
+  ///   sim::check_parameters() or interact::check_routing() refuses, or another dt in real time.
   void set_parameters(BodyId body, const sim::Material& material, const sim::SolverOptions& solver,
-                      const interact::RoutingOptions& routing);
+                      const interact::RoutingOptions& routing, Dt dt = Dt::kGiven);
   /// The tool tip (a haptic device's or a headset controller's sphere; `tip.active` false lifts
   /// it): every step it pushes each body it touches through that body's own haptic proxy and
   /// coupling (interact::load_of_tip, as the one-organ loop's tip), the force on it the sum.
