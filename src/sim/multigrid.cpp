@@ -118,13 +118,26 @@ SparseRows galerkin(const MultigridLevel& level, const std::vector<int32_t>& pad
   return coarse + pad;
 }
 
+// The hierarchy's shape, its setup timed from t0.
+void describe(Multigrid& mg, Clock::time_point t0) {
+  const double fine_nonzeros = static_cast<double>(mg.levels[0].A.nonZeros());
+  for (const MultigridLevel& level : mg.levels) {
+    mg.shape.unknowns.push_back(level.A.rows() - static_cast<int64_t>(level.padding.size()));
+    mg.shape.nonzeros.push_back(level.A.nonZeros());
+    mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
+  }
+  mg.shape.setup_s = seconds_since(t0);
+}
+
 // inv_diag, omega and the workspace of a level; the float blocks of a coarse level's A.
-void finish_level(MultigridLevel& level, bool coarse) {
+// `weight`: omega by power iteration (15 products of A; not on the finest level of the steps'
+// hierarchy, whose smoother the caller owns: 28 ms of a 213 ms build at 47,685 nodes).
+void finish_level(MultigridLevel& level, bool coarse, bool weight = true) {
   if (coarse) to_float_blocks(level.A, level.block, level.block, level.A_blocks);
   level.inv_diag = level.A.diagonal().cwiseInverse();
   if (!level.inv_diag.allFinite() || (level.A.diagonal().array() <= 0.0).any())
     throw Error(ErrorKind::kInternal, "multigrid: a level's diagonal is not positive");
-  level.omega = 4.0 / (3.0 * jacobi_spectral_radius(level.A, level.inv_diag));
+  level.omega = weight ? 4.0 / (3.0 * jacobi_spectral_radius(level.A, level.inv_diag)) : 0.0;
   level.b.setZero(level.A.rows());
   level.x.setZero(level.A.rows());
   level.r.setZero(level.A.rows());
@@ -238,7 +251,7 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& fine_points, Multigri
   // nodes (a 9,871-node liver's third level kept 43% of the second's unknowns).
   for (double theta = 0.08;; theta = 0.0) {
     MultigridLevel& level = mg.levels.back();
-    finish_level(level, mg.levels.size() > 1);
+    finish_level(level, mg.levels.size() > 1, mg.levels.size() > 1 || !mg.caller_smooths);
     const auto real_unknowns = static_cast<int64_t>(level.A.rows() - level.padding.size());
     if (real_unknowns <= coarsest_unknowns || mg.levels.size() >= 10) break;
     std::vector<int32_t> offsets, adj;
@@ -317,13 +330,7 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& fine_points, Multigri
   mg.coarsest.compute(Eigen::SparseMatrix<double>(mg.levels.back().A));
   if (mg.coarsest.info() != Eigen::Success)
     throw Error(ErrorKind::kInternal, "multigrid: the coarsest level did not factor");
-  const double fine_nonzeros = static_cast<double>(mg.levels[0].A.nonZeros());
-  for (const MultigridLevel& level : mg.levels) {
-    mg.shape.unknowns.push_back(level.A.rows() - static_cast<int64_t>(level.padding.size()));
-    mg.shape.nonzeros.push_back(level.A.nonZeros());
-    mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
-  }
-  mg.shape.setup_s = seconds_since(t0);
+  describe(mg, t0);
 }
 
 void rebuild_operators(SparseRows A, Multigrid& mg) {
@@ -333,7 +340,7 @@ void rebuild_operators(SparseRows A, Multigrid& mg) {
   mg.levels[0].A = std::move(A);
   for (size_t l = 0; l < mg.levels.size(); ++l) {
     MultigridLevel& level = mg.levels[l];
-    finish_level(level, l > 0);
+    finish_level(level, l > 0, l > 0 || !mg.caller_smooths);
     if (l + 1 == mg.levels.size()) break;
     mg.levels[l + 1].A = galerkin(level, mg.levels[l + 1].padding);
   }
@@ -349,6 +356,8 @@ void rebuild_operators(SparseRows A, Multigrid& mg) {
 }
 
 void v_cycle(Multigrid& mg, size_t from) {
+  if (from == 0 && mg.caller_smooths)
+    throw Error(ErrorKind::kInternal, "multigrid: a cycle from a finest level it does not smooth");
   MultigridLevel& level = mg.levels[from];
   if (from + 1 == mg.levels.size()) {
     level.x = mg.coarsest.solve(level.b);

@@ -51,6 +51,9 @@ struct Multigrid {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> coarsest;
   MultigridShape shape;
   int threads = 1;  ///< the cycle's products' threads (the caller's: implicit Euler sets its own)
+  /// The finest level is smoothed by the caller (v_cycle_with(): its own diagonal and weight):
+  /// its omega is not estimated (0), and v_cycle() must not start on it.
+  bool caller_smooths = false;
 };
 
 /// Builds the hierarchy of the symmetric positive definite A: 3 unknowns per node, interleaved

@@ -9,6 +9,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "lamina/core/error.h"
 #include "lamina/sim/simulation.h"
 #include "sim/force_terms.h"
 #include "sim/preconditioner.h"
@@ -35,6 +36,13 @@ TEST(Multigrid, TheVCycleIsSymmetricPositiveDefinite) {
   EXPECT_LT(mg.levels[1].A.rows(), mg.levels[0].A.rows() / 3);
   const Eigen::Index n = mg.levels[0].A.rows();
   ASSERT_EQ(n, 3 * (m.node_count() - 8));
+  // The steps smooth the finest level with their own weight (refresh_multigrid): a cycle from
+  // it here takes damped Jacobi's, as the slowest vibration's hierarchy does.
+  EXPECT_TRUE(mg.caller_smooths);
+  EXPECT_THROW(sim::detail::v_cycle(mg, 0), Error);
+  mg.caller_smooths = false;
+  mg.levels[0].omega =
+      4.0 / (3.0 * sim::detail::jacobi_spectral_radius(mg.levels[0].A, mg.levels[0].inv_diag));
   const auto apply = [&](const Eigen::VectorXd& r) {
     mg.levels[0].b = r;
     sim::detail::v_cycle(mg, 0);
