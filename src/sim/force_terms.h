@@ -154,4 +154,15 @@ inline Eigen::Matrix<double, 1, 12> tet_corner_forces(const Solver& s, const Eig
 void add_element_blocks(const Eigen::Matrix<double, 12, 12>& k12, const int32_t corner[4],
                         const std::vector<int32_t>& row_of, BlockRows& out);
 
+/// Where the assembly's table (TetAssembly, set up) puts each of its entries in `out`: per
+/// entry, out's block between the two nodes' rows (row_of), or -1 when either has none.
+/// \note Throws lamina::Error (kInternal) for a pair of rows out's pattern lacks.
+std::vector<int32_t> table_blocks(const TetAssembly& a, const std::vector<int32_t>& row_of,
+                                  const BlockRows& out);
+/// add_element_blocks() for tetrahedron t through the table (no search), only into the rows in
+/// [lo, hi): threads owning ranges of rows add the same tetrahedra in the same order as one.
+void add_element_rows(const Eigen::Matrix<double, 12, 12>& k12, const int32_t corner[4],
+                      const int32_t* entry, const std::vector<int32_t>& row_of,
+                      const std::vector<int32_t>& block_of, int64_t lo, int64_t hi, BlockRows& out);
+
 }  // namespace lamina::sim::detail

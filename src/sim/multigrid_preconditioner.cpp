@@ -81,6 +81,12 @@ bool setup_multigrid(Solver& s, double h) {
     p.row_of[p.nodes[q]] = q;
     points.row(q) = s.model->X.row(p.nodes[q]);
   }
+  // The assembly's table (setup_tet_assembly, 3 ms at 48k nodes) also serves the stiffness at
+  // rest: its blocks found once, summed on the threads (CoupledTets::add_rest_stiffness). Left
+  // set up if the multigrid is taken; kAuto's Jacobi does without it.
+  const bool had_assembly = s.tets.assembly.on;
+  if (s.tets.on && !had_assembly) setup_tet_assembly(s);
+  const double assembly_s = seconds_since(t0);
   // h^2 K_rest plus the inertia on the diagonal, written into the springs' pattern; the
   // pattern stays for the rebuilds from a step's system (assembled_system()).
   rest_stiffness_blocks(s, p.row_of, rows, p.system);
@@ -111,14 +117,12 @@ bool setup_multigrid(Solver& s, double h) {
     if (!p.chosen) {
       p.mg.levels.clear();  // nothing of a hierarchy this run will not use
       p.system = {};
+      if (!had_assembly) s.tets.assembly = {};
       return false;
     }
   }
-  // A V-cycle's products stream the assembled blocks of the tetrahedra (TetAssembly): three
-  // products an iteration repay the assembly at any size.
-  const auto t1 = Clock::now();
-  if (s.tets.on && !s.tets.assembly.on) setup_tet_assembly(s);
-  const double assembly_s = seconds_since(t1);
+  // A V-cycle's products stream the assembled blocks of the tetrahedra (TetAssembly, set up
+  // above): three products an iteration repay the assembly at any size.
   // The finest level's smoother is the step's own (refresh_multigrid(): l1-Jacobi or a weight
   // from the tracked rho): the hierarchy does not estimate one. Its power iteration, 15 products
   // of the finest matrix, was 28 ms of a 213 ms build at 47,685 nodes (docs/benchmarks.md).
@@ -131,9 +135,9 @@ bool setup_multigrid(Solver& s, double h) {
       shape.unknowns.size(), fmt::join(shape.unknowns, " > "), shape.operator_complexity,
       shape.setup_s);
   log::debug(
-      "implicit Euler: multigrid setup {:.3f} s: system at rest {:.3f}, the assembly's pattern "
-      "{:.3f}, the hierarchy {:.3f}",
-      seconds_since(t0), system_s, assembly_s, shape.setup_s);
+      "implicit Euler: multigrid setup {:.3f} s: the assembly's pattern {:.3f}, the system at "
+      "rest {:.3f}, the hierarchy {:.3f}",
+      seconds_since(t0), assembly_s, system_s - assembly_s, shape.setup_s);
   p.rho = 0.0;  // the power iteration starts over
   ++p.builds;
   for (Eigen::VectorXd* v : {&p.inv_diag, &p.mask, &p.r, &p.z, &p.work}) v->setZero(3 * rows);

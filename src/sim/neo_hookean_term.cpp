@@ -361,10 +361,28 @@ void NeoHookeanTets::add_stiffness_rows(const Solver& s, std::vector<double>& ro
 
 void NeoHookeanTets::add_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
                                         BlockRows& out) {
-  for (Eigen::Index t = 0; t < s.model->tets.size(); ++t) {
-    const Eigen::Vector4i corner = s.model->tets.T.row(t).transpose();
-    add_element_blocks(rest_element(s, t), corner.data(), row_of, out);
+  const TetAssembly& a = s.tets.assembly;
+  const Eigen::Index nt = s.model->tets.size();
+  if (!a.on) {  // each tetrahedron's blocks searched, on one thread
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      const Eigen::Vector4i corner = s.model->tets.T.row(t).transpose();
+      add_element_blocks(rest_element(s, t), corner.data(), row_of, out);
+    }
+    return;
   }
+  // Through the assembly's table, each thread its rows (as CoupledTets::add_rest_stiffness).
+  const std::vector<int32_t> block_of = table_blocks(a, row_of, out);
+  const int threads = std::clamp(omp_get_max_threads(), 1, kMaxThreads);
+  for_slices(out.rows, threads, [&](int64_t lo, int64_t hi, int) {
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      const Eigen::Vector4i corner = s.model->tets.T.row(t).transpose();
+      bool any = false;
+      for (int c = 0; c < 4; ++c) any |= row_of[corner[c]] >= lo && row_of[corner[c]] < hi;
+      if (!any) continue;
+      add_element_rows(rest_element(s, t), corner.data(), a.entry.data() + 16 * t, row_of, block_of,
+                       lo, hi, out);
+    }
+  });
 }
 
 }  // namespace lamina::sim::detail

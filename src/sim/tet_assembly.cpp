@@ -70,6 +70,42 @@ void setup_tet_assembly(Solver& s) {
   a.on = true;
 }
 
+std::vector<int32_t> table_blocks(const TetAssembly& a, const std::vector<int32_t>& row_of,
+                                  const BlockRows& out) {
+  const auto n = static_cast<int32_t>(a.offsets.size()) - 1;
+  std::vector<int32_t> block_of(a.column.size(), -1);
+  int32_t outside = 0;  // entries between two rows that out's pattern lacks
+#pragma omp parallel for schedule(static) reduction(+ : outside)
+  for (int32_t i = 0; i < n; ++i) {
+    const int32_t r = row_of[i];
+    if (r < 0) continue;
+    for (int32_t e = a.offsets[i]; e < a.offsets[i + 1]; ++e) {
+      const int32_t c = row_of[a.column[e]];
+      if (c >= 0 && (block_of[e] = out.find(r, c)) < 0) ++outside;
+    }
+  }
+  if (outside > 0)
+    throw Error(ErrorKind::kInternal, "a stiffness block outside the springs' pattern");
+  return block_of;
+}
+
+void add_element_rows(const Eigen::Matrix<double, 12, 12>& k12, const int32_t corner[4],
+                      const int32_t* entry, const std::vector<int32_t>& row_of,
+                      const std::vector<int32_t>& block_of, int64_t lo, int64_t hi,
+                      BlockRows& out) {
+  for (int r = 0; r < 4; ++r) {
+    const int32_t row = row_of[corner[r]];
+    if (row < lo || row >= hi) continue;  // another thread's, or held (-1)
+    for (int c = 0; c < 4; ++c) {
+      const int32_t at = block_of[static_cast<size_t>(entry[4 * r + c])];
+      if (at < 0) continue;  // a held corner: no column
+      double* block = out.value.data() + 9 * static_cast<size_t>(at);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) block[3 * i + j] += k12(3 * r + i, 3 * c + j);
+    }
+  }
+}
+
 void assemble_tets(Solver& s, int threads) {
   TetTerm& tt = s.tets;
   TetAssembly& a = tt.assembly;

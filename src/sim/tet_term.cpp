@@ -484,39 +484,87 @@ void CoupledTets::add_stiffness_rows(const Solver& s, std::vector<double>& row) 
   for (size_t n = 0; n < row.size(); ++n) row[n] += std::max({r3[n][0], r3[n][1], r3[n][2]});
 }
 
+namespace {
+
+// One lane's 12 x 12 stiffness at rest: the volume term (k_v / V0) g g^T (its curvature part
+// vanishes at V = V0), and the springs and coupling K = J^T Q J, J_k being -w_k at corner a and
+// +w_k at corner b (at rest the edges are at their rest lengths: no geometric term).
+void rest_element(const TetBlock& b, const VolumeParts& vol, const Eigen::MatrixX3d& X, int l,
+                  Eigen::Matrix<double, 12, 12>& k12) {
+  Eigen::Matrix<double, 12, 1> g;
+  for (int e = 0; e < 12; ++e) g[e] = vol.g[e][l];
+  k12.noalias() = b.volume_stiffness[l] * g * g.transpose();
+  Eigen::Matrix<double, 6, 12> J = Eigen::Matrix<double, 6, 12>::Zero();
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::RowVector3d w =
+        (X.row(b.node[kTetEdge[k][1]][l]) - X.row(b.node[kTetEdge[k][0]][l])).normalized();
+    J.block<1, 3>(k, 3 * kTetEdge[k][0]) = -w;
+    J.block<1, 3>(k, 3 * kTetEdge[k][1]) = w;
+  }
+  Eigen::Matrix<double, 6, 6> Q;
+  for (int k = 0; k < 6; ++k)
+    for (int m = 0; m < 6; ++m) Q(k, m) = b.q[qi(k, m)][l];
+  k12.noalias() += J.transpose() * Q * J;
+}
+
+}  // namespace
+
 void CoupledTets::add_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
                                      BlockRows& out) {
   const Eigen::MatrixX3d& X = s.model->X;
-  // Each tetrahedron's 12 x 12 matrix summed first, then added to its 16 blocks.
-  Eigen::Matrix<double, 12, 12> k12;
-  for (const TetBlock& b : s.tets.block) {
-    Lanes p[12];
-    load_corners(b, ConstCols(X), p);
-    VolumeParts vol;
-    volume_parts(b, p, vol);
-    for (int l = 0; l < L; ++l) {
-      if (b.volume_stiffness[l] == 0.0) continue;  // an unused lane
-      // The volume term at rest: (k_v / V0) g g^T (its curvature part vanishes at V = V0).
-      Eigen::Matrix<double, 12, 1> g;
-      for (int e = 0; e < 12; ++e) g[e] = vol.g[e][l];
-      k12.noalias() = b.volume_stiffness[l] * g * g.transpose();
-      // Springs and coupling: J_k is -w_k at corner a, +w_k at corner b; K = J^T Q J (at rest
-      // the edges are at their rest lengths: no geometric term).
-      Eigen::Matrix<double, 6, 12> J = Eigen::Matrix<double, 6, 12>::Zero();
-      for (int k = 0; k < 6; ++k) {
-        const Eigen::RowVector3d w =
-            (X.row(b.node[kTetEdge[k][1]][l]) - X.row(b.node[kTetEdge[k][0]][l])).normalized();
-        J.block<1, 3>(k, 3 * kTetEdge[k][0]) = -w;
-        J.block<1, 3>(k, 3 * kTetEdge[k][1]) = w;
+  const TetAssembly& a = s.tets.assembly;
+  const auto nt = static_cast<int64_t>(s.model->tets.size());
+  if (!a.on) {  // each tetrahedron's 16 blocks searched in out's rows, on one thread
+    Eigen::Matrix<double, 12, 12> k12;
+    for (const TetBlock& b : s.tets.block) {
+      Lanes p[12];
+      load_corners(b, ConstCols(X), p);
+      VolumeParts vol;
+      volume_parts(b, p, vol);
+      for (int l = 0; l < L; ++l) {
+        if (b.volume_stiffness[l] == 0.0) continue;  // an unused lane
+        rest_element(b, vol, X, l, k12);
+        const int32_t corner[4] = {b.node[0][l], b.node[1][l], b.node[2][l], b.node[3][l]};
+        add_element_blocks(k12, corner, row_of, out);
       }
-      Eigen::Matrix<double, 6, 6> Q;
-      for (int k = 0; k < 6; ++k)
-        for (int m = 0; m < 6; ++m) Q(k, m) = b.q[qi(k, m)][l];
-      k12.noalias() += J.transpose() * Q * J;
-      const int32_t corner[4] = {b.node[0][l], b.node[1][l], b.node[2][l], b.node[3][l]};
-      add_element_blocks(k12, corner, row_of, out);
     }
+    return;
   }
+  // With the assembly's table (setup_tet_assembly: each tetrahedron's 16 entries in its
+  // corners' rows), out's block of every entry is found once, and each thread sums the
+  // tetrahedra into the rows it owns, in the same order as one thread would (the same sums):
+  // a block search per corner pair on one thread was most of the 138 ms this took at 47,685
+  // nodes (docs/benchmarks.md).
+  const std::vector<int32_t> block_of = table_blocks(a, row_of, out);
+  const int threads = std::clamp(omp_get_max_threads(), 1, kMaxThreads);
+  for_slices(out.rows, threads, [&](int64_t lo, int64_t hi, int) {
+    const auto owned = [&](int32_t node) {
+      const int32_t r = row_of[node];
+      return r >= lo && r < hi;
+    };
+    Eigen::Matrix<double, 12, 12> k12;
+    for (size_t k = 0; k < s.tets.block.size(); ++k) {
+      const TetBlock& b = s.tets.block[k];
+      bool any = false;
+      for (int c = 0; c < 4; ++c)
+        for (int l = 0; l < L; ++l) any |= owned(b.node[c][l]);
+      if (!any) continue;
+      Lanes p[12];
+      load_corners(b, ConstCols(X), p);
+      VolumeParts vol;
+      volume_parts(b, p, vol);
+      for (int l = 0; l < L; ++l) {
+        const int64_t t = static_cast<int64_t>(k) * L + l;
+        if (t >= nt || b.volume_stiffness[l] == 0.0) continue;  // an unused lane
+        if (!owned(b.node[0][l]) && !owned(b.node[1][l]) && !owned(b.node[2][l]) &&
+            !owned(b.node[3][l]))
+          continue;
+        rest_element(b, vol, X, l, k12);
+        const int32_t corner[4] = {b.node[0][l], b.node[1][l], b.node[2][l], b.node[3][l]};
+        add_element_rows(k12, corner, a.entry.data() + 16 * t, row_of, block_of, lo, hi, out);
+      }
+    }
+  });
 }
 
 }  // namespace lamina::sim::detail

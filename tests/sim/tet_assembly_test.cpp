@@ -2,11 +2,13 @@
 // assemble_tets in tet_term.cpp): the same product as the element-by-element one, a symmetric
 // matrix, and implicit Euler with it steps as it does without.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 
 #include "lamina/model/cut_tetrahedra.h"
 #include "lamina/sim/simulation.h"
+#include "sim/block_rows.h"
 #include "sim/force_terms.h"
 #include "sim/solver.h"  // white box: both products side by side
 #include "support/random_rows.h"
@@ -123,6 +125,44 @@ TEST(TetAssembly, ImplicitEulerStepsAsWithTheElementProduct) {
   EXPECT_LT((assembled - element).rowwise().norm().maxCoeff(), 1e-4 * motion);
   EXPECT_GT(element_iterations, 150);
   EXPECT_NEAR(assembled_iterations, element_iterations, 0.02 * element_iterations);
+}
+
+// The stiffness at rest written through the assembly's table (CoupledTets::add_rest_stiffness:
+// each block found once, the rows summed on the threads) is the one written block by block with
+// a search per corner pair, exactly: the same sums in the same order, held nodes left out.
+void expect_rest_stiffness_through_the_table_is_the_searched_one(const Model& m,
+                                                                 sim::TetModel energy) {
+  sim::Material material = test::kTetLiver;
+  material.tet_model = energy;
+  sim::Simulation sim =
+      sim::make_simulation(m, material, {.integrator = sim::Integrator::kImplicitEuler});
+  sim::detail::Solver& s = sim.solver();
+  ASSERT_FALSE(s.tets.assembly.on) << "a model this small has no table unless asked";
+  // Every fifth node held (no row), as an indenter or a clamp leaves them.
+  std::vector<int32_t> row_of(static_cast<size_t>(m.node_count()), -1);
+  int32_t rows = 0;
+  for (int32_t i = 0; i < m.node_count(); ++i)
+    if (i % 5 != 2) row_of[static_cast<size_t>(i)] = rows++;
+  sim::detail::BlockRows searched, tabled;
+  sim::detail::rest_stiffness_blocks(s, row_of, rows, searched);
+  sim::detail::setup_tet_assembly(s);
+  const int threads = omp_get_max_threads();
+  for (int t : {1, 2}) {
+    omp_set_num_threads(t);
+    sim::detail::rest_stiffness_blocks(s, row_of, rows, tabled);
+    EXPECT_EQ(tabled.column, searched.column);
+    EXPECT_EQ(tabled.value, searched.value) << t << " thread(s)";
+  }
+  omp_set_num_threads(threads);
+  ASSERT_GT(*std::max_element(searched.value.begin(), searched.value.end()), 0.0);
+}
+
+TEST(TetAssembly, TheStiffnessAtRestThroughItsTableIsTheSearchedOne) {
+  for (const sim::TetModel energy : {sim::TetModel::kSprings, sim::TetModel::kNeoHookean}) {
+    SCOPED_TRACE(energy == sim::TetModel::kSprings ? "coupled springs" : "Neo-Hookean");
+    expect_rest_stiffness_through_the_table_is_the_searched_one(test::tet_phantom(), energy);
+    expect_rest_stiffness_through_the_table_is_the_searched_one(cut_phantom(), energy);
+  }
 }
 
 }  // namespace
