@@ -61,9 +61,14 @@ SparseRows to_sparse(const BlockRows& b) {
   int* outer = A.outerIndexPtr();
   int* inner = A.innerIndexPtr();
   double* value = A.valuePtr();
-  int64_t k = 0;
-  for (int32_t r = 0; r < b.rows; ++r)
+  // Row r's three rows start at 9 offsets[r], each 3 (its blocks) long: every row is written
+  // apart, on the threads (the multigrid converts each build's and relinearisation's system:
+  // 6.3 million entries at 47,685 nodes).
+#pragma omp parallel for schedule(static)
+  for (int32_t r = 0; r < b.rows; ++r) {
+    const int64_t blocks = b.offsets[r + 1] - b.offsets[r];
     for (int axis = 0; axis < 3; ++axis) {
+      int64_t k = 9 * static_cast<int64_t>(b.offsets[r]) + 3 * blocks * axis;
       outer[3 * r + axis] = static_cast<int>(k);
       for (int32_t e = b.offsets[r]; e < b.offsets[r + 1]; ++e)
         for (int c = 0; c < 3; ++c) {
@@ -71,7 +76,8 @@ SparseRows to_sparse(const BlockRows& b) {
           value[k++] = b.value[9 * static_cast<size_t>(e) + 3 * axis + c];
         }
     }
-  outer[n] = static_cast<int>(k);
+  }
+  outer[n] = static_cast<int>(9 * b.column.size());
   return A;
 }
 
