@@ -118,17 +118,6 @@ SparseRows galerkin(const MultigridLevel& level, const std::vector<int32_t>& pad
   return coarse + pad;
 }
 
-// The hierarchy's shape, its setup timed from t0.
-void describe(Multigrid& mg, Clock::time_point t0) {
-  const double fine_nonzeros = static_cast<double>(mg.levels[0].A.nonZeros());
-  for (const MultigridLevel& level : mg.levels) {
-    mg.shape.unknowns.push_back(level.A.rows() - static_cast<int64_t>(level.padding.size()));
-    mg.shape.nonzeros.push_back(level.A.nonZeros());
-    mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
-  }
-  mg.shape.setup_s = seconds_since(t0);
-}
-
 // inv_diag, omega and the workspace of a level; the float blocks of a coarse level's A.
 // `weight`: omega by power iteration (15 products of A; not on the finest level of the steps'
 // hierarchy, whose smoother the caller owns: 28 ms of a 213 ms build at 47,685 nodes).
@@ -330,7 +319,13 @@ void build_multigrid(SparseRows A, const Eigen::MatrixX3d& fine_points, Multigri
   mg.coarsest.compute(Eigen::SparseMatrix<double>(mg.levels.back().A));
   if (mg.coarsest.info() != Eigen::Success)
     throw Error(ErrorKind::kInternal, "multigrid: the coarsest level did not factor");
-  describe(mg, t0);
+  const double fine_nonzeros = static_cast<double>(mg.levels[0].A.nonZeros());
+  for (const MultigridLevel& level : mg.levels) {
+    mg.shape.unknowns.push_back(level.A.rows() - static_cast<int64_t>(level.padding.size()));
+    mg.shape.nonzeros.push_back(level.A.nonZeros());
+    mg.shape.operator_complexity += static_cast<double>(level.A.nonZeros()) / fine_nonzeros;
+  }
+  mg.shape.setup_s = seconds_since(t0);
 }
 
 void rebuild_operators(SparseRows A, Multigrid& mg) {

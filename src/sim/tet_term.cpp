@@ -507,27 +507,46 @@ void rest_element(const TetBlock& b, const VolumeParts& vol, const Eigen::Matrix
   k12.noalias() += J.transpose() * Q * J;
 }
 
+// Each used lane of every block with a corner `owned(node)` accepts, its 12 x 12 stiffness at
+// rest handed to add(k12, corner, t) in the blocks' order (t: the model's tetrahedron).
+template <class Owned, class Add>
+void each_rest_element(const Solver& s, Owned&& owned, Add&& add) {
+  const Eigen::MatrixX3d& X = s.model->X;
+  const auto nt = static_cast<int64_t>(s.model->tets.size());
+  Eigen::Matrix<double, 12, 12> k12;
+  for (size_t k = 0; k < s.tets.block.size(); ++k) {
+    const TetBlock& b = s.tets.block[k];
+    bool any = false;
+    for (int c = 0; c < 4; ++c)
+      for (int l = 0; l < L; ++l) any |= owned(b.node[c][l]);
+    if (!any) continue;
+    Lanes p[12];
+    load_corners(b, ConstCols(X), p);
+    VolumeParts vol;
+    volume_parts(b, p, vol);
+    for (int l = 0; l < L; ++l) {
+      const int64_t t = static_cast<int64_t>(k) * L + l;
+      if (t >= nt || b.volume_stiffness[l] == 0.0) continue;  // an unused lane
+      const int32_t corner[4] = {b.node[0][l], b.node[1][l], b.node[2][l], b.node[3][l]};
+      if (!owned(corner[0]) && !owned(corner[1]) && !owned(corner[2]) && !owned(corner[3]))
+        continue;
+      rest_element(b, vol, X, l, k12);
+      add(k12, corner, t);
+    }
+  }
+}
+
 }  // namespace
 
 void CoupledTets::add_rest_stiffness(const Solver& s, const std::vector<int32_t>& row_of,
                                      BlockRows& out) {
-  const Eigen::MatrixX3d& X = s.model->X;
   const TetAssembly& a = s.tets.assembly;
-  const auto nt = static_cast<int64_t>(s.model->tets.size());
   if (!a.on) {  // each tetrahedron's 16 blocks searched in out's rows, on one thread
-    Eigen::Matrix<double, 12, 12> k12;
-    for (const TetBlock& b : s.tets.block) {
-      Lanes p[12];
-      load_corners(b, ConstCols(X), p);
-      VolumeParts vol;
-      volume_parts(b, p, vol);
-      for (int l = 0; l < L; ++l) {
-        if (b.volume_stiffness[l] == 0.0) continue;  // an unused lane
-        rest_element(b, vol, X, l, k12);
-        const int32_t corner[4] = {b.node[0][l], b.node[1][l], b.node[2][l], b.node[3][l]};
-        add_element_blocks(k12, corner, row_of, out);
-      }
-    }
+    each_rest_element(
+        s, [&](int32_t node) { return row_of[node] >= 0; },
+        [&](const Eigen::Matrix<double, 12, 12>& k12, const int32_t corner[4], int64_t) {
+          add_element_blocks(k12, corner, row_of, out);
+        });
     return;
   }
   // With the assembly's table (setup_tet_assembly: each tetrahedron's 16 entries in its
@@ -538,32 +557,15 @@ void CoupledTets::add_rest_stiffness(const Solver& s, const std::vector<int32_t>
   const std::vector<int32_t> block_of = table_blocks(a, row_of, out);
   const int threads = std::clamp(omp_get_max_threads(), 1, kMaxThreads);
   for_slices(out.rows, threads, [&](int64_t lo, int64_t hi, int) {
-    const auto owned = [&](int32_t node) {
-      const int32_t r = row_of[node];
-      return r >= lo && r < hi;
-    };
-    Eigen::Matrix<double, 12, 12> k12;
-    for (size_t k = 0; k < s.tets.block.size(); ++k) {
-      const TetBlock& b = s.tets.block[k];
-      bool any = false;
-      for (int c = 0; c < 4; ++c)
-        for (int l = 0; l < L; ++l) any |= owned(b.node[c][l]);
-      if (!any) continue;
-      Lanes p[12];
-      load_corners(b, ConstCols(X), p);
-      VolumeParts vol;
-      volume_parts(b, p, vol);
-      for (int l = 0; l < L; ++l) {
-        const int64_t t = static_cast<int64_t>(k) * L + l;
-        if (t >= nt || b.volume_stiffness[l] == 0.0) continue;  // an unused lane
-        if (!owned(b.node[0][l]) && !owned(b.node[1][l]) && !owned(b.node[2][l]) &&
-            !owned(b.node[3][l]))
-          continue;
-        rest_element(b, vol, X, l, k12);
-        const int32_t corner[4] = {b.node[0][l], b.node[1][l], b.node[2][l], b.node[3][l]};
-        add_element_rows(k12, corner, a.entry.data() + 16 * t, row_of, block_of, lo, hi, out);
-      }
-    }
+    each_rest_element(
+        s,
+        [&](int32_t node) {
+          const int32_t r = row_of[node];
+          return r >= lo && r < hi;
+        },
+        [&](const Eigen::Matrix<double, 12, 12>& k12, const int32_t corner[4], int64_t t) {
+          add_element_rows(k12, corner, a.entry.data() + 16 * t, row_of, block_of, lo, hi, out);
+        });
   });
 }
 

@@ -125,19 +125,21 @@ void WorldLoop::set_parameters(BodyId id, const sim::Material& material,
   Impl& m = *impl_;
   sim::check_parameters(material, solver);  // throws, naming the bad parameter
   const bool worlds_dt = dt_from == Dt::kTheWorlds;
-  double dt = 0.0;
-  {
-    std::lock_guard lock(m.snapshot_mutex);
-    dt = m.published.dt_s;
-  }
   // In real time dt is the clock's (1 / rate); otherwise a new dt is the world's, every body's.
   // A caller that leaves dt to the world is not checked against a snapshot: a rate changed
   // between its read and this one would refuse it (the TSan handoff aborted on it, 2026-12-04).
-  if (m.options.real_time && !worlds_dt && solver.dt_s != dt)
-    throw invalid_input("world loop: dt_s",
-                        fmt::format("{:g} s, but in real time every body steps at 1 / rate, "
-                                    "{:g} s now: change the rate instead",
-                                    solver.dt_s, dt));
+  if (m.options.real_time && !worlds_dt) {
+    double dt = 0.0;
+    {
+      std::lock_guard lock(m.snapshot_mutex);
+      dt = m.published.dt_s;
+    }
+    if (solver.dt_s != dt)
+      throw invalid_input("world loop: dt_s",
+                          fmt::format("{:g} s, but in real time every body steps at 1 / rate, "
+                                      "{:g} s now: change the rate instead",
+                                      solver.dt_s, dt));
+  }
   std::lock_guard lock(m.mutex);
   const Impl::Handle& h = m.handle_of(id);
   interact::check_routing(routing, h.rings_locality);
