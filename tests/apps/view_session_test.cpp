@@ -4,7 +4,8 @@
 // organ orbits the camera and pushes nothing; a press on a panel is the panel's; a scripted
 // rebuild swaps the model under the running simulation. The simulation runs as fast as it can
 // (rate 0, the paper's 10 ms steps), and the tests wait on simulated time, not on the clock: the
-// paper's model (unit masses, K = 3 N/m) dents slowly, a few mm in the first seconds.
+// paper's model (unit masses, K = 3 N/m) dents slowly, a few mm in the first seconds. The tests
+// that pull hard and wait for the return run the physical tissue (tissue_options()).
 #include "view_session.h"
 
 #include <gmock/gmock.h>
@@ -69,6 +70,22 @@ ViewOptions fast_options() {
   return o;
 }
 
+// The viewer's own default, the physical tissue (E = 6 kPa, the model's lumped masses, implicit
+// Euler), for the tests that pull hard and wait for the organ to come back. The paper's springs
+// alone (fast_options) fold under a pull past about 30 mm on this 20 mm sphere and stay folded,
+// and how far the same 120-pixel drag pulls depends on the frames' timing (each new force is
+// routed on the shape of the moment): a loaded machine made the pull 27-46 mm and the organ never
+// came back (a CI run of 2026-12-04; docs/testing.md). On the tissue it pulls 8.9-9.9 mm
+// whatever the timing, and returns.
+ViewOptions tissue_options() {
+  ViewOptions o = fast_options();
+  o.material.young_modulus_kpa = 6.0;
+  o.material.stiffness_n_per_m = 0.0;  // the tetrahedra's identified constants
+  o.material.node_mass_kg = 0.0;       // the model's lumped masses
+  o.solver.integrator = sim::Integrator::kImplicitEuler;
+  return o;
+}
+
 double largest_displacement(const ViewSession& s) {
   const Eigen::MatrixX3d& x = s.snapshot().x;
   if (x.rows() != s.model().node_count()) return 0.0;
@@ -113,7 +130,7 @@ class ViewSessionTest : public ::testing::Test {
 };
 
 TEST_F(ViewSessionTest, ADragOnTheOrganDentsItAndReleaseLetsItReturnToRest) {
-  ViewSession s(fast_options(), sphere_view_model());
+  ViewSession s(tissue_options(), sphere_view_model());
   s.start();
   ASSERT_TRUE(simulate_for(s, 0.2));
   EXPECT_LT(largest_displacement(s), 1e-6) << "the organ moved with nobody touching it";
@@ -192,7 +209,7 @@ TEST_F(ViewSessionTest, TheScalpelCutsAlongTheDragTheCutModelIsShownAndUUndoesIt
 }
 
 TEST_F(ViewSessionTest, ShiftAtReleasePinsTheForceUntilC) {
-  ViewSession s(fast_options(), sphere_view_model());
+  ViewSession s(tissue_options(), sphere_view_model());
   s.start();
   drag_from_centre(s, 120.0, 5.0);
   shift_release(s);
