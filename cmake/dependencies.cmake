@@ -63,6 +63,12 @@ endfunction()
 find_path(TETGEN_INCLUDE_DIR tetgen.h REQUIRED)
 find_library(TETGEN_LIBRARY tet REQUIRED)
 
+# CHOLMOD (SuiteSparse 5.12, libsuitesparse-dev): no CMake package either. Its supernodal
+# Cholesky factors the finite-element reference of `lamina validate` (src/validate/fem.cpp) 3-30x
+# faster than Eigen's SimplicialLDLT, through BLAS (scripts/setup.sh installs OpenBLAS for it).
+find_path(CHOLMOD_INCLUDE_DIR cholmod.h PATH_SUFFIXES suitesparse REQUIRED)
+find_library(CHOLMOD_LIBRARY cholmod REQUIRED)
+
 if(LAMINA_BUILD_TESTS)
   find_package(GTest 1.12 REQUIRED CONFIG)
   include(GoogleTest)

@@ -10,6 +10,9 @@ pkgs=(
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libmeshoptimizer-dev libtet1.5-dev libgtest-dev libgmock-dev libbenchmark-dev
   zlib1g-dev
+  # lamina validate's finite-element reference: CHOLMOD's supernodal Cholesky, on OpenBLAS
+  # (Debian's reference BLAS made the same factorisation 10-16x slower)
+  libsuitesparse-dev libopenblas0-pthread
   # every compile goes through ccache (cmake/ccache.cmake)
   ccache
   # render module, viewer and figures: GLFW + libepoxy + Dear ImGui + stb, Mesa's EGL

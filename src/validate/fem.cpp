@@ -25,6 +25,7 @@
 
 #include "lamina/core/error.h"
 #include "lamina/interact/sphere_pressure.h"
+#include "sparse_factor.h"
 
 namespace lamina::validate {
 namespace {
@@ -32,7 +33,7 @@ namespace {
 using SpMat = Eigen::SparseMatrix<double>;
 using Grad = Eigen::Matrix<double, 4, 3>;  // row a = gradient of shape function a, 1/mm
 
-// solve_linear() reports convergence below this relative residual (LDLT gives ~1e-14).
+// solve_linear() reports convergence below this relative residual (a direct factor gives ~1e-14).
 constexpr double kLinearTolerance = 1e-8;
 
 bool finite_number(double v) {
@@ -63,10 +64,9 @@ struct Workspace {
   // entry (row of node a comp i, column of node b comp m) of tet t in K.valuePtr(), or -1.
   SpMat K;
   std::vector<int> slot;
-  Eigen::SimplicialLDLT<SpMat> ldlt;
+  SparseFactor factor;
   Eigen::ConjugateGradient<SpMat, Eigen::Lower | Eigen::Upper> cg;
-  bool analyzed = false;     // ldlt's ordering and symbolic factor are done (the pattern is fixed)
-  bool factored = false;     // ldlt holds a factor of some recent K
+  bool factored = false;     // factor holds a factor of some recent K
   double force_scale = 0.0;  // largest force norm met so far, mN (see relative_residual)
 
   FemLaw law = FemLaw::kLinear;
@@ -467,22 +467,18 @@ void assemble_tangent(Workspace& w) {
 }
 
 bool factorize(Workspace& w) {
-  if (!w.analyzed) {
-    w.ldlt.analyzePattern(w.K);
-    w.analyzed = true;
-  }
-  w.ldlt.factorize(w.K);
-  w.factored = w.ldlt.info() == Eigen::Success;
+  w.factored = w.factor.factorize(w.K);
   return w.factored;
 }
 
-// Conjugate gradients on the current K, preconditioned by the LDLT factor of an earlier K.
-// Returns the iterations taken, or -1 if `max_iterations` did not reach the tolerance.
+// Conjugate gradients on the current K, preconditioned by the sparse factor of an earlier K
+// (sparse_factor.h). Returns the iterations taken, or -1 if `max_iterations` did not reach the
+// tolerance.
 int preconditioned_cg(Workspace& w, double tolerance, int max_iterations) {
   const double stop = tolerance * w.rhs.norm();
   w.step.setZero();
   w.cg_r = w.rhs;
-  w.cg_z = w.ldlt.solve(w.cg_r);
+  w.factor.solve(w.cg_r, w.cg_z);
   w.cg_p = w.cg_z;
   double rz = w.cg_r.dot(w.cg_z);
   for (int k = 0; k < max_iterations; ++k) {
@@ -491,7 +487,7 @@ int preconditioned_cg(Workspace& w, double tolerance, int max_iterations) {
     const double alpha = rz / w.cg_p.dot(w.check);
     w.step += alpha * w.cg_p;
     w.cg_r -= alpha * w.check;
-    w.cg_z = w.ldlt.solve(w.cg_r);
+    w.factor.solve(w.cg_r, w.cg_z);
     const double rz_next = w.cg_r.dot(w.cg_z);
     w.cg_p = w.cg_z + (rz_next / rz) * w.cg_p;
     rz = rz_next;
@@ -500,7 +496,7 @@ int preconditioned_cg(Workspace& w, double tolerance, int max_iterations) {
 }
 
 // Solves K step = rhs on the unknowns to a relative `tolerance`.
-//  - Factorising K (sparse LDLT) costs far more than using a factor (on a 7.9k-tet ball:
+//  - Factorising K (CHOLMOD, or LDL^T) costs far more than using a factor (on a 7.9k-tet ball:
 //    0.35 s against ~2 ms per preconditioned iteration), and the corotational tangent changes
 //    little between iterations, so a factor is kept and used to precondition conjugate
 //    gradients on the current K. That gives the step the current tangent asks for, in a few
@@ -521,7 +517,7 @@ bool linear_solve(Workspace& w, double tolerance) {
     if (k >= 0 && w.step.allFinite()) return true;
   }
   if (factorize(w)) {
-    w.step = w.ldlt.solve(w.rhs);
+    w.factor.solve(w.rhs, w.step);
     w.check.noalias() = w.K * w.step;
     w.check -= w.rhs;
     if (w.step.allFinite() && w.check.norm() <= tolerance * rhs_norm) return true;
