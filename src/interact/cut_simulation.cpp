@@ -102,7 +102,7 @@ model::CutReport cut_simulation(std::shared_ptr<const Model>& model, sim::Simula
   auto cut = std::make_shared<Model>();
   model::CutReport report;
   model::cut_tetrahedra(*model, model->X, rest_blade, *cut, origin, report, options);
-  if (report.cut_tets == 0) {
+  if (!report.changed()) {
     origin.resize(static_cast<size_t>(model->node_count()));
     for (size_t i = 0; i < origin.size(); ++i) origin[i] = static_cast<int32_t>(i);
     return report;

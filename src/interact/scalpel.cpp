@@ -192,10 +192,13 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
     // The structures crossed, looked for at rest along the last kStructureWindowMm of the
     // path, near its newest part; each reported once, when its section closes (or, where the
     // blade stops inside one, at the end).
+    // At the end, along the whole path: a section longer than the window (a vessel the blade
+    // runs along, a gallbladder crossed lengthwise) never closed inside it and went unreported.
     size_t wfrom = from;
     while (wfrom > 0 && p.s[wfrom] > now - kStructureWindowMm) --wfrom;
+    if (finished) wfrom = 0;
     Eigen::AlignedBox3d newest;
-    for (size_t c = first_new > 0 ? first_new - 1 : 0; c < p.columns.size(); ++c)
+    for (size_t c = finished ? 0 : (first_new > 0 ? first_new - 1 : 0); c < p.columns.size(); ++c)
       for (Eigen::Index r = 0; r < per; ++r) newest.extend(p.columns[c].row(r).transpose());
     if (!d.uncut) d.uncut = model;
     std::vector<model::StructureCut> crossed = model::structures_crossed(
@@ -216,7 +219,7 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
       options.tip_to = p.columns.back().row(d.depth_rows).transpose();
     }
     e.report = cut_simulation(model, sim, driver, blade, origin, options);
-    if (origin_out != nullptr && e.report.cut_tets > 0) {  // this cut's origin after the last's
+    if (origin_out != nullptr && e.report.changed()) {  // this cut's origin after the last's
       for (int32_t& o : origin) o = (*origin_out)[static_cast<size_t>(o)];
       *origin_out = std::move(origin);
     }
@@ -228,7 +231,7 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
       e.report.structures_cut.push_back(c);
     }
     e.seconds = seconds_since(t0);
-    if (e.report.cut_tets > 0 || !e.report.structures_cut.empty()) events.push_back(e);
+    if (e.report.changed() || !e.report.structures_cut.empty()) events.push_back(e);
   }
   return events;
 }

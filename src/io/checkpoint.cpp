@@ -25,7 +25,8 @@ static_assert(std::endian::native == std::endian::little, "checkpoints are littl
 constexpr char kMagic[8] = {'L', 'A', 'M', 'C', 'K', 'P', 'T', '\n'};
 // Version 2 added each series' name and a run's scalpels (a cut model); version 1 still reads.
 // Version 3 added the role of each surface and structure a scalpel section holds.
-constexpr uint32_t kVersion = 3;
+// Version 4 added whether a cut event split the fine surfaces without dividing tetrahedra.
+constexpr uint32_t kVersion = 4;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 4;
 
 }  // namespace

@@ -1,7 +1,8 @@
-// The checkpoint's scalpel section (version 2; roles from version 3): the cut model as a model
-// file's text (so that load_model()'s checks vouch for it), the support and tool vertices the cuts
-// carried over, and each scalpel's progress, whose blade columns at rest and surfaces as they were
-// before it cut a resumed run needs to go on cutting exactly as the run it continues would have.
+// The checkpoint's scalpel section (version 2; roles from version 3; from version 4 whether an
+// event split only the fine surfaces): the cut model as a model file's text (so that
+// load_model()'s checks vouch for it), the support and tool vertices the cuts carried over, and
+// each scalpel's progress, whose blade columns at rest and surfaces as they were before it cut a
+// resumed run needs to go on cutting exactly as the run it continues would have.
 #include <sstream>
 #include <string>
 #include <utility>
@@ -132,6 +133,7 @@ void write_scalpels(Writer& w, const ScalpelCheckpoint& k) {
     o.pod(e.report.new_nodes);
     o.vec(e.report.pieces);
     write_list(o, e.report.structures_cut, write_structure);
+    o.pod<uint8_t>(e.report.surfaces_split ? 1 : 0);
   });
 }
 
@@ -171,6 +173,7 @@ ScalpelCheckpoint read_scalpels(Reader& r) {
     e.report.new_nodes = q.pod<int32_t>();
     e.report.pieces = q.vec<model::CutPiece>();
     e.report.structures_cut = read_list<model::StructureCut>(q, 8, read_structure);
+    if (q.version >= 4) e.report.surfaces_split = q.pod<uint8_t>() != 0;
     return e;
   });
   return k;

@@ -22,6 +22,7 @@
 #include "support/embedded_phantom.h"
 #include "support/surface_parts.h"
 #include "support/test_paths.h"
+#include "support/totalseg_anatomy.h"
 
 namespace {
 
@@ -376,13 +377,7 @@ TEST(Cut, TheFineSurfacesSplitExactlyAndEveryPieceIsClosed) {
 // splenic vein, vena cava and gallbladder (beside the liver, not in it: they follow the nearest
 // tetrahedra) and the SOFA liver.
 TEST(Cut, TheRealLiversFineSurfacesSplitExactlyAndEveryPieceIsClosed) {
-  model::BuildOptions ts;
-  ts.labels = {1};
-  ts.display_triangles = 6000;
-  ts.structure_triangles = 1000;
-  ts.embed = {{.name = "portal_vein", .label = 2},
-              {.name = "vena_cava", .label = 3},
-              {.name = "gallbladder", .label = 4}};
+  const model::BuildOptions ts = test::totalseg_anatomy_options();
   model::BuildOptions sofa;
   sofa.display_triangles = 6000;
   for (const auto& [name, o] : {std::pair{"liver_totalseg_example_3mm_labels.nii.gz", ts},

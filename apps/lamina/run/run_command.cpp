@@ -375,12 +375,14 @@ LoopResult step_run(const RunArgs& a, const io::Scene& scene, world::World& w, R
               "{:.1f} mm wide{}",
               e.time_s, c.name, c.position_mm.x(), c.position_mm.y(), c.position_mm.z(),
               c.diameter_mm, c.closed ? "" : " (the blade stopped inside it)");
-        if (e.report.cut_tets > 0) {
+        if (e.report.cut_tets > 0)
           log::debug("t = {:.3f} s: cut {} tetrahedra, {} new nodes, {} piece(s), in {:.1f} ms",
                      e.time_s, e.report.cut_tets, e.report.new_nodes, e.report.pieces.size(),
                      1e3 * e.seconds);
-          outputs.follow_cut(*world::body(w, organ).model);
-        }
+        if (e.report.cut_tets == 0 && e.report.surfaces_split)
+          log::debug("t = {:.3f} s: past the tissue, the structures beside it split, in {:.1f} ms",
+                     e.time_s, 1e3 * e.seconds);
+        if (e.report.changed()) outputs.follow_cut(*world::body(w, organ).model);
         cutting.events.push_back(std::move(e));
       }
     }
@@ -464,12 +466,14 @@ void summarize_cuts(const Cutting& c, io::RunSummary& sum) {
   for (const interact::CutEvent& e : c.events) {
     for (const model::StructureCut& x : e.report.structures_cut)
       sum.structures_cut.push_back({.time_s = e.time_s, .cut = x});
+    if (!e.report.changed()) continue;
+    // (An event past the tissue that split only the structures beside it is timed as a cut.)
+    ms.push_back(1e3 * e.seconds);
     if (e.report.cut_tets == 0) continue;
     ++sum.cuts;
     sum.cut_tets += e.report.cut_tets;
     sum.cut_new_nodes += e.report.new_nodes;
     sum.pieces = e.report.pieces;
-    ms.push_back(1e3 * e.seconds);
   }
   if (!ms.empty()) {
     std::sort(ms.begin(), ms.end());

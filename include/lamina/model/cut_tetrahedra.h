@@ -99,6 +99,12 @@ struct CutReport {
   /// Each crossing of an embedded structure by the blade, at the positions the blade was given
   /// against (one per closed loop of the crossing: a vessel cut across twice is two)
   std::vector<StructureCut> structures_cut;
+  /// No tetrahedron divided, but the fine surfaces split along the blade (CutOptions::unsplit:
+  /// a progressive scalpel past the tissue still inside a structure beside it, such as a vena
+  /// cava along the liver's back): the model is a new one all the same.
+  bool surfaces_split = false;
+  /// Whether the cut model differs from the one cut.
+  bool changed() const { return cut_tets > 0 || surfaces_split; }
 };
 
 /// The name of the embedded surface a cut adds to the model (role SurfaceRole::kWound): the

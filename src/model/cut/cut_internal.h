@@ -112,10 +112,17 @@ void add_wound(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
 /// them, on their side (an earlier cut's copies by the material they carry).
 /// `index`: rest_blade's (index_blade()). Returns per surface and vertex a point at rest on its
 /// side of the cut for the vertices on it (NaN for the others): which copy it follows.
+/// `without_divisions`: split though `divided` is empty (the surfaces outside the tissue a
+/// progressive scalpel passes after it has left it; their new vertices follow whole tetrahedra
+/// on their side).
 std::vector<std::vector<Eigen::Vector3d>> split_embedded(
     const Eigen::MatrixX3d& X, const Tets& tets, const std::vector<int32_t>& star,
     const std::vector<Division>& divided, const Blade& rest_blade, const BladeIndex& index,
-    std::vector<EmbeddedSurface>& embedded);
+    std::vector<EmbeddedSurface>& embedded, bool without_divisions = false);
+
+/// Whether the blade crosses an edge of a fine surface (any embedded surface but the wound)
+/// strictly inside.
+bool crosses_fine_surfaces(const std::vector<EmbeddedSurface>& embedded, const BladeIndex& index);
 
 /// The blade triangle over p (p's projection on its plane inside it) within `reach` of p, the
 /// nearest such, or -1.

@@ -628,13 +628,21 @@ void take_unsplit(const CutOptions& options, std::vector<EmbeddedSurface>& embed
 // (the plane through the cut's crossings of the tetrahedron's edges, at rest). The fine
 // surfaces are split exactly along the blade at rest first (their new vertices told their side
 // by a point on their own triangles), then each vertex follows its copy.
-void follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade& blade,
+// Returns whether the fine surfaces were split though no tetrahedron was divided: a progressive
+// scalpel (options.unsplit) whose blade, past the tissue, crosses a structure beside it (the
+// tissue divided at earlier events, the structure's part beyond it never split: it stretched
+// across the opening between the pieces).
+bool follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade& blade,
                      const CutOptions& options, const Divisions& d, Glue& g, Model& m) {
   const Eigen::MatrixX4i& T = model.tets.T;
   const std::vector<Division>& divided = d.divided;
   Blade rest_blade = blade;
-  if (!divided.empty() && x != model.X) rest_blade.V = to_rest(model, x, blade.V);
-  const bool afresh = options.unsplit && options.unsplit_blade && !divided.empty();
+  const bool progressive = options.unsplit && options.unsplit_blade;
+  if ((!divided.empty() || progressive) && x != model.X) rest_blade.V = to_rest(model, x, blade.V);
+  const bool outside =
+      divided.empty() && progressive &&
+      detail::crosses_fine_surfaces(model.embedded, detail::index_blade(rest_blade));
+  const bool afresh = progressive && (!divided.empty() || outside);
   const detail::BladeIndex rest_index =
       detail::index_blade(afresh ? *options.unsplit_blade : rest_blade);
   const TetFinder finder(model, g.star, divided, rest_index);
@@ -644,9 +652,9 @@ void follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade&
   if (afresh) take_unsplit(options, m.embedded);
   std::vector<Eigen::Index> had(m.embedded.size());
   for (size_t e = 0; e < m.embedded.size(); ++e) had[e] = m.embedded[e].V.rows();
-  const auto hints =
-      detail::split_embedded(model.X, model.tets, g.star, divided,
-                             afresh ? *options.unsplit_blade : rest_blade, rest_index, m.embedded);
+  const auto hints = detail::split_embedded(model.X, model.tets, g.star, divided,
+                                            afresh ? *options.unsplit_blade : rest_blade,
+                                            rest_index, m.embedded, outside);
   const std::vector<uint8_t>& affected = g.affected;
   // Each vertex (or a tree's seed) to the copy of its tetrahedron on its side.
   const auto relocate = [&](EmbeddedSurface& s, Eigen::Index v, const Eigen::Vector3d* hint) {
@@ -690,6 +698,7 @@ void follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade&
   std::vector<int32_t> first_copy(divided.size());
   for (size_t k = 0; k < divided.size(); ++k) first_copy[k] = g.copies.first[divided[k].tet];
   detail::add_wound(model.X, T, divided, first_copy, d.crossings, m.tets.T, m.embedded);
+  return outside;
 }
 
 // Pieces: the connected parts of the copies, the largest first.
@@ -734,7 +743,7 @@ void cut_tetrahedra(const Model& model, const Eigen::MatrixX3d& x, const Blade& 
   cut_springs(model, g, !d.divided.empty(), m);
   cut_layers(model, g, m);
   cut_rings(model, g, origin, m);
-  follow_embedded(model, x, blade, options, d, g, m);
+  report.surfaces_split = follow_embedded(model, x, blade, options, d, g, m);
   count_pieces(model, g.copies, m, report);
   out = std::move(m);
 }

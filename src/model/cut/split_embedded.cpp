@@ -214,15 +214,18 @@ void keep_sides(const Locator& where, const Around& around, const Tets& tets,
     if ((p.array() < index.lo.array() - reach).any() ||
         (p.array() > index.hi.array() + reach).any())
       continue;
+    // Only a vertex in a whole tetrahedron around the cut is looked at: asked first, since
+    // the blade's triangles over it are searched among all of a progressive cut's, which grow
+    // with the incision, for every vertex in the blade's box (most of a display skin).
+    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
+    std::sort(own.begin(), own.end());
+    const auto it = around.find(own);
+    if (it == around.end() || divided[static_cast<size_t>(it->second)]) continue;
     const int k = blade_triangle_at(index, p, reach);
     if (k < 0) continue;
     const BladeTriangle& tri = index.tris[static_cast<size_t>(k)];
     const double d = tri.n.dot(p - tri.p0);
     if (std::abs(d) <= 1e-7) continue;  // on the blade: take_apart()'s
-    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
-    std::sort(own.begin(), own.end());
-    const auto it = around.find(own);
-    if (it == around.end() || divided[static_cast<size_t>(it->second)]) continue;
     const Eigen::Vector3d c = material_centre(where.X, where.T, tets, it->second);
     if ((tri.n.dot(c - tri.p0) > 0.0) == (d > 0.0)) continue;  // its own side
     const SideFilter allowed{where, tets, divided, &tri, d > 0.0};
@@ -252,9 +255,14 @@ int blade_crossed(const BladeIndex& index, const Eigen::Vector3d& p, const Eigen
 // whose whole tetrahedron's material lies across the blade from them: they follow the nearest
 // tetrahedron near the blade on their own side instead. Else a vessel beside a liver cut
 // through tore between the two pieces, some of its vertices following the other one.
-void keep_far_sides(const Around& around, const Tets& tets, const std::vector<uint8_t>& divided,
-                    const BladeIndex& index, const std::function<const Locator&()>& wide,
-                    const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, EmbeddedSurface& s) {
+// `copies`: every earlier cut's copy of a tetrahedron by its corners (a vertex such a search
+// put in a divided tetrahedron follows the copy on its side, whose corners' mean is the whole
+// tetrahedron's, across the blade: it was searched again at every later event of the same
+// incision, 1,736 vertices of a gallbladder beside a liver, a third of an event's time).
+void keep_far_sides(const Around& around, const Around& copies, const Tets& tets,
+                    const std::vector<uint8_t>& divided, const BladeIndex& index,
+                    const std::function<const Locator&()>& wide, const Eigen::MatrixX3d& X,
+                    const Eigen::MatrixX4i& T, EmbeddedSurface& s) {
   std::vector<std::pair<Eigen::Index, int>> across;  // a vertex and the blade triangle between
   for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
     // Inside its own tetrahedron: on its side. (Far outside, weights clamped and an offset.)
@@ -275,8 +283,11 @@ void keep_far_sides(const Around& around, const Tets& tets, const std::vector<ui
     const auto it = around.find(own);
     if (it != around.end() && divided[static_cast<size_t>(it->second)]) continue;
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    const auto copy = it == around.end() ? copies.find(own) : copies.end();
     if (it != around.end()) {
       c = material_centre(X, T, tets, it->second);
+    } else if (copy != copies.end()) {
+      c = material_centre(X, T, tets, copy->second);
     } else {
       for (int k = 0; k < 4; ++k) c += X.row(s.corners(v, k)).transpose() / 4.0;
     }
@@ -373,25 +384,10 @@ std::vector<std::pair<int32_t, Eigen::Vector3d>> take_apart(
   return hints;
 }
 
-std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& around, const Tets& tets,
-                                       const std::set<std::array<int32_t, 4>>& divided,
-                                       const std::vector<uint8_t>& is_divided,
-                                       const BladeIndex& index, const SurfaceMesh& splitter,
-                                       const std::function<const Locator&()>& wide,
-                                       EmbeddedSurface& s) {
-  const double reach = where.reach;
-  const auto apart = take_apart(divided, index, s);
-  keep_sides(where, around, tets, is_divided, index, reach, s);
-  keep_far_sides(around, tets, is_divided, index, wide, where.X, where.T, s);
-  const Eigen::Index nv = s.V.rows();
-  std::vector<Eigen::Vector3d> hint;
-  auto with_apart = [&]() {
-    if (apart.empty()) return;
-    hint.resize(static_cast<size_t>(s.V.rows()), Eigen::Vector3d::Constant(std::nan("")));
-    for (const auto& [v, h] : apart) hint[static_cast<size_t>(v)] = h;
-  };
-  // The triangles with an edge the blade crosses strictly inside. (Where the tissue does not
-  // open after all, at the blade's edge, the two sides' vertices are welded again afterwards.)
+// The triangles of s with an edge the blade crosses strictly inside (the first only, with
+// `first`), each edge tested once.
+std::vector<Eigen::Index> crossed_triangles(const EmbeddedSurface& s, const BladeIndex& index,
+                                            bool first = false) {
   std::vector<double> hits;
   std::unordered_map<uint64_t, bool> crossed_edge;
   auto crossed = [&](int32_t a, int32_t b) {
@@ -413,7 +409,32 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
     bool any = false;
     for (int k = 0; k < 3; ++k) any = crossed(s.F(f, k), s.F(f, (k + 1) % 3)) || any;
     if (any) patch.push_back(f);
+    if (any && first) break;
   }
+  return patch;
+}
+
+std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& around,
+                                       const Around& copies, const Tets& tets,
+                                       const std::set<std::array<int32_t, 4>>& divided,
+                                       const std::vector<uint8_t>& is_divided,
+                                       const BladeIndex& index, const SurfaceMesh& splitter,
+                                       const std::function<const Locator&()>& wide,
+                                       EmbeddedSurface& s) {
+  const double reach = where.reach;
+  const auto apart = take_apart(divided, index, s);
+  keep_sides(where, around, tets, is_divided, index, reach, s);
+  keep_far_sides(around, copies, tets, is_divided, index, wide, where.X, where.T, s);
+  const Eigen::Index nv = s.V.rows();
+  std::vector<Eigen::Vector3d> hint;
+  auto with_apart = [&]() {
+    if (apart.empty()) return;
+    hint.resize(static_cast<size_t>(s.V.rows()), Eigen::Vector3d::Constant(std::nan("")));
+    for (const auto& [v, h] : apart) hint[static_cast<size_t>(v)] = h;
+  };
+  // The triangles with an edge the blade crosses strictly inside. (Where the tissue does not
+  // open after all, at the blade's edge, the two sides' vertices are welded again afterwards.)
+  const std::vector<Eigen::Index> patch = crossed_triangles(s, index);
   if (patch.empty()) {
     with_apart();
     return hint;
@@ -533,13 +554,21 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
 
 }  // namespace
 
+bool crosses_fine_surfaces(const std::vector<EmbeddedSurface>& embedded, const BladeIndex& index) {
+  if (index.tris.empty()) return false;
+  for (const EmbeddedSurface& s : embedded)
+    if (s.role != SurfaceRole::kWound && !crossed_triangles(s, index, /*first=*/true).empty())
+      return true;
+  return false;
+}
+
 std::vector<std::vector<Eigen::Vector3d>> split_embedded(
     const Eigen::MatrixX3d& X, const Tets& tets, const std::vector<int32_t>& star,
     const std::vector<Division>& divided, const Blade& rest_blade, const BladeIndex& index,
-    std::vector<EmbeddedSurface>& embedded) {
+    std::vector<EmbeddedSurface>& embedded, bool without_divisions) {
   const Eigen::MatrixX4i& T = tets.T;
   std::vector<std::vector<Eigen::Vector3d>> hints(embedded.size());
-  if (divided.empty()) return hints;
+  if (divided.empty() && !without_divisions) return hints;
   std::set<std::array<int32_t, 4>> corners;
   std::vector<uint8_t> is_divided(static_cast<size_t>(T.rows()), 0);
   for (const Division& d : divided) {
@@ -558,12 +587,28 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
     std::sort(c.begin(), c.end());
     if (++seen[c] == 2) corners.insert(c);
   }
-  const Locator where(X, T, star);
+  // (No tetrahedron divided, no star: the margins from the mean edge of the model's first
+  // 1,000 tetrahedra.)
+  double margin = 0.0;
+  if (star.empty()) {
+    const Eigen::Index n = std::min<Eigen::Index>(T.rows(), 1000);
+    for (Eigen::Index t = 0; t < n; ++t) margin += (X.row(T(t, 1)) - X.row(T(t, 0))).norm();
+    margin = n > 0 ? 0.5 * margin / static_cast<double>(n) : 0.0;
+  }
+  const Locator where(X, T, star, margin);
   Around around;
   for (const int32_t t : where.tets) {
     std::array<int32_t, 4> c{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
     std::sort(c.begin(), c.end());
     around.emplace(c, t);
+  }
+  // Earlier cuts' copies (their material is not their corners' mean).
+  Around copies;
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    if (tets.share_of(t) >= 1.0) continue;
+    std::array<int32_t, 4> c{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
+    std::sort(c.begin(), c.end());
+    copies.emplace(c, static_cast<int32_t>(t));
   }
   // Every tetrahedron near the blade, made when a split vertex is beyond `where`'s.
   std::optional<Locator> wide_one;
@@ -581,8 +626,8 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   const SurfaceMesh splitter = splitter_of(rest_blade);
   for (size_t e = 0; e < embedded.size(); ++e) {
     if (embedded[e].role == SurfaceRole::kWound) continue;
-    hints[e] =
-        split_one(where, around, tets, corners, is_divided, index, splitter, wide, embedded[e]);
+    hints[e] = split_one(where, around, copies, tets, corners, is_divided, index, splitter, wide,
+                         embedded[e]);
   }
   return hints;
 }
