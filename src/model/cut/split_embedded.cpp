@@ -23,6 +23,14 @@
 namespace lamina::model::detail {
 namespace {
 
+// Row r's four corners sorted: a tetrahedron's key whatever order its corners are listed in.
+template <class Rows>
+std::array<int32_t, 4> sorted_corners(const Rows& C, Eigen::Index r) {
+  std::array<int32_t, 4> c{C(r, 0), C(r, 1), C(r, 2), C(r, 3)};
+  std::sort(c.begin(), c.end());
+  return c;
+}
+
 // The tetrahedra around the cut at rest, for locating points among them.
 struct Locator {
   const Eigen::MatrixX3d& X;
@@ -217,8 +225,7 @@ void keep_sides(const Locator& where, const Around& around, const Tets& tets,
     // Only a vertex in a whole tetrahedron around the cut is looked at: asked first, since
     // the blade's triangles over it are searched among all of a progressive cut's, which grow
     // with the incision, for every vertex in the blade's box (most of a display skin).
-    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
-    std::sort(own.begin(), own.end());
+    const std::array<int32_t, 4> own = sorted_corners(s.corners, v);
     const auto it = around.find(own);
     if (it == around.end() || divided[static_cast<size_t>(it->second)]) continue;
     const int k = blade_triangle_at(index, p, reach);
@@ -278,8 +285,7 @@ void keep_far_sides(const Around& around, const Around& copies, const Tets& tets
     if ((reach.max().array() < index.lo.array()).any() ||
         (reach.min().array() > index.hi.array()).any())
       continue;
-    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
-    std::sort(own.begin(), own.end());
+    const std::array<int32_t, 4> own = sorted_corners(s.corners, v);
     const auto it = around.find(own);
     if (it != around.end() && divided[static_cast<size_t>(it->second)]) continue;
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
@@ -359,8 +365,7 @@ std::vector<std::pair<int32_t, Eigen::Vector3d>> take_apart(
     }
     // On one side only (a vertex of a seam that was not welded): only told its side. A welded
     // vertex is taken apart only where its tetrahedron opens now.
-    std::array<int32_t, 4> own{s.corners(v, 0), s.corners(v, 1), s.corners(v, 2), s.corners(v, 3)};
-    std::sort(own.begin(), own.end());
+    const std::array<int32_t, 4> own = sorted_corners(s.corners, v);
     if (below.empty() || !above || !divided.count(own)) {
       if (above) {
         hints.emplace_back(v, above_point);
@@ -572,8 +577,7 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   std::set<std::array<int32_t, 4>> corners;
   std::vector<uint8_t> is_divided(static_cast<size_t>(T.rows()), 0);
   for (const Division& d : divided) {
-    std::array<int32_t, 4> c{T(d.tet, 0), T(d.tet, 1), T(d.tet, 2), T(d.tet, 3)};
-    std::sort(c.begin(), c.end());
+    const std::array<int32_t, 4> c = sorted_corners(T, d.tet);
     corners.insert(c);
     is_divided[static_cast<size_t>(d.tet)] = 1;
   }
@@ -583,8 +587,7 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   std::map<std::array<int32_t, 4>, int> seen;
   for (const int32_t t : star) {
     if (tets.share_of(t) >= 1.0) continue;
-    std::array<int32_t, 4> c{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
-    std::sort(c.begin(), c.end());
+    const std::array<int32_t, 4> c = sorted_corners(T, t);
     if (++seen[c] == 2) corners.insert(c);
   }
   // (No tetrahedron divided, no star: the margins from the mean edge of the model's first
@@ -598,16 +601,14 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   const Locator where(X, T, star, margin);
   Around around;
   for (const int32_t t : where.tets) {
-    std::array<int32_t, 4> c{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
-    std::sort(c.begin(), c.end());
+    const std::array<int32_t, 4> c = sorted_corners(T, t);
     around.emplace(c, t);
   }
   // Earlier cuts' copies (their material is not their corners' mean).
   Around copies;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
     if (tets.share_of(t) >= 1.0) continue;
-    std::array<int32_t, 4> c{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
-    std::sort(c.begin(), c.end());
+    const std::array<int32_t, 4> c = sorted_corners(T, t);
     copies.emplace(c, static_cast<int32_t>(t));
   }
   // Every tetrahedron near the blade, made when a split vertex is beyond `where`'s.
