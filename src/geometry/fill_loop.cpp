@@ -17,10 +17,17 @@ Eigen::MatrixX3i fill_loop(const Eigen::MatrixX3d& loop) {
   std::vector<Point> points;
   points.reserve(static_cast<size_t>(n));
   for (int k = 0; k < n; ++k) points.emplace_back(loop(k, 0), loop(k, 1), loop(k, 2));
+  // How far from its fitted plane a loop may lie and still be filled in 2D: a quarter of its
+  // largest extent. CGAL's default is a quarter of the loop's extent along z, which assumes a
+  // hole facing up: a section on a horizontal blade (extent along z about zero) was refused the
+  // 2D triangulation for rounding alone and filled by the 3D Delaunay search instead, half of a
+  // progressive cut's time with the anatomy (docs/benchmarks.md).
+  const Eigen::Vector3d extent = loop.colwise().maxCoeff() - loop.colwise().minCoeff();
   std::vector<CGAL::Triple<int, int, int>> tris;
   CGAL::Polygon_mesh_processing::triangulate_hole_polyline(
       points, std::back_inserter(tris),
-      CGAL::parameters::use_2d_constrained_delaunay_triangulation(true));
+      CGAL::parameters::use_2d_constrained_delaunay_triangulation(true).threshold_distance(
+          0.25 * extent.maxCoeff()));
   Eigen::MatrixX3i F(static_cast<Eigen::Index>(tris.size()), 3);
   for (size_t t = 0; t < tris.size(); ++t)
     F.row(static_cast<Eigen::Index>(t)) << tris[t].first, tris[t].second, tris[t].third;

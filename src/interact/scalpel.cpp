@@ -213,12 +213,18 @@ std::vector<CutEvent> advance_scalpels(ScalpelDriver& d, std::shared_ptr<const M
     // ends there).
     model::CutOptions options{.find_structures = false};  // `crossed`, found above
     const model::Blade whole = p.unsplit ? strip(p, 0, d.depth_rows) : model::Blade{};
+    // The part the surfaces have not been split along: from the last column they were.
+    const model::Blade fresh = p.unsplit && p.split_columns > 0
+                                   ? strip(p, p.split_columns - 1, d.depth_rows)
+                                   : model::Blade{};
     if (p.unsplit) options.unsplit = p.unsplit.get(), options.unsplit_blade = &whole;
+    if (p.unsplit && p.split_columns > 0) options.unsplit_new = &fresh;
     if (!finished) {
       options.tip_from = p.columns.back().row(0).transpose();
       options.tip_to = p.columns.back().row(d.depth_rows).transpose();
     }
     e.report = cut_simulation(model, sim, driver, blade, origin, options);
+    if (p.unsplit && e.report.changed()) p.split_columns = p.columns.size();
     if (origin_out != nullptr && e.report.changed()) {  // this cut's origin after the last's
       for (int32_t& o : origin) o = (*origin_out)[static_cast<size_t>(o)];
       *origin_out = std::move(origin);

@@ -26,7 +26,8 @@ constexpr char kMagic[8] = {'L', 'A', 'M', 'C', 'K', 'P', 'T', '\n'};
 // Version 2 added each series' name and a run's scalpels (a cut model); version 1 still reads.
 // Version 3 added the role of each surface and structure a scalpel section holds.
 // Version 4 added whether a cut event split the fine surfaces without dividing tetrahedra.
-constexpr uint32_t kVersion = 4;
+// Version 5 added how many of a scalpel's blade columns its surfaces are split along.
+constexpr uint32_t kVersion = 5;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 4;
 
 }  // namespace

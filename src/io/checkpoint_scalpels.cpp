@@ -1,8 +1,9 @@
 // The checkpoint's scalpel section (version 2; roles from version 3; from version 4 whether an
-// event split only the fine surfaces): the cut model as a model file's text (so that
-// load_model()'s checks vouch for it), the support and tool vertices the cuts carried over, and
-// each scalpel's progress, whose blade columns at rest and surfaces as they were before it cut a
-// resumed run needs to go on cutting exactly as the run it continues would have.
+// event split only the fine surfaces; from version 5 how far a scalpel's surfaces are split): the
+// cut model as a model file's text (so that load_model()'s checks vouch for it), the support and
+// tool vertices the cuts carried over, and each scalpel's progress, whose blade columns at rest and
+// surfaces as they were before it cut a resumed run needs to go on cutting exactly as the run it
+// continues would have.
 #include <sstream>
 #include <string>
 #include <utility>
@@ -123,6 +124,7 @@ void write_scalpels(Writer& w, const ScalpelCheckpoint& k) {
     write_list(o, p.reported, write_structure);
     o.pod<uint8_t>(p.unsplit ? 1 : 0);
     if (p.unsplit) write_list(o, *p.unsplit, write_surface);
+    o.pod<uint64_t>(p.split_columns);
   });
   write_list(w, k.events, [](Writer& o, const interact::CutEvent& e) {
     o.pod(e.time_s);
@@ -157,6 +159,14 @@ ScalpelCheckpoint read_scalpels(Reader& r) {
     if (q.pod<uint8_t>() != 0)
       p.unsplit = std::make_shared<const std::vector<EmbeddedSurface>>(
           read_list<EmbeddedSurface>(q, 8, read_surface));
+    // (Before version 5 not kept: the next cut splits the surfaces along the whole path again.)
+    if (q.version >= 5) p.split_columns = q.pod<uint64_t>();
+    if (p.split_columns > p.columns.size())
+      throw invalid_input(q.path,
+                          "checkpoint is inconsistent: a scalpel's surfaces are split "
+                          "along " +
+                              std::to_string(p.split_columns) + " of its " +
+                              std::to_string(p.columns.size()) + " columns");
     if (p.s.size() != p.columns.size())
       throw invalid_input(q.path, "checkpoint is inconsistent: a scalpel's blade has " +
                                       std::to_string(p.columns.size()) + " columns and " +

@@ -7,7 +7,9 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <map>
 #include <numeric>
@@ -88,13 +90,16 @@ TEST(Scalpel, CutAsItGoesLeavesTheCutOfItsWholePath) {
               static_cast<long long>(whole.cut_tets));
 }
 
-// A scalpel drawn across an organ with its anatomy, cutting as it goes along the plane x = x0
-// through everything (the organ and the structures' boxes): at each event the display skin and
-// the structures as they were when it began are split along its whole path so far (where the
-// tissue has not opened yet, at its tip, welded again), and at the end every piece's surfaces
-// are closed, none has a triangle across the cut or on both pieces, each triangle follows the
-// piece on its side, and together they enclose what they did.
-void expect_progressive_cut_splits(const Model& m0, double x0, const std::string& crossed) {
+// A scalpel drawn across an organ with its anatomy along the plane x = x0 through everything (the
+// organ and the structures' boxes), the organ held at its back, stepped until the blade is
+// through: the model it leaves and the cut events. `afresh_each_event`: the driver told before
+// each event that the surfaces are split along none of the path (so split along all of it).
+struct Progressive {
+  std::shared_ptr<const Model> model;
+  std::vector<interact::CutEvent> events;
+};
+
+Progressive cut_progressively(const Model& m0, double x0, bool afresh_each_event = false) {
   Eigen::Vector3d lo = m0.X.colwise().minCoeff(), hi = m0.X.colwise().maxCoeff();
   for (const EmbeddedSurface& s : m0.embedded) {
     lo = lo.cwiseMin(s.V.colwise().minCoeff().transpose());
@@ -106,23 +111,36 @@ void expect_progressive_cut_splits(const Model& m0, double x0, const std::string
   blade.depth_direction = Eigen::Vector3d::UnitZ();
   blade.depth_mm = hi.z() - lo.z() + 10;
   blade.end_s = 0.1;
-  auto model = std::make_shared<const Model>(m0);
+  Progressive out{std::make_shared<const Model>(m0), {}};
   sim::Simulation sim =
       sim::make_simulation(m0, test::kTetLiver, {.integrator = sim::Integrator::kImplicitEuler});
   sim::fix_nodes(sim, test::posterior_nodes(m0));
   interact::ToolDriver tools;
-  interact::ScalpelDriver scalpels = interact::make_scalpel_driver(std::vector{blade}, *model);
-  int events = 0, structures = 0;
+  interact::ScalpelDriver scalpels = interact::make_scalpel_driver(std::vector{blade}, m0);
   for (int k = 0; k < 150; ++k) {
-    for (const interact::CutEvent& e : interact::advance_scalpels(scalpels, model, sim, tools)) {
-      ++events;
-      for (const model::StructureCut& c : e.report.structures_cut) structures += c.name == crossed;
-    }
-    ASSERT_EQ(sim::step(sim).unstable, sim::Instability::kNone) << "step " << k;
+    if (afresh_each_event)
+      for (interact::ScalpelDriver::Progress& p : scalpels.progress) p.split_columns = 0;
+    for (interact::CutEvent& e : interact::advance_scalpels(scalpels, out.model, sim, tools))
+      out.events.push_back(std::move(e));
+    EXPECT_EQ(sim::step(sim).unstable, sim::Instability::kNone) << "step " << k;
   }
+  return out;
+}
+
+// That scalpel, cutting as it goes: at each event the display skin and the structures as they
+// were when it began are split along its path's new part, what earlier events made kept (where
+// the tissue has not opened yet, at its tip, welded again), and at the end every piece's surfaces
+// are closed, none has a triangle across the cut or on both pieces, each triangle follows the
+// piece on its side, and together they enclose what they did.
+void expect_progressive_cut_splits(const Model& m0, double x0, const std::string& crossed) {
+  const Progressive run = cut_progressively(m0, x0);
+  const int events = static_cast<int>(run.events.size());
+  int structures = 0;
+  for (const interact::CutEvent& e : run.events)
+    for (const model::StructureCut& c : e.report.structures_cut) structures += c.name == crossed;
   ASSERT_GT(events, 3);
   EXPECT_GE(structures, 1) << crossed << ", crossed, is reported";
-  const Model& m = *model;
+  const Model& m = *run.model;
   const std::vector<int32_t> piece = test::piece_of_nodes(m);
   ASSERT_EQ(std::set<int32_t>(piece.begin(), piece.end()).size(), 2u);
   Eigen::Index lowest;
@@ -174,6 +192,59 @@ TEST(Scalpel, AProgressiveCutSplitsARealLiversStructuresBesideItIntoClosedPieces
   }
   SCOPED_TRACE("through the vena cava and the portal vein");
   expect_progressive_cut_splits(m0, -12.37, "vena_cava");
+}
+
+// A progressive cut splits the surfaces along its path's new part only, keeping what earlier
+// events made elsewhere (model::CutOptions::unsplit_new): what it leaves is what splitting them
+// afresh along the whole path at every event leaves (the driver told, before each event, that
+// nothing is split yet): the same vertices and triangles, each on the same piece, the same
+// volumes. A seam where the two parts meet that joined the wrong copies, a sub-triangle left
+// twice or a section's cap lost would differ.
+void expect_new_part_split_as_whole(const Model& m0, double x0) {
+  const Model part = *cut_progressively(m0, x0).model,
+              whole = *cut_progressively(m0, x0, true).model;
+  ASSERT_EQ(part.node_count(), whole.node_count()) << "the same tetrahedra divided";
+  const std::vector<int32_t> piece = test::piece_of_nodes(whole);
+  ASSERT_EQ(piece, test::piece_of_nodes(part));
+  ASSERT_EQ(part.embedded.size(), whole.embedded.size());
+  for (size_t e = 0; e < whole.embedded.size(); ++e) {
+    const EmbeddedSurface &a = part.embedded[e], &b = whole.embedded[e];
+    SCOPED_TRACE(b.name);
+    EXPECT_EQ(a.V.rows(), b.V.rows());
+    EXPECT_EQ(a.F.rows(), b.F.rows());
+    // Each triangle by its piece and its centroid (to 1e-6 mm).
+    const auto triangles = [&](const EmbeddedSurface& s) {
+      std::vector<std::array<int64_t, 4>> out;
+      for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+        const Eigen::Vector3d c =
+            (s.V.row(s.F(f, 0)) + s.V.row(s.F(f, 1)) + s.V.row(s.F(f, 2))).transpose() / 3.0;
+        out.push_back({piece[s.corners(s.F(f, 0), 0)], std::llround(c.x() * 1e6),
+                       std::llround(c.y() * 1e6), std::llround(c.z() * 1e6)});
+      }
+      std::sort(out.begin(), out.end());
+      return out;
+    };
+    const auto ta = triangles(a), tb = triangles(b);
+    size_t differ = ta.size() == tb.size() ? 0 : std::max(ta.size(), tb.size());
+    for (size_t k = 0; k < ta.size() && k < tb.size(); ++k) differ += ta[k] != tb[k];
+    EXPECT_EQ(differ, 0u) << "triangles that differ (or sit on another piece)";
+    const test::SurfaceParts pa = test::surface_parts(a, piece, x0),
+                             pb = test::surface_parts(b, piece, x0);
+    EXPECT_EQ(pa.open_edges, pb.open_edges);
+    for (const auto& [p, v] : pb.volume)
+      EXPECT_NEAR(pa.volume.count(p) ? pa.volume.at(p) : 0.0, v, 1e-9 * std::abs(v) + 1e-9);
+  }
+}
+
+TEST(Scalpel, SplittingAlongTheNewPartOnlyLeavesWhatSplittingTheWholePathAfreshWould) {
+  {
+    SCOPED_TRACE("the phantom with its vessels and tumour");
+    const Model& m0 = test::embedded_phantom();
+    expect_new_part_split_as_whole(m0, m0.X.col(0).mean() + 0.31);
+  }
+  SCOPED_TRACE("TotalSegmentator's liver through the gallbladder");
+  const Model m0 = test::totalseg_anatomy();
+  expect_new_part_split_as_whole(m0, m0.X.col(0).mean() + 0.37);
 }
 
 TEST(Scalpel, AMovedOrganIsCutWhereItsMaterialIs) {

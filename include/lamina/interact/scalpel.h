@@ -107,6 +107,9 @@ struct ScalpelDriver {
     /// along the whole path so far (model::CutOptions::unsplit). Null while another scalpel
     /// was cutting when this one began: its cuts then split the model's surfaces as they are.
     std::shared_ptr<const std::vector<EmbeddedSurface>> unsplit;
+    /// The columns the model's surfaces have been split along (0: none, or not known: a
+    /// resumed run's next cut splits them along the whole path again)
+    size_t split_columns = 0;
   };
   std::vector<Progress> progress;  ///< per scalpel
   /// The model as it was before this driver's first cut: the structures crossed are measured on

@@ -144,6 +144,11 @@ struct CutOptions {
   /// surfaces of the same name and label. Null: the model's own surfaces, along the blade.
   const std::vector<EmbeddedSurface>* unsplit = nullptr;
   const Blade* unsplit_blade = nullptr;
+  /// The part of unsplit_blade the model's surfaces have not been split along yet (at rest,
+  /// from the last column they were split to): only the unsplit triangles it reaches are split
+  /// again, what the earlier events made of the others kept, so that an event's split does not
+  /// grow with the path. Null: the whole of unsplit_blade.
+  const Blade* unsplit_new = nullptr;
 };
 
 /// Cuts the tetrahedra the blade's surface divides.

@@ -14,12 +14,36 @@
 
 namespace lamina::model::detail {
 
+std::vector<int32_t> keep_vertices(EmbeddedSurface& s, Eigen::Index first,
+                                   const std::vector<uint8_t>& keep) {
+  std::vector<int32_t> to(static_cast<size_t>(s.V.rows()), -1);
+  Eigen::Index n = 0;
+  for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+    if (v >= first && !keep[static_cast<size_t>(v)]) continue;
+    to[static_cast<size_t>(v)] = static_cast<int32_t>(n);
+    if (n != v) {
+      s.V.row(n) = s.V.row(v), s.corners.row(n) = s.corners.row(v);
+      s.weights.row(n) = s.weights.row(v);
+      if (s.offsets.rows() > 0) s.offsets.row(n) = s.offsets.row(v);
+    }
+    ++n;
+  }
+  s.V.conservativeResize(n, 3), s.corners.conservativeResize(n, 4);
+  s.weights.conservativeResize(n, 4);
+  if (s.offsets.rows() > 0) s.offsets.conservativeResize(n, 3);
+  return to;
+}
+
 void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Eigen::Index>& had,
-                    const BladeIndex& index) {
+                    const BladeIndex& index, const std::vector<Eigen::Index>* made) {
   for (size_t e = 0; e < embedded.size() && e < had.size(); ++e) {
     EmbeddedSurface& s = embedded[e];
     const Eigen::Index first_new = had[e];
     if (s.V.rows() == first_new) continue;  // nothing split here
+    // A section's loop may run through vertices earlier events of a progressive cut made (a split
+    // along its new part only): the boundary is looked for among all of them.
+    const Eigen::Index first_made =
+        made != nullptr && e < made->size() ? std::min((*made)[e], first_new) : first_new;
     // Welded again: the two sides' vertices of a point where the tissue did not open after all
     // (the same copy's nodes and weights) are one.
     std::map<std::array<double, 11>, int32_t> same;
@@ -37,29 +61,13 @@ void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Ei
     // an event).
     std::vector<Eigen::Index> touched;
     for (Eigen::Index f = 0; f < s.F.rows(); ++f)
-      if (s.F(f, 0) >= first_new || s.F(f, 1) >= first_new || s.F(f, 2) >= first_new)
+      if (s.F(f, 0) >= first_made || s.F(f, 1) >= first_made || s.F(f, 2) >= first_made)
         touched.push_back(f);
     // The new vertices no triangle has any more are dropped (nothing outside knows them yet).
     std::vector<uint8_t> used(static_cast<size_t>(s.V.rows()), 0);
     for (const Eigen::Index f : touched)
       for (int k = 0; k < 3; ++k) used[static_cast<size_t>(to[static_cast<size_t>(s.F(f, k))])] = 1;
-    std::vector<int32_t> keep(static_cast<size_t>(s.V.rows()));
-    Eigen::Index n = first_new;
-    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
-      if (v < first_new) {
-        keep[static_cast<size_t>(v)] = static_cast<int32_t>(v);
-        continue;
-      }
-      if (!used[static_cast<size_t>(v)]) continue;
-      keep[static_cast<size_t>(v)] = static_cast<int32_t>(n);
-      s.V.row(n) = s.V.row(v), s.corners.row(n) = s.corners.row(v);
-      s.weights.row(n) = s.weights.row(v);
-      if (s.offsets.rows() > 0) s.offsets.row(n) = s.offsets.row(v);
-      ++n;
-    }
-    s.V.conservativeResize(n, 3), s.corners.conservativeResize(n, 4);
-    s.weights.conservativeResize(n, 4);
-    if (s.offsets.rows() > 0) s.offsets.conservativeResize(n, 3);
+    const std::vector<int32_t> keep = keep_vertices(s, first_new, used);
     // A triangle two of whose corners were welded had no area: it goes (its neighbours across
     // the welded edge meet instead). The others keep their order; `touched` follows them.
     std::vector<uint8_t> gone(touched.size(), 0);
@@ -89,7 +97,9 @@ void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Ei
     // The boundary the cut made: each edge with a new end in one triangle only (every triangle
     // with such an edge has the new vertex), from its start.
     std::unordered_map<uint64_t, int> count;
-    const auto fresh_edge = [&](int32_t a, int32_t b) { return a >= first_new || b >= first_new; };
+    const auto fresh_edge = [&](int32_t a, int32_t b) {
+      return a >= first_made || b >= first_made;
+    };
     for (const Eigen::Index f : touched)
       for (int k = 0; k < 3; ++k)
         if (fresh_edge(s.F(f, k), s.F(f, (k + 1) % 3)))
@@ -144,7 +154,10 @@ void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Ei
       std::set<std::array<double, 3>> points;
       std::set<int> sides;
       for (const int32_t v : loop) {
-        fresh |= v >= first_new;
+        // (Made by this cut, or by an earlier event of the same scalpel: a section an earlier
+        // event left open where the tissue had not opened, its side's vertices kept as they were
+        // when the tissue opens now, the other side's taken apart.)
+        fresh |= v >= first_made;
         ok &= points.insert({s.V(v, 0), s.V(v, 1), s.V(v, 2)}).second;
         sides.insert(side_of(v));
       }

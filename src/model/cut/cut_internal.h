@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "../find_spring.h"
@@ -115,10 +116,50 @@ void add_wound(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T,
 /// `without_divisions`: split though `divided` is empty (the surfaces outside the tissue a
 /// progressive scalpel passes after it has left it; their new vertices follow whole tetrahedra
 /// on their side).
+/// A progressive cut's surface to be split along its path's new part only (drop_resplit_part).
+struct Resplit {
+  const EmbeddedSurface* unsplit = nullptr;  ///< the surface before the scalpel began
+  /// Its triangles to split (their vertices are the first rows of the model's surface)
+  std::vector<Eigen::RowVector3i> faces;
+  /// Their edges shared with a crossed triangle that stays as earlier events split it: the
+  /// split's new vertices there are those triangles' (matched by position and side)
+  std::vector<std::pair<int32_t, int32_t>> seams;
+  /// The blade's new part (index_blade()): a vertex beside the organ whose tetrahedron's material
+  /// lies across the blade's earlier part was moved to its side at an earlier event
+  const BladeIndex* fresh = nullptr;
+};
+
+/// `resplit` (per surface of `embedded`, or empty): where a surface has an unsplit one, its
+/// triangles `faces` are split along the blade, their vertices on the seams being the surface's
+/// own, in place of the triangles the blade crosses; where that cannot be (a seam's vertex not
+/// found), the surface is made again from its unsplit one and split afresh, `had` (each
+/// surface's vertex count before the split) following.
 std::vector<std::vector<Eigen::Vector3d>> split_embedded(
     const Eigen::MatrixX3d& X, const Tets& tets, const std::vector<int32_t>& star,
     const std::vector<Division>& divided, const Blade& rest_blade, const BladeIndex& index,
-    std::vector<EmbeddedSurface>& embedded, bool without_divisions = false);
+    std::vector<EmbeddedSurface>& embedded, bool without_divisions = false,
+    const std::vector<Resplit>& resplit = {}, std::vector<Eigen::Index>* had = nullptr);
+
+/// The triangles of s with an edge the blade crosses strictly inside (the first only, with
+/// `first`), each edge tested once.
+std::vector<Eigen::Index> crossed_triangles(const EmbeddedSurface& s, const BladeIndex& index,
+                                            bool first = false);
+
+/// Drops s's vertices from `first` on that `keep` says not to (per vertex), the others moved
+/// down in order; returns each vertex's new index (-1: dropped). Triangles are not touched.
+std::vector<int32_t> keep_vertices(EmbeddedSurface& s, Eigen::Index first,
+                                   const std::vector<uint8_t>& keep);
+
+/// s made again as the unsplit surface u, its vertices (s's first rows) where s's are embedded.
+void unsplit_like(const EmbeddedSurface& u, EmbeddedSurface& s);
+
+/// For a progressive cut whose surfaces have been split along the blade `whole` but for its new
+/// part `fresh` (both at rest): drops from s (the model's surface, whose first rows are u's
+/// vertices) what earlier splits made of u's triangles that `whole` crosses and `fresh` reaches
+/// (each sub-triangle lies in its triangle), and the caps of sections through them, with the
+/// split-made vertices nothing else keeps; returns those triangles, to be split again.
+Resplit drop_resplit_part(const EmbeddedSurface& u, const BladeIndex& whole,
+                          const BladeIndex& fresh, EmbeddedSurface& s);
 
 /// Whether the blade crosses an edge of a fine surface (any embedded surface but the wound)
 /// strictly inside.
@@ -138,8 +179,10 @@ Eigen::Vector3d material_centre(const Eigen::MatrixX3d& X, const Eigen::MatrixX4
 /// down one side and back up the other) capped (geometry::fill_loop). `had`: each surface's
 /// vertex count before the split.
 /// `index`: the blade at rest (a section lies on it, its triangles on one side of it).
+/// `made` (if given): each surface's first vertex any split of this scalpel made (a section's loop
+/// may run through vertices earlier events made; else `had`).
 void close_sections(std::vector<EmbeddedSurface>& embedded, const std::vector<Eigen::Index>& had,
-                    const BladeIndex& index);
+                    const BladeIndex& index, const std::vector<Eigen::Index>* made = nullptr);
 
 /// The share of a tetrahedron's volume on the side `side` (corner bitmask) of a cut crossing
 /// each edge from corner i (on the side) to corner j (off it) at fraction s[i][j] from i: exact

@@ -606,22 +606,19 @@ bool on_side(const Eigen::MatrixX4i& T, const detail::Crossings& crossings, int3
 
 // A cut that sweeps again (CutOptions::unsplit): each fine surface as it was before the cut
 // began, its vertices where the model's now are embedded, to be split along the whole blade.
+// The surface s was before the scalpel began (the same name and label, its vertices s's first
+// rows), or null.
+const EmbeddedSurface* unsplit_of(const CutOptions& options, const EmbeddedSurface& s) {
+  if (s.role == SurfaceRole::kWound) return nullptr;
+  for (const EmbeddedSurface& u : *options.unsplit)
+    if (u.name == s.name && u.role == s.role && u.label == s.label && u.V.rows() <= s.V.rows())
+      return &u;
+  return nullptr;
+}
+
 void take_unsplit(const CutOptions& options, std::vector<EmbeddedSurface>& embedded) {
-  for (EmbeddedSurface& s : embedded) {
-    if (s.role == SurfaceRole::kWound) continue;
-    for (const EmbeddedSurface& u : *options.unsplit) {
-      const Eigen::Index n0 = u.V.rows();
-      if (u.name != s.name || u.role != s.role || u.label != s.label || n0 > s.V.rows()) continue;
-      EmbeddedSurface fresh = u;
-      fresh.corners = s.corners.topRows(n0);
-      fresh.weights = s.weights.topRows(n0);
-      fresh.offsets =
-          s.offsets.rows() > 0 ? Eigen::MatrixX3d(s.offsets.topRows(n0)) : Eigen::MatrixX3d(0, 3);
-      fresh.outside = u.outside;
-      s = std::move(fresh);
-      break;
-    }
-  }
+  for (EmbeddedSurface& s : embedded)
+    if (const EmbeddedSurface* u = unsplit_of(options, s)) detail::unsplit_like(*u, s);
 }
 
 // Embedded surfaces: a vertex in a divided tetrahedron follows the copy on its side of the cut
@@ -649,12 +646,31 @@ bool follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade&
   std::vector<int32_t> division_of(static_cast<size_t>(model.tets.size()), -1);
   for (size_t k = 0; k < divided.size(); ++k) division_of[divided[k].tet] = static_cast<int32_t>(k);
   m.embedded = model.embedded;
-  if (afresh) take_unsplit(options, m.embedded);
-  std::vector<Eigen::Index> had(m.embedded.size());
+  // Along the path's new part only where it is known (the surfaces split along the rest at the
+  // earlier events); else afresh along the whole path.
+  std::vector<detail::Resplit> resplit;
+  const detail::BladeIndex fresh_index = afresh && options.unsplit_new
+                                             ? detail::index_blade(*options.unsplit_new)
+                                             : detail::BladeIndex{};
+  if (afresh && options.unsplit_new != nullptr) {
+    resplit.resize(m.embedded.size());
+    // (Each surface by one thread: its own, the blades read only.)
+#pragma omp parallel for schedule(dynamic, 1)
+    for (size_t e = 0; e < m.embedded.size(); ++e)
+      if (const EmbeddedSurface* u = unsplit_of(options, m.embedded[e])) {
+        resplit[e] = detail::drop_resplit_part(*u, rest_index, fresh_index, m.embedded[e]);
+        resplit[e].fresh = &fresh_index;
+      }
+  } else if (afresh) {
+    take_unsplit(options, m.embedded);
+  }
+  std::vector<Eigen::Index> had(m.embedded.size()), made(m.embedded.size());
   for (size_t e = 0; e < m.embedded.size(); ++e) had[e] = m.embedded[e].V.rows();
   const auto hints = detail::split_embedded(model.X, model.tets, g.star, divided,
                                             afresh ? *options.unsplit_blade : rest_blade,
-                                            rest_index, m.embedded, outside);
+                                            rest_index, m.embedded, outside, resplit, &had);
+  for (size_t e = 0; e < m.embedded.size(); ++e)
+    made[e] = e < resplit.size() && resplit[e].unsplit ? resplit[e].unsplit->V.rows() : had[e];
   const std::vector<uint8_t>& affected = g.affected;
   // Each vertex (or a tree's seed) to the copy of its tetrahedron on its side.
   const auto relocate = [&](EmbeddedSurface& s, Eigen::Index v, const Eigen::Vector3d* hint) {
@@ -693,7 +709,7 @@ bool follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade&
   m.trees = model.trees;
   for (ModelVesselTree& tree : m.trees)
     for (Eigen::Index v = 0; v < tree.seeds.corners.rows(); ++v) relocate(tree.seeds, v, nullptr);
-  detail::close_sections(m.embedded, had, rest_index);
+  detail::close_sections(m.embedded, had, rest_index, &made);
   // The wound: each side's cut surface, on the copies of that side.
   std::vector<int32_t> first_copy(divided.size());
   for (size_t k = 0; k < divided.size(); ++k) first_copy[k] = g.copies.first[divided[k].tet];

@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <exception>
 #include <functional>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <unordered_map>
@@ -137,6 +139,20 @@ SurfaceMesh splitter_of(const Blade& blade) {
   return s;
 }
 
+// The triangles of `index` whose boxes meet `box`.
+BladeIndex blade_within(const BladeIndex& index, const Eigen::AlignedBox3d& box) {
+  BladeIndex out;
+  out.eps = index.eps;
+  Eigen::AlignedBox3d all;
+  for (const BladeTriangle& t : index.tris)
+    if (!((t.hi.array() < box.min().array()).any() || (t.lo.array() > box.max().array()).any())) {
+      out.tris.push_back(t);
+      all.extend(t.lo), all.extend(t.hi);
+    }
+  if (!out.tris.empty()) out.lo = all.min(), out.hi = all.max();
+  return out;
+}
+
 // Splits one surface; returns per vertex a point on its side for those on the cut (NaN for the
 // others).
 // Which side of the blade points near it are on: the blade triangle over p (its projection on
@@ -214,10 +230,18 @@ void embed_at(const Locator& where, int c, const Eigen::Vector3d& p, EmbeddedSur
 // The tetrahedra around the cut by their corners (a vertex further away is not near it).
 using Around = std::map<std::array<int32_t, 4>, int32_t>;
 
+// `near`: per node, whether it is a corner of a tetrahedron this cut divides (a vertex in a
+// tetrahedron around the cut has one: asked before the map).
+bool has_near_corner(const std::vector<uint8_t>& near, const EmbeddedSurface& s, Eigen::Index v) {
+  return near[s.corners(v, 0)] || near[s.corners(v, 1)] || near[s.corners(v, 2)] ||
+         near[s.corners(v, 3)];
+}
+
 void keep_sides(const Locator& where, const Around& around, const Tets& tets,
-                const std::vector<uint8_t>& divided, const BladeIndex& index, double reach,
-                EmbeddedSurface& s) {
+                const std::vector<uint8_t>& divided, const std::vector<uint8_t>& near,
+                const BladeIndex& index, double reach, EmbeddedSurface& s) {
   for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+    if (!has_near_corner(near, s, v)) continue;
     const Eigen::Vector3d p = s.V.row(v).transpose();
     if ((p.array() < index.lo.array() - reach).any() ||
         (p.array() > index.hi.array() + reach).any())
@@ -298,7 +322,11 @@ void keep_far_sides(const Around& around, const Around& copies, const Tets& tets
       for (int k = 0; k < 4; ++k) c += X.row(s.corners(v, k)).transpose() / 4.0;
     }
     const int k = blade_crossed(index, p, c);
-    if (k >= 0) across.emplace_back(v, k);
+    // (A vertex on the blade, an earlier event's split made, is told its side by its triangles
+    // in take_apart(): its side of the blade here is rounding's.)
+    if (k >= 0 && std::abs(index.tris[static_cast<size_t>(k)].n.dot(
+                      p - index.tris[static_cast<size_t>(k)].p0)) > 1e-7)
+      across.emplace_back(v, k);
   }
   if (across.empty()) return;
   // Each one's search scans every tetrahedron near the blade: on the threads (read only), the
@@ -320,12 +348,17 @@ void keep_far_sides(const Around& around, const Around& copies, const Tets& tets
 // their side by their triangles': where their tetrahedron opens now, a welded one (where the
 // tissue had not opened yet: the cut's tip) is taken apart, keeping the triangles on one side, a
 // copy of it (appended) taking the others. Returns points on their sides.
+// Only a vertex with a corner of a divided tetrahedron (`near`) is looked at: the others follow
+// their tetrahedra's nodes, renumbered (cut_tetrahedra's relocation asks no side of them), and
+// a progressive cut's earlier events left thousands on the blade along its path.
 std::vector<std::pair<int32_t, Eigen::Vector3d>> take_apart(
-    const std::set<std::array<int32_t, 4>>& divided, const BladeIndex& index, EmbeddedSurface& s) {
+    const std::set<std::array<int32_t, 4>>& divided, const std::vector<uint8_t>& near,
+    const BladeIndex& index, EmbeddedSurface& s) {
   std::vector<std::pair<int32_t, Eigen::Vector3d>> hints;
   constexpr double kOn = 1e-7;  // mm: a vertex a split made lies on the blade to rounding
   std::unordered_map<int32_t, Eigen::Vector3d> normal;  // the blade's there
   for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+    if (!has_near_corner(near, s, v)) continue;
     const Eigen::Vector3d p = s.V.row(v).transpose();
     if ((p.array() < index.lo.array() - kOn).any() || (p.array() > index.hi.array() + kOn).any())
       continue;
@@ -339,10 +372,14 @@ std::vector<std::pair<int32_t, Eigen::Vector3d>> take_apart(
     }
   }
   if (normal.empty()) return hints;
+  // Their triangles (a flag per vertex: a hash lookup per corner of a 100,000-triangle display
+  // skin was 2 ms of a cut event).
+  std::vector<uint8_t> on(static_cast<size_t>(s.V.rows()), 0);
+  for (const auto& [v, n] : normal) on[static_cast<size_t>(v)] = 1;
   std::unordered_map<int32_t, std::vector<Eigen::Index>> faces;
   for (Eigen::Index f = 0; f < s.F.rows(); ++f)
     for (int k = 0; k < 3; ++k)
-      if (normal.count(s.F(f, k))) faces[s.F(f, k)].push_back(f);
+      if (on[static_cast<size_t>(s.F(f, k))]) faces[s.F(f, k)].push_back(f);
   for (const auto& [v, n] : normal) {
     const Eigen::Vector3d p = s.V.row(v).transpose();
     std::vector<Eigen::Index> below;
@@ -389,10 +426,10 @@ std::vector<std::pair<int32_t, Eigen::Vector3d>> take_apart(
   return hints;
 }
 
-// The triangles of s with an edge the blade crosses strictly inside (the first only, with
-// `first`), each edge tested once.
+}  // namespace
+
 std::vector<Eigen::Index> crossed_triangles(const EmbeddedSurface& s, const BladeIndex& index,
-                                            bool first = false) {
+                                            bool first) {
   std::vector<double> hits;
   std::unordered_map<uint64_t, bool> crossed_edge;
   auto crossed = [&](int32_t a, int32_t b) {
@@ -419,17 +456,105 @@ std::vector<Eigen::Index> crossed_triangles(const EmbeddedSurface& s, const Blad
   return patch;
 }
 
-std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& around,
-                                       const Around& copies, const Tets& tets,
-                                       const std::set<std::array<int32_t, 4>>& divided,
-                                       const std::vector<uint8_t>& is_divided,
-                                       const BladeIndex& index, const SurfaceMesh& splitter,
-                                       const std::function<const Locator&()>& wide,
-                                       EmbeddedSurface& s) {
+namespace {
+
+// Which side of the blade at q the triangles `faces` of (V, F) are on: +1, -1, 0 (both or none).
+int side_at(const BladeIndex& index, const Eigen::Vector3d& q, const Eigen::MatrixX3d& V,
+            const Eigen::MatrixX3i& F, const std::vector<Eigen::Index>& faces) {
+  const int k = blade_triangle_at(index, q, 1e-6);
+  if (k < 0) return 0;
+  const Eigen::Vector3d n = index.tris[static_cast<size_t>(k)].n;
+  bool above = false, below = false;
+  for (const Eigen::Index f : faces) {
+    const Eigen::Vector3d c = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))).transpose() / 3.0;
+    const double d = n.dot(c - q);
+    above = above || d > 1e-9, below = below || d < -1e-9;
+  }
+  return above == below ? 0 : (above ? 1 : -1);
+}
+
+// A split along the path's new part only (Resplit): its new vertices where the blade crosses a
+// seam are the surface's own there (what an earlier event made of the triangle across it), by
+// position and side (a vertex welded where the tissue had not opened serves both). False when
+// one is not found.
+bool match_seams(const Resplit& again, const geometry::SplitSurface& cut, const BladeIndex& index,
+                 const EmbeddedSurface& s, std::vector<int32_t>& matched) {
+  constexpr double kSame = 1e-6;  // mm: the same crossing, computed twice
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> hits;
+  for (const auto& [a, b] : again.seams) {
+    const Eigen::Vector3d pa = s.V.row(std::min(a, b)), pb = s.V.row(std::max(a, b));
+    edge_hits(pa, pb, index, hits);
+    for (const double f : hits)
+      if (f > 1e-9 && f < 1.0 - 1e-9) points.push_back(pa + f * (pb - pa));
+  }
+  if (points.empty()) return true;
+  const auto near = [&](const Eigen::Vector3d& p) {
+    for (size_t q = 0; q < points.size(); ++q)
+      if ((p - points[q]).squaredNorm() <= kSame * kSame) return static_cast<int>(q);
+    return -1;
+  };
+  // Each crossing's vertices in the split and in the surface, with their triangles.
+  const Eigen::Index n0 = again.unsplit->V.rows();
+  std::map<int32_t, std::vector<Eigen::Index>> cut_faces, own_faces;
+  std::vector<int> cut_at(cut.origin.size(), -1);
+  for (size_t v = 0; v < cut.origin.size(); ++v)
+    if (cut.origin[v] < 0) cut_at[v] = near(cut.V.row(static_cast<Eigen::Index>(v)).transpose());
+  std::unordered_map<int32_t, int> own_at;
+  for (Eigen::Index v = n0; v < s.V.rows(); ++v) {
+    const int q = near(s.V.row(v).transpose());
+    if (q >= 0) own_at.emplace(static_cast<int32_t>(v), q);
+  }
+  for (Eigen::Index f = 0; f < cut.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (cut_at[static_cast<size_t>(cut.F(f, k))] >= 0) cut_faces[cut.F(f, k)].push_back(f);
+  if (cut_faces.empty()) return true;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (s.F(f, k) >= n0 && own_at.count(s.F(f, k))) own_faces[s.F(f, k)].push_back(f);
+  for (const auto& [v, faces] : cut_faces) {
+    const int q = cut_at[static_cast<size_t>(v)];
+    const int side = side_at(index, points[static_cast<size_t>(q)], cut.V, cut.F, faces);
+    int32_t best = -1;
+    for (const auto& [w, wq] : own_at) {
+      if (wq != q || !own_faces.count(w)) continue;
+      const int own = side_at(index, points[static_cast<size_t>(q)], s.V, s.F, own_faces[w]);
+      if (own == side) {
+        best = w;
+        break;
+      }
+      if (own == 0 || side == 0) best = w;
+    }
+    if (best < 0) return false;
+    matched[static_cast<size_t>(v)] = best;
+  }
+  return true;
+}
+
+std::vector<Eigen::Vector3d> split_one(
+    const Locator& where, const Around& around, const Around& copies, const Tets& tets,
+    const std::set<std::array<int32_t, 4>>& divided, const std::vector<uint8_t>& is_divided,
+    const std::vector<uint8_t>& near, const BladeIndex& index, const SurfaceMesh& splitter,
+    const std::function<const Locator&()>& wide, EmbeddedSurface& s, const Resplit* again,
+    bool& seams_found) {
+  seams_found = true;
   const double reach = where.reach;
-  const auto apart = take_apart(divided, index, s);
-  keep_sides(where, around, tets, is_divided, index, reach, s);
-  keep_far_sides(around, copies, tets, is_divided, index, wide, where.X, where.T, s);
+  // The blade's triangles near the vertices with a corner around the cut (within the reach the
+  // side checks look): a progressive cut's blade grows with its path, those vertices do not.
+  BladeIndex nearby;
+  {
+    Eigen::AlignedBox3d box;
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v)
+      if (has_near_corner(near, s, v)) box.extend(s.V.row(v).transpose());
+    if (!box.isEmpty()) {
+      box = Eigen::AlignedBox3d(box.min().array() - reach, box.max().array() + reach);
+      nearby = blade_within(index, box);
+    }
+  }
+  const auto apart = take_apart(divided, near, nearby, s);
+  keep_sides(where, around, tets, is_divided, near, nearby, reach, s);
+  keep_far_sides(around, copies, tets, is_divided, again && again->fresh ? *again->fresh : index,
+                 wide, where.X, where.T, s);
   const Eigen::Index nv = s.V.rows();
   std::vector<Eigen::Vector3d> hint;
   auto with_apart = [&]() {
@@ -439,8 +564,16 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
   };
   // The triangles with an edge the blade crosses strictly inside. (Where the tissue does not
   // open after all, at the blade's edge, the two sides' vertices are welded again afterwards.)
-  const std::vector<Eigen::Index> patch = crossed_triangles(s, index);
-  if (patch.empty()) {
+  // (Along the path's new part only: the unsplit triangles there, the earlier ones' split kept.)
+  const std::vector<Eigen::Index> patch =
+      again ? std::vector<Eigen::Index>{} : crossed_triangles(s, index);
+  std::vector<Eigen::RowVector3i> tris;
+  if (again) {
+    tris = again->faces;
+  } else {
+    for (const Eigen::Index f : patch) tris.emplace_back(s.F.row(f));
+  }
+  if (tris.empty()) {
     with_apart();
     return hint;
   }
@@ -449,10 +582,10 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
   std::unordered_map<int32_t, int32_t> local;
   std::vector<int32_t> global;
   SurfaceMesh part;
-  part.F.resize(static_cast<Eigen::Index>(patch.size()), 3);
-  for (size_t r = 0; r < patch.size(); ++r)
+  part.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (size_t r = 0; r < tris.size(); ++r)
     for (int k = 0; k < 3; ++k) {
-      const int32_t v = s.F(patch[r], k);
+      const int32_t v = tris[r][k];
       const auto [it, fresh] = local.try_emplace(v, static_cast<int32_t>(global.size()));
       if (fresh) global.push_back(v);
       part.F(static_cast<Eigen::Index>(r), k) = it->second;
@@ -472,12 +605,19 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
     return hint;
   }
 
+  // The seams' vertices are the surface's own.
+  std::vector<int32_t> matched(cut.origin.size(), -1);
+  if (again && !match_seams(*again, cut, index, s, matched)) {
+    seams_found = false;
+    return hint;
+  }
   // New vertices appended, each embedded where it is and given a point on its side: the
   // centroid of a triangle of its own.
   std::vector<int32_t> id(cut.origin.size());
   int32_t added = 0;
   for (size_t v = 0; v < cut.origin.size(); ++v)
     id[v] = cut.origin[v] >= 0 ? global[static_cast<size_t>(cut.origin[v])]
+            : matched[v] >= 0  ? matched[v]
                                : static_cast<int32_t>(nv) + added++;
   std::vector<Eigen::Vector3d> side_point(cut.origin.size(), Eigen::Vector3d::Zero());
   for (Eigen::Index f = 0; f < cut.F.rows(); ++f) {
@@ -498,7 +638,7 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
   // in order.
   std::vector<size_t> fresh;  // the split's new vertices
   for (size_t v = 0; v < cut.origin.size(); ++v)
-    if (cut.origin[v] < 0) fresh.push_back(v);
+    if (cut.origin[v] < 0 && matched[v] < 0) fresh.push_back(v);
   std::vector<SideFilter> side(fresh.size(), SideFilter{where, tets, is_divided});
   std::vector<int> found(fresh.size(), -1);
   const auto point = [&](size_t q) -> Eigen::Vector3d {
@@ -543,7 +683,8 @@ std::vector<Eigen::Vector3d> split_one(const Locator& where, const Around& aroun
     hint[static_cast<size_t>(i)] = side_point[v];
   }
 
-  // The triangles: the patch's replaced by the split ones.
+  // The triangles: the patch's replaced by the split ones (along the new part only, the patch's
+  // are gone already).
   std::vector<uint8_t> in_patch(static_cast<size_t>(s.F.rows()), 0);
   for (const Eigen::Index f : patch) in_patch[static_cast<size_t>(f)] = 1;
   Eigen::MatrixX3i F(s.F.rows() - static_cast<Eigen::Index>(patch.size()) + cut.F.rows(), 3);
@@ -570,7 +711,8 @@ bool crosses_fine_surfaces(const std::vector<EmbeddedSurface>& embedded, const B
 std::vector<std::vector<Eigen::Vector3d>> split_embedded(
     const Eigen::MatrixX3d& X, const Tets& tets, const std::vector<int32_t>& star,
     const std::vector<Division>& divided, const Blade& rest_blade, const BladeIndex& index,
-    std::vector<EmbeddedSurface>& embedded, bool without_divisions) {
+    std::vector<EmbeddedSurface>& embedded, bool without_divisions,
+    const std::vector<Resplit>& resplit, std::vector<Eigen::Index>* had) {
   const Eigen::MatrixX4i& T = tets.T;
   std::vector<std::vector<Eigen::Vector3d>> hints(embedded.size());
   if (divided.empty() && !without_divisions) return hints;
@@ -581,6 +723,10 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
     corners.insert(c);
     is_divided[static_cast<size_t>(d.tet)] = 1;
   }
+  // The nodes around the cut: the divided tetrahedra's corners.
+  std::vector<uint8_t> near(static_cast<size_t>(X.rows()), 0);
+  for (const Division& d : divided)
+    for (int k = 0; k < 4; ++k) near[static_cast<size_t>(T(d.tet, k))] = 1;
   // An earlier cut's two copies of a tetrahedron that still share their four nodes (glued to
   // whole tetrahedra at that cut's tip) open where this cut divides those: their vertices on the
   // blade are taken apart too.
@@ -613,23 +759,47 @@ std::vector<std::vector<Eigen::Vector3d>> split_embedded(
   }
   // Every tetrahedron near the blade, made when a split vertex is beyond `where`'s.
   std::optional<Locator> wide_one;
+  std::once_flag wide_made;  // (the surfaces are split on the threads: made once, by the first)
   const auto wide = [&]() -> const Locator& {
-    if (!wide_one) {
+    std::call_once(wide_made, [&] {
       const Eigen::AlignedBox3d reach(index.lo.array() - where.reach,
                                       index.hi.array() + where.reach);
-      std::vector<int32_t> near;
+      std::vector<int32_t> tets_near;
       for (Eigen::Index t = 0; t < T.rows(); ++t)
-        if (tet_box(X, T, t).intersects(reach)) near.push_back(static_cast<int32_t>(t));
-      wide_one.emplace(X, T, near, where.reach / 4.0);
-    }
+        if (tet_box(X, T, t).intersects(reach)) tets_near.push_back(static_cast<int32_t>(t));
+      wide_one.emplace(X, T, tets_near, where.reach / 4.0);
+    });
     return *wide_one;
   };
   const SurfaceMesh splitter = splitter_of(rest_blade);
+  // The surfaces on the threads, each by one (the tetrahedra, the blade and the locators read
+  // only; their own loops then run on that thread): the display skin and the structures a blade
+  // crosses take a few milliseconds each (docs/benchmarks.md).
+  std::vector<std::exception_ptr> failed(embedded.size());
+#pragma omp parallel for schedule(dynamic, 1)
   for (size_t e = 0; e < embedded.size(); ++e) {
     if (embedded[e].role == SurfaceRole::kWound) continue;
-    hints[e] = split_one(where, around, copies, tets, corners, is_divided, index, splitter, wide,
-                         embedded[e]);
+    try {
+      const Resplit* again =
+          e < resplit.size() && resplit[e].unsplit != nullptr ? &resplit[e] : nullptr;
+      bool seams_found = true;
+      hints[e] = split_one(where, around, copies, tets, corners, is_divided, near, index, splitter,
+                           wide, embedded[e], again, seams_found);
+      if (seams_found) continue;
+      // A seam's vertex not found (an earlier event's split of the triangle across it differs):
+      // the surface made again as it was before the scalpel began, split along the whole path.
+      log::debug("cut: {}: split again along the whole path (a seam did not match)",
+                 embedded[e].name);
+      unsplit_like(*again->unsplit, embedded[e]);
+      if (had != nullptr) (*had)[e] = embedded[e].V.rows();
+      hints[e] = split_one(where, around, copies, tets, corners, is_divided, near, index, splitter,
+                           wide, embedded[e], nullptr, seams_found);
+    } catch (...) {
+      failed[e] = std::current_exception();
+    }
   }
+  for (const std::exception_ptr& f : failed)
+    if (f) std::rethrow_exception(f);
   return hints;
 }
 
