@@ -19,11 +19,13 @@
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
 
 #include "lamina/core/error.h"
+#include "lamina/core/log.h"
 #include "lamina/interact/sphere_pressure.h"
 #include "sparse_factor.h"
 
@@ -625,7 +627,15 @@ FemResult solve_nonlinear(const TetMesh& mesh, const FemMaterial& material,
   int iterations = 0;
   double residual = 0.0;
   bool all_converged = true;
+  const auto started = std::chrono::steady_clock::now();
   for (int s = 1; s <= options.load_steps; ++s) {
+    // (`-v`: a reference at 43k nodes takes minutes per load step; say it is alive.)
+    if (s > 1)
+      log::debug(
+          "fem ({}): load step {} of {} done, {} iterations so far, residual {:.2g}, {:.0f} s",
+          law == FemLaw::kNeoHookean ? "Neo-Hookean" : "corotational", s - 1, options.load_steps,
+          iterations, residual,
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
     const double load = static_cast<double>(s) / options.load_steps;
     w.contact_curvature = false;
     if (w.sphere) {  // the sphere's centre takes this step's place; its push follows

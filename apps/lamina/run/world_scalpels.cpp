@@ -44,6 +44,9 @@ std::vector<size_t> advance_world_scalpels(io::ReadyWorld& w, std::vector<BodySc
             c.diameter_mm, c.closed ? "" : " (the blade stopped inside it)");
         s.structures_cut.push_back(c.name);
       }
+      if (e.report.cut_tets == 0 && e.report.surfaces_split)
+        log::debug("t = {:.3f} s: past {}'s tissue, the structures beside it split, in {:.1f} ms",
+                   e.time_s, name, 1e3 * e.seconds);
       if (e.report.cut_tets == 0) continue;
       log::debug("t = {:.3f} s: cut {} tetrahedra of {}, {} new nodes, in {:.1f} ms", e.time_s,
                  e.report.cut_tets, name, e.report.new_nodes, 1e3 * e.seconds);
