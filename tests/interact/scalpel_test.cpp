@@ -212,19 +212,7 @@ void expect_new_part_split_as_whole(const Model& m0, double x0) {
     SCOPED_TRACE(b.name);
     EXPECT_EQ(a.V.rows(), b.V.rows());
     EXPECT_EQ(a.F.rows(), b.F.rows());
-    // Each triangle by its piece and its centroid (to 1e-6 mm).
-    const auto triangles = [&](const EmbeddedSurface& s) {
-      std::vector<std::array<int64_t, 4>> out;
-      for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
-        const Eigen::Vector3d c =
-            (s.V.row(s.F(f, 0)) + s.V.row(s.F(f, 1)) + s.V.row(s.F(f, 2))).transpose() / 3.0;
-        out.push_back({piece[s.corners(s.F(f, 0), 0)], std::llround(c.x() * 1e6),
-                       std::llround(c.y() * 1e6), std::llround(c.z() * 1e6)});
-      }
-      std::sort(out.begin(), out.end());
-      return out;
-    };
-    const auto ta = triangles(a), tb = triangles(b);
+    const auto ta = test::triangle_keys(a, piece), tb = test::triangle_keys(b, piece);
     size_t differ = ta.size() == tb.size() ? 0 : std::max(ta.size(), tb.size());
     for (size_t k = 0; k < ta.size() && k < tb.size(); ++k) differ += ta[k] != tb[k];
     EXPECT_EQ(differ, 0u) << "triangles that differ (or sit on another piece)";

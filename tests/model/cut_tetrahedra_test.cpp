@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -386,6 +388,86 @@ TEST(Cut, TheRealLiversFineSurfacesSplitExactlyAndEveryPieceIsClosed) {
     const Model m = model::build_model(io::read_label_volume(test::real_data(name)), o).model;
     ASSERT_FALSE(m.embedded.empty());
     EXPECT_GE(expect_fine_surfaces_split(m, m.X.col(0).mean() + 0.37), 1);
+  }
+}
+
+// A blade of columns in the plane x = x0, column c at y0 + c dy, each from z_top down `rows`
+// rows of dz: columns [from, to), two triangles a cell, as a progressive scalpel's strip.
+model::Blade column_strip(double x0, double y0, double dy, double z_top, double dz, int rows,
+                          int from, int to) {
+  model::Blade b;
+  const int per = rows + 1, cols = to - from;
+  b.V.resize(cols * per, 3);
+  for (int c = 0; c < cols; ++c)
+    for (int r = 0; r < per; ++r) b.V.row(c * per + r) << x0, y0 + (from + c) * dy, z_top - r * dz;
+  b.F.resize(2 * rows * (cols - 1), 3);
+  Eigen::Index f = 0;
+  for (int c = 0; c + 1 < cols; ++c)
+    for (int r = 0; r < rows; ++r) {
+      const int a = c * per + r, n = a + per;
+      b.F.row(f++) << a, n, a + 1;
+      b.F.row(f++) << n, n + 1, a + 1;
+    }
+  return b;
+}
+
+// Each embedded surface's test::triangle_keys().
+std::vector<std::vector<std::array<int64_t, 4>>> surface_keys(const Model& m) {
+  const std::vector<int32_t> piece = test::piece_of_nodes(m);
+  std::vector<std::vector<std::array<int64_t, 4>>> out;
+  for (const EmbeddedSurface& s : m.embedded) out.push_back(test::triangle_keys(s, piece));
+  return out;
+}
+
+// A progressive cut's second event splits the surfaces along its blade's new part only
+// (CutOptions::unsplit_new), keeping what the first made: the same surfaces as splitting them
+// afresh along the whole blade. Where the model's surfaces do not hold the first event's split
+// (here they are the unsplit ones again: no vertex at a seam), the whole blade's split is made
+// instead, with the same result; else the earlier part would stay unsplit.
+TEST(Cut, ASplitAlongTheNewPartOnlyIsTheWholeBladesAndFallsBackWhereASeamIsMissing) {
+  const Model& m0 = organ();
+  Eigen::Vector3d lo = m0.X.colwise().minCoeff(), hi = m0.X.colwise().maxCoeff();
+  for (const EmbeddedSurface& s : m0.embedded) {
+    lo = lo.cwiseMin(s.V.colwise().minCoeff().transpose());
+    hi = hi.cwiseMax(s.V.colwise().maxCoeff().transpose());
+  }
+  const int rows = 12, cols = 25, half = 12;
+  const double x0 = m0.X.col(0).mean() + 0.37, y0 = lo.y() - 5, z_top = hi.z() + 5;
+  const double dy = (hi.y() - lo.y() + 10) / (cols - 1), dz = (hi.z() - lo.z() + 10) / rows;
+  const model::Blade first = column_strip(x0, y0, dy, z_top, dz, rows, 0, half + 1),
+                     whole = column_strip(x0, y0, dy, z_top, dz, rows, 0, cols),
+                     fresh = column_strip(x0, y0, dy, z_top, dz, rows, half, cols);
+  Model m1;
+  std::vector<int32_t> origin;
+  model::CutReport report;
+  model::CutOptions o1;
+  o1.unsplit = &m0.embedded, o1.unsplit_blade = &first;
+  model::cut_tetrahedra(m0, m0.X, first, m1, origin, report, o1);
+  ASSERT_GT(report.cut_tets, 0);
+  const auto second = [&](const Model& m, const model::Blade* fresh_part) {
+    Model out;
+    model::CutOptions o;
+    o.unsplit = &m0.embedded, o.unsplit_blade = &whole, o.unsplit_new = fresh_part;
+    model::cut_tetrahedra(m, m.X, fresh, out, origin, report, o);
+    EXPECT_GT(report.cut_tets, 0);
+    return out;
+  };
+  // The surfaces as they were before the first event, their vertices where m1's are embedded.
+  Model unsplit = m1;
+  for (EmbeddedSurface& s : unsplit.embedded)
+    for (const EmbeddedSurface& u : m0.embedded)
+      if (u.name == s.name && u.role == s.role) model::detail::unsplit_like(u, s);
+  const auto afresh = surface_keys(second(m1, nullptr));
+  const auto part = surface_keys(second(m1, &fresh));
+  const auto fallback = surface_keys(second(unsplit, &fresh));
+  ASSERT_EQ(afresh.size(), m0.embedded.size() + 1);  // and the wound
+  for (size_t e = 0; e < afresh.size(); ++e) {
+    SCOPED_TRACE(e < m0.embedded.size() ? m0.embedded[e].name : "wound");
+    EXPECT_GT(afresh[e].size(), 0u);
+    EXPECT_TRUE(part[e] == afresh[e]) << "along the new part only: " << part[e].size() << " vs "
+                                      << afresh[e].size() << " triangles";
+    EXPECT_TRUE(fallback[e] == afresh[e]) << "with a seam missing: " << fallback[e].size() << " vs "
+                                          << afresh[e].size() << " triangles";
   }
 }
 

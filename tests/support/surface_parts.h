@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -16,6 +18,21 @@
 #include "lamina/model/model.h"
 
 namespace lamina::test {
+
+/// The surface's triangles, each by the piece its first vertex follows and its centroid (to
+/// 1e-6 mm), sorted: two cuts that leave the same surface give the same list.
+inline std::vector<std::array<int64_t, 4>> triangle_keys(const EmbeddedSurface& s,
+                                                         const std::vector<int32_t>& piece) {
+  std::vector<std::array<int64_t, 4>> out;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+    const Eigen::Vector3d c =
+        (s.V.row(s.F(f, 0)) + s.V.row(s.F(f, 1)) + s.V.row(s.F(f, 2))).transpose() / 3.0;
+    out.push_back({piece[s.corners(s.F(f, 0), 0)], std::llround(c.x() * 1e6),
+                   std::llround(c.y() * 1e6), std::llround(c.z() * 1e6)});
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
 
 /// Per node, its piece: the root of its connected part of the tetrahedra.
 inline std::vector<int32_t> piece_of_nodes(const Model& m) {
