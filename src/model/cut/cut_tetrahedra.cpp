@@ -604,8 +604,6 @@ bool on_side(const Eigen::MatrixX4i& T, const detail::Crossings& crossings, int3
   return (normal.dot(q - centre) > 0.0) == (normal.dot(corner[inside] - centre) > 0.0);
 }
 
-// A cut that sweeps again (CutOptions::unsplit): each fine surface as it was before the cut
-// began, its vertices where the model's now are embedded, to be split along the whole blade.
 // The surface s was before the scalpel began (the same name and label, its vertices s's first
 // rows), or null.
 const EmbeddedSurface* unsplit_of(const CutOptions& options, const EmbeddedSurface& s) {
@@ -616,6 +614,8 @@ const EmbeddedSurface* unsplit_of(const CutOptions& options, const EmbeddedSurfa
   return nullptr;
 }
 
+// A cut that sweeps again (CutOptions::unsplit): each fine surface as it was before the cut
+// began, its vertices where the model's now are embedded, to be split along the whole blade.
 void take_unsplit(const CutOptions& options, std::vector<EmbeddedSurface>& embedded) {
   for (EmbeddedSurface& s : embedded)
     if (const EmbeddedSurface* u = unsplit_of(options, s)) detail::unsplit_like(*u, s);
@@ -649,10 +649,10 @@ bool follow_embedded(const Model& model, const Eigen::MatrixX3d& x, const Blade&
   // Along the path's new part only where it is known (the surfaces split along the rest at the
   // earlier events); else afresh along the whole path.
   std::vector<detail::Resplit> resplit;
-  const detail::BladeIndex fresh_index = afresh && options.unsplit_new
-                                             ? detail::index_blade(*options.unsplit_new)
-                                             : detail::BladeIndex{};
-  if (afresh && options.unsplit_new != nullptr) {
+  const bool along_new_part = afresh && options.unsplit_new != nullptr;
+  const detail::BladeIndex fresh_index =
+      along_new_part ? detail::index_blade(*options.unsplit_new) : detail::BladeIndex{};
+  if (along_new_part) {
     resplit.resize(m.embedded.size());
     // (Each surface by one thread: its own, the blades read only.)
 #pragma omp parallel for schedule(dynamic, 1)

@@ -11,7 +11,6 @@
 #include <cmath>
 #include <map>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "cut_internal.h"
 
