@@ -18,6 +18,9 @@ install(TARGETS lamina lamina_render lamina_net lamina_capi EXPORT laminaTargets
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(TARGETS lamina_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/lamina DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+# The data compiled into the library and its licences (data/PROVENANCE.md), beside the library's docs.
+install(FILES ${PROJECT_SOURCE_DIR}/data/PROVENANCE.md DESTINATION ${CMAKE_INSTALL_DOCDIR}/data)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/data/licenses DESTINATION ${CMAKE_INSTALL_DOCDIR}/data)
 install(EXPORT laminaTargets NAMESPACE lamina:: FILE laminaTargets.cmake
         DESTINATION ${LAMINA_CMAKE_DIR})
 

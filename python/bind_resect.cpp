@@ -158,8 +158,8 @@ void bind_resect(py::module_& m) {
       "portal vein or hepatic veins among the structures also 'function' (int32 (k, j, i): 1\n"
       "functional, 2 devascularized, 3 congested, 4 both) and 'territories' ({tree name: int32\n"
       "(k, j, i) branch id + 1}); segments=True: Couinaud's segments ('segments': int32 (k, j, i)\n"
-      "1-8, a first stage: docs/resection.md), placed as `auto`; or segments='vessels' or\n"
-      "'atlas' (lamina resect --segments-from).");
+      "1-8: docs/resection.md), placed as `auto`; or segments='vessels' or 'atlas' (the\n"
+      "organ alone suffices; lamina resect --segments-from).");
 }
 
 }  // namespace lamina::python

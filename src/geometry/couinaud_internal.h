@@ -21,4 +21,14 @@ void place_segments(const Mask& organ, const Heights& heights, CouinaudSegments&
 /// The right transverse plane's height share for the left one's (the experts' mean offset).
 double right_level_share(double portal_share);
 
+/// One liver of the compiled-in atlas (couinaud_atlas.cpp): its labels 0-8 on a g^3 grid in its
+/// own bounding box (x to the patient's left, y to the back, z up; z fastest, then y, x).
+struct AtlasLiver {
+  int g = 0;
+  int lits_number = 0;
+  const uint8_t* labels = nullptr;
+};
+int atlas_liver_count();
+AtlasLiver atlas_liver(int index);
+
 }  // namespace lamina::geometry::detail

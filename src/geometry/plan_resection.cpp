@@ -420,11 +420,13 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
 
   // 2c. Couinaud's segments: from the trees' centrelines together, or by the atlas.
   if (opt.segments) {
-    if (plan.trees.empty() && merged_names.empty())
+    // The atlas needs only the organ; the vessels' placement (and auto's choice) the vessels.
+    if (plan.trees.empty() && merged_names.empty() && opt.segments_from != SegmentPlacement::kAtlas)
       throw invalid_input(source,
                           "Couinaud's segments need the portal vein and hepatic veins among the "
                           "structures (--embed LABEL=portal_vein,LABEL=hepatic_veins, or one "
-                          "label named liver_vessels)");
+                          "label named liver_vessels), or --segments-from atlas for the organ "
+                          "alone");
     bool portal = false, hepatic = false;
     for (const VascularTree& vt : plan.trees) {
       portal = portal || vt.kind == VesselTreeKind::kPortal;

@@ -296,6 +296,13 @@ TEST(ResectCli, CouinaudsSegmentsFromOneMergedVesselLabelArePlacedByTheAtlas) {
     EXPECT_EQ(ja["couinaud_segments"]["segments"][s]["volume_ml"],
               jb["couinaud_segments"]["segments"][s]["volume_ml"])
         << "segment " << s + 1;
+  EXPECT_EQ(jb["couinaud_segments"]["atlas"]["livers"].size(), 10U);
+  EXPECT_TRUE(jb["couinaud_segments"]["landmarks"].is_null());
+  // The atlas needs only the organ: no structure named at all.
+  const auto alone =
+      lamina(d, "resect --plane 5,0,0:1,0,0 --label 1 --segments --segments-from atlas --json");
+  ASSERT_EQ(alone.exit_code, 0) << alone.err;
+  EXPECT_EQ(json::parse(alone.out)["couinaud_segments"]["placed_by"], "atlas");
   // The vessels asked for where the merged label (the portal vein alone) has no landmarks:
   // refused, naming what is missing.
   const auto c = lamina(d,

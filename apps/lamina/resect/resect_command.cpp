@@ -102,10 +102,12 @@ std::string text_of(const geometry::ResectionReport& r) {
         r.functional_sufficient ? "sufficient" : "INSUFFICIENT", r.functional->devascularized_ml,
         r.functional->congested_ml);
   if (r.segment_landmarks) {
-    t += fmt::format("Couinaud segments (a first stage, check them; placed by the {}):",
-                     r.segment_landmarks->placed_by == geometry::CouinaudPlacement::kAtlas
-                         ? "atlas"
-                         : "vessels");
+    const geometry::CouinaudLandmarks& lm = *r.segment_landmarks;
+    t += fmt::format("Couinaud segments (check them; placed by the {}):",
+                     lm.placed_by == geometry::CouinaudPlacement::kAtlas
+                         ? fmt::format("atlas, {} expert-labelled livers of shape overlap {:.2f}",
+                                       lm.atlas_livers.size(), lm.atlas_overlap)
+                         : std::string("vessels"));
     for (size_t s = 1; s <= 8; ++s)
       t += fmt::format(" {}: {:.0f} mL ({:.0f}% resected){}", s, r.segment_ml[s],
                        r.segment_resected_percent[s], s < 8 ? "," : "\n");
