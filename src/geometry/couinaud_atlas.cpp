@@ -18,6 +18,8 @@
 #include "couinaud_internal.h"
 #include "lamina/core/error.h"
 #include "lamina/geometry/couinaud_segments.h"
+#include "sample_grid.h"
+#include "vessel_internal.h"
 
 extern const unsigned char lamina_couinaud_atlas[];
 extern const std::size_t lamina_couinaud_atlas_size;
@@ -26,7 +28,7 @@ namespace lamina::geometry {
 namespace {
 
 // The livers that vote, how far (bins) each may move to fit, and the votes' smoothing (bins):
-// chosen on the validation of docs/resection.md (10 livers: 0.793; 20: 0.78; all 111: 0.77).
+// chosen on the validation of docs/resection.md (10 livers: 0.793; 20: 0.781; all 111: 0.756).
 constexpr int kVoters = 10;
 constexpr int kShiftBins = 3;
 constexpr double kSmoothBins = 1.0;
@@ -35,7 +37,25 @@ struct Atlas {
   int g = 0;                      // bins along each axis (40)
   std::vector<uint16_t> numbers;  // each liver's LiTS number
   std::vector<uint8_t> labels;    // per liver g^3 labels 0-8, z fastest, then y, then x
+  std::vector<uint64_t> bits;     // per liver g^2 columns: its bins as z bits (occupancy)
+  std::vector<int64_t> bins;      // per liver: how many bins it fills
 };
+
+// A liver's bins as bits: one 64-bit word of z bits per (x, y) column.
+void add_occupancy(const uint8_t* labels, int g, std::vector<uint64_t>& bits) {
+  for (int c = 0; c < g * g; ++c) {
+    uint64_t w = 0;
+    for (int z = 0; z < g; ++z)
+      if (labels[static_cast<size_t>(c * g + z)] != 0) w |= 1ULL << z;
+    bits.push_back(w);
+  }
+}
+
+int64_t count_bits(const uint64_t* bits, int g) {
+  int64_t n = 0;
+  for (int c = 0; c < g * g; ++c) n += std::popcount(bits[c]);
+  return n;
+}
 
 Atlas inflate_atlas() {
   std::vector<uint8_t> raw;
@@ -64,27 +84,17 @@ Atlas inflate_atlas() {
   a.numbers.resize(n);
   std::memcpy(a.numbers.data(), raw.data() + 12, 2 * n);
   a.labels.assign(raw.begin() + static_cast<std::ptrdiff_t>(12 + 2 * n), raw.end());
+  // The livers' shapes, which every organ is fitted against, made once.
+  for (size_t l = 0; l < n; ++l) {
+    add_occupancy(a.labels.data() + l * cells, a.g, a.bits);
+    a.bins.push_back(count_bits(a.bits.data() + l * size_t{header[0]} * header[0], a.g));
+  }
   return a;
 }
 
 const Atlas& atlas() {
   static const Atlas a = inflate_atlas();  // once per process, on first use (thread-safe)
   return a;
-}
-
-// A liver's bins as bits: one 64-bit word of z bits per (x, y) column.
-std::vector<uint64_t> occupancy(const uint8_t* labels, int g) {
-  std::vector<uint64_t> bits(static_cast<size_t>(g * g), 0);
-  for (int c = 0; c < g * g; ++c)
-    for (int z = 0; z < g; ++z)
-      if (labels[static_cast<size_t>(c * g + z)] != 0) bits[static_cast<size_t>(c)] |= 1ULL << z;
-  return bits;
-}
-
-int64_t count_bits(const std::vector<uint64_t>& bits) {
-  int64_t n = 0;
-  for (const uint64_t w : bits) n += std::popcount(w);
-  return n;
 }
 
 struct Fit {
@@ -94,10 +104,9 @@ struct Fit {
 };
 
 // The shift of a liver's bins (within kShiftBins each way) that overlaps the organ's most.
-Fit best_shift(const std::vector<uint64_t>& organ, int64_t organ_bins,
-               const std::vector<uint64_t>& liver, int g) {
+Fit best_shift(const std::vector<uint64_t>& organ, int64_t organ_bins, const uint64_t* liver,
+               int64_t liver_bins, int g) {
   const uint64_t all = g == 64 ? ~0ULL : (1ULL << g) - 1;
-  const int64_t liver_bins = count_bits(liver);
   Fit best;
   for (int dx = -kShiftBins; dx <= kShiftBins; ++dx)
     for (int dy = -kShiftBins; dy <= kShiftBins; ++dy)
@@ -116,11 +125,14 @@ Fit best_shift(const std::vector<uint64_t>& organ, int64_t organ_bins,
   return best;
 }
 
-// Gaussian smoothing of one label's votes along one axis (radius 4 sigma, mirrored at the
-// edges as scipy.ndimage does by default, which the validation used).
+// Gaussian smoothing of one label's votes (g^3, x fastest) along one axis (radius 4 sigma,
+// mirrored at the edges as scipy.ndimage does by default, which the validation used).
 void smooth_axis(std::vector<float>& v, int g, int axis, const std::vector<float>& kernel) {
   const int r = static_cast<int>(kernel.size()) / 2;
-  const int stride = axis == 0 ? g * g : axis == 1 ? g : 1;
+  const std::array<int, 3> strides{1, g, g * g};
+  const int stride = strides[static_cast<size_t>(axis)];
+  const int across_a = strides[static_cast<size_t>((axis + 1) % 3)],
+            across_b = strides[static_cast<size_t>((axis + 2) % 3)];
   std::vector<float> line(static_cast<size_t>(g)), out(static_cast<size_t>(g));
   const auto mirror = [g](int i) {
     while (i < 0 || i >= g) i = i < 0 ? -i - 1 : 2 * g - i - 1;
@@ -128,7 +140,7 @@ void smooth_axis(std::vector<float>& v, int g, int axis, const std::vector<float
   };
   for (int a = 0; a < g; ++a)
     for (int b = 0; b < g; ++b) {
-      const int base = axis == 0 ? a * g + b : axis == 1 ? a * g * g + b : a * g * g + b * g;
+      const int base = a * across_a + b * across_b;
       for (int i = 0; i < g; ++i)
         line[static_cast<size_t>(i)] = v[static_cast<size_t>(base + i * stride)];
       for (int i = 0; i < g; ++i) {
@@ -175,31 +187,31 @@ CouinaudSegments couinaud_segments_from_atlas(const Mask& organ, const std::stri
   const auto in_box = [&](const Eigen::Vector3d& p) -> Eigen::Vector3d {
     return (p - lo).cwiseQuotient(extent) * g;
   };
-  // The organ's bins, then every atlas liver's fit to them.
-  std::vector<uint8_t> organ_labels(cells, 0);
+  // The organ's bins as the atlas's bits, then every atlas liver's fit to them.
+  std::vector<uint64_t> organ_bits(static_cast<size_t>(g) * g, 0);
   for (int64_t v = 0; v < organ.frame.voxel_count(); ++v)
     if (organ.inside[static_cast<size_t>(v)] != 0) {
       const Eigen::Vector3d u = in_box(detail::voxel_centre_mm(organ.frame, v));
       std::array<int, 3> b{};
       for (int d = 0; d < 3; ++d)
         b[static_cast<size_t>(d)] = std::clamp(static_cast<int>(u[d]), 0, g - 1);
-      organ_labels[static_cast<size_t>((b[0] * g + b[1]) * g + b[2])] = 1;
+      organ_bits[static_cast<size_t>(b[0] * g + b[1])] |= 1ULL << b[2];
     }
-  const std::vector<uint64_t> organ_bits = occupancy(organ_labels.data(), g);
-  const int64_t organ_bins = count_bits(organ_bits);
+  const int64_t organ_bins = count_bits(organ_bits.data(), g);
   const int livers = static_cast<int>(a.numbers.size());
   std::vector<Fit> fits(static_cast<size_t>(livers));
 #pragma omp parallel for schedule(dynamic)
   for (int l = 0; l < livers; ++l) {
-    const uint8_t* labels = a.labels.data() + static_cast<size_t>(l) * cells;
-    fits[static_cast<size_t>(l)] = best_shift(organ_bits, organ_bins, occupancy(labels, g), g);
+    fits[static_cast<size_t>(l)] =
+        best_shift(organ_bits, organ_bins, a.bits.data() + static_cast<size_t>(l) * g * g,
+                   a.bins[static_cast<size_t>(l)], g);
     fits[static_cast<size_t>(l)].liver = l;
   }
   // The most alike vote (ties by the atlas's order, so the result does not depend on threads).
   std::stable_sort(fits.begin(), fits.end(),
                    [](const Fit& p, const Fit& q) { return p.overlap > q.overlap; });
   fits.resize(static_cast<size_t>(std::min(kVoters, livers)));
-  std::array<std::vector<float>, 8> votes;
+  std::array<std::vector<float>, 8> votes;  // per segment, g^3, x fastest (sample_trilinear's)
   for (auto& v : votes) v.assign(cells, 0.0F);
   for (const Fit& f : fits) {
     const uint8_t* labels = a.labels.data() + static_cast<size_t>(f.liver) * cells;
@@ -209,7 +221,7 @@ CouinaudSegments couinaud_segments_from_atlas(const Mask& organ, const std::stri
           const uint8_t s = labels[static_cast<size_t>((x * g + y) * g + z)];
           const int tx = x + f.shift[0], ty = y + f.shift[1], tz = z + f.shift[2];
           if (s == 0 || tx < 0 || ty < 0 || tz < 0 || tx >= g || ty >= g || tz >= g) continue;
-          votes[s - 1u][static_cast<size_t>((tx * g + ty) * g + tz)] += 1.0F;
+          votes[s - 1u][static_cast<size_t>(tx + g * (ty + g * tz))] += 1.0F;
         }
   }
   std::vector<float> kernel;
@@ -227,31 +239,16 @@ CouinaudSegments couinaud_segments_from_atlas(const Mask& organ, const std::stri
   CouinaudSegments out;
   out.segment.assign(organ.inside.size(), 0);
   const int64_t n = organ.frame.voxel_count();
+  const std::array<int64_t, 3> size{g, g, g};
 #pragma omp parallel for schedule(static)
   for (int64_t v = 0; v < n; ++v) {
     if (organ.inside[static_cast<size_t>(v)] == 0) continue;
     const Eigen::Vector3d u = in_box(detail::voxel_centre_mm(organ.frame, v)).array() - 0.5;
-    std::array<int, 3> i0{}, i1{};
-    std::array<float, 3> t{};
-    for (int d = 0; d < 3; ++d) {
-      const double c = std::clamp(u[d], 0.0, static_cast<double>(g - 1));
-      i0[static_cast<size_t>(d)] = std::min(static_cast<int>(c), g - 2);
-      i1[static_cast<size_t>(d)] = i0[static_cast<size_t>(d)] + 1;
-      t[static_cast<size_t>(d)] = static_cast<float>(c - i0[static_cast<size_t>(d)]);
-    }
     uint8_t best = 1;
     float most = -1.0F;
     for (int s = 0; s < 8; ++s) {
-      const std::vector<float>& p = votes[static_cast<size_t>(s)];
-      const auto at = [&](int x, int y, int z) {
-        return p[static_cast<size_t>((x * g + y) * g + z)];
-      };
-      const float c00 = at(i0[0], i0[1], i0[2]) * (1 - t[2]) + at(i0[0], i0[1], i1[2]) * t[2];
-      const float c01 = at(i0[0], i1[1], i0[2]) * (1 - t[2]) + at(i0[0], i1[1], i1[2]) * t[2];
-      const float c10 = at(i1[0], i0[1], i0[2]) * (1 - t[2]) + at(i1[0], i0[1], i1[2]) * t[2];
-      const float c11 = at(i1[0], i1[1], i0[2]) * (1 - t[2]) + at(i1[0], i1[1], i1[2]) * t[2];
       const float w =
-          (c00 * (1 - t[1]) + c01 * t[1]) * (1 - t[0]) + (c10 * (1 - t[1]) + c11 * t[1]) * t[0];
+          detail::sample_trilinear(votes[static_cast<size_t>(s)].data(), size, u.x(), u.y(), u.z());
       if (w > most) {
         most = w;
         best = static_cast<uint8_t>(s + 1);

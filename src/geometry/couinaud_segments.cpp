@@ -7,7 +7,6 @@
 #include <cmath>
 #include <numbers>
 
-#include "couinaud_internal.h"
 #include "lamina/core/error.h"
 #include "vessel_internal.h"
 
@@ -35,17 +34,19 @@ constexpr double kVeinsApartDeg = 25.0;
 constexpr double kRightBelowLeft = 0.14;
 constexpr double kCaudateRadiusMm = 35.0, kCaudateBelow = 0.18, kCaudateAbove = 0.11;
 
-}  // namespace
-
-namespace detail {
-
+// Degrees from the patient's right (-x in LPS) towards anterior (-y) about the vertical line
+// through `axis`, in [-90, 270).
 double azimuth_deg(const Eigen::Vector3d& p, const Eigen::Vector3d& axis) {
   double a = std::atan2(-(p.y() - axis.y()), -(p.x() - axis.x())) * kDeg;
   if (a < -90.0) a += 360.0;
   return a;
 }
 
-void place_segments(const Mask& organ, const Heights& heights, CouinaudSegments& out) {
+// Fills out.segment and out.volume_ml from out.landmarks: by each organ voxel's azimuth about
+// the scissurae's axis, right of the right plane 6/7, between right and middle 5/8, between
+// middle and left 4, beyond the left 2/3; 7 above 6 and 8 above 5 at the right level, 2 above
+// 3 at the portal level; segment 1 about the axis around the portal level.
+void place_segments(const Mask& organ, const detail::Heights& heights, CouinaudSegments& out) {
   const CouinaudLandmarks& lm = out.landmarks;
   const GridFrame& f = organ.frame;
   const double height = heights.hi - heights.lo;
@@ -56,7 +57,7 @@ void place_segments(const Mask& organ, const Heights& heights, CouinaudSegments&
   const double voxel_ml = f.voxel_volume_mm3() / 1000.0;
   for (int64_t v = 0; v < f.voxel_count(); ++v) {
     if (organ.inside[static_cast<size_t>(v)] == 0) continue;
-    const Eigen::Vector3d p = voxel_centre_mm(f, v);
+    const Eigen::Vector3d p = detail::voxel_centre_mm(f, v);
     const double a = azimuth_deg(p, lm.confluence_mm);
     const double r = std::hypot(p.x() - lm.confluence_mm.x(), p.y() - lm.confluence_mm.y());
     uint8_t s = 0;
@@ -75,11 +76,12 @@ void place_segments(const Mask& organ, const Heights& heights, CouinaudSegments&
   }
 }
 
+// The right transverse plane's height share for the left one's (the experts' mean offset).
 double right_level_share(double portal_share) {
   return portal_share - kRightBelowLeft;
 }
 
-}  // namespace detail
+}  // namespace
 
 CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels,
                                    const std::string& name) {
@@ -144,7 +146,7 @@ CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels
       break;
     }
   lm.portal_level_mm = z_lo + portal * height;
-  lm.right_level_mm = z_lo + detail::right_level_share(portal) * height;
+  lm.right_level_mm = z_lo + right_level_share(portal) * height;
 
   // The hepatic veins: the three strongest peaks of the centrelines' azimuths above the portal
   // level, each voxel weighted by its branch's cross-section.
@@ -155,8 +157,8 @@ CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels
       const Eigen::Vector3d p = detail::voxel_centre_mm(vf, v);
       const double r = std::hypot(p.x() - lm.confluence_mm.x(), p.y() - lm.confluence_mm.y());
       if (p.z() <= lm.portal_level_mm || r <= kVeinFromMm || r >= kVeinToMm) continue;
-      const int bin = std::clamp(
-          static_cast<int>((detail::azimuth_deg(p, lm.confluence_mm) + 90.0) / 5.0), 0, kBins - 1);
+      const int bin = std::clamp(static_cast<int>((azimuth_deg(p, lm.confluence_mm) + 90.0) / 5.0),
+                                 0, kBins - 1);
       histogram[static_cast<size_t>(bin)] += b.radius_mm * b.radius_mm;
     }
   std::array<double, kBins> smooth{};
@@ -188,7 +190,7 @@ CouinaudSegments couinaud_segments(const Mask& organ, const VesselGraph& vessels
 
   // Every organ voxel by its azimuth about the confluence's axis and its height.
   lm.placed_by = CouinaudPlacement::kVessels;
-  detail::place_segments(organ, heights, out);
+  place_segments(organ, heights, out);
   return out;
 }
 

@@ -16,35 +16,10 @@
 #include "lamina/geometry/mesh_measures.h"
 #include "lamina/geometry/prepare_mask.h"
 #include "lamina/geometry/smooth_surface.h"
+#include "sample_grid.h"
 
 namespace lamina::geometry {
 namespace {
-
-// Trilinear sample of `field` at continuous index (x, y, z), clamped to the grid: points beyond
-// it take the border's values, which are outside (positive) on a padded mask.
-float sample(const DistanceField& field, double x, double y, double z) {
-  const auto& n = field.frame.size;
-  const double p[3] = {std::clamp(x, 0.0, static_cast<double>(n[0] - 1)),
-                       std::clamp(y, 0.0, static_cast<double>(n[1] - 1)),
-                       std::clamp(z, 0.0, static_cast<double>(n[2] - 1))};
-  int64_t c[3];
-  double t[3];
-  for (int a = 0; a < 3; ++a) {
-    c[a] = std::min(static_cast<int64_t>(p[a]), std::max<int64_t>(n[a] - 2, 0));
-    t[a] = p[a] - static_cast<double>(c[a]);
-  }
-  const auto at = [&](int64_t di, int64_t dj, int64_t dk) {
-    const int64_t i = std::min(c[0] + di, n[0] - 1), j = std::min(c[1] + dj, n[1] - 1),
-                  k = std::min(c[2] + dk, n[2] - 1);
-    return static_cast<double>(field.phi[static_cast<size_t>(field.frame.index(i, j, k))]);
-  };
-  const auto lerp = [](double a, double b, double s) { return a + s * (b - a); };
-  const double y0 =
-      lerp(lerp(at(0, 0, 0), at(1, 0, 0), t[0]), lerp(at(0, 1, 0), at(1, 1, 0), t[0]), t[1]);
-  const double y1 =
-      lerp(lerp(at(0, 0, 1), at(1, 0, 1), t[0]), lerp(at(0, 1, 1), at(1, 1, 1), t[0]), t[1]);
-  return static_cast<float>(lerp(y0, y1, t[2]));
-}
 
 // `fine` sampled on a grid of cubic cells `h_mm` wide over the same box, one cell wider on
 // every side so that the surface closes inside it whatever h is.
@@ -67,9 +42,11 @@ DistanceField resample(const DistanceField& fine, double h_mm) {
   for (int64_t k = 0; k < n[2]; ++k)
     for (int64_t j = 0; j < n[1]; ++j)
       for (int64_t i = 0; i < n[0]; ++i)
-        out.phi[static_cast<size_t>(out.frame.index(i, j, k))] =
-            sample(fine, static_cast<double>(i - 1) * step[0], static_cast<double>(j - 1) * step[1],
-                   static_cast<double>(k - 1) * step[2]);
+        // Clamped: points beyond the fine grid take its border's values, which are outside
+        // (positive) on a padded mask.
+        out.phi[static_cast<size_t>(out.frame.index(i, j, k))] = detail::sample_trilinear(
+            fine.phi.data(), fine.frame.size, static_cast<double>(i - 1) * step[0],
+            static_cast<double>(j - 1) * step[1], static_cast<double>(k - 1) * step[2]);
   return out;
 }
 
