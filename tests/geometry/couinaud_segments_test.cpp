@@ -170,8 +170,9 @@ TEST(CouinaudSegments, AnAtlasLiverAsTheOrganVotesForItselfAndGetsItsSegmentsBac
     double mean = 0.0;
     for (size_t s = 1; s <= 8; ++s)
       mean += 2.0 * static_cast<double>(both[s]) / static_cast<double>(ours[s] + theirs[s]) / 8.0;
-    // One voter of ten: 0.81 and 0.83 measured (the voters moved by the shifts reversed: 0.72).
-    EXPECT_GT(mean, 0.75) << "LiTS-" << liver.lits_number;
+    // One voter of ten: 0.81 and 0.85 measured (the voters moved by the shifts reversed, which
+    // the bending then partly mends: 0.76 and 0.78).
+    EXPECT_GT(mean, 0.79) << "LiTS-" << liver.lits_number;
   }
 }
 

@@ -1,0 +1,111 @@
+// Outline registration by demons (register_outlines.h): Thirion, "Image matching as a diffusion
+// process" (Medical Image Analysis 2, 1998), on signed distances rather than intensities, so
+// the force is defined everywhere near the outline and its size is a distance in voxels. The
+// atlas runs it on 48^3 bins for each of its voting livers (docs/resection.md).
+#include "register_outlines.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "distance_transform.h"
+#include "smooth_grid.h"
+
+namespace lamina::geometry::detail {
+
+std::vector<float> signed_distance_voxels(const std::vector<uint8_t>& inside, int n) {
+  GridFrame frame;
+  frame.size = {n, n, n};
+  std::vector<uint8_t> outside(inside.size());
+  for (size_t i = 0; i < inside.size(); ++i) outside[i] = inside[i] != 0 ? 0 : 1;
+  std::vector<float> phi = distance_to_foreground(frame, inside);
+  const std::vector<float> in = distance_to_foreground(frame, outside);
+  for (size_t i = 0; i < phi.size(); ++i) phi[i] -= in[i];
+  return phi;
+}
+
+namespace {
+
+// The moving distance and its gradient (central differences; one-sided at the edges), together
+// so one trilinear gather reads all four.
+std::vector<std::array<float, 4>> with_gradient(const std::vector<float>& phi, int n) {
+  std::vector<std::array<float, 4>> out(phi.size());
+  const std::array<int64_t, 3> stride{1, n, int64_t{n} * n};
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const int64_t i = x + n * (y + int64_t{n} * z);
+        const std::array<int, 3> at{x, y, z};
+        out[static_cast<size_t>(i)][0] = phi[static_cast<size_t>(i)];
+        for (int a = 0; a < 3; ++a) {
+          const int64_t s = stride[static_cast<size_t>(a)];
+          const int c = at[static_cast<size_t>(a)];
+          const int64_t lo = c > 0 ? i - s : i, hi = c < n - 1 ? i + s : i;
+          const float h = static_cast<float>((c < n - 1 ? 1 : 0) + (c > 0 ? 1 : 0));
+          out[static_cast<size_t>(i)][static_cast<size_t>(a + 1)] =
+              (phi[static_cast<size_t>(hi)] - phi[static_cast<size_t>(lo)]) / std::max(h, 1.0F);
+        }
+      }
+  return out;
+}
+
+// The four values at continuous position p (voxels), clamped to the grid.
+std::array<float, 4> sample(const std::vector<std::array<float, 4>>& m, int n, float px, float py,
+                            float pz) {
+  const float top = static_cast<float>(n - 1);
+  const float p[3] = {std::clamp(px, 0.0F, top), std::clamp(py, 0.0F, top),
+                      std::clamp(pz, 0.0F, top)};
+  int c[3];
+  float t[3];
+  for (int a = 0; a < 3; ++a) {
+    c[a] = std::min(static_cast<int>(p[a]), n - 2);
+    t[a] = p[a] - static_cast<float>(c[a]);
+  }
+  std::array<float, 4> out{};
+  for (int dz = 0; dz < 2; ++dz)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) {
+        const float w = (dx ? t[0] : 1 - t[0]) * (dy ? t[1] : 1 - t[1]) * (dz ? t[2] : 1 - t[2]);
+        const auto& v =
+            m[static_cast<size_t>(c[0] + dx + n * (c[1] + dy + int64_t{n} * (c[2] + dz)))];
+        for (int k = 0; k < 4; ++k) out[static_cast<size_t>(k)] += w * v[static_cast<size_t>(k)];
+      }
+  return out;
+}
+
+}  // namespace
+
+Displacement register_outlines(const std::vector<float>& fixed, const std::vector<float>& moving,
+                               int n, const RegisterOutlinesOptions& options) {
+  const auto m = with_gradient(moving, n);
+  const std::vector<float> kernel = gaussian_kernel(options.smooth_voxels);
+  const std::array<int64_t, 3> size{n, n, n};
+  const float band = static_cast<float>(options.band_voxels);
+  Displacement d;
+  for (auto& u : d.u) u.assign(fixed.size(), 0.0F);
+  // The points pushed: those near the organ's outline (the moving outline is pulled to it).
+  std::vector<std::array<int, 3>> near;
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        if (std::abs(fixed[static_cast<size_t>(x + n * (y + int64_t{n} * z))]) < band)
+          near.push_back({x, y, z});
+  std::vector<float> scratch;
+  for (int it = 0; it < options.iterations; ++it) {
+    for (const auto& [x, y, z] : near) {
+      const size_t i = static_cast<size_t>(x + n * (y + int64_t{n} * z));
+      const auto v = sample(m, n, static_cast<float>(x) + d.u[0][i],
+                            static_cast<float>(y) + d.u[1][i], static_cast<float>(z) + d.u[2][i]);
+      // Demons' step: the difference (capped at 3 voxels) along the gradient, damped by
+      // the difference itself where the gradient is small (Thirion's normalisation).
+      const float diff = std::clamp(fixed[i] - v[0], -3.0F, 3.0F);
+      const float g2 = v[1] * v[1] + v[2] * v[2] + v[3] * v[3];
+      const float s = diff / (g2 + diff * diff + 1e-3F);
+      for (int a = 0; a < 3; ++a)
+        d.u[static_cast<size_t>(a)][i] += s * v[static_cast<size_t>(a + 1)];
+    }
+    for (auto& u : d.u) smooth_grid(u, size, kernel, scratch);
+  }
+  return d;
+}
+
+}  // namespace lamina::geometry::detail
