@@ -218,19 +218,9 @@ CouinaudSegments couinaud_segments_from_atlas(const Mask& organ, const std::stri
           moved[at(tx + kPadBins, ty + kPadBins, tz + kPadBins)] = s;
           inside[at(tx + kPadBins, ty + kPadBins, tz + kPadBins)] = s != 0 ? 1 : 0;
         }
-    const detail::Displacement d =
-        detail::register_outlines(organ_phi, detail::signed_distance_voxels(inside, n), n);
-    std::vector<uint8_t>& w = warped[static_cast<size_t>(f)];
-    w.assign(padded, 0);
-    for (int z = 0; z < n; ++z)
-      for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x) {
-          const size_t i = at(x, y, z);
-          const long sx = std::lround(x + d.u[0][i]), sy = std::lround(y + d.u[1][i]),
-                     sz = std::lround(z + d.u[2][i]);
-          if (sx < 0 || sy < 0 || sz < 0 || sx >= n || sy >= n || sz >= n) continue;
-          w[i] = moved[at(static_cast<int>(sx), static_cast<int>(sy), static_cast<int>(sz))];
-        }
+    warped[static_cast<size_t>(f)] = detail::warp_labels(
+        moved, detail::register_outlines(organ_phi, detail::signed_distance_voxels(inside, n), n),
+        n);
   }
   for (const auto& w : warped)
     for (size_t i = 0; i < padded; ++i)

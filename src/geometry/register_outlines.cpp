@@ -108,4 +108,18 @@ Displacement register_outlines(const std::vector<float>& fixed, const std::vecto
   return d;
 }
 
+std::vector<uint8_t> warp_labels(const std::vector<uint8_t>& moving, const Displacement& d, int n) {
+  std::vector<uint8_t> out(moving.size(), 0);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const size_t i = static_cast<size_t>(x + n * (y + int64_t{n} * z));
+        const long sx = std::lround(x + d.u[0][i]), sy = std::lround(y + d.u[1][i]),
+                   sz = std::lround(z + d.u[2][i]);
+        if (sx < 0 || sy < 0 || sz < 0 || sx >= n || sy >= n || sz >= n) continue;
+        out[i] = moving[static_cast<size_t>(sx + n * (sy + int64_t{n} * sz))];
+      }
+  return out;
+}
+
 }  // namespace lamina::geometry::detail

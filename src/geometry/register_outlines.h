@@ -33,4 +33,8 @@ struct RegisterOutlinesOptions {
 Displacement register_outlines(const std::vector<float>& fixed, const std::vector<float>& moving,
                                int n, const RegisterOutlinesOptions& options = {});
 
+/// The labels of the moving grid (n^3, x fastest) where the displacement carries each point of
+/// the fixed one (the nearest voxel; 0 where it leaves the grid).
+std::vector<uint8_t> warp_labels(const std::vector<uint8_t>& moving, const Displacement& d, int n);
+
 }  // namespace lamina::geometry::detail

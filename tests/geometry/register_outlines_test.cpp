@@ -31,21 +31,6 @@ std::vector<uint8_t> ellipsoid(double cx, double cy, double cz, double a, double
   return m;
 }
 
-// The moving mask read where the displacement sends each point (nearest voxel, as the atlas).
-std::vector<uint8_t> warp(const std::vector<uint8_t>& moving, const Displacement& d) {
-  std::vector<uint8_t> out(moving.size(), 0);
-  for (int z = 0; z < kN; ++z)
-    for (int y = 0; y < kN; ++y)
-      for (int x = 0; x < kN; ++x) {
-        const size_t i = at(x, y, z);
-        const long sx = std::lround(x + d.u[0][i]), sy = std::lround(y + d.u[1][i]),
-                   sz = std::lround(z + d.u[2][i]);
-        if (sx >= 0 && sy >= 0 && sz >= 0 && sx < kN && sy < kN && sz < kN)
-          out[i] = moving[at(static_cast<int>(sx), static_cast<int>(sy), static_cast<int>(sz))];
-      }
-  return out;
-}
-
 double dice(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
   double both = 0, sum = 0;
   for (size_t i = 0; i < a.size(); ++i) {
@@ -61,7 +46,7 @@ TEST(RegisterOutlines, CarriesAMovedAndSquashedShapeOntoTheFixedOneWithoutFoldin
   const double before = dice(fixed, moving);
   const Displacement d =
       register_outlines(signed_distance_voxels(fixed, kN), signed_distance_voxels(moving, kN), kN);
-  const double after = dice(fixed, warp(moving, d));
+  const double after = dice(fixed, warp_labels(moving, d, kN));
   EXPECT_LT(before, 0.80);
   EXPECT_GT(after, 0.95) << "before " << before;
   // The map stays one to one: the displacement's Jacobian determinant (central differences)
