@@ -7,20 +7,16 @@
 #include <algorithm>
 #include <cmath>
 
-#include "distance_transform.h"
+#include "lamina/geometry/mask_filters.h"
 #include "smooth_grid.h"
 
 namespace lamina::geometry::detail {
 
 std::vector<float> signed_distance_voxels(const std::vector<uint8_t>& inside, int n) {
-  GridFrame frame;
-  frame.size = {n, n, n};
-  std::vector<uint8_t> outside(inside.size());
-  for (size_t i = 0; i < inside.size(); ++i) outside[i] = inside[i] != 0 ? 0 : 1;
-  std::vector<float> phi = distance_to_foreground(frame, inside);
-  const std::vector<float> in = distance_to_foreground(frame, outside);
-  for (size_t i = 0; i < phi.size(); ++i) phi[i] -= in[i];
-  return phi;
+  Mask mask;
+  mask.frame.size = {n, n, n};  // unit spacing: distances in voxels
+  mask.inside = inside;
+  return signed_distance(mask).phi;
 }
 
 namespace {

@@ -8,8 +8,7 @@
 namespace lamina::geometry::detail {
 
 /// The signed distance (in voxels, negative inside) to the outline of `inside` (n^3, x fastest,
-/// non-zero inside), between the voxels' centres: outside, to the nearest inside voxel; inside,
-/// minus the distance to the nearest outside one.
+/// 0 or 1): geometry::signed_distance on a grid of unit spacing (zero on the voxels' faces).
 std::vector<float> signed_distance_voxels(const std::vector<uint8_t>& inside, int n);
 
 /// A displacement per voxel (voxels, n^3 each, x fastest): the point p of the fixed shape lies
@@ -22,12 +21,12 @@ struct Displacement {
 struct RegisterOutlinesOptions {
   int iterations = 40;
   double smooth_voxels = 1.5;  ///< the displacement's Gaussian smoothing after each step
-  double band_voxels = 6.0;    ///< only points this near either outline are pushed
+  double band_voxels = 6.0;    ///< only points this near the fixed outline are pushed
 };
 
 /// Thirion's demons on the two shapes' signed distances (`fixed`, `moving`: n^3 each, as
-/// signed_distance_voxels makes them): every step moves each point near the outlines along the
-/// moving distance's gradient by the distances' difference, normalised as the demons are, then
+/// signed_distance_voxels makes them): every step moves each point near the fixed outline along
+/// the moving distance's gradient by the distances' difference, normalised as the demons are, then
 /// smooths the displacement (a Gaussian, so the map stays smooth and nearly one to one). The
 /// moving distance is read trilinearly, clamped at the grid's edge.
 Displacement register_outlines(const std::vector<float>& fixed, const std::vector<float>& moving,
