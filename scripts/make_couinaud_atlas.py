@@ -5,14 +5,20 @@ Source: xukun-zhang/Couinaud-Segmentation (MIT), Datasets/LiTS/label/LiTS-N.nii.
 1-8 of the LiTS challenge's livers (CT: CC BY-NC-SA 4.0). LiTS-28 ... LiTS-47 are
 3D-IRCADb-01's patients 1-20 (CC BY-NC-ND; the livers lamina is validated on) and are left out.
 
-    python3 scripts/make_couinaud_atlas.py DIR_WITH_LiTS_LABELS data/couinaud_atlas.bin
+    python3 scripts/make_couinaud_atlas.py LABEL_DIR VESSEL_DIR data/couinaud_atlas.bin
+
+VESSEL_DIR: the repository's Datasets/LiTS/vessel (the vessel masks of 20 of those livers, 17
+outside 3D-IRCADb; portal and hepatic veins as one label).
 
 Each liver is put in its own bounding box and binned on a G^3 grid (G = 40): a bin holds the
 label most of the liver's voxels in it carry, 0 where none lies. Axes in LPS (x towards the
 patient's left, y towards the back, z up); each volume's axes are turned so that its labels
 lie in their anatomical order (2/3 left of 6/7, 4 in front of 7, 8 above 5), since the LiTS
 volumes do not all come the same way round. The file is one zlib stream of: b"LCA1", uint32 G,
-uint32 count, count uint16 LiTS numbers, then count x G^3 uint8 labels, z fastest, then y, x.
+uint32 count, count uint16 LiTS numbers, then count x G^3 uint8 labels, z fastest, then y, x;
+then uint32 vcount, vcount uint16 indices (into the livers above) of the livers whose vessels
+are known, and vcount x G^3 uint8 vessel densities (the share of the liver's voxels in each bin
+that are vessel, x 255, rounded), binned the same way.
 """
 import glob, gzip, os, struct, sys, zlib
 import numpy as np
@@ -33,7 +39,7 @@ def read_nifti(path):
     return a.reshape(shape[::-1]).transpose(), np.abs(np.diag(srow[:, :3]))
 
 
-def binned(path):
+def binned(path, vessel_path=None):
     labels, spacing = read_nifti(path)
     idx = np.nonzero(labels)
     lab = labels[idx].astype(np.int64)
@@ -52,26 +58,42 @@ def binned(path):
     counts = np.bincount(flat * 9 + lab, minlength=G ** 3 * 9).reshape(G ** 3, 9)
     out = counts[:, 1:].argmax(1).astype(np.uint8) + 1
     out[counts[:, 1:].sum(1) == 0] = 0
-    return out
+    if vessel_path is None:
+        return out, None
+    vessels, _ = read_nifti(vessel_path)
+    if vessels.shape != labels.shape:
+        raise SystemExit(f'{vessel_path}: not on the grid of {path}')
+    in_vessel = vessels[idx] > 0
+    share = np.bincount(flat[in_vessel], minlength=G ** 3) / np.maximum(
+        np.bincount(flat, minlength=G ** 3), 1)
+    return out, np.rint(share * 255).astype(np.uint8)
 
 
 def main():
-    src, dst = sys.argv[1], sys.argv[2]
-    numbers, grids = [], []
+    src, vessel_dir, dst = sys.argv[1], sys.argv[2], sys.argv[3]
+    numbers, grids, with_vessels, densities = [], [], [], []
     for path in sorted(glob.glob(os.path.join(src, 'LiTS-*.nii.gz')),
                        key=lambda p: int(os.path.basename(p)[5:-7])):
         n = int(os.path.basename(path)[5:-7])
         if 28 <= n <= 47:
             continue
-        grids.append(binned(path))
+        vessel_path = os.path.join(vessel_dir, os.path.basename(path))
+        grid, density = binned(path, vessel_path if os.path.exists(vessel_path) else None)
+        if density is not None:
+            with_vessels.append(len(numbers))
+            densities.append(density)
+        grids.append(grid)
         numbers.append(n)
         print(f'LiTS-{n}', flush=True)
-    payload = b'LCA1' + struct.pack('<II', G, len(numbers)) + struct.pack(
-        f'<{len(numbers)}H', *numbers) + b''.join(g.tobytes() for g in grids)
+    payload = b'LCA2' + struct.pack('<II', G, len(numbers)) + struct.pack(
+        f'<{len(numbers)}H', *numbers) + b''.join(g.tobytes() for g in grids) + struct.pack(
+        '<I', len(with_vessels)) + struct.pack(f'<{len(with_vessels)}H', *with_vessels) + b''.join(
+        d.tobytes() for d in densities)
     with open(dst + '.part', 'wb') as f:
         f.write(zlib.compress(payload, 9))
     os.replace(dst + '.part', dst)
-    print(f'{dst}: {len(numbers)} livers, {os.path.getsize(dst)} bytes')
+    print(f'{dst}: {len(numbers)} livers ({len(with_vessels)} with vessels), '
+          f'{os.path.getsize(dst)} bytes')
 
 
 if __name__ == '__main__':

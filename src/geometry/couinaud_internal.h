@@ -11,6 +11,8 @@ struct AtlasLiver {
   int g = 0;
   int lits_number = 0;
   const uint8_t* labels = nullptr;
+  /// Its vessels' share of each bin's voxels x 255 (same layout), or null when not known.
+  const uint8_t* vessels = nullptr;
 };
 int atlas_liver_count();
 AtlasLiver atlas_liver(int index);

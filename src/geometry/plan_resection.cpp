@@ -358,6 +358,7 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
   // territories, what the resection cuts off.
   std::vector<VesselGraph> merged;  // labels holding both trees: for the segments only
   std::string merged_names;
+  std::optional<Mask> vessel_union;  // every vessel tree's voxels, for the atlas's segments
   // Structure s's voxels on the organ's grid.
   const auto structure_mask = [&](int32_t s) {
     Mask m;
@@ -378,6 +379,10 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
     const VesselTreeKind kind = vessel_tree_kind(st.name);
     if (kind == VesselTreeKind::kNone || st.role == SurfaceRole::kTumour) continue;
     const Mask vessel = structure_mask(s);
+    if (opt.segments) {  // the atlas lines its livers' vessels up with these
+      if (!vessel_union) vessel_union = vessel;
+      for (size_t v = 0; v < vessel.inside.size(); ++v) vessel_union->inside[v] |= vessel.inside[v];
+    }
     if (kind == VesselTreeKind::kMerged) {
       // Only the vessels' placement reads a merged label's centrelines (auto takes the atlas).
       if (opt.segments && opt.segments_from == SegmentPlacement::kVessels)
@@ -436,7 +441,8 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
         opt.segments_from == SegmentPlacement::kVessels ||
         (opt.segments_from == SegmentPlacement::kAuto && portal && hepatic && merged_names.empty());
     const CouinaudSegments cs = [&] {
-      if (!from_vessels) return couinaud_segments_from_atlas(organ, source);
+      const Mask* atlas_vessels = vessel_union ? &*vessel_union : nullptr;
+      if (!from_vessels) return couinaud_segments_from_atlas(organ, source, atlas_vessels);
       // The trees' centrelines together, as one graph.
       VesselGraph all;
       all.frame = g;
@@ -459,7 +465,7 @@ ResectionPlan plan_resection(const LabelVolume& volume, const SideOf& side,
         return couinaud_segments(organ, all, source);
       } catch (const Error& e) {
         r.segment_fallback = e.what();
-        return couinaud_segments_from_atlas(organ, source);
+        return couinaud_segments_from_atlas(organ, source, atlas_vessels);
       }
     }();
     r.segment_landmarks = cs.landmarks;

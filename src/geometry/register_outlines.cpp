@@ -68,40 +68,81 @@ std::array<float, 4> sample(const std::vector<std::array<float, 4>>& m, int n, f
   return out;
 }
 
-}  // namespace
+// The demons' step at one point from the fixed value and the moving value and gradient there:
+// the difference along the gradient, damped by the difference itself where the gradient is
+// small (Thirion's normalisation); `cap` bounds the difference (0: none).
+void add_demons_step(float fixed, const std::array<float, 4>& v, float cap, float weight,
+                     std::array<float, 3>& step) {
+  const float diff = cap > 0.0F ? std::clamp(fixed - v[0], -cap, cap) : fixed - v[0];
+  const float g2 = v[1] * v[1] + v[2] * v[2] + v[3] * v[3];
+  const float s = weight * diff / (g2 + diff * diff + 1e-3F);
+  for (int a = 0; a < 3; ++a) step[static_cast<size_t>(a)] += s * v[static_cast<size_t>(a + 1)];
+}
 
-Displacement register_outlines(const std::vector<float>& fixed, const std::vector<float>& moving,
-                               int n, const RegisterOutlinesOptions& options) {
+// Both registrations (without densities: the outline alone).
+Displacement demons(const std::vector<float>& fixed, const std::vector<float>& moving,
+                    const std::vector<float>* fixed_density,
+                    const std::vector<float>* moving_density, int n,
+                    const RegisterOutlinesOptions& options) {
   const auto m = with_gradient(moving, n);
+  const bool densities = fixed_density != nullptr && options.density_iterations > 0;
+  const auto md = densities ? with_gradient(*moving_density, n) : decltype(m){};
   const std::vector<float> kernel = gaussian_kernel(options.smooth_voxels);
   const std::array<int64_t, 3> size{n, n, n};
   const float band = static_cast<float>(options.band_voxels);
+  const float depth = static_cast<float>(options.density_depth_voxels);
+  const float weight = static_cast<float>(options.density_weight);
   Displacement d;
   for (auto& u : d.u) u.assign(fixed.size(), 0.0F);
-  // The points pushed: those near the organ's outline (the moving outline is pulled to it).
-  std::vector<std::array<int, 3>> near;
+  // The points pushed: those near the organ's outline (the moving outline is pulled to it);
+  // with densities, in their steps, also those inside it (flagged: `deep`).
+  struct Point {
+    int x, y, z;
+    bool near, deep;
+  };
+  std::vector<Point> points;
   for (int z = 0; z < n; ++z)
     for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x)
-        if (std::abs(fixed[static_cast<size_t>(x + n * (y + int64_t{n} * z))]) < band)
-          near.push_back({x, y, z});
+      for (int x = 0; x < n; ++x) {
+        const float f = fixed[static_cast<size_t>(x + n * (y + int64_t{n} * z))];
+        const bool near = std::abs(f) < band, deep = densities && f < -depth;
+        if (near || deep) points.push_back({x, y, z, near, deep});
+      }
   std::vector<float> scratch;
-  for (int it = 0; it < options.iterations; ++it) {
-    for (const auto& [x, y, z] : near) {
-      const size_t i = static_cast<size_t>(x + n * (y + int64_t{n} * z));
-      const auto v = sample(m, n, static_cast<float>(x) + d.u[0][i],
-                            static_cast<float>(y) + d.u[1][i], static_cast<float>(z) + d.u[2][i]);
-      // Demons' step: the difference (capped at 3 voxels) along the gradient, damped by
-      // the difference itself where the gradient is small (Thirion's normalisation).
-      const float diff = std::clamp(fixed[i] - v[0], -3.0F, 3.0F);
-      const float g2 = v[1] * v[1] + v[2] * v[2] + v[3] * v[3];
-      const float s = diff / (g2 + diff * diff + 1e-3F);
-      for (int a = 0; a < 3; ++a)
-        d.u[static_cast<size_t>(a)][i] += s * v[static_cast<size_t>(a + 1)];
+  const int steps = options.iterations + (densities ? options.density_iterations : 0);
+  for (int it = 0; it < steps; ++it) {
+    const bool inner = it >= options.iterations;
+    for (const Point& p : points) {
+      if (!p.near && !inner) continue;
+      const size_t i = static_cast<size_t>(p.x + n * (p.y + int64_t{n} * p.z));
+      const float px = static_cast<float>(p.x) + d.u[0][i],
+                  py = static_cast<float>(p.y) + d.u[1][i],
+                  pz = static_cast<float>(p.z) + d.u[2][i];
+      std::array<float, 3> step{};
+      // The outline's difference capped at 3 voxels: far from it the distances say little.
+      if (p.near) add_demons_step(fixed[i], sample(m, n, px, py, pz), 3.0F, 1.0F, step);
+      if (inner && p.deep)
+        add_demons_step((*fixed_density)[i], sample(md, n, px, py, pz), 0.0F, weight, step);
+      for (int a = 0; a < 3; ++a) d.u[static_cast<size_t>(a)][i] += step[static_cast<size_t>(a)];
     }
     for (auto& u : d.u) smooth_grid(u, size, kernel, scratch);
   }
   return d;
+}
+
+}  // namespace
+
+Displacement register_outlines(const std::vector<float>& fixed, const std::vector<float>& moving,
+                               int n, const RegisterOutlinesOptions& options) {
+  return demons(fixed, moving, nullptr, nullptr, n, options);
+}
+
+Displacement register_outlines_and_densities(const std::vector<float>& fixed,
+                                             const std::vector<float>& moving,
+                                             const std::vector<float>& fixed_density,
+                                             const std::vector<float>& moving_density, int n,
+                                             const RegisterOutlinesOptions& options) {
+  return demons(fixed, moving, &fixed_density, &moving_density, n, options);
 }
 
 std::vector<uint8_t> warp_labels(const std::vector<uint8_t>& moving, const Displacement& d, int n) {

@@ -22,6 +22,11 @@ struct RegisterOutlinesOptions {
   int iterations = 40;
   double smooth_voxels = 1.5;  ///< the displacement's Gaussian smoothing after each step
   double band_voxels = 6.0;    ///< only points this near the fixed outline are pushed
+  /// With densities (register_outlines_and_densities): the steps after the outline's that also
+  /// match the densities inside the fixed shape, and their force's weight against the outline's.
+  int density_iterations = 20;
+  double density_weight = 4.0;
+  double density_depth_voxels = 1.0;  ///< the densities pull points this far inside the outline
 };
 
 /// Thirion's demons on the two shapes' signed distances (`fixed`, `moving`: n^3 each, as
@@ -31,6 +36,18 @@ struct RegisterOutlinesOptions {
 /// moving distance is read trilinearly, clamped at the grid's edge.
 Displacement register_outlines(const std::vector<float>& fixed, const std::vector<float>& moving,
                                int n, const RegisterOutlinesOptions& options = {});
+
+/// register_outlines, then options.density_iterations more steps in which every point deeper than
+/// density_depth_voxels inside the fixed shape is also pushed by demons on the two densities
+/// (`fixed_density`, `moving_density`: n^3, x fastest, comparable values: the atlas gives each
+/// shape's vessel share per voxel, smoothed, over its mean inside the shape), weighted by
+/// density_weight. The outline brings the shapes together; the densities then line up what lies
+/// inside them (the atlas: the vessels, which run between and through the segments).
+Displacement register_outlines_and_densities(const std::vector<float>& fixed,
+                                             const std::vector<float>& moving,
+                                             const std::vector<float>& fixed_density,
+                                             const std::vector<float>& moving_density, int n,
+                                             const RegisterOutlinesOptions& options = {});
 
 /// The labels of the moving grid (n^3, x fastest) where the displacement carries each point of
 /// the fixed one (the nearest voxel; 0 where it leaves the grid).

@@ -298,11 +298,16 @@ TEST(ResectCli, CouinaudsSegmentsFromOneMergedVesselLabelArePlacedByTheAtlas) {
         << "segment " << s + 1;
   EXPECT_EQ(jb["couinaud_segments"]["atlas"]["livers"].size(), 10U);
   EXPECT_TRUE(jb["couinaud_segments"]["landmarks"].is_null());
+  // With vessels among the structures the atlas lines its livers' vessels up with them.
+  EXPECT_EQ(ja["couinaud_segments"]["atlas"]["vessels_lined_up"], true);
+  EXPECT_EQ(jb["couinaud_segments"]["atlas"]["vessels_lined_up"], true);
   // The atlas needs only the organ: no structure named at all.
   const auto alone =
       lamina(d, "resect --plane 5,0,0:1,0,0 --label 1 --segments --segments-from atlas --json");
   ASSERT_EQ(alone.exit_code, 0) << alone.err;
-  EXPECT_EQ(json::parse(alone.out)["couinaud_segments"]["placed_by"], "atlas");
+  const json jo = json::parse(alone.out);
+  EXPECT_EQ(jo["couinaud_segments"]["placed_by"], "atlas");
+  EXPECT_EQ(jo["couinaud_segments"]["atlas"]["vessels_lined_up"], false);
   // The vessels asked for where the merged label (the portal vein alone) has no landmarks:
   // refused, naming what is missing.
   const auto c = lamina(d,

@@ -103,11 +103,13 @@ std::string text_of(const geometry::ResectionReport& r) {
         r.functional->congested_ml);
   if (r.segment_landmarks) {
     const geometry::CouinaudLandmarks& lm = *r.segment_landmarks;
-    t += fmt::format("Couinaud segments (check them; placed by the {}):",
-                     lm.placed_by == geometry::CouinaudPlacement::kAtlas
-                         ? fmt::format("atlas, {} expert-labelled livers of shape overlap {:.2f}",
-                                       lm.atlas_livers.size(), lm.atlas_overlap)
-                         : std::string("vessels"));
+    t +=
+        fmt::format("Couinaud segments (check them; placed by the {}):",
+                    lm.placed_by == geometry::CouinaudPlacement::kAtlas
+                        ? fmt::format("atlas, {} expert-labelled livers of shape overlap {:.2f}{}",
+                                      lm.atlas_livers.size(), lm.atlas_overlap,
+                                      lm.atlas_vessels ? ", their vessels lined up with these" : "")
+                        : std::string("vessels"));
     for (size_t s = 1; s <= 8; ++s)
       t += fmt::format(" {}: {:.0f} mL ({:.0f}% resected){}", s, r.segment_ml[s],
                        r.segment_resected_percent[s], s < 8 ? "," : "\n");

@@ -44,6 +44,9 @@ struct CouinaudLandmarks {
   std::vector<int> atlas_livers;
   /// Their shapes' mean overlap (Dice) with the organ's, each in its box: how alike they were.
   double atlas_overlap = 0.0;
+  /// Whether the organ's vessels lined the voters up inside it (then only the atlas's livers
+  /// whose vessels are known voted).
+  bool atlas_vessels = false;
 };
 
 struct CouinaudSegments {
@@ -53,17 +56,21 @@ struct CouinaudSegments {
 };
 
 /// The segments of `organ` placed by an atlas: the expert Couinaud labels of 111 livers of the
-/// LiTS challenge (xukun-zhang/Couinaud-Segmentation; data/PROVENANCE.md), compiled in. Each
-/// liver is held in its own bounding box on a 40^3 grid; the 10 whose shapes overlap this
-/// organ's most in its box (each moved by up to 3 bins to fit) vote for every bin, the votes are
-/// smoothed (a Gaussian of one bin) and every organ voxel takes the segment with the most votes
-/// where it lies. Measured against 3D-IRCADb-01's expert labels (20 livers, none of them in the
-/// atlas) it scores a mean Dice of 0.79 (docs/resection.md), against 0.57 for the landmarks
-/// found on their merged vessel masks: the placement for vessels that come as one label. Needs
-/// only the organ, so it never fails on a non-empty mask; the organ's axes are taken as LPS
-/// (x to the patient's left, y to the back, z up), as the readers give them.
-/// \note Throws lamina::Error (kInvalidInput) naming `name` when `organ` is empty.
-CouinaudSegments couinaud_segments_from_atlas(const Mask& organ, const std::string& name);
+/// LiTS challenge (xukun-zhang/Couinaud-Segmentation; data/PROVENANCE.md), compiled in, 17 of
+/// them with their vessels. Each liver is held in its own bounding box on a 40^3 grid; the 10
+/// whose shapes overlap this organ's most in its box (each moved by up to 3 bins to fit) are
+/// each bent onto its outline (demons), and with `vessels` (the portal and hepatic veins, one
+/// mask or their union, on the organ's grid) only the livers whose vessels are known take part
+/// and each is then bent further so its vessels meet the organ's; they vote for every bin, the
+/// votes are smoothed (a Gaussian of one bin) and every organ voxel takes the segment with the
+/// most votes where it lies. Measured against 3D-IRCADb-01's expert labels (20 livers, none of
+/// them in the atlas): docs/resection.md. Needs only the organ, so it never fails on a
+/// non-empty mask; the organ's axes are taken as LPS (x to the patient's left, y to the back,
+/// z up), as the readers give them.
+/// \note Throws lamina::Error (kInvalidInput) naming `name` when `organ` is empty, or `vessels`
+///   is not on its grid or has no voxel inside it.
+CouinaudSegments couinaud_segments_from_atlas(const Mask& organ, const std::string& name,
+                                              const Mask* vessels = nullptr);
 
 /// The segments of `organ` from its vessels' centrelines: the portal vein and the hepatic veins,
 /// as one graph (one label holding both, or the union of the two trees' graphs).
