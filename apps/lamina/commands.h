@@ -150,6 +150,8 @@ struct ValidateArgs {
   /// The tool case's sphere: pressure per mm of penetration, kPa/mm; 0: 10 E / radius
   double sphere_stiffness_kpa_per_mm = 0.0;
   bool stability = false;  ///< the stability suite instead of the finite-element comparison
+  /// With stability: only the cases whose name contains one of these (e.g. "3 tools"); empty = all
+  std::vector<std::string> cases;
   /// Diagnostic: the finite elements on the model's own tetrahedra instead of an independent
   /// mesh (separates the model's error from the discretisation's).
   bool fem_on_model = false;

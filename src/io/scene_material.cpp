@@ -107,24 +107,29 @@ MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<in
   return rep;
 }
 
+model::SurfaceSupport scene_support(const Scene& scene, const Model& model) {
+  // Every supported region adds its springs; a node both fixed and supported is simply fixed.
+  model::SurfaceSupport support;
+  for (const model::SurfaceSupportOptions& o : scene.support) {
+    const model::SurfaceSupport part = model::surface_support(model, o);
+    support.nodes.insert(support.nodes.end(), part.nodes.begin(), part.nodes.end());
+    support.stiffness_n_per_m.insert(support.stiffness_n_per_m.end(),
+                                     part.stiffness_n_per_m.begin(), part.stiffness_n_per_m.end());
+    support.area_mm2 += part.area_mm2;
+  }
+  if (!scene.support.empty() && support.nodes.empty())
+    throw invalid_input(scene.source,
+                        "boundary.support: no skin faces the given direction within its angle; "
+                        "widen max_angle_deg or change the direction");
+  return support;
+}
+
 SceneSetup prepare_scene(Scene& scene, Model& model) {
   resolve_scene_defaults(scene, model);
   check_scene_against_model(scene, model);
   SceneSetup setup;
   setup.fixed = fixed_scene_nodes(scene, model);
-  // Every supported region adds its springs; a node both fixed and supported is simply fixed.
-  for (const model::SurfaceSupportOptions& o : scene.support) {
-    const model::SurfaceSupport part = model::surface_support(model, o);
-    setup.support.nodes.insert(setup.support.nodes.end(), part.nodes.begin(), part.nodes.end());
-    setup.support.stiffness_n_per_m.insert(setup.support.stiffness_n_per_m.end(),
-                                           part.stiffness_n_per_m.begin(),
-                                           part.stiffness_n_per_m.end());
-    setup.support.area_mm2 += part.area_mm2;
-  }
-  if (!scene.support.empty() && setup.support.nodes.empty())
-    throw invalid_input(scene.source,
-                        "boundary.support: no skin faces the given direction within its angle; "
-                        "widen max_angle_deg or change the direction");
+  setup.support = scene_support(scene, model);
   setup.material = resolve_material(scene, model, setup.fixed, setup.support);
   return setup;
 }

@@ -267,7 +267,12 @@ Simulation make_simulation(const Model& model, const Material& material,
     s.rest_layer_volume_mm3[k] = layer_volume(model, model.X, k);
   s.rest_skin_volume_mm3 = s.rest_layer_volume_mm3.empty() ? 0.0 : s.rest_layer_volume_mm3[0];
   resolve(s, /*identify=*/true, known);
-  s.blowup_limit_mm = (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
+  // Twice the organ's size: an organ held anywhere in its box that swings about the hold as a
+  // whole moves no node farther than that (a barely held liver under the stability suite's
+  // tools swings 93-378 mm, its own size or more, and comes back to rest); a blow-up, growing
+  // by a factor every step, passes it a step or two after the organ's own size.
+  s.blowup_limit_mm =
+      2.0 * (model.X.colwise().maxCoeff() - model.X.colwise().minCoeff()).norm() + 1.0;
   for (Eigen::MatrixX3d* m : {&s.x_prev, &s.v_prev, &s.r, &s.p, &s.z, &s.y, &s.dv})
     *m = Eigen::MatrixX3d::Zero(n, 3);
   s.diag = Eigen::MatrixX3d::Ones(n, 3);

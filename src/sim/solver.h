@@ -273,8 +273,9 @@ struct Solver {
 
   double rest_skin_volume_mm3 = 0.0;
   std::vector<double> rest_layer_volume_mm3;  ///< per layer: the volume it encloses at rest
-  /// A node this far from its rest position (the organ's own size, the diagonal of its box)
-  /// fails the step: no tissue stretches that far, and a blow-up passes it long before NaN.
+  /// A node this far from its rest position (twice the organ's own size, the diagonal of its
+  /// box: the farthest a swing of the whole organ about a hold in it reaches) fails the step:
+  /// no tissue stretches that far, and a blow-up passes it long before NaN.
   double blowup_limit_mm = 0.0;
   StabilityWatch watch;
 

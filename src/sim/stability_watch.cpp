@@ -13,7 +13,7 @@ const char* describe(Instability reason) {
   switch (reason) {
     case Instability::kStepsFailed:
       return "steps failed even with backward Euler (a value was not finite or a node moved "
-             "farther from rest than the organ's own size)";
+             "farther from rest than twice the organ's size)";
     case Instability::kEnergyGrowth:
       return "the energy grew while no tool acted (damped tissue only loses energy)";
     case Instability::kSolverStalled:

@@ -1,6 +1,7 @@
 #include "lamina/validate/stability.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <chrono>
@@ -169,6 +170,33 @@ bool StabilityResult::passed(const StabilityOptions& o) const {
          returned_at_rest && energy_decays(o) && rest_error_mm <= o.rest_tolerance_mm;
 }
 
+std::string StabilityResult::failure(const StabilityOptions& o) const {
+  std::vector<std::string> why;
+  if (!finite) why.push_back("a state went non-finite");
+  if (unstable != sim::Instability::kNone)
+    why.push_back(fmt::format("unstable at step {} ({})", steps, sim::describe(unstable)));
+  if (order.outside_nodes > 0)
+    why.push_back(fmt::format("{} inner nodes outside their layer at rest", order.outside_nodes));
+  if (order.surfaces_cross) why.push_back("layers cross at rest");
+  if (order.inverted_tets > 0)
+    why.push_back(fmt::format("{} tetrahedra inverted at rest", order.inverted_tets));
+  // A stage cut short by instability never came to rest: said once, above.
+  if (finite && unstable == sim::Instability::kNone) {
+    if (!loaded_at_rest)
+      why.push_back(fmt::format("no rest under the load in {} steps", o.max_steps_per_stage));
+    else if (!returned_at_rest)
+      why.push_back(fmt::format("no rest after the release in {} steps", o.max_steps_per_stage));
+  }
+  if (loaded_at_rest && !energy_decays(o))
+    why.push_back(fmt::format("the energy after the release rose {:.1f}% / ended at {:.2g} of it",
+                              100.0 * energy_rise(),
+                              release_energy_j > 0.0 ? final_energy_j / release_energy_j : 0.0));
+  if (rest_error_mm > o.rest_tolerance_mm)
+    why.push_back(fmt::format("{:.3g} mm from rest at the end (tolerance {:g} mm)", rest_error_mm,
+                              o.rest_tolerance_mm));
+  return fmt::format("{}", fmt::join(why, "; "));
+}
+
 std::vector<StabilityCase> stability_cases(double dt, bool quick, bool projective) {
   using sim::Integrator;
   std::vector<StabilityCase> cases;
@@ -208,7 +236,8 @@ std::vector<StabilityCase> stability_cases(double dt, bool quick, bool projectiv
 
 StabilityResult run_stability_case(const Model& m, const sim::Material& material,
                                    const sim::SolverOptions& solver, const Indentation& ind,
-                                   const StabilityCase& c, const StabilityOptions& o) {
+                                   const StabilityCase& c, const StabilityOptions& o,
+                                   const model::SurfaceSupport& support) {
   const auto t0 = Clock::now();
   sim::Material mat = material;
   mat.gravity_mm_per_s2.setZero();
@@ -221,6 +250,7 @@ StabilityResult run_stability_case(const Model& m, const sim::Material& material
   const std::vector<int32_t> held =
       sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
   sim::fix_nodes(s, held);
+  sim::support_nodes(s, support.nodes, support.stiffness_n_per_m);
 
   StabilityResult r;
   r.c = c;

@@ -335,6 +335,11 @@ TEST(LaminaValidate, StabilityQuickRunReleasesEveryLoadAndWritesItsReport) {
   for (const json& c : j["cases"]) {
     EXPECT_TRUE(c["finite"].get<bool>()) << c["case"];
     EXPECT_GT(c["peak_displacement_mm"].get<double>(), 1.0) << c["case"];
+    // A case that failed says why in one line; one that passed says nothing.
+    if (c["passed"].get<bool>())
+      EXPECT_TRUE(c["failure"].is_null()) << c["case"];
+    else
+      EXPECT_FALSE(c["failure"].get<std::string>().empty()) << c["case"];
     if (c["dt_s"].get<double>() > 0.05) {
       ++ten_x;
       EXPECT_TRUE(c["passed"].get<bool>()) << c["case"] << " " << c["integrator"];
@@ -404,6 +409,31 @@ TEST(LaminaValidate, RefineBuildsEverySizePressesItToRestAndRefinementSoftensThe
     const RunResult b = run_lamina(dir, bad);
     EXPECT_EQ(b.exit_code, 2) << bad;
     EXPECT_NE(b.err.find("--refine"), std::string::npos) << b.err;
+    EXPECT_FALSE(fs::exists(dir.path / "bad")) << bad;
+  }
+}
+
+TEST(LaminaValidate, StabilityCaseChoosesCasesByNameAndOneNamingNoneIsRefused) {
+  // --case runs the cases it names (one, here: the deepest indentation); one that names no case
+  // of the suite, and --case without --stability, are one line naming --case, exit 2, nothing
+  // written, before any model is built.
+  test::TempDir dir;
+  std::ofstream(dir.file("small.json"))
+      << R"({"model": {"input": "phantom", "build": {"skin_vertices": 400}}})";
+  const RunResult r =
+      run_lamina(dir, "validate small.json --stability --quick --case \"indent 50\" --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  ASSERT_EQ(j["cases"].size(), 1u);
+  EXPECT_EQ(j["cases"][0]["case"], "indent 50%");
+  EXPECT_NE(r.err.find("E = "), std::string::npos) << "the material line the refusals below lack";
+  EXPECT_GT(j["supported_nodes"].get<int>(), 0) << "held by the scene's support too";
+  for (const char* bad : {"validate small.json --stability --quick --case \"4 tools\" -o bad",
+                          "validate small.json --case indent -o bad"}) {
+    const RunResult b = run_lamina(dir, bad);
+    EXPECT_EQ(b.exit_code, 2) << bad;
+    EXPECT_NE(b.err.find("--case"), std::string::npos) << b.err;
+    EXPECT_EQ(b.err.find("E = "), std::string::npos) << "refused before the build: " << b.err;
     EXPECT_FALSE(fs::exists(dir.path / "bad")) << bad;
   }
 }

@@ -155,7 +155,7 @@ TEST(StabilityWatch, ALoadBeyondTheOrgansSizeFailsTenStepsThenIsUnstable) {
 }
 
 TEST(StabilityWatch, AForceThatMovesTheOrganFarButWithinItsSizeIsNotAFailure) {
-  // The bound is the organ's own size, not a small fraction of it: a paper-model poke that
+  // The bound is twice the organ's own size, not a small fraction of it: a paper-model poke that
   // dents the skin by centimetres is a deformation, and no step is refused.
   sim::Simulation s = held({}, {});
   const int32_t front = interact::most_anterior_skin_node(s.model());

@@ -6,6 +6,7 @@
 #include "lamina/io/scene.h"
 #include "lamina/model/build_model.h"
 #include "lamina/model/identify_springs.h"
+#include "lamina/model/surface_support.h"
 
 namespace {
 
@@ -35,12 +36,14 @@ const Physical& physical() {
   return p;
 }
 
-validate::StabilityResult run(const validate::StabilityCase& c) {
+validate::StabilityResult run(const validate::StabilityCase& c,
+                              const validate::StabilityOptions& o = {},
+                              const model::SurfaceSupport& support = {}) {
   const Physical& p = physical();
   return validate::run_stability_case(
       p.model, p.material,
       {.integrator = sim::Integrator::kImplicitEuler, .dt_s = 0.01, .cg_tolerance = 1e-3},
-      p.indentation, c);
+      p.indentation, c, o, support);
 }
 
 void expect_passed(const validate::StabilityResult& r) {
@@ -58,6 +61,7 @@ void expect_passed(const validate::StabilityResult& r) {
   EXPECT_LE(r.final_energy_j, r.release_energy_j * o.final_energy_fraction);
   EXPECT_LE(r.rest_error_mm, o.rest_tolerance_mm);
   EXPECT_TRUE(r.passed(o));
+  EXPECT_EQ(r.failure(o), "");
 }
 
 TEST(LayerOrder, RestIsOrderedAndAnInnerNodePushedOutIsCaught) {
@@ -108,6 +112,33 @@ TEST(Stability, ImplicitEulerAtTenTimesThePapersDt) {
                                            sim::Integrator::kImplicitEuler, 0.1});
   expect_passed(r);
   EXPECT_EQ(r.recoveries, 0);
+}
+
+TEST(Stability, TheScenesSupportHoldsTheOrganTheToolsPress) {
+  // The physical scenes' default support (the posterior skin within 60 degrees, 0.5 kPa/mm)
+  // beside the held slab: the same three tools move the organ less, and every check passes.
+  const model::SurfaceSupport support = model::surface_support(physical().model, {});
+  ASSERT_GT(support.nodes.size(), 20u);
+  const validate::StabilityCase tools{"3 tools 1 N", validate::LoadKind::kTools, 0.0, 3, 1.0};
+  const validate::StabilityResult slab = run(tools);
+  const validate::StabilityResult supported = run(tools, {}, support);
+  expect_passed(supported);
+  EXPECT_LT(supported.peak_displacement_mm, 0.8 * slab.peak_displacement_mm)
+      << slab.peak_displacement_mm;
+  EXPECT_GT(supported.peak_displacement_mm, 2.0);  // still a load, not a touch
+}
+
+TEST(Stability, AFailedCaseSaysWhichChecksItMissed) {
+  // Five steps a stage: the indented organ has no time to settle, under the load or after it.
+  validate::StabilityOptions o;
+  o.max_steps_per_stage = 5;
+  const validate::StabilityResult r = run({"indent 30%", validate::LoadKind::kIndent, 0.3}, o);
+  ASSERT_FALSE(r.passed(o));
+  const std::string why = r.failure(o);
+  EXPECT_NE(why.find("no rest under the load in 5 steps"), std::string::npos) << why;
+  EXPECT_NE(why.find("mm from rest at the end (tolerance 0.05 mm)"), std::string::npos) << why;
+  EXPECT_EQ(why.find("unstable"), std::string::npos) << why;
+  EXPECT_EQ(why.find("inverted"), std::string::npos) << why;
 }
 
 }  // namespace

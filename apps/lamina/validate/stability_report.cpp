@@ -3,6 +3,7 @@
 #include "stability_report.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "lamina/core/error.h"
 #include "lamina/core/log.h"
 #include "lamina/validate/stability.h"
 #include "plots.h"
@@ -133,15 +135,42 @@ void draw_plots(const fs::path& out, const std::vector<StabilityResult>& rows, d
 // The dt the sweep scales: the paper's step.
 constexpr double kStabilityBaseDt = 0.01;
 
-int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model& m,
-                     const validate::Indentation& ind) {
-  const ProgressFn progress = stderr_progress(a.verbose);
-  const validate::StabilityOptions options;
+std::vector<validate::StabilityCase> chosen_stability_cases(const ValidateArgs& a,
+                                                            const io::Scene& scene) {
   // The sweep is about the paper's step (0.01 s): 1 ms to 0.1 s, the haptic loop's step among
   // them. Projective dynamics does not carry the tetrahedra's elasticity.
+  std::vector<validate::StabilityCase> all =
+      validate::stability_cases(kStabilityBaseDt, a.quick, scene.material.young_modulus_kpa == 0.0);
+  if (a.cases.empty()) return all;
+  std::vector<validate::StabilityCase> chosen;
+  for (const std::string& want : a.cases) {
+    const auto named = [&](const validate::StabilityCase& c) {
+      return c.name.find(want) != std::string::npos;
+    };
+    if (std::none_of(all.begin(), all.end(), named)) {
+      std::vector<std::string> names;
+      for (const validate::StabilityCase& c : all)
+        if (std::find(names.begin(), names.end(), c.name) == names.end()) names.push_back(c.name);
+      throw invalid_input("--case",
+                          fmt::format("no {}stability case is named like \"{}\" (they "
+                                      "are: {})",
+                                      a.quick ? "quick " : "", want, fmt::join(names, ", ")));
+    }
+    for (const validate::StabilityCase& c : all)
+      if (named(c) && std::none_of(chosen.begin(), chosen.end(), [&](const auto& k) {
+            return k.name == c.name && k.integrator == c.integrator && k.dt_s == c.dt_s;
+          }))
+        chosen.push_back(c);
+  }
+  return chosen;
+}
+
+int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model& m,
+                     const validate::Indentation& ind, const model::SurfaceSupport& support) {
+  const ProgressFn progress = stderr_progress(a.verbose);
+  const validate::StabilityOptions options;
   const double dt = kStabilityBaseDt;
-  const std::vector<validate::StabilityCase> cases =
-      validate::stability_cases(dt, a.quick, scene.material.young_modulus_kpa == 0.0);
+  const std::vector<validate::StabilityCase> cases = chosen_stability_cases(a, scene);
   // The cases are independent: one per core at a time, each on one thread (a ~2,000-node model
   // is below the step's parallel threshold anyway, and two OpenMP teams would oversubscribe two
   // cores). A case's result does not depend on its thread count (SameResultOnOneAndTwoThreads).
@@ -169,7 +198,8 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
       const size_t k = order[q];
       const validate::StabilityCase& c = cases[k];
       try {
-        rows[k] = validate::run_stability_case(m, scene.material, scene.solver, ind, c, options);
+        rows[k] =
+            validate::run_stability_case(m, scene.material, scene.solver, ind, c, options, support);
       } catch (...) {
         const std::lock_guard<std::mutex> lock(report);
         if (!failure) failure = std::current_exception();
@@ -213,9 +243,16 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
                r.peak_volume_change_pct, r.order.outside_nodes, r.order.inverted_tets, r.recoveries,
                100.0 * r.energy_rise(), r.rest_error_mm, r.steps, ok ? "yes" : "NO");
   }
+  for (const StabilityResult& r : rows)
+    if (!r.passed(options)) fmt::print(stderr, "{:>14}: {}\n", r.c.name, r.failure(options));
+  const std::string hold =
+      support.nodes.empty()
+          ? fmt::format("held by its posterior {:g} mm", ind.held_distance_mm)
+          : fmt::format("held by its posterior {:g} mm and the scene's support of {:.0f} mm^2",
+                        ind.held_distance_mm, support.area_mm2);
   const std::string verdict = fmt::format(
-      "stability: {} of {} cases passed (organ depth {:.1f} mm, rest tolerance {:g} mm)", passed,
-      rows.size(), ind.organ_depth_mm, options.rest_tolerance_mm);
+      "stability: {} of {} cases passed (organ depth {:.1f} mm, {}, rest tolerance {:g} mm)",
+      passed, rows.size(), ind.organ_depth_mm, hold, options.rest_tolerance_mm);
   if (passed == static_cast<int>(rows.size()))
     log::info("{}", verdict);
   else
@@ -228,6 +265,9 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
   j["organ_depth_mm"] = ind.organ_depth_mm;
   j["indenter_radius_mm"] = ind.radius_mm;
   j["rest_tolerance_mm"] = options.rest_tolerance_mm;
+  j["held_distance_mm"] = ind.held_distance_mm;
+  j["supported_nodes"] = support.nodes.size();
+  j["supported_area_mm2"] = support.area_mm2;
   j["base_dt_s"] = dt;
   j["tets"] = m.tets.size();
   j["cases_passed"] = passed;
@@ -240,6 +280,11 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
     o["integrator"] = io::integrator_name(r.c.integrator);
     o["dt_s"] = r.c.dt_s;
     o["passed"] = r.passed(options);
+    o["failure"] =
+        r.passed(options) ? nlohmann::ordered_json() : nlohmann::ordered_json(r.failure(options));
+    o["unstable_reason"] = r.unstable == sim::Instability::kNone
+                               ? nlohmann::ordered_json()
+                               : nlohmann::ordered_json(sim::describe(r.unstable));
     o["finite"] = r.finite;
     o["recoveries"] = r.recoveries;
     o["outside_nodes"] = r.order.outside_nodes;

@@ -257,6 +257,11 @@ struct RunSummary {
 MaterialReport resolve_material(Scene& scene, Model& model, const std::vector<int32_t>& fixed,
                                 const model::SurfaceSupport& support = {});
 
+/// The scene's elastic support on the model (every region of `scene.support`, after
+/// resolve_scene_defaults()): empty when it has none.
+/// \note Throws lamina::Error (kInvalidInput) naming the scene when a region selects no skin.
+model::SurfaceSupport scene_support(const Scene& scene, const Model& model);
+
 /// Everything a scene decides about its model before a simulation starts.
 struct SceneSetup {
   std::vector<int32_t> fixed;     ///< fixed nodes, sorted and unique

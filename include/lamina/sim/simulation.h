@@ -121,7 +121,7 @@ struct SolverOptions {
 enum class Instability : uint8_t {
   kNone,
   /// kFailedStepsToUnstable steps in a row could not be taken even by backward Euler: a value
-  /// became non-finite or a node moved farther from rest than the organ's own size.
+  /// became non-finite or a node moved farther from rest than twice the organ's own size.
   kStepsFailed,
   /// The total energy (kinetic, elastic, gravity's) grew while no tool acted: by more than its
   /// own size since the check began, which damped tissue can never do.

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "lamina/model/model.h"
+#include "lamina/model/surface_support.h"
 #include "lamina/sim/simulation.h"
 #include "lamina/validate/indentation.h"
 
@@ -90,6 +91,9 @@ struct StabilityResult {
   double energy_rise() const;
   bool energy_decays(const StabilityOptions& o) const;
   bool passed(const StabilityOptions& o) const;
+  /// Why the case did not pass: each check it missed, in one line ("" when it passed), e.g.
+  /// "unstable at step 73 (...); no rest under the load".
+  std::string failure(const StabilityOptions& o) const;
 };
 
 /// The suite: indentations to 10..50% of the organ's depth and pulls to 10..30% under implicit
@@ -101,13 +105,16 @@ struct StabilityResult {
 /// the 0.1x step under semi-implicit Euler).
 std::vector<StabilityCase> stability_cases(double dt_s, bool quick, bool projective = true);
 
-/// Runs one case on `model`: its held region (`indentation`'s slab) fixed, the load applied and
-/// run to rest, released and run to rest again. Gravity is left out (rest is the model's rest
-/// shape). The material and solver options are the scene's; the case sets integrator and dt.
+/// Runs one case on `model`: its held region (`indentation`'s slab) fixed and `support` (the
+/// scene's elastic support, model::surface_support(); may be empty) tying the skin it names, the
+/// load applied and run to rest, released and run to rest again. Gravity is left out (rest is
+/// the model's rest shape). The material and solver options are the scene's; the case sets
+/// integrator and dt.
 /// \note Throws lamina::Error (kInvalidInput) if the indenter's patch holds no skin node or a
 ///   tool touches nothing.
 StabilityResult run_stability_case(const Model& model, const sim::Material& material,
                                    const sim::SolverOptions& solver, const Indentation& indentation,
-                                   const StabilityCase& c, const StabilityOptions& options = {});
+                                   const StabilityCase& c, const StabilityOptions& options = {},
+                                   const model::SurfaceSupport& support = {});
 
 }  // namespace lamina::validate
