@@ -1,7 +1,8 @@
 // The simulation's kernels, one at a time, on the models `lamina bench` uses (built from the
 // phantom: the paper's size, about 10k and about 100k nodes): the spring-force pass, one
 // conjugate-gradient iteration of implicit Euler, the breadth-first rings, the tool's contact
-// query and the skin volume. Each reports per-element times; `lamina bench` the whole steps.
+// query and routing, and the skin volume. Each reports per-element times; `lamina bench` the
+// whole steps.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -225,6 +226,28 @@ void BM_ContactQuery(benchmark::State& state) {
   state.counters["skin_vertices"] = m.layers[0].node_count;
 }
 BENCHMARK(BM_ContactQuery)->DenseRange(0, 2)->ArgName("model")->Unit(benchmark::kMicrosecond);
+
+// A tool's touch-down through the paper's routing: the force-line crossings (every layer's
+// triangles) and each copy spread over its rings, counted in edges (spacing 0) or by distance
+// (the organ's paper-size spacing: a bounded Dijkstra search from each hit node).
+void BM_RouteForce(benchmark::State& state) {
+  const Model& m = model(state.range(0));
+  const int32_t node = interact::most_anterior_skin_node(m);
+  interact::RoutingOptions o;
+  if (state.range(1) == 1) o.ring_spacing_mm = interact::paper_ring_spacing_mm(m);
+  size_t nodes = 0;
+  for (auto _ : state) {
+    const interact::ForceRoute r = interact::route_force(m, m.X, node, {0, 400, 0}, o);
+    nodes = r.nodes.size();
+    benchmark::DoNotOptimize(r.forces.data());
+  }
+  label(state, m);
+  state.counters["nodes_loaded"] = static_cast<double>(nodes);
+}
+BENCHMARK(BM_RouteForce)
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
+    ->ArgNames({"model", "by_distance"})
+    ->Unit(benchmark::kMicrosecond);
 
 // The skin's enclosed volume (measured every step).
 void BM_SkinVolume(benchmark::State& state) {

@@ -546,7 +546,8 @@ void bind_simulation(py::module_& m) {
                        const std::string& mode, int32_t cg_max_iterations, double cg_tolerance,
                        const std::string& preconditioner, const std::optional<std::string>& routing,
                        int32_t locality, int32_t penetration_depth, double contact_threshold_mm,
-                       const std::string& touch, const std::vector<int64_t>& fixed) {
+                       const std::string& touch, const py::object& ring_spacing_mm,
+                       const std::vector<int64_t>& fixed) {
              if (!model) throw invalid_input("Simulation: model", "is None");
              // Checked before the simulation is made (its solver setup can take seconds).
              // The physical tissue (E given) conserves force; the paper's constants route.
@@ -557,7 +558,18 @@ void bind_simulation(py::module_& m) {
                  .penetration_depth = penetration_depth,
                  .contact_threshold_mm = contact_threshold_mm,
                  .touch = parse_touch(touch)};
+             // A length in mm, or "paper": the organ's paper-size skin's edge.
+             if (py::isinstance<py::str>(ring_spacing_mm)) {
+               if (ring_spacing_mm.cast<std::string>() != "paper")
+                 throw invalid_input("Simulation: ring_spacing_mm",
+                                     "expected a number of mm or \"paper\", got \"" +
+                                         ring_spacing_mm.cast<std::string>() + "\"");
+               ro.ring_spacing_mm = interact::kPaperRingSpacing;
+             } else {
+               ro.ring_spacing_mm = ring_spacing_mm.cast<double>();
+             }
              interact::check_routing(ro, model->rings.locality);
+             ro = interact::resolve_ring_spacing(ro, *model);
              sim::Material mat{.stiffness_n_per_m = stiffness_n_per_m,
                                .damping_kg_per_s = damping_kg_per_s,
                                .mass_damping_per_s = mass_damping_per_s,
@@ -594,7 +606,8 @@ void bind_simulation(py::module_& m) {
            py::arg("cg_tolerance") = 1e-6, py::arg("preconditioner") = "auto",
            py::arg("routing") = py::none(), py::arg("locality") = 4,
            py::arg("penetration_depth") = 4, py::arg("contact_threshold_mm") = 10.0,
-           py::arg("touch") = "display_skin", py::arg("fixed") = std::vector<int64_t>{},
+           py::arg("touch") = "display_skin", py::arg("ring_spacing_mm") = 0.0,
+           py::arg("fixed") = std::vector<int64_t>{},
            "A simulation at rest. Defaults are the reference paper's (K = 3 N/m, gamma = 3 kg/s,\n"
            "unit masses, semi-implicit Euler at dt = 0.01 s). young_modulus_kpa (E) > 0 with\n"
            "stiffness_n_per_m = 0 and node_mass_kg = 0 makes the tissue elastic (E, nu) through\n"
@@ -606,6 +619,9 @@ void bind_simulation(py::module_& m) {
            "routing: none (a tool's force spread over the skin it touches, conserved; the\n"
            "default with young_modulus_kpa) or paper (the paper's rings and copies; the default\n"
            "with its constants).\n"
+           "ring_spacing_mm: 0 (the paper's rings, counted in mesh edges), a length in mm (rings\n"
+           "by distance along the skin at rest: the same area at every mesh size), or \"paper\"\n"
+           "(the edge of this organ's paper-size skin).\n"
            "touch: display_skin (without routing, tools touch the model's display skin when it\n"
            "has one; its load reaches the nodes by the embedding's weights) or skin.\n"
            "fixed: node indices held at rest (without them a push moves the organ bodily).")

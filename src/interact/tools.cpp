@@ -93,6 +93,12 @@ std::optional<RoutingProblem> routing_problem(const RoutingOptions& o, int32_t r
   if (!(o.contact_threshold_mm > 0.0 && std::isfinite(o.contact_threshold_mm)))
     return RoutingProblem{"contact_threshold_mm",
                           fmt::format("must be > 0 mm, got {}", o.contact_threshold_mm)};
+  if (!(o.ring_spacing_mm == kPaperRingSpacing ||
+        (o.ring_spacing_mm >= 0.0 && std::isfinite(o.ring_spacing_mm))))
+    return RoutingProblem{
+        "ring_spacing_mm",
+        fmt::format("must be >= 0 mm (0: rings in mesh edges) or \"paper\", got {}",
+                    o.ring_spacing_mm)};
   return std::nullopt;
 }
 
@@ -114,7 +120,20 @@ ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t co
   // the copy's force: "spreading" moves force around, it does not multiply it.
   std::vector<std::pair<int32_t, Eigen::Vector3d>> parts;
   double copy_scale = 1.0;
+  const double spacing_mm =
+      o.ring_spacing_mm == kPaperRingSpacing ? paper_ring_spacing_mm(model) : o.ring_spacing_mm;
   for (const Crossing& c : route.crossings) {
+    if (spacing_mm > 0.0) {
+      const std::vector<RingMember> rings =
+          rings_by_distance(model, c.node, o.locality, spacing_mm);
+      double weight_sum = 0.0;
+      for (const RingMember& m : rings) weight_sum += std::pow(o.ring_attenuation, m.ring);
+      for (const RingMember& m : rings)
+        parts.emplace_back(
+            m.node, (copy_scale * std::pow(o.ring_attenuation, m.ring) / weight_sum) * force_mn);
+      copy_scale *= o.crossing_attenuation;
+      continue;
+    }
     double weight_sum = 0.0, ring_weight = 1.0;
     for (int32_t r = 0; r < o.locality; ++r, ring_weight *= o.ring_attenuation)
       weight_sum += ring_weight * static_cast<double>(model.rings.ring_size(c.node, r));

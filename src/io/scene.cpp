@@ -10,6 +10,7 @@
 
 #include "io/scene_keys.h"
 #include "io/scene_names.h"
+#include "lamina/core/log.h"
 #include "lamina/interact/contact.h"
 #include "lamina/interact/grasp.h"
 
@@ -37,6 +38,13 @@ void use_elastic_material(Scene& s) {
 }
 
 void resolve_scene_defaults(Scene& s, const Model& m) {
+  if (s.routing.ring_spacing_mm == interact::kPaperRingSpacing) {
+    s.routing = interact::resolve_ring_spacing(s.routing, m);
+    log::info(
+        "{}: the paper's rings by distance, {:.2f} mm apart (the edge of this organ's "
+        "paper-size skin)",
+        s.source, s.routing.ring_spacing_mm);
+  }
   if (s.default_tool) {
     // The paper's poke: the most anterior skin node, pushed posteriorly.
     s.tools.push_back({.by_point = false,

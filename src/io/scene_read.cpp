@@ -276,6 +276,18 @@ void read_solver(const Value& v, Scene& s) {
                                       "must be between 0 and 1")},
       {"contact_threshold_mm",
        number(in_routing<&Routing::contact_threshold_mm>, positive, "must be > 0")},
+      // A length, or "paper": the organ's paper-size skin's edge, known once the model is.
+      {"ring_spacing_mm",
+       [](const Value& t, Scene& sc) {
+         if (t.data.is_string()) {
+           if (t.string() != "paper")
+             t.fail("expected a number of mm or \"paper\", got \"" + t.string() + "\"");
+           sc.routing.ring_spacing_mm = interact::kPaperRingSpacing;
+           return;
+         }
+         sc.routing.ring_spacing_mm = t.number([](double d) { return d >= 0.0; },
+                                               "must be >= 0 mm (0: rings in mesh edges)");
+       }},
   };
   read_object(v.in.r, v.data, v.path, kKeys, s);
 }

@@ -105,8 +105,8 @@ std::vector<int32_t> indenter_patch(const Model& m, const Indentation& ind,
 // Up to three tools on the organ's front, all pushing along the indentation direction: the
 // indenter's contact, then the most anterior skin nodes a quarter of the organ's width to its
 // left and to its right (a probe and two graspers' worth of load at once). The paper's routing
-// adds its copies (rings, crossings) without normalising them, so each tool's force is scaled
-// for its routed load along `dir` to total `force_n`.
+// (its rings by distance) adds its copies (rings, crossings) without normalising them, so each
+// tool's force is scaled for its routed load along `dir` to total `force_n`.
 std::vector<interact::Tool> make_tools(const Model& m, const Indentation& ind, int32_t count,
                                        double force_n, const interact::RoutingOptions& routing) {
   const int32_t skin = m.layers[0].node_count;
@@ -260,6 +260,9 @@ StabilityResult run_stability_case(const Model& m, const sim::Material& material
   interact::ToolDriver driver;
   if (c.kind == LoadKind::kTools) {
     driver.routing.locality = std::min(driver.routing.locality, m.rings.locality);
+    // The rings in millimetres, as far apart as on the organ's paper-size skin: the case is the
+    // same load on the same area at every mesh size (hop rings shrink with the edge).
+    driver.routing.ring_spacing_mm = interact::paper_ring_spacing_mm(m);
     driver.tools = make_tools(m, ind, c.tool_count, c.tool_force_n, driver.routing);
     stage.tools = &driver;
     loaded = stage.run();

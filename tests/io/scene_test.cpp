@@ -143,7 +143,7 @@ TEST(ParseScene, ReadsEveryKey) {
                "penetration_depth": 2,
                "ring_attenuation": 0.25, "crossing_attenuation": 0.9,
                "contact_threshold_mm": 4, "cg_max_iterations": 50, "cg_tolerance": 1e-8,
-               "touch": "skin"},
+               "touch": "skin", "ring_spacing_mm": 2.5},
     "tools": [{"vertex": 7, "force_n": [0, 0.05, 0], "start_s": 0.5, "end_s": 1.5},
               {"point": [1, -2, 3.5], "force_n": [-0.001, 0, 0.002], "radius_mm": 2.5},
               {"vertex": 0, "force_n": [0, 0, 1], "end_s": null}],
@@ -185,6 +185,7 @@ TEST(ParseScene, ReadsEveryKey) {
   EXPECT_DOUBLE_EQ(s.routing.crossing_attenuation, 0.9);
   EXPECT_DOUBLE_EQ(s.routing.contact_threshold_mm, 4.0);
   EXPECT_EQ(s.routing.touch, interact::Touch::kSkin);
+  EXPECT_DOUBLE_EQ(s.routing.ring_spacing_mm, 2.5);
 
   ASSERT_EQ(s.tools.size(), 3u);
   EXPECT_FALSE(s.default_tool);
@@ -355,6 +356,10 @@ TEST(ParseScene, ErrorsNameTheFileAndTheKeyPath) {
       {R"({"solver": {"max_steps": 0}})", "solver.max_steps: must be >= 1, got 0"},
       {R"({"solver": {"ring_attenuation": 1.5}})",
        "solver.ring_attenuation: must be between 0 and 1, got 1.5"},
+      {R"({"solver": {"ring_spacing_mm": -1}})",
+       "solver.ring_spacing_mm: must be >= 0 mm (0: rings in mesh edges), got -1"},
+      {R"({"solver": {"ring_spacing_mm": "wide"}})",
+       "solver.ring_spacing_mm: expected a number of mm or \"paper\", got \"wide\""},
       {R"({"solver": {"threshold_mm": 1e999}})", "invalid JSON"},  // overflows to infinity
       {R"({"model": {"input": "a.nii", "model": "b.vtu"}})",
        "model: give either \"input\" (a mask to build from) or \"model\""},
@@ -688,6 +693,14 @@ TEST(ResolveSceneDefaults, ThePapersPokeAndThePosteriorSurfaceSupported) {
   EXPECT_TRUE(t.tools.empty());
   EXPECT_TRUE(t.fixed.empty());
   EXPECT_TRUE(t.support.empty());
+
+  // "paper" ring spacing: the edge of the organ's paper-size skin, once the model is known.
+  Scene r =
+      parse_scene(R"({"solver": {"routing": "paper", "ring_spacing_mm": "paper"}})", "s.json");
+  EXPECT_EQ(r.routing.ring_spacing_mm, interact::kPaperRingSpacing);
+  resolve_scene_defaults(r, m);
+  EXPECT_GT(r.routing.ring_spacing_mm, 0.0);
+  EXPECT_DOUBLE_EQ(r.routing.ring_spacing_mm, interact::paper_ring_spacing_mm(m));
 }
 
 TEST(ParseScene, SupportRegionsAreReadAndChecked) {

@@ -83,6 +83,22 @@ def test_tool_push_and_reaction(phantom_model):
     assert np.allclose(sim.reaction_force_mn(), 0.0)
 
 
+def test_rings_by_distance_spread_the_same_push_wider_and_shallower(phantom_model):
+    # The paper's routing on the paper-size phantom: rings 60 mm apart (several of its skin's
+    # edges) spread the same push wider than four rings of edges, so the contact dents less.
+    node = front_node(phantom_model)
+
+    def dent(spacing):
+        sim = lamina.Simulation(phantom_model, integrator="implicit_euler", ring_spacing_mm=spacing,
+                                fixed=back_nodes(phantom_model))
+        sim.add_tool(vertex=node, force_mn=(0.0, 300.0, 0.0))
+        sim.step(100)
+        return sim.x[node, 1] - phantom_model.X[node, 1]
+
+    hops, wide = dent(0.0), dent(60.0)
+    assert 0.0 < wide < hops
+
+
 def test_a_grasp_pulls_the_skin_and_lets_go(phantom_model):
     # The physical tissue: the grasped node follows the jaws 10 mm and the tissue pulls back.
     sim = lamina.Simulation(phantom_model, stiffness_n_per_m=0.0, node_mass_kg=0.0,
@@ -488,6 +504,10 @@ def test_errors_carry_the_one_line_messages(phantom_model):
         lamina.Simulation(phantom_model, integrator="rk4")
     with pytest.raises(lamina.Error, match="locality"):
         lamina.Simulation(phantom_model, locality=99)
+    with pytest.raises(lamina.Error, match=r"ring_spacing_mm.*\"paper\""):
+        lamina.Simulation(phantom_model, ring_spacing_mm="wide")
+    with pytest.raises(lamina.Error, match=r"ring_spacing_mm: must be >= 0"):
+        lamina.Simulation(phantom_model, ring_spacing_mm=-2.0)
     sim = lamina.Simulation(phantom_model)
     with pytest.raises(lamina.Error, match="exactly one of point_mm and vertex"):
         sim.add_tool(point_mm=(0, 0, 0), vertex=3, force_mn=(0, 1, 0))

@@ -241,6 +241,14 @@ bool ViewSession::State::routing_widgets(const Model& m) {
     routing.ring_attenuation = ra, changed = true;
   if (ImGui::SliderFloat("crossing attenuation", &ca, 0.0f, 1.0f))
     routing.crossing_attenuation = ca, changed = true;
+  // 0: the rings counted in mesh edges (the paper's: a finer mesh, a smaller area); a length:
+  // rings by distance, the same area at every mesh size.
+  float rs = static_cast<float>(routing.ring_spacing_mm);
+  if (ImGui::SliderFloat("ring spacing mm (0: edges)", &rs, 0.0f, 30.0f, "%.2f"))
+    routing.ring_spacing_mm = rs, changed = true;
+  ImGui::SameLine();
+  if (ImGui::SmallButton("paper size"))
+    routing.ring_spacing_mm = interact::paper_ring_spacing_mm(m), changed = true;
   ImGui::EndDisabled();
   changed |=
       ImGui::InputDouble("contact threshold mm", &routing.contact_threshold_mm, 1, 5, "%.1f");

@@ -51,7 +51,35 @@ struct RoutingOptions {
   double contact_threshold_mm =
       10.0;  ///< a tool point farther than this from the skin touches nothing
   Touch touch = Touch::kDisplaySkin;  ///< the surface tools touch without routing
+  /// 0: ring r is the nodes r mesh edges away (the paper's breadth-first rings), so a finer
+  /// mesh spreads a tool's force over a smaller area. > 0: ring r is the layer's nodes whose
+  /// distance at rest along the layer's edges rounds to r spacings (mm), the same area at every
+  /// mesh size. kPaperRingSpacing: the spacing of the organ's paper-size skin
+  /// (paper_ring_spacing_mm), the paper's reach at any resolution.
+  double ring_spacing_mm = 0.0;
 };
+
+/// RoutingOptions::ring_spacing_mm's "the paper-size skin's edge", resolved per model.
+inline constexpr double kPaperRingSpacing = -1.0;
+
+/// The mean edge of a skin of 1,284 vertices (the paper's) with this model's skin area at rest,
+/// mm: sqrt(4 A / (sqrt(3) (2 * 1284 - 4))) for a closed triangle mesh.
+double paper_ring_spacing_mm(const Model& model);
+
+/// `options` with kPaperRingSpacing replaced by the model's paper_ring_spacing_mm().
+RoutingOptions resolve_ring_spacing(const RoutingOptions& options, const Model& model);
+
+/// One node a copy of a routed force reaches and the ring it falls in.
+struct RingMember {
+  int32_t node = 0;
+  int32_t ring = 0;
+};
+
+/// Node `v`'s rings 0..locality-1 by distance (`spacing_mm` > 0): the nodes of its layer whose
+/// shortest path at rest along the layer's edges (ring 1 of each node in model.rings) rounds to
+/// r spacings, ascending by node. With model.rings.locality < 2 (no edges kept) only v itself.
+std::vector<RingMember> rings_by_distance(const Model& model, int32_t v, int32_t locality,
+                                          double spacing_mm);
 
 /// What is wrong with routing options for a model whose rings reach `rings_locality`: the key
 /// (as in a scene's "solver" section) and the problem, or nothing. The one check of the options,
