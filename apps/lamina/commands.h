@@ -147,6 +147,9 @@ struct ValidateArgs {
   /// study across resolutions fixes it)
   double indenter_radius_mm = 0.0;
   bool tool_only = false;  ///< only the tool case (the sphere tip against FEM pressed alike)
+  /// only the scene's own model against corotational and linear FEM (Neo-Hookean FEM for a
+  /// Neo-Hookean model): no other structure, no tool case
+  bool model_only = false;
   /// The tool case's sphere: pressure per mm of penetration, kPa/mm; 0: 10 E / radius
   double sphere_stiffness_kpa_per_mm = 0.0;
   bool stability = false;  ///< the stability suite instead of the finite-element comparison

@@ -498,6 +498,10 @@ Subcommand add_validate(CLI::App& app) {
   va->add_flag("--tool-only", val.tool_only,
                "only the tool case: the sphere tip pressing the skin through the contact code "
                "against finite elements pressed by the same sphere law");
+  va->add_flag("--model-only", val.model_only,
+               "only the scene's own model against corotational and linear finite elements (its "
+               "own law's for Neo-Hookean tetrahedra): no other structure, no tool case; the "
+               "comparison at clinical size in a third of the time");
   va->add_option("--sphere-stiffness", val.sphere_stiffness_kpa_per_mm,
                  "the tool case's contact stiffness, kPa per mm of penetration (default: "
                  "10 E / radius)")

@@ -14,6 +14,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -372,6 +373,40 @@ TEST(LaminaValidate, TheIndenterRadiusIsTheUsersAndABadOneIsRefused) {
   EXPECT_DOUBLE_EQ(j["indenter_radius_mm"].get<double>(), 30.0);
   ASSERT_EQ(j["rows"].size(), 2u);
   for (const json& row : j["rows"]) EXPECT_TRUE(row["converged"].get<bool>()) << row["solver"];
+}
+
+TEST(LaminaValidate, ModelOnlyComparesTheScenesOwnModelAlone) {
+  // --model-only: the scene's own model (coupled tetrahedra) against corotational and linear
+  // FEM, nothing else (the comparison at clinical size without the other structures' hour),
+  // the same rows as the whole quick run's. With
+  // --stability or --tool-only it is one line, exit 2, nothing written.
+  test::TempDir dir;
+  std::ofstream(dir.file("small.json"))
+      << R"({"model": {"input": "phantom", "build": {"skin_vertices": 400}}})";
+  const RunResult r = run_lamina(dir, "validate small.json --quick --model-only --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  std::set<std::string> solvers;
+  std::map<std::string, json> by;
+  for (const json& row : j["rows"]) {
+    solvers.insert(row["solver"].get<std::string>());
+    by[row["solver"].get<std::string>()] = row;
+    EXPECT_TRUE(row["converged"].get<bool>()) << row["solver"];
+  }
+  EXPECT_EQ(solvers, (std::set<std::string>{"fem_corotational", "fem_linear", "ms_tets"}));
+  EXPECT_EQ(by["ms_tets"]["reference"], "fem_corotational");
+  // The whole quick run's bound on this small phantom (0.81 measured, the same as there).
+  EXPECT_NEAR(
+      by["ms_tets"]["force_n"].get<double>() / by["fem_corotational"]["force_n"].get<double>(), 1.0,
+      0.25);
+  EXPECT_LT(by["ms_tets"]["rms_error_pct"].get<double>(), 10.0);
+  for (const char* bad : {"validate small.json --model-only --stability -o bad",
+                          "validate small.json --model-only --tool-only -o bad"}) {
+    const RunResult b = run_lamina(dir, bad);
+    EXPECT_EQ(b.exit_code, 2) << bad;
+    EXPECT_NE(b.err.find("--model-only"), std::string::npos) << b.err;
+    EXPECT_FALSE(fs::exists(dir.path / "bad")) << bad;
+  }
 }
 
 TEST(LaminaValidate, RefineBuildsEverySizePressesItToRestAndRefinementSoftensTheDent) {

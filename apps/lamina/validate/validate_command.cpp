@@ -134,10 +134,10 @@ int run_validate(const ValidateArgs& a) {
   const auto t0 = Clock::now();
   io::Scene scene = io::scene_for(a.what);
   if (!a.refine.empty()) {
-    if (a.stability || a.tool_only || a.fem_on_model || a.quick || !a.depths.empty() ||
-        !a.cases.empty())
+    if (a.stability || a.tool_only || a.model_only || a.fem_on_model || a.quick ||
+        !a.depths.empty() || !a.cases.empty())
       throw invalid_input("--refine",
-                          "runs alone: not with --stability, --case, --tool-only, "
+                          "runs alone: not with --stability, --case, --tool-only, --model-only, "
                           "--fem-on-model, --quick or --depths");
     if (!scene.model_path.empty())
       throw invalid_input(a.what,
@@ -152,6 +152,10 @@ int run_validate(const ValidateArgs& a) {
                         "the mask (or a scene with model.input), not a saved model");
   if (!a.cases.empty() && !a.stability)
     throw invalid_input("--case", "chooses among the stability suite's cases: give --stability");
+  if (a.model_only && (a.stability || a.tool_only))
+    throw invalid_input("--model-only",
+                        "compares the scene's own model with finite elements: not with "
+                        "--stability or --tool-only");
   if (!a.output.empty()) check_output_folder(a.output);
   make_elastic(scene);
   // A --case that names none is refused before the build. Only the names are checked here: the
@@ -175,7 +179,8 @@ int run_validate(const ValidateArgs& a) {
       a.indenter_radius_mm > 0.0 ? a.indenter_radius_mm : std::max(8.0, 1.6 * edge);
   validate::Indentation ind =
       a.deepest ? validate::deepest_indentation(m, radius) : validate::paper_indentation(m, radius);
-  const bool tool = m.has_tets();  // the tool case needs a volume that carries the load
+  // The tool case needs a volume that carries the load.
+  const bool tool = m.has_tets() && !a.model_only;
   const std::vector<int32_t> held =
       sim::nodes_near_plane(m, ind.held_point_mm, ind.held_normal, ind.held_distance_mm);
   const io::Scene parsed = scene;  // before resolve_material() fills in the material
@@ -211,15 +216,28 @@ int run_validate(const ValidateArgs& a) {
     s.material.mass_damping_per_s = scene.material.mass_damping_per_s;
     return s.material;
   };
+  std::vector<Variant> variants;
+  if (a.model_only) {
+    // The scene's own model and material, named as among the structures.
+    const std::string name = !m.has_tets()                                   ? "ms_links"
+                             : scene.tet_model == sim::TetModel::kNeoHookean ? "ms_neo_hookean"
+                             : scene.tet_elasticity == model::TetElasticity::kSprings
+                                 ? "ms_tet_springs"
+                                 : "ms_tets";
+    variants.push_back({name, &m, scene.material});
+  }
   io::Scene links_scene = parsed;
   links_scene.build.structure = model::Structure::kLinks;
   links_scene.tet_model = sim::TetModel::kSprings;  // links have no tetrahedra
-  io::SceneModel links_built = io::make_scene_model(links_scene, volume_read_options, {});
   io::Scene skin_scene = links_scene;
   skin_scene.build.layers = 1;
-  io::SceneModel skin_built = io::make_scene_model(skin_scene, volume_read_options, {});
-  std::vector<Variant> variants;
-  if (m.has_tets()) {
+  // Built only when compared (each is a build of the organ).
+  io::SceneModel links_built, skin_built;
+  if (!a.model_only) {
+    links_built = io::make_scene_model(links_scene, volume_read_options, {});
+    skin_built = io::make_scene_model(skin_scene, volume_read_options, {});
+  }
+  if (m.has_tets() && !a.model_only) {
     // The scene's own tetrahedral energy keeps its resolved material; the others are resolved
     // from the same E and nu.
     const auto with_model = [&](sim::TetModel tm, model::TetElasticity te) {
@@ -236,10 +254,12 @@ int run_validate(const ValidateArgs& a) {
     variants.push_back({"ms_neo_hookean", &m,
                         with_model(sim::TetModel::kNeoHookean, model::TetElasticity::kCoupled)});
   }
-  variants.push_back({"ms_links", &links_built.model, resolved(links_scene, links_built.model)});
-  sim::Material skin_material = resolved(skin_scene, skin_built.model);
-  skin_material.volume_stiffness_kpa = 0.0;  // a shell has no volume between layers to keep
-  variants.push_back({"ms_skin", &skin_built.model, skin_material});
+  if (!a.model_only) {
+    variants.push_back({"ms_links", &links_built.model, resolved(links_scene, links_built.model)});
+    sim::Material skin_material = resolved(skin_scene, skin_built.model);
+    skin_material.volume_stiffness_kpa = 0.0;  // a shell has no volume between layers to keep
+    variants.push_back({"ms_skin", &skin_built.model, skin_material});
+  }
   log::info(
       "validate: {} ({} nodes, {} layers), indenter radius {:.1f} mm at ({:.1f}, {:.1f}, "
       "{:.1f}) mm, organ depth {:.1f} mm along +y",
@@ -306,7 +326,8 @@ int run_validate(const ValidateArgs& a) {
   press_ind.held_distance_mm = std::max(ind.held_distance_mm, 0.5 * ind.organ_depth_mm);
   std::vector<Row> rows;
   // Progress: the mesh counts as one job, then each solver at each depth.
-  const bool neo = m.has_tets();  // the Neo-Hookean tetrahedra and their own FEM reference
+  // The Neo-Hookean tetrahedra and their own FEM reference (with --model-only, for such a model).
+  const bool neo = m.has_tets() && (!a.model_only || scene.tet_model == sim::TetModel::kNeoHookean);
   const bool patch = !a.tool_only;
   const double jobs =
       1.0 + static_cast<double>(depths.size() *
