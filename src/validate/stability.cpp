@@ -176,10 +176,12 @@ std::string StabilityResult::failure(const StabilityOptions& o) const {
   if (unstable != sim::Instability::kNone)
     why.push_back(fmt::format("unstable at step {} ({})", steps, sim::describe(unstable)));
   if (order.outside_nodes > 0)
-    why.push_back(fmt::format("{} inner nodes outside their layer at rest", order.outside_nodes));
+    why.push_back(fmt::format("{} inner node{} outside their layer at rest", order.outside_nodes,
+                              order.outside_nodes == 1 ? "" : "s"));
   if (order.surfaces_cross) why.push_back("layers cross at rest");
   if (order.inverted_tets > 0)
-    why.push_back(fmt::format("{} tetrahedra inverted at rest", order.inverted_tets));
+    why.push_back(fmt::format("{} {} inverted at rest", order.inverted_tets,
+                              order.inverted_tets == 1 ? "tetrahedron" : "tetrahedra"));
   // A stage cut short by instability never came to rest: said once, above.
   if (finite && unstable == sim::Instability::kNone) {
     if (!loaded_at_rest)

@@ -139,6 +139,17 @@ TEST(Stability, AFailedCaseSaysWhichChecksItMissed) {
   EXPECT_NE(why.find("mm from rest at the end (tolerance 0.05 mm)"), std::string::npos) << why;
   EXPECT_EQ(why.find("unstable"), std::string::npos) << why;
   EXPECT_EQ(why.find("inverted"), std::string::npos) << why;
+
+  // The layer order's findings, one or several, each counted in words that fit its count.
+  validate::StabilityResult folded = r;
+  folded.order.outside_nodes = 1;
+  folded.order.inverted_tets = 1;
+  EXPECT_NE(folded.failure(o).find("1 inner node outside their layer"), std::string::npos);
+  EXPECT_NE(folded.failure(o).find("1 tetrahedron inverted at rest"), std::string::npos);
+  folded.order.outside_nodes = 14;
+  folded.order.inverted_tets = 2;
+  EXPECT_NE(folded.failure(o).find("14 inner nodes outside"), std::string::npos);
+  EXPECT_NE(folded.failure(o).find("2 tetrahedra inverted at rest"), std::string::npos);
 }
 
 }  // namespace
