@@ -449,18 +449,23 @@ TEST(LaminaValidate, RefineBuildsEverySizePressesItToRestAndRefinementSoftensThe
 }
 
 TEST(LaminaValidate, StabilityCaseChoosesCasesByNameAndOneNamingNoneIsRefused) {
-  // --case runs the cases it names (one, here: the deepest indentation); one that names no case
-  // of the suite, and --case without --stability, are one line naming --case, exit 2, nothing
-  // written, before any model is built.
+  // --case runs the cases it names (here the deepest indentation, and of the two "indent 30%"
+  // cases implicit Euler's alone: a case is its name then its integrator); one that names no
+  // case of the suite, and --case without --stability, are one line naming --case, exit 2,
+  // nothing written, before any model is built.
   test::TempDir dir;
   std::ofstream(dir.file("small.json"))
       << R"({"model": {"input": "phantom", "build": {"skin_vertices": 400}}})";
   const RunResult r =
-      run_lamina(dir, "validate small.json --stability --quick --case \"indent 50\" --json");
+      run_lamina(dir,
+                 "validate small.json --stability --quick --case \"indent 50\" --case \"30% "
+                 "implicit\" --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json j = json::parse(r.out);
-  ASSERT_EQ(j["cases"].size(), 1u);
+  ASSERT_EQ(j["cases"].size(), 2u);
   EXPECT_EQ(j["cases"][0]["case"], "indent 50%");
+  EXPECT_EQ(j["cases"][1]["case"], "indent 30%");
+  EXPECT_EQ(j["cases"][1]["integrator"], "implicit_euler");
   EXPECT_NE(r.err.find("E = "), std::string::npos) << "the material line the refusals below lack";
   EXPECT_GT(j["supported_nodes"].get<int>(), 0) << "held by the scene's support too";
   for (const char* bad : {"validate small.json --stability --quick --case \"4 tools\" -o bad",

@@ -144,8 +144,10 @@ std::vector<validate::StabilityCase> chosen_stability_cases(const ValidateArgs& 
   if (a.cases.empty()) return all;
   std::vector<validate::StabilityCase> chosen;
   for (const std::string& want : a.cases) {
+    // A case is its name then its integrator ("indent 30% semi_implicit_euler"), so that the
+    // dt sweep's cases of one name can be told apart ("30% implicit" is implicit Euler's alone).
     const auto named = [&](const validate::StabilityCase& c) {
-      return c.name.find(want) != std::string::npos;
+      return (c.name + " " + io::integrator_name(c.integrator)).find(want) != std::string::npos;
     };
     if (std::none_of(all.begin(), all.end(), named)) {
       std::vector<std::string> names;
@@ -153,7 +155,7 @@ std::vector<validate::StabilityCase> chosen_stability_cases(const ValidateArgs& 
         if (std::find(names.begin(), names.end(), c.name) == names.end()) names.push_back(c.name);
       throw invalid_input("--case",
                           fmt::format("no {}stability case is named like \"{}\" (they "
-                                      "are: {})",
+                                      "are: {}; each then its integrator)",
                                       a.quick ? "quick " : "", want, fmt::join(names, ", ")));
     }
     for (const validate::StabilityCase& c : all)
