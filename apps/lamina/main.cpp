@@ -511,7 +511,7 @@ Subcommand add_validate(CLI::App& app) {
                "integrator, each released and checked (finite, layer order, energy, rest)");
   va->add_option("--case", val.cases,
                  "with --stability: only the cases whose name, then integrator, contains this "
-                 "(repeatable; e.g. \"3 tools\", \"indent 30%\", \"30% implicit\")");
+                 "(repeatable; e.g. \"3 tools\", \"indent 30%\", \"indent 30% implicit\")");
   va->add_option("--refine", val.refine,
                  "the dent as the mesh is refined: the organ built at these skin vertex counts "
                  "(comma-separated, two or more), each pressed by the same held 0.4 N push "

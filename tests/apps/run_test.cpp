@@ -458,7 +458,7 @@ TEST(LaminaValidate, StabilityCaseChoosesCasesByNameAndOneNamingNoneIsRefused) {
       << R"({"model": {"input": "phantom", "build": {"skin_vertices": 400}}})";
   const RunResult r =
       run_lamina(dir,
-                 "validate small.json --stability --quick --case \"indent 50\" --case \"30% "
+                 "validate small.json --stability --quick --case \"indent 50\" --case \"indent 30% "
                  "implicit\" --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json j = json::parse(r.out);

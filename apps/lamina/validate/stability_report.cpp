@@ -145,7 +145,7 @@ std::vector<validate::StabilityCase> chosen_stability_cases(const ValidateArgs& 
   std::vector<validate::StabilityCase> chosen;
   for (const std::string& want : a.cases) {
     // A case is its name then its integrator ("indent 30% semi_implicit_euler"), so that the
-    // dt sweep's cases of one name can be told apart ("30% implicit" is implicit Euler's alone).
+    // dt sweep's cases of one name can be told apart ("indent 30% implicit": implicit Euler's).
     const auto named = [&](const validate::StabilityCase& c) {
       return (c.name + " " + io::integrator_name(c.integrator)).find(want) != std::string::npos;
     };
