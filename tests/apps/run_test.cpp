@@ -466,6 +466,14 @@ TEST(LaminaValidate, StabilityCaseChoosesCasesByNameAndOneNamingNoneIsRefused) {
   EXPECT_EQ(j["cases"][0]["case"], "indent 50%");
   EXPECT_EQ(j["cases"][1]["case"], "indent 30%");
   EXPECT_EQ(j["cases"][1]["integrator"], "implicit_euler");
+  // An integrator alone names the case: semi-implicit Euler's, which the check before the build
+  // (the material unknown, so projective dynamics' suite too) must not refuse.
+  const RunResult semi =
+      run_lamina(dir, "validate small.json --stability --quick --case semi_implicit --json");
+  ASSERT_EQ(semi.exit_code, 0) << semi.err;
+  const json js = json::parse(semi.out);
+  ASSERT_EQ(js["cases"].size(), 1u);
+  EXPECT_EQ(js["cases"][0]["integrator"], "semi_implicit_euler");
   EXPECT_NE(r.err.find("E = "), std::string::npos) << "the material line the refusals below lack";
   EXPECT_GT(j["supported_nodes"].get<int>(), 0) << "held by the scene's support too";
   for (const char* bad : {"validate small.json --stability --quick --case \"4 tools\" -o bad",

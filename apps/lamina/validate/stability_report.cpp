@@ -135,6 +135,42 @@ void draw_plots(const fs::path& out, const std::vector<StabilityResult>& rows, d
 // The dt the sweep scales: the paper's step.
 constexpr double kStabilityBaseDt = 0.01;
 
+namespace {
+
+// A case is its name then its integrator ("indent 30% semi_implicit_euler"), so that the dt
+// sweep's cases of one name can be told apart ("indent 30% implicit": implicit Euler's).
+bool names_case(const std::string& want, const validate::StabilityCase& c) {
+  return (c.name + " " + io::integrator_name(c.integrator)).find(want) != std::string::npos;
+}
+
+// Refuses each of a.cases that names none of `all`, listing their names.
+void check_case_names(const ValidateArgs& a, const std::vector<validate::StabilityCase>& all) {
+  for (const std::string& want : a.cases) {
+    if (std::any_of(all.begin(), all.end(),
+                    [&](const validate::StabilityCase& c) { return names_case(want, c); }))
+      continue;
+    std::vector<std::string> names;
+    for (const validate::StabilityCase& c : all)
+      if (std::find(names.begin(), names.end(), c.name) == names.end()) names.push_back(c.name);
+    throw invalid_input("--case",
+                        fmt::format("no {}stability case is named like \"{}\" (they "
+                                    "are: {}; each then its integrator)",
+                                    a.quick ? "quick " : "", want, fmt::join(names, ", ")));
+  }
+}
+
+}  // namespace
+
+void check_stability_case_names(const ValidateArgs& a) {
+  // Before the material is resolved: a case of the suite with or without projective dynamics.
+  std::vector<validate::StabilityCase> all =
+      validate::stability_cases(kStabilityBaseDt, a.quick, true);
+  const std::vector<validate::StabilityCase> without =
+      validate::stability_cases(kStabilityBaseDt, a.quick, false);
+  all.insert(all.end(), without.begin(), without.end());
+  check_case_names(a, all);
+}
+
 std::vector<validate::StabilityCase> chosen_stability_cases(const ValidateArgs& a,
                                                             const io::Scene& scene) {
   // The sweep is about the paper's step (0.01 s): 1 ms to 0.1 s, the haptic loop's step among
@@ -142,28 +178,14 @@ std::vector<validate::StabilityCase> chosen_stability_cases(const ValidateArgs& 
   std::vector<validate::StabilityCase> all =
       validate::stability_cases(kStabilityBaseDt, a.quick, scene.material.young_modulus_kpa == 0.0);
   if (a.cases.empty()) return all;
+  check_case_names(a, all);
   std::vector<validate::StabilityCase> chosen;
-  for (const std::string& want : a.cases) {
-    // A case is its name then its integrator ("indent 30% semi_implicit_euler"), so that the
-    // dt sweep's cases of one name can be told apart ("indent 30% implicit": implicit Euler's).
-    const auto named = [&](const validate::StabilityCase& c) {
-      return (c.name + " " + io::integrator_name(c.integrator)).find(want) != std::string::npos;
-    };
-    if (std::none_of(all.begin(), all.end(), named)) {
-      std::vector<std::string> names;
-      for (const validate::StabilityCase& c : all)
-        if (std::find(names.begin(), names.end(), c.name) == names.end()) names.push_back(c.name);
-      throw invalid_input("--case",
-                          fmt::format("no {}stability case is named like \"{}\" (they "
-                                      "are: {}; each then its integrator)",
-                                      a.quick ? "quick " : "", want, fmt::join(names, ", ")));
-    }
+  for (const std::string& want : a.cases)
     for (const validate::StabilityCase& c : all)
-      if (named(c) && std::none_of(chosen.begin(), chosen.end(), [&](const auto& k) {
+      if (names_case(want, c) && std::none_of(chosen.begin(), chosen.end(), [&](const auto& k) {
             return k.name == c.name && k.integrator == c.integrator && k.dt_s == c.dt_s;
           }))
         chosen.push_back(c);
-  }
   return chosen;
 }
 

@@ -13,6 +13,11 @@ namespace lamina::cli {
 std::vector<validate::StabilityCase> chosen_stability_cases(const ValidateArgs& args,
                                                             const io::Scene& scene);
 
+/// Before the build: throws as chosen_stability_cases() does when one of args.cases names no case
+/// of the suite with or without projective dynamics (the material, which decides, is not
+/// resolved yet).
+void check_stability_case_names(const ValidateArgs& args);
+
 /// Runs chosen_stability_cases() on `model` (its springs and `scene.material` resolved) with
 /// the indenter `indentation` and the scene's elastic `support`; prints the table, writes
 /// stability.csv, stability_energy.csv, summary.json and two plots to args.output, and the summary
