@@ -197,7 +197,8 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
   const std::vector<validate::StabilityCase> cases = chosen_stability_cases(a, scene);
   // The cases are independent: one per core at a time, each on one thread (a ~2,000-node model
   // is below the step's parallel threshold anyway, and two OpenMP teams would oversubscribe two
-  // cores). A case's result does not depend on its thread count (SameResultOnOneAndTwoThreads).
+  // cores); fewer cases than cores share the cores out (one case at 43k nodes, `--case`, runs on
+  // both). A case's result does not depend on its thread count (SameResultOnOneAndTwoThreads).
   std::vector<StabilityResult> rows(cases.size());
   const auto t0 = std::chrono::steady_clock::now();
   const unsigned workers =
@@ -212,12 +213,14 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
     return cases[k].integrator == sim::Integrator::kSemiImplicitEuler;
   });
   const int caller_threads = omp_get_max_threads();  // the user's OMP_NUM_THREADS, if set
+  const int threads_each =
+      std::max(1, std::min(caller_threads, omp_get_num_procs()) / static_cast<int>(workers));
   std::atomic<size_t> next{0};
   size_t done = 0;
   std::mutex report;
   std::exception_ptr failure;
   auto work = [&] {
-    omp_set_num_threads(1);
+    omp_set_num_threads(threads_each);
     for (size_t q = next++; q < cases.size(); q = next++) {
       const size_t k = order[q];
       const validate::StabilityCase& c = cases[k];
@@ -241,9 +244,9 @@ int report_stability(const ValidateArgs& a, const io::Scene& scene, const Model&
     }
   };
   report_progress(progress,
-                  fmt::format("{} cases on {} threads (large indentations, pulls, tools; the dt "
-                              "sweep)",
-                              cases.size(), workers),
+                  fmt::format("{} cases, {} at a time on {} thread{} each (large indentations, "
+                              "pulls, tools; the dt sweep)",
+                              cases.size(), workers, threads_each, threads_each > 1 ? "s" : ""),
                   0.0);
   std::vector<std::thread> pool;
   for (unsigned w = 1; w < workers; ++w) pool.emplace_back(work);
