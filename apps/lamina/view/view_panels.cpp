@@ -244,10 +244,13 @@ bool ViewSession::State::routing_widgets(const Model& m) {
   // 0: the rings counted in mesh edges (the paper's: a finer mesh, a smaller area); a length:
   // rings by distance, the same area at every mesh size.
   float rs = static_cast<float>(routing.ring_spacing_mm);
-  if (ImGui::SliderFloat("ring spacing mm (0: edges)", &rs, 0.0f, 30.0f, "%.2f"))
+  if (ImGui::SliderFloat("ring spacing mm", &rs, 0.0f, 30.0f, "%.2f"))
     routing.ring_spacing_mm = rs, changed = true;
-  ImGui::SameLine();
-  if (ImGui::SmallButton("paper size"))
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "0: the paper's rings, counted in mesh edges; a length: rings by distance "
+        "along the skin, the same area at every mesh size");
+  if (ImGui::SmallButton("ring spacing of the paper-size skin"))
     routing.ring_spacing_mm = interact::paper_ring_spacing_mm(m), changed = true;
   ImGui::EndDisabled();
   changed |=
