@@ -15,6 +15,15 @@ double enclosed_volume(const SurfaceMesh& m) {
   return v6 / 6.0;
 }
 
+double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  double area = 0.0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return area;
+}
+
 std::vector<std::pair<int, int>> mesh_edges(const Eigen::MatrixX3i& F) {
   std::vector<std::pair<int, int>> e;
   e.reserve(static_cast<size_t>(F.rows()) * 3);

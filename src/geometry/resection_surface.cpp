@@ -11,6 +11,7 @@
 #include <cmath>
 
 #include "lamina/core/error.h"
+#include "lamina/geometry/mesh_measures.h"
 
 namespace lamina::geometry {
 namespace {
@@ -54,12 +55,8 @@ ResectionSurface mesh_surface(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i&
   if (!V.allFinite()) throw invalid_input(source, "a vertex of the surface is not finite");
   if (F.minCoeff() < 0 || F.maxCoeff() >= V.rows())
     throw invalid_input(source, "a triangle names a vertex the surface does not have");
-  double area = 0.0;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    area += 0.5 * (b - a).cross(c - a).norm();
-  }
-  if (!(area > 0.0)) throw invalid_input(source, "every triangle of the surface is degenerate");
+  if (!(geometry::surface_area(V, F) > 0.0))
+    throw invalid_input(source, "every triangle of the surface is degenerate");
   ResectionSurface s;
   s.is_plane = false;
   s.V = V;

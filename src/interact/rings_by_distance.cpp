@@ -8,18 +8,13 @@
 #include <queue>
 #include <unordered_map>
 
+#include "lamina/geometry/mesh_measures.h"
 #include "lamina/interact/tools.h"
 
 namespace lamina::interact {
 
 double paper_ring_spacing_mm(const Model& model) {
-  const Eigen::MatrixX3i& F = model.layers.at(0).F;
-  double area = 0.0;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = model.X.row(F(f, 0)), b = model.X.row(F(f, 1)),
-                          c = model.X.row(F(f, 2));
-    area += 0.5 * (b - a).cross(c - a).norm();
-  }
+  const double area = geometry::surface_area(model.X, model.layers.at(0).F);
   // A closed mesh of V vertices has 2V - 4 triangles; an equilateral one of edge e has area
   // sqrt(3)/4 e^2.
   constexpr double kPaperTriangles = 2.0 * 1284.0 - 4.0;

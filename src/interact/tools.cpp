@@ -31,6 +31,16 @@ double ray_triangle(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Ei
   return e2.dot(q) * inv;
 }
 
+// Node v's rings 0..locality-1 as the model stores them (breadth-first, in mesh edges), ring
+// by ring.
+std::vector<RingMember> rings_by_hops(const Model& model, int32_t v, int32_t locality) {
+  std::vector<RingMember> out;
+  for (int32_t r = 0; r < locality; ++r)
+    for (int64_t k = 0; k < model.rings.ring_size(v, r); ++k)
+      out.push_back({model.rings.ring(v, r)[k], r});
+  return out;
+}
+
 }  // namespace
 
 std::vector<Crossing> force_line_crossings(const Model& model, const Eigen::MatrixX3d& x,
@@ -116,32 +126,28 @@ ForceRoute route_force(const Model& model, const Eigen::MatrixX3d& x, int32_t co
   if (static_cast<int32_t>(route.crossings.size()) > o.penetration_depth)
     route.crossings.resize(static_cast<size_t>(o.penetration_depth));
   // (node, force) contributions, then merged per node. Each copy is spread over the rings of
-  // its node with weights ring_attenuation^r per node, normalised so that the copy's total is
-  // the copy's force: "spreading" moves force around, it does not multiply it.
+  // its node (in mesh edges, or by distance) with weights ring_attenuation^r per node,
+  // normalised so that the copy's total is the copy's force: "spreading" moves force around, it
+  // does not multiply it.
+  const double spacing_mm = resolve_ring_spacing(o, model).ring_spacing_mm;
+  std::vector<double> weight(static_cast<size_t>(o.locality));
+  double w = 1.0;
+  for (double& r : weight) r = w, w *= o.ring_attenuation;
+  std::vector<int64_t> count(weight.size());
   std::vector<std::pair<int32_t, Eigen::Vector3d>> parts;
   double copy_scale = 1.0;
-  const double spacing_mm =
-      o.ring_spacing_mm == kPaperRingSpacing ? paper_ring_spacing_mm(model) : o.ring_spacing_mm;
   for (const Crossing& c : route.crossings) {
-    if (spacing_mm > 0.0) {
-      const std::vector<RingMember> rings =
-          rings_by_distance(model, c.node, o.locality, spacing_mm);
-      double weight_sum = 0.0;
-      for (const RingMember& m : rings) weight_sum += std::pow(o.ring_attenuation, m.ring);
-      for (const RingMember& m : rings)
-        parts.emplace_back(
-            m.node, (copy_scale * std::pow(o.ring_attenuation, m.ring) / weight_sum) * force_mn);
-      copy_scale *= o.crossing_attenuation;
-      continue;
-    }
-    double weight_sum = 0.0, ring_weight = 1.0;
-    for (int32_t r = 0; r < o.locality; ++r, ring_weight *= o.ring_attenuation)
-      weight_sum += ring_weight * static_cast<double>(model.rings.ring_size(c.node, r));
-    double ring_weight_now = 1.0;
-    for (int32_t r = 0; r < o.locality; ++r, ring_weight_now *= o.ring_attenuation)
-      for (int64_t k = 0; k < model.rings.ring_size(c.node, r); ++k)
-        parts.emplace_back(model.rings.ring(c.node, r)[k],
-                           (copy_scale * ring_weight_now / weight_sum) * force_mn);
+    const std::vector<RingMember> rings =
+        spacing_mm > 0.0 ? rings_by_distance(model, c.node, o.locality, spacing_mm)
+                         : rings_by_hops(model, c.node, o.locality);
+    std::fill(count.begin(), count.end(), 0);
+    for (const RingMember& m : rings) ++count[static_cast<size_t>(m.ring)];
+    double weight_sum = 0.0;
+    for (size_t r = 0; r < weight.size(); ++r)
+      weight_sum += weight[r] * static_cast<double>(count[r]);
+    for (const RingMember& m : rings)
+      parts.emplace_back(
+          m.node, (copy_scale * weight[static_cast<size_t>(m.ring)] / weight_sum) * force_mn);
     copy_scale *= o.crossing_attenuation;
   }
   detail::merge_parts(parts, route);

@@ -33,6 +33,9 @@ MeshQuality measure_mesh(const SurfaceMesh& mesh);
 /// Enclosed signed volume, mm^3 (positive for a closed outward-wound mesh).
 double enclosed_volume(const SurfaceMesh& mesh);
 
+/// The summed area of the triangles F over the vertices V (F's indices into V), mm^2.
+double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
+
 /// Undirected edges of F, each once with first < second, sorted.
 std::vector<std::pair<int, int>> mesh_edges(const Eigen::MatrixX3i& F);
 
